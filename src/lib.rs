@@ -1,0 +1,41 @@
+//! # rain-composite
+//!
+//! Adds physically based rain to real video. Each decoded frame is both the background and the
+//! environment that lights the rain.
+//!
+//! ## How a frame flows
+//!
+//! ```text
+//!  video::decode ──► YuvFrame ──► gpu::Compositor ─────────────────────────────► video::encode
+//!                       │          upload planes → YUV→linear RGB (canvas, f16)
+//!                       │          rain: stateless drops (seed, id, t) → streaks
+//!                       │          composite (premultiplied, linear light)
+//!                       │          linear RGB → YUV planes → ring readback
+//!                       └──► lighting (frame → sphere → SH) ──► PRT colour of the drops
+//! ```
+//!
+//! Data flows one way: nothing downstream of the decoder changes what the decoder does, and
+//! every stage's state at a time `t` is a pure function of its inputs and `t`, so
+//! `preview --at t` renders exactly the frame the full render writes at `t`.
+//!
+//! Modules, each with one job:
+//! - [`video`]: FFmpeg demux/decode, encode/mux, colour tags, probing.
+//! - [`gpu`]: adapter choice, the WGSL stages and their Rust twins, readback.
+//! - [`rain`]: the stateless drop emitter (the CPU twin of the GPU one) and rain physics.
+//! - [`scene`]: the pinhole camera and (later) the ground.
+//! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT.
+//! - [`fluid`]: SPH surface flow and the carpet free surface.
+//! - [`pipeline`]: one render job, from input to output, and single-frame preview.
+#![cfg_attr(not(test), warn(clippy::unwrap_used))]
+
+pub mod config;
+pub mod error;
+pub mod fluid;
+pub mod gpu;
+pub mod lighting;
+pub mod pipeline;
+pub mod rain;
+pub mod scene;
+pub mod video;
+
+pub use error::{Error, Result};

@@ -1,0 +1,2 @@
+//! The `rain-composite` command line.
+fn main() {}

@@ -1,0 +1,3 @@
+//! Rain: drop physics (sizes, fall speeds, wind) and the stateless emitter.
+pub mod physics;
+pub mod wind;

@@ -1,0 +1,1 @@
+//! Rain physics (under construction).
