@@ -1,1 +1,8 @@
-//! (module under construction)
+//! The scene around the camera: the pinhole camera model (and, later, the ground).
+//!
+//! World frame: right-handed, **z up**, metres. With zero tilt and roll the camera stands at
+//! `(0, 0, height_m)` looking along +y, with +x to the right of the picture. This is the frame the
+//! environment map, the spherical harmonics and the rain all share.
+pub mod camera;
+
+pub use camera::Camera;
