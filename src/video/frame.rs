@@ -1,0 +1,124 @@
+//! Decoded pictures as the GPU consumes and produces them: three planes, Y, Cb, Cr.
+//!
+//! Every input pixel format is brought to one of the planar layouts below before it leaves the
+//! decoder (NV12, packed RGB, grey… go through swscale without a matrix change, which only
+//! rearranges samples), so the GPU side handles exactly one family of layouts.
+
+use super::color::ColorParams;
+
+/// Chroma subsampling of a planar YUV picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum Chroma {
+    /// Half width, half height (4:2:0).
+    Cs420,
+    /// Half width, full height (4:2:2).
+    Cs422,
+    /// Full resolution (4:4:4).
+    Cs444,
+}
+
+impl Chroma {
+    /// log2 of the horizontal and vertical subsampling factors.
+    pub fn shift(self) -> (u32, u32) {
+        match self {
+            Chroma::Cs420 => (1, 1),
+            Chroma::Cs422 => (1, 0),
+            Chroma::Cs444 => (0, 0),
+        }
+    }
+}
+
+/// Size, subsampling and sample depth of a planar picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct FrameFormat {
+    /// Luma width in pixels (coded picture, before display rotation).
+    pub width: u32,
+    /// Luma height in pixels.
+    pub height: u32,
+    /// Chroma subsampling.
+    pub chroma: Chroma,
+    /// Bits per sample: 8 (one byte per sample) or 9..=16 (two bytes, little-endian, LSB-aligned).
+    pub bit_depth: u8,
+}
+
+impl FrameFormat {
+    /// Bytes per sample in memory.
+    pub fn bytes_per_sample(&self) -> usize {
+        if self.bit_depth > 8 { 2 } else { 1 }
+    }
+
+    /// Width and height of plane `i` (0 = Y, 1 = Cb, 2 = Cr); odd sizes round up.
+    pub fn plane_size(&self, i: usize) -> (u32, u32) {
+        if i == 0 {
+            return (self.width, self.height);
+        }
+        let (sx, sy) = self.chroma.shift();
+        (self.width.div_ceil(1 << sx), self.height.div_ceil(1 << sy))
+    }
+
+    /// Tightly packed row length of plane `i`, bytes.
+    pub fn packed_stride(&self, i: usize) -> usize {
+        self.plane_size(i).0 as usize * self.bytes_per_sample()
+    }
+}
+
+/// One plane's samples; rows are `stride` bytes apart (≥ the packed row length).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Plane {
+    /// Samples, row-major.
+    pub data: Vec<u8>,
+    /// Bytes from one row to the next.
+    pub stride: usize,
+}
+
+/// A decoded (or rendered) picture with its colour interpretation and timestamp.
+#[derive(Debug, Clone, PartialEq)]
+pub struct YuvFrame {
+    /// Layout of the planes.
+    pub format: FrameFormat,
+    /// How the samples map to light.
+    pub color: ColorParams,
+    /// Y, Cb, Cr.
+    pub planes: [Plane; 3],
+    /// Presentation timestamp in the input stream's time base (passed through unchanged).
+    pub pts: i64,
+    /// Zero-based index of the frame in decode (= presentation) order.
+    pub index: u64,
+}
+
+impl YuvFrame {
+    /// A picture of one flat colour given as code values `(y, cb, cr)`, tightly packed.
+    pub fn filled(format: FrameFormat, color: ColorParams, yuv: [u16; 3]) -> YuvFrame {
+        let planes = std::array::from_fn(|i| {
+            let (w, h) = format.plane_size(i);
+            let stride = format.packed_stride(i);
+            let mut data = Vec::with_capacity(stride * h as usize);
+            for _ in 0..(w as usize * h as usize) {
+                if format.bytes_per_sample() == 1 {
+                    data.push(yuv[i] as u8);
+                } else {
+                    data.extend_from_slice(&yuv[i].to_le_bytes());
+                }
+            }
+            Plane { data, stride }
+        });
+        YuvFrame {
+            format,
+            color,
+            planes,
+            pts: 0,
+            index: 0,
+        }
+    }
+
+    /// Sample of plane `i` at (x, y) as an integer code value.
+    pub fn sample(&self, i: usize, x: u32, y: u32) -> u16 {
+        let p = &self.planes[i];
+        let at = y as usize * p.stride + x as usize * self.format.bytes_per_sample();
+        if self.format.bytes_per_sample() == 1 {
+            p.data[at] as u16
+        } else {
+            u16::from_le_bytes([p.data[at], p.data[at + 1]])
+        }
+    }
+}
