@@ -1,1 +1,115 @@
-//! Configuration (under construction).
+//! The render configuration, with units in every name, and its validation. The CLI builds one
+//! from flags (or a JSON preset); the library never sees clap.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// The camera that filmed the shot (the rain is seen through it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraConfig {
+    /// Horizontal field of view of the displayed picture, degrees.
+    pub fov_deg: f64,
+    /// Camera height above the ground, metres.
+    pub height_m: f64,
+    /// Pitch up (negative: down), degrees.
+    pub tilt_deg: f64,
+    /// Roll clockwise about the optical axis, degrees.
+    pub roll_deg: f64,
+    /// Shutter angle, degrees; exposure = shutter/360 / fps.
+    pub shutter_deg: f64,
+}
+
+impl Default for CameraConfig {
+    fn default() -> Self {
+        CameraConfig { fov_deg: 60.0, height_m: 1.6, tilt_deg: 0.0, roll_deg: 0.0, shutter_deg: 180.0 }
+    }
+}
+
+/// What rain to add.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RainConfig {
+    /// Rain rate, mm/h; 0 turns rain off.
+    pub rate_mm_per_h: f64,
+    /// Multiplier on every drop's diameter (1 = Marshall–Palmer).
+    pub drop_scale: f64,
+    /// Multiplier on every drop's fall speed (1 = terminal velocity).
+    pub fall_speed_scale: f64,
+    /// Mean wind, m/s: x to the right of the picture, y away from the camera.
+    pub wind_mps: [f64; 2],
+    /// Multiplier on the streaks' physical coverage (1 = physical).
+    pub opacity: f64,
+    /// Seed of every random choice: the same seed gives the same rain.
+    pub seed: u32,
+    /// Nearest drop distance, metres.
+    pub near_m: f64,
+    /// Farthest simulated drop distance, metres.
+    pub far_m: f64,
+    /// Most drops simulated per frame; beyond it drops are weighted (see `rain::emitter`).
+    pub max_drops: u32,
+}
+
+impl Default for RainConfig {
+    fn default() -> Self {
+        RainConfig {
+            rate_mm_per_h: 10.0,
+            drop_scale: 1.0,
+            fall_speed_scale: 1.0,
+            wind_mps: [0.0, 0.0],
+            opacity: 1.0,
+            seed: 1,
+            near_m: 0.3,
+            far_m: 12.0,
+            max_drops: 150_000,
+        }
+    }
+}
+
+/// Everything that shapes the picture (not the encoding).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderConfig {
+    /// The camera.
+    pub camera: CameraConfig,
+    /// The rain.
+    pub rain: RainConfig,
+}
+
+fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
+    if ok && value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::Parameter { name, value: value.to_string(), expected: expected.to_string() })
+    }
+}
+
+impl RenderConfig {
+    /// Rejects values outside their physical or practical range, naming the flag.
+    pub fn validate(&self) -> Result<()> {
+        let c = &self.camera;
+        let r = &self.rain;
+        check("--fov", c.fov_deg, c.fov_deg > 1.0 && c.fov_deg < 170.0, "degrees in (1, 170)")?;
+        check("--camera-height", c.height_m, (0.0..=1000.0).contains(&c.height_m), "metres in [0, 1000]")?;
+        check("--tilt", c.tilt_deg, (-90.0..=90.0).contains(&c.tilt_deg), "degrees in [-90, 90]")?;
+        check("--roll", c.roll_deg, (-180.0..=180.0).contains(&c.roll_deg), "degrees in [-180, 180]")?;
+        check("--shutter", c.shutter_deg, c.shutter_deg > 0.0 && c.shutter_deg <= 360.0, "degrees in (0, 360]")?;
+        check("--rain", r.rate_mm_per_h, (0.0..=500.0).contains(&r.rate_mm_per_h), "mm/h in [0, 500]")?;
+        check("--drop-scale", r.drop_scale, r.drop_scale > 0.0 && r.drop_scale <= 10.0, "a factor in (0, 10]")?;
+        check(
+            "--fall-speed-scale",
+            r.fall_speed_scale,
+            r.fall_speed_scale > 0.0 && r.fall_speed_scale <= 10.0,
+            "a factor in (0, 10]",
+        )?;
+        for w in r.wind_mps {
+            check("--wind", w, w.abs() <= 60.0, "m/s components within ±60")?;
+        }
+        check("--opacity", r.opacity, (0.0..=100.0).contains(&r.opacity), "a factor in [0, 100]")?;
+        check("--near", r.near_m, r.near_m >= 0.05 && r.near_m < r.far_m, "metres, ≥ 0.05 and below --far")?;
+        check("--far", r.far_m, r.far_m <= 500.0, "metres, at most 500")?;
+        check("--max-drops", r.max_drops as f64, r.max_drops <= 20_000_000, "at most 20000000")?;
+        Ok(())
+    }
+}

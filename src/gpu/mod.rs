@@ -1,1 +1,8 @@
-//! (module under construction)
+//! GPU plumbing: adapter choice, the WGSL stages and their Rust twins, the per-frame compositor.
+pub mod compositor;
+pub mod context;
+pub mod shaders;
+pub mod types;
+
+pub use compositor::Compositor;
+pub use context::{AdapterRequest, AdapterSummary, GpuContext, list_adapters};

@@ -1,0 +1,68 @@
+// Structs shared by the stages. Each has one Rust twin in src/gpu/types.rs (same name, same
+// field order); tests/shaders.rs checks sizes and offsets with naga.
+
+// One frame's layout and colour interpretation (see src/video/color.rs).
+struct FrameParams {
+    width: u32,              // luma width, coded orientation
+    height: u32,
+    chroma_shift_x: u32,     // log2 subsampling
+    chroma_shift_y: u32,
+    y_offset: f32,           // code of black
+    y_scale: f32,            // code span black..white
+    c_offset: f32,           // code of zero chroma
+    c_scale: f32,            // code span of chroma −½..½
+    max_code: f32,
+    transfer: u32,           // Transfer::gpu_id
+    kr: f32,
+    kb: f32,
+    bytes_per_sample: u32,   // 1 or 2
+    y_row_words: u32,        // u32 words per row of the packed output planes
+    c_row_words: u32,
+    cb_offset_words: u32,    // plane starts in the packed output buffer
+    cr_offset_words: u32,
+    chroma_width: u32,
+    chroma_height: u32,
+    _pad: u32,
+}
+
+// The camera, the rain volume and the look of the streaks, for one frame.
+struct RainParams {
+    camera_pos_m: vec4<f32>,         // xyz; w = focal length, px
+    camera_from_world_0: vec4<f32>,  // rows of camera_from_world (w unused)
+    camera_from_world_1: vec4<f32>,
+    camera_from_world_2: vec4<f32>,
+    principal_px: vec2<f32>,         // display picture centre
+    display_size_px: vec2<f32>,
+    coded_from_display: vec4<f32>,   // 2×2 matrix, column-major (display rotation)
+    coded_offset_px: vec2<f32>,
+    coded_size_px: vec2<f32>,
+    fall_axis: vec4<f32>,            // unit axis the columns are aligned with (xyz)
+    lateral_e1: vec4<f32>,           // lateral axes of the columns
+    lateral_e2: vec4<f32>,
+    volume_origin_m: vec4<f32>,
+    wind_mps: vec4<f32>,             // mean wind, xyz (z = 0)
+    radiance: vec4<f32>,             // linear RGB of a drop (before PRT)
+    time_s: f32,
+    exposure_s: f32,
+    seed: u32,
+    drop_count: u32,
+    column_count: u32,
+    opacity: f32,                    // alpha multiplier (1 = physical coverage)
+    near_clip_m: f32,
+    drop_weight: f32,                // > 1 where the particle budget binds
+    d_min_mm: f32,                   // truncated exponential size distribution
+    d_max_mm: f32,
+    lambda_per_mm: f32,
+    speed_table_step_mm: f32,
+    speed_table: array<vec4<f32>, 8>,  // terminal speed, m/s, at i·step (32 entries)
+}
+
+// A column of the rain volume: a lateral cell and its extent along the fall axis.
+struct Column {
+    lateral_min_m: vec2<f32>,
+    lateral_size_m: vec2<f32>,
+    s_lo_m: f32,
+    s_len_m: f32,
+    first_drop: u32,
+    drop_count: u32,
+}

@@ -1,0 +1,366 @@
+//! One frame's GPU journey: upload planes → `yuv_to_rgb` → `rain_streaks` → `rgb_to_yuv` →
+//! copy into a readback ring.
+//!
+//! ## How it works
+//! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
+//! rotation is applied to the streaks' vertices, not to the pixels, so a frame without rain
+//! comes back bit for bit). `submit` records one frame and returns the frame submitted
+//! `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame it just
+//! submitted, so upload, GPU work and readback of consecutive frames overlap. `flush` drains
+//! the ring at the end.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::mpsc;
+
+use wgpu::util::DeviceExt;
+
+use super::GpuContext;
+use super::shaders::Stage;
+use super::types::{FrameParams, RainParams};
+use crate::rain::emitter::RainSetup;
+use crate::video::{FrameFormat, Plane, YuvFrame};
+use crate::{Error, Result};
+
+/// Frames in flight (readback slots).
+const RING: usize = 3;
+
+struct InFlight {
+    slot: usize,
+    submission: wgpu::SubmissionIndex,
+    mapped: mpsc::Receiver<std::result::Result<(), wgpu::BufferAsyncError>>,
+    template: YuvFrame,
+}
+
+/// Renders rain onto frames of one fixed format.
+pub struct Compositor {
+    ctx: Arc<GpuContext>,
+    format: FrameFormat,
+    frame_params: FrameParams,
+    planes: [wgpu::Texture; 3],
+    rain_params: RainParams,
+    rain_buffer: wgpu::Buffer,
+    rain_drops: u32,
+    out_buffer: wgpu::Buffer,
+    staging: Vec<wgpu::Buffer>,
+    yuv_to_rgb: (wgpu::ComputePipeline, wgpu::BindGroup),
+    streaks: (wgpu::RenderPipeline, wgpu::BindGroup),
+    luma: (wgpu::ComputePipeline, wgpu::BindGroup),
+    chroma: (wgpu::ComputePipeline, wgpu::BindGroup),
+    canvas_view: wgpu::TextureView,
+    in_flight: VecDeque<InFlight>,
+    next_slot: usize,
+}
+
+fn workgroups(n: u32, size: u32) -> u32 {
+    n.div_ceil(size).max(1)
+}
+
+impl Compositor {
+    /// Builds the pipelines and buffers for frames of `format` and rain `rain`.
+    pub fn new(ctx: Arc<GpuContext>, format: FrameFormat, color: &crate::video::ColorParams, rain: &RainSetup) -> Result<Compositor> {
+        let max = ctx.max_texture_side();
+        if format.width > max || format.height > max {
+            return Err(Error::Unsupported(format!(
+                "{}×{} exceeds this GPU's largest texture ({max} px)",
+                format.width, format.height
+            )));
+        }
+        let device = &ctx.device;
+        let frame_params = FrameParams::new(&format, color);
+        let frame_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("frame_params"),
+            contents: bytemuck::bytes_of(&frame_params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let plane_format = if format.bytes_per_sample() == 1 {
+            wgpu::TextureFormat::R8Uint
+        } else {
+            wgpu::TextureFormat::R16Uint
+        };
+        let planes = std::array::from_fn(|i| {
+            let (w, h) = format.plane_size(i);
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(["plane_y", "plane_cb", "plane_cr"][i]),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: plane_format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        });
+        let canvas = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("canvas"),
+            size: wgpu::Extent3d { width: format.width, height: format.height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba16Float,
+            usage: wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let canvas_view = canvas.create_view(&Default::default());
+        let out_bytes = frame_params.total_words() as u64 * 4;
+        let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("packed_planes"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let staging = (0..RING)
+            .map(|_| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("readback"),
+                    size: out_bytes,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+
+        let compute = |stage: Stage, entry: &str| {
+            let module = stage.module(device);
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(stage.name()),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let views: Vec<wgpu::TextureView> = planes.iter().map(|t| t.create_view(&Default::default())).collect();
+        let yuv_pipeline = compute(Stage::YuvToRgb, "main");
+        let yuv_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("yuv_to_rgb"),
+            layout: &yuv_pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&views[0]) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&views[1]) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&views[2]) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&canvas_view) },
+            ],
+        });
+        let out_bind = |pipeline: &wgpu::ComputePipeline| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("rgb_to_yuv"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&canvas_view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: out_buffer.as_entire_binding() },
+                ],
+            })
+        };
+        let luma_pipeline = compute(Stage::RgbToYuv, "luma");
+        let luma_bind = out_bind(&luma_pipeline);
+        let chroma_pipeline = compute(Stage::RgbToYuv, "chroma");
+        let chroma_bind = out_bind(&chroma_pipeline);
+
+        let rain_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain_params"),
+            contents: bytemuck::bytes_of(&rain.params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let columns_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain_columns"),
+            contents: bytemuck::cast_slice(&rain.columns),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let module = Stage::RainStreaks.module(device);
+        let streak_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(Stage::RainStreaks.name()),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let streak_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rain_streaks"),
+            layout: &streak_pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: rain_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: columns_buffer.as_entire_binding() },
+            ],
+        });
+        Ok(Compositor {
+            ctx,
+            format,
+            frame_params,
+            planes,
+            rain_params: rain.params,
+            rain_buffer,
+            rain_drops: rain.params.drop_count,
+            out_buffer,
+            staging,
+            yuv_to_rgb: (yuv_pipeline, yuv_bind),
+            streaks: (streak_pipeline, streak_bind),
+            luma: (luma_pipeline, luma_bind),
+            chroma: (chroma_pipeline, chroma_bind),
+            canvas_view,
+            in_flight: VecDeque::with_capacity(RING),
+            next_slot: 0,
+        })
+    }
+
+    /// Drops drawn per frame.
+    pub fn drop_count(&self) -> u32 {
+        self.rain_drops
+    }
+
+    /// Records and submits `frame` with the rain at `time_s` lit by `radiance` (linear RGB).
+    /// Returns the oldest finished frame once `RING` frames are in flight.
+    pub fn submit(&mut self, frame: &YuvFrame, time_s: f64, radiance: [f32; 3]) -> Result<Option<YuvFrame>> {
+        if frame.format != self.format {
+            return Err(Error::Unsupported(format!(
+                "the picture format changed mid-stream ({:?} → {:?})",
+                self.format, frame.format
+            )));
+        }
+        let done = if self.in_flight.len() == RING { Some(self.receive()?) } else { None };
+        let queue = &self.ctx.queue;
+        for (i, plane) in frame.planes.iter().enumerate() {
+            let (w, h) = self.format.plane_size(i);
+            let needed = plane.stride * (h as usize - 1) + self.format.packed_stride(i);
+            if plane.data.len() < needed || plane.stride < self.format.packed_stride(i) {
+                return Err(Error::CorruptInput(format!("frame {}: plane {i} is too short", frame.index)));
+            }
+            queue.write_texture(
+                self.planes[i].as_image_copy(),
+                &plane.data,
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(plane.stride as u32), rows_per_image: Some(h) },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+        let mut params = self.rain_params;
+        params.time_s = time_s as f32;
+        params.radiance = [radiance[0], radiance[1], radiance[2], 0.0];
+        queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(&params));
+
+        let device = &self.ctx.device;
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let fp = &self.frame_params;
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("yuv_to_rgb"), timestamp_writes: None });
+            pass.set_pipeline(&self.yuv_to_rgb.0);
+            pass.set_bind_group(0, &self.yuv_to_rgb.1, &[]);
+            pass.dispatch_workgroups(workgroups(fp.width, 16), workgroups(fp.height, 16), 1);
+        }
+        if self.rain_drops > 0 {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("rain_streaks"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.canvas_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.streaks.0);
+            pass.set_bind_group(0, &self.streaks.1, &[]);
+            pass.draw(0..6, 0..self.rain_drops);
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("rgb_to_yuv"), timestamp_writes: None });
+            pass.set_pipeline(&self.luma.0);
+            pass.set_bind_group(0, &self.luma.1, &[]);
+            pass.dispatch_workgroups(workgroups(fp.y_row_words, 16), workgroups(fp.height, 16), 1);
+            pass.set_pipeline(&self.chroma.0);
+            pass.set_bind_group(0, &self.chroma.1, &[]);
+            pass.dispatch_workgroups(workgroups(fp.c_row_words, 16), workgroups(fp.chroma_height, 16), 1);
+        }
+        let slot = self.next_slot;
+        self.next_slot = (self.next_slot + 1) % RING;
+        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_buffer.size());
+        let (tx, rx) = mpsc::channel();
+        encoder.map_buffer_on_submit(&self.staging[slot], wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        let submission = queue.submit([encoder.finish()]);
+        let template = YuvFrame {
+            format: frame.format,
+            color: frame.color,
+            planes: Default::default(),
+            pts: frame.pts,
+            index: frame.index,
+        };
+        self.in_flight.push_back(InFlight { slot, submission, mapped: rx, template });
+        Ok(done)
+    }
+
+    /// Waits for the oldest frame in flight and reads it back.
+    fn receive(&mut self) -> Result<YuvFrame> {
+        let Some(f) = self.in_flight.pop_front() else {
+            return Err(Error::Gpu("no frame in flight".into()));
+        };
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: Some(f.submission), timeout: None })
+            .map_err(|e| Error::Gpu(format!("waiting for frame {}: {e}", f.template.index)))?;
+        f.mapped
+            .recv()
+            .map_err(|_| Error::Gpu("readback callback dropped".into()))?
+            .map_err(|e| Error::Gpu(format!("readback of frame {}: {e}", f.template.index)))?;
+        let buffer = &self.staging[f.slot];
+        let mut out = f.template;
+        {
+            let view = buffer.get_mapped_range(..).map_err(|e| Error::Gpu(format!("readback: {e}")))?;
+            let fp = &self.frame_params;
+            let y_len = (fp.y_row_words * fp.height) as usize * 4;
+            let c_len = (fp.c_row_words * fp.chroma_height) as usize * 4;
+            let bounds = [(0, y_len), (y_len, y_len + c_len), (y_len + c_len, y_len + 2 * c_len)];
+            let strides = [fp.y_row_words as usize * 4, fp.c_row_words as usize * 4, fp.c_row_words as usize * 4];
+            for i in 0..3 {
+                out.planes[i] = Plane { data: view[bounds[i].0..bounds[i].1].to_vec(), stride: strides[i] };
+            }
+        }
+        buffer.unmap();
+        Ok(out)
+    }
+
+    /// Reads back every frame still in flight, oldest first.
+    pub fn flush(&mut self) -> Result<Vec<YuvFrame>> {
+        let mut out = Vec::with_capacity(self.in_flight.len());
+        while !self.in_flight.is_empty() {
+            out.push(self.receive()?);
+        }
+        Ok(out)
+    }
+
+    /// Renders one frame and waits for it (preview).
+    pub fn render_one(&mut self, frame: &YuvFrame, time_s: f64, radiance: [f32; 3]) -> Result<YuvFrame> {
+        let mut out = self.flush()?;
+        if let Some(f) = self.submit(frame, time_s, radiance)? {
+            out.push(f);
+        }
+        out.extend(self.flush()?);
+        out.pop().ok_or_else(|| Error::Gpu("no frame came back".into()))
+    }
+}

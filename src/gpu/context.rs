@@ -1,0 +1,134 @@
+//! Adapter choice and device creation.
+//!
+//! Preference: discrete GPU > integrated GPU > virtual > CPU (Mesa lavapipe/llvmpipe), Vulkan
+//! before GL. `--adapter NAME` picks by case-insensitive substring, `--cpu` keeps CPU adapters
+//! only. CPU adapters are never refused: they are what CI and GPU-less machines have.
+
+use crate::{Error, Result};
+
+/// How to choose the adapter.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AdapterRequest {
+    /// Case-insensitive substring of the adapter's name.
+    pub name: Option<String>,
+    /// Only software (CPU) adapters.
+    pub cpu_only: bool,
+}
+
+/// One adapter as `rain-composite adapters` lists it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct AdapterSummary {
+    /// Adapter name as the driver reports it.
+    pub name: String,
+    /// Backend (Vulkan, Gl…).
+    pub backend: String,
+    /// Discrete, integrated, virtual, CPU or other.
+    pub device_type: String,
+    /// Driver name and version.
+    pub driver: String,
+}
+
+/// The device and queue every GPU stage uses, with the adapter they came from.
+#[derive(Debug)]
+pub struct GpuContext {
+    /// The chosen adapter.
+    pub adapter: wgpu::Adapter,
+    /// The logical device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+}
+
+fn instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let device = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    (device, backend)
+}
+
+fn summary(info: &wgpu::AdapterInfo) -> AdapterSummary {
+    AdapterSummary {
+        name: info.name.clone(),
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+    }
+}
+
+/// Every adapter wgpu can see, best first.
+pub fn list_adapters() -> Vec<AdapterSummary> {
+    let mut adapters = pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
+    adapters.sort_by_key(|a| rank(&a.get_info()));
+    adapters.iter().map(|a| summary(&a.get_info())).collect()
+}
+
+impl GpuContext {
+    /// Picks an adapter per `request` and opens a device on it.
+    pub fn new(request: &AdapterRequest) -> Result<GpuContext> {
+        let instance = instance();
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        adapters.retain(|a| {
+            let info = a.get_info();
+            let compute = a
+                .get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS);
+            let name_ok = request
+                .name
+                .as_ref()
+                .is_none_or(|n| info.name.to_lowercase().contains(&n.to_lowercase()));
+            let cpu_ok = !request.cpu_only || info.device_type == wgpu::DeviceType::Cpu;
+            compute && name_ok && cpu_ok
+        });
+        adapters.sort_by_key(|a| rank(&a.get_info()));
+        let Some(adapter) = adapters.into_iter().next() else {
+            let what = match (&request.name, request.cpu_only) {
+                (Some(n), _) => format!("no adapter named like '{n}' (see `rain-composite adapters`)"),
+                (None, true) => "no CPU adapter (install Mesa's lavapipe: mesa-vulkan-drivers)".into(),
+                (None, false) => "no adapter with compute shaders (install a Vulkan driver or mesa-vulkan-drivers)".into(),
+            };
+            return Err(Error::Gpu(what));
+        };
+        let limits = wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits());
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
+            max_buffer_size: adapter.limits().max_buffer_size,
+            max_compute_workgroups_per_dimension: adapter
+                .limits()
+                .max_compute_workgroups_per_dimension,
+            ..limits
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("rain-composite"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| Error::Gpu(format!("cannot open a device on '{}': {e}", adapter.get_info().name)))?;
+        Ok(GpuContext { adapter, device, queue })
+    }
+
+    /// The chosen adapter, for logs and benchmark tables.
+    pub fn summary(&self) -> AdapterSummary {
+        summary(&self.adapter.get_info())
+    }
+
+    /// Largest 2D texture side this device accepts.
+    pub fn max_texture_side(&self) -> u32 {
+        self.device.limits().max_texture_dimension_2d
+    }
+}

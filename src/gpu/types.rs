@@ -1,0 +1,126 @@
+//! Rust twins of the WGSL structs in `shaders/common/types.wgsl`: same names, same field
+//! order, `#[repr(C)]` and `Pod` so a value uploads with one `bytemuck` cast.
+//! `tests/shaders.rs` checks every size and offset against naga's layout of the WGSL.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::video::{ColorParams, FrameFormat};
+
+/// WGSL `FrameParams`: a frame's layout and colour interpretation.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct FrameParams {
+    pub width: u32,
+    pub height: u32,
+    pub chroma_shift_x: u32,
+    pub chroma_shift_y: u32,
+    pub y_offset: f32,
+    pub y_scale: f32,
+    pub c_offset: f32,
+    pub c_scale: f32,
+    pub max_code: f32,
+    pub transfer: u32,
+    pub kr: f32,
+    pub kb: f32,
+    pub bytes_per_sample: u32,
+    pub y_row_words: u32,
+    pub c_row_words: u32,
+    pub cb_offset_words: u32,
+    pub cr_offset_words: u32,
+    pub chroma_width: u32,
+    pub chroma_height: u32,
+    pub _pad: u32,
+}
+
+impl FrameParams {
+    /// Layout of the packed output buffer and the colour constants for `format`/`color`.
+    pub fn new(format: &FrameFormat, color: &ColorParams) -> FrameParams {
+        let bps = format.bytes_per_sample() as u32;
+        let (cw, ch) = format.plane_size(1);
+        let (sx, sy) = format.chroma.shift();
+        let y_row_words = (format.width * bps).div_ceil(4);
+        let c_row_words = (cw * bps).div_ceil(4);
+        let s = color.range_scale();
+        let (kr, kb) = color.matrix.kr_kb();
+        let cb_offset_words = y_row_words * format.height;
+        FrameParams {
+            width: format.width,
+            height: format.height,
+            chroma_shift_x: sx,
+            chroma_shift_y: sy,
+            y_offset: s.y_offset as f32,
+            y_scale: s.y_scale as f32,
+            c_offset: s.c_offset as f32,
+            c_scale: s.c_scale as f32,
+            max_code: s.max_code as f32,
+            transfer: color.transfer.gpu_id(),
+            kr: kr as f32,
+            kb: kb as f32,
+            bytes_per_sample: bps,
+            y_row_words,
+            c_row_words,
+            cb_offset_words,
+            cr_offset_words: cb_offset_words + c_row_words * ch,
+            chroma_width: cw,
+            chroma_height: ch,
+            _pad: 0,
+        }
+    }
+
+    /// Total u32 words of the packed output (three planes).
+    pub fn total_words(&self) -> u32 {
+        self.cr_offset_words + self.c_row_words * self.chroma_height
+    }
+}
+
+/// Number of entries of the terminal-speed table (`RainParams::speed_table`).
+pub const SPEED_TABLE_LEN: usize = 32;
+
+/// WGSL `RainParams`: camera, rain volume and streak look for one frame.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct RainParams {
+    pub camera_pos_m: [f32; 4],
+    pub camera_from_world_0: [f32; 4],
+    pub camera_from_world_1: [f32; 4],
+    pub camera_from_world_2: [f32; 4],
+    pub principal_px: [f32; 2],
+    pub display_size_px: [f32; 2],
+    pub coded_from_display: [f32; 4],
+    pub coded_offset_px: [f32; 2],
+    pub coded_size_px: [f32; 2],
+    pub fall_axis: [f32; 4],
+    pub lateral_e1: [f32; 4],
+    pub lateral_e2: [f32; 4],
+    pub volume_origin_m: [f32; 4],
+    pub wind_mps: [f32; 4],
+    pub radiance: [f32; 4],
+    pub time_s: f32,
+    pub exposure_s: f32,
+    pub seed: u32,
+    pub drop_count: u32,
+    pub column_count: u32,
+    pub opacity: f32,
+    pub near_clip_m: f32,
+    pub drop_weight: f32,
+    pub d_min_mm: f32,
+    pub d_max_mm: f32,
+    pub lambda_per_mm: f32,
+    pub speed_table_step_mm: f32,
+    pub speed_table: [f32; SPEED_TABLE_LEN],
+}
+
+/// WGSL `Column`: a lateral cell of the rain volume and its extent along the fall axis.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct Column {
+    pub lateral_min_m: [f32; 2],
+    pub lateral_size_m: [f32; 2],
+    pub s_lo_m: f32,
+    pub s_len_m: f32,
+    pub first_drop: u32,
+    pub drop_count: u32,
+}
