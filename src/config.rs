@@ -23,7 +23,13 @@ pub struct CameraConfig {
 
 impl Default for CameraConfig {
     fn default() -> Self {
-        CameraConfig { fov_deg: 60.0, height_m: 1.6, tilt_deg: 0.0, roll_deg: 0.0, shutter_deg: 180.0 }
+        CameraConfig {
+            fov_deg: 60.0,
+            height_m: 1.6,
+            tilt_deg: 0.0,
+            roll_deg: 0.0,
+            shutter_deg: 180.0,
+        }
     }
 }
 
@@ -81,7 +87,11 @@ fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()>
     if ok && value.is_finite() {
         Ok(())
     } else {
-        Err(Error::Parameter { name, value: value.to_string(), expected: expected.to_string() })
+        Err(Error::Parameter {
+            name,
+            value: value.to_string(),
+            expected: expected.to_string(),
+        })
     }
 }
 
@@ -90,13 +100,48 @@ impl RenderConfig {
     pub fn validate(&self) -> Result<()> {
         let c = &self.camera;
         let r = &self.rain;
-        check("--fov", c.fov_deg, c.fov_deg > 1.0 && c.fov_deg < 170.0, "degrees in (1, 170)")?;
-        check("--camera-height", c.height_m, (0.0..=1000.0).contains(&c.height_m), "metres in [0, 1000]")?;
-        check("--tilt", c.tilt_deg, (-90.0..=90.0).contains(&c.tilt_deg), "degrees in [-90, 90]")?;
-        check("--roll", c.roll_deg, (-180.0..=180.0).contains(&c.roll_deg), "degrees in [-180, 180]")?;
-        check("--shutter", c.shutter_deg, c.shutter_deg > 0.0 && c.shutter_deg <= 360.0, "degrees in (0, 360]")?;
-        check("--rain", r.rate_mm_per_h, (0.0..=500.0).contains(&r.rate_mm_per_h), "mm/h in [0, 500]")?;
-        check("--drop-scale", r.drop_scale, r.drop_scale > 0.0 && r.drop_scale <= 10.0, "a factor in (0, 10]")?;
+        check(
+            "--fov",
+            c.fov_deg,
+            c.fov_deg > 1.0 && c.fov_deg < 170.0,
+            "degrees in (1, 170)",
+        )?;
+        check(
+            "--camera-height",
+            c.height_m,
+            (0.0..=1000.0).contains(&c.height_m),
+            "metres in [0, 1000]",
+        )?;
+        check(
+            "--tilt",
+            c.tilt_deg,
+            (-90.0..=90.0).contains(&c.tilt_deg),
+            "degrees in [-90, 90]",
+        )?;
+        check(
+            "--roll",
+            c.roll_deg,
+            (-180.0..=180.0).contains(&c.roll_deg),
+            "degrees in [-180, 180]",
+        )?;
+        check(
+            "--shutter",
+            c.shutter_deg,
+            c.shutter_deg > 0.0 && c.shutter_deg <= 360.0,
+            "degrees in (0, 360]",
+        )?;
+        check(
+            "--rain",
+            r.rate_mm_per_h,
+            (0.0..=500.0).contains(&r.rate_mm_per_h),
+            "mm/h in [0, 500]",
+        )?;
+        check(
+            "--drop-scale",
+            r.drop_scale,
+            r.drop_scale > 0.0 && r.drop_scale <= 10.0,
+            "a factor in (0, 10]",
+        )?;
         check(
             "--fall-speed-scale",
             r.fall_speed_scale,
@@ -106,10 +151,25 @@ impl RenderConfig {
         for w in r.wind_mps {
             check("--wind", w, w.abs() <= 60.0, "m/s components within ±60")?;
         }
-        check("--opacity", r.opacity, (0.0..=100.0).contains(&r.opacity), "a factor in [0, 100]")?;
-        check("--near", r.near_m, r.near_m >= 0.05 && r.near_m < r.far_m, "metres, ≥ 0.05 and below --far")?;
+        check(
+            "--opacity",
+            r.opacity,
+            (0.0..=100.0).contains(&r.opacity),
+            "a factor in [0, 100]",
+        )?;
+        check(
+            "--near",
+            r.near_m,
+            r.near_m >= 0.05 && r.near_m < r.far_m,
+            "metres, ≥ 0.05 and below --far",
+        )?;
         check("--far", r.far_m, r.far_m <= 500.0, "metres, at most 500")?;
-        check("--max-drops", r.max_drops as f64, r.max_drops <= 20_000_000, "at most 20000000")?;
+        check(
+            "--max-drops",
+            r.max_drops as f64,
+            r.max_drops <= 20_000_000,
+            "at most 20000000",
+        )?;
         Ok(())
     }
 }

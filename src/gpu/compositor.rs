@@ -58,7 +58,12 @@ fn workgroups(n: u32, size: u32) -> u32 {
 
 impl Compositor {
     /// Builds the pipelines and buffers for frames of `format` and rain `rain`.
-    pub fn new(ctx: Arc<GpuContext>, format: FrameFormat, color: &crate::video::ColorParams, rain: &RainSetup) -> Result<Compositor> {
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        format: FrameFormat,
+        color: &crate::video::ColorParams,
+        rain: &RainSetup,
+    ) -> Result<Compositor> {
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
             return Err(Error::Unsupported(format!(
@@ -82,7 +87,11 @@ impl Compositor {
             let (w, h) = format.plane_size(i);
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(["plane_y", "plane_cb", "plane_cr"][i]),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -93,7 +102,11 @@ impl Compositor {
         });
         let canvas = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("canvas"),
-            size: wgpu::Extent3d { width: format.width, height: format.height, depth_or_array_layers: 1 },
+            size: wgpu::Extent3d {
+                width: format.width,
+                height: format.height,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -133,17 +146,35 @@ impl Compositor {
                 cache: None,
             })
         };
-        let views: Vec<wgpu::TextureView> = planes.iter().map(|t| t.create_view(&Default::default())).collect();
+        let views: Vec<wgpu::TextureView> = planes
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
         let yuv_pipeline = compute(Stage::YuvToRgb, "main");
         let yuv_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("yuv_to_rgb"),
             layout: &yuv_pipeline.get_bind_group_layout(0),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&views[0]) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&views[1]) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&views[2]) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&canvas_view) },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: frame_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&views[0]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&views[1]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(&views[2]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&canvas_view),
+                },
             ],
         });
         let out_bind = |pipeline: &wgpu::ComputePipeline| {
@@ -151,9 +182,18 @@ impl Compositor {
                 label: Some("rgb_to_yuv"),
                 layout: &pipeline.get_bind_group_layout(0),
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&canvas_view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: out_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: frame_buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&canvas_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: out_buffer.as_entire_binding(),
+                    },
                 ],
             })
         };
@@ -202,8 +242,14 @@ impl Compositor {
             label: Some("rain_streaks"),
             layout: &streak_pipeline.get_bind_group_layout(0),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: rain_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: columns_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: rain_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: columns_buffer.as_entire_binding(),
+                },
             ],
         });
         Ok(Compositor {
@@ -233,26 +279,46 @@ impl Compositor {
 
     /// Records and submits `frame` with the rain at `time_s` lit by `radiance` (linear RGB).
     /// Returns the oldest finished frame once `RING` frames are in flight.
-    pub fn submit(&mut self, frame: &YuvFrame, time_s: f64, radiance: [f32; 3]) -> Result<Option<YuvFrame>> {
+    pub fn submit(
+        &mut self,
+        frame: &YuvFrame,
+        time_s: f64,
+        radiance: [f32; 3],
+    ) -> Result<Option<YuvFrame>> {
         if frame.format != self.format {
             return Err(Error::Unsupported(format!(
                 "the picture format changed mid-stream ({:?} → {:?})",
                 self.format, frame.format
             )));
         }
-        let done = if self.in_flight.len() == RING { Some(self.receive()?) } else { None };
+        let done = if self.in_flight.len() == RING {
+            Some(self.receive()?)
+        } else {
+            None
+        };
         let queue = &self.ctx.queue;
         for (i, plane) in frame.planes.iter().enumerate() {
             let (w, h) = self.format.plane_size(i);
             let needed = plane.stride * (h as usize - 1) + self.format.packed_stride(i);
             if plane.data.len() < needed || plane.stride < self.format.packed_stride(i) {
-                return Err(Error::CorruptInput(format!("frame {}: plane {i} is too short", frame.index)));
+                return Err(Error::CorruptInput(format!(
+                    "frame {}: plane {i} is too short",
+                    frame.index
+                )));
             }
             queue.write_texture(
                 self.planes[i].as_image_copy(),
                 &plane.data,
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(plane.stride as u32), rows_per_image: Some(h) },
-                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(plane.stride as u32),
+                    rows_per_image: Some(h),
+                },
+                wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
             );
         }
         let mut params = self.rain_params;
@@ -261,10 +327,15 @@ impl Compositor {
         queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(&params));
 
         let device = &self.ctx.device;
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame"),
+        });
         let fp = &self.frame_params;
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("yuv_to_rgb"), timestamp_writes: None });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("yuv_to_rgb"),
+                timestamp_writes: None,
+            });
             pass.set_pipeline(&self.yuv_to_rgb.0);
             pass.set_bind_group(0, &self.yuv_to_rgb.1, &[]);
             pass.dispatch_workgroups(workgroups(fp.width, 16), workgroups(fp.height, 16), 1);
@@ -276,7 +347,10 @@ impl Compositor {
                     view: &self.canvas_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
                 })],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
@@ -288,17 +362,30 @@ impl Compositor {
             pass.draw(0..6, 0..self.rain_drops);
         }
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("rgb_to_yuv"), timestamp_writes: None });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("rgb_to_yuv"),
+                timestamp_writes: None,
+            });
             pass.set_pipeline(&self.luma.0);
             pass.set_bind_group(0, &self.luma.1, &[]);
             pass.dispatch_workgroups(workgroups(fp.y_row_words, 16), workgroups(fp.height, 16), 1);
             pass.set_pipeline(&self.chroma.0);
             pass.set_bind_group(0, &self.chroma.1, &[]);
-            pass.dispatch_workgroups(workgroups(fp.c_row_words, 16), workgroups(fp.chroma_height, 16), 1);
+            pass.dispatch_workgroups(
+                workgroups(fp.c_row_words, 16),
+                workgroups(fp.chroma_height, 16),
+                1,
+            );
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
-        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_buffer.size());
+        encoder.copy_buffer_to_buffer(
+            &self.out_buffer,
+            0,
+            &self.staging[slot],
+            0,
+            self.out_buffer.size(),
+        );
         let (tx, rx) = mpsc::channel();
         encoder.map_buffer_on_submit(&self.staging[slot], wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -311,7 +398,12 @@ impl Compositor {
             pts: frame.pts,
             index: frame.index,
         };
-        self.in_flight.push_back(InFlight { slot, submission, mapped: rx, template });
+        self.in_flight.push_back(InFlight {
+            slot,
+            submission,
+            mapped: rx,
+            template,
+        });
         Ok(done)
     }
 
@@ -322,7 +414,10 @@ impl Compositor {
         };
         self.ctx
             .device
-            .poll(wgpu::PollType::Wait { submission_index: Some(f.submission), timeout: None })
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(f.submission),
+                timeout: None,
+            })
             .map_err(|e| Error::Gpu(format!("waiting for frame {}: {e}", f.template.index)))?;
         f.mapped
             .recv()
@@ -331,14 +426,27 @@ impl Compositor {
         let buffer = &self.staging[f.slot];
         let mut out = f.template;
         {
-            let view = buffer.get_mapped_range(..).map_err(|e| Error::Gpu(format!("readback: {e}")))?;
+            let view = buffer
+                .get_mapped_range(..)
+                .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
             let fp = &self.frame_params;
             let y_len = (fp.y_row_words * fp.height) as usize * 4;
             let c_len = (fp.c_row_words * fp.chroma_height) as usize * 4;
-            let bounds = [(0, y_len), (y_len, y_len + c_len), (y_len + c_len, y_len + 2 * c_len)];
-            let strides = [fp.y_row_words as usize * 4, fp.c_row_words as usize * 4, fp.c_row_words as usize * 4];
+            let bounds = [
+                (0, y_len),
+                (y_len, y_len + c_len),
+                (y_len + c_len, y_len + 2 * c_len),
+            ];
+            let strides = [
+                fp.y_row_words as usize * 4,
+                fp.c_row_words as usize * 4,
+                fp.c_row_words as usize * 4,
+            ];
             for i in 0..3 {
-                out.planes[i] = Plane { data: view[bounds[i].0..bounds[i].1].to_vec(), stride: strides[i] };
+                out.planes[i] = Plane {
+                    data: view[bounds[i].0..bounds[i].1].to_vec(),
+                    stride: strides[i],
+                };
             }
         }
         buffer.unmap();
@@ -355,12 +463,18 @@ impl Compositor {
     }
 
     /// Renders one frame and waits for it (preview).
-    pub fn render_one(&mut self, frame: &YuvFrame, time_s: f64, radiance: [f32; 3]) -> Result<YuvFrame> {
+    pub fn render_one(
+        &mut self,
+        frame: &YuvFrame,
+        time_s: f64,
+        radiance: [f32; 3],
+    ) -> Result<YuvFrame> {
         let mut out = self.flush()?;
         if let Some(f) = self.submit(frame, time_s, radiance)? {
             out.push(f);
         }
         out.extend(self.flush()?);
-        out.pop().ok_or_else(|| Error::Gpu("no frame came back".into()))
+        out.pop()
+            .ok_or_else(|| Error::Gpu("no frame came back".into()))
     }
 }

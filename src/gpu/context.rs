@@ -63,7 +63,9 @@ fn summary(info: &wgpu::AdapterInfo) -> AdapterSummary {
         name: info.name.clone(),
         backend: format!("{:?}", info.backend),
         device_type: format!("{:?}", info.device_type),
-        driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+        driver: format!("{} {}", info.driver, info.driver_info)
+            .trim()
+            .to_string(),
     }
 }
 
@@ -118,8 +120,17 @@ impl GpuContext {
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))
-        .map_err(|e| Error::Gpu(format!("cannot open a device on '{}': {e}", adapter.get_info().name)))?;
-        Ok(GpuContext { adapter, device, queue })
+        .map_err(|e| {
+            Error::Gpu(format!(
+                "cannot open a device on '{}': {e}",
+                adapter.get_info().name
+            ))
+        })?;
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+        })
     }
 
     /// The chosen adapter, for logs and benchmark tables.

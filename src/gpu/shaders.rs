@@ -21,8 +21,12 @@ const DROPS: &str = include_str!("../../shaders/common/drops.wgsl");
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 4] =
-        [Stage::YuvToRgb, Stage::RainStreaks, Stage::RgbToYuv, Stage::RainProbe];
+    pub const ALL: [Stage; 4] = [
+        Stage::YuvToRgb,
+        Stage::RainStreaks,
+        Stage::RgbToYuv,
+        Stage::RainProbe,
+    ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
     pub fn name(self) -> &'static str {
@@ -37,13 +41,22 @@ impl Stage {
     /// The complete WGSL source: shared modules, then the stage.
     pub fn source(self) -> String {
         let (common, body): (&[&str], &str) = match self {
-            Stage::YuvToRgb => (&[TYPES, COLOR], include_str!("../../shaders/yuv_to_rgb.wgsl")),
+            Stage::YuvToRgb => (
+                &[TYPES, COLOR],
+                include_str!("../../shaders/yuv_to_rgb.wgsl"),
+            ),
             Stage::RainStreaks => (
                 &[TYPES, RNG, DROPS],
                 include_str!("../../shaders/rain_streaks.wgsl"),
             ),
-            Stage::RgbToYuv => (&[TYPES, COLOR], include_str!("../../shaders/rgb_to_yuv.wgsl")),
-            Stage::RainProbe => (&[TYPES, RNG, DROPS], include_str!("../../shaders/rain_probe.wgsl")),
+            Stage::RgbToYuv => (
+                &[TYPES, COLOR],
+                include_str!("../../shaders/rgb_to_yuv.wgsl"),
+            ),
+            Stage::RainProbe => (
+                &[TYPES, RNG, DROPS],
+                include_str!("../../shaders/rain_probe.wgsl"),
+            ),
         };
         let mut s = common.join("\n");
         s.push('\n');

@@ -68,13 +68,23 @@ pub fn coded_from_display(rotation_deg: i32, coded_w: f32, coded_h: f32) -> ([f3
 }
 
 fn orthonormal_basis(axis: DVec3) -> (DVec3, DVec3) {
-    let helper = if axis.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let helper = if axis.x.abs() < 0.9 {
+        DVec3::X
+    } else {
+        DVec3::Y
+    };
     let e1 = helper.cross(axis).normalize();
     (e1, axis.cross(e1))
 }
 
 /// The frustum slab between depths `near` and `far`, as inward half-spaces in camera space.
-fn clip_line(camera: &Camera, near: f64, far: f64, origin_cam: DVec3, dir_cam: DVec3) -> Option<(f64, f64)> {
+fn clip_line(
+    camera: &Camera,
+    near: f64,
+    far: f64,
+    origin_cam: DVec3,
+    dir_cam: DVec3,
+) -> Option<(f64, f64)> {
     let f = camera.focal_px();
     let tx = 0.5 * camera.width_px as f64 / f;
     let ty = 0.5 * camera.height_px as f64 / f;
@@ -114,7 +124,8 @@ pub fn build(
     coded_size_px: (u32, u32),
 ) -> RainSetup {
     let dsd = interim::SizeDistribution::marshall_palmer(rain.rate_mm_per_h, rain.drop_scale);
-    let speed = |d_mm: f64| interim::terminal_speed_mps(d_mm / rain.drop_scale) * rain.fall_speed_scale;
+    let speed =
+        |d_mm: f64| interim::terminal_speed_mps(d_mm / rain.drop_scale) * rain.fall_speed_scale;
     let wind = DVec3::new(rain.wind_mps[0], rain.wind_mps[1], 0.0);
     let v_typical = speed(dsd.median_mm());
     let axis = (wind - DVec3::Z * v_typical).normalize();
@@ -177,7 +188,11 @@ pub fn build(
     let column_volume: f64 = volumes.iter().sum();
     let expected = density * column_volume;
     let budget = rain.max_drops as f64;
-    let (scale, weight) = if expected > budget { (budget / expected, expected / budget) } else { (1.0, 1.0) };
+    let (scale, weight) = if expected > budget {
+        (budget / expected, expected / budget)
+    } else {
+        (1.0, 1.0)
+    };
     // Largest-remainder rounding keeps the total exact and each column within one drop.
     let mut carry = 0.0;
     let mut next = 0u32;
@@ -204,11 +219,19 @@ pub fn build(
     let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     let _ = camera_config;
     let params = RainParams {
-        camera_pos_m: [camera.position_m.x as f32, camera.position_m.y as f32, camera.position_m.z as f32, f as f32],
+        camera_pos_m: [
+            camera.position_m.x as f32,
+            camera.position_m.y as f32,
+            camera.position_m.z as f32,
+            f as f32,
+        ],
         camera_from_world_0: row(0),
         camera_from_world_1: row(1),
         camera_from_world_2: row(2),
-        principal_px: [camera.principal_px().x as f32, camera.principal_px().y as f32],
+        principal_px: [
+            camera.principal_px().x as f32,
+            camera.principal_px().y as f32,
+        ],
         display_size_px: [camera.width_px as f32, camera.height_px as f32],
         coded_from_display: m,
         coded_offset_px: off,
@@ -234,7 +257,13 @@ pub fn build(
         speed_table,
     };
     let frustum_volume_m3 = 4.0 * tx * ty * (far.powi(3) - near.powi(3)) / 3.0;
-    RainSetup { params, columns, expected_drops: expected, frustum_volume_m3, column_volume_m3: column_volume }
+    RainSetup {
+        params,
+        columns,
+        expected_drops: expected,
+        frustum_volume_m3,
+        column_volume_m3: column_volume,
+    }
 }
 
 /// Marshall–Palmer sizes and a terminal-velocity fit, until `rain::physics` provides them.
@@ -251,13 +280,23 @@ mod interim {
         /// N(D) = N0 e^{−ΛD}, N0 = 8000 m⁻³ mm⁻¹, Λ = 4.1 R^−0.21 mm⁻¹, diameters × `scale`.
         pub fn marshall_palmer(rate_mm_per_h: f64, scale: f64) -> SizeDistribution {
             let lambda = 4.1 * rate_mm_per_h.max(1e-3).powf(-0.21) / scale;
-            let n0 = if rate_mm_per_h > 0.0 { 8000.0 / scale } else { 0.0 };
+            let n0 = if rate_mm_per_h > 0.0 {
+                8000.0 / scale
+            } else {
+                0.0
+            };
             // Drops under 0.5 mm are too faint to streak; over 6 mm they break up.
-            SizeDistribution { n0_per_m3_mm: n0, lambda_per_mm: lambda, d_min_mm: 0.5 * scale, d_max_mm: 6.0 * scale }
+            SizeDistribution {
+                n0_per_m3_mm: n0,
+                lambda_per_mm: lambda,
+                d_min_mm: 0.5 * scale,
+                d_max_mm: 6.0 * scale,
+            }
         }
         pub fn number_per_m3(&self) -> f64 {
             self.n0_per_m3_mm / self.lambda_per_mm
-                * ((-self.lambda_per_mm * self.d_min_mm).exp() - (-self.lambda_per_mm * self.d_max_mm).exp())
+                * ((-self.lambda_per_mm * self.d_min_mm).exp()
+                    - (-self.lambda_per_mm * self.d_max_mm).exp())
         }
         pub fn median_mm(&self) -> f64 {
             let tail = 1.0 - (-self.lambda_per_mm * (self.d_max_mm - self.d_min_mm)).exp();
@@ -286,7 +325,9 @@ fn unit_from_hash(h: u32) -> f32 {
 
 /// The k-th random number of the stream keyed by (seed, id, cycle) (twin of `rand_key`).
 pub fn rand_key(seed: u32, id: u32, cycle: u32, k: u32) -> f32 {
-    unit_from_hash(pcg_hash(pcg_hash(pcg_hash(seed ^ k.wrapping_mul(0x9e37_79b9)) ^ id) ^ cycle))
+    unit_from_hash(pcg_hash(
+        pcg_hash(pcg_hash(seed ^ k.wrapping_mul(0x9e37_79b9)) ^ id) ^ cycle,
+    ))
 }
 
 const DROP_CONSTANT_KEY: u32 = 0xffff_ffff;
@@ -326,7 +367,11 @@ fn v3(a: [f32; 4]) -> Vec3 {
 pub fn drop_state(p: &RainParams, columns: &[Column], id: u32, t_s: f32) -> DropState {
     let col = columns[column_of(p, columns, id)];
     let d_mm = diameter_from_unit(p, rand_key(p.seed, id, DROP_CONSTANT_KEY, 0));
-    let vel = Vec3::new(p.wind_mps[0], p.wind_mps[1], -terminal_speed_from_table(p, d_mm));
+    let vel = Vec3::new(
+        p.wind_mps[0],
+        p.wind_mps[1],
+        -terminal_speed_from_table(p, d_mm),
+    );
     let axis = v3(p.fall_axis);
     let w = vel.dot(axis).max(1e-3);
     let len = col.s_len_m.max(1e-3);
@@ -345,5 +390,9 @@ pub fn drop_state(p: &RainParams, columns: &[Column], id: u32, t_s: f32) -> Drop
         + lateral[1] * v3(p.lateral_e2)
         + (col.s_lo_m + s_in) * axis
         + drift * since_birth_s;
-    DropState { pos_m: pos, vel_mps: vel, diameter_mm: d_mm }
+    DropState {
+        pos_m: pos,
+        vel_mps: vel,
+        diameter_mm: d_mm,
+    }
 }

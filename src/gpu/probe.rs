@@ -1,0 +1,112 @@
+//! Runs the `rain_probe` stage: drop states computed on the GPU, read back. Used by the
+//! GPU-against-CPU-twin tests and by `inspect drops`.
+
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use super::GpuContext;
+use super::shaders::Stage;
+use crate::rain::emitter::{DropState, RainSetup};
+use crate::{Error, Result};
+
+/// States of the first `count` drops of `setup` at `time_s`, as the GPU computes them.
+pub fn probe_drops(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    time_s: f32,
+    count: u32,
+) -> Result<Vec<DropState>> {
+    let device = &ctx.device;
+    let mut params = setup.params;
+    params.time_s = time_s;
+    params.drop_count = count.min(setup.params.drop_count);
+    let n = params.drop_count.max(1) as u64;
+    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_params"),
+        contents: bytemuck::bytes_of(&params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_columns"),
+        contents: bytemuck::cast_slice(&setup.columns),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let size = n * 32;
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe_out"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let read = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("probe_read"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let module = Stage::RainProbe.module(device);
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(Stage::RainProbe.name()),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("rain_probe"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: columns.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: out.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&out, 0, &read, 0, size);
+    let (tx, rx) = std::sync::mpsc::channel();
+    encoder.map_buffer_on_submit(&read, wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    let submission = ctx.queue.submit([encoder.finish()]);
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(submission),
+            timeout: None,
+        })
+        .map_err(|e| Error::Gpu(e.to_string()))?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("probe readback dropped".into()))?
+        .map_err(|e| Error::Gpu(e.to_string()))?;
+    let view = read
+        .get_mapped_range(..)
+        .map_err(|e| Error::Gpu(e.to_string()))?;
+    let floats: &[f32] = bytemuck::cast_slice(&view);
+    let states = floats
+        .chunks_exact(8)
+        .take(params.drop_count as usize)
+        .map(|c| DropState {
+            pos_m: Vec3::new(c[0], c[1], c[2]),
+            vel_mps: Vec3::new(c[4], c[5], c[6]),
+            diameter_mm: c[3],
+        })
+        .collect();
+    drop(view);
+    read.unmap();
+    Ok(states)
+}

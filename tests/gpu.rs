@@ -1,0 +1,283 @@
+//! GPU stages against their CPU twins, on whatever adapter the machine has (lavapipe in CI).
+//! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` (CI does) to turn a missing adapter into a failure.
+
+use std::sync::{Arc, OnceLock};
+
+use glam::DVec2;
+use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
+use rain_composite::rain::emitter::{self, RainSetup};
+use rain_composite::scene::Camera;
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
+
+fn gpu() -> Option<Arc<GpuContext>> {
+    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
+        Ok(c) => Some(Arc::new(c)),
+        Err(e) => {
+            assert!(
+                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
+                "no GPU adapter: {e}"
+            );
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    })
+    .clone()
+}
+
+/// A deterministic picture of scattered code values. `chroma_spread` in (0, 1] narrows chroma
+/// around neutral: at 1 many pixels are far out of the RGB gamut (fine for SDR transfers, whose
+/// odd extension round-trips them), while PQ's curve has a pole just below code 2.0, so HDR
+/// cases keep R'G'B' within the encodable range as real footage does.
+fn test_frame(format: FrameFormat, color: ColorParams, chroma_spread: f64) -> YuvFrame {
+    let max = (1u32 << format.bit_depth) - 1;
+    let mid = (max + 1) as f64 / 2.0;
+    let planes = std::array::from_fn(|i| {
+        let (w, h) = format.plane_size(i);
+        let stride = format.packed_stride(i) + 7 * format.bytes_per_sample(); // padded like FFmpeg
+        let mut data = vec![0u8; stride * h as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let mut v = ((x * 37 + y * 91 + i as u32 * 53).wrapping_mul(2654435761u32) >> 7)
+                    % (max + 1);
+                if i > 0 {
+                    v = (mid + (v as f64 - mid) * chroma_spread).round() as u32;
+                }
+                let at = y as usize * stride + x as usize * format.bytes_per_sample();
+                if format.bytes_per_sample() == 1 {
+                    data[at] = v as u8;
+                } else {
+                    data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
+                }
+            }
+        }
+        Plane { data, stride }
+    });
+    YuvFrame {
+        format,
+        color,
+        planes,
+        pts: 42,
+        index: 3,
+    }
+}
+
+fn no_rain(format: &FrameFormat) -> RainSetup {
+    let camera = Camera::new(format.width, format.height, 1.0, 1.6, 0.0, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 0.0,
+        ..RainConfig::default()
+    };
+    emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        0.01,
+        0,
+        (format.width, format.height),
+    )
+}
+
+#[test]
+fn frames_without_rain_come_back_unchanged() {
+    let Some(ctx) = gpu() else { return };
+    let cases = [
+        (
+            Chroma::Cs420,
+            8,
+            Matrix::Bt709,
+            false,
+            Transfer::Bt709,
+            64,
+            48,
+        ),
+        (
+            Chroma::Cs420,
+            8,
+            Matrix::Bt601,
+            true,
+            Transfer::Srgb,
+            33,
+            17,
+        ),
+        (
+            Chroma::Cs422,
+            10,
+            Matrix::Bt2020Ncl,
+            false,
+            Transfer::Pq,
+            40,
+            20,
+        ),
+        (
+            Chroma::Cs444,
+            10,
+            Matrix::Bt709,
+            true,
+            Transfer::Hlg,
+            16,
+            16,
+        ),
+        (
+            Chroma::Cs420,
+            8,
+            Matrix::Bt709,
+            false,
+            Transfer::Bt709,
+            321,
+            241,
+        ),
+    ];
+    for (chroma, bit_depth, matrix, full_range, transfer, w, h) in cases {
+        let format = FrameFormat {
+            width: w,
+            height: h,
+            chroma,
+            bit_depth,
+        };
+        let color = ColorParams {
+            matrix,
+            full_range,
+            transfer,
+            bit_depth,
+        };
+        let spread = if transfer == Transfer::Pq { 0.3 } else { 1.0 };
+        let input = test_frame(format, color, spread);
+        let mut comp =
+            Compositor::new(ctx.clone(), format, &color, &no_rain(&format)).expect("compositor");
+        assert_eq!(comp.drop_count(), 0);
+        let out = comp.render_one(&input, 0.0, [1.0; 3]).expect("render");
+        assert_eq!((out.pts, out.index), (42, 3));
+        // Legal code values come back exactly; codes outside the legal range may clamp.
+        let mut off = 0usize;
+        let mut total = 0usize;
+        for i in 0..3 {
+            let (pw, ph) = format.plane_size(i);
+            for y in 0..ph {
+                for x in 0..pw {
+                    total += 1;
+                    let a = input.sample(i, x, y) as i32;
+                    let b = out.sample(i, x, y) as i32;
+                    if a != b {
+                        off += 1;
+                        assert!(
+                            (a - b).abs() <= 1,
+                            "{chroma:?} {bit_depth} {matrix:?} plane {i} ({x},{y}): {a} → {b}"
+                        );
+                    }
+                }
+            }
+        }
+        // f16 canvas: at most a handful of codes move by one (10-bit PQ is the hardest case).
+        assert!(
+            off * 1000 <= total,
+            "{chroma:?} {bit_depth} {transfer:?}: {off} of {total} samples changed"
+        );
+    }
+}
+
+#[test]
+fn gpu_drops_match_the_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    let camera = Camera::new(640, 360, 1.1, 1.6, 0.1, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 25.0,
+        wind_mps: [3.0, -1.0],
+        seed: 7,
+        ..RainConfig::default()
+    };
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        0.02,
+        0,
+        (640, 360),
+    );
+    assert!(setup.params.drop_count > 1000);
+    for t in [0.0f32, 0.7, 13.25] {
+        let gpu_states = probe_drops(&ctx, &setup, t, 4096).expect("probe");
+        for (id, g) in gpu_states.iter().enumerate() {
+            let c = emitter::drop_state(&setup.params, &setup.columns, id as u32, t);
+            let tol = 1e-3 * (1.0 + c.pos_m.length());
+            assert!(
+                (g.pos_m - c.pos_m).length() < tol,
+                "drop {id} t={t}: {:?} vs {:?}",
+                g.pos_m,
+                c.pos_m
+            );
+            assert!((g.vel_mps - c.vel_mps).length() < 1e-3);
+            assert!((g.diameter_mm - c.diameter_mm).abs() < 1e-4);
+        }
+    }
+}
+
+#[test]
+fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
+    let Some(ctx) = gpu() else { return };
+    let format = FrameFormat {
+        width: 160,
+        height: 120,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let color = ColorParams::bt709(8);
+    let dark = YuvFrame::filled(format, color, [40, 128, 128]);
+    let camera = Camera::new(160, 120, 1.0, 1.6, 0.0, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 50.0,
+        opacity: 20.0,
+        near_m: 0.3,
+        far_m: 6.0,
+        ..RainConfig::default()
+    };
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        0,
+        (160, 120),
+    );
+    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+    let a = comp.render_one(&dark, 1.0, [1.0; 3]).expect("render");
+    let b = comp.render_one(&dark, 1.04, [1.0; 3]).expect("render");
+    let luma = |f: &YuvFrame| {
+        (0..120)
+            .flat_map(|y| (0..160).map(move |x| (x, y)))
+            .map(|(x, y)| f.sample(0, x, y))
+            .collect::<Vec<_>>()
+    };
+    let (la, lb) = (luma(&a), luma(&b));
+    assert!(
+        la.iter().all(|&v| v >= 40),
+        "rain never darkens a dark frame"
+    );
+    assert!(
+        la.iter().filter(|&&v| v > 45).count() > 50,
+        "streaks are drawn"
+    );
+    assert_ne!(la, lb, "consecutive frames differ");
+    // The projected drops move down the picture between the two times.
+    let probe0 = probe_drops(&ctx, &setup, 1.0, 2000).expect("probe");
+    let probe1 = probe_drops(&ctx, &setup, 1.04, 2000).expect("probe");
+    let mut down = 0;
+    let mut seen = 0;
+    for (p, q) in probe0.iter().zip(&probe1) {
+        if let (Some(u), Some(v)) = (
+            camera.project_world(p.pos_m.as_dvec3()),
+            camera.project_world(q.pos_m.as_dvec3()),
+        ) {
+            if (v - u).length() < 60.0 && u.y > 0.0 && u.y < 120.0 {
+                seen += 1;
+                down += (v.y > u.y) as i32;
+            }
+        }
+    }
+    assert!(
+        seen > 20 && down * 10 >= seen * 9,
+        "{down} of {seen} drops moved down"
+    );
+    let _ = DVec2::ZERO;
+}
