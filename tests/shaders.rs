@@ -1,0 +1,63 @@
+//! Every WGSL stage parses and validates with naga, and every Rust twin of a WGSL struct has
+//! the WGSL's size and field offsets.
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use rain_composite::gpu::shaders::Stage;
+use rain_composite::gpu::types::{Column, FrameParams, RainParams};
+
+fn module(stage: Stage) -> naga::Module {
+    let src = stage.source();
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("{}: {}", stage.name(), e.emit_to_string(&src)));
+    Validator::new(ValidationFlags::all(), Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}: {e:?}", stage.name()));
+    module
+}
+
+#[test]
+fn every_stage_validates() {
+    for stage in Stage::ALL {
+        module(stage);
+    }
+}
+
+/// (size, [(field name, offset)]) of a WGSL struct as naga lays it out.
+fn layout(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name) {
+            if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+            }
+        }
+    }
+    panic!("struct {name} not found");
+}
+
+macro_rules! assert_twin {
+    ($module:expr, $ty:ty, [$($field:ident),* $(,)?]) => {{
+        let (size, fields) = layout(&$module, stringify!($ty));
+        assert_eq!(size as usize, std::mem::size_of::<$ty>(), "size of {}", stringify!($ty));
+        let rust: Vec<(String, u32)> = vec![$((stringify!($field).to_string(), std::mem::offset_of!($ty, $field) as u32)),*];
+        assert_eq!(fields, rust, "fields of {}", stringify!($ty));
+    }};
+}
+
+#[test]
+fn rust_twins_match_wgsl_layouts() {
+    let m = module(Stage::RainStreaks);
+    assert_twin!(m, RainParams, [
+        camera_pos_m, camera_from_world_0, camera_from_world_1, camera_from_world_2, principal_px,
+        display_size_px, coded_from_display, coded_offset_px, coded_size_px, fall_axis, lateral_e1,
+        lateral_e2, volume_origin_m, wind_mps, radiance, time_s, exposure_s, seed, drop_count,
+        column_count, opacity, near_clip_m, drop_weight, d_min_mm, d_max_mm, lambda_per_mm,
+        speed_table_step_mm, speed_table,
+    ]);
+    assert_twin!(m, Column, [lateral_min_m, lateral_size_m, s_lo_m, s_len_m, first_drop, drop_count]);
+    let m = module(Stage::YuvToRgb);
+    assert_twin!(m, FrameParams, [
+        width, height, chroma_shift_x, chroma_shift_y, y_offset, y_scale, c_offset, c_scale,
+        max_code, transfer, kr, kb, bytes_per_sample, y_row_words, c_row_words, cb_offset_words,
+        cr_offset_words, chroma_width, chroma_height, _pad,
+    ]);
+}
