@@ -1,2 +1,469 @@
-//! The `rain-composite` command line.
-fn main() {}
+//! The `rain-composite` command line: flags → library calls. anyhow lives only here.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, bail};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use rain_composite::config::RenderConfig;
+use rain_composite::gpu::{AdapterRequest, list_adapters};
+use rain_composite::pipeline::{self, FrameSelector, Job, Progress};
+use rain_composite::video::{self, AudioMode, EncodeOptions, VideoCodec};
+
+/// Adds physically based rain to video.
+#[derive(Parser, Debug)]
+#[command(name = "rain-composite", version, args_conflicts_with_subcommands = true)]
+#[command(after_help = "Examples:\n  rain-composite in.mp4 -o out.mp4 --rain heavy --wind 3,0\n  rain-composite preview in.mp4 --at 2.5s -o frame.png\n  ffmpeg -i in.mp4 -f yuv4mpegpipe - | rain-composite - -o - | ffplay -")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    render: RenderArgs,
+    #[command(flatten)]
+    log: LogArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render one frame exactly as the full render would, to a PNG.
+    Preview(PreviewArgs),
+    /// Describe the streams of a file: colour tags, rotation, frame rate, what would be copied.
+    Probe(ProbeArgs),
+    /// List the GPU adapters, best first.
+    Adapters {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+struct LogArgs {
+    /// Print only errors.
+    #[arg(short, long, global = true)]
+    quiet: bool,
+    /// Print more (repeat for debug output).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// Input video, or - for a stream on stdin (y4m, nut, matroska, mpegts).
+    input: Option<String>,
+    /// Output video (container from the extension), or - for stdout.
+    #[arg(short, long)]
+    output: Option<String>,
+    /// Overwrite the output if it exists.
+    #[arg(short = 'y', long)]
+    overwrite: bool,
+    #[command(flatten)]
+    look: LookArgs,
+    #[command(flatten)]
+    encode: EncodeArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+    /// Progress report on stderr.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    progress: ProgressMode,
+}
+
+#[derive(Args, Debug, Clone)]
+struct LookArgs {
+    /// JSON file of settings (see samples/presets/); flags given here override it.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Rain rate in mm/h, or drizzle|light|moderate|heavy|violent; 0 turns rain off. [default: 10]
+    #[arg(long, value_name = "MM_PER_H")]
+    rain: Option<String>,
+    /// Multiplier on drop diameters. [default: 1]
+    #[arg(long)]
+    drop_scale: Option<f64>,
+    /// Multiplier on fall speeds. [default: 1]
+    #[arg(long)]
+    fall_speed_scale: Option<f64>,
+    /// Mean wind in m/s as X,Y: X to the right of the picture, Y away from the camera. [default: 0,0]
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    wind: Option<String>,
+    /// Multiplier on the streaks' physical coverage. [default: 1]
+    #[arg(long)]
+    opacity: Option<f64>,
+    /// Random seed: the same seed gives the same rain. [default: 1]
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Horizontal field of view of the picture, degrees. [default: 60]
+    #[arg(long)]
+    fov: Option<f64>,
+    /// Camera height above the ground, metres. [default: 1.6]
+    #[arg(long)]
+    camera_height: Option<f64>,
+    /// Camera pitch, degrees up (negative: down). [default: 0]
+    #[arg(long, allow_hyphen_values = true)]
+    tilt: Option<f64>,
+    /// Camera roll, degrees clockwise. [default: 0]
+    #[arg(long, allow_hyphen_values = true)]
+    roll: Option<f64>,
+    /// Shutter angle, degrees (exposure = angle/360 of a frame). [default: 180]
+    #[arg(long)]
+    shutter: Option<f64>,
+    /// Nearest drop distance, metres. [default: 0.3]
+    #[arg(long)]
+    near: Option<f64>,
+    /// Farthest drop distance, metres. [default: 12]
+    #[arg(long)]
+    far: Option<f64>,
+    /// Most drops drawn per frame (denser rain is drawn with weighted drops). [default: 150000]
+    #[arg(long)]
+    max_drops: Option<u32>,
+}
+
+#[derive(Args, Debug, Clone)]
+struct EncodeArgs {
+    /// Video codec.
+    #[arg(long, value_enum, default_value_t = CodecArg::H264)]
+    codec: CodecArg,
+    /// Constant rate factor (H.264/HEVC; lower is better).
+    #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
+    crf: u8,
+    /// Encoder preset (H.264/HEVC).
+    #[arg(long, default_value = "medium")]
+    preset: String,
+    /// Container for stdout (or to override the extension).
+    #[arg(long, value_enum)]
+    format: Option<FormatArg>,
+    /// What to do with audio and other streams.
+    #[arg(long, value_enum, default_value_t = AudioArg::Copy)]
+    audio: AudioArg,
+}
+
+#[derive(Args, Debug, Clone)]
+struct GpuArgs {
+    /// Use the adapter whose name contains NAME (see `rain-composite adapters`).
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
+    /// Use a CPU (software) adapter only.
+    #[arg(long)]
+    cpu: bool,
+}
+
+#[derive(Args, Debug)]
+struct PreviewArgs {
+    /// Input video.
+    input: String,
+    /// Time of the frame: seconds, or with a unit (2.5s, 1500ms, 00:01:02.5).
+    #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
+    at: Option<String>,
+    /// Zero-based frame index.
+    #[arg(long)]
+    frame: Option<u64>,
+    /// Output PNG.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Overwrite the output if it exists.
+    #[arg(short = 'y', long)]
+    overwrite: bool,
+    /// Bits per PNG channel.
+    #[arg(long, default_value_t = 8, value_parser = clap::builder::PossibleValuesParser::new(["8", "16"]).map(|s| s.parse::<u8>().unwrap_or(8)))]
+    bits: u8,
+    #[command(flatten)]
+    look: LookArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+#[derive(Args, Debug)]
+struct ProbeArgs {
+    /// Input video.
+    input: String,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// Container the output would be written to (decides what can be copied).
+    #[arg(long, value_name = "EXT")]
+    for_output: Option<String>,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+enum ProgressMode {
+    /// A bar when stderr is a terminal, nothing otherwise.
+    Auto,
+    /// One JSON object per line on stderr.
+    Json,
+    /// Nothing.
+    None,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+enum CodecArg {
+    /// H.264 (libx264).
+    H264,
+    /// HEVC (libx265).
+    Hevc,
+    /// Apple ProRes 422 HQ (prores_ks), 10-bit.
+    Prores,
+    /// FFV1, lossless.
+    Ffv1,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+enum FormatArg {
+    /// YUV4MPEG2 (raw, constant frame rate).
+    Y4m,
+    /// NUT.
+    Nut,
+    /// Matroska.
+    Matroska,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+enum AudioArg {
+    /// Copy audio and other streams bit for bit (AAC where the container cannot hold them).
+    Copy,
+    /// Video only.
+    None,
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+struct StderrLogger {
+    level: log::LevelFilter,
+}
+
+impl log::Log for StderrLogger {
+    fn enabled(&self, m: &log::Metadata) -> bool {
+        m.level() <= self.level && m.target().starts_with("rain_composite")
+    }
+    fn log(&self, r: &log::Record) {
+        if self.enabled(r.metadata()) {
+            let tag = match r.level() {
+                log::Level::Error => "error",
+                log::Level::Warn => "warning",
+                log::Level::Info => "info",
+                _ => "debug",
+            };
+            eprintln!("{tag}: {}", r.args());
+        }
+    }
+    fn flush(&self) {}
+}
+
+fn parse_rain(s: &str) -> anyhow::Result<f64> {
+    let rate = match s.to_ascii_lowercase().as_str() {
+        // Representative rates inside the AMS/WMO intensity classes.
+        "drizzle" => 0.5,
+        "light" => 1.5,
+        "moderate" => 5.0,
+        "heavy" => 20.0,
+        "violent" => 70.0,
+        other => other.parse::<f64>().with_context(|| {
+            format!("invalid --rain '{s}': expected mm/h or drizzle|light|moderate|heavy|violent")
+        })?,
+    };
+    Ok(rate)
+}
+
+fn parse_time_s(s: &str) -> anyhow::Result<f64> {
+    let bad = || anyhow::anyhow!("invalid time '{s}': expected seconds (2.5, 2.5s, 1500ms or 00:01:02.5)");
+    let t = if let Some(ms) = s.strip_suffix("ms") {
+        ms.trim().parse::<f64>().map_err(|_| bad())? / 1000.0
+    } else if s.contains(':') {
+        s.split(':').try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v)).map_err(|_| bad())?
+    } else {
+        s.strip_suffix('s').unwrap_or(s).trim().parse::<f64>().map_err(|_| bad())?
+    };
+    if !t.is_finite() || t < 0.0 {
+        return Err(bad());
+    }
+    Ok(t)
+}
+
+fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
+    let mut c = match &look.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read --config '{}'", path.display()))?;
+            serde_json::from_str::<RenderConfig>(&text).with_context(|| format!("invalid --config '{}'", path.display()))?
+        }
+        None => RenderConfig::default(),
+    };
+    if let Some(r) = &look.rain {
+        c.rain.rate_mm_per_h = parse_rain(r)?;
+    }
+    if let Some(w) = &look.wind {
+        let parts: Vec<&str> = w.split(',').collect();
+        let parsed: Option<Vec<f64>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
+        match parsed.as_deref() {
+            Some([x, y]) => c.rain.wind_mps = [*x, *y],
+            Some([x]) => c.rain.wind_mps = [*x, 0.0],
+            _ => bail!("invalid --wind '{w}': expected X,Y in m/s, e.g. 3,-1"),
+        }
+    }
+    let r = &mut c.rain;
+    let cam = &mut c.camera;
+    macro_rules! set {
+        ($src:expr => $dst:expr) => {
+            if let Some(v) = $src {
+                $dst = v;
+            }
+        };
+    }
+    set!(look.drop_scale => r.drop_scale);
+    set!(look.fall_speed_scale => r.fall_speed_scale);
+    set!(look.opacity => r.opacity);
+    set!(look.seed => r.seed);
+    set!(look.near => r.near_m);
+    set!(look.far => r.far_m);
+    set!(look.max_drops => r.max_drops);
+    set!(look.fov => cam.fov_deg);
+    set!(look.camera_height => cam.height_m);
+    set!(look.tilt => cam.tilt_deg);
+    set!(look.roll => cam.roll_deg);
+    set!(look.shutter => cam.shutter_deg);
+    c.validate()?;
+    Ok(c)
+}
+
+fn adapter(g: &GpuArgs) -> AdapterRequest {
+    AdapterRequest { name: g.adapter.clone(), cpu_only: g.cpu }
+}
+
+fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
+    let Some(input) = args.input.clone() else {
+        bail!("no input given (usage: rain-composite INPUT -o OUTPUT; see --help)");
+    };
+    let Some(output) = args.output.clone() else {
+        bail!("no output given: add -o OUTPUT (or -o - for stdout)");
+    };
+    let render = render_config(&args.look)?;
+    let encode = EncodeOptions {
+        codec: match args.encode.codec {
+            CodecArg::H264 => VideoCodec::H264,
+            CodecArg::Hevc => VideoCodec::Hevc,
+            CodecArg::Prores => VideoCodec::ProRes,
+            CodecArg::Ffv1 => VideoCodec::Ffv1,
+        },
+        crf: args.encode.crf,
+        preset: args.encode.preset.clone(),
+        container: args.encode.format.map(|f| {
+            match f {
+                FormatArg::Y4m => "yuv4mpegpipe",
+                FormatArg::Nut => "nut",
+                FormatArg::Matroska => "matroska",
+            }
+            .to_string()
+        }),
+        audio: match args.encode.audio {
+            AudioArg::Copy => AudioMode::Copy,
+            AudioArg::None => AudioMode::None,
+        },
+        overwrite: args.overwrite,
+    };
+    let job = Job { input, output, render, encode, adapter: adapter(&args.gpu) };
+    let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
+        let bar = indicatif::ProgressBar::new(0);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {per_sec}  ETA {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let json = args.progress == ProgressMode::Json;
+    let mut report = |p: Progress| {
+        if let Some(bar) = &bar {
+            if let Some(total) = p.frames_total {
+                bar.set_length(total);
+            }
+            bar.set_position(p.frames_done);
+        } else if json {
+            if let Ok(line) = serde_json::to_string(&p) {
+                eprintln!("{line}");
+            }
+        }
+    };
+    let summary = pipeline::render(&job, &INTERRUPTED, &mut report)?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    log::info!(
+        "{} frames in {:.2} s ({:.1} fps) on {}, {} drops per frame",
+        summary.frames,
+        summary.elapsed_s,
+        summary.frames as f64 / summary.elapsed_s.max(1e-9),
+        summary.adapter,
+        summary.drops
+    );
+    if json {
+        eprintln!("{}", serde_json::to_string(&summary)?);
+    }
+    Ok(())
+}
+
+fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
+    if args.output.exists() && !args.overwrite {
+        bail!("output '{}' already exists (use -y to overwrite)", args.output.display());
+    }
+    let at = match (&args.at, args.frame) {
+        (Some(t), _) => FrameSelector::At(parse_time_s(t)?),
+        (None, Some(n)) => FrameSelector::Index(n),
+        (None, None) => bail!("give --at TIME or --frame N"),
+    };
+    let render = render_config(&args.look)?;
+    let (frame, info) = pipeline::preview(&args.input, at, &render, &adapter(&args.gpu))?;
+    // Write beside, then rename: never a half-written PNG.
+    let tmp = args.output.with_extension("png.tmp");
+    video::still::write_png(&frame, info.rotation_deg, args.bits, &tmp)?;
+    std::fs::rename(&tmp, &args.output)
+        .with_context(|| format!("cannot write output '{}'", args.output.display()))?;
+    Ok(())
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match &cli.command {
+        None => run_render(&cli.render),
+        Some(Command::Preview(p)) => run_preview(p),
+        Some(Command::Probe(p)) => {
+            let report = video::probe(&p.input, p.for_output.as_deref())?;
+            if p.json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print!("{report}");
+            }
+            Ok(())
+        }
+        Some(Command::Adapters { json }) => {
+            let adapters = list_adapters();
+            if *json {
+                println!("{}", serde_json::to_string_pretty(&adapters)?);
+            } else if adapters.is_empty() {
+                bail!("no GPU adapter found (install a Vulkan driver, or mesa-vulkan-drivers for the CPU one)");
+            } else {
+                for a in adapters {
+                    println!("{:<40} {:<8} {:<14} {}", a.name, a.backend, a.device_type, a.driver);
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match (cli.log.quiet, cli.log.verbose) {
+        (true, _) => log::LevelFilter::Error,
+        (false, 0) => log::LevelFilter::Warn,
+        (false, 1) => log::LevelFilter::Info,
+        _ => log::LevelFilter::Debug,
+    };
+    if log::set_boxed_logger(Box::new(StderrLogger { level })).is_ok() {
+        log::set_max_level(level);
+    }
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,1 +1,312 @@
-//! Pipeline (under construction).
+//! One render job from input to output, and single-frame preview.
+//!
+//! ## How it works
+//! Three threads joined by bounded channels, data flowing one way:
+//! `decode` (the [`Source`]: frames and packets to copy) → `gpu` (this thread: lighting and
+//! the [`Compositor`], up to three frames in flight) → `encode` (the [`Sink`]). The rain at a
+//! frame is a pure function of the frame's time `t = (pts − start) · time_base` and of that
+//! frame alone, so [`preview`] renders exactly what [`render`] writes at the same frame.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, mpsc};
+use std::time::{Duration, Instant};
+
+use crate::config::RenderConfig;
+use crate::gpu::{AdapterRequest, Compositor, GpuContext};
+use crate::rain::emitter::{self, RainSetup};
+use crate::scene::Camera;
+use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
+use crate::{Error, Result};
+
+/// Frames or packets buffered between two threads.
+const CHANNEL_DEPTH: usize = 4;
+
+/// Where the job is, for progress reporting.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Progress {
+    /// Frames written so far.
+    pub frames_done: u64,
+    /// Frames expected in all, when the container says.
+    pub frames_total: Option<u64>,
+    /// Seconds since the job started.
+    pub elapsed_s: f64,
+}
+
+/// Wall time spent per stage, summed over the job.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct StageTimes {
+    /// Demuxing and decoding (decode thread).
+    pub decode_s: f64,
+    /// Lighting input and recording/submitting GPU work, uploads included (GPU thread).
+    pub submit_s: f64,
+    /// Waiting for the GPU and reading frames back (GPU thread).
+    pub readback_s: f64,
+    /// Encoding and muxing (encode thread).
+    pub encode_s: f64,
+}
+
+/// What a finished job reports.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    /// Frames written.
+    pub frames: u64,
+    /// Wall time, seconds.
+    pub elapsed_s: f64,
+    /// Per-stage times.
+    pub stages: StageTimes,
+    /// Drops drawn per frame.
+    pub drops: u32,
+    /// The adapter used.
+    pub adapter: String,
+}
+
+/// The camera looking at the displayed picture of `info`.
+pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Camera {
+    let (w, h) = display_size(info);
+    let c = &config.camera;
+    Camera::new(w, h, c.fov_deg.to_radians(), c.height_m, c.tilt_deg.to_radians(), c.roll_deg.to_radians())
+}
+
+fn display_size(info: &VideoInfo) -> (u32, u32) {
+    let (w, h) = (info.format.width, info.format.height);
+    if info.rotation_deg.rem_euclid(180) == 90 { (h, w) } else { (w, h) }
+}
+
+/// Exposure time: shutter angle over 360° times the frame duration (180° → 1/(2·fps)).
+pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> f64 {
+    let (num, den) = if info.avg_frame_rate.0 > 0 && info.avg_frame_rate.1 > 0 {
+        info.avg_frame_rate
+    } else if info.frame_rate.0 > 0 && info.frame_rate.1 > 0 {
+        info.frame_rate
+    } else {
+        (25, 1)
+    };
+    config.camera.shutter_deg / 360.0 * den as f64 / num as f64
+}
+
+/// The rain of a shot.
+pub fn rain_for(info: &VideoInfo, config: &RenderConfig) -> RainSetup {
+    emitter::build(
+        &camera_for(info, config),
+        &config.camera,
+        &config.rain,
+        exposure_s(info, config),
+        info.rotation_deg,
+        (info.format.width, info.format.height),
+    )
+}
+
+/// Seconds since the start of the stream at `frame`.
+pub fn frame_time_s(info: &VideoInfo, frame: &YuvFrame) -> f64 {
+    (frame.pts - info.start_pts) as f64 * info.time_base.0 as f64 / info.time_base.1 as f64
+}
+
+/// Light reaching the drops from the frame: the mean linear colour of a sparse grid of pixels.
+/// A drop refracts about 165° of its surroundings (Garg & Nayar), so to first order it shows
+/// the scene's mean radiance.
+pub fn drop_radiance(frame: &YuvFrame) -> [f32; 3] {
+    let f = &frame.format;
+    let (sx, sy) = f.chroma.shift();
+    let step = (f.width.max(f.height) / 64).max(1);
+    let mut sum = [0.0f64; 3];
+    let mut n = 0.0;
+    for y in (0..f.height).step_by(step as usize) {
+        for x in (0..f.width).step_by(step as usize) {
+            let code = [
+                frame.sample(0, x, y) as f64,
+                frame.sample(1, x >> sx, y >> sy) as f64,
+                frame.sample(2, x >> sx, y >> sy) as f64,
+            ];
+            let rgb = frame.color.code_to_linear(code);
+            for k in 0..3 {
+                sum[k] += rgb[k].clamp(0.0, 64.0);
+            }
+            n += 1.0;
+        }
+    }
+    sum.map(|s| (s / n.max(1.0)) as f32)
+}
+
+/// A full render: `input` → rain → `output`.
+pub struct Job {
+    /// Input path, or `-` for stdin.
+    pub input: String,
+    /// Output path, or `-` for stdout.
+    pub output: String,
+    /// What the picture looks like.
+    pub render: RenderConfig,
+    /// How it is encoded.
+    pub encode: EncodeOptions,
+    /// Which adapter.
+    pub adapter: AdapterRequest,
+}
+
+enum ToEncode {
+    Frame(YuvFrame),
+    Packet(crate::video::CopiedPacket),
+}
+
+/// Runs `job`. `progress` is called after every written frame; `cancel` stops the job cleanly
+/// (the partial output is removed).
+pub fn render(job: &Job, cancel: &AtomicBool, progress: &mut dyn FnMut(Progress)) -> Result<Summary> {
+    job.render.validate()?;
+    let started = Instant::now();
+    let source = Source::open(&job.input)?;
+    let info = source.info().clone();
+    let sink = Sink::create(&job.output, &info, &job.encode)?;
+    let ctx = Arc::new(GpuContext::new(&job.adapter)?);
+    let rain = rain_for(&info, &job.render);
+    log::info!(
+        "rain: {} drops per frame ({:.0} expected in {:.1} m³, weight {:.2})",
+        rain.params.drop_count,
+        rain.expected_drops,
+        rain.column_volume_m3,
+        rain.params.drop_weight
+    );
+    let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
+
+    let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
+    let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
+    let stop = Arc::new(AtomicBool::new(false));
+    let decode_stop = stop.clone();
+    let decoder = std::thread::Builder::new()
+        .name("decode".into())
+        .spawn(move || {
+            let mut source = source;
+            let mut spent = Duration::ZERO;
+            loop {
+                let t = Instant::now();
+                let item = source.next_item();
+                spent += t.elapsed();
+                let end = !matches!(item, Ok(Some(_)));
+                let item = match item {
+                    Ok(Some(i)) => Ok(i),
+                    Ok(None) => break,
+                    Err(e) => Err(e),
+                };
+                if in_tx.send(item).is_err() || end || decode_stop.load(Ordering::Relaxed) {
+                    break;
+                }
+            }
+            spent
+        })
+        .map_err(Error::io("starting the decode thread"))?;
+    let encoder = std::thread::Builder::new()
+        .name("encode".into())
+        .spawn(move || -> Result<(u64, Duration)> {
+            let mut sink = sink;
+            let mut spent = Duration::ZERO;
+            let mut frames = 0;
+            for item in out_rx {
+                let t = Instant::now();
+                match item {
+                    ToEncode::Frame(f) => {
+                        sink.write_frame(&f)?;
+                        frames += 1;
+                    }
+                    ToEncode::Packet(p) => sink.write_packet(p)?,
+                }
+                spent += t.elapsed();
+            }
+            let t = Instant::now();
+            sink.finish()?;
+            Ok((frames, spent + t.elapsed()))
+        })
+        .map_err(Error::io("starting the encode thread"))?;
+
+    let mut stages = StageTimes::default();
+    let mut written = 0u64;
+    let gpu_result = (|| -> Result<()> {
+        let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
+            out_tx.send(ToEncode::Frame(f)).map_err(|_| Error::OutputWrite {
+                path: job.output.clone(),
+                reason: "the encoder stopped".into(),
+            })?;
+            *written += 1;
+            progress(Progress {
+                frames_done: *written,
+                frames_total: info.frame_count,
+                elapsed_s: started.elapsed().as_secs_f64(),
+            });
+            Ok(())
+        };
+        for item in &in_rx {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::Interrupted);
+            }
+            match item? {
+                SourceItem::Frame(frame) => {
+                    let t = Instant::now();
+                    let radiance = drop_radiance(&frame);
+                    let done = compositor.submit(&frame, frame_time_s(&info, &frame), radiance)?;
+                    stages.submit_s += t.elapsed().as_secs_f64();
+                    if let Some(done) = done {
+                        send(done, &mut written)?;
+                    }
+                }
+                SourceItem::Packet(p) => {
+                    if out_tx.send(ToEncode::Packet(p)).is_err() {
+                        break;
+                    }
+                }
+            }
+        }
+        let t = Instant::now();
+        let rest = compositor.flush()?;
+        stages.readback_s += t.elapsed().as_secs_f64();
+        for f in rest {
+            send(f, &mut written)?;
+        }
+        Ok(())
+    })();
+    stop.store(true, Ordering::Relaxed);
+    drop(in_rx);
+    if gpu_result.is_err() {
+        // Closing the channel without finishing tells the encoder to give up; its Sink is
+        // dropped unfinished, which removes the temporary file.
+        drop(out_tx);
+        let _ = encoder.join();
+        let _ = decoder.join();
+        return Err(gpu_result.err().unwrap_or(Error::Interrupted));
+    }
+    drop(out_tx);
+    let decode_time = decoder.join().map_err(|_| Error::Gpu("the decode thread panicked".into()))?;
+    let (frames, encode_time) = encoder.join().map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
+    if frames == 0 {
+        return Err(Error::CorruptInput("no frame could be decoded".into()));
+    }
+    stages.decode_s = decode_time.as_secs_f64();
+    stages.encode_s = encode_time.as_secs_f64();
+    Ok(Summary {
+        frames,
+        elapsed_s: started.elapsed().as_secs_f64(),
+        stages,
+        drops: compositor.drop_count(),
+        adapter: ctx.summary().name,
+    })
+}
+
+/// Which frame to preview.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FrameSelector {
+    /// The first frame at or after this time, seconds from the stream's start.
+    At(f64),
+    /// The frame with this zero-based index.
+    Index(u64),
+}
+
+/// Renders one frame exactly as [`render`] would; returns it with the stream's description.
+pub fn preview(input: &str, at: FrameSelector, render: &RenderConfig, adapter: &AdapterRequest) -> Result<(YuvFrame, VideoInfo)> {
+    render.validate()?;
+    let mut source = Source::open(input)?;
+    let info = source.info().clone();
+    let frame = match at {
+        FrameSelector::At(t) => source.seek_to_time(t)?,
+        FrameSelector::Index(n) => source.frame_at_index(n)?,
+    };
+    let ctx = Arc::new(GpuContext::new(adapter)?);
+    let rain = rain_for(&info, render);
+    let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
+    let out = compositor.render_one(&frame, frame_time_s(&info, &frame), drop_radiance(&frame))?;
+    Ok((out, info))
+}

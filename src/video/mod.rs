@@ -4,3 +4,4 @@ pub mod frame;
 
 pub use color::{ColorParams, Matrix, Transfer};
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
+pub mod still;
