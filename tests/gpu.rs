@@ -281,3 +281,61 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
     );
     let _ = DVec2::ZERO;
 }
+
+/// Luma of a rainy render of a flat dark frame minus the flat level.
+fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32, Vec<f64>) {
+    let (w, h) = (240u32, 160u32);
+    let format = FrameFormat { width: w, height: h, chroma: Chroma::Cs420, bit_depth: 8 };
+    let color = ColorParams::bt709(8);
+    let dark = YuvFrame::filled(format, color, [30, 128, 128]);
+    let camera = Camera::new(w, h, 1.0, 1.6, 0.0, 0.0);
+    let setup = emitter::build(&camera, &CameraConfig::default(), &rain, 1.0 / 50.0, 0, (w, h));
+    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+    let out = comp.render_one(&dark, time_s, [1.0; 3]).expect("render");
+    let luma = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| out.sample(0, x, y) as f64 - 30.0).collect();
+    (w, h, luma)
+}
+
+/// Structure-tensor orientation of the streaks: mean of gx·gy over the picture. Streaks
+/// running down-right (in the picture, y down) have gradients along (1, −1): negative.
+fn streak_lean(w: u32, h: u32, l: &[f64]) -> f64 {
+    let at = |x: u32, y: u32| l[(y * w + x) as usize];
+    let mut jxy = 0.0;
+    let mut jxx_plus_jyy = 0.0;
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let gx = 0.5 * (at(x + 1, y) - at(x - 1, y));
+            let gy = 0.5 * (at(x, y + 1) - at(x, y - 1));
+            jxy += gx * gy;
+            jxx_plus_jyy += gx * gx + gy * gy;
+        }
+    }
+    jxy / jxx_plus_jyy.max(1e-9)
+}
+
+#[test]
+fn streaks_lean_with_the_wind() {
+    let Some(ctx) = gpu() else { return };
+    let base = RainConfig { rate_mm_per_h: 30.0, opacity: 30.0, near_m: 0.5, far_m: 5.0, ..RainConfig::default() };
+    let lean = |wind_x: f64| {
+        let (w, h, l) = rain_luma(&ctx, RainConfig { wind_mps: [wind_x, 0.0], ..base }, 2.0);
+        streak_lean(w, h, &l)
+    };
+    let (still, right, left) = (lean(0.0), lean(6.0), lean(-6.0));
+    // Wind to the right: drops move right while falling, streaks run down-right.
+    assert!(right < -0.05, "right wind lean {right}");
+    assert!(left > 0.05, "left wind lean {left}");
+    assert!(still.abs() < 0.5 * right.abs().min(left.abs()), "still air lean {still}");
+}
+
+#[test]
+fn the_same_seed_gives_the_same_rain_and_another_does_not() {
+    let Some(ctx) = gpu() else { return };
+    let rain = RainConfig { rate_mm_per_h: 20.0, opacity: 10.0, seed: 11, ..RainConfig::default() };
+    let a = rain_luma(&ctx, rain, 3.0).2;
+    let b = rain_luma(&ctx, rain, 3.0).2;
+    let c = rain_luma(&ctx, RainConfig { seed: 12, ..rain }, 3.0).2;
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    assert!(a.iter().any(|&v| v > 0.0));
+}

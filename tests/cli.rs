@@ -1,0 +1,320 @@
+//! End to end through the `rain-composite` binary on small clips made with the ffmpeg CLI.
+//! GPU work runs on whatever adapter the machine has (lavapipe in CI).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use tempfile::TempDir;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
+    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    c
+}
+
+fn run(cmd: &mut Command) -> Output {
+    let out = cmd.output().expect("spawn");
+    out
+}
+
+fn ok(cmd: &mut Command) -> Output {
+    let out = run(cmd);
+    assert!(out.status.success(), "{cmd:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+fn ffmpeg(args: &[&str]) {
+    let out = Command::new("ffmpeg").args(["-hide_banner", "-loglevel", "error", "-y"]).args(args).output().expect("ffmpeg");
+    assert!(out.status.success(), "ffmpeg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+fn ffprobe(path: &Path, args: &[&str]) -> String {
+    let out = Command::new("ffprobe").args(["-v", "error"]).args(args).arg(path).output().expect("ffprobe");
+    assert!(out.status.success());
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn p(dir: &TempDir, name: &str) -> PathBuf {
+    dir.path().join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// A testsrc2 clip: `size`, `secs` long at 25 fps, extra encoder args.
+fn clip(path: &Path, size: &str, secs: f64, extra: &[&str]) {
+    let src = format!("testsrc2=size={size}:rate=25:duration={secs}");
+    let mut args = vec!["-f", "lavfi", "-i", &src];
+    args.extend_from_slice(extra);
+    args.push(s(path));
+    ffmpeg(&args);
+}
+
+fn psnr(a: &Path, b: &Path) -> f64 {
+    let out = Command::new("ffmpeg")
+        .args(["-hide_banner", "-i", s(a), "-i", s(b), "-lavfi", "psnr", "-f", "null", "-"])
+        .output()
+        .expect("ffmpeg psnr");
+    let text = String::from_utf8_lossy(&out.stderr);
+    let avg = text.split("average:").nth(1).expect("psnr line").split_whitespace().next().expect("value");
+    if avg == "inf" { f64::INFINITY } else { avg.parse().expect("number") }
+}
+
+fn color_tags(path: &Path) -> String {
+    ffprobe(path, &["-select_streams", "v:0", "-show_entries", "stream=pix_fmt,color_range,color_space,color_transfer,color_primaries", "-of", "compact"])
+}
+
+fn frame_times(path: &Path) -> Vec<String> {
+    ffprobe(path, &["-select_streams", "v:0", "-show_entries", "frame=pts_time", "-of", "csv=p=0"])
+        .lines()
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn without_rain_the_output_matches_a_plain_transcode() {
+    let dir = TempDir::new().expect("tmp");
+    let cases: [(&str, &[&str]); 4] = [
+        ("bt709", &["-pix_fmt", "yuv420p", "-color_range", "tv", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
+        ("bt601", &["-pix_fmt", "yuv420p", "-color_range", "tv", "-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m"]),
+        ("full", &["-pix_fmt", "yuvj420p", "-color_range", "pc", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
+        ("10bit", &["-pix_fmt", "yuv420p10le", "-color_range", "tv", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
+    ];
+    for (name, tags) in cases {
+        let input = p(&dir, &format!("{name}.mkv"));
+        let mut args = vec!["-c:v", "libx264", "-crf", "10"];
+        args.extend_from_slice(tags);
+        clip(&input, "160x120", 1.0, &args);
+        let out = p(&dir, &format!("{name}-out.mp4"));
+        ok(bin().args([s(&input), "-o", s(&out), "--rain", "0", "--cpu"]));
+        let reference = p(&dir, &format!("{name}-ref.mp4"));
+        ffmpeg(&["-i", s(&input), "-c:v", "libx264", "-crf", "18", s(&reference)]);
+        let db = psnr(&out, &reference);
+        assert!(db >= 50.0, "{name}: PSNR {db} dB");
+        assert_eq!(color_tags(&out).replace("yuvj", "yuv"), color_tags(&input).replace("yuvj", "yuv"), "{name}: colour tags");
+    }
+}
+
+#[test]
+fn every_frame_keeps_its_timestamp_constant_and_variable_rate() {
+    let dir = TempDir::new().expect("tmp");
+    let cfr = p(&dir, "cfr.mp4");
+    clip(&cfr, "96x64", 1.0, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    // Variable rate: a 0.5 s gap after frame 10.
+    let vfr = p(&dir, "vfr.mkv");
+    clip(&vfr, "96x64", 1.0, &["-vf", "setpts='if(gt(N,10),PTS+0.5/TB,PTS)'", "-fps_mode", "passthrough", "-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    for input in [cfr, vfr] {
+        let out = input.with_extension("out.mkv");
+        ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
+        let (a, b) = (frame_times(&input), frame_times(&out));
+        assert_eq!(a.len(), 25, "{input:?}");
+        assert_eq!(a, b, "{input:?}");
+    }
+}
+
+#[test]
+fn audio_is_copied_bit_for_bit() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "av.mp4");
+    ffmpeg(&[
+        "-f", "lavfi", "-i", "testsrc2=size=96x64:rate=25:duration=1", "-f", "lavfi", "-i", "sine=frequency=440:duration=1",
+        "-c:v", "libx264", "-pix_fmt", "yuv420p", "-c:a", "aac", "-shortest", s(&input),
+    ]);
+    let out = p(&dir, "av-out.mp4");
+    ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
+    let hashes = |f: &Path| {
+        let o = Command::new("ffmpeg").args(["-v", "error", "-i", s(f), "-map", "0:a", "-c", "copy", "-f", "framemd5", "-"]).output().expect("ffmpeg");
+        String::from_utf8_lossy(&o.stdout).lines().filter(|l| !l.starts_with('#')).map(|l| l.rsplit(',').next().unwrap_or("").trim().to_owned()).collect::<Vec<_>>()
+    };
+    let (a, b) = (hashes(&input), hashes(&out));
+    assert!(!a.is_empty());
+    assert_eq!(a, b);
+}
+
+/// Gray frames of `path` as the viewer sees them (ffmpeg applies the display rotation).
+fn gray_frames(path: &Path) -> (usize, usize, Vec<Vec<f64>>) {
+    let dims = ffprobe(path, &["-select_streams", "v:0", "-show_entries", "stream=width,height:stream_side_data=rotation", "-of", "default=nw=1"]);
+    let get = |k: &str| dims.lines().find_map(|l| l.strip_prefix(k)).map(|v| v.trim().parse::<i64>().expect("int"));
+    let (w, h) = (get("width=").expect("w") as usize, get("height=").expect("h") as usize);
+    let rotated = get("rotation=").is_some_and(|r| r.rem_euclid(180) == 90);
+    let (w, h) = if rotated { (h, w) } else { (w, h) };
+    let o = Command::new("ffmpeg").args(["-v", "error", "-i", s(path), "-f", "rawvideo", "-pix_fmt", "gray", "-"]).output().expect("ffmpeg");
+    let frames = o.stdout.chunks_exact(w * h).map(|f| f.iter().map(|&v| v as f64).collect()).collect();
+    (w, h, frames)
+}
+
+#[test]
+fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "rot.mp4");
+    // A dark, flat 160×96 picture shown rotated by 90°: the viewer sees 96×160.
+    ffmpeg(&["-f", "lavfi", "-i", "color=c=0x202020:size=160x96:rate=25:duration=0.4", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-metadata:s:v:0", "rotate=90", s(&input)]);
+    let rainy = p(&dir, "rainy.mkv");
+    let dry = p(&dir, "dry.mkv");
+    let look = ["--rain", "60", "--opacity", "30", "--far", "6", "--cpu", "--codec", "ffv1"];
+    ok(bin().args([s(&input), "-o", s(&rainy)]).args(look));
+    ok(bin().args([s(&input), "-o", s(&dry)]).args(look).args(["--rain", "0"]));
+    let (w, h, wet) = gray_frames(&rainy);
+    let (_, _, base) = gray_frames(&dry);
+    assert!(h > w, "the displayed picture is portrait ({w}×{h})");
+    let layer = |i: usize| wet[i].iter().zip(&base[i]).map(|(a, b)| a - b).collect::<Vec<f64>>();
+    let (l0, l1) = (layer(3), layer(4));
+    // Streaks are vertical in the displayed picture: intensity varies across x more than y.
+    let (mut gx2, mut gy2) = (0.0, 0.0);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            gx2 += (l0[y * w + x + 1] - l0[y * w + x - 1]).powi(2);
+            gy2 += (l0[(y + 1) * w + x] - l0[(y - 1) * w + x]).powi(2);
+        }
+    }
+    assert!(gx2 > 2.0 * gy2, "streaks not vertical: gx² {gx2}, gy² {gy2}");
+    // And the pattern moves down between consecutive frames: best vertical shift is positive.
+    let score = |dy: i64| -> f64 {
+        let mut sum = 0.0;
+        for y in 20..h as i64 - 20 {
+            for x in 0..w {
+                sum += l0[y as usize * w + x] * l1[(y + dy) as usize * w + x];
+            }
+        }
+        sum
+    };
+    let best = (-15..=15).max_by(|a, b| score(*a).total_cmp(&score(*b))).expect("shift");
+    assert!(best > 0, "rain moves by {best} rows between frames");
+}
+
+#[test]
+fn rain_is_visible_varies_in_time_and_follows_the_seed() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    ffmpeg(&["-f", "lavfi", "-i", "color=c=0x303030:size=128x96:rate=25:duration=0.3", "-c:v", "libx264", "-pix_fmt", "yuv420p", s(&input)]);
+    let render = |name: &str, seed: &str, rain: &str| {
+        let out = p(&dir, name);
+        ok(bin().args([s(&input), "-o", s(&out), "--rain", rain, "--opacity", "20", "--seed", seed, "--cpu", "--codec", "ffv1"]));
+        gray_frames(&out).2
+    };
+    let a = render("a.mkv", "5", "40");
+    let b = render("b.mkv", "5", "40");
+    let c = render("c.mkv", "6", "40");
+    let dry = render("dry.mkv", "5", "0");
+    assert_eq!(a, b, "same seed, same rain");
+    assert_ne!(a, c, "another seed, other rain");
+    assert_ne!(a[1], a[2], "consecutive frames differ");
+    let brighter = a[1].iter().zip(&dry[1]).filter(|(w, d)| w > d).count();
+    let darker = a[1].iter().zip(&dry[1]).filter(|(w, d)| w < d).count();
+    assert!(brighter > 100 && darker == 0, "{brighter} brighter, {darker} darker pixels");
+}
+
+#[test]
+fn odd_tiny_and_4k_sizes_work() {
+    let dir = TempDir::new().expect("tmp");
+    for (size, secs) in [("321x241", 0.2), ("16x16", 0.2), ("3840x2160", 0.08)] {
+        let input = p(&dir, &format!("{size}.mkv"));
+        clip(&input, size, secs, &["-c:v", "ffv1", "-pix_fmt", "yuv420p"]);
+        let out = p(&dir, &format!("{size}-out.mkv"));
+        ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
+        assert_eq!(frame_times(&input), frame_times(&out), "{size}");
+        let dims = ffprobe(&out, &["-select_streams", "v:0", "-show_entries", "stream=width,height", "-of", "csv=p=0:s=x"]);
+        assert_eq!(dims.trim(), size);
+    }
+}
+
+#[test]
+fn preview_is_the_frame_the_full_render_writes() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    clip(&input, "160x120", 2.0, &["-c:v", "libx264", "-g", "10", "-pix_fmt", "yuv420p"]);
+    let full = p(&dir, "full.mkv");
+    let look = ["--rain", "30", "--opacity", "10", "--seed", "3", "--cpu"];
+    ok(bin().args([s(&input), "-o", s(&full), "--codec", "ffv1"]).args(look));
+    for (flag, value, index) in [("--at", "1.2s", 30), ("--frame", "17", 17)] {
+        let preview = p(&dir, &format!("preview-{index}.png"));
+        ok(bin().args(["preview", s(&input), flag, value, "-o", s(&preview), "--bits", "16"]).args(look));
+        // The full render's frame through the same still conversion (no rain added).
+        let from_full = p(&dir, &format!("full-{index}.png"));
+        ok(bin().args(["preview", s(&full), "--frame", &index.to_string(), "-o", s(&from_full), "--bits", "16", "--rain", "0", "--cpu"]));
+        let (a, b) = (std::fs::read(&preview).expect("png"), std::fs::read(&from_full).expect("png"));
+        assert!(a == b, "{flag} {value}: preview differs from frame {index} of the render");
+    }
+}
+
+#[test]
+fn works_inside_a_pipe() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    clip(&input, "96x64", 0.6, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    let mut src = Command::new("ffmpeg")
+        .args(["-v", "error", "-i", s(&input), "-f", "yuv4mpegpipe", "-"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("ffmpeg");
+    let mut rain = bin()
+        .args(["-", "-o", "-", "--cpu"])
+        .stdin(src.stdout.take().expect("stdout"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("rain-composite");
+    let sink = Command::new("ffmpeg")
+        .args(["-v", "error", "-i", "-", "-f", "framemd5", "-"])
+        .stdin(rain.stdout.take().expect("stdout"))
+        .output()
+        .expect("ffmpeg");
+    assert!(src.wait().expect("wait").success());
+    let status = rain.wait_with_output().expect("wait");
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let frames = String::from_utf8_lossy(&sink.stdout).lines().filter(|l| !l.starts_with('#')).count();
+    assert_eq!(frames, 15);
+}
+
+/// Runs a command that must fail; returns its stderr.
+fn fails(cmd: &mut Command) -> String {
+    let out = run(cmd);
+    assert!(!out.status.success(), "{cmd:?} should fail");
+    assert_eq!(out.status.code(), Some(1), "{cmd:?}: exit code (not a panic)");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "one error line: {err}");
+    err
+}
+
+fn only_files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir).expect("dir").map(|e| e.expect("entry").file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
+    let dir = TempDir::new().expect("tmp");
+    let good = p(&dir, "good.mp4");
+    clip(&good, "96x64", 1.0, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    let out = p(&dir, "out.mp4");
+
+    let err = fails(bin().args([s(&p(&dir, "missing.mp4")), "-o", s(&out)]));
+    assert!(err.contains("missing.mp4"), "{err}");
+
+    let text = p(&dir, "notes.mp4");
+    std::fs::write(&text, "this is not a video\n".repeat(50)).expect("write");
+    fails(bin().args([s(&text), "-o", s(&out), "--cpu"]));
+
+    let bytes = std::fs::read(&good).expect("read");
+    let truncated = p(&dir, "truncated.mp4");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).expect("write");
+    fails(bin().args([s(&truncated), "-o", s(&out), "--cpu"]));
+
+    let err = fails(bin().args([s(&good), "-o", s(&p(&dir, "no/such/dir/out.mp4")), "--cpu"]));
+    assert!(err.contains("out.mp4"), "{err}");
+
+    let err = fails(bin().args([s(&good), "-o", s(&out), "--fov", "500", "--cpu"]));
+    assert!(err.contains("--fov"), "{err}");
+    let err = fails(bin().args([s(&good), "-o", s(&out), "--rain", "buckets", "--cpu"]));
+    assert!(err.contains("--rain"), "{err}");
+
+    assert_eq!(only_files(dir.path()), ["good.mp4", "notes.mp4", "truncated.mp4"], "no output or temporary file left");
+
+    std::fs::write(&out, b"precious").expect("write");
+    let err = fails(bin().args([s(&good), "-o", s(&out), "--cpu"]));
+    assert!(err.contains("-y"), "{err}");
+    assert_eq!(std::fs::read(&out).expect("read"), b"precious");
+}
