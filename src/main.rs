@@ -12,6 +12,8 @@ use rain_composite::gpu::{AdapterRequest, list_adapters};
 use rain_composite::pipeline::{self, FrameSelector, Job, Progress};
 use rain_composite::video::{self, AudioMode, EncodeOptions, VideoCodec};
 
+mod bench;
+
 /// Adds physically based rain to video.
 #[derive(Parser, Debug)]
 #[command(name = "rain-composite", version, args_conflicts_with_subcommands = true)]
@@ -31,6 +33,8 @@ enum Command {
     Preview(PreviewArgs),
     /// Describe the streams of a file: colour tags, rotation, frame rate, what would be copied.
     Probe(ProbeArgs),
+    /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
+    Bench(BenchArgs),
     /// List the GPU adapters, best first.
     Adapters {
         /// Print JSON.
@@ -169,6 +173,24 @@ struct PreviewArgs {
     bits: u8,
     #[command(flatten)]
     look: LookArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// Input video (scaled to each height).
+    input: String,
+    /// Picture heights to test.
+    #[arg(long, value_delimiter = ',', default_value = "720,1080")]
+    heights: Vec<u32>,
+    /// Runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=50))]
+    runs: u32,
+    #[command(flatten)]
+    look: LookArgs,
+    #[command(flatten)]
+    encode: EncodeArgs,
     #[command(flatten)]
     gpu: GpuArgs,
 }
@@ -328,6 +350,32 @@ fn adapter(g: &GpuArgs) -> AdapterRequest {
     AdapterRequest { name: g.adapter.clone(), cpu_only: g.cpu }
 }
 
+fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
+    EncodeOptions {
+        codec: match e.codec {
+            CodecArg::H264 => VideoCodec::H264,
+            CodecArg::Hevc => VideoCodec::Hevc,
+            CodecArg::Prores => VideoCodec::ProRes,
+            CodecArg::Ffv1 => VideoCodec::Ffv1,
+        },
+        crf: e.crf,
+        preset: e.preset.clone(),
+        container: e.format.map(|f| {
+            match f {
+                FormatArg::Y4m => "yuv4mpegpipe",
+                FormatArg::Nut => "nut",
+                FormatArg::Matroska => "matroska",
+            }
+            .to_string()
+        }),
+        audio: match e.audio {
+            AudioArg::Copy => AudioMode::Copy,
+            AudioArg::None => AudioMode::None,
+        },
+        overwrite,
+    }
+}
+
 fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let Some(input) = args.input.clone() else {
         bail!("no input given (usage: rain-composite INPUT -o OUTPUT; see --help)");
@@ -336,29 +384,7 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("no output given: add -o OUTPUT (or -o - for stdout)");
     };
     let render = render_config(&args.look)?;
-    let encode = EncodeOptions {
-        codec: match args.encode.codec {
-            CodecArg::H264 => VideoCodec::H264,
-            CodecArg::Hevc => VideoCodec::Hevc,
-            CodecArg::Prores => VideoCodec::ProRes,
-            CodecArg::Ffv1 => VideoCodec::Ffv1,
-        },
-        crf: args.encode.crf,
-        preset: args.encode.preset.clone(),
-        container: args.encode.format.map(|f| {
-            match f {
-                FormatArg::Y4m => "yuv4mpegpipe",
-                FormatArg::Nut => "nut",
-                FormatArg::Matroska => "matroska",
-            }
-            .to_string()
-        }),
-        audio: match args.encode.audio {
-            AudioArg::Copy => AudioMode::Copy,
-            AudioArg::None => AudioMode::None,
-        },
-        overwrite: args.overwrite,
-    };
+    let encode = encode_options(&args.encode, args.overwrite);
     let job = Job { input, output, render, encode, adapter: adapter(&args.gpu) };
     let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(0);
@@ -430,6 +456,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 print!("{report}");
             }
             Ok(())
+        }
+        Some(Command::Bench(b)) => {
+            bench::check_input(&b.input)?;
+            let job = Job {
+                input: b.input.clone(),
+                output: String::new(),
+                render: render_config(&b.look)?,
+                encode: encode_options(&b.encode, true),
+                adapter: adapter(&b.gpu),
+            };
+            bench::run(&job, &b.input, &b.heights, b.runs as usize)
         }
         Some(Command::Adapters { json }) => {
             let adapters = list_adapters();

@@ -128,6 +128,7 @@ pub fn drop_radiance(frame: &YuvFrame) -> [f32; 3] {
 }
 
 /// A full render: `input` → rain → `output`.
+#[derive(Debug, Clone)]
 pub struct Job {
     /// Input path, or `-` for stdin.
     pub input: String,
