@@ -32,8 +32,8 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
     let dir = std::env::temp_dir().join(format!("rain-composite-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let result = (|| -> anyhow::Result<()> {
-        println!("| size | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | GPU wait+readback | encode | ms/frame total |");
-        println!("|---|---|---|---|---|---|---|---|---|---|---|");
+        println!("| size | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | GPU yuv→rgb | GPU rain | GPU rgb→yuv | wait+readback | encode | ms/frame total |");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         for &h in heights {
             let clip = dir.join(format!("in-{h}.mp4"));
             let scale = format!("scale=-2:{h}");
@@ -63,10 +63,13 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
             let per_frame = |f: fn(&StageTimes) -> f64| 1000.0 * median(stages.iter().map(f).collect()) / frames.max(1) as f64;
             let (a, b) = (median(ours), median(theirs));
             println!(
-                "| {h}p | {frames} | {drops} | {a:.2} | {b:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                "| {h}p | {frames} | {drops} | {a:.2} | {b:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
                 a / b,
                 per_frame(|s| s.decode_s),
                 per_frame(|s| s.submit_s),
+                per_frame(|s| s.gpu.yuv_to_rgb_s),
+                per_frame(|s| s.gpu.rain_streaks_s),
+                per_frame(|s| s.gpu.rgb_to_yuv_s),
                 per_frame(|s| s.readback_s),
                 per_frame(|s| s.encode_s),
                 1000.0 * a / frames.max(1) as f64,

@@ -43,6 +43,8 @@ pub struct StageTimes {
     pub readback_s: f64,
     /// Encoding and muxing (encode thread).
     pub encode_s: f64,
+    /// GPU execution time per stage (timestamp queries; zero where unsupported).
+    pub gpu: crate::gpu::GpuStageTimes,
 }
 
 /// What a finished job reports.
@@ -276,6 +278,7 @@ pub fn render(job: &Job, cancel: &AtomicBool, progress: &mut dyn FnMut(Progress)
     if frames == 0 {
         return Err(Error::CorruptInput("no frame could be decoded".into()));
     }
+    stages.gpu = compositor.gpu_times();
     stages.decode_s = decode_time.as_secs_f64();
     stages.encode_s = encode_time.as_secs_f64();
     Ok(Summary {

@@ -24,6 +24,20 @@ use crate::{Error, Result};
 
 /// Frames in flight (readback slots).
 const RING: usize = 3;
+/// GPU stages timed with timestamp queries: yuv_to_rgb, rain_streaks, rgb_to_yuv.
+const TIMED_STAGES: usize = 3;
+
+/// GPU time per stage, summed over the frames read back so far (zero where the adapter has no
+/// timestamp queries).
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct GpuStageTimes {
+    /// YUV planes → linear canvas.
+    pub yuv_to_rgb_s: f64,
+    /// Drop states (simulation, evaluated in the vertex shader) and streak rasterisation.
+    pub rain_streaks_s: f64,
+    /// Canvas → packed YUV planes.
+    pub rgb_to_yuv_s: f64,
+}
 
 struct InFlight {
     slot: usize,
@@ -50,6 +64,9 @@ pub struct Compositor {
     canvas_view: wgpu::TextureView,
     in_flight: VecDeque<InFlight>,
     next_slot: usize,
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    out_bytes: u64,
+    gpu_times: GpuStageTimes,
 }
 
 fn workgroups(n: u32, size: u32) -> u32 {
@@ -118,6 +135,20 @@ impl Compositor {
         });
         let canvas_view = canvas.create_view(&Default::default());
         let out_bytes = frame_params.total_words() as u64 * 4;
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("stage_timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * TIMED_STAGES as u32,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("stage_timestamps"),
+                size: 16 * TIMED_STAGES as u64,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, resolve)
+        });
         let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("packed_planes"),
             size: out_bytes,
@@ -128,7 +159,7 @@ impl Compositor {
             .map(|_| {
                 device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("readback"),
-                    size: out_bytes,
+                    size: out_bytes + 16 * TIMED_STAGES as u64,
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 })
@@ -269,7 +300,15 @@ impl Compositor {
             canvas_view,
             in_flight: VecDeque::with_capacity(RING),
             next_slot: 0,
+            timestamps,
+            out_bytes,
+            gpu_times: GpuStageTimes::default(),
         })
+    }
+
+    /// GPU time per stage over the frames read back so far.
+    pub fn gpu_times(&self) -> GpuStageTimes {
+        self.gpu_times
     }
 
     /// Drops drawn per frame.
@@ -353,7 +392,11 @@ impl Compositor {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: None,
+                timestamp_writes: self.timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(2),
+                    end_of_pass_write_index: Some(3),
+                }),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -405,6 +448,14 @@ impl Compositor {
             template,
         });
         Ok(done)
+    }
+
+    fn compute_timestamps(&self, stage: u32) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.timestamps.as_ref().map(|(set, _)| wgpu::ComputePassTimestampWrites {
+            query_set: set,
+            beginning_of_pass_write_index: Some(2 * stage),
+            end_of_pass_write_index: Some(2 * stage + 1),
+        })
     }
 
     /// Waits for the oldest frame in flight and reads it back.
