@@ -1,3 +1,4 @@
 //! Rain: drop physics (sizes, fall speeds, wind) and the stateless emitter.
 pub mod physics;
+pub mod volume;
 pub mod wind;
