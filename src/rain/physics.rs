@@ -760,8 +760,9 @@ pub fn streak_length_px(speed_mps: f64, exposure_s: f64, focal_px: f64, depth_m:
 
 /// Image-plane velocity, px/s, of a point at `position_m` moving at `velocity_mps` (world
 /// frame): the derivative of the pinhole projection, f/Z (v_xy − (v_z/Z) p_xy) in camera
-/// coordinates. Times the exposure it is the streak vector to first order in v·T/Z — the
-/// general form of [`streak_length_px`]. `None` behind the camera.
+/// coordinates. Times the exposure it is the streak vector to first order — the general form
+/// of [`streak_length_px`], off by about ℓ·|v_Z|T/Z px (ℓ the streak length, v_Z the speed
+/// along the optical axis); [`projected_streak_px`] is exact. `None` behind the camera.
 pub fn image_velocity_pxps(
     camera: &Camera,
     position_m: DVec3,

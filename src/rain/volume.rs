@@ -231,7 +231,8 @@ fn polytope_vertices(hs: &[HalfSpace]) -> Vec<DVec3> {
 /// the ground line passes a corner, and Simpson's rule is exact on each such piece. Without a
 /// ground it is (4ab/3)(far³ − near³), a = tan(fov_x/2), b = tan(fov_y/2).
 pub fn view_volume_m3(camera: &Camera, near_m: f64, far_m: f64, ground_z_m: Option<f64>) -> f64 {
-    if !(far_m > near_m) {
+    // Written so NaN depths also give an empty volume.
+    if far_m.partial_cmp(&near_m) != Some(std::cmp::Ordering::Greater) {
         return 0.0;
     }
     let f = camera.focal_px();
@@ -352,7 +353,7 @@ impl ColumnGrid {
             slope,
             ..ColumnGrid::default()
         };
-        if !(far_m > near_m) || !slope.is_finite() {
+        if far_m.partial_cmp(&near_m) != Some(std::cmp::Ordering::Greater) || !slope.is_finite() {
             return grid;
         }
         let world = slab_half_spaces(camera, near_m, far_m, ground_z_m);
@@ -872,7 +873,8 @@ pub fn inspect_drops(
     let n = (count as u64).min(volume.simulated).min(1_000_000);
     let drops: Vec<SampledDrop> = (0..n)
         .filter_map(|i| {
-            let id = if n == 0 { 0 } else { i * volume.simulated / n };
+            // i < n, so n > 0 here.
+            let id = i * volume.simulated / n.max(1);
             sample_drop(&volume, model, wind, seed, id, t_s)
         })
         .collect();

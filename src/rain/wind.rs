@@ -99,7 +99,7 @@ impl Wind {
         }
         let along = mean_mps.try_normalize().unwrap_or(DVec2::X);
         let across = along.perp();
-        let mut rng = SplitMix64(seed ^ 0x5EED_0F_817D);
+        let mut rng = SplitMix64(seed ^ 0x05EE_D0F8_17D0);
         let per_axis = GUST_COMPONENTS / 2;
         let (f_lo, f_hi) = GUST_BAND_HZ;
         let ratio = (f_hi / f_lo).powf(1.0 / (per_axis - 1) as f64);
