@@ -670,3 +670,33 @@ fn readme_drop_counts() {
         }
     }
 }
+
+/// Column overhang (simulated ÷ expected in view) and planning time against the number of
+/// cells. `cargo test --test rain_physics -- --ignored --nocapture overhang`.
+#[test]
+#[ignore]
+fn overhang_against_cell_count() {
+    let cam = camera_1080(60.0, 0.0);
+    let model = RainModel::marshall_palmer(rate(10.0));
+    for wind in [
+        Wind::still(),
+        Wind::steady(DVec2::new(10.0, 0.0)).expect("wind"),
+    ] {
+        for max_columns in [16, 64, 256, 1024, 4096, 16384] {
+            let params = VolumeParams {
+                max_columns,
+                ..VolumeParams::default()
+            };
+            let t0 = std::time::Instant::now();
+            let vol = RainVolume::plan(&cam, &model, &wind, &params).expect("plan");
+            println!(
+                "wind {:>4} cells ≤ {max_columns:>5}: cell {:.2}×{:.2} m, overhang {:.3}, plan {:.1} ms",
+                wind.mean_mps.x,
+                vol.grid.cell_size_m.x,
+                vol.grid.cell_size_m.y,
+                vol.simulated as f64 / vol.expected_in_view,
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+        }
+    }
+}
