@@ -1,4 +1,5 @@
 //! Rain: drop physics (sizes, fall speeds, wind) and the stateless emitter.
 pub mod emitter;
 pub mod physics;
+pub mod volume;
 pub mod wind;
