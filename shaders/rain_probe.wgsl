@@ -9,7 +9,7 @@
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
-    let d = drop_state(id.x, rain.time_s);
+    let d = drop_state(id.x);
     probe_out[2u * id.x] = vec4<f32>(d.pos_m, d.diameter_mm);
     probe_out[2u * id.x + 1u] = vec4<f32>(d.vel_mps, 0.0);
 }

@@ -33,7 +33,7 @@ fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
-    let drop = drop_state(id, rain.time_s);
+    let drop = drop_state(id);
     let half = drop.vel_mps * (0.5 * rain.exposure_s);
     var c0 = to_camera(drop.pos_m - half);
     var c1 = to_camera(drop.pos_m + half);
@@ -45,8 +45,12 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     let f = rain.camera_pos_m.w;
     let q0 = rain.principal_px + f * c0.xy / c0.z;
     let q1 = rain.principal_px + f * c1.xy / c1.z;
-    let r = 0.5e-3 * drop.diameter_mm * f / min(c0.z, c1.z);
-    let r_eff = max(r, MIN_RADIUS_PX);
+    let z = min(c0.z, c1.z);
+    let r = 0.5e-3 * drop.diameter_mm * f / z;
+    // Defocus: the thin lens spreads the drop over its circle of confusion (Garg & Nayar,
+    // "When does a camera see rain?"); coverage is conserved, so alpha falls as r²/r_eff².
+    let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);
+    let r_eff = max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX);
     // A drop this close fills the view: it is a blur on the lens, not a streak.
     if r_eff > 0.1 * rain.display_size_px.y { return culled(); }
     let seg = q1 - q0;

@@ -12,7 +12,11 @@ use rain_composite::pipeline::{self, Job, StageTimes};
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 fn ffmpeg(args: &[&str]) -> anyhow::Result<()> {
@@ -22,7 +26,10 @@ fn ffmpeg(args: &[&str]) -> anyhow::Result<()> {
         .output()
         .context("running ffmpeg (the benchmark needs the ffmpeg CLI)")?;
     if !out.status.success() {
-        bail!("ffmpeg {args:?}: {}", String::from_utf8_lossy(&out.stderr).trim());
+        bail!(
+            "ffmpeg {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
     }
     Ok(())
 }
@@ -32,13 +39,18 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
     let dir = std::env::temp_dir().join(format!("rain-composite-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let result = (|| -> anyhow::Result<()> {
-        println!("| size | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | GPU yuv→rgb | GPU rain | GPU rgb→yuv | wait+readback | encode | ms/frame total |");
+        println!(
+            "| size | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | GPU yuv→rgb | GPU rain | GPU rgb→yuv | wait+readback | encode | ms/frame total |"
+        );
         println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         for &h in heights {
             let clip = dir.join(format!("in-{h}.mp4"));
             let scale = format!("scale=-2:{h}");
             let clip_s = clip.to_str().context("temp path")?;
-            ffmpeg(&["-i", input, "-vf", &scale, "-c:v", "libx264", "-crf", "16", "-pix_fmt", "yuv420p", clip_s])?;
+            ffmpeg(&[
+                "-i", input, "-vf", &scale, "-c:v", "libx264", "-crf", "16", "-pix_fmt", "yuv420p",
+                clip_s,
+            ])?;
             let out = dir.join("out.mp4");
             let out_s = out.to_str().context("temp path")?.to_string();
             let (mut ours, mut theirs) = (Vec::new(), Vec::new());
@@ -48,7 +60,11 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
             let mut adapter = String::new();
             for _ in 0..runs {
                 // Interleave the two so both see the same machine load.
-                let mut job = Job { input: clip_s.to_string(), output: out_s.clone(), ..template.clone() };
+                let mut job = Job {
+                    input: clip_s.to_string(),
+                    output: out_s.clone(),
+                    ..template.clone()
+                };
                 job.encode.overwrite = true;
                 let s = pipeline::render(&job, &AtomicBool::new(false), &mut |_| {})?;
                 ours.push(s.elapsed_s);
@@ -57,10 +73,24 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
                 drops = s.drops;
                 adapter = s.adapter;
                 let t = Instant::now();
-                ffmpeg(&["-i", clip_s, "-c:v", "libx264", "-crf", &job.encode.crf.to_string(), "-preset", &job.encode.preset, "-c:a", "copy", &out_s])?;
+                ffmpeg(&[
+                    "-i",
+                    clip_s,
+                    "-c:v",
+                    "libx264",
+                    "-crf",
+                    &job.encode.crf.to_string(),
+                    "-preset",
+                    &job.encode.preset,
+                    "-c:a",
+                    "copy",
+                    &out_s,
+                ])?;
                 theirs.push(t.elapsed().as_secs_f64());
             }
-            let per_frame = |f: fn(&StageTimes) -> f64| 1000.0 * median(stages.iter().map(f).collect()) / frames.max(1) as f64;
+            let per_frame = |f: fn(&StageTimes) -> f64| {
+                1000.0 * median(stages.iter().map(f).collect()) / frames.max(1) as f64
+            };
             let (a, b) = (median(ours), median(theirs));
             println!(
                 "| {h}p | {frames} | {drops} | {a:.2} | {b:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",

@@ -19,6 +19,13 @@ pub struct CameraConfig {
     pub roll_deg: f64,
     /// Shutter angle, degrees; exposure = shutter/360 / fps.
     pub shutter_deg: f64,
+    /// Focus distance, metres.
+    pub focus_m: f64,
+    /// Aperture f-number; 0 = pinhole (no defocus).
+    pub f_number: f64,
+    /// Sensor width, mm (36 = full-frame equivalent); with the field of view it fixes the focal
+    /// length and so the depth of field.
+    pub sensor_width_mm: f64,
 }
 
 impl Default for CameraConfig {
@@ -29,6 +36,9 @@ impl Default for CameraConfig {
             tilt_deg: 0.0,
             roll_deg: 0.0,
             shutter_deg: 180.0,
+            focus_m: 6.0,
+            f_number: 8.0,
+            sensor_width_mm: 36.0,
         }
     }
 }
@@ -45,13 +55,18 @@ pub struct RainConfig {
     pub fall_speed_scale: f64,
     /// Mean wind, m/s: x to the right of the picture, y away from the camera.
     pub wind_mps: [f64; 2],
+    /// RMS of the gusts along the mean wind, m/s (0 = steady wind).
+    pub gust_mps: f64,
+    /// Altitude of the scene, metres (thinner air: faster drops).
+    pub altitude_m: f64,
     /// Multiplier on the streaks' physical coverage (1 = physical).
     pub opacity: f64,
     /// Seed of every random choice: the same seed gives the same rain.
     pub seed: u32,
     /// Nearest drop distance, metres.
     pub near_m: f64,
-    /// Farthest simulated drop distance, metres.
+    /// Farthest drop distance, metres; drops are simulated only as far as they are visible
+    /// (see `rain::volume`), never beyond this.
     pub far_m: f64,
     /// Most drops simulated per frame; beyond it drops are weighted (see `rain::emitter`).
     pub max_drops: u32,
@@ -64,11 +79,13 @@ impl Default for RainConfig {
             drop_scale: 1.0,
             fall_speed_scale: 1.0,
             wind_mps: [0.0, 0.0],
+            gust_mps: 0.0,
+            altitude_m: 0.0,
             opacity: 1.0,
             seed: 1,
             near_m: 0.3,
-            far_m: 12.0,
-            max_drops: 150_000,
+            far_m: 200.0,
+            max_drops: 300_000,
         }
     }
 }
@@ -124,6 +141,19 @@ impl RenderConfig {
             (-180.0..=180.0).contains(&c.roll_deg),
             "degrees in [-180, 180]",
         )?;
+        check("--focus", c.focus_m, c.focus_m > 0.05, "metres, above 0.05")?;
+        check(
+            "--f-number",
+            c.f_number,
+            c.f_number == 0.0 || (0.5..=64.0).contains(&c.f_number),
+            "0 (pinhole) or 0.5 to 64",
+        )?;
+        check(
+            "--sensor-width",
+            c.sensor_width_mm,
+            c.sensor_width_mm > 1.0 && c.sensor_width_mm <= 100.0,
+            "mm in (1, 100]",
+        )?;
         check(
             "--shutter",
             c.shutter_deg,
@@ -152,6 +182,18 @@ impl RenderConfig {
             check("--wind", w, w.abs() <= 60.0, "m/s components within ±60")?;
         }
         check(
+            "--gust",
+            r.gust_mps,
+            (0.0..=60.0).contains(&r.gust_mps),
+            "m/s in [0, 60]",
+        )?;
+        check(
+            "--altitude",
+            r.altitude_m,
+            (-500.0..=9000.0).contains(&r.altitude_m),
+            "metres in [-500, 9000]",
+        )?;
+        check(
             "--opacity",
             r.opacity,
             (0.0..=100.0).contains(&r.opacity),
@@ -163,7 +205,12 @@ impl RenderConfig {
             r.near_m >= 0.05 && r.near_m < r.far_m,
             "metres, ≥ 0.05 and below --far",
         )?;
-        check("--far", r.far_m, r.far_m <= 500.0, "metres, at most 500")?;
+        check(
+            "--far",
+            r.far_m,
+            r.far_m <= 10_000.0,
+            "metres, at most 10000",
+        )?;
         check(
             "--max-drops",
             r.max_drops as f64,

@@ -16,8 +16,14 @@ mod bench;
 
 /// Adds physically based rain to video.
 #[derive(Parser, Debug)]
-#[command(name = "rain-composite", version, args_conflicts_with_subcommands = true)]
-#[command(after_help = "Examples:\n  rain-composite in.mp4 -o out.mp4 --rain heavy --wind 3,0\n  rain-composite preview in.mp4 --at 2.5s -o frame.png\n  ffmpeg -i in.mp4 -f yuv4mpegpipe - | rain-composite - -o - | ffplay -")]
+#[command(
+    name = "rain-composite",
+    version,
+    args_conflicts_with_subcommands = true
+)]
+#[command(
+    after_help = "Examples:\n  rain-composite in.mp4 -o out.mp4 --rain heavy --wind 3,0\n  rain-composite preview in.mp4 --at 2.5s -o frame.png\n  ffmpeg -i in.mp4 -f yuv4mpegpipe - | rain-composite - -o - | ffplay -"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -287,13 +293,21 @@ fn parse_rain(s: &str) -> anyhow::Result<f64> {
 }
 
 fn parse_time_s(s: &str) -> anyhow::Result<f64> {
-    let bad = || anyhow::anyhow!("invalid time '{s}': expected seconds (2.5, 2.5s, 1500ms or 00:01:02.5)");
+    let bad = || {
+        anyhow::anyhow!("invalid time '{s}': expected seconds (2.5, 2.5s, 1500ms or 00:01:02.5)")
+    };
     let t = if let Some(ms) = s.strip_suffix("ms") {
         ms.trim().parse::<f64>().map_err(|_| bad())? / 1000.0
     } else if s.contains(':') {
-        s.split(':').try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v)).map_err(|_| bad())?
+        s.split(':')
+            .try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v))
+            .map_err(|_| bad())?
     } else {
-        s.strip_suffix('s').unwrap_or(s).trim().parse::<f64>().map_err(|_| bad())?
+        s.strip_suffix('s')
+            .unwrap_or(s)
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| bad())?
     };
     if !t.is_finite() || t < 0.0 {
         return Err(bad());
@@ -304,8 +318,10 @@ fn parse_time_s(s: &str) -> anyhow::Result<f64> {
 fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     let mut c = match &look.config {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read --config '{}'", path.display()))?;
-            serde_json::from_str::<RenderConfig>(&text).with_context(|| format!("invalid --config '{}'", path.display()))?
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read --config '{}'", path.display()))?;
+            serde_json::from_str::<RenderConfig>(&text)
+                .with_context(|| format!("invalid --config '{}'", path.display()))?
         }
         None => RenderConfig::default(),
     };
@@ -347,7 +363,10 @@ fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
 }
 
 fn adapter(g: &GpuArgs) -> AdapterRequest {
-    AdapterRequest { name: g.adapter.clone(), cpu_only: g.cpu }
+    AdapterRequest {
+        name: g.adapter.clone(),
+        cpu_only: g.cpu,
+    }
 }
 
 fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
@@ -385,12 +404,20 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let render = render_config(&args.look)?;
     let encode = encode_options(&args.encode, args.overwrite);
-    let job = Job { input, output, render, encode, adapter: adapter(&args.gpu) };
+    let job = Job {
+        input,
+        output,
+        render,
+        encode,
+        adapter: adapter(&args.gpu),
+    };
     let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(0);
         bar.set_style(
-            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {per_sec}  ETA {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} frames  {per_sec}  ETA {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         bar
     });
@@ -427,7 +454,10 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
 
 fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
     if args.output.exists() && !args.overwrite {
-        bail!("output '{}' already exists (use -y to overwrite)", args.output.display());
+        bail!(
+            "output '{}' already exists (use -y to overwrite)",
+            args.output.display()
+        );
     }
     let at = match (&args.at, args.frame) {
         (Some(t), _) => FrameSelector::At(parse_time_s(t)?),
@@ -473,10 +503,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if *json {
                 println!("{}", serde_json::to_string_pretty(&adapters)?);
             } else if adapters.is_empty() {
-                bail!("no GPU adapter found (install a Vulkan driver, or mesa-vulkan-drivers for the CPU one)");
+                bail!(
+                    "no GPU adapter found (install a Vulkan driver, or mesa-vulkan-drivers for the CPU one)"
+                );
             } else {
                 for a in adapters {
-                    println!("{:<40} {:<8} {:<14} {}", a.name, a.backend, a.device_type, a.driver);
+                    println!(
+                        "{:<40} {:<8} {:<14} {}",
+                        a.name, a.backend, a.device_type, a.driver
+                    );
                 }
             }
             Ok(())

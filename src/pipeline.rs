@@ -66,12 +66,23 @@ pub struct Summary {
 pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Camera {
     let (w, h) = display_size(info);
     let c = &config.camera;
-    Camera::new(w, h, c.fov_deg.to_radians(), c.height_m, c.tilt_deg.to_radians(), c.roll_deg.to_radians())
+    Camera::new(
+        w,
+        h,
+        c.fov_deg.to_radians(),
+        c.height_m,
+        c.tilt_deg.to_radians(),
+        c.roll_deg.to_radians(),
+    )
 }
 
 fn display_size(info: &VideoInfo) -> (u32, u32) {
     let (w, h) = (info.format.width, info.format.height);
-    if info.rotation_deg.rem_euclid(180) == 90 { (h, w) } else { (w, h) }
+    if info.rotation_deg.rem_euclid(180) == 90 {
+        (h, w)
+    } else {
+        (w, h)
+    }
 }
 
 /// Exposure time: shutter angle over 360° times the frame duration (180° → 1/(2·fps)).
@@ -87,7 +98,7 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> f64 {
 }
 
 /// The rain of a shot.
-pub fn rain_for(info: &VideoInfo, config: &RenderConfig) -> RainSetup {
+pub fn rain_for(info: &VideoInfo, config: &RenderConfig) -> Result<RainSetup> {
     emitter::build(
         &camera_for(info, config),
         &config.camera,
@@ -151,21 +162,19 @@ enum ToEncode {
 
 /// Runs `job`. `progress` is called after every written frame; `cancel` stops the job cleanly
 /// (the partial output is removed).
-pub fn render(job: &Job, cancel: &AtomicBool, progress: &mut dyn FnMut(Progress)) -> Result<Summary> {
+pub fn render(
+    job: &Job,
+    cancel: &AtomicBool,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Summary> {
     job.render.validate()?;
     let started = Instant::now();
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &job.render);
-    log::info!(
-        "rain: {} drops per frame ({:.0} expected in {:.1} m³, weight {:.2})",
-        rain.params.drop_count,
-        rain.expected_drops,
-        rain.column_volume_m3,
-        rain.params.drop_weight
-    );
+    let rain = rain_for(&info, &job.render)?;
+    log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
@@ -221,10 +230,12 @@ pub fn render(job: &Job, cancel: &AtomicBool, progress: &mut dyn FnMut(Progress)
     let mut written = 0u64;
     let gpu_result = (|| -> Result<()> {
         let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
-            out_tx.send(ToEncode::Frame(f)).map_err(|_| Error::OutputWrite {
-                path: job.output.clone(),
-                reason: "the encoder stopped".into(),
-            })?;
+            out_tx
+                .send(ToEncode::Frame(f))
+                .map_err(|_| Error::OutputWrite {
+                    path: job.output.clone(),
+                    reason: "the encoder stopped".into(),
+                })?;
             *written += 1;
             progress(Progress {
                 frames_done: *written,
@@ -273,8 +284,12 @@ pub fn render(job: &Job, cancel: &AtomicBool, progress: &mut dyn FnMut(Progress)
         return Err(gpu_result.err().unwrap_or(Error::Interrupted));
     }
     drop(out_tx);
-    let decode_time = decoder.join().map_err(|_| Error::Gpu("the decode thread panicked".into()))?;
-    let (frames, encode_time) = encoder.join().map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
+    let decode_time = decoder
+        .join()
+        .map_err(|_| Error::Gpu("the decode thread panicked".into()))?;
+    let (frames, encode_time) = encoder
+        .join()
+        .map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
     if frames == 0 {
         return Err(Error::CorruptInput("no frame could be decoded".into()));
     }
@@ -300,7 +315,12 @@ pub enum FrameSelector {
 }
 
 /// Renders one frame exactly as [`render`] would; returns it with the stream's description.
-pub fn preview(input: &str, at: FrameSelector, render: &RenderConfig, adapter: &AdapterRequest) -> Result<(YuvFrame, VideoInfo)> {
+pub fn preview(
+    input: &str,
+    at: FrameSelector,
+    render: &RenderConfig,
+    adapter: &AdapterRequest,
+) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
     let mut source = Source::open(input)?;
     let info = source.info().clone();
@@ -309,7 +329,7 @@ pub fn preview(input: &str, at: FrameSelector, render: &RenderConfig, adapter: &
         FrameSelector::Index(n) => source.frame_at_index(n)?,
     };
     let ctx = Arc::new(GpuContext::new(adapter)?);
-    let rain = rain_for(&info, render);
+    let rain = rain_for(&info, render)?;
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
     let out = compositor.render_one(&frame, frame_time_s(&info, &frame), drop_radiance(&frame))?;
     Ok((out, info))

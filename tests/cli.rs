@@ -19,17 +19,34 @@ fn run(cmd: &mut Command) -> Output {
 
 fn ok(cmd: &mut Command) -> Output {
     let out = run(cmd);
-    assert!(out.status.success(), "{cmd:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     out
 }
 
 fn ffmpeg(args: &[&str]) {
-    let out = Command::new("ffmpeg").args(["-hide_banner", "-loglevel", "error", "-y"]).args(args).output().expect("ffmpeg");
-    assert!(out.status.success(), "ffmpeg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new("ffmpeg")
+        .args(["-hide_banner", "-loglevel", "error", "-y"])
+        .args(args)
+        .output()
+        .expect("ffmpeg");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn ffprobe(path: &Path, args: &[&str]) -> String {
-    let out = Command::new("ffprobe").args(["-v", "error"]).args(args).arg(path).output().expect("ffprobe");
+    let out = Command::new("ffprobe")
+        .args(["-v", "error"])
+        .args(args)
+        .arg(path)
+        .output()
+        .expect("ffprobe");
     assert!(out.status.success());
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
@@ -53,33 +70,130 @@ fn clip(path: &Path, size: &str, secs: f64, extra: &[&str]) {
 
 fn psnr(a: &Path, b: &Path) -> f64 {
     let out = Command::new("ffmpeg")
-        .args(["-hide_banner", "-i", s(a), "-i", s(b), "-lavfi", "psnr", "-f", "null", "-"])
+        .args([
+            "-hide_banner",
+            "-i",
+            s(a),
+            "-i",
+            s(b),
+            "-lavfi",
+            "psnr",
+            "-f",
+            "null",
+            "-",
+        ])
         .output()
         .expect("ffmpeg psnr");
     let text = String::from_utf8_lossy(&out.stderr);
-    let avg = text.split("average:").nth(1).expect("psnr line").split_whitespace().next().expect("value");
-    if avg == "inf" { f64::INFINITY } else { avg.parse().expect("number") }
+    let avg = text
+        .split("average:")
+        .nth(1)
+        .expect("psnr line")
+        .split_whitespace()
+        .next()
+        .expect("value");
+    if avg == "inf" {
+        f64::INFINITY
+    } else {
+        avg.parse().expect("number")
+    }
 }
 
 fn color_tags(path: &Path) -> String {
-    ffprobe(path, &["-select_streams", "v:0", "-show_entries", "stream=pix_fmt,color_range,color_space,color_transfer,color_primaries", "-of", "compact"])
+    ffprobe(
+        path,
+        &[
+            "-select_streams",
+            "v:0",
+            "-show_entries",
+            "stream=pix_fmt,color_range,color_space,color_transfer,color_primaries",
+            "-of",
+            "compact",
+        ],
+    )
 }
 
 fn frame_times(path: &Path) -> Vec<String> {
-    ffprobe(path, &["-select_streams", "v:0", "-show_entries", "frame=pts_time", "-of", "csv=p=0"])
-        .lines()
-        .map(str::to_owned)
-        .collect()
+    ffprobe(
+        path,
+        &[
+            "-select_streams",
+            "v:0",
+            "-show_entries",
+            "frame=pts_time",
+            "-of",
+            "csv=p=0",
+        ],
+    )
+    .lines()
+    .map(str::to_owned)
+    .collect()
 }
 
 #[test]
 fn without_rain_the_output_matches_a_plain_transcode() {
     let dir = TempDir::new().expect("tmp");
     let cases: [(&str, &[&str]); 4] = [
-        ("bt709", &["-pix_fmt", "yuv420p", "-color_range", "tv", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
-        ("bt601", &["-pix_fmt", "yuv420p", "-color_range", "tv", "-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m"]),
-        ("full", &["-pix_fmt", "yuvj420p", "-color_range", "pc", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
-        ("10bit", &["-pix_fmt", "yuv420p10le", "-color_range", "tv", "-colorspace", "bt709", "-color_primaries", "bt709", "-color_trc", "bt709"]),
+        (
+            "bt709",
+            &[
+                "-pix_fmt",
+                "yuv420p",
+                "-color_range",
+                "tv",
+                "-colorspace",
+                "bt709",
+                "-color_primaries",
+                "bt709",
+                "-color_trc",
+                "bt709",
+            ],
+        ),
+        (
+            "bt601",
+            &[
+                "-pix_fmt",
+                "yuv420p",
+                "-color_range",
+                "tv",
+                "-colorspace",
+                "smpte170m",
+                "-color_primaries",
+                "smpte170m",
+                "-color_trc",
+                "smpte170m",
+            ],
+        ),
+        (
+            "full",
+            &[
+                "-pix_fmt",
+                "yuvj420p",
+                "-color_range",
+                "pc",
+                "-colorspace",
+                "bt709",
+                "-color_primaries",
+                "bt709",
+                "-color_trc",
+                "bt709",
+            ],
+        ),
+        (
+            "10bit",
+            &[
+                "-pix_fmt",
+                "yuv420p10le",
+                "-color_range",
+                "tv",
+                "-colorspace",
+                "bt709",
+                "-color_primaries",
+                "bt709",
+                "-color_trc",
+                "bt709",
+            ],
+        ),
     ];
     for (name, tags) in cases {
         let input = p(&dir, &format!("{name}.mkv"));
@@ -89,10 +203,22 @@ fn without_rain_the_output_matches_a_plain_transcode() {
         let out = p(&dir, &format!("{name}-out.mp4"));
         ok(bin().args([s(&input), "-o", s(&out), "--rain", "0", "--cpu"]));
         let reference = p(&dir, &format!("{name}-ref.mp4"));
-        ffmpeg(&["-i", s(&input), "-c:v", "libx264", "-crf", "18", s(&reference)]);
+        ffmpeg(&[
+            "-i",
+            s(&input),
+            "-c:v",
+            "libx264",
+            "-crf",
+            "18",
+            s(&reference),
+        ]);
         let db = psnr(&out, &reference);
         assert!(db >= 50.0, "{name}: PSNR {db} dB");
-        assert_eq!(color_tags(&out).replace("yuvj", "yuv"), color_tags(&input).replace("yuvj", "yuv"), "{name}: colour tags");
+        assert_eq!(
+            color_tags(&out).replace("yuvj", "yuv"),
+            color_tags(&input).replace("yuvj", "yuv"),
+            "{name}: colour tags"
+        );
     }
 }
 
@@ -100,10 +226,29 @@ fn without_rain_the_output_matches_a_plain_transcode() {
 fn every_frame_keeps_its_timestamp_constant_and_variable_rate() {
     let dir = TempDir::new().expect("tmp");
     let cfr = p(&dir, "cfr.mp4");
-    clip(&cfr, "96x64", 1.0, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    clip(
+        &cfr,
+        "96x64",
+        1.0,
+        &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
+    );
     // Variable rate: a 0.5 s gap after frame 10.
     let vfr = p(&dir, "vfr.mkv");
-    clip(&vfr, "96x64", 1.0, &["-vf", "setpts='if(gt(N,10),PTS+0.5/TB,PTS)'", "-fps_mode", "passthrough", "-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    clip(
+        &vfr,
+        "96x64",
+        1.0,
+        &[
+            "-vf",
+            "setpts='if(gt(N,10),PTS+0.5/TB,PTS)'",
+            "-fps_mode",
+            "passthrough",
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+        ],
+    );
     for input in [cfr, vfr] {
         let out = input.with_extension("out.mkv");
         ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
@@ -118,14 +263,47 @@ fn audio_is_copied_bit_for_bit() {
     let dir = TempDir::new().expect("tmp");
     let input = p(&dir, "av.mp4");
     ffmpeg(&[
-        "-f", "lavfi", "-i", "testsrc2=size=96x64:rate=25:duration=1", "-f", "lavfi", "-i", "sine=frequency=440:duration=1",
-        "-c:v", "libx264", "-pix_fmt", "yuv420p", "-c:a", "aac", "-shortest", s(&input),
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc2=size=96x64:rate=25:duration=1",
+        "-f",
+        "lavfi",
+        "-i",
+        "sine=frequency=440:duration=1",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-c:a",
+        "aac",
+        "-shortest",
+        s(&input),
     ]);
     let out = p(&dir, "av-out.mp4");
     ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
     let hashes = |f: &Path| {
-        let o = Command::new("ffmpeg").args(["-v", "error", "-i", s(f), "-map", "0:a", "-c", "copy", "-f", "framemd5", "-"]).output().expect("ffmpeg");
-        String::from_utf8_lossy(&o.stdout).lines().filter(|l| !l.starts_with('#')).map(|l| l.rsplit(',').next().unwrap_or("").trim().to_owned()).collect::<Vec<_>>()
+        let o = Command::new("ffmpeg")
+            .args([
+                "-v",
+                "error",
+                "-i",
+                s(f),
+                "-map",
+                "0:a",
+                "-c",
+                "copy",
+                "-f",
+                "framemd5",
+                "-",
+            ])
+            .output()
+            .expect("ffmpeg");
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.rsplit(',').next().unwrap_or("").trim().to_owned())
+            .collect::<Vec<_>>()
     };
     let (a, b) = (hashes(&input), hashes(&out));
     assert!(!a.is_empty());
@@ -134,13 +312,47 @@ fn audio_is_copied_bit_for_bit() {
 
 /// Gray frames of `path` as the viewer sees them (ffmpeg applies the display rotation).
 fn gray_frames(path: &Path) -> (usize, usize, Vec<Vec<f64>>) {
-    let dims = ffprobe(path, &["-select_streams", "v:0", "-show_entries", "stream=width,height:stream_side_data=rotation", "-of", "default=nw=1"]);
-    let get = |k: &str| dims.lines().find_map(|l| l.strip_prefix(k)).map(|v| v.trim().parse::<i64>().expect("int"));
-    let (w, h) = (get("width=").expect("w") as usize, get("height=").expect("h") as usize);
+    let dims = ffprobe(
+        path,
+        &[
+            "-select_streams",
+            "v:0",
+            "-show_entries",
+            "stream=width,height:stream_side_data=rotation",
+            "-of",
+            "default=nw=1",
+        ],
+    );
+    let get = |k: &str| {
+        dims.lines()
+            .find_map(|l| l.strip_prefix(k))
+            .map(|v| v.trim().parse::<i64>().expect("int"))
+    };
+    let (w, h) = (
+        get("width=").expect("w") as usize,
+        get("height=").expect("h") as usize,
+    );
     let rotated = get("rotation=").is_some_and(|r| r.rem_euclid(180) == 90);
     let (w, h) = if rotated { (h, w) } else { (w, h) };
-    let o = Command::new("ffmpeg").args(["-v", "error", "-i", s(path), "-f", "rawvideo", "-pix_fmt", "gray", "-"]).output().expect("ffmpeg");
-    let frames = o.stdout.chunks_exact(w * h).map(|f| f.iter().map(|&v| v as f64).collect()).collect();
+    let o = Command::new("ffmpeg")
+        .args([
+            "-v",
+            "error",
+            "-i",
+            s(path),
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "gray",
+            "-",
+        ])
+        .output()
+        .expect("ffmpeg");
+    let frames = o
+        .stdout
+        .chunks_exact(w * h)
+        .map(|f| f.iter().map(|&v| v as f64).collect())
+        .collect();
     (w, h, frames)
 }
 
@@ -149,16 +361,47 @@ fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
     let dir = TempDir::new().expect("tmp");
     let input = p(&dir, "rot.mp4");
     // A dark, flat 160×96 picture shown rotated by 90°: the viewer sees 96×160.
-    ffmpeg(&["-f", "lavfi", "-i", "color=c=0x202020:size=160x96:rate=25:duration=0.4", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-metadata:s:v:0", "rotate=90", s(&input)]);
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "color=c=0x202020:size=160x96:rate=25:duration=0.4",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-metadata:s:v:0",
+        "rotate=90",
+        s(&input),
+    ]);
     let rainy = p(&dir, "rainy.mkv");
     let dry = p(&dir, "dry.mkv");
-    let look = ["--rain", "60", "--opacity", "30", "--far", "6", "--cpu", "--codec", "ffv1"];
+    let look = [
+        "--rain",
+        "60",
+        "--opacity",
+        "30",
+        "--far",
+        "6",
+        "--cpu",
+        "--codec",
+        "ffv1",
+    ];
     ok(bin().args([s(&input), "-o", s(&rainy)]).args(look));
-    ok(bin().args([s(&input), "-o", s(&dry)]).args(look).args(["--rain", "0"]));
+    ok(bin()
+        .args([s(&input), "-o", s(&dry)])
+        .args(look)
+        .args(["--rain", "0"]));
     let (w, h, wet) = gray_frames(&rainy);
     let (_, _, base) = gray_frames(&dry);
     assert!(h > w, "the displayed picture is portrait ({w}×{h})");
-    let layer = |i: usize| wet[i].iter().zip(&base[i]).map(|(a, b)| a - b).collect::<Vec<f64>>();
+    let layer = |i: usize| {
+        wet[i]
+            .iter()
+            .zip(&base[i])
+            .map(|(a, b)| a - b)
+            .collect::<Vec<f64>>()
+    };
     let (l0, l1) = (layer(3), layer(4));
     // Streaks are vertical in the displayed picture: intensity varies across x more than y.
     let (mut gx2, mut gy2) = (0.0, 0.0);
@@ -168,7 +411,10 @@ fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
             gy2 += (l0[(y + 1) * w + x] - l0[(y - 1) * w + x]).powi(2);
         }
     }
-    assert!(gx2 > 2.0 * gy2, "streaks not vertical: gx² {gx2}, gy² {gy2}");
+    assert!(
+        gx2 > 2.0 * gy2,
+        "streaks not vertical: gx² {gx2}, gy² {gy2}"
+    );
     // And the pattern moves down between consecutive frames: best vertical shift is positive.
     let score = |dy: i64| -> f64 {
         let mut sum = 0.0;
@@ -179,7 +425,9 @@ fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
         }
         sum
     };
-    let best = (-15..=15).max_by(|a, b| score(*a).total_cmp(&score(*b))).expect("shift");
+    let best = (-15..=15)
+        .max_by(|a, b| score(*a).total_cmp(&score(*b)))
+        .expect("shift");
     assert!(best > 0, "rain moves by {best} rows between frames");
 }
 
@@ -187,10 +435,33 @@ fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
 fn rain_is_visible_varies_in_time_and_follows_the_seed() {
     let dir = TempDir::new().expect("tmp");
     let input = p(&dir, "in.mp4");
-    ffmpeg(&["-f", "lavfi", "-i", "color=c=0x303030:size=128x96:rate=25:duration=0.3", "-c:v", "libx264", "-pix_fmt", "yuv420p", s(&input)]);
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "color=c=0x303030:size=128x96:rate=25:duration=0.3",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        s(&input),
+    ]);
     let render = |name: &str, seed: &str, rain: &str| {
         let out = p(&dir, name);
-        ok(bin().args([s(&input), "-o", s(&out), "--rain", rain, "--opacity", "20", "--seed", seed, "--cpu", "--codec", "ffv1"]));
+        ok(bin().args([
+            s(&input),
+            "-o",
+            s(&out),
+            "--rain",
+            rain,
+            "--opacity",
+            "20",
+            "--seed",
+            seed,
+            "--cpu",
+            "--codec",
+            "ffv1",
+        ]));
         gray_frames(&out).2
     };
     let a = render("a.mkv", "5", "40");
@@ -202,7 +473,10 @@ fn rain_is_visible_varies_in_time_and_follows_the_seed() {
     assert_ne!(a[1], a[2], "consecutive frames differ");
     let brighter = a[1].iter().zip(&dry[1]).filter(|(w, d)| w > d).count();
     let darker = a[1].iter().zip(&dry[1]).filter(|(w, d)| w < d).count();
-    assert!(brighter > 100 && darker == 0, "{brighter} brighter, {darker} darker pixels");
+    assert!(
+        brighter > 100 && darker == 0,
+        "{brighter} brighter, {darker} darker pixels"
+    );
 }
 
 #[test]
@@ -214,7 +488,17 @@ fn odd_tiny_and_4k_sizes_work() {
         let out = p(&dir, &format!("{size}-out.mkv"));
         ok(bin().args([s(&input), "-o", s(&out), "--cpu"]));
         assert_eq!(frame_times(&input), frame_times(&out), "{size}");
-        let dims = ffprobe(&out, &["-select_streams", "v:0", "-show_entries", "stream=width,height", "-of", "csv=p=0:s=x"]);
+        let dims = ffprobe(
+            &out,
+            &[
+                "-select_streams",
+                "v:0",
+                "-show_entries",
+                "stream=width,height",
+                "-of",
+                "csv=p=0:s=x",
+            ],
+        );
         assert_eq!(dims.trim(), size);
     }
 }
@@ -223,18 +507,54 @@ fn odd_tiny_and_4k_sizes_work() {
 fn preview_is_the_frame_the_full_render_writes() {
     let dir = TempDir::new().expect("tmp");
     let input = p(&dir, "in.mp4");
-    clip(&input, "160x120", 2.0, &["-c:v", "libx264", "-g", "10", "-pix_fmt", "yuv420p"]);
+    clip(
+        &input,
+        "160x120",
+        2.0,
+        &["-c:v", "libx264", "-g", "10", "-pix_fmt", "yuv420p"],
+    );
     let full = p(&dir, "full.mkv");
     let look = ["--rain", "30", "--opacity", "10", "--seed", "3", "--cpu"];
-    ok(bin().args([s(&input), "-o", s(&full), "--codec", "ffv1"]).args(look));
+    ok(bin()
+        .args([s(&input), "-o", s(&full), "--codec", "ffv1"])
+        .args(look));
     for (flag, value, index) in [("--at", "1.2s", 30), ("--frame", "17", 17)] {
         let preview = p(&dir, &format!("preview-{index}.png"));
-        ok(bin().args(["preview", s(&input), flag, value, "-o", s(&preview), "--bits", "16"]).args(look));
+        ok(bin()
+            .args([
+                "preview",
+                s(&input),
+                flag,
+                value,
+                "-o",
+                s(&preview),
+                "--bits",
+                "16",
+            ])
+            .args(look));
         // The full render's frame through the same still conversion (no rain added).
         let from_full = p(&dir, &format!("full-{index}.png"));
-        ok(bin().args(["preview", s(&full), "--frame", &index.to_string(), "-o", s(&from_full), "--bits", "16", "--rain", "0", "--cpu"]));
-        let (a, b) = (std::fs::read(&preview).expect("png"), std::fs::read(&from_full).expect("png"));
-        assert!(a == b, "{flag} {value}: preview differs from frame {index} of the render");
+        ok(bin().args([
+            "preview",
+            s(&full),
+            "--frame",
+            &index.to_string(),
+            "-o",
+            s(&from_full),
+            "--bits",
+            "16",
+            "--rain",
+            "0",
+            "--cpu",
+        ]));
+        let (a, b) = (
+            std::fs::read(&preview).expect("png"),
+            std::fs::read(&from_full).expect("png"),
+        );
+        assert!(
+            a == b,
+            "{flag} {value}: preview differs from frame {index} of the render"
+        );
     }
 }
 
@@ -242,7 +562,12 @@ fn preview_is_the_frame_the_full_render_writes() {
 fn works_inside_a_pipe() {
     let dir = TempDir::new().expect("tmp");
     let input = p(&dir, "in.mp4");
-    clip(&input, "96x64", 0.6, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    clip(
+        &input,
+        "96x64",
+        0.6,
+        &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
+    );
     let mut src = Command::new("ffmpeg")
         .args(["-v", "error", "-i", s(&input), "-f", "yuv4mpegpipe", "-"])
         .stdout(Stdio::piped())
@@ -262,8 +587,15 @@ fn works_inside_a_pipe() {
         .expect("ffmpeg");
     assert!(src.wait().expect("wait").success());
     let status = rain.wait_with_output().expect("wait");
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
-    let frames = String::from_utf8_lossy(&sink.stdout).lines().filter(|l| !l.starts_with('#')).count();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let frames = String::from_utf8_lossy(&sink.stdout)
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .count();
     assert_eq!(frames, 15);
 }
 
@@ -271,15 +603,26 @@ fn works_inside_a_pipe() {
 fn fails(cmd: &mut Command) -> String {
     let out = run(cmd);
     assert!(!out.status.success(), "{cmd:?} should fail");
-    assert_eq!(out.status.code(), Some(1), "{cmd:?}: exit code (not a panic)");
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{cmd:?}: exit code (not a panic)"
+    );
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "one error line: {err}");
+    assert_eq!(
+        err.lines().filter(|l| l.starts_with("error")).count(),
+        1,
+        "one error line: {err}"
+    );
     err
 }
 
 fn only_files(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir).expect("dir").map(|e| e.expect("entry").file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
     v.sort();
     v
 }
@@ -288,7 +631,12 @@ fn only_files(dir: &Path) -> Vec<String> {
 fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
     let dir = TempDir::new().expect("tmp");
     let good = p(&dir, "good.mp4");
-    clip(&good, "96x64", 1.0, &["-c:v", "libx264", "-pix_fmt", "yuv420p"]);
+    clip(
+        &good,
+        "96x64",
+        1.0,
+        &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
+    );
     let out = p(&dir, "out.mp4");
 
     let err = fails(bin().args([s(&p(&dir, "missing.mp4")), "-o", s(&out)]));
@@ -311,7 +659,11 @@ fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
     let err = fails(bin().args([s(&good), "-o", s(&out), "--rain", "buckets", "--cpu"]));
     assert!(err.contains("--rain"), "{err}");
 
-    assert_eq!(only_files(dir.path()), ["good.mp4", "notes.mp4", "truncated.mp4"], "no output or temporary file left");
+    assert_eq!(
+        only_files(dir.path()),
+        ["good.mp4", "notes.mp4", "truncated.mp4"],
+        "no output or temporary file left"
+    );
 
     std::fs::write(&out, b"precious").expect("write");
     let err = fails(bin().args([s(&good), "-o", s(&out), "--cpu"]));

@@ -7,6 +7,7 @@ use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
 use rain_composite::rain::emitter::{self, RainSetup};
+use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
 
@@ -77,6 +78,7 @@ fn no_rain(format: &FrameFormat) -> RainSetup {
         0,
         (format.width, format.height),
     )
+    .expect("rain")
 }
 
 #[test]
@@ -178,12 +180,13 @@ fn frames_without_rain_come_back_unchanged() {
 }
 
 #[test]
-fn gpu_drops_match_the_cpu_twin() {
+fn gpu_drops_match_the_cpu_reference() {
     let Some(ctx) = gpu() else { return };
     let camera = Camera::new(640, 360, 1.1, 1.6, 0.1, 0.0);
     let rain = RainConfig {
         rate_mm_per_h: 25.0,
         wind_mps: [3.0, -1.0],
+        gust_mps: 2.0,
         seed: 7,
         ..RainConfig::default()
     };
@@ -194,21 +197,34 @@ fn gpu_drops_match_the_cpu_twin() {
         0.02,
         0,
         (640, 360),
-    );
-    assert!(setup.params.drop_count > 1000);
-    for t in [0.0f32, 0.7, 13.25] {
-        let gpu_states = probe_drops(&ctx, &setup, t, 4096).expect("probe");
+    )
+    .expect("rain");
+    assert!(setup.drop_count() > 1000);
+    for t in [0.0f64, 0.7, 13.25] {
+        let gpu_states = probe_drops(&ctx, &setup, t as f32, 4096).expect("probe");
+        let mut wrapped = 0;
         for (id, g) in gpu_states.iter().enumerate() {
-            let c = emitter::drop_state(&setup.params, &setup.columns, id as u32, t);
-            let tol = 1e-3 * (1.0 + c.pos_m.length());
+            let c = sample_drop(
+                &setup.volume,
+                &setup.model,
+                &setup.wind,
+                rain.seed,
+                id as u64,
+                t,
+            )
+            .expect("drop");
+            let c_pos = c.position_m.as_vec3();
             assert!(
-                (g.pos_m - c.pos_m).length() < tol,
-                "drop {id} t={t}: {:?} vs {:?}",
-                g.pos_m,
-                c.pos_m
+                (g.vel_mps - c.velocity_mps.as_vec3()).length() < 1e-3 * (1.0 + t as f32),
+                "drop {id} t={t}"
             );
-            assert!((g.vel_mps - c.vel_mps).length() < 1e-3);
-            assert!((g.diameter_mm - c.diameter_mm).abs() < 1e-4);
+            assert!((g.diameter_mm - c.diameter_mm as f32).abs() < 1e-4);
+            let err = (g.pos_m - c_pos).length();
+            if err > 2e-3 * (1.0 + t as f32) {
+                // f32 against f64: a drop a hair from its column's end may wrap on one side only.
+                wrapped += 1;
+                assert!(wrapped <= 4, "drop {id} t={t}: {:?} vs {c_pos:?}", g.pos_m);
+            }
         }
     }
 }
@@ -239,7 +255,8 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
         1.0 / 50.0,
         0,
         (160, 120),
-    );
+    )
+    .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
     let a = comp.render_one(&dark, 1.0, [1.0; 3]).expect("render");
     let b = comp.render_one(&dark, 1.04, [1.0; 3]).expect("render");
@@ -285,14 +302,30 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
 /// Luma of a rainy render of a flat dark frame minus the flat level.
 fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32, Vec<f64>) {
     let (w, h) = (240u32, 160u32);
-    let format = FrameFormat { width: w, height: h, chroma: Chroma::Cs420, bit_depth: 8 };
+    let format = FrameFormat {
+        width: w,
+        height: h,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
     let color = ColorParams::bt709(8);
     let dark = YuvFrame::filled(format, color, [30, 128, 128]);
     let camera = Camera::new(w, h, 1.0, 1.6, 0.0, 0.0);
-    let setup = emitter::build(&camera, &CameraConfig::default(), &rain, 1.0 / 50.0, 0, (w, h));
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        0,
+        (w, h),
+    )
+    .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
     let out = comp.render_one(&dark, time_s, [1.0; 3]).expect("render");
-    let luma = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| out.sample(0, x, y) as f64 - 30.0).collect();
+    let luma = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| out.sample(0, x, y) as f64 - 30.0)
+        .collect();
     (w, h, luma)
 }
 
@@ -316,22 +349,43 @@ fn streak_lean(w: u32, h: u32, l: &[f64]) -> f64 {
 #[test]
 fn streaks_lean_with_the_wind() {
     let Some(ctx) = gpu() else { return };
-    let base = RainConfig { rate_mm_per_h: 30.0, opacity: 30.0, near_m: 0.5, far_m: 5.0, ..RainConfig::default() };
+    let base = RainConfig {
+        rate_mm_per_h: 30.0,
+        opacity: 30.0,
+        near_m: 0.5,
+        far_m: 5.0,
+        ..RainConfig::default()
+    };
     let lean = |wind_x: f64| {
-        let (w, h, l) = rain_luma(&ctx, RainConfig { wind_mps: [wind_x, 0.0], ..base }, 2.0);
+        let (w, h, l) = rain_luma(
+            &ctx,
+            RainConfig {
+                wind_mps: [wind_x, 0.0],
+                ..base
+            },
+            2.0,
+        );
         streak_lean(w, h, &l)
     };
     let (still, right, left) = (lean(0.0), lean(6.0), lean(-6.0));
     // Wind to the right: drops move right while falling, streaks run down-right.
     assert!(right < -0.05, "right wind lean {right}");
     assert!(left > 0.05, "left wind lean {left}");
-    assert!(still.abs() < 0.5 * right.abs().min(left.abs()), "still air lean {still}");
+    assert!(
+        still.abs() < 0.5 * right.abs().min(left.abs()),
+        "still air lean {still}"
+    );
 }
 
 #[test]
 fn the_same_seed_gives_the_same_rain_and_another_does_not() {
     let Some(ctx) = gpu() else { return };
-    let rain = RainConfig { rate_mm_per_h: 20.0, opacity: 10.0, seed: 11, ..RainConfig::default() };
+    let rain = RainConfig {
+        rate_mm_per_h: 20.0,
+        opacity: 10.0,
+        seed: 11,
+        ..RainConfig::default()
+    };
     let a = rain_luma(&ctx, rain, 3.0).2;
     let b = rain_luma(&ctx, rain, 3.0).2;
     let c = rain_luma(&ctx, RainConfig { seed: 12, ..rain }, 3.0).2;

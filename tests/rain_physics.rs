@@ -178,7 +178,10 @@ fn no_drop_exceeds_terminal_velocity_in_still_air() {
     for id in (0..vol.simulated).step_by(step as usize) {
         for t in [0.0, 1.7, 60.0] {
             let d = sample_drop(&vol, &model, &wind, 3, id, t).expect("drop");
-            let vt = model.fall.terminal_velocity_mps(d.diameter_mm);
+            // The emitter's terminal velocity is its 32-entry table of Gunn & Kinzer's curve,
+            // itself within 0.03 m/s of the curve.
+            let vt = vol.velocity_table.lookup_mps(d.diameter_mm);
+            assert!((vt - model.fall.terminal_velocity_mps(d.diameter_mm)).abs() < 0.03);
             assert!(d.velocity_mps.length() <= vt * (1.0 + 1e-12));
             assert!(d.velocity_mps.z < 0.0);
         }

@@ -27,7 +27,13 @@ fn layout(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
     for (_, ty) in module.types.iter() {
         if ty.name.as_deref() == Some(name) {
             if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                return (
+                    *span,
+                    members
+                        .iter()
+                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                        .collect(),
+                );
             }
         }
     }
@@ -46,18 +52,74 @@ macro_rules! assert_twin {
 #[test]
 fn rust_twins_match_wgsl_layouts() {
     let m = module(Stage::RainStreaks);
-    assert_twin!(m, RainParams, [
-        camera_pos_m, camera_from_world_0, camera_from_world_1, camera_from_world_2, principal_px,
-        display_size_px, coded_from_display, coded_offset_px, coded_size_px, fall_axis, lateral_e1,
-        lateral_e2, volume_origin_m, wind_mps, radiance, time_s, exposure_s, seed, drop_count,
-        column_count, opacity, near_clip_m, drop_weight, d_min_mm, d_max_mm, lambda_per_mm,
-        speed_table_step_mm, speed_table,
-    ]);
-    assert_twin!(m, Column, [lateral_min_m, lateral_size_m, s_lo_m, s_len_m, first_drop, drop_count]);
+    assert_twin!(
+        m,
+        RainParams,
+        [
+            camera_pos_m,
+            camera_from_world_0,
+            camera_from_world_1,
+            camera_from_world_2,
+            principal_px,
+            display_size_px,
+            coded_from_display,
+            coded_offset_px,
+            coded_size_px,
+            column_slope,
+            cell_size_m,
+            wind_mean_mps,
+            radiance,
+            gust_amp,
+            gust_phase,
+            time_s,
+            exposure_s,
+            seed,
+            drop_count,
+            column_count,
+            opacity,
+            near_clip_m,
+            drop_weight,
+            d_min_mm,
+            d_max_mm,
+            lambda_per_mm,
+            diameter_scale,
+            speed_table_step_mm,
+            lens_blur_k_px_m,
+            inv_focus_per_m,
+            gravity_mps2,
+            speed_table,
+        ]
+    );
+    assert_twin!(
+        m,
+        Column,
+        [cell_min_m, z_lo_m, height_m, first_drop, drop_count, _pad]
+    );
     let m = module(Stage::YuvToRgb);
-    assert_twin!(m, FrameParams, [
-        width, height, chroma_shift_x, chroma_shift_y, y_offset, y_scale, c_offset, c_scale,
-        max_code, transfer, kr, kb, bytes_per_sample, y_row_words, c_row_words, cb_offset_words,
-        cr_offset_words, chroma_width, chroma_height, _pad,
-    ]);
+    assert_twin!(
+        m,
+        FrameParams,
+        [
+            width,
+            height,
+            chroma_shift_x,
+            chroma_shift_y,
+            y_offset,
+            y_scale,
+            c_offset,
+            c_scale,
+            max_code,
+            transfer,
+            kr,
+            kb,
+            bytes_per_sample,
+            y_row_words,
+            c_row_words,
+            cb_offset_words,
+            cr_offset_words,
+            chroma_width,
+            chroma_height,
+            _pad,
+        ]
+    );
 }

@@ -1,8 +1,12 @@
 // The stateless drop (thesis eq. 5.1–5.3, with rebirth): a drop's state at time t is a closed
-// form of (seed, drop id, t). Each drop belongs to a column of the rain volume and travels
-// along the column's fall axis, re-entering at the top (with a new lateral position) whenever
-// it leaves at the bottom, so the volume stays uniformly filled and any frame can be rendered
-// without the ones before it. CPU twin: src/rain/emitter.rs (`drop_state`).
+// form of (seed, drop id, t); the CPU reference is `rain::volume::sample_drop`.
+//
+// Each drop lives in a column of the rain volume (sheared along the mean fall direction, see
+// src/rain/volume.rs). It is born at fractions (u0, v0, w0) of its column, moves with its
+// steady-state velocity (terminal speed of its diameter, Gunn & Kinzer; horizontal: the wind's
+// gusts low-passed by the drop's relaxation time τ = v_t/g), and its fractional position wraps
+// modulo 1 on each axis. Wrapping preserves volume, so the column stays uniformly filled; each
+// time the drop wraps through the bottom it is reborn with a new lateral offset.
 //
 // Needs, declared by the stage that includes it:
 //   var<uniform> rain: RainParams;  var<storage, read> columns: array<Column>;
@@ -10,14 +14,11 @@
 struct DropState {
     pos_m: vec3<f32>,
     vel_mps: vec3<f32>,
-    diameter_mm: f32,
+    diameter_mm: f32,   // drawn diameter (× diameter_scale)
 }
 
-// Per-drop constants use this cycle key; per-cycle values use the cycle number.
-const DROP_CONSTANT_KEY: u32 = 0xffffffffu;
-
 fn terminal_speed_mps(d_mm: f32) -> f32 {
-    let x = clamp(d_mm / rain.speed_table_step_mm, 0.0, 30.999);
+    let x = clamp((d_mm - rain.d_min_mm) / rain.speed_table_step_mm, 0.0, 30.999);
     let i = u32(floor(x));
     let f = x - f32(i);
     let a = rain.speed_table[i / 4u][i % 4u];
@@ -44,22 +45,37 @@ fn column_of(id: u32) -> u32 {
     return lo;
 }
 
-fn drop_state(id: u32, t_s: f32) -> DropState {
+fn drop_state(id: u32) -> DropState {
     let col = columns[column_of(id)];
-    let d_mm = diameter_from_unit(rand_key(rain.seed, id, DROP_CONSTANT_KEY, 0u));
-    let vel = vec3<f32>(rain.wind_mps.xy, -terminal_speed_mps(d_mm));
-    let axis = rain.fall_axis.xyz;
-    let w = max(dot(vel, axis), 1e-3);
-    let len = max(col.s_len_m, 1e-3);
-    let travel = rand_key(rain.seed, id, DROP_CONSTANT_KEY, 1u) * len + w * t_s;
-    let cycle = floor(travel / len);
-    let s_in = travel - cycle * len;
+    let seed = rain.seed;
+    let d_mm = diameter_from_unit(drop_uniform(seed, id, 3u));
+    let vt = terminal_speed_mps(d_mm);
+    let wt_per_omega = vt / rain.gravity_mps2;  // τ
+    // Steady-state response to the gusts (src/rain/wind.rs): velocity and displacement.
+    var vh = rain.wind_mean_mps.xy;
+    var disp = rain.wind_mean_mps.zw;
+    for (var k = 0u; k < 8u; k++) {
+        let a = rain.gust_amp[k];
+        let p = rain.gust_phase[k];
+        let wt = a.z * wt_per_omega;
+        let den = 1.0 + wt * wt;
+        vh += a.xy * ((p.x + wt * p.y) / den);
+        let s1 = (p.y - wt * p.x) / den;
+        let s0 = (p.w - wt * p.z) / den;
+        disp += a.xy * ((s1 - s0) / a.z);
+    }
+    let dz = -vt * rain.time_s;
+    // Displacement in sheared column coordinates, in cells.
+    let du = (disp.x - rain.column_slope.x * dz) / rain.cell_size_m.x;
+    let dv = (disp.y - rain.column_slope.y * dz) / rain.cell_size_m.y;
+    let w_total = drop_uniform(seed, id, 2u) + dz / col.height_m;
+    let cycle = floor(w_total);
     let k = bitcast<u32>(i32(cycle));
-    let lateral = col.lateral_min_m
-        + col.lateral_size_m * vec2<f32>(rand_key(rain.seed, id, k, 2u), rand_key(rain.seed, id, k, 3u));
-    let since_birth_s = s_in / w;
-    let drift = vel - w * axis;
-    let pos = rain.volume_origin_m.xyz + lateral.x * rain.lateral_e1.xyz + lateral.y * rain.lateral_e2.xyz
-        + (col.s_lo_m + s_in) * axis + drift * since_birth_s;
-    return DropState(pos, vel, d_mm);
+    let u = fract(drop_uniform(seed, id, 0u) + fract(du) + cycle_uniform(seed, id, k, 4u));
+    let v = fract(drop_uniform(seed, id, 1u) + fract(dv) + cycle_uniform(seed, id, k, 5u));
+    let w = w_total - cycle;
+    let uv = col.cell_min_m + rain.cell_size_m * vec2<f32>(u, v);
+    let z = col.z_lo_m + w * col.height_m;
+    let pos = vec3<f32>(uv + rain.column_slope * z, z);
+    return DropState(pos, vec3<f32>(vh, -vt), d_mm * rain.diameter_scale);
 }

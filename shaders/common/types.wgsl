@@ -36,12 +36,12 @@ struct RainParams {
     coded_from_display: vec4<f32>,   // 2×2 matrix, column-major (display rotation)
     coded_offset_px: vec2<f32>,
     coded_size_px: vec2<f32>,
-    fall_axis: vec4<f32>,            // unit axis the columns are aligned with (xyz)
-    lateral_e1: vec4<f32>,           // lateral axes of the columns
-    lateral_e2: vec4<f32>,
-    volume_origin_m: vec4<f32>,
-    wind_mps: vec4<f32>,             // mean wind, xyz (z = 0)
+    column_slope: vec2<f32>,         // sheared columns: x = u + slope.x·z, y = v + slope.y·z
+    cell_size_m: vec2<f32>,
+    wind_mean_mps: vec4<f32>,        // xy; z = mean wind · t (x), w = mean wind · t (y), m
     radiance: vec4<f32>,             // linear RGB of a drop (before PRT)
+    gust_amp: array<vec4<f32>, 8>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
+    gust_phase: array<vec4<f32>, 8>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)
     time_s: f32,
     exposure_s: f32,
     seed: u32,
@@ -53,16 +53,21 @@ struct RainParams {
     d_min_mm: f32,                   // truncated exponential size distribution
     d_max_mm: f32,
     lambda_per_mm: f32,
+    diameter_scale: f32,             // drawn diameter = sampled diameter × this
     speed_table_step_mm: f32,
+    lens_blur_k_px_m: f32,           // defocus diameter px = k·|1/focus − 1/z|; 0 = pinhole
+    inv_focus_per_m: f32,
+    gravity_mps2: f32,
     speed_table: array<vec4<f32>, 8>,  // terminal speed, m/s, at i·step (32 entries)
 }
 
-// A column of the rain volume: a lateral cell and its extent along the fall axis.
+// A column of the rain volume: a sheared prism over cell [u0, u0+du] × [v0, v0+dv] between
+// heights z_lo and z_lo + height.
 struct Column {
-    lateral_min_m: vec2<f32>,
-    lateral_size_m: vec2<f32>,
-    s_lo_m: f32,
-    s_len_m: f32,
+    cell_min_m: vec2<f32>,
+    z_lo_m: f32,
+    height_m: f32,
     first_drop: u32,
     drop_count: u32,
+    _pad: vec2<u32>,
 }

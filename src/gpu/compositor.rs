@@ -17,7 +17,7 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::shaders::Stage;
-use super::types::{FrameParams, RainParams};
+use super::types::FrameParams;
 use crate::rain::emitter::RainSetup;
 use crate::video::{FrameFormat, Plane, YuvFrame};
 use crate::{Error, Result};
@@ -52,7 +52,7 @@ pub struct Compositor {
     format: FrameFormat,
     frame_params: FrameParams,
     planes: [wgpu::Texture; 3],
-    rain_params: RainParams,
+    rain: RainSetup,
     rain_buffer: wgpu::Buffer,
     rain_drops: u32,
     out_buffer: wgpu::Buffer,
@@ -135,20 +135,23 @@ impl Compositor {
         });
         let canvas_view = canvas.create_view(&Default::default());
         let out_bytes = frame_params.total_words() as u64 * 4;
-        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
-            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("stage_timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2 * TIMED_STAGES as u32,
+        let timestamps = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| {
+                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("stage_timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2 * TIMED_STAGES as u32,
+                });
+                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("stage_timestamps"),
+                    size: 16 * TIMED_STAGES as u64,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                (set, resolve)
             });
-            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("stage_timestamps"),
-                size: 16 * TIMED_STAGES as u64,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            (set, resolve)
-        });
         let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("packed_planes"),
             size: out_bytes,
@@ -288,7 +291,7 @@ impl Compositor {
             format,
             frame_params,
             planes,
-            rain_params: rain.params,
+            rain: rain.clone(),
             rain_buffer,
             rain_drops: rain.params.drop_count,
             out_buffer,
@@ -360,9 +363,7 @@ impl Compositor {
                 },
             );
         }
-        let mut params = self.rain_params;
-        params.time_s = time_s as f32;
-        params.radiance = [radiance[0], radiance[1], radiance[2], 0.0];
+        let params = self.rain.params_at(time_s, radiance);
         queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(&params));
 
         let device = &self.ctx.device;
@@ -373,7 +374,7 @@ impl Compositor {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("yuv_to_rgb"),
-                timestamp_writes: None,
+                timestamp_writes: self.compute_timestamps(0),
             });
             pass.set_pipeline(&self.yuv_to_rgb.0);
             pass.set_bind_group(0, &self.yuv_to_rgb.1, &[]);
@@ -392,10 +393,12 @@ impl Compositor {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: self.timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
-                    query_set: set,
-                    beginning_of_pass_write_index: Some(2),
-                    end_of_pass_write_index: Some(3),
+                timestamp_writes: self.timestamps.as_ref().map(|(set, _)| {
+                    wgpu::RenderPassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(2),
+                        end_of_pass_write_index: Some(3),
+                    }
                 }),
                 occlusion_query_set: None,
                 multiview_mask: None,
@@ -407,7 +410,7 @@ impl Compositor {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("rgb_to_yuv"),
-                timestamp_writes: None,
+                timestamp_writes: self.compute_timestamps(2),
             });
             pass.set_pipeline(&self.luma.0);
             pass.set_bind_group(0, &self.luma.1, &[]);
@@ -422,13 +425,17 @@ impl Compositor {
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
-        encoder.copy_buffer_to_buffer(
-            &self.out_buffer,
-            0,
-            &self.staging[slot],
-            0,
-            self.out_buffer.size(),
-        );
+        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_bytes);
+        if let Some((set, resolve)) = &self.timestamps {
+            encoder.resolve_query_set(set, 0..2 * TIMED_STAGES as u32, resolve, 0);
+            encoder.copy_buffer_to_buffer(
+                resolve,
+                0,
+                &self.staging[slot],
+                self.out_bytes,
+                resolve.size(),
+            );
+        }
         let (tx, rx) = mpsc::channel();
         encoder.map_buffer_on_submit(&self.staging[slot], wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -451,11 +458,13 @@ impl Compositor {
     }
 
     fn compute_timestamps(&self, stage: u32) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-        self.timestamps.as_ref().map(|(set, _)| wgpu::ComputePassTimestampWrites {
-            query_set: set,
-            beginning_of_pass_write_index: Some(2 * stage),
-            end_of_pass_write_index: Some(2 * stage + 1),
-        })
+        self.timestamps
+            .as_ref()
+            .map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(2 * stage),
+                end_of_pass_write_index: Some(2 * stage + 1),
+            })
     }
 
     /// Waits for the oldest frame in flight and reads it back.
@@ -498,6 +507,21 @@ impl Compositor {
                     data: view[bounds[i].0..bounds[i].1].to_vec(),
                     stride: strides[i],
                 };
+            }
+            if self.timestamps.is_some() {
+                let at = self.out_bytes as usize;
+                let ticks: Vec<u64> = view[at..at + 16 * TIMED_STAGES]
+                    .chunks_exact(8)
+                    .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                    .collect();
+                let period_s = self.ctx.queue.get_timestamp_period() as f64 * 1e-9;
+                let span =
+                    |k: usize| ticks[2 * k + 1].saturating_sub(ticks[2 * k]) as f64 * period_s;
+                self.gpu_times.yuv_to_rgb_s += span(0);
+                if self.rain_drops > 0 {
+                    self.gpu_times.rain_streaks_s += span(1);
+                }
+                self.gpu_times.rgb_to_yuv_s += span(2);
             }
         }
         buffer.unmap();

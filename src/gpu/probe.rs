@@ -6,8 +6,19 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::shaders::Stage;
-use crate::rain::emitter::{DropState, RainSetup};
+use crate::rain::emitter::RainSetup;
 use crate::{Error, Result};
+
+/// One drop as the GPU computed it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GpuDrop {
+    /// Position, world metres.
+    pub pos_m: Vec3,
+    /// Velocity, m/s.
+    pub vel_mps: Vec3,
+    /// Drawn diameter, mm.
+    pub diameter_mm: f32,
+}
 
 /// States of the first `count` drops of `setup` at `time_s`, as the GPU computes them.
 pub fn probe_drops(
@@ -15,10 +26,9 @@ pub fn probe_drops(
     setup: &RainSetup,
     time_s: f32,
     count: u32,
-) -> Result<Vec<DropState>> {
+) -> Result<Vec<GpuDrop>> {
     let device = &ctx.device;
-    let mut params = setup.params;
-    params.time_s = time_s;
+    let mut params = setup.params_at(time_s as f64, [1.0; 3]);
     params.drop_count = count.min(setup.params.drop_count);
     let n = params.drop_count.max(1) as u64;
     let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -100,7 +110,7 @@ pub fn probe_drops(
     let states = floats
         .chunks_exact(8)
         .take(params.drop_count as usize)
-        .map(|c| DropState {
+        .map(|c| GpuDrop {
             pos_m: Vec3::new(c[0], c[1], c[2]),
             vel_mps: Vec3::new(c[4], c[5], c[6]),
             diameter_mm: c[3],

@@ -77,6 +77,9 @@ impl FrameParams {
 /// Number of entries of the terminal-speed table (`RainParams::speed_table`).
 pub const SPEED_TABLE_LEN: usize = 32;
 
+/// Gust components in `RainParams` (`rain::wind::GUST_COMPONENTS`).
+pub const GUSTS: usize = 8;
+
 /// WGSL `RainParams`: camera, rain volume and streak look for one frame.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
@@ -91,12 +94,12 @@ pub struct RainParams {
     pub coded_from_display: [f32; 4],
     pub coded_offset_px: [f32; 2],
     pub coded_size_px: [f32; 2],
-    pub fall_axis: [f32; 4],
-    pub lateral_e1: [f32; 4],
-    pub lateral_e2: [f32; 4],
-    pub volume_origin_m: [f32; 4],
-    pub wind_mps: [f32; 4],
+    pub column_slope: [f32; 2],
+    pub cell_size_m: [f32; 2],
+    pub wind_mean_mps: [f32; 4],
     pub radiance: [f32; 4],
+    pub gust_amp: [[f32; 4]; GUSTS],
+    pub gust_phase: [[f32; 4]; GUSTS],
     pub time_s: f32,
     pub exposure_s: f32,
     pub seed: u32,
@@ -108,19 +111,23 @@ pub struct RainParams {
     pub d_min_mm: f32,
     pub d_max_mm: f32,
     pub lambda_per_mm: f32,
+    pub diameter_scale: f32,
     pub speed_table_step_mm: f32,
+    pub lens_blur_k_px_m: f32,
+    pub inv_focus_per_m: f32,
+    pub gravity_mps2: f32,
     pub speed_table: [f32; SPEED_TABLE_LEN],
 }
 
-/// WGSL `Column`: a lateral cell of the rain volume and its extent along the fall axis.
+/// WGSL `Column`: a sheared prism of the rain volume.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 #[allow(missing_docs)]
 pub struct Column {
-    pub lateral_min_m: [f32; 2],
-    pub lateral_size_m: [f32; 2],
-    pub s_lo_m: f32,
-    pub s_len_m: f32,
+    pub cell_min_m: [f32; 2],
+    pub z_lo_m: f32,
+    pub height_m: f32,
     pub first_drop: u32,
     pub drop_count: u32,
+    pub _pad: [u32; 2],
 }

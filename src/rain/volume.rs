@@ -571,6 +571,8 @@ pub struct RainVolume {
     pub extinction_per_m: f64,
     /// Counts per distance band.
     pub bands: Vec<Band>,
+    /// The emitter's terminal-velocity table (32 entries over the size range).
+    pub velocity_table: super::physics::VelocityTable,
     /// The emitter's columns.
     pub grid: ColumnGrid,
 }
@@ -680,6 +682,12 @@ impl RainVolume {
             budget_binds,
             extinction_per_m: extinction_per_m(model.rate),
             bands,
+            velocity_table: {
+                let (lo, hi) = dsd.range_mm();
+                model
+                    .fall
+                    .velocity_table(super::physics::VelocityTable::DEFAULT_LEN, lo, hi)
+            },
             grid,
         })
     }
@@ -851,9 +859,21 @@ pub struct SampledDrop {
     pub position_m: DVec3,
 }
 
-/// The CPU twin of the stateless emitter: drop `id` at time `t_s`. Diameter by inverse CDF of
-/// stream 3; horizontal velocity the wind's steady-state response with τ(D); vertical the
-/// terminal velocity; position the column point of streams 0–2 wrapped after the displacement.
+/// Uniform in [0, 1) for drop `id`, stream `stream`, in the `cycle`-th pass of the drop
+/// through its column (a new lateral offset at each rebirth).
+pub fn cycle_uniform(seed: u32, id: u32, cycle: u32, stream: u32) -> f64 {
+    let h = pcg_hash(
+        pcg_hash(pcg_hash(seed) ^ id) ^ stream.wrapping_mul(0x9E37_79B9) ^ pcg_hash(cycle),
+    );
+    (h >> 8) as f64 * (1.0 / 16_777_216.0)
+}
+
+/// The plain CPU reference of the stateless emitter (`shaders/common/drops.wgsl`): drop `id`
+/// at time `t_s`. Diameter by inverse CDF of stream 3; vertical velocity the terminal velocity
+/// from the emitter's 32-entry table; horizontal velocity the wind's steady-state response with
+/// τ(D); position the column point of streams 0–2 moved by the displacement and wrapped modulo
+/// the column, with a new lateral offset (streams 4, 5 of the pass number) each time the drop
+/// wraps through the bottom.
 pub fn sample_drop(
     volume: &RainVolume,
     model: &RainModel,
@@ -867,20 +887,28 @@ pub fn sample_drop(
     let id32 = id as u32;
     let u = |s| drop_uniform(seed, id32, s);
     let d = model.dsd.diameter_from_uniform_mm(u(3));
-    let vt = model.fall.terminal_velocity_mps(d);
+    let vt = volume.velocity_table.lookup_mps(d);
     let tau = vt / super::physics::G_MPS2;
     let vh = wind.drop_velocity_mps(t_s, tau);
     let dh = wind.drop_displacement_m(t_s, tau);
-    let pos =
-        volume
-            .grid
-            .wrapped_point_m(col, [u(0), u(1), u(2)], DVec3::new(dh.x, dh.y, -vt * t_s));
+    let grid = &volume.grid;
+    let dz = -vt * t_s;
+    let w_total = u(2) + dz / col.height_m();
+    let cycle = w_total.floor();
+    let k = (cycle as i64 as i32) as u32;
+    let du = (dh.x - grid.slope.x * dz) / grid.cell_size_m.x;
+    let dv = (dh.y - grid.slope.y * dz) / grid.cell_size_m.y;
+    let uvw = [
+        (u(0) + du + cycle_uniform(seed, id32, k, 4)).rem_euclid(1.0),
+        (u(1) + dv + cycle_uniform(seed, id32, k, 5)).rem_euclid(1.0),
+        w_total - cycle,
+    ];
     Some(SampledDrop {
         id,
         column: ci,
         diameter_mm: d,
         velocity_mps: DVec3::new(vh.x, vh.y, -vt),
-        position_m: pos,
+        position_m: grid.point_m(col, uvw),
     })
 }
 

@@ -14,7 +14,11 @@ pub fn to_rgb16(frame: &YuvFrame, rotation_deg: i32) -> (u32, u32, Vec<u16>) {
     let (sx, sy) = f.chroma.shift();
     let s = frame.color.range_scale();
     let rotation = rotation_deg.rem_euclid(360);
-    let (w, h) = if rotation % 180 == 90 { (f.height, f.width) } else { (f.width, f.height) };
+    let (w, h) = if rotation % 180 == 90 {
+        (f.height, f.width)
+    } else {
+        (f.width, f.height)
+    };
     let mut out = vec![0u16; (w * h * 3) as usize];
     for y in 0..h {
         for x in 0..w {
@@ -48,14 +52,23 @@ pub fn to_rgb16(frame: &YuvFrame, rotation_deg: i32) -> (u32, u32, Vec<u16>) {
 /// Writes `frame` as an 8- or 16-bit PNG at `path`.
 pub fn write_png(frame: &YuvFrame, rotation_deg: i32, bits: u8, path: &Path) -> Result<()> {
     let (w, h, rgb) = to_rgb16(frame, rotation_deg);
-    let fail = |e: image::ImageError| Error::OutputWrite { path: path.display().to_string(), reason: e.to_string() };
+    let fail = |e: image::ImageError| Error::OutputWrite {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    };
     if bits == 16 {
         let img = image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(w, h, rgb)
             .ok_or_else(|| Error::Unsupported("picture size".into()))?;
-        img.save_with_format(path, image::ImageFormat::Png).map_err(fail)
+        img.save_with_format(path, image::ImageFormat::Png)
+            .map_err(fail)
     } else {
-        let bytes: Vec<u8> = rgb.iter().map(|&v| ((v as u32 * 255 + 32767) / 65535) as u8).collect();
-        let img = image::RgbImage::from_raw(w, h, bytes).ok_or_else(|| Error::Unsupported("picture size".into()))?;
-        img.save_with_format(path, image::ImageFormat::Png).map_err(fail)
+        let bytes: Vec<u8> = rgb
+            .iter()
+            .map(|&v| ((v as u32 * 255 + 32767) / 65535) as u8)
+            .collect();
+        let img = image::RgbImage::from_raw(w, h, bytes)
+            .ok_or_else(|| Error::Unsupported("picture size".into()))?;
+        img.save_with_format(path, image::ImageFormat::Png)
+            .map_err(fail)
     }
 }
