@@ -305,13 +305,24 @@ impl Source {
                     self.input_done = true;
                     return Ok(None);
                 }
-                Err(ff::Error::InvalidData) => {
-                    self.bad_packets_in_a_row += 1;
+                Err(ff::Error::InvalidData) if super::ffi::input_at_eof(&self.input) => {
                     log::warn!(
-                        "'{}': skipping unreadable data near frame {}",
+                        "'{}': the input ends early (truncated?) near frame {}",
                         self.path,
                         self.next_index
                     );
+                    self.input_done = true;
+                    return Ok(None);
+                }
+                Err(ff::Error::InvalidData) => {
+                    self.bad_packets_in_a_row += 1;
+                    if self.bad_packets_in_a_row <= 10 {
+                        log::warn!(
+                            "'{}': skipping unreadable data near frame {}",
+                            self.path,
+                            self.next_index
+                        );
+                    }
                     if self.bad_packets_in_a_row >= MAX_BAD_PACKETS_IN_A_ROW {
                         return Err(Error::CorruptInput(format!(
                             "'{}': the demuxer lost sync near frame {}",

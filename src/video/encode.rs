@@ -107,7 +107,9 @@ pub fn output_format(output: &str, container: Option<&str>) -> Result<ff::format
     init();
     let name = container.or((output == "-").then_some(Y4M));
     let file = (output != "-").then_some(output);
-    ffi::guess_output_format(name, file).ok_or_else(|| Error::Parameter {
+    ffi::guess_output_format(name, file)
+        .or_else(|| name.and_then(|n| ffi::guess_output_format(None, Some(&format!("x.{n}")))))
+        .ok_or_else(|| Error::Parameter {
         name: "--format",
         value: name.unwrap_or(output).to_owned(),
         expected: "a container FFmpeg can write (mp4, mov, mkv, webm, nut, y4m…), given by the \
@@ -301,6 +303,10 @@ impl Sink {
                 "+faststart"
             };
             header_opts.set("movflags", flags);
+        }
+        if muxer == Y4M && (info.format.bit_depth > 8) {
+            // FFmpeg calls high-depth y4m "unofficial" but writes it (rav1e, x264 read it).
+            header_opts.set("strict", "unofficial");
         }
         octx.write_header_with(header_opts)
             .map_err(|e| write_err(format!("writing the {muxer} header: {e}")))?;
@@ -572,6 +578,21 @@ fn open_video(
     } else {
         choose_pixel(&codec, in_pixel, &format)?
     };
+    if let Some(d) = pixfmt::pix_desc(enc_pixel)
+        && !y4m
+        && opts.codec != VideoCodec::Ffv1
+        && ((format.width % 2 == 1 && d.log2_chroma.0 > 0)
+            || (format.height % 2 == 1 && d.log2_chroma.1 > 0))
+    {
+        return Err(Error::Unsupported(format!(
+            "{} cannot encode {}x{} in {}: subsampled chroma needs an even size (use --codec \
+             ffv1, or crop the input)",
+            opts.codec.encoder_name(),
+            format.width,
+            format.height,
+            pixfmt::pixel_name(enc_pixel)
+        )));
+    }
     let tb = if y4m {
         // y4m is constant-rate; its muxer derives the frame rate from the time base.
         let (num, den) = info.nominal_fps();

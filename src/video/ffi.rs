@@ -220,3 +220,14 @@ pub(crate) fn packet_discarded(packet: &ff::Packet) -> bool {
     // SAFETY: the packet wraps a valid AVPacket; `flags` is a plain field.
     unsafe { (*packet.as_ptr()).flags & ffi::AV_PKT_FLAG_DISCARD != 0 }
 }
+
+/// Whether the input's I/O layer has hit the end of the file (a demuxer error there means the
+/// file is truncated, not that one packet is damaged).
+pub(crate) fn input_at_eof(ictx: &ff::format::context::Input) -> bool {
+    // SAFETY: the input context is open; `pb` is either null (demuxer without a file) or a
+    // valid AVIOContext, whose `eof_reached` is a plain field.
+    unsafe {
+        let pb = (*ictx.as_ptr()).pb;
+        !pb.is_null() && (*pb).eof_reached != 0
+    }
+}

@@ -146,6 +146,11 @@ pub fn source_layout(pixel: Pixel) -> Result<SourceLayout> {
     })
 }
 
+/// The descriptor facts of a pixel format (depth, subsampling, RGB…).
+pub(crate) fn pix_desc(pixel: Pixel) -> Option<PixDesc> {
+    ffi::pix_desc(pixel)
+}
+
 /// FFmpeg's name of a pixel format (`"yuv420p10le"`).
 pub fn pixel_name(pixel: Pixel) -> String {
     pixel
@@ -311,5 +316,65 @@ mod tests {
         assert_eq!(l(Pixel::GBRP10LE), (Chroma::Cs444, 10, false));
         assert_eq!(l(Pixel::YUV420P10BE), (Chroma::Cs420, 10, false));
         assert_eq!(l(Pixel::YUV422P), (Chroma::Cs422, 8, true));
+    }
+
+    #[test]
+    fn p010_is_unpacked_without_changing_samples() {
+        ff::init().unwrap();
+        let (w, h) = (8u32, 4u32);
+        let mut p010 = ff::frame::Video::new(Pixel::P010LE, w, h);
+        let value = |x: usize, y: usize, c: usize| ((x * 37 + y * 101 + c * 7) % 1024) as u16;
+        // P010: 10-bit samples in the high bits; chroma interleaved Cb, Cr.
+        let s0 = p010.stride(0);
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                let v = value(x, y, 0) << 6;
+                p010.data_mut(0)[y * s0 + 2 * x..][..2].copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        let s1 = p010.stride(1);
+        for y in 0..(h / 2) as usize {
+            for x in 0..(w / 2) as usize {
+                for c in 0..2 {
+                    let v = value(x, y, 1 + c) << 6;
+                    p010.data_mut(1)[y * s1 + 4 * x + 2 * c..][..2]
+                        .copy_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        let layout = source_layout(Pixel::P010LE).unwrap();
+        let format = FrameFormat {
+            width: w,
+            height: h,
+            chroma: layout.chroma,
+            bit_depth: layout.bit_depth,
+        };
+        let c = (Matrix::Bt709, false);
+        let mut conv = Converter::new(
+            (Pixel::P010LE, w, h),
+            (pixel_of(&format).unwrap(), w, h),
+            c,
+            c,
+        )
+        .unwrap();
+        let planes = planes_from_av(conv.run(&p010).unwrap(), &format);
+        let frame = YuvFrame {
+            format,
+            color: crate::video::ColorParams::bt709(10),
+            planes,
+            pts: 0,
+            index: 0,
+        };
+        for y in 0..h {
+            for x in 0..w {
+                assert_eq!(frame.sample(0, x, y), value(x as usize, y as usize, 0));
+            }
+        }
+        for y in 0..h / 2 {
+            for x in 0..w / 2 {
+                assert_eq!(frame.sample(1, x, y), value(x as usize, y as usize, 1));
+                assert_eq!(frame.sample(2, x, y), value(x as usize, y as usize, 2));
+            }
+        }
     }
 }

@@ -31,6 +31,7 @@ pub fn probe(input: &str, output_container: Option<&str>) -> Result<ProbeReport>
     if let Some(c) = output_container {
         let ofmt = ffi::guess_output_format(Some(c), None)
             .or_else(|| ffi::guess_output_format(None, Some(c)))
+            .or_else(|| ffi::guess_output_format(None, Some(&format!("x.{c}"))))
             .ok_or_else(|| Error::Parameter {
                 name: "--format",
                 value: c.to_owned(),
