@@ -127,7 +127,10 @@ fn identity_10bit_420() {
     args.extend(TAGS_709);
     let input = clip(dir.path(), "in.mkv", "160x120", 25, 1.0, &args);
     let info = assert_identity(&input, dir.path());
-    assert_eq!((info.format.chroma, info.format.bit_depth), (Chroma::Cs420, 10));
+    assert_eq!(
+        (info.format.chroma, info.format.bit_depth),
+        (Chroma::Cs420, 10)
+    );
 }
 
 #[test]
@@ -137,7 +140,10 @@ fn identity_10bit_422() {
     args.extend(TAGS_709);
     let input = clip(dir.path(), "in.mkv", "160x120", 25, 1.0, &args);
     let info = assert_identity(&input, dir.path());
-    assert_eq!((info.format.chroma, info.format.bit_depth), (Chroma::Cs422, 10));
+    assert_eq!(
+        (info.format.chroma, info.format.bit_depth),
+        (Chroma::Cs422, 10)
+    );
 }
 
 #[test]
@@ -147,7 +153,10 @@ fn identity_444() {
     args.extend(TAGS_709);
     let input = clip(dir.path(), "in.mp4", "160x120", 25, 1.0, &args);
     let info = assert_identity(&input, dir.path());
-    assert_eq!((info.format.chroma, info.format.bit_depth), (Chroma::Cs444, 8));
+    assert_eq!(
+        (info.format.chroma, info.format.bit_depth),
+        (Chroma::Cs444, 8)
+    );
 }
 
 #[test]
@@ -157,7 +166,10 @@ fn identity_12bit_444() {
     args.extend(TAGS_709);
     let input = clip(dir.path(), "in.mkv", "160x120", 25, 0.4, &args);
     let info = assert_identity(&input, dir.path());
-    assert_eq!((info.format.chroma, info.format.bit_depth), (Chroma::Cs444, 12));
+    assert_eq!(
+        (info.format.chroma, info.format.bit_depth),
+        (Chroma::Cs444, 12)
+    );
 }
 
 #[test]
@@ -169,7 +181,15 @@ fn x264_output_matches_the_ffmpeg_cli() {
     let ours = dir.path().join("ours.mp4");
     transcode(&input, &ours, &EncodeOptions::default());
     let reference = dir.path().join("ref.mp4");
-    ffmpeg(&["-i", s(&input), "-c:v", "libx264", "-crf", "18", s(&reference)]);
+    ffmpeg(&[
+        "-i",
+        s(&input),
+        "-c:v",
+        "libx264",
+        "-crf",
+        "18",
+        s(&reference),
+    ]);
     let db = psnr(&ours, &reference);
     assert!(db >= 50.0, "PSNR {db} dB");
     assert_eq!(color_tags(&input), color_tags(&ours));
@@ -273,7 +293,10 @@ fn pcm_into_mp4_falls_back_to_aac_with_a_warning() {
         &["-c:a", "pcm_s16le"],
     );
     let report = probe(s(&input), Some("mp4")).unwrap();
-    assert_eq!(report.video.streams[1].action, Some(StreamAction::TranscodeAac));
+    assert_eq!(
+        report.video.streams[1].action,
+        Some(StreamAction::TranscodeAac)
+    );
     let out = dir.path().join("out.mp4");
     transcode(&input, &out, &EncodeOptions::default());
     let a = stream(&out, "a:0");
@@ -282,7 +305,9 @@ fn pcm_into_mp4_falls_back_to_aac_with_a_warning() {
     let dur: f64 = a["duration"].as_str().unwrap().parse().unwrap();
     assert!((dur - 1.0).abs() < 0.05, "audio lasts {dur} s");
     assert!(
-        my_warnings().iter().any(|w| w.contains("AAC") && w.contains("pcm_s16le")),
+        my_warnings()
+            .iter()
+            .any(|w| w.contains("AAC") && w.contains("pcm_s16le")),
         "{:?}",
         my_warnings()
     );
@@ -319,7 +344,11 @@ fn audio_start_offset_stays_in_sync() {
         s(&input),
     ]);
     let start = |p: &Path, k: &str| -> f64 {
-        stream(p, k)["start_time"].as_str().unwrap().parse().unwrap()
+        stream(p, k)["start_time"]
+            .as_str()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     let offset_in = start(&input, "a:0") - start(&input, "v:0");
     assert!(offset_in > 0.4, "fixture offset {offset_in}");
@@ -349,7 +378,15 @@ fn display_rotation_is_kept() {
         &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
     );
     let input = dir.path().join("in.mp4");
-    ffmpeg(&["-i", s(&plain), "-c", "copy", "-metadata:s:v:0", "rotate=90", s(&input)]);
+    ffmpeg(&[
+        "-i",
+        s(&plain),
+        "-c",
+        "copy",
+        "-metadata:s:v:0",
+        "rotate=90",
+        s(&input),
+    ]);
     let rotation = |p: &Path| -> i64 {
         let v = stream(p, "v:0");
         v["side_data_list"]
@@ -376,7 +413,14 @@ fn odd_tiny_and_4k_sizes_work() {
         "320x240",
         25,
         0.2,
-        &["-vf", "scale=321:241", "-c:v", "ffv1", "-pix_fmt", "yuv420p"],
+        &[
+            "-vf",
+            "scale=321:241",
+            "-c:v",
+            "ffv1",
+            "-pix_fmt",
+            "yuv420p",
+        ],
     );
     let info = assert_identity(&odd, dir.path());
     assert_eq!((info.format.width, info.format.height), (321, 241));
@@ -400,11 +444,21 @@ fn odd_tiny_and_4k_sizes_work() {
         "3840x2160",
         25,
         0.08,
-        &["-c:v", "libx264", "-preset", "ultrafast", "-pix_fmt", "yuv420p"],
+        &[
+            "-c:v",
+            "libx264",
+            "-preset",
+            "ultrafast",
+            "-pix_fmt",
+            "yuv420p",
+        ],
     );
     let out = dir.path().join("big_out.mkv");
     transcode(&big, &out, &ffv1());
-    assert_eq!(framemd5(&big, "0:v:0", false), framemd5(&out, "0:v:0", false));
+    assert_eq!(
+        framemd5(&big, "0:v:0", false),
+        framemd5(&out, "0:v:0", false)
+    );
     assert_eq!(framemd5(&out, "0:v:0", false).len(), 2);
 }
 
@@ -417,7 +471,14 @@ fn odd_sizes_in_h264_420_are_a_clear_error() {
         "320x240",
         25,
         0.2,
-        &["-vf", "scale=321:241", "-c:v", "ffv1", "-pix_fmt", "yuv420p"],
+        &[
+            "-vf",
+            "scale=321:241",
+            "-c:v",
+            "ffv1",
+            "-pix_fmt",
+            "yuv420p",
+        ],
     );
     let src = Source::open(s(&odd)).unwrap();
     let out = dir.path().join("out.mp4");
@@ -443,7 +504,10 @@ fn y4m_output_to_a_file() {
     let v = stream(&out, "v:0");
     assert_eq!(v["pix_fmt"], "yuv420p10le");
     assert_eq!(v["r_frame_rate"], "25/1");
-    assert_eq!(framemd5(&input, "0:v:0", false), framemd5(&out, "0:v:0", false));
+    assert_eq!(
+        framemd5(&input, "0:v:0", false),
+        framemd5(&out, "0:v:0", false)
+    );
 }
 
 /// The child half of `stdin_to_stdout_y4m_pipe`: reads stdin, writes y4m to stdout.
@@ -478,7 +542,13 @@ fn stdin_to_stdout_y4m_pipe() {
         &["-c:a", "pcm_s16le"],
     );
     let child = std::process::Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", "pipe_child", "--ignored", "--test-threads=1", "-q"])
+        .args([
+            "--exact",
+            "pipe_child",
+            "--ignored",
+            "--test-threads=1",
+            "-q",
+        ])
         .env("RAIN_PIPE_CHILD", "1")
         .stdin(std::fs::File::open(&input).unwrap())
         .output()
@@ -501,7 +571,10 @@ fn stdin_to_stdout_y4m_pipe() {
     }
     let y4m = dir.path().join("piped.y4m");
     std::fs::write(&y4m, &out[start..end]).unwrap();
-    assert_eq!(framemd5(&input, "0:v:0", false), framemd5(&y4m, "0:v:0", false));
+    assert_eq!(
+        framemd5(&input, "0:v:0", false),
+        framemd5(&y4m, "0:v:0", false)
+    );
 }
 
 #[test]
@@ -521,8 +594,14 @@ fn nut_output_to_a_file_carries_audio() {
         ..Default::default()
     };
     transcode(&input, &out, &opts);
-    assert_eq!(framemd5(&input, "0:v:0", false), framemd5(&out, "0:v:0", false));
-    assert_eq!(framemd5(&input, "0:a:0", true), framemd5(&out, "0:a:0", true));
+    assert_eq!(
+        framemd5(&input, "0:v:0", false),
+        framemd5(&out, "0:v:0", false)
+    );
+    assert_eq!(
+        framemd5(&input, "0:a:0", true),
+        framemd5(&out, "0:a:0", true)
+    );
     // Audio can be left out.
     let silent = dir.path().join("silent.mkv");
     let opts = EncodeOptions {
@@ -531,6 +610,123 @@ fn nut_output_to_a_file_carries_audio() {
     };
     transcode(&input, &silent, &opts);
     assert!(stream(&silent, "a").is_null());
+}
+
+#[test]
+fn prores_and_hevc_outputs() {
+    init_logger();
+    let dir = TempDir::new().unwrap();
+    let mut args = vec!["-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "10"];
+    args.extend(TAGS_709);
+    let input = clip(dir.path(), "in.mp4", "160x120", 25, 0.4, &args);
+    // ProRes has no 4:2:0: 4:2:2 10-bit, with a warning saying so.
+    let prores = dir.path().join("out.mov");
+    let opts = EncodeOptions {
+        codec: VideoCodec::ProRes,
+        ..Default::default()
+    };
+    transcode(&input, &prores, &opts);
+    let v = stream(&prores, "v:0");
+    assert_eq!(v["codec_name"], "prores");
+    assert_eq!(v["pix_fmt"], "yuv422p10le");
+    assert!(my_warnings().iter().any(|w| w.contains("yuv422p10le")));
+    assert!(psnr(&prores, &input) > 40.0);
+    assert_eq!(color_tags(&input), color_tags(&prores));
+
+    let hevc = dir.path().join("out.mkv");
+    let opts = EncodeOptions {
+        codec: VideoCodec::Hevc,
+        preset: "ultrafast".into(),
+        ..Default::default()
+    };
+    transcode(&input, &hevc, &opts);
+    let v = stream(&hevc, "v:0");
+    assert_eq!(v["codec_name"], "hevc");
+    assert!(psnr(&hevc, &input) > 35.0);
+    assert_eq!(color_tags(&input), color_tags(&hevc));
+    assert_eq!(frame_times(&hevc), frame_times(&input));
+}
+
+#[test]
+fn metadata_subtitles_and_faststart() {
+    init_logger();
+    let dir = TempDir::new().unwrap();
+    let srt = dir.path().join("subs.srt");
+    std::fs::write(&srt, "1\n00:00:00,000 --> 00:00:00,500\nRain.\n").unwrap();
+    let input = dir.path().join("in.mkv");
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc2=s=160x120:r=25:d=1",
+        "-i",
+        s(&srt),
+        "-map",
+        "0",
+        "-map",
+        "1",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-c:s",
+        "srt",
+        "-metadata",
+        "title=Wet street",
+        "-metadata:s:s:0",
+        "language=fra",
+        s(&input),
+    ]);
+    // Matroska keeps the SubRip track, with its language.
+    let mkv = dir.path().join("out.mkv");
+    transcode(&input, &mkv, &EncodeOptions::default());
+    let sub = stream(&mkv, "s:0");
+    assert_eq!(sub["codec_name"], "subrip");
+    assert_eq!(sub["tags"]["language"], "fra");
+    let fmt = ffprobe(&mkv, &["-show_format"]);
+    assert_eq!(fmt["format"]["tags"]["title"], "Wet street");
+    // MP4 cannot hold SubRip: dropped with a warning; the index is written up front.
+    let mp4 = dir.path().join("out.mp4");
+    transcode(&input, &mp4, &EncodeOptions::default());
+    assert!(stream(&mp4, "s").is_null());
+    assert!(my_warnings().iter().any(|w| w.contains("subrip")));
+    let bytes = std::fs::read(&mp4).unwrap();
+    let at = |tag: &[u8]| bytes.windows(4).position(|w| w == tag).unwrap();
+    assert!(at(b"moov") < at(b"mdat"), "+faststart puts the index first");
+    let fmt = ffprobe(&mp4, &["-show_format"]);
+    assert_eq!(fmt["format"]["tags"]["title"], "Wet street");
+}
+
+#[test]
+fn damaged_frames_are_warned_about_and_decoding_goes_on() {
+    init_logger();
+    let dir = TempDir::new().unwrap();
+    let input = clip(
+        dir.path(),
+        "in.ts",
+        "160x120",
+        25,
+        2.0,
+        &["-c:v", "libx264", "-pix_fmt", "yuv420p", "-g", "25"],
+    );
+    let mut bytes = std::fs::read(&input).unwrap();
+    let n = bytes.len();
+    for b in &mut bytes[n / 2..n / 2 + 3000] {
+        *b = b.wrapping_mul(7).wrapping_add(13);
+    }
+    let damaged = dir.path().join("damaged.ts");
+    std::fs::write(&damaged, &bytes).unwrap();
+    let out = dir.path().join("out.mkv");
+    transcode(&damaged, &out, &ffv1());
+    let frames = frame_times(&out).len();
+    assert!((40..=50).contains(&frames), "{frames} frames");
+    let warnings = my_warnings();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("damaged") && w.contains("frame")),
+        "{warnings:?}"
+    );
 }
 
 #[test]
@@ -570,7 +766,15 @@ fn a_truncated_mp4_is_corrupt_input() {
     // With the index up front, the first half still decodes, with a warning.
     init_logger();
     let fast = dir.path().join("fast.mp4");
-    ffmpeg(&["-i", s(&input), "-c", "copy", "-movflags", "+faststart", s(&fast)]);
+    ffmpeg(&[
+        "-i",
+        s(&input),
+        "-c",
+        "copy",
+        "-movflags",
+        "+faststart",
+        s(&fast),
+    ]);
     let bytes = std::fs::read(&fast).unwrap();
     let cut = dir.path().join("fastcut.mp4");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
@@ -628,9 +832,13 @@ fn unwritable_output_is_an_output_error() {
     let blocker = dir.path().join("blocker");
     std::fs::write(&blocker, b"").unwrap();
     let src = Source::open(s(&input)).unwrap();
-    let err = Sink::create(s(&blocker.join("out.mp4")), src.info(), &EncodeOptions::default())
-        .err()
-        .unwrap();
+    let err = Sink::create(
+        s(&blocker.join("out.mp4")),
+        src.info(),
+        &EncodeOptions::default(),
+    )
+    .err()
+    .unwrap();
     assert!(matches!(err, Error::OutputWrite { .. }), "{err}");
     assert_eq!(files_in(dir.path()), vec!["blocker", "in.mp4"]);
 }
@@ -704,7 +912,10 @@ fn check_seeks(path: &Path, times: &[f64], indices: &[u64]) {
     }
     let last = all.last().unwrap();
     let beyond = (last.pts - info.start_pts) as f64 * spt + 0.5;
-    assert!(matches!(src.seek_to_time(beyond), Err(Error::OutOfRange(_))));
+    assert!(matches!(
+        src.seek_to_time(beyond),
+        Err(Error::OutOfRange(_))
+    ));
     assert!(matches!(
         src.frame_at_index(all.len() as u64),
         Err(Error::OutOfRange(_))
@@ -740,7 +951,12 @@ fn seeking_matches_a_full_decode() {
 #[test]
 fn seeking_a_variable_rate_clip_matches_a_full_decode() {
     let dir = TempDir::new().unwrap();
-    let mut args = vec!["-vf", "setpts='if(lt(N,15),N,N+20)/25/TB'", "-fps_mode", "passthrough"];
+    let mut args = vec![
+        "-vf",
+        "setpts='if(lt(N,15),N,N+20)/25/TB'",
+        "-fps_mode",
+        "passthrough",
+    ];
     args.extend(GOP10);
     let input = clip(dir.path(), "in.mkv", "160x120", 25, 1.2, &args);
     check_seeks(&input, &[0.3, 0.7, 1.0, 1.5], &[0, 14, 15, 16, 29]);
@@ -808,7 +1024,10 @@ fn rgb_sources_become_full_range_bt709() {
     ]);
     let src = Source::open(s(&path)).unwrap();
     let info = src.info().clone();
-    assert_eq!((info.format.chroma, info.format.bit_depth), (Chroma::Cs444, 8));
+    assert_eq!(
+        (info.format.chroma, info.format.bit_depth),
+        (Chroma::Cs444, 8)
+    );
     assert_eq!(info.color.matrix, Matrix::Bt709);
     assert!(info.color.full_range);
     let f = decode_all(&path).remove(0);
@@ -816,7 +1035,17 @@ fn rgb_sources_become_full_range_bt709() {
     let linear = info.color.code_to_linear(code);
     // The RGB the file holds (lavfi's colour source rounds through YUV on the way).
     let rgb = std::process::Command::new("ffmpeg")
-        .args(["-v", "error", "-i", s(&path), "-frames:v", "1", "-f", "rawvideo", "-"])
+        .args([
+            "-v",
+            "error",
+            "-i",
+            s(&path),
+            "-frames:v",
+            "1",
+            "-f",
+            "rawvideo",
+            "-",
+        ])
         .output()
         .unwrap()
         .stdout;
@@ -851,7 +1080,10 @@ fn probe_reports_streams_and_plans() {
     let text = r.to_string();
     assert!(text.contains("opus") && text.contains("→ copy"), "{text}");
     let r = probe(s(&input), Some("y4m")).unwrap();
-    assert!(matches!(r.video.streams[1].action, Some(StreamAction::Drop(_))));
+    assert!(matches!(
+        r.video.streams[1].action,
+        Some(StreamAction::Drop(_))
+    ));
 }
 
 #[test]

@@ -52,9 +52,10 @@ impl AacTranscoder {
             .map_err(Error::ffmpeg("reading the audio stream parameters"))?
             .decoder();
         dec.set_packet_time_base(in_tb);
-        let decoder = dec
-            .audio()
-            .map_err(Error::ffmpeg(format!("opening the {} decoder", params.id().name())))?;
+        let decoder = dec.audio().map_err(Error::ffmpeg(format!(
+            "opening the {} decoder",
+            params.id().name()
+        )))?;
         let rate = decoder.rate();
         let channels = i32::from(decoder.channels()).max(1);
         let layout = Some(decoder.channel_layout())
@@ -63,7 +64,9 @@ impl AacTranscoder {
 
         let codec = ff::encoder::find(ff::codec::Id::AAC)
             .ok_or_else(|| Error::Unsupported("this FFmpeg build has no AAC encoder".into()))?;
-        let mut enc = ff::codec::Context::new_with_codec(codec).encoder().audio()
+        let mut enc = ff::codec::Context::new_with_codec(codec)
+            .encoder()
+            .audio()
             .map_err(Error::ffmpeg("creating the AAC encoder"))?;
         enc.set_rate(rate as i32);
         enc.set_channel_layout(layout);
@@ -111,9 +114,16 @@ impl AacTranscoder {
     }
 
     /// Decodes one packet and writes whatever complete AAC frames result.
-    pub fn push(&mut self, packet: &ff::Packet, octx: &mut ff::format::context::Output) -> Result<()> {
+    pub fn push(
+        &mut self,
+        packet: &ff::Packet,
+        octx: &mut ff::format::context::Output,
+    ) -> Result<()> {
         if let Err(e) = self.decoder.send_packet(packet) {
-            log::warn!("audio packet at pts {:?} could not be decoded: {e}", packet.pts());
+            log::warn!(
+                "audio packet at pts {:?} could not be decoded: {e}",
+                packet.pts()
+            );
             return Ok(());
         }
         self.drain_decoder(octx)

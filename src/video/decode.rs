@@ -32,7 +32,9 @@ impl CopiedPacket {
 
     /// Presentation time in seconds, when the packet has one.
     pub fn time_s(&self) -> Option<f64> {
-        self.packet.pts().map(|p| p as f64 * f64::from(self.time_base))
+        self.packet
+            .pts()
+            .map(|p| p as f64 * f64::from(self.time_base))
     }
 }
 
@@ -159,7 +161,11 @@ impl Source {
             info: None,
         };
         let vfr_by_scan = source.read_ahead()?;
-        while !source.ready.iter().any(|i| matches!(i, SourceItem::Frame(_))) {
+        while !source
+            .ready
+            .iter()
+            .any(|i| matches!(i, SourceItem::Frame(_)))
+        {
             if !source.pump()? {
                 break;
             }
@@ -261,9 +267,7 @@ impl Source {
             }
             log::warn!("frame timestamps are not evenly spaced; counting frames from the start");
         }
-        let pts = self
-            .scan_pts_of_index(n)?
-            .ok_or_else(out_of_range)?;
+        let pts = self.scan_pts_of_index(n)?.ok_or_else(out_of_range)?;
         let frame = self.seek_to_pts(pts)?;
         Ok(self.renumber(frame, n))
     }
@@ -382,6 +386,13 @@ impl Source {
     }
 
     fn send_video(&mut self, packet: &ff::Packet) -> Result<()> {
+        if packet.is_corrupt() {
+            log::warn!(
+                "'{}': damaged video packet near frame {}",
+                self.path,
+                self.next_index
+            );
+        }
         for _ in 0..2 {
             match self.decoder.send_packet(packet) {
                 Ok(()) => return self.drain(),
@@ -451,16 +462,16 @@ impl Source {
         }
         let direct = layout.direct
             && same_size
-            && pixfmt::layout_of(pixel).map(|l| (l.0, l.1)) == Some((format.chroma, format.bit_depth))
+            && pixfmt::layout_of(pixel).map(|l| (l.0, l.1))
+                == Some((format.chroma, format.bit_depth))
             && super::ffi::strides_positive(&self.raw);
         let planes = if direct {
             pixfmt::planes_from_av(&self.raw, &format)
         } else {
             let key = (pixel, w, h);
             if self.converter.as_ref().map(|c| c.0) != Some(key) {
-                let target = pixfmt::pixel_of(&format).ok_or_else(|| {
-                    Error::Unsupported(format!("{}-bit video", format.bit_depth))
-                })?;
+                let target = pixfmt::pixel_of(&format)
+                    .ok_or_else(|| Error::Unsupported(format!("{}-bit video", format.bit_depth)))?;
                 // YUV → YUV: the same matrix and range on both sides, so samples are only
                 // rearranged. RGB: converted with the matrix and range `color` states.
                 let src = (color.matrix, color.full_range);
@@ -519,7 +530,12 @@ impl Source {
             }
         } else {
             // Grey formats are full range in FFmpeg's convention unless tagged otherwise.
-            info::color_params(&tags, format.height, format.bit_depth, layout.jpeg || layout.gray)
+            info::color_params(
+                &tags,
+                format.height,
+                format.bit_depth,
+                layout.jpeg || layout.gray,
+            )
         };
         Ok((layout, format, color))
     }
@@ -547,7 +563,10 @@ impl Source {
 
     fn build_info(&self, first_pts: i64, vfr_by_scan: bool) -> VideoInfo {
         let (layout, format, color) = self.layout.expect("a frame was decoded");
-        let stream = self.input.stream(self.video).expect("the video stream exists");
+        let stream = self
+            .input
+            .stream(self.video)
+            .expect("the video stream exists");
         let mut tags = self.frame_tags();
         if layout.rgb {
             tags.matrix = ff::color::Space::BT709;
@@ -594,7 +613,11 @@ impl Source {
             pixel_format: pixfmt::pixel_name(self.decoder.format()),
             video_stream: self.video,
             metadata: info::dict_pairs(&self.input.metadata()),
-            streams: self.input.streams().map(|s| info::stream_info(&s)).collect(),
+            streams: self
+                .input
+                .streams()
+                .map(|s| info::stream_info(&s))
+                .collect(),
         }
     }
 
@@ -729,13 +752,16 @@ impl Source {
         }
         Ok(sorted)
     }
-
 }
 
 /// Whether sorted frame intervals vary by more than timestamp rounding (2 ticks or 1 %).
 fn timestamps_vary(pts: &mut [i64]) -> bool {
     pts.sort_unstable();
-    let deltas: Vec<i64> = pts.windows(2).map(|w| w[1] - w[0]).filter(|&d| d > 0).collect();
+    let deltas: Vec<i64> = pts
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|&d| d > 0)
+        .collect();
     let (Some(&min), Some(&max)) = (deltas.iter().min(), deltas.iter().max()) else {
         return false;
     };
@@ -778,7 +804,9 @@ mod tests {
     #[test]
     fn rounding_jitter_is_not_variable_rate() {
         // 29.97 fps in a 1/1000 time base: 33/34 ms alternate.
-        let mut pts: Vec<i64> = (0..100).map(|i| (i as f64 * 1000.0 / 29.97).round() as i64).collect();
+        let mut pts: Vec<i64> = (0..100)
+            .map(|i| (i as f64 * 1000.0 / 29.97).round() as i64)
+            .collect();
         assert!(!timestamps_vary(&mut pts));
         let mut gap: Vec<i64> = (0..10).map(|i| i * 40).chain([1000, 1040]).collect();
         assert!(timestamps_vary(&mut gap));

@@ -110,12 +110,13 @@ pub fn output_format(output: &str, container: Option<&str>) -> Result<ff::format
     ffi::guess_output_format(name, file)
         .or_else(|| name.and_then(|n| ffi::guess_output_format(None, Some(&format!("x.{n}")))))
         .ok_or_else(|| Error::Parameter {
-        name: "--format",
-        value: name.unwrap_or(output).to_owned(),
-        expected: "a container FFmpeg can write (mp4, mov, mkv, webm, nut, y4m…), given by the \
+            name: "--format",
+            value: name.unwrap_or(output).to_owned(),
+            expected:
+                "a container FFmpeg can write (mp4, mov, mkv, webm, nut, y4m…), given by the \
                    output's extension or by name"
-            .into(),
-    })
+                    .into(),
+        })
 }
 
 /// Decides, for each of `info.streams` (same order), what an output in `ofmt` does with it.
@@ -284,15 +285,20 @@ impl Sink {
                 }
                 StreamAction::Drop(reason) => {
                     if reason != "audio disabled" {
-                        log::warn!("dropping {:?} stream #{} ({}): {reason}", s.kind, s.index, s.codec);
+                        log::warn!(
+                            "dropping {:?} stream #{} ({}): {reason}",
+                            s.kind,
+                            s.index,
+                            s.codec
+                        );
                     }
                 }
             }
         }
 
         octx.set_metadata(dictionary(&info.metadata, &["encoder"]));
-        let mp4_family = ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"]
-            .contains(&muxer.as_str());
+        let mp4_family =
+            ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"].contains(&muxer.as_str());
         let mut header_opts = ff::Dictionary::new();
         if mp4_family {
             // A file gets its index up front (web playback); a pipe cannot seek back, so it
@@ -413,10 +419,12 @@ impl Sink {
                 packet.rescale_ts(*ist_tb, *ost_tb);
                 packet.set_position(-1);
                 packet.set_stream(*ost);
-                packet.write_interleaved(octx).map_err(|e| Error::OutputWrite {
-                    path: self.output.clone(),
-                    reason: format!("copying a packet of stream #{}: {e}", index),
-                })
+                packet
+                    .write_interleaved(octx)
+                    .map_err(|e| Error::OutputWrite {
+                        path: self.output.clone(),
+                        reason: format!("copying a packet of stream #{}: {e}", index),
+                    })
             }
             Route::Aac(t) => t.push(&p.packet, octx),
         }
@@ -530,7 +538,8 @@ fn temp_path(output: &Path) -> PathBuf {
 }
 
 fn stream_tb(octx: &ff::format::context::Output, index: usize) -> Rational {
-    octx.stream(index).map_or(Rational::new(1, 1), |s| s.time_base())
+    octx.stream(index)
+        .map_or(Rational::new(1, 1), |s| s.time_base())
 }
 
 fn dictionary(pairs: &[(String, String)], skip: &[&str]) -> ff::Dictionary<'static> {
@@ -668,7 +677,8 @@ fn open_video(
     if let Some(m) = &info.display_matrix
         && info.rotation_deg != 0
     {
-        const ROTATION_MUXERS: [&str; 8] = ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"];
+        const ROTATION_MUXERS: [&str; 8] =
+            ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"];
         if ROTATION_MUXERS.contains(&muxer.as_str()) {
             if !ffi::set_display_matrix(&mut ost, m) {
                 log::warn!("could not attach the display rotation to the output");

@@ -129,11 +129,13 @@ pub(crate) fn guess_output_format(
 }
 
 /// Whether a muxer can hold a codec: `Some(true/false)`, or `None` when the muxer does not say.
-pub(crate) fn muxer_accepts(fmt: &ff::format::format::Output, codec: ff::codec::Id) -> Option<bool> {
+pub(crate) fn muxer_accepts(
+    fmt: &ff::format::format::Output,
+    codec: ff::codec::Id,
+) -> Option<bool> {
     // SAFETY: `fmt` wraps a static AVOutputFormat; the call only reads it.
-    let r = unsafe {
-        ffi::avformat_query_codec(fmt.as_ptr(), codec.into(), ffi::FF_COMPLIANCE_NORMAL)
-    };
+    let r =
+        unsafe { ffi::avformat_query_codec(fmt.as_ptr(), codec.into(), ffi::FF_COMPLIANCE_NORMAL) };
     match r {
         1.. => Some(true),
         0 => Some(false),
@@ -143,7 +145,10 @@ pub(crate) fn muxer_accepts(fmt: &ff::format::format::Output, codec: ff::codec::
 
 /// Attaches a display matrix to an output stream (before the header is written), which is how
 /// the MP4/MOV muxers learn the display rotation in FFmpeg 5.1.
-pub(crate) fn set_display_matrix(stream: &mut ff::format::stream::StreamMut, matrix: &[i32; 9]) -> bool {
+pub(crate) fn set_display_matrix(
+    stream: &mut ff::format::stream::StreamMut,
+    matrix: &[i32; 9],
+) -> bool {
     // SAFETY: the stream belongs to an output context whose header is not written yet;
     // `av_stream_new_side_data` allocates 36 bytes owned by the stream (or returns null),
     // into which we copy exactly 9 i32s.
@@ -156,14 +161,21 @@ pub(crate) fn set_display_matrix(stream: &mut ff::format::stream::StreamMut, mat
         if data.is_null() {
             return false;
         }
-        ptr::copy_nonoverlapping(matrix.as_ptr() as *const u8, data, std::mem::size_of_val(matrix));
+        ptr::copy_nonoverlapping(
+            matrix.as_ptr() as *const u8,
+            data,
+            std::mem::size_of_val(matrix),
+        );
         true
     }
 }
 
 /// Clears the codec tag of a stream-copied output stream (the input container's fourcc may not
 /// exist in the output container; the muxer picks its own) and copies the input disposition.
-pub(crate) fn prepare_copied_stream(stream: &mut ff::format::stream::StreamMut, disposition: c_int) {
+pub(crate) fn prepare_copied_stream(
+    stream: &mut ff::format::stream::StreamMut,
+    disposition: c_int,
+) {
     // SAFETY: a freshly added output stream always has an allocated `codecpar`.
     unsafe {
         let st = stream.as_mut_ptr();
@@ -199,7 +211,9 @@ pub(crate) fn probe_content(head: &[u8]) -> Option<(String, i32)> {
         return None;
     }
     // SAFETY: non-null static AVInputFormat.
-    let name = unsafe { ff::format::format::Input::wrap(fmt as *mut _) }.name().to_owned();
+    let name = unsafe { ff::format::format::Input::wrap(fmt as *mut _) }
+        .name()
+        .to_owned();
     Some((name, score))
 }
 

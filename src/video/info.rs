@@ -57,7 +57,12 @@ impl Serialize for ColorTags {
 /// The numerical interpretation of a YUV source's tags. Unspecified tags follow the players'
 /// heuristic: BT.709 at heights ≥ 720, else BT.601; limited range unless the format is a
 /// `yuvj*` one (or grey, which FFmpeg treats as full range); BT.709 transfer.
-pub fn color_params(tags: &ColorTags, height: u32, bit_depth: u8, full_range_alias: bool) -> ColorParams {
+pub fn color_params(
+    tags: &ColorTags,
+    height: u32,
+    bit_depth: u8,
+    full_range_alias: bool,
+) -> ColorParams {
     use color::Space as S;
     use color::TransferCharacteristic as T;
     let heuristic = if height >= 720 {
@@ -319,7 +324,9 @@ pub(crate) fn display_matrix(stream: &ff::format::stream::Stream) -> Option<[i32
 
 /// A dictionary as owned pairs.
 pub(crate) fn dict_pairs(d: &ff::DictionaryRef) -> Vec<(String, String)> {
-    d.iter().map(|(k, v)| (k.to_owned(), v.to_owned())).collect()
+    d.iter()
+        .map(|(k, v)| (k.to_owned(), v.to_owned()))
+        .collect()
 }
 
 /// Describes a stream for humans and builds its [`StreamInfo`] (action left unplanned).

@@ -16,7 +16,9 @@ pub mod probe;
 
 pub use color::{ColorParams, Matrix, Transfer};
 pub use decode::{CopiedPacket, Source, SourceItem, init, set_ffmpeg_log_level};
-pub use encode::{AudioMode, EncodeOptions, Sink, VideoCodec, check_output, output_format, plan_streams};
+pub use encode::{
+    AudioMode, EncodeOptions, Sink, VideoCodec, check_output, output_format, plan_streams,
+};
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
 pub use info::{ColorTags, StreamAction, StreamInfo, StreamKind, VideoInfo};
 pub use pixfmt::RGB_SOURCE_COLOR;

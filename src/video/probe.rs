@@ -64,7 +64,11 @@ impl fmt::Display for ProbeReport {
             Chroma::Cs444 => "4:4:4",
         };
         let (num, den) = v.avg_frame_rate;
-        let fps = if den > 0 { num as f64 / den as f64 } else { 0.0 };
+        let fps = if den > 0 {
+            num as f64 / den as f64
+        } else {
+            0.0
+        };
         writeln!(
             f,
             "  video: {} {}x{} {} → {chroma} {}-bit; {:?} {} range, {:?} transfer",
@@ -74,15 +78,26 @@ impl fmt::Display for ProbeReport {
             v.pixel_format,
             v.format.bit_depth,
             v.color.matrix,
-            if v.color.full_range { "full" } else { "limited" },
+            if v.color.full_range {
+                "full"
+            } else {
+                "limited"
+            },
             v.color.transfer,
         )?;
         let [m, r, p, t] = v.tags.names();
-        writeln!(f, "  tags: matrix {m}, range {r}, primaries {p}, transfer {t}")?;
+        writeln!(
+            f,
+            "  tags: matrix {m}, range {r}, primaries {p}, transfer {t}"
+        )?;
         write!(
             f,
             "  timing: {fps:.3} fps {} (r_frame_rate {}/{}), time base {}/{}",
-            if v.variable_frame_rate { "variable" } else { "constant" },
+            if v.variable_frame_rate {
+                "variable"
+            } else {
+                "constant"
+            },
             v.frame_rate.0,
             v.frame_rate.1,
             v.time_base.0,
@@ -93,7 +108,11 @@ impl fmt::Display for ProbeReport {
         }
         writeln!(f)?;
         if v.rotation_deg != 0 {
-            writeln!(f, "  display rotation: {}° counter-clockwise", v.rotation_deg)?;
+            writeln!(
+                f,
+                "  display rotation: {}° counter-clockwise",
+                v.rotation_deg
+            )?;
         }
         for s in &v.streams {
             write!(f, "  #{} {:?}: {}", s.index, s.kind, s.codec)?;

@@ -61,8 +61,13 @@ pub fn stream(path: &Path, kind: &str) -> serde_json::Value {
 /// The four colour tags of the video stream as ffprobe prints them.
 pub fn color_tags(path: &Path) -> [String; 4] {
     let s = stream(path, "v:0");
-    ["color_space", "color_range", "color_primaries", "color_transfer"]
-        .map(|k| s[k].as_str().unwrap_or("unknown").to_owned())
+    [
+        "color_space",
+        "color_range",
+        "color_primaries",
+        "color_transfer",
+    ]
+    .map(|k| s[k].as_str().unwrap_or("unknown").to_owned())
 }
 
 /// Per-frame MD5s of the decoded frames of one stream (`"0:v:0"`, `"0:a:0"`), in order, with
@@ -100,7 +105,13 @@ pub fn frame_times(path: &Path) -> Vec<f64> {
         .as_array()
         .expect("frames")
         .iter()
-        .map(|f| f["pts_time"].as_str().expect("pts_time").parse().expect("number"))
+        .map(|f| {
+            f["pts_time"]
+                .as_str()
+                .expect("pts_time")
+                .parse()
+                .expect("number")
+        })
         .collect()
 }
 
@@ -143,7 +154,13 @@ pub fn clip(dir: &Path, name: &str, size: &str, rate: u32, secs: f64, vargs: &[&
 
 /// A clip with a sine-wave audio track: `vargs` for the video, `aargs` for the audio (and any
 /// extra output options).
-pub fn clip_with_audio(dir: &Path, name: &str, secs: f64, vargs: &[&str], aargs: &[&str]) -> PathBuf {
+pub fn clip_with_audio(
+    dir: &Path,
+    name: &str,
+    secs: f64,
+    vargs: &[&str],
+    aargs: &[&str],
+) -> PathBuf {
     let path = dir.join(name);
     let v = format!("testsrc2=s=160x120:r=25:d={secs}");
     let a = format!("sine=frequency=440:sample_rate=48000:duration={secs}");
