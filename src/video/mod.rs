@@ -1,7 +1,26 @@
 //! Video in and out through FFmpeg: demux and decode, encode and mux, colour, probing.
+//!
+//! [`Source`] turns an input (file or stdin) into [`YuvFrame`]s in one of the planar layouts of
+//! [`frame`] plus the packets of the other streams; [`Sink`] encodes frames with the input's
+//! timestamps, colour tags and rotation and copies those packets; [`probe`] describes an input
+//! without decoding it all.
+mod audio;
 pub mod color;
+pub mod decode;
+pub mod encode;
+mod ffi;
 pub mod frame;
+pub mod info;
+pub mod pixfmt;
+pub mod probe;
+pub mod still;
 
 pub use color::{ColorParams, Matrix, Transfer};
+pub use decode::{CopiedPacket, Source, SourceItem, init, set_ffmpeg_log_level};
+pub use encode::{
+    AudioMode, EncodeOptions, Sink, VideoCodec, check_output, output_format, plan_streams,
+};
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
-pub mod still;
+pub use info::{ColorTags, StreamAction, StreamInfo, StreamKind, VideoInfo};
+pub use pixfmt::RGB_SOURCE_COLOR;
+pub use probe::{ProbeReport, probe};

@@ -1,0 +1,771 @@
+//! Encode and mux: the [`Sink`] takes rendered frames and the other streams' packets and writes
+//! the output file (or stdout) with the input's timing, colour tags, rotation and metadata.
+//!
+//! How it works: [`Sink::create`] plans every input stream ([`plan_streams`]: render, copy,
+//! AAC fallback or drop), opens the video encoder with the input stream's time base (so each
+//! frame's pts passes through unchanged, CFR or VFR), adds the copied streams, and writes the
+//! header, all into a hidden temporary file beside the output. [`Sink::finish`] flushes and
+//! renames it onto the output; dropping an unfinished sink deletes it, so a failed or
+//! interrupted job never leaves a half-written output.
+
+use std::path::{Path, PathBuf};
+
+use ffmpeg_next::format::Pixel;
+use ffmpeg_next::{self as ff, Rational};
+
+use super::audio::AacTranscoder;
+use super::decode::{CopiedPacket, init};
+use super::ffi;
+use super::info::{StreamAction, StreamKind, VideoInfo};
+use super::pixfmt::{self, Converter};
+use super::{Chroma, FrameFormat, YuvFrame};
+use crate::{Error, Result};
+
+/// The video encoder of the output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub enum VideoCodec {
+    /// H.264 through libx264 (`crf`, `preset`).
+    #[default]
+    H264,
+    /// HEVC through libx265 (`crf`, `preset`).
+    Hevc,
+    /// Apple ProRes through prores_ks (4:2:2 or 4:4:4, 10-bit), for editing.
+    ProRes,
+    /// FFV1, lossless.
+    Ffv1,
+}
+
+impl VideoCodec {
+    /// FFmpeg's encoder name.
+    pub fn encoder_name(self) -> &'static str {
+        match self {
+            VideoCodec::H264 => "libx264",
+            VideoCodec::Hevc => "libx265",
+            VideoCodec::ProRes => "prores_ks",
+            VideoCodec::Ffv1 => "ffv1",
+        }
+    }
+
+    /// Parses `h264|libx264`, `hevc|h265|libx265`, `prores|prores_ks`, `ffv1`.
+    pub fn from_name(name: &str) -> Option<VideoCodec> {
+        Some(match name.to_ascii_lowercase().as_str() {
+            "h264" | "libx264" | "avc" => VideoCodec::H264,
+            "hevc" | "h265" | "libx265" => VideoCodec::Hevc,
+            "prores" | "prores_ks" => VideoCodec::ProRes,
+            "ffv1" => VideoCodec::Ffv1,
+            _ => return None,
+        })
+    }
+}
+
+/// What happens to the input's audio.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub enum AudioMode {
+    /// Copied bit for bit; AAC when the container cannot hold the codec.
+    #[default]
+    Copy,
+    /// No audio in the output.
+    None,
+}
+
+/// How to write the output.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct EncodeOptions {
+    /// Video encoder.
+    pub codec: VideoCodec,
+    /// Constant rate factor for libx264/libx265 (lower = better; 18 ≈ visually lossless).
+    pub crf: u8,
+    /// libx264/libx265 speed preset (`"medium"`).
+    pub preset: String,
+    /// Muxer name overriding the output's extension (`"matroska"`, `"nut"`, `"mp4"`,
+    /// `"yuv4mpegpipe"`); stdout defaults to `yuv4mpegpipe`.
+    pub container: Option<String>,
+    /// Audio handling.
+    pub audio: AudioMode,
+    /// Replace an existing output.
+    pub overwrite: bool,
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions {
+            codec: VideoCodec::H264,
+            crf: 18,
+            preset: "medium".into(),
+            container: None,
+            audio: AudioMode::Copy,
+            overwrite: false,
+        }
+    }
+}
+
+/// The muxer y4m output goes through.
+const Y4M: &str = "yuv4mpegpipe";
+
+/// The muxer for an output path (`"-"` = stdout) and an optional override.
+pub fn output_format(output: &str, container: Option<&str>) -> Result<ff::format::format::Output> {
+    init();
+    let name = container.or((output == "-").then_some(Y4M));
+    let file = (output != "-").then_some(output);
+    ffi::guess_output_format(name, file)
+        .or_else(|| name.and_then(|n| ffi::guess_output_format(None, Some(&format!("x.{n}")))))
+        .ok_or_else(|| Error::Parameter {
+            name: "--format",
+            value: name.unwrap_or(output).to_owned(),
+            expected:
+                "a container FFmpeg can write (mp4, mov, mkv, webm, nut, y4m…), given by the \
+                   output's extension or by name"
+                    .into(),
+        })
+}
+
+/// Decides, for each of `info.streams` (same order), what an output in `ofmt` does with it.
+pub fn plan_streams(
+    info: &VideoInfo,
+    ofmt: &ff::format::format::Output,
+    opts: &EncodeOptions,
+) -> Vec<StreamAction> {
+    let muxer = ofmt.name().to_owned();
+    info.streams
+        .iter()
+        .map(|s| {
+            if s.index == info.video_stream {
+                return StreamAction::Render;
+            }
+            if muxer == Y4M {
+                return StreamAction::Drop(format!("{Y4M} carries one video stream only"));
+            }
+            let id = s.params.0.id();
+            if id == ff::codec::Id::None {
+                return StreamAction::Drop(format!("{:?} stream of unknown codec", s.kind));
+            }
+            let accepts = ffi::muxer_accepts(ofmt, id);
+            match s.kind {
+                StreamKind::Video => {
+                    StreamAction::Drop("only the main video stream is rendered".into())
+                }
+                StreamKind::Audio if opts.audio == AudioMode::None => {
+                    StreamAction::Drop("audio disabled".into())
+                }
+                StreamKind::Audio => match accepts {
+                    Some(false) if ffi::muxer_accepts(ofmt, ff::codec::Id::AAC) != Some(false) => {
+                        StreamAction::TranscodeAac
+                    }
+                    Some(false) => StreamAction::Drop(format!("{muxer} cannot hold {}", s.codec)),
+                    _ => StreamAction::Copy,
+                },
+                StreamKind::Subtitle | StreamKind::Attachment => match accepts {
+                    Some(false) => StreamAction::Drop(format!("{muxer} cannot hold {}", s.codec)),
+                    _ => StreamAction::Copy,
+                },
+                StreamKind::Data | StreamKind::Unknown => match accepts {
+                    Some(true) => StreamAction::Copy,
+                    _ => StreamAction::Drop(format!("{muxer} cannot hold {} data", s.codec)),
+                },
+            }
+        })
+        .collect()
+}
+
+/// Refuses an existing output unless `overwrite`, before any work is done. `"-"` is stdout.
+pub fn check_output(output: &str, overwrite: bool) -> Result<()> {
+    if output != "-" && !overwrite && Path::new(output).exists() {
+        return Err(Error::OutputExists(PathBuf::from(output)));
+    }
+    Ok(())
+}
+
+/// Where a copied or transcoded input stream goes.
+enum Route {
+    Copy {
+        ost: usize,
+        ist_tb: Rational,
+        ost_tb: Rational,
+    },
+    Aac(Box<AacTranscoder>),
+}
+
+/// The video encoder and its conversions.
+struct VideoOut {
+    encoder: ff::encoder::video::Encoder,
+    ost: usize,
+    enc_tb: Rational,
+    ost_tb: Rational,
+    /// The layout frames arrive in.
+    format: FrameFormat,
+    in_pixel: Pixel,
+    /// Layout change for an encoder that does not take the input's layout.
+    converter: Option<Converter>,
+    enc_pixel: Pixel,
+    /// y4m: constant rate, pts = frame counter.
+    y4m: bool,
+    frames: i64,
+    last_pts: Option<i64>,
+    warned_pts: bool,
+}
+
+/// The encoding side of a job. `Send`: the pipeline may run it on its own thread.
+pub struct Sink {
+    octx: Option<ff::format::context::Output>,
+    output: String,
+    temp: Option<PathBuf>,
+    video: VideoOut,
+    routes: Vec<Option<Route>>,
+    info_tags: super::info::ColorTags,
+    finished: bool,
+}
+
+impl Sink {
+    /// Creates the output (`"-"` = stdout) for frames shaped like `info` says, and writes its
+    /// header into a temporary file beside it.
+    pub fn create(output: &str, info: &VideoInfo, opts: &EncodeOptions) -> Result<Sink> {
+        init();
+        check_output(output, opts.overwrite)?;
+        let ofmt = output_format(output, opts.container.as_deref())?;
+        let muxer = ofmt.name().to_owned();
+        let plan = plan_streams(info, &ofmt, opts);
+        let write_err = |reason: String| Error::OutputWrite {
+            path: output.to_owned(),
+            reason,
+        };
+
+        let temp = (output != "-").then(|| temp_path(Path::new(output)));
+        let url = match &temp {
+            Some(t) => t.to_string_lossy().into_owned(),
+            None => "pipe:1".to_owned(),
+        };
+        let octx = ff::format::output_as(&url, &muxer).map_err(|e| write_err(e.to_string()))?;
+        // From here on the temporary file exists: the guard removes it on any error.
+        let mut guard = TempGuard {
+            octx: Some(octx),
+            temp,
+        };
+        let octx = guard.octx.as_mut().expect("set above");
+        let global_header = octx
+            .format()
+            .flags()
+            .contains(ff::format::Flags::GLOBAL_HEADER);
+
+        let video = open_video(octx, info, opts, &ofmt, global_header)?;
+
+        let mut routes: Vec<Option<Route>> = Vec::new();
+        for (s, action) in info.streams.iter().zip(&plan) {
+            if routes.len() <= s.index {
+                routes.resize_with(s.index + 1, || None);
+            }
+            let ist_tb = Rational::new(s.time_base.0, s.time_base.1);
+            match action {
+                StreamAction::Render => {}
+                StreamAction::Copy => {
+                    let mut ost = octx
+                        .add_stream(ff::encoder::find(ff::codec::Id::None))
+                        .map_err(Error::ffmpeg("adding an output stream"))?;
+                    ost.set_parameters(s.params.0.clone());
+                    ffi::prepare_copied_stream(&mut ost, s.disposition);
+                    ost.set_time_base(ist_tb);
+                    ost.set_metadata(dictionary(&s.metadata, &[]));
+                    routes[s.index] = Some(Route::Copy {
+                        ost: ost.index(),
+                        ist_tb,
+                        ost_tb: ist_tb,
+                    });
+                }
+                StreamAction::TranscodeAac => {
+                    log::warn!(
+                        "the {muxer} container cannot hold {} audio (stream #{}); \
+                         re-encoding it as AAC (use .mkv or .mov to keep it unchanged)",
+                        s.codec,
+                        s.index
+                    );
+                    let t = AacTranscoder::new(octx, &s.params.0, ist_tb, global_header, output)?;
+                    if let Some(mut ost) = octx.stream_mut(t.output_index()) {
+                        ost.set_metadata(dictionary(&s.metadata, &[]));
+                    }
+                    routes[s.index] = Some(Route::Aac(Box::new(t)));
+                }
+                StreamAction::Drop(reason) => {
+                    if reason != "audio disabled" {
+                        log::warn!(
+                            "dropping {:?} stream #{} ({}): {reason}",
+                            s.kind,
+                            s.index,
+                            s.codec
+                        );
+                    }
+                }
+            }
+        }
+
+        octx.set_metadata(dictionary(&info.metadata, &["encoder"]));
+        let mp4_family =
+            ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"].contains(&muxer.as_str());
+        let mut header_opts = ff::Dictionary::new();
+        if mp4_family {
+            // A file gets its index up front (web playback); a pipe cannot seek back, so it
+            // gets a fragmented file instead.
+            let flags = if output == "-" {
+                "frag_keyframe+empty_moov+default_base_moof"
+            } else {
+                "+faststart"
+            };
+            header_opts.set("movflags", flags);
+        }
+        if muxer == Y4M && (info.format.bit_depth > 8) {
+            // FFmpeg calls high-depth y4m "unofficial" but writes it (rav1e, x264 read it).
+            header_opts.set("strict", "unofficial");
+        }
+        octx.write_header_with(header_opts)
+            .map_err(|e| write_err(format!("writing the {muxer} header: {e}")))?;
+
+        // The muxer may have changed the time bases it was offered.
+        let mut video = video;
+        video.ost_tb = stream_tb(octx, video.ost);
+        for route in routes.iter_mut().flatten() {
+            match route {
+                Route::Copy { ost, ost_tb, .. } => *ost_tb = stream_tb(octx, *ost),
+                Route::Aac(t) => t.set_output_time_base(stream_tb(octx, t.output_index())),
+            }
+        }
+
+        let (octx, temp) = guard.disarm();
+        Ok(Sink {
+            octx: Some(octx),
+            output: output.to_owned(),
+            temp,
+            video,
+            routes,
+            info_tags: info.tags,
+            finished: false,
+        })
+    }
+
+    /// The hidden temporary file being written (`None` for stdout); renamed onto the output by
+    /// [`Sink::finish`], deleted if the sink is dropped unfinished.
+    pub fn temp_path(&self) -> Option<&Path> {
+        self.temp.as_deref()
+    }
+
+    /// Encodes one frame. It must have the layout of the `VideoInfo` the sink was created with;
+    /// its pts (input time base) is passed through.
+    pub fn write_frame(&mut self, frame: &YuvFrame) -> Result<()> {
+        let v = &mut self.video;
+        if frame.format != v.format {
+            return Err(Error::Parameter {
+                name: "frame",
+                value: format!("{:?}", frame.format),
+                expected: format!("the layout the sink was created for, {:?}", v.format),
+            });
+        }
+        // A fresh frame each time: encoders (and the y4m muxer) may keep a reference to it.
+        let mut av = ff::frame::Video::new(v.in_pixel, v.format.width, v.format.height);
+        pixfmt::planes_to_av(frame, &mut av)?;
+        let mut av = match v.converter.as_mut() {
+            Some(c) => {
+                let mut out = ff::frame::Video::new(v.enc_pixel, v.format.width, v.format.height);
+                c.run_into(&av, &mut out)?;
+                out
+            }
+            None => av,
+        };
+        let pts = if v.y4m {
+            v.frames
+        } else {
+            match v.last_pts {
+                Some(last) if frame.pts <= last => {
+                    if !v.warned_pts {
+                        log::warn!(
+                            "frame {} has pts {} after {last}; shifting it to keep time moving \
+                             forward",
+                            frame.index,
+                            frame.pts
+                        );
+                        v.warned_pts = true;
+                    }
+                    last + 1
+                }
+                _ => frame.pts,
+            }
+        };
+        v.last_pts = Some(pts);
+        v.frames += 1;
+        av.set_pts(Some(pts));
+        av.set_kind(ff::picture::Type::None);
+        let tags = self.info_tags;
+        av.set_color_space(tags.matrix);
+        av.set_color_range(tags.range);
+        av.set_color_primaries(tags.primaries);
+        av.set_color_transfer_characteristic(tags.transfer);
+        self.video
+            .encoder
+            .send_frame(&av)
+            .map_err(Error::ffmpeg(format!("encoding frame {}", frame.index)))?;
+        self.drain_video()
+    }
+
+    /// Writes a packet of another stream (copied, transcoded to AAC, or dropped as planned).
+    pub fn write_packet(&mut self, p: CopiedPacket) -> Result<()> {
+        let Some(Some(route)) = self.routes.get_mut(p.stream_index()) else {
+            return Ok(());
+        };
+        let octx = self.octx.as_mut().expect("open until finish");
+        let index = p.stream_index();
+        match route {
+            Route::Copy {
+                ost,
+                ist_tb,
+                ost_tb,
+            } => {
+                let mut packet = p.packet;
+                packet.rescale_ts(*ist_tb, *ost_tb);
+                packet.set_position(-1);
+                packet.set_stream(*ost);
+                packet
+                    .write_interleaved(octx)
+                    .map_err(|e| Error::OutputWrite {
+                        path: self.output.clone(),
+                        reason: format!("copying a packet of stream #{}: {e}", index),
+                    })
+            }
+            Route::Aac(t) => t.push(&p.packet, octx),
+        }
+    }
+
+    /// Flushes the encoders, writes the trailer and renames the temporary file onto the output.
+    pub fn finish(mut self) -> Result<()> {
+        self.video
+            .encoder
+            .send_eof()
+            .map_err(Error::ffmpeg("flushing the video encoder"))?;
+        self.drain_video()?;
+        let octx = self.octx.as_mut().expect("open until finish");
+        for route in self.routes.iter_mut().flatten() {
+            if let Route::Aac(t) = route {
+                t.finish(octx)?;
+            }
+        }
+        octx.write_trailer().map_err(|e| Error::OutputWrite {
+            path: self.output.clone(),
+            reason: format!("finishing the file: {e}"),
+        })?;
+        ffi::flush_io(octx);
+        // Close the file before renaming it.
+        drop(self.octx.take());
+        if let Some(temp) = &self.temp {
+            std::fs::rename(temp, &self.output).map_err(|e| Error::OutputWrite {
+                path: self.output.clone(),
+                reason: format!("renaming the finished temporary file: {e}"),
+            })?;
+        }
+        self.finished = true;
+        Ok(())
+    }
+
+    fn drain_video(&mut self) -> Result<()> {
+        let v = &mut self.video;
+        let octx = self.octx.as_mut().expect("open until finish");
+        let mut packet = ff::Packet::empty();
+        loop {
+            match v.encoder.receive_packet(&mut packet) {
+                Ok(()) => {}
+                Err(ff::Error::Other { errno }) if errno == ff::error::EAGAIN => return Ok(()),
+                Err(ff::Error::Eof) => return Ok(()),
+                Err(e) => return Err(Error::ffmpeg("encoding video")(e)),
+            }
+            packet.set_stream(v.ost);
+            packet.rescale_ts(v.enc_tb, v.ost_tb);
+            packet
+                .write_interleaved(octx)
+                .map_err(|e| Error::OutputWrite {
+                    path: self.output.clone(),
+                    reason: format!("writing video: {e}"),
+                })?;
+        }
+    }
+}
+
+impl Drop for Sink {
+    fn drop(&mut self) {
+        if !self.finished {
+            drop(self.octx.take());
+            if let Some(temp) = &self.temp {
+                let _ = std::fs::remove_file(temp);
+            }
+        }
+    }
+}
+
+/// Removes the temporary file if `Sink::create` fails half-way.
+struct TempGuard {
+    octx: Option<ff::format::context::Output>,
+    temp: Option<PathBuf>,
+}
+
+impl TempGuard {
+    fn disarm(mut self) -> (ff::format::context::Output, Option<PathBuf>) {
+        let octx = self.octx.take().expect("set at creation");
+        (octx, self.temp.take())
+    }
+}
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        drop(self.octx.take());
+        if let Some(temp) = &self.temp {
+            let _ = std::fs::remove_file(temp);
+        }
+    }
+}
+
+/// `.name.rain-<pid>-<n>.ext` in the output's directory: hidden, on the same file system (so
+/// the final rename is atomic), keeping the extension.
+fn temp_path(output: &Path) -> PathBuf {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static COUNTER: AtomicU32 = AtomicU32::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "output".into());
+    let ext = output
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let name = format!(".{stem}.rain-{}-{n}{ext}", std::process::id());
+    match output.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir.join(name),
+        _ => PathBuf::from(name),
+    }
+}
+
+fn stream_tb(octx: &ff::format::context::Output, index: usize) -> Rational {
+    octx.stream(index)
+        .map_or(Rational::new(1, 1), |s| s.time_base())
+}
+
+fn dictionary(pairs: &[(String, String)], skip: &[&str]) -> ff::Dictionary<'static> {
+    let mut d = ff::Dictionary::new();
+    for (k, v) in pairs {
+        if !skip.contains(&k.as_str()) {
+            d.set(k, v);
+        }
+    }
+    d
+}
+
+/// Opens the video encoder and adds its stream.
+fn open_video(
+    octx: &mut ff::format::context::Output,
+    info: &VideoInfo,
+    opts: &EncodeOptions,
+    ofmt: &ff::format::format::Output,
+    global_header: bool,
+) -> Result<VideoOut> {
+    let muxer = ofmt.name().to_owned();
+    let y4m = muxer == Y4M;
+    let codec = if y4m {
+        ff::encoder::find(ff::codec::Id::WRAPPED_AVFRAME)
+    } else {
+        ff::encoder::find_by_name(opts.codec.encoder_name())
+    }
+    .ok_or_else(|| {
+        Error::Unsupported(format!(
+            "this FFmpeg build has no {} encoder",
+            opts.codec.encoder_name()
+        ))
+    })?;
+    if !y4m && ffi::muxer_accepts(ofmt, codec.id()) == Some(false) {
+        return Err(Error::Unsupported(format!(
+            "the {muxer} container cannot hold {}; use .mkv or .mov",
+            codec.id().name()
+        )));
+    }
+    let format = info.format;
+    let in_pixel = pixfmt::pixel_of(&format)
+        .ok_or_else(|| Error::Unsupported(format!("{}-bit video", format.bit_depth)))?;
+    let enc_pixel = if y4m {
+        in_pixel
+    } else {
+        choose_pixel(&codec, in_pixel, &format)?
+    };
+    if let Some(d) = pixfmt::pix_desc(enc_pixel)
+        && !y4m
+        && opts.codec != VideoCodec::Ffv1
+        && ((format.width % 2 == 1 && d.log2_chroma.0 > 0)
+            || (format.height % 2 == 1 && d.log2_chroma.1 > 0))
+    {
+        return Err(Error::Unsupported(format!(
+            "{} cannot encode {}x{} in {}: subsampled chroma needs an even size (use --codec \
+             ffv1, or crop the input)",
+            opts.codec.encoder_name(),
+            format.width,
+            format.height,
+            pixfmt::pixel_name(enc_pixel)
+        )));
+    }
+    let tb = if y4m {
+        // y4m is constant-rate; its muxer derives the frame rate from the time base.
+        let (num, den) = info.nominal_fps();
+        if info.variable_frame_rate {
+            log::warn!(
+                "y4m output is constant-rate: frames are written at {num}/{den} fps and the \
+                 input's timing gaps are lost"
+            );
+        }
+        Rational::new(den, num)
+    } else {
+        Rational::new(info.time_base.0, info.time_base.1)
+    };
+
+    let mut ctx = ff::codec::Context::new_with_codec(codec);
+    ctx.set_threading(ff::threading::Config::kind(ff::threading::Type::Frame));
+    let mut enc = ctx
+        .encoder()
+        .video()
+        .map_err(Error::ffmpeg("creating the video encoder"))?;
+    enc.set_width(format.width);
+    enc.set_height(format.height);
+    enc.set_format(enc_pixel);
+    enc.set_time_base(tb);
+    let (fnum, fden) = info.nominal_fps();
+    enc.set_frame_rate(Some(Rational::new(fnum, fden)));
+    let (sn, sd) = info.sample_aspect_ratio;
+    if sn > 0 && sd > 0 {
+        enc.set_aspect_ratio(Rational::new(sn, sd));
+    }
+    enc.set_colorspace(info.tags.matrix);
+    enc.set_color_range(info.tags.range);
+    enc.set_color_primaries(info.tags.primaries);
+    enc.set_color_transfer_characteristic(info.tags.transfer);
+    if global_header {
+        enc.set_flags(ff::codec::Flags::GLOBAL_HEADER);
+    }
+    let mut dict = ff::Dictionary::new();
+    match (y4m, opts.codec) {
+        (true, _) => {}
+        (false, VideoCodec::H264) => {
+            dict.set("preset", &opts.preset);
+            dict.set("crf", &opts.crf.to_string());
+        }
+        (false, VideoCodec::Hevc) => {
+            dict.set("preset", &opts.preset);
+            dict.set("crf", &opts.crf.to_string());
+            dict.set("x265-params", "log-level=error");
+        }
+        (false, VideoCodec::ProRes) => {}
+        (false, VideoCodec::Ffv1) => {
+            // Version 3: slices (multi-threaded) and per-slice CRCs.
+            dict.set("level", "3");
+            dict.set("slicecrc", "1");
+        }
+    }
+    let name = if y4m { Y4M } else { opts.codec.encoder_name() };
+    let encoder = enc
+        .open_as_with(codec, dict)
+        .map_err(Error::ffmpeg(format!("opening the {name} encoder")))?;
+
+    let mut ost = octx
+        .add_stream(codec)
+        .map_err(Error::ffmpeg("adding the video stream"))?;
+    ost.set_parameters(&encoder);
+    ost.set_time_base(tb);
+    if info.avg_frame_rate.0 > 0 && info.avg_frame_rate.1 > 0 && !y4m {
+        ost.set_avg_frame_rate(Rational::new(info.avg_frame_rate.0, info.avg_frame_rate.1));
+    }
+    if let Some(vs) = info.stream(info.video_stream) {
+        ost.set_metadata(dictionary(&vs.metadata, &["rotate", "encoder"]));
+    }
+    if let Some(m) = &info.display_matrix
+        && info.rotation_deg != 0
+    {
+        const ROTATION_MUXERS: [&str; 8] =
+            ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"];
+        if ROTATION_MUXERS.contains(&muxer.as_str()) {
+            if !ffi::set_display_matrix(&mut ost, m) {
+                log::warn!("could not attach the display rotation to the output");
+            }
+        } else {
+            log::warn!(
+                "the {muxer} container cannot store the display rotation ({}°); the output \
+                 will play unrotated (use .mp4 or .mov)",
+                info.rotation_deg
+            );
+        }
+    }
+    let ost_index = ost.index();
+
+    let converter = if enc_pixel != in_pixel {
+        let c = (info.color.matrix, info.color.full_range);
+        Some(Converter::new(
+            (in_pixel, format.width, format.height),
+            (enc_pixel, format.width, format.height),
+            c,
+            c,
+        )?)
+    } else {
+        None
+    };
+    Ok(VideoOut {
+        encoder,
+        ost: ost_index,
+        enc_tb: tb,
+        ost_tb: tb,
+        format,
+        in_pixel,
+        converter,
+        enc_pixel,
+        y4m,
+        frames: 0,
+        last_pts: None,
+        warned_pts: false,
+    })
+}
+
+/// The encoder's pixel format: the input's layout if supported, else the closest supported
+/// planar layout: first one that loses no bit depth and no chroma, then the fewest bits and
+/// chroma samples added (a warning explains the change).
+fn choose_pixel(codec: &ff::Codec, wanted: Pixel, format: &FrameFormat) -> Result<Pixel> {
+    let supported: Vec<Pixel> = codec
+        .video()
+        .ok()
+        .and_then(|v| v.formats())
+        .map(|f| f.collect())
+        .unwrap_or_default();
+    if supported.is_empty() || supported.contains(&wanted) {
+        return Ok(wanted);
+    }
+    let richness = |c: Chroma| match c {
+        Chroma::Cs420 => 0i32,
+        Chroma::Cs422 => 1,
+        Chroma::Cs444 => 2,
+    };
+    let want_depth = i32::from(format.bit_depth);
+    let want_chroma = richness(format.chroma);
+    let best = supported
+        .iter()
+        .filter_map(|&p| {
+            let (chroma, depth, jpeg) = pixfmt::layout_of(p)?;
+            (!jpeg).then_some((p, richness(chroma), i32::from(depth)))
+        })
+        .min_by_key(|&(_, chroma, depth)| {
+            (
+                depth < want_depth,
+                chroma < want_chroma,
+                (depth - want_depth).abs(),
+                (chroma - want_chroma).abs(),
+            )
+        })
+        .map(|(p, _, _)| p)
+        .ok_or_else(|| {
+            Error::Unsupported(format!(
+                "{} takes none of the planar YUV layouts",
+                codec.name()
+            ))
+        })?;
+    log::warn!(
+        "{} cannot encode {}; encoding {} instead",
+        codec.name(),
+        pixfmt::pixel_name(wanted),
+        pixfmt::pixel_name(best)
+    );
+    Ok(best)
+}

@@ -1,0 +1,224 @@
+//! Test fixtures made with the ffmpeg CLI (small generated clips in a temporary directory), the
+//! ffprobe/ffmpeg measurements the tests compare against, and a logger that records warnings.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+
+/// Runs `ffmpeg -y -v error <args>` and panics with its stderr on failure.
+pub fn ffmpeg(args: &[&str]) {
+    let out = Command::new("ffmpeg")
+        .args(["-hide_banner", "-nostdin", "-y", "-v", "error"])
+        .args(args)
+        .output()
+        .expect("the ffmpeg CLI is installed");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Runs ffmpeg and returns its stderr (for filters that report there, such as psnr).
+pub fn ffmpeg_stderr(args: &[&str]) -> String {
+    let out = Command::new("ffmpeg")
+        .args(["-hide_banner", "-nostdin", "-y"])
+        .args(args)
+        .output()
+        .expect("the ffmpeg CLI is installed");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// `ffprobe -of json <args> <path>` parsed.
+pub fn ffprobe(path: &Path, args: &[&str]) -> serde_json::Value {
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-of", "json"])
+        .args(args)
+        .arg(path)
+        .output()
+        .expect("ffprobe is installed");
+    assert!(
+        out.status.success(),
+        "ffprobe {args:?} {} failed: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("ffprobe prints JSON")
+}
+
+/// The first stream of a kind (`"v"`, `"a"`) as ffprobe describes it.
+pub fn stream(path: &Path, kind: &str) -> serde_json::Value {
+    let v = ffprobe(path, &["-show_streams", "-select_streams", kind]);
+    v["streams"][0].clone()
+}
+
+/// The four colour tags of the video stream as ffprobe prints them.
+pub fn color_tags(path: &Path) -> [String; 4] {
+    let s = stream(path, "v:0");
+    [
+        "color_space",
+        "color_range",
+        "color_primaries",
+        "color_transfer",
+    ]
+    .map(|k| s[k].as_str().unwrap_or("unknown").to_owned())
+}
+
+/// Per-frame MD5s of the decoded frames of one stream (`"0:v:0"`, `"0:a:0"`), in order, with
+/// `copy` taking packets instead of decoded frames.
+pub fn framemd5(path: &Path, map: &str, copy: bool) -> Vec<String> {
+    let mut args = vec!["-hide_banner", "-nostdin", "-v", "error", "-i"];
+    let p = path.to_str().expect("utf-8 path");
+    args.push(p);
+    args.extend(["-map", map]);
+    if copy {
+        args.extend(["-c", "copy"]);
+    }
+    args.extend(["-f", "framemd5", "-"]);
+    let out = Command::new("ffmpeg").args(&args).output().expect("ffmpeg");
+    assert!(
+        out.status.success(),
+        "framemd5 of {} failed: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| l.rsplit(',').next().map(|h| h.trim().to_owned()))
+        .collect()
+}
+
+/// Presentation times of every video frame (ffprobe, seconds).
+pub fn frame_times(path: &Path) -> Vec<f64> {
+    let v = ffprobe(
+        path,
+        &["-select_streams", "v:0", "-show_entries", "frame=pts_time"],
+    );
+    v["frames"]
+        .as_array()
+        .expect("frames")
+        .iter()
+        .map(|f| {
+            f["pts_time"]
+                .as_str()
+                .expect("pts_time")
+                .parse()
+                .expect("number")
+        })
+        .collect()
+}
+
+/// Average PSNR (dB) of `a` against `b`; infinite when identical.
+pub fn psnr(a: &Path, b: &Path) -> f64 {
+    let err = ffmpeg_stderr(&[
+        "-i",
+        a.to_str().unwrap(),
+        "-i",
+        b.to_str().unwrap(),
+        "-lavfi",
+        "psnr",
+        "-f",
+        "null",
+        "-",
+    ]);
+    let avg = err
+        .split("average:")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no PSNR in {err}"));
+    if avg == "inf" {
+        f64::INFINITY
+    } else {
+        avg.parse().expect("PSNR number")
+    }
+}
+
+/// A generated clip: `testsrc2` of the given size, rate and duration, encoded with `vcodec`
+/// arguments (`["-c:v", "libx264", "-pix_fmt", "yuv420p"]`) into `name` inside `dir`.
+pub fn clip(dir: &Path, name: &str, size: &str, rate: u32, secs: f64, vargs: &[&str]) -> PathBuf {
+    let path = dir.join(name);
+    let src = format!("testsrc2=s={size}:r={rate}:d={secs}");
+    let mut args = vec!["-f", "lavfi", "-i", &src];
+    args.extend_from_slice(vargs);
+    args.push(path.to_str().unwrap());
+    ffmpeg(&args);
+    path
+}
+
+/// A clip with a sine-wave audio track: `vargs` for the video, `aargs` for the audio (and any
+/// extra output options).
+pub fn clip_with_audio(
+    dir: &Path,
+    name: &str,
+    secs: f64,
+    vargs: &[&str],
+    aargs: &[&str],
+) -> PathBuf {
+    let path = dir.join(name);
+    let v = format!("testsrc2=s=160x120:r=25:d={secs}");
+    let a = format!("sine=frequency=440:sample_rate=48000:duration={secs}");
+    let mut args = vec!["-f", "lavfi", "-i", &v, "-f", "lavfi", "-i", &a];
+    args.extend_from_slice(vargs);
+    args.extend_from_slice(aargs);
+    args.push(path.to_str().unwrap());
+    ffmpeg(&args);
+    path
+}
+
+static LOG: Mutex<Vec<(std::thread::ThreadId, log::Level, String)>> = Mutex::new(Vec::new());
+
+struct Recorder;
+
+impl log::Log for Recorder {
+    fn enabled(&self, m: &log::Metadata) -> bool {
+        m.level() <= log::Level::Warn
+    }
+
+    fn log(&self, r: &log::Record) {
+        if self.enabled(r.metadata()) {
+            let msg = r.args().to_string();
+            eprintln!("[{}] {msg}", r.level());
+            LOG.lock()
+                .unwrap()
+                .push((std::thread::current().id(), r.level(), msg));
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+/// Installs the recording logger (idempotent).
+pub fn init_logger() {
+    static R: Recorder = Recorder;
+    if log::set_logger(&R).is_ok() {
+        log::set_max_level(log::LevelFilter::Warn);
+    }
+}
+
+/// Warnings logged so far by the calling thread.
+pub fn my_warnings() -> Vec<String> {
+    let me = std::thread::current().id();
+    LOG.lock()
+        .unwrap()
+        .iter()
+        .filter(|(t, _, _)| *t == me)
+        .map(|(_, _, m)| m.clone())
+        .collect()
+}
+
+/// Files in `dir` (names), sorted.
+pub fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
