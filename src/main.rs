@@ -175,8 +175,8 @@ struct PreviewArgs {
     #[arg(short = 'y', long)]
     overwrite: bool,
     /// Bits per PNG channel.
-    #[arg(long, default_value_t = 8, value_parser = clap::builder::PossibleValuesParser::new(["8", "16"]).map(|s| s.parse::<u8>().unwrap_or(8)))]
-    bits: u8,
+    #[arg(long, value_enum, default_value_t = Bits::Eight)]
+    bits: Bits,
     #[command(flatten)]
     look: LookArgs,
     #[command(flatten)]
@@ -221,6 +221,16 @@ enum ProgressMode {
     Json,
     /// Nothing.
     None,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+enum Bits {
+    /// 8 bits per channel.
+    #[value(name = "8")]
+    Eight,
+    /// 16 bits per channel.
+    #[value(name = "16")]
+    Sixteen,
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy)]
@@ -468,7 +478,8 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
     let (frame, info) = pipeline::preview(&args.input, at, &render, &adapter(&args.gpu))?;
     // Write beside, then rename: never a half-written PNG.
     let tmp = args.output.with_extension("png.tmp");
-    video::still::write_png(&frame, info.rotation_deg, args.bits, &tmp)?;
+    let bits = if args.bits == Bits::Sixteen { 16 } else { 8 };
+    video::still::write_png(&frame, info.rotation_deg, bits, &tmp)?;
     std::fs::rename(&tmp, &args.output)
         .with_context(|| format!("cannot write output '{}'", args.output.display()))?;
     Ok(())
@@ -527,7 +538,7 @@ fn main() -> ExitCode {
         (false, 1) => log::LevelFilter::Info,
         _ => log::LevelFilter::Debug,
     };
-    if log::set_boxed_logger(Box::new(StderrLogger { level })).is_ok() {
+    if log::set_logger(Box::leak(Box::new(StderrLogger { level }))).is_ok() {
         log::set_max_level(level);
     }
     let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));

@@ -122,7 +122,7 @@ pub fn drop_radiance(frame: &YuvFrame) -> [f32; 3] {
     let (sx, sy) = f.chroma.shift();
     let step = (f.width.max(f.height) / 64).max(1);
     let mut sum = [0.0f64; 3];
-    let mut n = 0.0;
+    let mut n = 0.0f64;
     for y in (0..f.height).step_by(step as usize) {
         for x in (0..f.width).step_by(step as usize) {
             let code = [
