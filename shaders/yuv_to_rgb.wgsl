@@ -1,6 +1,8 @@
 // Stage yuv_to_rgb: decoded planes (integer code values) → linear RGB on the f16 canvas, with
 // the frame's own matrix, range and transfer. Chroma is taken from the co-sited sample
 // (nearest): rgb_to_yuv box-averages it back, so a frame without rain returns unchanged.
+// The rain too far to draw drop by drop veils the background here, before the streaks are drawn
+// over it: background · T + in-scatter (T = 1 and in-scatter = 0 without rain: exact identity).
 // Includes: common/types.wgsl, common/color.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
@@ -8,6 +10,7 @@
 @group(0) @binding(2) var plane_cb: texture_2d<u32>;
 @group(0) @binding(3) var plane_cr: texture_2d<u32>;
 @group(0) @binding(4) var canvas: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(5) var<uniform> rain: RainParams;
 
 @compute @workgroup_size(16, 16)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -24,5 +27,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         (code.z - frame.c_offset) / frame.c_scale,
     );
     let linear = to_linear(frame.transfer, ycbcr_to_rgb(frame.kr, frame.kb, ycc));
-    textureStore(canvas, id.xy, vec4<f32>(linear, 1.0));
+    textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + rain.haze.rgb, 1.0));
 }

@@ -68,6 +68,9 @@ pub struct RainConfig {
     /// Farthest drop distance, metres; drops are simulated only as far as they are visible
     /// (see `rain::volume`), never beyond this.
     pub far_m: f64,
+    /// Distance of the filmed scene, metres: the rain between the farthest drawn drop and the
+    /// scene veils it (0 turns the haze off).
+    pub scene_depth_m: f64,
     /// Most drops simulated per frame; beyond it drops are weighted (see `rain::emitter`).
     pub max_drops: u32,
 }
@@ -85,6 +88,7 @@ impl Default for RainConfig {
             seed: 1,
             near_m: 0.3,
             far_m: 200.0,
+            scene_depth_m: 50.0,
             max_drops: 300_000,
         }
     }
@@ -210,6 +214,12 @@ impl RenderConfig {
             r.far_m,
             r.far_m <= 10_000.0,
             "metres, at most 10000",
+        )?;
+        check(
+            "--scene-depth",
+            r.scene_depth_m,
+            (0.0..=100_000.0).contains(&r.scene_depth_m),
+            "metres in [0, 100000]",
         )?;
         check(
             "--max-drops",

@@ -39,6 +39,9 @@ enum Command {
     Preview(PreviewArgs),
     /// Describe the streams of a file: colour tags, rotation, frame rate, what would be copied.
     Probe(ProbeArgs),
+    /// Print the models behind the rain as JSON (drop sampling, ...).
+    #[command(subcommand)]
+    Inspect(InspectCommand),
     /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
     Bench(BenchArgs),
     /// List the GPU adapters, best first.
@@ -46,6 +49,30 @@ enum Command {
         /// Print JSON.
         #[arg(long)]
         json: bool,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum InspectCommand {
+    /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
+    Drops {
+        /// Picture size the camera sees, WxH.
+        #[arg(long, default_value = "1920x1080")]
+        size: String,
+        /// Drops to sample.
+        #[arg(long, default_value_t = 1000)]
+        count: usize,
+        /// Time, seconds.
+        #[arg(long, default_value_t = 0.0)]
+        time: f64,
+        /// Frame rate, for the exposure (shutter angle / 360 / fps).
+        #[arg(long, default_value_t = 25.0)]
+        fps: f64,
+        /// Print JSON (the only format).
+        #[arg(long)]
+        json: bool,
+        #[command(flatten)]
+        look: LookArgs,
     },
 }
 
@@ -121,12 +148,30 @@ struct LookArgs {
     /// Nearest drop distance, metres. [default: 0.3]
     #[arg(long)]
     near: Option<f64>,
-    /// Farthest drop distance, metres. [default: 12]
+    /// Farthest drop distance, metres; drops are drawn only as far as they are visible. [default: 200]
     #[arg(long)]
     far: Option<f64>,
-    /// Most drops drawn per frame (denser rain is drawn with weighted drops). [default: 150000]
+    /// Most drops drawn per frame (beyond it the far distance shrinks, then drops are weighted). [default: 300000]
     #[arg(long)]
     max_drops: Option<u32>,
+    /// RMS of the wind gusts along the mean wind, m/s. [default: 0]
+    #[arg(long)]
+    gust: Option<f64>,
+    /// Altitude of the scene, metres (thinner air, faster drops). [default: 0]
+    #[arg(long, allow_hyphen_values = true)]
+    altitude: Option<f64>,
+    /// Focus distance, metres. [default: 6]
+    #[arg(long)]
+    focus: Option<f64>,
+    /// Aperture f-number; 0 for a pinhole (no defocus). [default: 8]
+    #[arg(long)]
+    f_number: Option<f64>,
+    /// Sensor width, mm (36 = full-frame equivalent). [default: 36]
+    #[arg(long)]
+    sensor_width: Option<f64>,
+    /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze. [default: 50]
+    #[arg(long)]
+    scene_depth: Option<f64>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -363,6 +408,12 @@ fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.near => r.near_m);
     set!(look.far => r.far_m);
     set!(look.max_drops => r.max_drops);
+    set!(look.gust => r.gust_mps);
+    set!(look.altitude => r.altitude_m);
+    set!(look.scene_depth => r.scene_depth_m);
+    set!(look.focus => cam.focus_m);
+    set!(look.f_number => cam.f_number);
+    set!(look.sensor_width => cam.sensor_width_mm);
     set!(look.fov => cam.fov_deg);
     set!(look.camera_height => cam.height_m);
     set!(look.tilt => cam.tilt_deg);
@@ -496,6 +547,46 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 print!("{report}");
             }
+            Ok(())
+        }
+        Some(Command::Inspect(InspectCommand::Drops { size, count, time, fps, look, .. })) => {
+            let c = render_config(look)?;
+            let (w, h) = size
+                .split_once('x')
+                .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+                .filter(|&(w, h)| w > 0 && h > 0)
+                .with_context(|| format!("invalid --size '{size}': expected WxH, e.g. 1920x1080"))?;
+            if !(*fps > 0.0 && fps.is_finite()) {
+                bail!("invalid --fps {fps}: expected a positive frame rate");
+            }
+            let cam = &c.camera;
+            let camera = rain_composite::scene::Camera::new(
+                w,
+                h,
+                cam.fov_deg.to_radians(),
+                cam.height_m,
+                cam.tilt_deg.to_radians(),
+                cam.roll_deg.to_radians(),
+            );
+            let exposure = cam.shutter_deg / 360.0 / fps;
+            let setup = rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
+            let params = rain_composite::rain::volume::VolumeParams {
+                exposure_s: exposure,
+                near_m: c.rain.near_m,
+                far_max_m: c.rain.far_m,
+                budget: c.rain.max_drops.max(1) as u64,
+                ..Default::default()
+            };
+            let v = rain_composite::rain::volume::inspect_drops(
+                &camera,
+                &setup.model,
+                &setup.wind,
+                &params,
+                *count,
+                c.rain.seed,
+                *time,
+            )?;
+            println!("{}", serde_json::to_string_pretty(&v)?);
             Ok(())
         }
         Some(Command::Bench(b)) => {

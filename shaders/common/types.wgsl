@@ -40,6 +40,7 @@ struct RainParams {
     cell_size_m: vec2<f32>,
     wind_mean_mps: vec4<f32>,        // xy; z = mean wind · t (x), w = mean wind · t (y), m
     radiance: vec4<f32>,             // linear RGB of a drop (before PRT)
+    haze: vec4<f32>,                 // rain beyond the drawn drops: rgb in-scatter, w transmittance
     gust_amp: array<vec4<f32>, 8>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
     gust_phase: array<vec4<f32>, 8>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)
     time_s: f32,

@@ -184,6 +184,11 @@ impl Compositor {
             .iter()
             .map(|t| t.create_view(&Default::default()))
             .collect();
+        let rain_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain_params"),
+            contents: bytemuck::bytes_of(&rain.params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
         let yuv_pipeline = compute(Stage::YuvToRgb, "main");
         let yuv_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("yuv_to_rgb"),
@@ -208,6 +213,10 @@ impl Compositor {
                 wgpu::BindGroupEntry {
                     binding: 4,
                     resource: wgpu::BindingResource::TextureView(&canvas_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: rain_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -236,11 +245,6 @@ impl Compositor {
         let chroma_pipeline = compute(Stage::RgbToYuv, "chroma");
         let chroma_bind = out_bind(&chroma_pipeline);
 
-        let rain_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rain_params"),
-            contents: bytemuck::bytes_of(&rain.params),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
         let columns_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rain_columns"),
             contents: bytemuck::cast_slice(&rain.columns),

@@ -98,6 +98,7 @@ pub struct RainParams {
     pub cell_size_m: [f32; 2],
     pub wind_mean_mps: [f32; 4],
     pub radiance: [f32; 4],
+    pub haze: [f32; 4],
     pub gust_amp: [[f32; 4]; GUSTS],
     pub gust_phase: [[f32; 4]; GUSTS],
     pub time_s: f32,

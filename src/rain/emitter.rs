@@ -12,7 +12,7 @@ use glam::{DVec2, DVec3};
 use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
 use crate::gpu::types::{Column, GUSTS, RainParams, SPEED_TABLE_LEN};
-use crate::rain::physics::{DsdShape, G_MPS2, RainModel, RainRate, ThinLens};
+use crate::rain::physics::{DsdShape, G_MPS2, RainModel, RainRate, ThinLens, haze_alpha};
 use crate::rain::volume::{RainVolume, VolumeParams};
 use crate::rain::wind::Wind;
 use crate::scene::Camera;
@@ -31,6 +31,8 @@ pub struct RainSetup {
     pub model: RainModel,
     /// The wind.
     pub wind: Wind,
+    /// Opacity of the rain between the farthest drawn drop and the scene (0 without haze).
+    pub haze_alpha: f64,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg` (the angle, in
@@ -143,6 +145,7 @@ pub fn build(
             .to_array(),
         wind_mean_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32, 0.0, 0.0],
         radiance: [1.0, 1.0, 1.0, 0.0],
+        haze: [0.0, 0.0, 0.0, 1.0],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
         time_s: 0.0,
@@ -163,12 +166,19 @@ pub fn build(
         gravity_mps2: G_MPS2 as f32,
         speed_table,
     };
+    // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
+    let haze_alpha = if rain.scene_depth_m > volume.far_m {
+        haze_alpha(model.rate, volume.far_m, rain.scene_depth_m)
+    } else {
+        0.0
+    };
     Ok(RainSetup {
         params,
         columns,
         volume,
         model,
         wind,
+        haze_alpha,
     })
 }
 
@@ -179,6 +189,9 @@ impl RainSetup {
         let mut p = self.params;
         p.time_s = t_s as f32;
         p.radiance = [radiance[0], radiance[1], radiance[2], 0.0];
+        // The aggregate far drops scatter the same light as the near ones.
+        let a = self.haze_alpha as f32;
+        p.haze = [radiance[0] * a, radiance[1] * a, radiance[2] * a, 1.0 - a];
         let travel = self.wind.mean_mps * t_s;
         p.wind_mean_mps[2] = travel.x as f32;
         p.wind_mean_mps[3] = travel.y as f32;
