@@ -28,7 +28,7 @@
 //! at the rainbow caustics (where dψ/dγ = 0) and at ρ = 1 (all energy in bin 0). Two
 //! refinements over Algorithm 1: the overlaps `J_k ∩ Θ_n⁻¹(J_m)` are exact (the preimages of
 //! the bin edges are solved for on each monotone piece of ψ_n instead of interpolating ψ
-//! linearly between γ samples), and `μ` is integrated over each overlap (4-point Gauss) instead
+//! linearly between γ samples), and `μ` is integrated over each overlap (6-point Gauss) instead
 //! of being taken at the γ-bin centre; the bin's solid angle is the exact `2π(cos mΔ −
 //! cos(m+1)Δ)` instead of `2πΔ sin α_m`. The sweep is still linear: every monotone piece of ψ_n
 //! (split at the extremum m_n, like the two sweeps of Algorithm 1) is walked once, merging the
@@ -249,13 +249,29 @@ impl DropOptics {
         self.tail(self.fresnel_at(gamma))
     }
 
-    /// γ quadrature nodes on [0, π/2] split at every order's extremum (composite Gauss).
+    /// Breakpoints graded geometrically towards grazing incidence, where the Fresnel factors
+    /// change over a width `√(1 − 1/ρ²)` in γ (tiny when ρ → 1; empty for ρ = 1).
+    fn grazing_breaks(&self) -> Vec<f64> {
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let width = (1.0 - 1.0 / (self.rho * self.rho)).sqrt();
+        if width == 0.0 {
+            return Vec::new();
+        }
+        (0..60)
+            .map(|j| half_pi - 4.0 * width * 0.5f64.powi(j))
+            .filter(|g| *g > 0.0 && half_pi - g > 1e-14)
+            .collect()
+    }
+
+    /// γ quadrature nodes on [0, π/2] split at every order's extremum and graded towards
+    /// grazing incidence (composite 8-point Gauss, about `panels` panels over the range).
     fn gamma_nodes(&self, panels: usize) -> Vec<(f64, f64)> {
         let half_pi = std::f64::consts::FRAC_PI_2;
         let mut cuts = vec![0.0, half_pi];
         cuts.extend((3..=self.n_max).filter_map(|n| self.extremum_rad(n)));
+        cuts.extend(self.grazing_breaks());
         cuts.sort_by(f64::total_cmp);
-        cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-15);
         let mut nodes = Vec::new();
         for w in cuts.windows(2) {
             let p = ((w[1] - w[0]) / half_pi * panels as f64).ceil().max(1.0) as usize;
@@ -343,7 +359,7 @@ impl DropOptics {
     fn sweep_order(&self, n: usize, bins: usize, energy: &mut [f64]) {
         let half_pi = std::f64::consts::FRAC_PI_2;
         let delta = std::f64::consts::PI / bins as f64;
-        let (gx, gw) = sh::gauss_legendre(4);
+        let (gx, gw) = sh::gauss_legendre(6);
         let integral = |a: f64, b: f64| -> f64 {
             let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
             gx.iter()
@@ -361,6 +377,12 @@ impl DropOptics {
             let k = k.rem_euclid(two_b);
             if k < bins as i64 { k as usize } else { (two_b - 1 - k) as usize }
         };
+        // γ-bin edges J_k (plus grading towards grazing incidence), sorted.
+        let mut edges: Vec<f64> =
+            (1..).map(|k| k as f64 * delta).take_while(|g| *g < half_pi).collect();
+        edges.extend(self.grazing_breaks());
+        edges.sort_by(f64::total_cmp);
+        edges.push(half_pi);
         let mut cuts = vec![0.0];
         if let Some(g) = self.extremum_rad(n) {
             cuts.push(g);
@@ -369,30 +391,29 @@ impl DropOptics {
         for piece in cuts.windows(2) {
             let (a, b) = (piece[0], piece[1]);
             let (pa, pb) = (self.deflection_rad(n, a), self.deflection_rad(n, b));
-            if (pb - pa).abs() <= 1e-13 * delta {
-                // ψ constant (ρ = 1, order 2): the whole piece lands in one bin.
-                energy[bin_of((0.5 * (pa + pb) / delta).floor() as i64)] += integral(a, b);
-                continue;
-            }
+            // ψ constant (ρ = 1, order 2): the whole piece lands in one bin, no crossings.
+            let flat = (pb - pa).abs() <= 1e-13 * delta;
             let down = pb < pa;
             // First ψ band and the last level crossed strictly inside (pb, pa) or (pa, pb).
-            let (mut k, k_last) = if down {
+            let (mut k, k_last) = if flat {
+                ((0.5 * (pa + pb) / delta).floor() as i64, i64::MIN)
+            } else if down {
                 ((pa / delta).ceil() as i64 - 1, (pb / delta).floor() as i64 + 1)
             } else {
                 ((pa / delta).floor() as i64, (pb / delta).ceil() as i64 - 1)
             };
             // The next level to cross, and the γ of that crossing.
             let mut next_level = if down { k } else { k + 1 };
-            let more_levels = |l: i64| if down { l >= k_last } else { l <= k_last };
+            let more_levels = |l: i64| !flat && if down { l >= k_last } else { l <= k_last };
             let mut cur = a;
             let mut next_root = if more_levels(next_level) {
                 self.solve_deflection(n, next_level as f64 * delta, cur, b)
             } else {
                 f64::INFINITY
             };
-            let mut j_edge = (a / delta).floor() as i64 + 1; // next γ-bin edge index
+            let mut j_edge = edges.partition_point(|g| *g <= a); // next γ edge
             while cur < b {
-                let edge = (j_edge as f64 * delta).min(b);
+                let edge = edges[j_edge.min(edges.len() - 1)].min(b);
                 let end = edge.min(next_root).max(cur);
                 energy[bin_of(k)] += integral(cur, end);
                 if end >= next_root {
