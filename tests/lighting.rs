@@ -796,3 +796,226 @@ fn wgsl_parses_and_validates() {
     let names: Vec<_> = module.functions.iter().filter_map(|(_, f)| f.name.clone()).collect();
     assert!(names.contains(&"sh_basis16".to_string()) && names.contains(&"prt_colour".to_string()));
 }
+
+const PARITY_WGSL: &str = r#"
+struct Params { env: array<vec4<f32>, 16>, zr: vec4<f32>, zg: vec4<f32>, zb: vec4<f32> }
+@group(0) @binding(0) var<storage, read> params: Params;
+@group(0) @binding(1) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> out: array<f32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&dirs)) { return; }
+    let d = dirs[i].xyz;
+    var b = sh_basis16(d);
+    for (var k = 0u; k < 16u; k++) { out[i * 20u + k] = b[k]; }
+    let c = prt_colour(params.env, params.zr, params.zg, params.zb, d);
+    out[i * 20u + 16u] = c.x;
+    out[i * 20u + 17u] = c.y;
+    out[i * 20u + 18u] = c.z;
+}
+"#;
+
+/// Runs `sh_basis16` and `prt_colour` on a GPU; `None` when no adapter exists.
+fn run_wgsl_parity(params: &[f32], dirs: &[[f32; 4]]) -> Option<Vec<f32>> {
+    use wgpu::util::DeviceExt;
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default())).ok()?;
+    eprintln!("WGSL parity on {:?}", adapter.get_info().name);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).ok()?;
+    let src = format!("{SH_WGSL}\n{PARITY_WGSL}");
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("sh_parity"),
+        source: wgpu::ShaderSource::Wgsl(src.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("sh_parity"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let storage = |label, bytes: &[u8]| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+    };
+    let p = storage("params", bytemuck::cast_slice(params));
+    let d = storage("dirs", bytemuck::cast_slice(dirs));
+    let size = (dirs.len() * 20 * 4) as u64;
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("out"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let read = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: p.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: d.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((dirs.len() as u32).div_ceil(64), 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&out, 0, &read, 0, size);
+    queue.submit([enc.finish()]);
+    read.map_async(wgpu::MapMode::Read, .., |r| r.expect("map"));
+    device.poll(wgpu::PollType::Wait { submission_index: None, timeout: None }).expect("poll");
+    let view = read.get_mapped_range(..).expect("mapped");
+    Some(bytemuck::cast_slice(&view).to_vec())
+}
+
+#[test]
+fn wgsl_matches_cpu_on_gpu() {
+    let optics = water();
+    let rtf = RtfSh::from_optics(&optics, 4).unwrap();
+    let coeffs = project_rgb(sky_ground, &sh::SphereQuadrature::equirect(128, 64), 4);
+    let env = EnvironmentSh { bands: 4, coeffs: coeffs.iter().map(|c| c.map(|v| v as f32)).collect() };
+    let mut params: Vec<f32> = env.to_gpu_array().iter().flatten().cloned().collect();
+    params.extend(rtf.to_gpu_array());
+    let mut rng = Rng(21);
+    let dirs: Vec<DVec3> = (0..1000).map(|_| rng.dir()).chain([DVec3::Z, -DVec3::Z, DVec3::X]).collect();
+    let dirs_f32: Vec<[f32; 4]> = dirs.iter().map(|d| [d.x as f32, d.y as f32, d.z as f32, 0.0]).collect();
+    let Some(out) = run_wgsl_parity(&params, &dirs_f32) else {
+        assert!(std::env::var_os("RAIN_REQUIRE_GPU").is_none(), "no GPU adapter but RAIN_REQUIRE_GPU is set");
+        eprintln!("skipped: no GPU adapter (set RAIN_REQUIRE_GPU=1 to make this a failure)");
+        return;
+    };
+    // The CPU twin on the same f32-rounded inputs.
+    let env64 = env.coeffs_f64();
+    let rtf32 = RtfSh { bands: 4, zonal: rtf.zonal.iter().map(|z| z.map(|v| v as f32 as f64)).collect() };
+    for (i, d) in dirs_f32.iter().enumerate() {
+        let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
+        let cpu = sh::basis16_cartesian(d);
+        for k in 0..16 {
+            assert!((out[i * 20 + k] as f64 - cpu[k]).abs() < 2e-6, "basis {k} at {d:?}");
+        }
+        let c = prt_colour_f64(&env64, &rtf32, d);
+        for k in 0..3 {
+            assert!((out[i * 20 + 16 + k] as f64 - c[k]).abs() < 1e-5 * c[k].abs().max(1.0), "colour {k} at {d:?}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Speed against error (a report, not a check): run with
+// `cargo test --test lighting report_speed_error -- --ignored --nocapture`.
+
+fn fibonacci_sphere(n: usize) -> Vec<DVec3> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let s = (1.0 - z * z).sqrt();
+            DVec3::new(s * (golden * i as f64).cos(), s * (golden * i as f64).sin(), z)
+        })
+        .collect()
+}
+
+/// Bilinear lookup in the courtyard map (continuous, so the brute force converges).
+fn courtyard_bilinear() -> impl Fn(DVec3) -> [f64; 3] + Sync {
+    let (w, h, px) = courtyard();
+    move |d: DVec3| {
+        let u = d.y.atan2(d.x).rem_euclid(2.0 * PI) / (2.0 * PI) * w as f64 - 0.5;
+        let v = (d.z.clamp(-1.0, 1.0).acos() / PI * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
+        let (x0, y0) = (u.floor(), v.floor() as usize);
+        let (fx, fy) = (u - x0, v - y0 as f64);
+        let (x0, x1) = ((x0 as i64).rem_euclid(w as i64) as usize, ((x0 as i64) + 1).rem_euclid(w as i64) as usize);
+        let y1 = (y0 + 1).min(h - 1);
+        let p = |x: usize, y: usize| px[y * w + x];
+        [0, 1, 2].map(|k| {
+            (1.0 - fy) * ((1.0 - fx) * p(x0, y0)[k] + fx * p(x1, y0)[k])
+                + fy * ((1.0 - fx) * p(x0, y1)[k] + fx * p(x1, y1)[k])
+        })
+    }
+}
+
+#[test]
+#[ignore = "report; run with --ignored --nocapture"]
+fn report_speed_error_table() {
+    let views = fibonacci_sphere(26);
+    let envs: Vec<(&str, Box<dyn Fn(DVec3) -> [f64; 3] + Sync>)> =
+        vec![("sky/ground", Box::new(sky_ground)), ("courtyard", Box::new(courtyard_bilinear()))];
+    let rho = [1.331, 1.333, 1.337];
+    let reference_optics = channel_optics(rho.into(), 40, Polarisation::Separate).unwrap();
+    for (name, env) in &envs {
+        let t0 = std::time::Instant::now();
+        let reference: Vec<[f64; 3]> =
+            views.iter().map(|v| brute_force_colour(env, &reference_optics, *v, 40_000).unwrap()).collect();
+        // Convergence of the reference itself: 4× the samples on three views.
+        let conv = views[..3]
+            .iter()
+            .zip(&reference)
+            .map(|(v, r)| {
+                let b = brute_force_colour(env, &reference_optics, *v, 160_000).unwrap();
+                (0..3).map(|c| (b[c] - r[c]).abs()).fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        let mean: f64 = reference.iter().map(|r| (r[0] + r[1] + r[2]) / 3.0).sum::<f64>() / views.len() as f64;
+        eprintln!("\n## {name}: reference = brute force, n_max 40, 40k samples/order ({:?}); mean drop radiance {mean:.4}; reference change at 160k samples {:.1e} (relative {:.1e})",
+            t0.elapsed(), conv, conv / mean);
+        let q = sh::SphereQuadrature::equirect(1024, 512);
+        let env_full = project_rgb(env, &q, 8);
+        eprintln!("| bands | bins | n_max | table+zonal ms (3 ch) | max err / mean | rms err / mean |");
+        eprintln!("|---|---|---|---|---|---|");
+        for bands in 2..=8 {
+            let coeffs: Vec<[f64; 3]> = env_full[..bands * bands].to_vec();
+            for bins in [64usize, 256, 1024, 4096, 0] {
+                for n_max in [3usize, 5, 9, 20] {
+                    if bins != 0 && bins != 1024 && n_max != 9 {
+                        continue; // keep the table readable: vary one thing at a time
+                    }
+                    let optics = channel_optics(rho.into(), n_max, Polarisation::Separate).unwrap();
+                    let t0 = std::time::Instant::now();
+                    let rtf = if bins == 0 {
+                        RtfSh::from_optics(&optics, bands).unwrap()
+                    } else {
+                        let tables = optics.map(|o| o.tabulate(bins).unwrap());
+                        RtfSh::from_tables(&tables, bands).unwrap()
+                    };
+                    let ms = t0.elapsed().as_secs_f64() * 1e3;
+                    let errs: Vec<f64> = views
+                        .iter()
+                        .zip(&reference)
+                        .map(|(v, r)| {
+                            let p = prt_colour_f64(&coeffs, &rtf, *v);
+                            (0..3).map(|c| (p[c] - r[c]).abs()).fold(0.0, f64::max) / mean
+                        })
+                        .collect();
+                    let max = errs.iter().cloned().fold(0.0, f64::max);
+                    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
+                    let bins_s = if bins == 0 { "γ-integral".to_string() } else { bins.to_string() };
+                    eprintln!("| {bands} | {bins_s} | {n_max} | {ms:.2} | {max:.2e} | {rms:.2e} |");
+                }
+            }
+        }
+    }
+    // Per-pixel shading cost on the CPU twin (the GPU does the same ~100 flops).
+    let rtf = RtfSh::from_optics(&water(), 4).unwrap();
+    let coeffs = project_rgb(sky_ground, &sh::SphereQuadrature::equirect(64, 32), 4);
+    let dirs = fibonacci_sphere(100_000);
+    let t0 = std::time::Instant::now();
+    let mut acc = 0.0;
+    for d in &dirs {
+        acc += prt_colour_f64(&coeffs, &rtf, *d)[0];
+    }
+    eprintln!("\nprt_colour_f64 (CPU, 4 bands): {:.0} ns/pixel ({acc:.3})", t0.elapsed().as_nanos() as f64 / dirs.len() as f64);
+}
