@@ -42,7 +42,10 @@ impl Rng {
 /// A product quadrature on the upper cap z ∈ [0, 1] only (for functions that vanish below).
 fn upper_hemisphere_quadrature(n_z: usize, n_phi: usize) -> sh::SphereQuadrature {
     let (x, w) = sh::gauss_legendre(n_z);
-    let mut q = sh::SphereQuadrature { dirs: vec![], weights_sr: vec![] };
+    let mut q = sh::SphereQuadrature {
+        dirs: vec![],
+        weights_sr: vec![],
+    };
     for (xi, wi) in x.iter().zip(&w) {
         let z = 0.5 * (xi + 1.0);
         let s = (1.0 - z * z).sqrt();
@@ -67,7 +70,11 @@ fn sh_orthonormal_up_to_8_bands() {
     let mut worst = 0.0f64;
     for i in 0..n {
         for j in 0..n {
-            let g: f64 = ys.iter().zip(&q.weights_sr).map(|(y, w)| w * y[i] * y[j]).sum();
+            let g: f64 = ys
+                .iter()
+                .zip(&q.weights_sr)
+                .map(|(y, w)| w * y[i] * y[j])
+                .sum();
             let e = if i == j { 1.0 } else { 0.0 };
             worst = worst.max((g - e).abs());
         }
@@ -136,16 +143,33 @@ fn sh_known_projections() {
     // Clamped cosine and hemisphere indicator about +z: exact on the upper cap (no kink).
     let cap = upper_hemisphere_quadrature(24, 48);
     let cos = sh::project(|d| d.z, &cap, 5);
-    let expect = [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0, 0.0, -PI.sqrt() / 16.0];
+    let expect = [
+        PI.sqrt() / 2.0,
+        (PI / 3.0).sqrt(),
+        (5.0 * PI).sqrt() / 8.0,
+        0.0,
+        -PI.sqrt() / 16.0,
+    ];
     for (l, e) in expect.iter().enumerate() {
         let got = cos[sh::index(l, 0)];
-        assert!((got - e).abs() < 1e-13, "clamped cosine z_{l} = {got} vs {e}");
+        assert!(
+            (got - e).abs() < 1e-13,
+            "clamped cosine z_{l} = {got} vs {e}"
+        );
     }
     assert!((expect[4] - -0.110_778_365_7).abs() < 1e-10);
     let hemi = sh::project(|_| 1.0, &cap, 4);
-    let expect = [PI.sqrt(), (3.0 * PI).sqrt() / 2.0, 0.0, -(7.0 * PI).sqrt() / 8.0];
+    let expect = [
+        PI.sqrt(),
+        (3.0 * PI).sqrt() / 2.0,
+        0.0,
+        -(7.0 * PI).sqrt() / 8.0,
+    ];
     for (l, e) in expect.iter().enumerate() {
-        assert!((hemi[sh::index(l, 0)] - e).abs() < 1e-13, "hemisphere z_{l}");
+        assert!(
+            (hemi[sh::index(l, 0)] - e).abs() < 1e-13,
+            "hemisphere z_{l}"
+        );
     }
     for (i, v) in hemi.iter().enumerate() {
         if sh::index(sh::band_of(i), 0) != i {
@@ -159,13 +183,23 @@ fn sh_zonal_rotation_matches_direct_projection() {
     // A clamped cosine about n: rotate the zonal coefficients vs project it directly on a fine
     // equirectangular grid (the kink limits that quadrature to ~1e-5).
     let n = DVec3::new(0.0, 0.6, 0.8);
-    let z = [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0, 0.0];
+    let z = [
+        PI.sqrt() / 2.0,
+        (PI / 3.0).sqrt(),
+        (5.0 * PI).sqrt() / 8.0,
+        0.0,
+    ];
     let mut rotated = vec![0.0; 16];
     sh::zonal_rotate(&z, n, &mut rotated);
     let q = sh::SphereQuadrature::equirect(1024, 512);
     let direct = sh::project(|d| d.dot(n).max(0.0), &q, 4);
     for i in 0..16 {
-        assert!((rotated[i] - direct[i]).abs() < 1e-4, "{i}: {} vs {}", rotated[i], direct[i]);
+        assert!(
+            (rotated[i] - direct[i]).abs() < 1e-4,
+            "{i}: {} vs {}",
+            rotated[i],
+            direct[i]
+        );
     }
 }
 
@@ -176,13 +210,19 @@ fn sh_rotation_preserves_band_energy_and_values() {
     let axis = DVec3::new(0.234, -0.642, 0.829).normalize();
     let rot = DMat3::from_axis_angle(axis, 0.423) * DMat3::from_rotation_z(1.1);
     let rotated = sh::rotate(&coeffs, rot);
-    for (a, b) in sh::band_energy(&coeffs).iter().zip(sh::band_energy(&rotated)) {
+    for (a, b) in sh::band_energy(&coeffs)
+        .iter()
+        .zip(sh::band_energy(&rotated))
+    {
         assert!((a - b).abs() < 1e-12 * a.max(1.0), "{a} vs {b}");
     }
     // The rotated function carries values along: f_rot(R d) = f(d).
     for _ in 0..50 {
         let d = rng.dir();
-        let (a, b) = (sh::reconstruct(&coeffs, d), sh::reconstruct(&rotated, rot * d));
+        let (a, b) = (
+            sh::reconstruct(&coeffs, d),
+            sh::reconstruct(&rotated, rot * d),
+        );
         assert!((a - b).abs() < 1e-11, "{a} vs {b}");
     }
 }
@@ -193,7 +233,12 @@ fn sh_reconstruction_error_falls_with_bands() {
     let a = DVec3::new(0.3, -0.4, 0.86).normalize();
     let f = |d: DVec3| (2.0 * d.dot(a)).exp();
     let q = sh::SphereQuadrature::gauss_legendre(40, 80);
-    let norm2: f64 = q.dirs.iter().zip(&q.weights_sr).map(|(d, w)| w * f(*d).powi(2)).sum();
+    let norm2: f64 = q
+        .dirs
+        .iter()
+        .zip(&q.weights_sr)
+        .map(|(d, w)| w * f(*d).powi(2))
+        .sum();
     let c = sh::project(f, &q, 8);
     let mut last = f64::INFINITY;
     for bands in 1..=8 {
@@ -281,7 +326,11 @@ fn mc_trace(rho: f64, n_max: usize, bins: usize, rays: usize, seed: u64) -> McTa
                     let (rs, rp) = mc_fresnel(rho, 1.0, ci);
                     let ra = 0.5 * (rs + rp);
                     let out = mc_refract(d, nf, rho);
-                    record(n, out, [0.5 * (ws * (1.0 - rs) + wp * (1.0 - rp)), wa * (1.0 - ra)]);
+                    record(
+                        n,
+                        out,
+                        [0.5 * (ws * (1.0 - rs) + wp * (1.0 - rp)), wa * (1.0 - ra)],
+                    );
                     ws *= rs;
                     wp *= rp;
                     wa *= ra;
@@ -301,7 +350,13 @@ fn mc_trace(rho: f64, n_max: usize, bins: usize, rays: usize, seed: u64) -> McTa
             }
             (a, a2)
         });
-    McTally { rays, bins, n_max, sum, sum2 }
+    McTally {
+        rays,
+        bins,
+        n_max,
+        sum,
+        sum2,
+    }
 }
 
 fn bin_solid_angle(m: usize, bins: usize) -> f64 {
@@ -324,7 +379,12 @@ fn compare_with_mc(tally: &McTally, optics: &DropOptics, pol: usize) -> f64 {
             let e_mc = s / n_rays;
             let e_tab = table.per_order[n][m] * bin_solid_angle(m, tally.bins);
             // A bin the MC never reached must hold less than ~5 rays' worth in the table.
-            let floor = 5.0 / n_rays * table.per_order[n].iter().cloned().fold(0.0, f64::max).min(1.0);
+            let floor = 5.0 / n_rays
+                * table.per_order[n]
+                    .iter()
+                    .cloned()
+                    .fold(0.0, f64::max)
+                    .min(1.0);
             assert!(
                 (e_mc - e_tab).abs() <= 5.0 * se + 1e-9 + if s == 0.0 { floor } else { 0.0 },
                 "ρ={} order {} bin {m}: MC {e_mc:e} ± {se:e} vs table {e_tab:e}",
@@ -341,7 +401,12 @@ fn compare_with_mc(tally: &McTally, optics: &DropOptics, pol: usize) -> f64 {
         let s2: f64 = tally.sum2[pol][n].iter().sum();
         let se = (s2 - s * s / n_rays).max(0.0).sqrt() / n_rays;
         let eps = optics.energy_per_order()[n];
-        assert!((s / n_rays - eps).abs() <= 5.0 * se + 1e-9, "order {} energy {} vs {eps}", n + 1, s / n_rays);
+        assert!(
+            (s / n_rays - eps).abs() <= 5.0 * se + 1e-9,
+            "order {} energy {} vs {eps}",
+            n + 1,
+            s / n_rays
+        );
     }
     chi2 / dof.max(1) as f64
 }
@@ -369,7 +434,10 @@ fn rtf_energy_is_conserved_with_the_tail() {
                 let table = o.tabulate(512).unwrap();
                 let kept: f64 = table.energy_per_order().iter().sum();
                 let tail = o.tail_energy();
-                assert!((kept + tail - 1.0).abs() < 1e-4, "ρ={rho} n_max={n_max}: {kept} + {tail}");
+                assert!(
+                    (kept + tail - 1.0).abs() < 1e-4,
+                    "ρ={rho} n_max={n_max}: {kept} + {tail}"
+                );
                 // The tail in closed form equals 1 − Σ ε_n.
                 let sum: f64 = o.energy_per_order().iter().sum();
                 assert!((1.0 - sum - tail).abs() < 1e-9);
@@ -397,19 +465,31 @@ fn rtf_caustics_at_descartes_angles() {
             let theta3 = descartes_deg(rho, 1);
             let first = t.per_order[2].iter().position(|v| *v > 0.0).unwrap();
             let centre = t.bin_centre_rad(first).to_degrees();
-            assert!((centre - theta3).abs() <= 0.5 * d + 1e-9, "order 3 bins {bins} ρ {rho}: {centre} vs {theta3}");
+            assert!(
+                (centre - theta3).abs() <= 0.5 * d + 1e-9,
+                "order 3 bins {bins} ρ {rho}: {centre} vs {theta3}"
+            );
             // Order 4 lives on [0, θ_D]: its last non-zero bin holds the caustic.
             let theta4 = descartes_deg(rho, 2);
             let last = t.per_order[3].iter().rposition(|v| *v > 0.0).unwrap();
             let centre = t.bin_centre_rad(last).to_degrees();
-            assert!((centre - theta4).abs() <= 0.5 * d + 1e-9, "order 4 bins {bins} ρ {rho}: {centre} vs {theta4}");
+            assert!(
+                (centre - theta4).abs() <= 0.5 * d + 1e-9,
+                "order 4 bins {bins} ρ {rho}: {centre} vs {theta4}"
+            );
             // And the caustic stands out: its bin (or the lit neighbour) beats the bin 5° further
             // into the lit side by 2× (the intensity falls like 1/√(θ − θ_D) there).
             let k5 = (5.0 / d).ceil() as usize;
             let o3 = &t.per_order[2];
-            assert!(o3[first].max(o3[first + 1]) > 2.0 * o3[first + k5], "order 3 peak");
+            assert!(
+                o3[first].max(o3[first + 1]) > 2.0 * o3[first + k5],
+                "order 3 peak"
+            );
             let o4 = &t.per_order[3];
-            assert!(o4[last].max(o4[last - 1]) > 2.0 * o4[last - k5], "order 4 peak");
+            assert!(
+                o4[last].max(o4[last - 1]) > 2.0 * o4[last - k5],
+                "order 4 peak"
+            );
         }
     }
 }
@@ -427,7 +507,10 @@ fn rtf_is_finite_on_hard_cases() {
         }
         for bins in [16, 17, 100, 1024, 4096] {
             let t = o.tabulate(bins).unwrap();
-            assert!(t.total.iter().all(|v| v.is_finite() && *v >= 0.0), "ρ={rho} bins={bins}");
+            assert!(
+                t.total.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "ρ={rho} bins={bins}"
+            );
             let z = t.zonal(8);
             assert!(z.iter().all(|v| v.is_finite()));
             let e: f64 = t.energy_per_order().iter().sum::<f64>() + o.tail_energy();
@@ -448,7 +531,11 @@ fn rtf_table_zonal_converges_to_gamma_integral() {
     let mut last = f64::INFINITY;
     for bins in [64, 256, 1024, 4096] {
         let z = o.tabulate(bins).unwrap().zonal(8);
-        let err = exact.iter().zip(&z).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let err = exact
+            .iter()
+            .zip(&z)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         eprintln!("bins {bins}: max |z_table − z_γ| = {err:e}");
         assert!(err < 0.5 * last);
         last = err;
@@ -485,7 +572,12 @@ fn rtf_table_rotation_with_interpolation() {
     let (ar, ps) = (0.7f64, 2.1f64);
     let axis = DVec3::new(ar.sin() * ps.cos(), ar.sin() * ps.sin(), ar.cos());
     let q = sh::SphereQuadrature::gauss_legendre(400, 800);
-    let e: f64 = q.dirs.iter().zip(&q.weights_sr).map(|(d, w)| w * t.rotated(axis, *d)).sum();
+    let e: f64 = q
+        .dirs
+        .iter()
+        .zip(&q.weights_sr)
+        .map(|(d, w)| w * t.rotated(axis, *d))
+        .sum();
     let total: f64 = t.energy_per_order().iter().sum();
     assert!((e - total).abs() < 5e-3, "{e} vs {total}");
 }
@@ -518,12 +610,22 @@ fn prt_uniform_white_environment() {
 
 /// Bright sky over dark ground: sky (0.6, 0.8, 1.0), ground (0.15, 0.12, 0.1).
 fn sky_ground(d: DVec3) -> [f64; 3] {
-    if d.z > 0.0 { [0.6, 0.8, 1.0] } else { [0.15, 0.12, 0.1] }
+    if d.z > 0.0 {
+        [0.6, 0.8, 1.0]
+    } else {
+        [0.15, 0.12, 0.1]
+    }
 }
 
-fn project_rgb(f: impl Fn(DVec3) -> [f64; 3], q: &sh::SphereQuadrature, bands: usize) -> Vec<[f64; 3]> {
+fn project_rgb(
+    f: impl Fn(DVec3) -> [f64; 3],
+    q: &sh::SphereQuadrature,
+    bands: usize,
+) -> Vec<[f64; 3]> {
     let ch: Vec<Vec<f64>> = (0..3).map(|c| sh::project(|d| f(d)[c], q, bands)).collect();
-    (0..bands * bands).map(|i| [ch[0][i], ch[1][i], ch[2][i]]).collect()
+    (0..bands * bands)
+        .map(|i| [ch[0][i], ch[1][i], ch[2][i]])
+        .collect()
 }
 
 fn eval_rgb(coeffs: &[[f64; 3]], d: DVec3) -> [f64; 3] {
@@ -538,7 +640,7 @@ fn eval_rgb(coeffs: &[[f64; 3]], d: DVec3) -> [f64; 3] {
 
 /// PRT vs brute force for one environment: band-limited comparison (must agree to `tol`) and
 /// the full error (reported, returned).
-fn prt_vs_brute(env: &(dyn Fn(DVec3) -> [f64; 3] + Sync), views: &[DVec3], tol: f64) -> f64 {
+fn prt_vs_brute(env: &EnvFn, views: &[DVec3], tol: f64) -> f64 {
     let optics = water();
     let q = sh::SphereQuadrature::equirect(512, 256);
     let mut worst_full = 0.0f64;
@@ -547,13 +649,19 @@ fn prt_vs_brute(env: &(dyn Fn(DVec3) -> [f64; 3] + Sync), views: &[DVec3], tol: 
         let rtf = RtfSh::from_optics(&optics, bands).unwrap();
         for v in views {
             let prt = prt_colour_f64(&coeffs, &rtf, *v);
-            let brute_bl = brute_force_colour(|d| eval_rgb(&coeffs, d), &optics, *v, 20_000).unwrap();
+            let brute_bl =
+                brute_force_colour(|d| eval_rgb(&coeffs, d), &optics, *v, 20_000).unwrap();
             for c in 0..3 {
-                assert!((prt[c] - brute_bl[c]).abs() < tol, "bands {bands} v {v:?}: {prt:?} vs {brute_bl:?}");
+                assert!(
+                    (prt[c] - brute_bl[c]).abs() < tol,
+                    "bands {bands} v {v:?}: {prt:?} vs {brute_bl:?}"
+                );
             }
             if bands == 4 {
                 let full = brute_force_colour(env, &optics, *v, 80_000).unwrap();
-                let err = (0..3).map(|c| (prt[c] - full[c]).abs() / full[c].abs().max(1e-3)).fold(0.0, f64::max);
+                let err = (0..3)
+                    .map(|c| (prt[c] - full[c]).abs() / full[c].abs().max(1e-3))
+                    .fold(0.0, f64::max);
                 worst_full = worst_full.max(err);
             }
         }
@@ -563,7 +671,13 @@ fn prt_vs_brute(env: &(dyn Fn(DVec3) -> [f64; 3] + Sync), views: &[DVec3], tol: 
 
 #[test]
 fn prt_sky_over_ground_follows_view_direction() {
-    let views = [DVec3::Z, DVec3::new(0.0, 1.0, 0.3).normalize(), DVec3::Y, DVec3::new(0.2, 0.9, -0.5).normalize(), -DVec3::Z];
+    let views = [
+        DVec3::Z,
+        DVec3::new(0.0, 1.0, 0.3).normalize(),
+        DVec3::Y,
+        DVec3::new(0.2, 0.9, -0.5).normalize(),
+        -DVec3::Z,
+    ];
     let full = prt_vs_brute(&sky_ground, &views, 1e-3);
     eprintln!("sky/ground: 4-band PRT vs full brute force, worst relative error {full:.4}");
     // Looking up, the drop transmits the sky (order 2 dominates, θ small): brighter, bluer.
@@ -581,10 +695,20 @@ fn prt_sky_over_ground_follows_view_direction() {
 /// The Blender "courtyard" world (CC0, tests/data/README.md): 128×64 equirectangular, 16-bit
 /// PNG storing `(linear / 585.891)^(1/4)`.
 fn courtyard() -> (usize, usize, Vec<[f64; 3]>) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/courtyard_128x64.png");
-    let img = image::ImageReader::open(path).unwrap().decode().unwrap().to_rgb16();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/courtyard_128x64.png"
+    );
+    let img = image::ImageReader::open(path)
+        .unwrap()
+        .decode()
+        .unwrap()
+        .to_rgb16();
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let px = img.pixels().map(|p| p.0.map(|v| 585.891 * (v as f64 / 65535.0).powi(4))).collect();
+    let px = img
+        .pixels()
+        .map(|p| p.0.map(|v| 585.891 * (v as f64 / 65535.0).powi(4)))
+        .collect();
     (w, h, px)
 }
 
@@ -598,7 +722,11 @@ fn prt_real_photograph() {
         let row = ((theta / PI * h as f64) as usize).min(h - 1);
         px[row * w + col]
     };
-    let views = [DVec3::Y, DVec3::new(0.6, -0.7, 0.4).normalize(), DVec3::new(-0.3, 0.2, -0.93).normalize()];
+    let views = [
+        DVec3::Y,
+        DVec3::new(0.6, -0.7, 0.4).normalize(),
+        DVec3::new(-0.3, 0.2, -0.93).normalize(),
+    ];
     // Radiances up to ~600 (the sun): the band-limited agreement is relative to the mean (~4).
     let full = prt_vs_brute(&env, &views, 4e-3);
     eprintln!("courtyard: 4-band PRT vs full brute force, worst relative error {full:.4}");
@@ -609,7 +737,11 @@ fn prt_table_path_agrees_with_gamma_path() {
     // brute_force_colour_table integrates the table exactly; the PRT from the table's zonal
     // coefficients must match it on a band-limited environment.
     let optics = water();
-    let tables = [optics[0].tabulate(512).unwrap(), optics[1].tabulate(512).unwrap(), optics[2].tabulate(512).unwrap()];
+    let tables = [
+        optics[0].tabulate(512).unwrap(),
+        optics[1].tabulate(512).unwrap(),
+        optics[2].tabulate(512).unwrap(),
+    ];
     let rtf = RtfSh::from_tables(&tables, 4).unwrap();
     let coeffs = project_rgb(sky_ground, &sh::SphereQuadrature::equirect(256, 128), 4);
     let v = DVec3::new(0.3, 0.9, 0.1).normalize();
@@ -636,7 +768,11 @@ fn envmap_lookup_is_the_pinhole_inside_the_frame() {
             let px = DVec2::new(rng.f64() * 319.0 + 0.5, rng.f64() * 179.0 + 0.5);
             let lk = mapper.lookup(cam.ray_world(px));
             assert!(lk.inside && lk.blur == 0.0);
-            assert!((lk.pixel_px - px).length() < 1e-6, "{:?} vs {px:?}", lk.pixel_px);
+            assert!(
+                (lk.pixel_px - px).length() < 1e-6,
+                "{:?} vs {px:?}",
+                lk.pixel_px
+            );
         }
     }
     let cam = camera();
@@ -677,12 +813,17 @@ fn envmap_constant_frame_gives_constant_environment() {
 fn envmap_bright_top_half_gives_sky_dipole() {
     let cam = camera();
     let mapper = EnvMapper::new(&cam, 4).unwrap();
-    let frame: Vec<[f32; 3]> = (0..320 * 180).map(|i| if i / 320 < 90 { [1.0; 3] } else { [0.1; 3] }).collect();
+    let frame: Vec<[f32; 3]> = (0..320 * 180)
+        .map(|i| if i / 320 < 90 { [1.0; 3] } else { [0.1; 3] })
+        .collect();
     let env = mapper.project(&frame).unwrap();
     let (c0, cz) = (env.coeffs[0][1], env.coeffs[sh::index(1, 0)][1]);
     // A pure sky/ground split of 1 / 0.1 has c_10/c_00 = √3 · 0.9/(1.1) ≈ 1.42.
     assert!(cz > 0.5 * c0, "c10 {cz} vs c00 {c0}");
-    assert!(env.coeffs[sh::index(1, 1)][1].abs() < 0.05 * cz, "no x dipole");
+    assert!(
+        env.coeffs[sh::index(1, 1)][1].abs() < 0.05 * cz,
+        "no x dipole"
+    );
     let flipped: Vec<[f32; 3]> = frame.iter().rev().cloned().collect();
     assert!(mapper.project(&flipped).unwrap().coeffs[sh::index(1, 0)][1] < -0.5 * c0);
 }
@@ -700,7 +841,10 @@ fn envmap_rejects_bad_input() {
 
 #[test]
 fn smoother_converges_and_resets_on_cut() {
-    let env = |v: f32| EnvironmentSh { bands: 2, coeffs: vec![[v, v, v], [0.1 * v; 3], [0.2 * v; 3], [0.0; 3]] };
+    let env = |v: f32| EnvironmentSh {
+        bands: 2,
+        coeffs: vec![[v, v, v], [0.1 * v; 3], [0.2 * v; 3], [0.0; 3]],
+    };
     let mut s = ShSmoother::new(0.25, 0.3).unwrap();
     let a = env(1.0);
     assert_eq!(s.update(&a, 1.0 / 30.0), a);
@@ -735,7 +879,9 @@ fn envmap_projection_time_at_1080p() {
     let t0 = std::time::Instant::now();
     let mapper = EnvMapper::new(&cam, 4).unwrap();
     let setup = t0.elapsed();
-    let frame: Vec<[f32; 3]> = (0..1920 * 1080).map(|i| [(i % 1920) as f32 / 1920.0, 0.5, 0.2]).collect();
+    let frame: Vec<[f32; 3]> = (0..1920 * 1080)
+        .map(|i| [(i % 1920) as f32 / 1920.0, 0.5, 0.2])
+        .collect();
     let t0 = std::time::Instant::now();
     let n = 10;
     for _ in 0..n {
@@ -770,8 +916,20 @@ fn inspect_rtf_reports_and_validates() {
 #[test]
 fn inspect_sh_reports_and_plots() {
     let cam = camera();
-    let pixels = (0..320 * 180).map(|i| if i / 320 < 90 { [0.8, 0.9, 1.0] } else { [0.1, 0.08, 0.05] }).collect();
-    let img = inspect::LinearImage { width: 320, height: 180, pixels };
+    let pixels = (0..320 * 180)
+        .map(|i| {
+            if i / 320 < 90 {
+                [0.8, 0.9, 1.0]
+            } else {
+                [0.1, 0.08, 0.05]
+            }
+        })
+        .collect();
+    let img = inspect::LinearImage {
+        width: 320,
+        height: 180,
+        pixels,
+    };
     let v = inspect::inspect_sh(&img, &cam, 4).unwrap();
     assert!(v["dipole_direction"][2].as_f64().unwrap() > 0.9);
     let dir = tempfile::tempdir().unwrap();
@@ -788,12 +946,25 @@ const SH_WGSL: &str = include_str!("../shaders/common/sh.wgsl");
 #[test]
 fn wgsl_parses_and_validates() {
     let module = naga::front::wgsl::parse_str(SH_WGSL).expect("parse");
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .expect("validate");
-    assert!(module.entry_points.is_empty(), "sh.wgsl must hold functions and consts only");
-    assert!(module.global_variables.is_empty(), "sh.wgsl must declare no bindings");
-    let names: Vec<_> = module.functions.iter().filter_map(|(_, f)| f.name.clone()).collect();
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .expect("validate");
+    assert!(
+        module.entry_points.is_empty(),
+        "sh.wgsl must hold functions and consts only"
+    );
+    assert!(
+        module.global_variables.is_empty(),
+        "sh.wgsl must declare no bindings"
+    );
+    let names: Vec<_> = module
+        .functions
+        .iter()
+        .filter_map(|(_, f)| f.name.clone())
+        .collect();
     assert!(names.contains(&"sh_basis16".to_string()) && names.contains(&"prt_colour".to_string()));
 }
 
@@ -821,9 +992,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 fn run_wgsl_parity(params: &[f32], dirs: &[[f32; 4]]) -> Option<Vec<f32>> {
     use wgpu::util::DeviceExt;
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default())).ok()?;
+    let adapter =
+        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .ok()?;
     eprintln!("WGSL parity on {:?}", adapter.get_info().name);
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).ok()?;
+    let (device, queue) =
+        pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).ok()?;
     let src = format!("{SH_WGSL}\n{PARITY_WGSL}");
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("sh_parity"),
@@ -863,9 +1037,18 @@ fn run_wgsl_parity(params: &[f32], dirs: &[[f32; 4]]) -> Option<Vec<f32>> {
         label: None,
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: p.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: d.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() },
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: p.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: d.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: out.as_entire_binding(),
+            },
         ],
     });
     let mut enc = device.create_command_encoder(&Default::default());
@@ -878,7 +1061,12 @@ fn run_wgsl_parity(params: &[f32], dirs: &[[f32; 4]]) -> Option<Vec<f32>> {
     enc.copy_buffer_to_buffer(&out, 0, &read, 0, size);
     queue.submit([enc.finish()]);
     read.map_async(wgpu::MapMode::Read, .., |r| r.expect("map"));
-    device.poll(wgpu::PollType::Wait { submission_index: None, timeout: None }).expect("poll");
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: None,
+        })
+        .expect("poll");
     let view = read.get_mapped_range(..).expect("mapped");
     Some(bytemuck::cast_slice(&view).to_vec())
 }
@@ -888,29 +1076,54 @@ fn wgsl_matches_cpu_on_gpu() {
     let optics = water();
     let rtf = RtfSh::from_optics(&optics, 4).unwrap();
     let coeffs = project_rgb(sky_ground, &sh::SphereQuadrature::equirect(128, 64), 4);
-    let env = EnvironmentSh { bands: 4, coeffs: coeffs.iter().map(|c| c.map(|v| v as f32)).collect() };
+    let env = EnvironmentSh {
+        bands: 4,
+        coeffs: coeffs.iter().map(|c| c.map(|v| v as f32)).collect(),
+    };
     let mut params: Vec<f32> = env.to_gpu_array().iter().flatten().cloned().collect();
     params.extend(rtf.to_gpu_array());
     let mut rng = Rng(21);
-    let dirs: Vec<DVec3> = (0..1000).map(|_| rng.dir()).chain([DVec3::Z, -DVec3::Z, DVec3::X]).collect();
-    let dirs_f32: Vec<[f32; 4]> = dirs.iter().map(|d| [d.x as f32, d.y as f32, d.z as f32, 0.0]).collect();
+    let dirs: Vec<DVec3> = (0..1000)
+        .map(|_| rng.dir())
+        .chain([DVec3::Z, -DVec3::Z, DVec3::X])
+        .collect();
+    let dirs_f32: Vec<[f32; 4]> = dirs
+        .iter()
+        .map(|d| [d.x as f32, d.y as f32, d.z as f32, 0.0])
+        .collect();
     let Some(out) = run_wgsl_parity(&params, &dirs_f32) else {
-        assert!(std::env::var_os("RAIN_REQUIRE_GPU").is_none(), "no GPU adapter but RAIN_REQUIRE_GPU is set");
+        assert!(
+            std::env::var_os("RAIN_REQUIRE_GPU").is_none(),
+            "no GPU adapter but RAIN_REQUIRE_GPU is set"
+        );
         eprintln!("skipped: no GPU adapter (set RAIN_REQUIRE_GPU=1 to make this a failure)");
         return;
     };
     // The CPU twin on the same f32-rounded inputs.
     let env64 = env.coeffs_f64();
-    let rtf32 = RtfSh { bands: 4, zonal: rtf.zonal.iter().map(|z| z.map(|v| v as f32 as f64)).collect() };
+    let rtf32 = RtfSh {
+        bands: 4,
+        zonal: rtf
+            .zonal
+            .iter()
+            .map(|z| z.map(|v| v as f32 as f64))
+            .collect(),
+    };
     for (i, d) in dirs_f32.iter().enumerate() {
         let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
         let cpu = sh::basis16_cartesian(d);
         for k in 0..16 {
-            assert!((out[i * 20 + k] as f64 - cpu[k]).abs() < 2e-6, "basis {k} at {d:?}");
+            assert!(
+                (out[i * 20 + k] as f64 - cpu[k]).abs() < 2e-6,
+                "basis {k} at {d:?}"
+            );
         }
         let c = prt_colour_f64(&env64, &rtf32, d);
         for k in 0..3 {
-            assert!((out[i * 20 + 16 + k] as f64 - c[k]).abs() < 1e-5 * c[k].abs().max(1.0), "colour {k} at {d:?}");
+            assert!(
+                (out[i * 20 + 16 + k] as f64 - c[k]).abs() < 1e-5 * c[k].abs().max(1.0),
+                "colour {k} at {d:?}"
+            );
         }
     }
 }
@@ -925,7 +1138,11 @@ fn fibonacci_sphere(n: usize) -> Vec<DVec3> {
         .map(|i| {
             let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
             let s = (1.0 - z * z).sqrt();
-            DVec3::new(s * (golden * i as f64).cos(), s * (golden * i as f64).sin(), z)
+            DVec3::new(
+                s * (golden * i as f64).cos(),
+                s * (golden * i as f64).sin(),
+                z,
+            )
         })
         .collect()
 }
@@ -938,7 +1155,10 @@ fn courtyard_bilinear() -> impl Fn(DVec3) -> [f64; 3] + Sync {
         let v = (d.z.clamp(-1.0, 1.0).acos() / PI * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
         let (x0, y0) = (u.floor(), v.floor() as usize);
         let (fx, fy) = (u - x0, v - y0 as f64);
-        let (x0, x1) = ((x0 as i64).rem_euclid(w as i64) as usize, ((x0 as i64) + 1).rem_euclid(w as i64) as usize);
+        let (x0, x1) = (
+            (x0 as i64).rem_euclid(w as i64) as usize,
+            ((x0 as i64) + 1).rem_euclid(w as i64) as usize,
+        );
         let y1 = (y0 + 1).min(h - 1);
         let p = |x: usize, y: usize| px[y * w + x];
         [0, 1, 2].map(|k| {
@@ -948,18 +1168,25 @@ fn courtyard_bilinear() -> impl Fn(DVec3) -> [f64; 3] + Sync {
     }
 }
 
+/// An environment: radiance per channel for a direction.
+type EnvFn = dyn Fn(DVec3) -> [f64; 3] + Sync;
+
 #[test]
 #[ignore = "report; run with --ignored --nocapture"]
 fn report_speed_error_table() {
     let views = fibonacci_sphere(26);
-    let envs: Vec<(&str, Box<dyn Fn(DVec3) -> [f64; 3] + Sync>)> =
-        vec![("sky/ground", Box::new(sky_ground)), ("courtyard", Box::new(courtyard_bilinear()))];
+    let envs: Vec<(&str, Box<EnvFn>)> = vec![
+        ("sky/ground", Box::new(sky_ground)),
+        ("courtyard", Box::new(courtyard_bilinear())),
+    ];
     let rho = [1.331, 1.333, 1.337];
     let reference_optics = channel_optics(rho.into(), 40, Polarisation::Separate).unwrap();
     for (name, env) in &envs {
         let t0 = std::time::Instant::now();
-        let reference: Vec<[f64; 3]> =
-            views.iter().map(|v| brute_force_colour(env, &reference_optics, *v, 40_000).unwrap()).collect();
+        let reference: Vec<[f64; 3]> = views
+            .iter()
+            .map(|v| brute_force_colour(env, &reference_optics, *v, 40_000).unwrap())
+            .collect();
         // Convergence of the reference itself: 4× the samples on three views.
         let conv = views[..3]
             .iter()
@@ -969,12 +1196,22 @@ fn report_speed_error_table() {
                 (0..3).map(|c| (b[c] - r[c]).abs()).fold(0.0, f64::max)
             })
             .fold(0.0, f64::max);
-        let mean: f64 = reference.iter().map(|r| (r[0] + r[1] + r[2]) / 3.0).sum::<f64>() / views.len() as f64;
-        eprintln!("\n## {name}: reference = brute force, n_max 40, 40k samples/order ({:?}); mean drop radiance {mean:.4}; reference change at 160k samples {:.1e} (relative {:.1e})",
-            t0.elapsed(), conv, conv / mean);
+        let mean: f64 = reference
+            .iter()
+            .map(|r| (r[0] + r[1] + r[2]) / 3.0)
+            .sum::<f64>()
+            / views.len() as f64;
+        eprintln!(
+            "\n## {name}: reference = brute force, n_max 40, 40k samples/order ({:?}); mean drop radiance {mean:.4}; reference change at 160k samples {:.1e} (relative {:.1e})",
+            t0.elapsed(),
+            conv,
+            conv / mean
+        );
         let q = sh::SphereQuadrature::equirect(1024, 512);
         let env_full = project_rgb(env, &q, 8);
-        eprintln!("| bands | bins | n_max | table+zonal ms (3 ch) | max err / mean | rms err / mean |");
+        eprintln!(
+            "| bands | bins | n_max | table+zonal ms (3 ch) | max err / mean | rms err / mean |"
+        );
         eprintln!("|---|---|---|---|---|---|");
         for bands in 2..=8 {
             let coeffs: Vec<[f64; 3]> = env_full[..bands * bands].to_vec();
@@ -1002,7 +1239,11 @@ fn report_speed_error_table() {
                         .collect();
                     let max = errs.iter().cloned().fold(0.0, f64::max);
                     let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
-                    let bins_s = if bins == 0 { "γ-integral".to_string() } else { bins.to_string() };
+                    let bins_s = if bins == 0 {
+                        "γ-integral".to_string()
+                    } else {
+                        bins.to_string()
+                    };
                     eprintln!("| {bands} | {bins_s} | {n_max} | {ms:.2} | {max:.2e} | {rms:.2e} |");
                 }
             }
@@ -1017,5 +1258,8 @@ fn report_speed_error_table() {
     for d in &dirs {
         acc += prt_colour_f64(&coeffs, &rtf, *d)[0];
     }
-    eprintln!("\nprt_colour_f64 (CPU, 4 bands): {:.0} ns/pixel ({acc:.3})", t0.elapsed().as_nanos() as f64 / dirs.len() as f64);
+    eprintln!(
+        "\nprt_colour_f64 (CPU, 4 bands): {:.0} ns/pixel ({acc:.3})",
+        t0.elapsed().as_nanos() as f64 / dirs.len() as f64
+    );
 }

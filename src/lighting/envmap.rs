@@ -49,7 +49,10 @@ pub struct EnvironmentSh {
 impl EnvironmentSh {
     /// All-zero coefficients.
     pub fn zeros(bands: usize) -> EnvironmentSh {
-        EnvironmentSh { bands, coeffs: vec![[0.0; 3]; bands * bands] }
+        EnvironmentSh {
+            bands,
+            coeffs: vec![[0.0; 3]; bands * bands],
+        }
     }
 
     /// Coefficients as `f64`.
@@ -82,7 +85,12 @@ impl EnvironmentSh {
     /// Euclidean norm of all coefficients; by Parseval the L2 norm of the band-limited
     /// environment over the sphere (all channels).
     pub fn norm(&self) -> f64 {
-        self.coeffs.iter().flatten().map(|v| f64::from(*v).powi(2)).sum::<f64>().sqrt()
+        self.coeffs
+            .iter()
+            .flatten()
+            .map(|v| f64::from(*v).powi(2))
+            .sum::<f64>()
+            .sqrt()
     }
 
     /// `‖a − b‖ / max(‖a‖, ‖b‖)` ∈ [0, 2]: the relative L2 change of the band-limited
@@ -231,7 +239,11 @@ impl EnvMapper {
         };
         let xc = x.clamp(-half_w, half_w);
         let ray = (xc * xc + f * f).sqrt();
-        let y = if horiz > 0.0 { c.y / horiz * ray } else { c.y.signum() * f64::INFINITY };
+        let y = if horiz > 0.0 {
+            c.y / horiz * ray
+        } else {
+            c.y.signum() * f64::INFINITY
+        };
         let yc = y.clamp(-half_h, half_h);
         let inside = c.z > 0.0 && x.abs() <= half_w && y.abs() <= half_h;
         // Angular distance outside the picture, before mirroring.
@@ -239,13 +251,21 @@ impl EnvMapper {
         let d_az = (az - (half_w / f).atan()).max(0.0);
         let el = (-c.y).atan2(horiz).abs();
         let d_el = (el - (half_h / ray).atan()).max(0.0);
-        let blur = if inside { 0.0 } else { (d_az.max(d_el) / self.settings.blur_ramp_rad).min(1.0) };
+        let blur = if inside {
+            0.0
+        } else {
+            (d_az.max(d_el) / self.settings.blur_ramp_rad).min(1.0)
+        };
         let p = cam.principal_px() + DVec2::new(xc, yc);
         let pixel_px = DVec2::new(
             p.x.clamp(0.5, cam.width_px as f64 - 0.5),
             p.y.clamp(0.5, cam.height_px as f64 - 0.5),
         );
-        EnvLookup { pixel_px, inside, blur }
+        EnvLookup {
+            pixel_px,
+            inside,
+            blur,
+        }
     }
 
     /// Bilinear taps `(small pixel index, weight)` for a frame position.
@@ -254,7 +274,10 @@ impl EnvMapper {
         let u = (p.x / b - 0.5).clamp(0.0, (self.small_w - 1) as f64);
         let v = (p.y / b - 0.5).clamp(0.0, (self.small_h - 1) as f64);
         let (x0, y0) = (u.floor() as usize, v.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(self.small_w - 1), (y0 + 1).min(self.small_h - 1));
+        let (x1, y1) = (
+            (x0 + 1).min(self.small_w - 1),
+            (y0 + 1).min(self.small_h - 1),
+        );
         let (fx, fy) = (u - x0 as f64, v - y0 as f64);
         let i = |x: usize, y: usize| y * self.small_w + x;
         [
@@ -307,7 +330,10 @@ impl EnvMapper {
     }
 
     fn check_frame(&self, frame: &[[f32; 3]]) -> Result<()> {
-        let (w, h) = (self.camera.width_px as usize, self.camera.height_px as usize);
+        let (w, h) = (
+            self.camera.width_px as usize,
+            self.camera.height_px as usize,
+        );
         if frame.len() != w * h {
             return Err(Error::Parameter {
                 name: "frame",
@@ -321,30 +347,37 @@ impl EnvMapper {
     /// Box-downsamples a linear RGB frame (row-major, the camera's size) by the mapper's block.
     pub fn downsample(&self, frame: &[[f32; 3]]) -> Result<Vec<[f32; 3]>> {
         self.check_frame(frame)?;
-        let (w, h, b) = (self.camera.width_px as usize, self.camera.height_px as usize, self.block_px);
+        let (w, h, b) = (
+            self.camera.width_px as usize,
+            self.camera.height_px as usize,
+            self.block_px,
+        );
         let mut small = vec![[0.0f32; 3]; self.small_w * self.small_h];
-        small.par_chunks_mut(self.small_w).enumerate().for_each(|(sy, out)| {
-            let rows = sy * b..((sy + 1) * b).min(h);
-            let n_rows = rows.len();
-            for y in rows {
-                let line = &frame[y * w..(y + 1) * w];
-                for (sx, o) in out.iter_mut().enumerate() {
-                    let mut acc = [0.0f32; 3];
-                    for p in &line[sx * b..((sx + 1) * b).min(w)] {
-                        acc[0] += p[0];
-                        acc[1] += p[1];
-                        acc[2] += p[2];
+        small
+            .par_chunks_mut(self.small_w)
+            .enumerate()
+            .for_each(|(sy, out)| {
+                let rows = sy * b..((sy + 1) * b).min(h);
+                let n_rows = rows.len();
+                for y in rows {
+                    let line = &frame[y * w..(y + 1) * w];
+                    for (sx, o) in out.iter_mut().enumerate() {
+                        let mut acc = [0.0f32; 3];
+                        for p in &line[sx * b..((sx + 1) * b).min(w)] {
+                            acc[0] += p[0];
+                            acc[1] += p[1];
+                            acc[2] += p[2];
+                        }
+                        o[0] += acc[0];
+                        o[1] += acc[1];
+                        o[2] += acc[2];
                     }
-                    o[0] += acc[0];
-                    o[1] += acc[1];
-                    o[2] += acc[2];
                 }
-            }
-            for (sx, o) in out.iter_mut().enumerate() {
-                let n = (n_rows * (((sx + 1) * b).min(w) - sx * b)) as f32;
-                o.iter_mut().for_each(|v| *v /= n);
-            }
-        });
+                for (sx, o) in out.iter_mut().enumerate() {
+                    let n = (n_rows * (((sx + 1) * b).min(w) - sx * b)) as f32;
+                    o.iter_mut().for_each(|v| *v /= n);
+                }
+            });
         Ok(small)
     }
 
@@ -362,7 +395,11 @@ impl EnvMapper {
                     let (lo, hi) = (c.saturating_sub(r), (c + r).min(n - 1));
                     let mut acc = [0.0f32; 3];
                     for k in lo..=hi {
-                        let p = if horizontal { src[y * w + k] } else { src[k * w + x] };
+                        let p = if horizontal {
+                            src[y * w + k]
+                        } else {
+                            src[k * w + x]
+                        };
                         (0..3).for_each(|i| acc[i] += p[i]);
                     }
                     let cnt = (hi - lo + 1) as f32;
@@ -391,19 +428,30 @@ impl EnvMapper {
         let nc = self.bands * self.bands;
         let mut acc = vec![[0.0f64; 3]; nc];
         for (px, (s, b)) in small.iter().zip(&blurred).enumerate() {
-            let (rs, rb) = (&self.a_sharp[px * nc..][..nc], &self.a_blur[px * nc..][..nc]);
+            let (rs, rb) = (
+                &self.a_sharp[px * nc..][..nc],
+                &self.a_blur[px * nc..][..nc],
+            );
             for i in 0..nc {
                 for k in 0..3 {
                     acc[i][k] += f64::from(rs[i] * s[k] + rb[i] * b[k]);
                 }
             }
         }
-        EnvironmentSh { bands: self.bands, coeffs: acc.iter().map(|c| c.map(|v| v as f32)).collect() }
+        EnvironmentSh {
+            bands: self.bands,
+            coeffs: acc.iter().map(|c| c.map(|v| v as f32)).collect(),
+        }
     }
 
     /// The mapping itself as a `width × height` equirectangular image (texel centres per
     /// [`sh::equirect_direction`]), for inspection.
-    pub fn equirect(&self, frame: &[[f32; 3]], width: usize, height: usize) -> Result<Vec<[f32; 3]>> {
+    pub fn equirect(
+        &self,
+        frame: &[[f32; 3]],
+        width: usize,
+        height: usize,
+    ) -> Result<Vec<[f32; 3]>> {
         let small = self.downsample(frame)?;
         let blurred = self.blur_small(&small);
         let mut out = Vec::with_capacity(width * height);
@@ -428,7 +476,10 @@ impl EnvMapper {
 /// The band-limited environment sampled on a `width × height` equirectangular grid.
 pub fn reconstruct_equirect(env: &EnvironmentSh, width: usize, height: usize) -> Vec<[f32; 3]> {
     (0..width * height)
-        .map(|i| env.eval(sh::equirect_direction(i % width, i / width, width, height)).map(|v| v as f32))
+        .map(|i| {
+            env.eval(sh::equirect_direction(i % width, i / width, width, height))
+                .map(|v| v as f32)
+        })
         .collect()
 }
 
@@ -487,7 +538,11 @@ impl ShSmoother {
                 expected: "a normalised distance in (0, 2]".into(),
             });
         }
-        Ok(ShSmoother { time_constant_secs, cut_threshold, ..ShSmoother::default() })
+        Ok(ShSmoother {
+            time_constant_secs,
+            cut_threshold,
+            ..ShSmoother::default()
+        })
     }
 
     /// Feeds one frame's coefficients, `dt_secs` after the previous one; returns the smoothed

@@ -29,19 +29,30 @@ pub struct LinearImage {
 
 /// The sRGB transfer function, encoded → linear.
 pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 /// The sRGB transfer function, linear → encoded.
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 impl LinearImage {
     /// Decodes an sRGB-encoded PNG (8 or 16 bit) into linear light.
     pub fn load_png(path: &Path) -> Result<LinearImage> {
-        let fail = |reason: String| Error::InputOpen { path: path.display().to_string(), reason };
+        let fail = |reason: String| Error::InputOpen {
+            path: path.display().to_string(),
+            reason,
+        };
         let img = image::ImageReader::open(path)
             .map_err(|e| fail(e.to_string()))?
             .with_guessed_format()
@@ -51,7 +62,11 @@ impl LinearImage {
             .to_rgb32f();
         let (width, height) = (img.width() as usize, img.height() as usize);
         let pixels = img.pixels().map(|p| p.0.map(srgb_to_linear)).collect();
-        Ok(LinearImage { width, height, pixels })
+        Ok(LinearImage {
+            width,
+            height,
+            pixels,
+        })
     }
 }
 
@@ -76,7 +91,11 @@ fn check_rtf_params(n_max: usize, bins: usize, bands: usize) -> Result<()> {
 
 fn tables(rho: ChannelIndices, n_max: usize, bins: usize) -> Result<[RtfTable; 3]> {
     let optics = channel_optics(rho, n_max, Polarisation::default())?;
-    Ok([optics[0].tabulate(bins)?, optics[1].tabulate(bins)?, optics[2].tabulate(bins)?])
+    Ok([
+        optics[0].tabulate(bins)?,
+        optics[1].tabulate(bins)?,
+        optics[2].tabulate(bins)?,
+    ])
 }
 
 /// The RTF for refractive index `rho` (one value or R, G, B): the table per order and in total,
@@ -102,9 +121,15 @@ pub fn inspect_rtf(
             let sum: f64 = energy.iter().sum();
             let z_gamma = o.zonal(bands);
             let z_table = t.zonal(bands);
-            let z_err = z_gamma.iter().zip(&z_table).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let z_err = z_gamma
+                .iter()
+                .zip(&z_table)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             let caustics: serde_json::Map<String, Value> = (3..=n_max.min(12))
-                .filter_map(|n| caustic_angle_rad(o.rho(), n).map(|a| (n.to_string(), json!(a.to_degrees()))))
+                .filter_map(|n| {
+                    caustic_angle_rad(o.rho(), n).map(|a| (n.to_string(), json!(a.to_degrees())))
+                })
                 .collect();
             json!({
                 "rho": o.rho(),
@@ -147,7 +172,11 @@ pub fn inspect_sh(image: &LinearImage, camera: &Camera, bands: usize) -> Result<
     let env = mapper.project(&image.pixels)?;
     let c = env.coeffs_f64();
     let lum = |v: &[f64; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
-    let dipole = if bands > 1 { DVec3::new(lum(&c[3]), lum(&c[1]), lum(&c[2])) } else { DVec3::ZERO };
+    let dipole = if bands > 1 {
+        DVec3::new(lum(&c[3]), lum(&c[1]), lum(&c[2]))
+    } else {
+        DVec3::ZERO
+    };
     let band_energy: Vec<[f64; 3]> = (0..bands)
         .map(|l| {
             let mut e = [0.0; 3];
@@ -190,7 +219,11 @@ struct Canvas {
 
 impl Canvas {
     fn new(w: usize, h: usize, bg: [f32; 3]) -> Canvas {
-        Canvas { w, h, px: vec![bg; w * h] }
+        Canvas {
+            w,
+            h,
+            px: vec![bg; w * h],
+        }
     }
 
     fn add(&mut self, x: f64, y: f64, c: [f32; 3]) {
@@ -229,7 +262,9 @@ impl Canvas {
             ('e', [7, 5, 7, 4, 7]),
         ];
         for (i, ch) in s.chars().enumerate() {
-            let Some((_, rows)) = GLYPHS.iter().find(|g| g.0 == ch) else { continue };
+            let Some((_, rows)) = GLYPHS.iter().find(|g| g.0 == ch) else {
+                continue;
+            };
             for (r, bits) in rows.iter().enumerate() {
                 for col in 0..3 {
                     if bits & (4 >> col) != 0 {
@@ -247,13 +282,21 @@ impl Canvas {
 
     fn save(&self, path: &Path, srgb: bool) -> Result<()> {
         let enc = |v: f32| {
-            let v = if srgb { linear_to_srgb(v) } else { v.clamp(0.0, 1.0) };
+            let v = if srgb {
+                linear_to_srgb(v)
+            } else {
+                v.clamp(0.0, 1.0)
+            };
             (v * 255.0).round() as u8
         };
         let bytes: Vec<u8> = self.px.iter().flat_map(|p| p.map(enc)).collect();
-        let img = image::RgbImage::from_raw(self.w as u32, self.h as u32, bytes).ok_or_else(|| {
-            Error::OutputWrite { path: path.display().to_string(), reason: "bad canvas size".into() }
-        })?;
+        let img =
+            image::RgbImage::from_raw(self.w as u32, self.h as u32, bytes).ok_or_else(|| {
+                Error::OutputWrite {
+                    path: path.display().to_string(),
+                    reason: "bad canvas size".into(),
+                }
+            })?;
         img.save(path).map_err(|e| Error::OutputWrite {
             path: path.display().to_string(),
             reason: e.to_string(),
@@ -277,10 +320,15 @@ pub fn plot_rtf(
     let size = 900usize;
     let (cx, cy, r_max) = (size as f64 / 2.0, size as f64 / 2.0, size as f64 * 0.44);
     let mut cv = Canvas::new(size, size, [0.0; 3]);
-    let f_max = tables.iter().flat_map(|t| t.total.iter()).cloned().fold(1e-30, f64::max);
+    let f_max = tables
+        .iter()
+        .flat_map(|t| t.total.iter())
+        .cloned()
+        .fold(1e-30, f64::max);
     let top = f_max.log10().ceil();
     let decades = 6.0;
-    let radius = |f: f64| ((f.max(1e-300).log10() - (top - decades)) / decades).clamp(0.0, 1.0) * r_max;
+    let radius =
+        |f: f64| ((f.max(1e-300).log10() - (top - decades)) / decades).clamp(0.0, 1.0) * r_max;
     let grey = [0.25, 0.25, 0.25];
     for k in 1..=decades as usize {
         let r = r_max * k as f64 / decades;
@@ -289,11 +337,22 @@ pub fn plot_rtf(
             let a = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
             cv.add(cx + r * a.cos(), cy + r * a.sin(), grey);
         }
-        cv.text(cx + r + 3.0, cy + 4.0, &format!("{}", top - decades + k as f64), grey, 2);
+        cv.text(
+            cx + r + 3.0,
+            cy + 4.0,
+            &format!("{}", top - decades + k as f64),
+            grey,
+            2,
+        );
     }
     for deg in (0..360).step_by(30) {
         let a = (deg as f64).to_radians();
-        cv.line((cx, cy), (cx + r_max * a.cos(), cy + r_max * a.sin()), [0.12; 3], 0);
+        cv.line(
+            (cx, cy),
+            (cx + r_max * a.cos(), cy + r_max * a.sin()),
+            [0.12; 3],
+            0,
+        );
     }
     let colours = [[1.0, 0.15, 0.15], [0.15, 1.0, 0.15], [0.2, 0.35, 1.0]];
     let channels = if rho.is_single() { 1 } else { 3 };
@@ -315,7 +374,13 @@ pub fn plot_rtf(
         if let Some(a) = caustic_angle_rad(rho.0[1], n) {
             let end = (cx + r_max * 1.05 * a.cos(), cy - r_max * 1.05 * a.sin());
             cv.line((cx, cy), end, [0.9, 0.8, 0.1], 6);
-            cv.text(end.0 - 20.0, end.1 - 16.0, &format!("{:.1}", a.to_degrees()), [0.9, 0.8, 0.1], 2);
+            cv.text(
+                end.0 - 20.0,
+                end.1 - 16.0,
+                &format!("{:.1}", a.to_degrees()),
+                [0.9, 0.8, 0.1],
+                2,
+            );
         }
     }
     cv.save(path, false)
@@ -331,8 +396,10 @@ pub fn plot_sh(image: &LinearImage, camera: &Camera, bands: usize, path: &Path) 
     let mapped = mapper.equirect(&image.pixels, w, h)?;
     let env = mapper.project(&image.pixels)?;
     let recon = reconstruct_equirect(&env, w, h);
-    let mut lum: Vec<f32> =
-        mapped.iter().map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).collect();
+    let mut lum: Vec<f32> = mapped
+        .iter()
+        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .collect();
     lum.sort_by(f32::total_cmp);
     let white = lum[(lum.len() - 1) * 99 / 100].max(1e-6);
     let gap = 8;

@@ -40,14 +40,20 @@ impl RtfSh {
     pub fn from_optics(optics: &[DropOptics; 3], bands: usize) -> Result<RtfSh> {
         sh::check_bands(bands)?;
         let z: Vec<Vec<f64>> = optics.iter().map(|o| o.zonal(bands)).collect();
-        Ok(RtfSh { bands, zonal: (0..bands).map(|l| [z[0][l], z[1][l], z[2][l]]).collect() })
+        Ok(RtfSh {
+            bands,
+            zonal: (0..bands).map(|l| [z[0][l], z[1][l], z[2][l]]).collect(),
+        })
     }
 
     /// From tabulated RTFs ([`RtfTable::zonal`]): carries the table's binning error.
     pub fn from_tables(tables: &[RtfTable; 3], bands: usize) -> Result<RtfSh> {
         sh::check_bands(bands)?;
         let z: Vec<Vec<f64>> = tables.iter().map(|t| t.zonal(bands)).collect();
-        Ok(RtfSh { bands, zonal: (0..bands).map(|l| [z[0][l], z[1][l], z[2][l]]).collect() })
+        Ok(RtfSh {
+            bands,
+            zonal: (0..bands).map(|l| [z[0][l], z[1][l], z[2][l]]).collect(),
+        })
     }
 
     /// Water drops with per-channel indices, orders `1..=n_max`, default polarisation.
@@ -116,13 +122,16 @@ pub fn prt_colour(env: &EnvironmentSh, rtf: &RtfSh, view: DVec3) -> [f64; 3] {
 /// [`prt_colour`] on `f64` environment coefficients (`bands²` of them).
 pub fn prt_colour_f64(env: &[[f64; 3]], rtf: &RtfSh, view: DVec3) -> [f64; 3] {
     let bands = rtf.bands.min((env.len() as f64).sqrt() as usize);
-    let y = sh::basis(view, bands);
+    let mut y = [0.0; sh::MAX_BANDS * sh::MAX_BANDS];
+    sh::eval_basis(view, bands, &mut y);
     let mut out = [0.0; 3];
-    for (i, yi) in y.iter().enumerate() {
-        let l = sh::band_of(i);
-        let s = zonal_factor(l) * yi;
-        for c in 0..3 {
-            out[c] += env[i][c] * s * rtf.zonal[l][c];
+    for l in 0..bands {
+        let f = zonal_factor(l);
+        let t = rtf.zonal[l].map(|z| f * z);
+        for i in l * l..(l + 1) * (l + 1) {
+            for c in 0..3 {
+                out[c] += env[i][c] * t[c] * y[i];
+            }
         }
     }
     out

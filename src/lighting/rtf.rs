@@ -153,7 +153,11 @@ impl DropOptics {
                 expected: format!("an order in 1..={MAX_N_MAX}"),
             });
         }
-        Ok(DropOptics { rho, n_max, polarisation: Polarisation::default() })
+        Ok(DropOptics {
+            rho,
+            n_max,
+            polarisation: Polarisation::default(),
+        })
     }
 
     /// The same drop with another polarisation treatment.
@@ -185,8 +189,7 @@ impl DropOptics {
     /// Deflection ψ_n(γ) = (n−1)(2β − π) − 2γ + π (5.5); ψ_1 = π − 2γ.
     pub fn deflection_rad(&self, n: usize, gamma: f64) -> f64 {
         let beta = self.refraction_angle_rad(gamma);
-        (n as f64 - 1.0) * (2.0 * beta - std::f64::consts::PI) - 2.0 * gamma
-            + std::f64::consts::PI
+        (n as f64 - 1.0) * (2.0 * beta - std::f64::consts::PI) - 2.0 * gamma + std::f64::consts::PI
     }
 
     /// dψ_n/dγ = 2(n−1) cos γ / (ρ cos β) − 2.
@@ -222,7 +225,11 @@ impl DropOptics {
 
     fn order_weight(&self, f: Fresnel, n: usize) -> f64 {
         let w = |r: f64| {
-            if n == 1 { r } else { (1.0 - r) * (1.0 - r) * r.powi(n as i32 - 2) }
+            if n == 1 {
+                r
+            } else {
+                (1.0 - r) * (1.0 - r) * r.powi(n as i32 - 2)
+            }
         };
         match self.polarisation {
             Polarisation::Separate => 0.5 * (w(f.rs) + w(f.rp)),
@@ -351,8 +358,15 @@ impl DropOptics {
             }
             per_order.push(energy);
         }
-        let total = (0..bins).map(|m| per_order.iter().map(|o| o[m]).sum()).collect();
-        Ok(RtfTable { bins, optics: *self, per_order, total })
+        let total = (0..bins)
+            .map(|m| per_order.iter().map(|o| o[m]).sum())
+            .collect();
+        Ok(RtfTable {
+            bins,
+            optics: *self,
+            per_order,
+            total,
+        })
     }
 
     /// Adds order n's energy per θ bin into `energy` (Algorithm 1, with exact overlaps).
@@ -375,11 +389,17 @@ impl DropOptics {
         let two_b = 2 * bins as i64;
         let bin_of = |k: i64| -> usize {
             let k = k.rem_euclid(two_b);
-            if k < bins as i64 { k as usize } else { (two_b - 1 - k) as usize }
+            if k < bins as i64 {
+                k as usize
+            } else {
+                (two_b - 1 - k) as usize
+            }
         };
         // γ-bin edges J_k (plus grading towards grazing incidence), sorted.
-        let mut edges: Vec<f64> =
-            (1..).map(|k| k as f64 * delta).take_while(|g| *g < half_pi).collect();
+        let mut edges: Vec<f64> = (1..)
+            .map(|k| k as f64 * delta)
+            .take_while(|g| *g < half_pi)
+            .collect();
         edges.extend(self.grazing_breaks());
         edges.sort_by(f64::total_cmp);
         edges.push(half_pi);
@@ -398,7 +418,10 @@ impl DropOptics {
             let (mut k, k_last) = if flat {
                 ((0.5 * (pa + pb) / delta).floor() as i64, i64::MIN)
             } else if down {
-                ((pa / delta).ceil() as i64 - 1, (pb / delta).floor() as i64 + 1)
+                (
+                    (pa / delta).ceil() as i64 - 1,
+                    (pb / delta).floor() as i64 + 1,
+                )
             } else {
                 ((pa / delta).floor() as i64, (pb / delta).ceil() as i64 - 1)
             };
@@ -516,7 +539,12 @@ impl RtfTable {
     pub fn energy_per_order(&self) -> Vec<f64> {
         self.per_order
             .iter()
-            .map(|o| o.iter().enumerate().map(|(m, f)| f * self.bin_solid_angle_sr(m)).sum())
+            .map(|o| {
+                o.iter()
+                    .enumerate()
+                    .map(|(m, f)| f * self.bin_solid_angle_sr(m))
+                    .sum()
+            })
             .collect()
     }
 
@@ -541,7 +569,9 @@ impl RtfTable {
 
     /// F at scattering angle θ: the bin average containing θ (piecewise constant).
     pub fn value(&self, theta_rad: f64) -> f64 {
-        let m = (theta_rad / self.bin_width_rad()).floor().clamp(0.0, (self.bins - 1) as f64);
+        let m = (theta_rad / self.bin_width_rad())
+            .floor()
+            .clamp(0.0, (self.bins - 1) as f64);
         self.total[m as usize]
     }
 
@@ -586,7 +616,11 @@ impl RtfTable {
 
 /// `(sinθ cosφ, sinθ sinφ, cosθ)`.
 pub fn spherical_dir(theta: f64, phi: f64) -> DVec3 {
-    DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    DVec3::new(
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    )
 }
 
 /// The rotation taking +z to the unit vector `to`, about the axis `+z × to` (any rotation with

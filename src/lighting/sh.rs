@@ -59,6 +59,18 @@ fn factorial(n: usize) -> f64 {
     (1..=n).map(|k| k as f64).product()
 }
 
+/// `K_l^m` for `0 ≤ m ≤ l < MAX_BANDS`, computed once (`[l][m]`).
+static K_TABLE: std::sync::LazyLock<[[f64; MAX_BANDS]; MAX_BANDS]> =
+    std::sync::LazyLock::new(|| {
+        let mut k = [[0.0; MAX_BANDS]; MAX_BANDS];
+        for (l, row) in k.iter_mut().enumerate() {
+            for (m, v) in row.iter_mut().enumerate().take(l + 1) {
+                *v = k_norm(l, m as i32);
+            }
+        }
+        k
+    });
+
 /// Normalisation `K_l^m = sqrt((2l+1)/(4π) · (l−|m|)!/(l+|m|)!)` (4.15).
 pub fn k_norm(l: usize, m: i32) -> f64 {
     let am = m.unsigned_abs() as usize;
@@ -102,6 +114,7 @@ pub fn eval_basis(dir: DVec3, bands: usize, out: &mut [f64]) {
     assert!(bands <= MAX_BANDS && out.len() >= bands * bands);
     let d = dir.normalize_or(DVec3::Z);
     let (x, y, z) = (d.x, d.y, d.z);
+    let kt = &*K_TABLE;
     // (x + iy)^m = sin^m θ (cos mφ + i sin mφ)
     let (mut cm, mut sm) = (1.0, 0.0);
     // P_m^m / sin^m θ = (2m−1)!!, no Condon–Shortley phase (4.8).
@@ -121,12 +134,12 @@ pub fn eval_basis(dir: DVec3, bands: usize, out: &mut [f64]) {
                 p_prev = p;
                 p = z * (2 * m + 1) as f64 * pmm;
             } else if l > m + 1 {
-                let next = (z * (2 * l - 1) as f64 * p - (l + m - 1) as f64 * p_prev)
-                    / (l - m) as f64;
+                let next =
+                    (z * (2 * l - 1) as f64 * p - (l + m - 1) as f64 * p_prev) / (l - m) as f64;
                 p_prev = p;
                 p = next;
             }
-            let k = k_norm(l, m as i32);
+            let k = kt[l][m];
             if m == 0 {
                 out[index(l, 0)] = k * p;
             } else {
@@ -222,7 +235,11 @@ pub fn composite_gauss(a: f64, b: f64, panels: usize, order: usize) -> Vec<(f64,
 pub fn equirect_direction(col: usize, row: usize, width: usize, height: usize) -> DVec3 {
     let phi = 2.0 * std::f64::consts::PI * (col as f64 + 0.5) / width as f64;
     let theta = std::f64::consts::PI * (row as f64 + 0.5) / height as f64;
-    DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    DVec3::new(
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    )
 }
 
 /// Exact solid angle of an equirectangular texel in row `row`:
@@ -310,9 +327,9 @@ pub fn zonal_rotate(zonal: &[f64], axis: DVec3, out: &mut [f64]) {
     eval_basis(axis, bands, out);
     for (l, z) in zonal.iter().enumerate() {
         let s = (4.0 * std::f64::consts::PI / (2 * l + 1) as f64).sqrt() * z;
-        for i in l * l..(l + 1) * (l + 1) {
-            out[i] *= s;
-        }
+        out[l * l..(l + 1) * (l + 1)]
+            .iter_mut()
+            .for_each(|v| *v *= s);
     }
 }
 
@@ -372,7 +389,11 @@ mod tests {
     fn gauss_legendre_integrates_polynomials() {
         let (x, w) = gauss_legendre(7);
         for k in 0..14 {
-            let exact = if k % 2 == 0 { 2.0 / (k + 1) as f64 } else { 0.0 };
+            let exact = if k % 2 == 0 {
+                2.0 / (k + 1) as f64
+            } else {
+                0.0
+            };
             let got: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(k)).sum();
             assert!((got - exact).abs() < 1e-14, "k={k}: {got} vs {exact}");
         }
