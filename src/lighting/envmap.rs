@@ -172,6 +172,20 @@ impl EnvMapper {
         settings: EnvMapSettings,
     ) -> Result<EnvMapper> {
         sh::check_bands(bands)?;
+        if !(settings.blur_ramp_rad > 0.0 && settings.blur_ramp_rad <= std::f64::consts::PI) {
+            return Err(Error::Parameter {
+                name: "blur_ramp_rad",
+                value: settings.blur_ramp_rad.to_string(),
+                expected: "an angle in (0, π]".into(),
+            });
+        }
+        if !(0.0..=1.0).contains(&settings.blur_radius_frac) {
+            return Err(Error::Parameter {
+                name: "blur_radius_frac",
+                value: settings.blur_radius_frac.to_string(),
+                expected: "a fraction in [0, 1]".into(),
+            });
+        }
         let (w, h) = (camera.width_px as usize, camera.height_px as usize);
         if w == 0 || h == 0 {
             return Err(Error::Parameter {

@@ -53,10 +53,10 @@ pub const WATER_RHO_RGB: [f64; 3] = [1.331, 1.333, 1.337];
 pub const DEFAULT_N_MAX: usize = 9;
 /// Default number of θ bins of the table.
 pub const DEFAULT_BINS: usize = 1024;
-/// Largest accepted `n_max` and table size (guards against absurd user input).
-pub const MAX_N_MAX: usize = 1000;
-/// Largest accepted number of bins.
-pub const MAX_BINS: usize = 1 << 20;
+/// Largest accepted `n_max` (the tail beyond 64 orders is below 1e-6 for water).
+pub const MAX_N_MAX: usize = 64;
+/// Largest accepted number of bins (0.003° per bin).
+pub const MAX_BINS: usize = 1 << 16;
 
 /// How Fresnel factors combine along a path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
