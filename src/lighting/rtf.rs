@@ -32,7 +32,8 @@
 //! of being taken at the γ-bin centre; the bin's solid angle is the exact `2π(cos mΔ −
 //! cos(m+1)Δ)` instead of `2πΔ sin α_m`. The sweep is still linear: every monotone piece of ψ_n
 //! (split at the extremum m_n, like the two sweeps of Algorithm 1) is walked once, merging the
-//! γ-bin edges with the θ-bin-edge crossings in order.
+//! γ-bin edges with the θ-bin-edge crossings in order. For ρ → 1 the Fresnel factors change
+//! within `√(1 − 1/ρ²)` of grazing incidence, so extra γ edges are graded geometrically there.
 //!
 //! Polarisation: for unpolarised light the s and p components never mix in a sphere (every
 //! interface of a path shares one plane of incidence), so the exact weight is
