@@ -1,1 +1,29 @@
-//! (module under construction)
+//! Lighting the rain with the frame (GitHub issue "Rain lit by the scene", the mathematics).
+//!
+//! ## How it works
+//!
+//! ```text
+//!  frame (linear RGB) ──► envmap: frame → sphere → SH L_lm (RGB) ──► ShSmoother ──┐
+//!                                                                                 ├─► prt: Σ L_lm T_lm(v)
+//!  drop optics (ρ per channel) ──► rtf: RTF F(θ), table, zonal z_l ──► T_lm(v) ───┘     = drop colour
+//! ```
+//!
+//! - [`sh`]: real spherical harmonics (convention: no Condon–Shortley phase, z up).
+//! - [`envmap`]: the frame spread over the sphere around the camera, projected on SH.
+//! - [`rtf`]: the raindrop's radiance-transfer function (thesis Algorithm 1) and its zonal SH.
+//! - [`prt`]: the drop colour for a view ray, and the brute-force reference.
+//! - [`inspect`]: JSON reports and PNG plots for the CLI.
+//!
+//! Angles: θ between the environment lookup direction ω and the view ray v (eye → drop),
+//! `cos θ = ω·v`; θ = 0 is straight through the drop. The GPU twin lives in
+//! `shaders/common/sh.wgsl`.
+
+pub mod envmap;
+pub mod inspect;
+pub mod prt;
+pub mod rtf;
+pub mod sh;
+
+pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
+pub use prt::{RtfSh, brute_force_colour, prt_colour};
+pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
