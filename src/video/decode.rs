@@ -8,6 +8,10 @@
 //! frame number and decoding goes on (as the ffmpeg CLI does); a stream from which no frame at
 //! all can be decoded is [`Error::CorruptInput`]. Timestamps are the decoder's best-effort
 //! timestamps in the stream's own time base, never rebased.
+//!
+//! Frames leave in one of the planar layouts of [`super::frame`] with tightly packed planes
+//! (`Plane::stride == FrameFormat::packed_stride(i)`): copying rows out of FFmpeg's padded,
+//! pooled buffers costs little next to decoding and lets the buffers go back to the decoder.
 
 use std::collections::VecDeque;
 
