@@ -411,6 +411,11 @@ impl Source {
                 }
             }
         }
+        log::warn!(
+            "'{}': the decoder refused a video packet near frame {}",
+            self.path,
+            self.next_index
+        );
         Ok(())
     }
 
@@ -573,8 +578,15 @@ impl Source {
             .expect("the video stream exists");
         let mut tags = self.frame_tags();
         if layout.rgb {
+            // Say on the output what the conversion assumed.
             tags.matrix = ff::color::Space::BT709;
             tags.range = ff::color::Range::JPEG;
+            if tags.primaries == ff::color::Primaries::Unspecified {
+                tags.primaries = ff::color::Primaries::BT709;
+            }
+            if tags.transfer == ff::color::TransferCharacteristic::Unspecified {
+                tags.transfer = ff::color::TransferCharacteristic::IEC61966_2_1;
+            }
         } else if color.full_range && tags.range == ff::color::Range::Unspecified {
             tags.range = ff::color::Range::JPEG;
         }
