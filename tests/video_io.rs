@@ -784,6 +784,11 @@ fn a_text_file_is_not_a_video() {
     let err = Source::open(s(&p)).err().unwrap();
     assert!(matches!(err, Error::InputOpen { .. }), "{err}");
     assert!(err.to_string().contains("not a video"), "{err}");
+    // Sound alone is not video either.
+    let audio = dir.path().join("tone.m4a");
+    ffmpeg(&["-f", "lavfi", "-i", "sine=duration=0.2", s(&audio)]);
+    let err = Source::open(s(&audio)).err().unwrap();
+    assert!(matches!(err, Error::NoVideo(_)), "{err}");
 }
 
 #[test]

@@ -65,6 +65,8 @@ pub enum SourceItem {
 const LOOKAHEAD_PACKETS: usize = 300;
 /// Upper bound on the bytes held by the read-ahead.
 const LOOKAHEAD_BYTES: usize = 64 << 20;
+/// Packets after which a timestamp scan without decode timestamps trusts its order.
+const REORDER_WINDOW: u32 = 16;
 /// Damaged packets in a row after which the demuxer is considered lost.
 const MAX_BAD_PACKETS_IN_A_ROW: u32 = 1000;
 
@@ -751,6 +753,9 @@ impl Source {
         let us = Rational::new(1, ff::ffi::AV_TIME_BASE);
         self.seek_raw(start.rescale(self.tb, us))?;
         let mut sorted: Vec<i64> = Vec::new();
+        // Without decode timestamps (Matroska often has none) a packet's pts says nothing
+        // certain about later packets, so the condition must hold for a reordering window.
+        let mut settled = 0;
         while let Some(p) = self.read_packet()? {
             if p.stream() != self.video || super::ffi::packet_discarded(&p) {
                 continue;
@@ -762,8 +767,15 @@ impl Source {
                 let at = sorted.partition_point(|&x| x < pts);
                 sorted.insert(at, pts);
             }
-            if done(&sorted, p.dts().unwrap_or(pts)) {
-                break;
+            match p.dts() {
+                Some(dts) if done(&sorted, dts) => break,
+                Some(_) => {}
+                None => {
+                    settled = if done(&sorted, pts) { settled + 1 } else { 0 };
+                    if settled > REORDER_WINDOW {
+                        break;
+                    }
+                }
             }
         }
         Ok(sorted)
