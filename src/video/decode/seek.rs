@@ -17,7 +17,7 @@ const REORDER_WINDOW: u32 = 16;
 
 impl Source {
     /// Seeks to the keyframe before `t_s` (seconds after the first frame, see
-    /// [`VideoInfo::start_pts`]), decodes forward and returns the first frame whose time is
+    /// [`VideoInfo::start_pts`](crate::video::VideoInfo::start_pts)), decodes forward and returns the first frame whose time is
     /// ≥ `t_s`: the same pixels, pts and index a full decode gives there. Afterwards
     /// [`Source::next_item`] continues after that frame (other streams' packets from the
     /// keyframe on). Errors when `t_s` lies beyond the last frame, and on stdin.
