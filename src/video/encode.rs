@@ -674,8 +674,9 @@ fn open_video(
     if let Some(vs) = info.stream(info.video_stream) {
         ost.set_metadata(dictionary(&vs.metadata, &["rotate", "encoder"]));
     }
+    const IDENTITY: [i32; 9] = [1 << 16, 0, 0, 0, 1 << 16, 0, 0, 0, 1 << 30];
     if let Some(m) = &info.display_matrix
-        && info.rotation_deg != 0
+        && *m != IDENTITY
     {
         const ROTATION_MUXERS: [&str; 8] =
             ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"];
@@ -683,7 +684,7 @@ fn open_video(
             if !ffi::set_display_matrix(&mut ost, m) {
                 log::warn!("could not attach the display rotation to the output");
             }
-        } else {
+        } else if info.rotation_deg != 0 {
             log::warn!(
                 "the {muxer} container cannot store the display rotation ({}°); the output \
                  will play unrotated (use .mp4 or .mov)",
@@ -692,6 +693,13 @@ fn open_video(
         }
     }
     let ost_index = ost.index();
+    use ff::color::TransferCharacteristic as T;
+    if matches!(info.tags.transfer, T::SMPTE2084 | T::ARIB_STD_B67) {
+        log::warn!(
+            "HDR input: the colour tags are kept, but mastering-display and content-light-level \
+             metadata are not copied"
+        );
+    }
 
     let converter = if enc_pixel != in_pixel {
         let c = (info.color.matrix, info.color.full_range);

@@ -221,7 +221,8 @@ pub struct VideoInfo {
     pub color: ColorParams,
     /// The tags written on the output. Equal to the input's, except: a `yuvj*` source with no
     /// range tag gets `pc` (its frames are full range), and an RGB source gets BT.709 matrix and
-    /// `pc` range (its frames were converted with them, see [`super::RGB_SOURCE_COLOR`]).
+    /// `pc` range (its frames were converted with them, see [`super::RGB_SOURCE_COLOR`]) and,
+    /// where untagged, BT.709 primaries and the sRGB transfer that `color` assumes.
     pub tags: ColorTags,
     /// Display rotation in degrees, normalised into {0, 90, 180, 270}: counter-clockwise, the
     /// convention of `av_display_rotation_get` and of ffprobe's side-data `rotation` field

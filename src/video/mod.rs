@@ -2,7 +2,7 @@
 //!
 //! [`Source`] turns an input (file or stdin) into [`YuvFrame`]s in one of the planar layouts of
 //! [`frame`] plus the packets of the other streams; [`Sink`] encodes frames with the input's
-//! timestamps, colour tags and rotation and copies those packets; [`probe`] describes an input
+//! timestamps, colour tags and rotation and copies those packets; [`probe()`] describes an input
 //! without decoding it all.
 mod audio;
 pub mod color;
