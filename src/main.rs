@@ -549,13 +549,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Some(Command::Inspect(InspectCommand::Drops { size, count, time, fps, look, .. })) => {
+        Some(Command::Inspect(InspectCommand::Drops {
+            size,
+            count,
+            time,
+            fps,
+            look,
+            ..
+        })) => {
             let c = render_config(look)?;
             let (w, h) = size
                 .split_once('x')
                 .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
                 .filter(|&(w, h)| w > 0 && h > 0)
-                .with_context(|| format!("invalid --size '{size}': expected WxH, e.g. 1920x1080"))?;
+                .with_context(|| {
+                    format!("invalid --size '{size}': expected WxH, e.g. 1920x1080")
+                })?;
             if !(*fps > 0.0 && fps.is_finite()) {
                 bail!("invalid --fps {fps}: expected a positive frame rate");
             }
@@ -569,7 +578,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 cam.roll_deg.to_radians(),
             );
             let exposure = cam.shutter_deg / 360.0 / fps;
-            let setup = rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
+            let setup =
+                rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
             let params = rain_composite::rain::volume::VolumeParams {
                 exposure_s: exposure,
                 near_m: c.rain.near_m,

@@ -69,7 +69,7 @@ fn rust_twins_match_wgsl_layouts() {
             cell_size_m,
             wind_mean_mps,
             radiance,
-        haze,
+            haze,
             gust_amp,
             gust_phase,
             time_s,

@@ -472,7 +472,7 @@ fn odd_tiny_and_4k_sizes_work() {
 }
 
 #[test]
-fn odd_sizes_in_h264_420_are_a_clear_error() {
+fn odd_sizes_in_h264_keep_their_size_with_full_chroma() {
     let dir = TempDir::new().unwrap();
     let odd = clip(
         dir.path(),
@@ -489,13 +489,16 @@ fn odd_sizes_in_h264_420_are_a_clear_error() {
             "yuv420p",
         ],
     );
-    let src = Source::open(s(&odd)).unwrap();
     let out = dir.path().join("out.mp4");
-    let err = Sink::create(s(&out), src.info(), &EncodeOptions::default())
-        .err()
-        .expect("odd 4:2:0 H.264 is refused");
-    assert!(matches!(err, Error::Unsupported(_)), "{err}");
-    assert_eq!(files_in(dir.path()), vec!["odd.mkv"]);
+    transcode(&odd, &out, &EncodeOptions::default());
+    let v = stream(&out, "v");
+    assert_eq!(
+        (v["width"].as_u64(), v["height"].as_u64()),
+        (Some(321), Some(241))
+    );
+    assert_eq!(v["pix_fmt"].as_str(), Some("yuv444p"));
+    // The same picture: chroma repeated, not resampled away.
+    assert!(psnr(&out, &odd) > 40.0);
 }
 
 #[test]

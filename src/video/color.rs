@@ -74,7 +74,7 @@ pub struct ColorParams {
     pub bit_depth: u8,
 }
 
-/// Offsets and scales turning code values into normalised Y' ∈ [0,1], C ∈ [−½,½].
+/// Offsets and scales turning code values into normalised Y' ∈ \[0, 1\], C ∈ \[−½, ½\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RangeScale {
     /// Code value of black.
@@ -148,7 +148,7 @@ impl ColorParams {
     }
 }
 
-/// Non-linear Y'CbCr (Y' ∈ [0,1], C ∈ [−½,½]) → R'G'B'.
+/// Non-linear Y'CbCr (Y' ∈ \[0, 1\], C ∈ \[−½, ½\]) → R'G'B'.
 pub fn ycbcr_to_rgb(matrix: Matrix, [y, cb, cr]: [f64; 3]) -> [f64; 3] {
     let (kr, kb) = matrix.kr_kb();
     let kg = 1.0 - kr - kb;

@@ -582,25 +582,52 @@ fn open_video(
     let format = info.format;
     let in_pixel = pixfmt::pixel_of(&format)
         .ok_or_else(|| Error::Unsupported(format!("{}-bit video", format.bit_depth)))?;
-    let enc_pixel = if y4m {
+    let odd_for = |p: Pixel| {
+        pixfmt::pix_desc(p).is_some_and(|d| {
+            (format.width % 2 == 1 && d.log2_chroma.0 > 0)
+                || (format.height % 2 == 1 && d.log2_chroma.1 > 0)
+        })
+    };
+    let mut enc_pixel = if y4m {
         in_pixel
     } else {
         choose_pixel(&codec, in_pixel, &format)?
     };
-    if let Some(d) = pixfmt::pix_desc(enc_pixel)
-        && !y4m
-        && opts.codec != VideoCodec::Ffv1
-        && ((format.width % 2 == 1 && d.log2_chroma.0 > 0)
-            || (format.height % 2 == 1 && d.log2_chroma.1 > 0))
-    {
-        return Err(Error::Unsupported(format!(
-            "{} cannot encode {}x{} in {}: subsampled chroma needs an even size (use --codec \
-             ffv1, or crop the input)",
-            opts.codec.encoder_name(),
-            format.width,
-            format.height,
-            pixfmt::pixel_name(enc_pixel)
-        )));
+    if !y4m && opts.codec != VideoCodec::Ffv1 && odd_for(enc_pixel) {
+        // Subsampled chroma needs even sizes in H.264/HEVC/ProRes: keep the picture's size and
+        // encode full-resolution chroma instead (the input's chroma is repeated, nothing is
+        // lost).
+        let full = FrameFormat {
+            chroma: Chroma::Cs444,
+            ..format
+        };
+        let wider = pixfmt::pixel_of(&full)
+            .and_then(|p| choose_pixel(&codec, p, &full).ok())
+            .filter(|&p| !odd_for(p));
+        match wider {
+            Some(p) => {
+                log::warn!(
+                    "{}x{} is odd: {} needs even sizes for {}, so the output is {} (same \
+                     picture, full-resolution chroma)",
+                    format.width,
+                    format.height,
+                    opts.codec.encoder_name(),
+                    pixfmt::pixel_name(enc_pixel),
+                    pixfmt::pixel_name(p)
+                );
+                enc_pixel = p;
+            }
+            None => {
+                return Err(Error::Unsupported(format!(
+                    "{} cannot encode {}x{} in {}: subsampled chroma needs an even size (use \
+                     --codec ffv1, or crop the input)",
+                    opts.codec.encoder_name(),
+                    format.width,
+                    format.height,
+                    pixfmt::pixel_name(enc_pixel)
+                )));
+            }
+        }
     }
     let tb = if y4m {
         // y4m is constant-rate; its muxer derives the frame rate from the time base.
