@@ -6,7 +6,10 @@
 // drops thinner than a pixel are widened to r_eff and their alpha scaled by (r/r_eff)², which
 // keeps the integrated coverage (sub-pixel coverage folded into alpha). Premultiplied output;
 // the pipeline blends src + dst·(1 − αsrc).
-// Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl.
+// Colour: each streak pixel shows the drop's radiance for that pixel's view ray, the dot product
+// of the frame's environment SH with the drop's transfer function rotated to the ray (PRT,
+// SPEC §3–5; common/sh.wgsl).
+// Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
@@ -17,13 +20,15 @@ struct VsOut {
     @location(0) local_px: vec2<f32>,
     // x: streak length px, y: r_eff px, z: alpha scale.
     @location(1) @interpolate(flat) shape: vec3<f32>,
+    // Position in the displayed picture, px (for the view ray).
+    @location(2) display_px: vec2<f32>,
 }
 
 const MIN_RADIUS_PX: f32 = 0.7;
 const AA_MARGIN_PX: f32 = 1.0;
 
 fn culled() -> VsOut {
-    return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0));
+    return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0));
 }
 
 fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
@@ -77,7 +82,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
         + rain.coded_offset_px;
     let clip = vec2<f32>(2.0 * p_coded.x / rain.coded_size_px.x - 1.0, 1.0 - 2.0 * p_coded.y / rain.coded_size_px.y);
     let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight;
-    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(len, r_eff, alpha_scale));
+    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(len, r_eff, alpha_scale), p_display);
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -97,5 +102,8 @@ fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
 fn fs_main(v: VsOut) -> @location(0) vec4<f32> {
     let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0);
     if a <= 0.0 { discard; }
-    return vec4<f32>(rain.radiance.rgb * a, a);
+    let d = (v.display_px - rain.principal_px) / rain.camera_pos_m.w;
+    let ray = rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
+    let radiance = max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
+    return vec4<f32>(radiance * a, a);
 }

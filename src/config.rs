@@ -102,6 +102,8 @@ pub struct RenderConfig {
     pub camera: CameraConfig,
     /// The rain.
     pub rain: RainConfig,
+    /// How the rain is lit by the frame.
+    pub light: crate::lighting::LightConfig,
 }
 
 fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
@@ -226,6 +228,27 @@ impl RenderConfig {
             r.max_drops as f64,
             r.max_drops <= 20_000_000,
             "at most 20000000",
+        )?;
+        let l = &self.light;
+        for n in l.refractive_index {
+            check(
+                "--refractive-index",
+                n,
+                (1.0..=3.0).contains(&n),
+                "an index in [1, 3]",
+            )?;
+        }
+        check(
+            "--n-max",
+            l.n_max as f64,
+            (1..=64).contains(&l.n_max),
+            "an order from 1 to 64",
+        )?;
+        check(
+            "--light-smoothing",
+            l.smoothing_s,
+            (0.0..=10.0).contains(&l.smoothing_s),
+            "seconds in [0, 10]",
         )?;
         Ok(())
     }

@@ -169,6 +169,9 @@ struct LookArgs {
     /// Sensor width, mm (36 = full-frame equivalent). [default: 36]
     #[arg(long)]
     sensor_width: Option<f64>,
+    /// Time constant of the lighting's smoothing over frames, seconds; 0 = off. [default: 0.25]
+    #[arg(long)]
+    light_smoothing: Option<f64>,
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze. [default: 50]
     #[arg(long)]
     scene_depth: Option<f64>,
@@ -409,6 +412,7 @@ fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.far => r.far_m);
     set!(look.max_drops => r.max_drops);
     set!(look.gust => r.gust_mps);
+    set!(look.light_smoothing => c.light.smoothing_s);
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
     set!(look.focus => cam.focus_m);

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use crate::config::RenderConfig;
 use crate::gpu::{AdapterRequest, Compositor, GpuContext};
+use crate::lighting::{EnvironmentSh, FrameLight, FrameLighting};
 use crate::rain::emitter::{self, RainSetup};
 use crate::scene::Camera;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
@@ -114,32 +115,6 @@ pub fn frame_time_s(info: &VideoInfo, frame: &YuvFrame) -> f64 {
     (frame.pts - info.start_pts) as f64 * info.time_base.0 as f64 / info.time_base.1 as f64
 }
 
-/// Light reaching the drops from the frame: the mean linear colour of a sparse grid of pixels.
-/// A drop refracts about 165° of its surroundings (Garg & Nayar), so to first order it shows
-/// the scene's mean radiance.
-pub fn drop_radiance(frame: &YuvFrame) -> [f32; 3] {
-    let f = &frame.format;
-    let (sx, sy) = f.chroma.shift();
-    let step = (f.width.max(f.height) / 64).max(1);
-    let mut sum = [0.0f64; 3];
-    let mut n = 0.0f64;
-    for y in (0..f.height).step_by(step as usize) {
-        for x in (0..f.width).step_by(step as usize) {
-            let code = [
-                frame.sample(0, x, y) as f64,
-                frame.sample(1, x >> sx, y >> sy) as f64,
-                frame.sample(2, x >> sx, y >> sy) as f64,
-            ];
-            let rgb = frame.color.code_to_linear(code);
-            for k in 0..3 {
-                sum[k] += rgb[k].clamp(0.0, 64.0);
-            }
-            n += 1.0;
-        }
-    }
-    sum.map(|s| (s / n.max(1.0)) as f32)
-}
-
 /// A full render: `input` → rain → `output`.
 #[derive(Debug, Clone)]
 pub struct Job {
@@ -176,6 +151,7 @@ pub fn render(
     let rain = rain_for(&info, &job.render)?;
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
+    let mut lighting = Lighting::new(&info, &job.render, &rain)?;
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
     let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
@@ -251,8 +227,8 @@ pub fn render(
             match item? {
                 SourceItem::Frame(frame) => {
                     let t = Instant::now();
-                    let radiance = drop_radiance(&frame);
-                    let done = compositor.submit(&frame, frame_time_s(&info, &frame), radiance)?;
+                    let params = lighting.params(&rain, &frame, frame_time_s(&info, &frame));
+                    let done = compositor.submit(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
                         send(done, &mut written)?;
@@ -315,6 +291,9 @@ pub enum FrameSelector {
 }
 
 /// Renders one frame exactly as [`render`] would; returns it with the stream's description.
+///
+/// The light of a frame depends on the frames shortly before it (temporal smoothing), so
+/// those are decoded and fed first, exactly as the full render sees them.
 pub fn preview(
     input: &str,
     at: FrameSelector,
@@ -324,13 +303,88 @@ pub fn preview(
     render.validate()?;
     let mut source = Source::open(input)?;
     let info = source.info().clone();
-    let frame = match at {
+    let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
     };
     let ctx = Arc::new(GpuContext::new(adapter)?);
     let rain = rain_for(&info, render)?;
+    let mut lighting = Lighting::new(&info, render, &rain)?;
+    let t_target = frame_time_s(&info, &target);
+    if let Some(window) = lighting.window_secs() {
+        let from = (t_target - window).max(0.0);
+        let mut frame = source.seek_to_time(from)?;
+        while frame.pts < target.pts {
+            let t = frame_time_s(&info, &frame);
+            if t > t_target - window {
+                lighting.params(&rain, &frame, t);
+            }
+            frame = loop {
+                match source.next_item()? {
+                    Some(SourceItem::Frame(f)) => break f,
+                    Some(SourceItem::Packet(_)) => continue,
+                    None => {
+                        return Err(Error::OutOfRange("the clip ended before the frame".into()));
+                    }
+                }
+            };
+        }
+    }
+    let params = lighting.params(&rain, &target, t_target);
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
-    let out = compositor.render_one(&frame, frame_time_s(&info, &frame), drop_radiance(&frame))?;
+    let out = compositor.render_one(&target, &params)?;
     Ok((out, info))
+}
+
+/// The frames' light, or none where nothing would show it (no drops, no haze).
+struct Lighting {
+    frame_lighting: Option<FrameLighting>,
+    drop_zonal: [[f32; 4]; 3],
+}
+
+impl Lighting {
+    fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<Lighting> {
+        let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
+        let frame_lighting = if needed {
+            Some(FrameLighting::new(
+                &camera_for(info, render),
+                info.rotation_deg,
+                &render.light,
+            )?)
+        } else {
+            None
+        };
+        let drop_zonal = frame_lighting
+            .as_ref()
+            .map_or([[0.0; 4]; 3], |l| l.drop_zonal_gpu());
+        Ok(Lighting {
+            frame_lighting,
+            drop_zonal,
+        })
+    }
+
+    /// How far back frames affect the light, when there is light to compute.
+    fn window_secs(&self) -> Option<f64> {
+        self.frame_lighting
+            .as_ref()
+            .map(|l| l.window_secs())
+            .filter(|&w| w > 0.0)
+    }
+
+    /// The GPU uniforms of `frame`, shown at `t_s`.
+    fn params(
+        &mut self,
+        rain: &RainSetup,
+        frame: &YuvFrame,
+        t_s: f64,
+    ) -> crate::gpu::types::RainParams {
+        let light = match &mut self.frame_lighting {
+            Some(l) => l.update(frame, t_s),
+            None => FrameLight {
+                env: EnvironmentSh::zeros(4),
+                haze_radiance: [0.0; 3],
+            },
+        };
+        rain.params_at(t_s, &light, self.drop_zonal)
+    }
 }

@@ -5,7 +5,9 @@ use std::sync::{Arc, OnceLock};
 
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::types::RainParams;
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
+use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
 use rain_composite::rain::emitter::{self, RainSetup};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
@@ -62,6 +64,24 @@ fn test_frame(format: FrameFormat, color: ColorParams, chroma_spread: f64) -> Yu
         pts: 42,
         index: 3,
     }
+}
+
+/// Uniforms at `t_s` with the drops in a uniform white environment of radiance 1 (a drop then
+/// shows radiance 1, less the truncated orders).
+fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [2.0 * std::f32::consts::PI.sqrt(); 3];
+    let rtf = RtfSh::water(1.333, 9, 4).expect("rtf");
+    let z = rtf.to_gpu_array();
+    let zonal = [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]]);
+    setup.params_at(
+        t_s,
+        &FrameLight {
+            env,
+            haze_radiance: [1.0; 3],
+        },
+        zonal,
+    )
 }
 
 fn no_rain(format: &FrameFormat) -> RainSetup {
@@ -149,7 +169,9 @@ fn frames_without_rain_come_back_unchanged() {
         let mut comp =
             Compositor::new(ctx.clone(), format, &color, &no_rain(&format)).expect("compositor");
         assert_eq!(comp.drop_count(), 0);
-        let out = comp.render_one(&input, 0.0, [1.0; 3]).expect("render");
+        let out = comp
+            .render_one(&input, &lit(&no_rain(&format), 0.0))
+            .expect("render");
         assert_eq!((out.pts, out.index), (42, 3));
         // Legal code values come back exactly; codes outside the legal range may clamp.
         let mut off = 0usize;
@@ -258,8 +280,8 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
     )
     .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
-    let a = comp.render_one(&dark, 1.0, [1.0; 3]).expect("render");
-    let b = comp.render_one(&dark, 1.04, [1.0; 3]).expect("render");
+    let a = comp.render_one(&dark, &lit(&setup, 1.0)).expect("render");
+    let b = comp.render_one(&dark, &lit(&setup, 1.04)).expect("render");
     let luma = |f: &YuvFrame| {
         (0..120)
             .flat_map(|y| (0..160).map(move |x| (x, y)))
@@ -321,7 +343,9 @@ fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32,
     )
     .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
-    let out = comp.render_one(&dark, time_s, [1.0; 3]).expect("render");
+    let out = comp
+        .render_one(&dark, &lit(&setup, time_s))
+        .expect("render");
     let luma = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| out.sample(0, x, y) as f64 - 30.0)

@@ -846,32 +846,54 @@ fn smoother_converges_and_resets_on_cut() {
         bands: 2,
         coeffs: vec![[v, v, v], [0.1 * v; 3], [0.2 * v; 3], [0.0; 3]],
     };
+    let dt = 1.0 / 30.0;
     let mut s = ShSmoother::new(0.25, 0.3).unwrap();
     let a = env(1.0);
-    assert_eq!(s.update(&a, 1.0 / 30.0), a);
-    // Small steps (a slow fade): no cut, the state lags and then converges.
+    assert_eq!(s.update(&a, 0.0), a);
+    // Small steps (a slow fade): no cut, the output lags behind and then converges.
     let mut target = 1.0f32;
+    let mut t = 0.0;
     for _ in 0..10 {
         target *= 1.02;
-        let out = s.update(&env(target), 1.0 / 30.0);
+        t += dt;
+        let out = s.update(&env(target), t);
         assert!(!s.last_was_cut());
         assert!(out.coeffs[0][0] < target);
     }
     for _ in 0..300 {
-        s.update(&env(target), 1.0 / 30.0);
+        t += dt;
+        s.update(&env(target), t);
     }
-    let out = s.update(&env(target), 1.0 / 30.0);
+    t += dt;
+    let out = s.update(&env(target), t);
     assert!((out.coeffs[0][0] - target).abs() < 1e-4 * target);
-    // One step of dt = τ moves 1 − 1/e of the way.
+    // Two frames τ apart: the older weighs 1/e of the newer (an independent closed form).
     let mut s2 = ShSmoother::new(0.25, 2.0).unwrap();
-    s2.update(&env(0.0), 0.04);
+    s2.update(&env(0.0), 0.0);
     let out = s2.update(&env(1.0), 0.25);
-    assert!((out.coeffs[0][0] - (1.0 - (-1.0f32).exp())).abs() < 1e-6);
-    // A cut: the next shot's light replaces the state at once.
+    let e = (-1.0f32).exp();
+    assert!((out.coeffs[0][0] - 1.0 / (1.0 + e)).abs() < 1e-6);
+    // Frames older than the window no longer count.
+    let out = s2.update(&env(1.0), 0.25 + s2.window_secs() + 0.01);
+    assert_eq!(out.coeffs[0][0], 1.0);
+    // A cut: the next shot's light replaces the history at once.
     let b = env(5.0);
-    let out = s.update(&b, 1.0 / 30.0);
+    let out = s.update(&b, t + dt);
     assert!(s.last_was_cut());
     assert_eq!(out, b);
+    // The output depends only on the window: a smoother fed only the last second agrees.
+    let mut long = ShSmoother::new(0.25, 0.3).unwrap();
+    let mut short = ShSmoother::new(0.25, 0.3).unwrap();
+    let mut last = (EnvironmentSh::zeros(2), EnvironmentSh::zeros(2));
+    for i in 0..120 {
+        let t = i as f64 * dt;
+        let raw = env(1.0 + 0.3 * (t as f32 * 2.0).sin());
+        let a = long.update(&raw, t);
+        if t > 4.0 - 1.0 {
+            last = (a, short.update(&raw, t));
+        }
+    }
+    assert_eq!(last.0, last.1);
 }
 
 #[test]
@@ -1094,10 +1116,12 @@ fn wgsl_matches_cpu_on_gpu() {
         .collect();
     let Some(out) = run_wgsl_parity(&params, &dirs_f32) else {
         assert!(
-            std::env::var_os("RAIN_REQUIRE_GPU").is_none(),
-            "no GPU adapter but RAIN_REQUIRE_GPU is set"
+            std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
+            "no GPU adapter but RAIN_COMPOSITE_REQUIRE_GPU is set"
         );
-        eprintln!("skipped: no GPU adapter (set RAIN_REQUIRE_GPU=1 to make this a failure)");
+        eprintln!(
+            "skipped: no GPU adapter (set RAIN_COMPOSITE_REQUIRE_GPU=1 to make this a failure)"
+        );
         return;
     };
     // The CPU twin on the same f32-rounded inputs.

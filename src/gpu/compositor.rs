@@ -17,7 +17,7 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::shaders::Stage;
-use super::types::FrameParams;
+use super::types::{FrameParams, RainParams};
 use crate::rain::emitter::RainSetup;
 use crate::video::{FrameFormat, Plane, YuvFrame};
 use crate::{Error, Result};
@@ -52,7 +52,6 @@ pub struct Compositor {
     format: FrameFormat,
     frame_params: FrameParams,
     planes: [wgpu::Texture; 3],
-    rain: RainSetup,
     rain_buffer: wgpu::Buffer,
     rain_drops: u32,
     out_buffer: wgpu::Buffer,
@@ -295,7 +294,6 @@ impl Compositor {
             format,
             frame_params,
             planes,
-            rain: rain.clone(),
             rain_buffer,
             rain_drops: rain.params.drop_count,
             out_buffer,
@@ -323,14 +321,9 @@ impl Compositor {
         self.rain_drops
     }
 
-    /// Records and submits `frame` with the rain at `time_s` lit by `radiance` (linear RGB).
+    /// Records and submits `frame` with the rain of `rain` (see `RainSetup::params_at`).
     /// Returns the oldest finished frame once `RING` frames are in flight.
-    pub fn submit(
-        &mut self,
-        frame: &YuvFrame,
-        time_s: f64,
-        radiance: [f32; 3],
-    ) -> Result<Option<YuvFrame>> {
+    pub fn submit(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Option<YuvFrame>> {
         if frame.format != self.format {
             return Err(Error::Unsupported(format!(
                 "the picture format changed mid-stream ({:?} → {:?})",
@@ -367,8 +360,7 @@ impl Compositor {
                 },
             );
         }
-        let params = self.rain.params_at(time_s, radiance);
-        queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(&params));
+        queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
 
         let device = &self.ctx.device;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -542,14 +534,9 @@ impl Compositor {
     }
 
     /// Renders one frame and waits for it (preview).
-    pub fn render_one(
-        &mut self,
-        frame: &YuvFrame,
-        time_s: f64,
-        radiance: [f32; 3],
-    ) -> Result<YuvFrame> {
+    pub fn render_one(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<YuvFrame> {
         let mut out = self.flush()?;
-        if let Some(f) = self.submit(frame, time_s, radiance)? {
+        if let Some(f) = self.submit(frame, rain)? {
             out.push(f);
         }
         out.extend(self.flush()?);

@@ -28,7 +28,7 @@ pub fn probe_drops(
     count: u32,
 ) -> Result<Vec<GpuDrop>> {
     let device = &ctx.device;
-    let mut params = setup.params_at(time_s as f64, [1.0; 3]);
+    let mut params = setup.motion_at(time_s as f64);
     params.drop_count = count.min(setup.params.drop_count);
     let n = params.drop_count.max(1) as u64;
     let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

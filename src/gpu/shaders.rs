@@ -18,6 +18,7 @@ const TYPES: &str = include_str!("../../shaders/common/types.wgsl");
 const COLOR: &str = include_str!("../../shaders/common/color.wgsl");
 const RNG: &str = include_str!("../../shaders/common/rng.wgsl");
 const DROPS: &str = include_str!("../../shaders/common/drops.wgsl");
+const SH: &str = include_str!("../../shaders/common/sh.wgsl");
 
 impl Stage {
     /// Every stage, for validation.
@@ -46,7 +47,7 @@ impl Stage {
                 include_str!("../../shaders/yuv_to_rgb.wgsl"),
             ),
             Stage::RainStreaks => (
-                &[TYPES, RNG, DROPS],
+                &[TYPES, RNG, DROPS, SH],
                 include_str!("../../shaders/rain_streaks.wgsl"),
             ),
             Stage::RgbToYuv => (

@@ -231,6 +231,11 @@ impl EnvMapper {
         &self.camera
     }
 
+    /// Side of the square block of frame pixels behind one downsampled pixel.
+    pub fn block_px(&self) -> usize {
+        self.block_px
+    }
+
     /// Size of the downsampled frame, pixels.
     pub fn small_size(&self) -> (usize, usize) {
         (self.small_w, self.small_h)
@@ -497,23 +502,26 @@ pub fn reconstruct_equirect(env: &EnvironmentSh, width: usize, height: usize) ->
         .collect()
 }
 
-/// Exponential smoothing of the environment over time, reset on scene cuts.
+/// Temporal smoothing of the environment, reset on scene cuts: a pure function of the frames
+/// in a short window, so any frame can be reproduced by feeding the frames before it
+/// (`preview` does exactly that) and the result never depends on where decoding started.
 ///
-/// Each update moves the state towards the new frame's coefficients by
-/// `a = 1 − exp(−dt/τ)` (frame-rate independent). A **cut** is declared when the normalised
-/// distance between consecutive *raw* coefficient vectors ([`EnvironmentSh::normalised_distance`],
-/// the relative L2 change of the band-limited environment) exceeds the threshold; the state then
-/// jumps to the new frame, so a cut never smears the previous shot's light into the next.
-/// Default threshold 0.3: within a shot the low-frequency light changes by a few percent per
-/// frame (a 30°/s pan moves it 1° per frame at 30 fps, far below what 4 bands resolve), while a
-/// cut to another shot typically changes the mean level, tint or the sky/ground dipole by tens of
-/// percent. A lightning flash also trips it, which is what the rain should do then.
+/// The output at time t is the average of the raw coefficients of the frames in
+/// (t − W, t], weighted by `exp(−(t − t_k)/τ)` (an exponential filter truncated at W = 4τ,
+/// where the weights have fallen below 2 %), over the frames after the last **cut** in the
+/// window. A cut is declared when the normalised distance between consecutive raw coefficient
+/// vectors ([`EnvironmentSh::normalised_distance`], the relative L2 change of the band-limited
+/// environment) exceeds the threshold, so a cut never smears the previous shot's light into
+/// the next. Default threshold 0.3: within a shot the low-frequency light changes by a few
+/// percent per frame (a 30°/s pan moves it 1° per frame at 30 fps, far below what 4 bands
+/// resolve), while a cut to another shot typically changes the mean level, tint or the
+/// sky/ground dipole by tens of percent. A lightning flash also trips it, which is what the
+/// rain should do then.
 #[derive(Debug, Clone)]
 pub struct ShSmoother {
     time_constant_secs: f64,
     cut_threshold: f64,
-    state: Option<EnvironmentSh>,
-    last_raw: Option<EnvironmentSh>,
+    window: std::collections::VecDeque<(f64, EnvironmentSh)>,
     last_was_cut: bool,
 }
 
@@ -522,8 +530,7 @@ impl Default for ShSmoother {
         ShSmoother {
             time_constant_secs: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
             cut_threshold: ShSmoother::DEFAULT_CUT_THRESHOLD,
-            state: None,
-            last_raw: None,
+            window: Default::default(),
             last_was_cut: false,
         }
     }
@@ -534,6 +541,8 @@ impl ShSmoother {
     pub const DEFAULT_TIME_CONSTANT_SECS: f64 = 0.25;
     /// Default cut threshold on the normalised distance.
     pub const DEFAULT_CUT_THRESHOLD: f64 = 0.3;
+    /// Window length in time constants.
+    pub const WINDOW_TIME_CONSTANTS: f64 = 4.0;
 
     /// A smoother with time constant `time_constant_secs` (0 disables smoothing) and cut
     /// threshold `cut_threshold` in (0, 2] (2 never cuts).
@@ -559,43 +568,57 @@ impl ShSmoother {
         })
     }
 
-    /// Feeds one frame's coefficients, `dt_secs` after the previous one; returns the smoothed
-    /// environment.
-    pub fn update(&mut self, raw: &EnvironmentSh, dt_secs: f64) -> EnvironmentSh {
-        let cut = match &self.last_raw {
-            Some(prev) => prev.normalised_distance(raw) > self.cut_threshold,
-            None => true,
-        };
-        self.last_was_cut = cut && self.state.is_some();
-        self.last_raw = Some(raw.clone());
-        let next = match (&self.state, cut || self.time_constant_secs == 0.0) {
-            (Some(s), false) => {
-                let a = (1.0 - (-dt_secs.max(0.0) / self.time_constant_secs).exp()) as f32;
-                EnvironmentSh {
-                    bands: raw.bands,
-                    coeffs: s
-                        .coeffs
-                        .iter()
-                        .zip(&raw.coeffs)
-                        .map(|(s, r)| [0, 1, 2].map(|k| s[k] + a * (r[k] - s[k])))
-                        .collect(),
-                }
-            }
-            _ => raw.clone(),
-        };
-        self.state = Some(next.clone());
-        next
+    /// How far back a frame still counts, seconds: the frames in (t − window, t] decide the
+    /// output at t.
+    pub fn window_secs(&self) -> f64 {
+        Self::WINDOW_TIME_CONSTANTS * self.time_constant_secs
     }
 
-    /// True when the last [`update`](Self::update) detected a cut (not on the first frame).
+    /// Feeds the coefficients of the frame at `t_secs` (increasing); returns the smoothed
+    /// environment at that time.
+    pub fn update(&mut self, raw: &EnvironmentSh, t_secs: f64) -> EnvironmentSh {
+        let cut = self
+            .window
+            .back()
+            .is_some_and(|(_, prev)| prev.normalised_distance(raw) > self.cut_threshold);
+        self.last_was_cut = cut;
+        if cut || self.time_constant_secs == 0.0 {
+            self.window.clear();
+        }
+        self.window.push_back((t_secs, raw.clone()));
+        let horizon = t_secs - self.window_secs();
+        while self.window.front().is_some_and(|(t, _)| *t <= horizon) {
+            self.window.pop_front();
+        }
+        let mut sum = vec![[0.0f64; 3]; raw.coeffs.len()];
+        let mut total = 0.0;
+        for (t, env) in &self.window {
+            let w = if self.time_constant_secs > 0.0 {
+                (-(t_secs - t) / self.time_constant_secs).exp()
+            } else {
+                1.0
+            };
+            total += w;
+            for (acc, c) in sum.iter_mut().zip(&env.coeffs) {
+                for k in 0..3 {
+                    acc[k] += w * c[k] as f64;
+                }
+            }
+        }
+        EnvironmentSh {
+            bands: raw.bands,
+            coeffs: sum.iter().map(|a| a.map(|v| (v / total) as f32)).collect(),
+        }
+    }
+
+    /// True when the last [`update`](Self::update) detected a cut.
     pub fn last_was_cut(&self) -> bool {
         self.last_was_cut
     }
 
     /// Forgets the history (e.g. after a seek).
     pub fn reset(&mut self) {
-        self.state = None;
-        self.last_raw = None;
+        self.window.clear();
         self.last_was_cut = false;
     }
 }

@@ -19,11 +19,13 @@
 //! `shaders/common/sh.wgsl`.
 
 pub mod envmap;
+pub mod frame_light;
 pub mod inspect;
 pub mod prt;
 pub mod rtf;
 pub mod sh;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
+pub use frame_light::{FrameLight, FrameLighting, LightConfig};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};

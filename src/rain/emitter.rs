@@ -12,6 +12,7 @@ use glam::{DVec2, DVec3};
 use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
 use crate::gpu::types::{Column, GUSTS, RainParams, SPEED_TABLE_LEN};
+use crate::lighting::FrameLight;
 use crate::rain::physics::{DsdShape, G_MPS2, RainModel, RainRate, ThinLens, haze_alpha};
 use crate::rain::volume::{RainVolume, VolumeParams};
 use crate::rain::wind::Wind;
@@ -144,8 +145,9 @@ pub fn build(
             .as_vec2()
             .to_array(),
         wind_mean_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32, 0.0, 0.0],
-        radiance: [1.0, 1.0, 1.0, 0.0],
         haze: [0.0, 0.0, 0.0, 1.0],
+        env_sh: [[0.0; 4]; 16],
+        drop_zonal: [[0.0; 4]; 3],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
         time_s: 0.0,
@@ -183,15 +185,25 @@ pub fn build(
 }
 
 impl RainSetup {
-    /// The uniforms at time `t_s` with drops lit by `radiance` (linear RGB). Gust phases and
-    /// the mean wind's travel are computed in `f64` here.
-    pub fn params_at(&self, t_s: f64, radiance: [f32; 3]) -> RainParams {
-        let mut p = self.params;
-        p.time_s = t_s as f32;
-        p.radiance = [radiance[0], radiance[1], radiance[2], 0.0];
+    /// The uniforms at time `t_s`, the drops lit by `light` with transfer coefficients
+    /// `drop_zonal` (see [`crate::lighting::FrameLighting`]).
+    pub fn params_at(&self, t_s: f64, light: &FrameLight, drop_zonal: [[f32; 4]; 3]) -> RainParams {
+        let mut p = self.motion_at(t_s);
+        p.env_sh = light.env.to_gpu_array();
+        p.drop_zonal = drop_zonal;
         // The aggregate far drops scatter the same light as the near ones.
         let a = self.haze_alpha as f32;
-        p.haze = [radiance[0] * a, radiance[1] * a, radiance[2] * a, 1.0 - a];
+        let h = light.haze_radiance;
+        p.haze = [h[0] * a, h[1] * a, h[2] * a, 1.0 - a];
+        p
+    }
+
+    /// The uniforms at time `t_s`, unlit: the drops' motion only. Gust phases and the mean
+    /// wind's travel are computed in `f64` here, so the shader never takes the cosine of a
+    /// large argument in `f32`.
+    pub fn motion_at(&self, t_s: f64) -> RainParams {
+        let mut p = self.params;
+        p.time_s = t_s as f32;
         let travel = self.wind.mean_mps * t_s;
         p.wind_mean_mps[2] = travel.x as f32;
         p.wind_mean_mps[3] = travel.y as f32;

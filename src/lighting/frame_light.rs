@@ -1,0 +1,156 @@
+//! The light of one video frame, as the GPU needs it: the frame's environment on SH
+//! (smoothed over time), the drop's transfer function, and the haze's in-scatter.
+//!
+//! The environment is projected from a small linear-light copy of the frame made straight from
+//! its YUV planes (a sparse box filter in the displayed orientation, converted with the frame's
+//! own colour parameters): four SH bands need about one sample per degree, not the full
+//! picture, so this costs a few thousand conversions per frame instead of millions.
+
+use glam::DVec3;
+
+use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
+use super::prt::{RtfSh, prt_colour};
+use super::rtf::ChannelIndices;
+use crate::Result;
+use crate::scene::Camera;
+use crate::video::YuvFrame;
+
+/// SH bands used on the GPU.
+pub const GPU_BANDS: usize = 4;
+/// Samples per side of each downsampled block.
+const SAMPLES_PER_BLOCK: usize = 4;
+
+/// How the rain is lit.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LightConfig {
+    /// Refractive index of the drops per channel (R, G, B); differing values model dispersion.
+    pub refractive_index: [f64; 3],
+    /// Highest scattering order of the transfer function.
+    pub n_max: usize,
+    /// Time constant of the lighting's temporal smoothing, seconds (0 = off).
+    pub smoothing_s: f64,
+}
+
+impl Default for LightConfig {
+    fn default() -> Self {
+        LightConfig {
+            refractive_index: super::rtf::WATER_RHO_RGB,
+            n_max: super::rtf::DEFAULT_N_MAX,
+            smoothing_s: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
+        }
+    }
+}
+
+/// What one frame contributes to the GPU's lighting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameLight {
+    /// The smoothed environment, 4 bands.
+    pub env: EnvironmentSh,
+    /// Mean radiance the drops scatter toward the camera (the haze's in-scatter), linear RGB.
+    pub haze_radiance: [f32; 3],
+}
+
+/// Turns frames into lighting, keeping the short history the smoothing needs.
+#[derive(Debug, Clone)]
+pub struct FrameLighting {
+    mapper: EnvMapper,
+    rtf: RtfSh,
+    smoother: ShSmoother,
+    rotation_deg: i32,
+}
+
+impl FrameLighting {
+    /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
+    /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
+    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<FrameLighting> {
+        Ok(FrameLighting {
+            mapper: EnvMapper::new(camera, GPU_BANDS)?,
+            rtf: RtfSh::water(
+                ChannelIndices::from(config.refractive_index),
+                config.n_max,
+                GPU_BANDS,
+            )?,
+            smoother: ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?,
+            rotation_deg,
+        })
+    }
+
+    /// Frames older than this (seconds before the current one) no longer affect the light.
+    pub fn window_secs(&self) -> f64 {
+        self.smoother.window_secs()
+    }
+
+    /// The drop's zonal transfer coefficients per channel, as `RainParams::drop_zonal`.
+    pub fn drop_zonal_gpu(&self) -> [[f32; 4]; 3] {
+        let z = self.rtf.to_gpu_array();
+        [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]])
+    }
+
+    /// The transfer function.
+    pub fn rtf(&self) -> &RtfSh {
+        &self.rtf
+    }
+
+    /// Raw (unsmoothed) environment of `frame`.
+    pub fn environment(&self, frame: &YuvFrame) -> EnvironmentSh {
+        self.mapper.project_small(&self.thumbnail(frame))
+    }
+
+    /// Feeds the frame shown at `t_s` (increasing) and returns its light.
+    pub fn update(&mut self, frame: &YuvFrame, t_s: f64) -> FrameLight {
+        let raw = self.environment(frame);
+        let env = self.smoother.update(&raw, t_s);
+        let forward = self.mapper.camera().world_from_camera * DVec3::Z;
+        let haze_radiance = prt_colour(&env, &self.rtf, forward).map(|v| v.max(0.0) as f32);
+        FrameLight { env, haze_radiance }
+    }
+
+    /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation.
+    fn thumbnail(&self, frame: &YuvFrame) -> Vec<[f32; 3]> {
+        let (sw, sh) = self.mapper.small_size();
+        let block = self.mapper.block_px();
+        let cam = self.mapper.camera();
+        let (dw, dh) = (cam.width_px as usize, cam.height_px as usize);
+        let f = &frame.format;
+        let (cw, ch) = (f.width as usize, f.height as usize);
+        let (sx, sy) = f.chroma.shift();
+        let rotation = self.rotation_deg.rem_euclid(360);
+        let mut out = Vec::with_capacity(sw * sh);
+        for by in 0..sh {
+            for bx in 0..sw {
+                let (x0, y0) = (bx * block, by * block);
+                let (x1, y1) = ((x0 + block).min(dw), (y0 + block).min(dh));
+                let n = SAMPLES_PER_BLOCK.min(x1 - x0).max(1);
+                let m = SAMPLES_PER_BLOCK.min(y1 - y0).max(1);
+                let mut acc = [0.0f64; 3];
+                for j in 0..m {
+                    for i in 0..n {
+                        // Sample centres spread evenly over the block.
+                        let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
+                        let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
+                        let (cx, cy) = match rotation {
+                            90 => (cw - 1 - y, x),
+                            180 => (cw - 1 - x, ch - 1 - y),
+                            270 => (y, ch - 1 - x),
+                            _ => (x, y),
+                        };
+                        let (cx, cy) = (cx.min(cw - 1) as u32, cy.min(ch - 1) as u32);
+                        let code = [
+                            frame.sample(0, cx, cy) as f64,
+                            frame.sample(1, cx >> sx, cy >> sy) as f64,
+                            frame.sample(2, cx >> sx, cy >> sy) as f64,
+                        ];
+                        let rgb = frame.color.code_to_linear(code);
+                        for k in 0..3 {
+                            acc[k] += rgb[k].clamp(0.0, 1e3);
+                        }
+                    }
+                }
+                let count = (n * m) as f64;
+                out.push(acc.map(|v| (v / count) as f32));
+            }
+        }
+        out
+    }
+}
