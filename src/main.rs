@@ -54,6 +54,48 @@ enum Command {
 
 #[derive(Subcommand, Debug)]
 enum InspectCommand {
+    /// The raindrop's radiance-transfer function: table per order, energy, zonal SH coefficients.
+    Rtf {
+        /// Refractive index: one value, or R,G,B for dispersion.
+        #[arg(long, default_value = "1.333", value_delimiter = ',')]
+        rho: Vec<f64>,
+        /// Highest scattering order.
+        #[arg(long, default_value_t = 9)]
+        nmax: usize,
+        /// Angular bins of the table over [0, π].
+        #[arg(long, default_value_t = 1024)]
+        bins: usize,
+        /// SH bands of the zonal coefficients.
+        #[arg(long, default_value_t = 4)]
+        bands: usize,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw a polar plot with the rainbow angles marked to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
+    /// The SH coefficients of an image used as a frame under the camera model.
+    Sh {
+        /// An image (PNG, sRGB) standing for a video frame.
+        image: PathBuf,
+        /// SH bands.
+        #[arg(long, default_value_t = 4)]
+        bands: usize,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = 60.0)]
+        fov: f64,
+        /// Camera pitch, degrees up.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        tilt: f64,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the environment reconstructed from its coefficients beside the mapped
+        /// original to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
     Drops {
         /// Picture size the camera sees, WxH.
@@ -540,6 +582,15 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// One line (or block) on stdout. A closed pipe (`| head`) ends the output quietly.
+fn out(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{text}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.context("writing to stdout"),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match &cli.command {
         None => run_render(&cli.render),
@@ -547,10 +598,59 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Probe(p)) => {
             let report = video::probe(&p.input, p.for_output.as_deref())?;
             if p.json {
-                println!("{}", serde_json::to_string_pretty(&report)?);
+                out(&serde_json::to_string_pretty(&report)?)?;
             } else {
-                print!("{report}");
+                out(report.to_string().trim_end())?;
             }
+            Ok(())
+        }
+        Some(Command::Inspect(InspectCommand::Rtf {
+            rho,
+            nmax,
+            bins,
+            bands,
+            plot,
+            ..
+        })) => {
+            use rain_composite::lighting::{ChannelIndices, inspect};
+            let rho: ChannelIndices = match rho.as_slice() {
+                [r] => (*r).into(),
+                [r, g, b] => [*r, *g, *b].into(),
+                _ => bail!("invalid --rho: give one index or three (R,G,B)"),
+            };
+            let v = inspect::inspect_rtf(rho, *nmax, *bins, *bands)?;
+            if let Some(path) = plot {
+                inspect::plot_rtf(rho, *nmax, *bins, path)?;
+            }
+            out(&serde_json::to_string_pretty(&v)?)?;
+            Ok(())
+        }
+        Some(Command::Inspect(InspectCommand::Sh {
+            image,
+            bands,
+            fov,
+            tilt,
+            plot,
+            ..
+        })) => {
+            use rain_composite::lighting::inspect;
+            let img = inspect::LinearImage::load_png(image)?;
+            if !(*fov > 1.0 && *fov < 170.0) {
+                bail!("invalid --fov {fov}: expected degrees in (1, 170)");
+            }
+            let camera = rain_composite::scene::Camera::new(
+                img.width as u32,
+                img.height as u32,
+                fov.to_radians(),
+                1.6,
+                tilt.to_radians(),
+                0.0,
+            );
+            let v = inspect::inspect_sh(&img, &camera, *bands)?;
+            if let Some(path) = plot {
+                inspect::plot_sh(&img, &camera, *bands, path)?;
+            }
+            out(&serde_json::to_string_pretty(&v)?)?;
             Ok(())
         }
         Some(Command::Inspect(InspectCommand::Drops {
@@ -600,7 +700,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 c.rain.seed,
                 *time,
             )?;
-            println!("{}", serde_json::to_string_pretty(&v)?);
+            out(&serde_json::to_string_pretty(&v)?)?;
             Ok(())
         }
         Some(Command::Bench(b)) => {
@@ -617,17 +717,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Adapters { json }) => {
             let adapters = list_adapters();
             if *json {
-                println!("{}", serde_json::to_string_pretty(&adapters)?);
+                out(&serde_json::to_string_pretty(&adapters)?)?;
             } else if adapters.is_empty() {
                 bail!(
                     "no GPU adapter found (install a Vulkan driver, or mesa-vulkan-drivers for the CPU one)"
                 );
             } else {
                 for a in adapters {
-                    println!(
+                    out(&format!(
                         "{:<40} {:<8} {:<14} {}",
                         a.name, a.backend, a.device_type, a.driver
-                    );
+                    ))?;
                 }
             }
             Ok(())

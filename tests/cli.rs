@@ -687,3 +687,59 @@ fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
     assert!(err.contains("-y"), "{err}");
     assert_eq!(std::fs::read(&out).expect("read"), b"precious");
 }
+
+fn json_of(cmd: &mut Command) -> serde_json::Value {
+    let out = ok(cmd);
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
+#[test]
+fn inspect_prints_the_models_as_json() {
+    // RTF: energy per order plus the truncated tail is all the light that hits the drop.
+    let rtf = json_of(bin().args([
+        "inspect", "rtf", "--rho", "1.333", "--nmax", "9", "--bins", "256", "--json",
+    ]));
+    let ch = &rtf["channels"][0];
+    let sum: f64 = ch["energy_per_order"]
+        .as_array()
+        .expect("array")
+        .iter()
+        .map(|v| v.as_f64().expect("f64"))
+        .sum();
+    let tail = ch["tail_energy"].as_f64().expect("tail");
+    assert!((sum + tail - 1.0).abs() < 1e-9, "{sum} + {tail}");
+    // Descartes' primary bow: cos²γ = (ρ²−1)/3, deviation 2(γ−β)+(π−2β), seen at 180° − D.
+    let rho: f64 = 1.333;
+    let g = ((rho * rho - 1.0) / 3.0).sqrt().acos();
+    let b = (g.sin() / rho).asin();
+    let bow_deg = 180.0 - (2.0 * (g - b) + std::f64::consts::PI - 2.0 * b).to_degrees();
+    let caustic = ch["caustic_scattering_angle_deg"]["3"]
+        .as_f64()
+        .expect("order 3");
+    // The report measures θ from the forward direction: the bow is at 180° − (its radius).
+    assert!(
+        (180.0 - caustic - bow_deg).abs() < 0.01,
+        "{caustic} vs bow {bow_deg}"
+    );
+
+    let drops = json_of(bin().args([
+        "inspect", "drops", "--rain", "10", "--count", "50", "--size", "640x360", "--json",
+    ]));
+    assert_eq!(drops["sample"]["drops"].as_array().map(Vec::len), Some(50));
+
+    let dir = TempDir::new().expect("tmp");
+    let plot = p(&dir, "sh.png");
+    let sh = json_of(bin().args([
+        "inspect",
+        "sh",
+        "tests/data/courtyard_128x64.png",
+        "--bands",
+        "3",
+        "--plot",
+        s(&plot),
+    ]));
+    assert_eq!(sh["coeffs"].as_array().map(Vec::len), Some(9));
+    assert!(plot.exists());
+    let err = fails(bin().args(["inspect", "rtf", "--rho", "0.5"]));
+    assert!(err.contains("rho"), "{err}");
+}
