@@ -133,6 +133,9 @@ pub struct Job {
 enum ToEncode {
     Frame(YuvFrame),
     Packet(crate::video::CopiedPacket),
+    /// Everything was sent: flush and publish the output. A channel that closes without it
+    /// means the job failed, and the unfinished Sink removes its temporary file.
+    Finish,
 }
 
 /// Runs `job`. `progress` is called after every written frame; `cancel` stops the job cleanly
@@ -193,12 +196,17 @@ pub fn render(
                         frames += 1;
                     }
                     ToEncode::Packet(p) => sink.write_packet(p)?,
+                    ToEncode::Finish => {
+                        if frames == 0 {
+                            return Err(Error::CorruptInput("no frame could be decoded".into()));
+                        }
+                        sink.finish()?;
+                        return Ok((frames, spent + t.elapsed()));
+                    }
                 }
                 spent += t.elapsed();
             }
-            let t = Instant::now();
-            sink.finish()?;
-            Ok((frames, spent + t.elapsed()))
+            Err(Error::Interrupted)
         })
         .map_err(Error::io("starting the encode thread"))?;
 
@@ -259,6 +267,8 @@ pub fn render(
         let _ = decoder.join();
         return Err(gpu_result.err().unwrap_or(Error::Interrupted));
     }
+    // If the encoder already stopped, its own error comes out of `join` below.
+    let _ = out_tx.send(ToEncode::Finish);
     drop(out_tx);
     let decode_time = decoder
         .join()
@@ -266,9 +276,6 @@ pub fn render(
     let (frames, encode_time) = encoder
         .join()
         .map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
-    if frames == 0 {
-        return Err(Error::CorruptInput("no frame could be decoded".into()));
-    }
     stages.gpu = compositor.gpu_times();
     stages.decode_s = decode_time.as_secs_f64();
     stages.encode_s = encode_time.as_secs_f64();

@@ -743,3 +743,52 @@ fn inspect_prints_the_models_as_json() {
     let err = fails(bin().args(["inspect", "rtf", "--rho", "0.5"]));
     assert!(err.contains("rho"), "{err}");
 }
+
+#[test]
+fn ctrl_c_stops_cleanly_and_leaves_no_output() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "long.mp4");
+    clip(
+        &input,
+        "320x240",
+        30.0,
+        &[
+            "-c:v",
+            "libx264",
+            "-preset",
+            "ultrafast",
+            "-pix_fmt",
+            "yuv420p",
+        ],
+    );
+    let out = p(&dir, "out.mp4");
+    let mut child = bin()
+        .args([s(&input), "-o", s(&out), "--cpu", "--progress", "json"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // Wait until frames are flowing (a progress line), then interrupt.
+    let mut stderr = std::io::BufReader::new(child.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut stderr, &mut line).expect("progress line");
+    let progress: serde_json::Value = serde_json::from_str(&line).expect("JSON progress");
+    assert!(progress["frames_done"].as_u64().is_some_and(|n| n >= 1));
+    let pid = child.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .expect("kill")
+            .success()
+    );
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stderr, &mut rest).expect("stderr");
+    assert!(rest.contains("error: interrupted"), "{rest}");
+    let status = child.wait().expect("wait");
+    assert_eq!(status.code(), Some(1));
+    assert_eq!(
+        only_files(dir.path()),
+        ["long.mp4"],
+        "no output or temporary file left"
+    );
+}
