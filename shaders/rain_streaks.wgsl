@@ -6,7 +6,7 @@
 // drops thinner than a pixel are widened to r_eff and their alpha scaled by (r/r_eff)², which
 // keeps the integrated coverage (sub-pixel coverage folded into alpha). Premultiplied output;
 // the pipeline blends src + dst·(1 − αsrc).
-// Colour: each streak pixel shows the drop's radiance for that pixel's view ray, the dot product
+// Colour: a streak shows the drop's radiance for its view ray, the dot product
 // of the frame's environment SH with the drop's transfer function rotated to the ray (PRT,
 // SPEC §3–5; common/sh.wgsl).
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl.
@@ -20,15 +20,18 @@ struct VsOut {
     @location(0) local_px: vec2<f32>,
     // x: streak length px, y: r_eff px, z: alpha scale.
     @location(1) @interpolate(flat) shape: vec3<f32>,
-    // Position in the displayed picture, px (for the view ray).
-    @location(2) display_px: vec2<f32>,
+    // Drop radiance (PRT) for the view ray through this vertex, linear RGB.
+    @location(2) radiance: vec3<f32>,
 }
 
 const MIN_RADIUS_PX: f32 = 0.7;
-const AA_MARGIN_PX: f32 = 1.0;
+const AA_MARGIN_PX: f32 = 0.5;
+// Streaks whose brightest pixel would change by less than half a code value of 8-bit video are
+// not drawn: they are invisible, and on CPU adapters raster work is most of the cost.
+const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 
 fn culled() -> VsOut {
-    return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0));
+    return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
@@ -63,6 +66,10 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     var dir = vec2<f32>(0.0, 1.0);
     if len > 1e-4 { dir = seg / len; }
     let nrm = vec2<f32>(-dir.y, dir.x);
+    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight;
+    // Peak coverage on the streak's axis: the disc's chord over the path length.
+    let peak = alpha_scale * min(1.0, 2.0 * r_eff / max(len, 1e-3));
+    if peak < MIN_PEAK_ALPHA { return culled(); }
     let ext = r_eff + AA_MARGIN_PX;
     let lo = min(q0, q1) - vec2<f32>(ext);
     let hi = max(q0, q1) + vec2<f32>(ext);
@@ -81,8 +88,12 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     let p_coded = vec2<f32>(m.x * p_display.x + m.z * p_display.y, m.y * p_display.x + m.w * p_display.y)
         + rain.coded_offset_px;
     let clip = vec2<f32>(2.0 * p_coded.x / rain.coded_size_px.x - 1.0, 1.0 - 2.0 * p_coded.y / rain.coded_size_px.y);
-    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight;
-    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(len, r_eff, alpha_scale), p_display);
+    // The view ray changes by a few degrees at most along a streak, far below what 4 SH bands
+    // resolve: the drop's radiance is evaluated per vertex and interpolated.
+    let d = (p_display - rain.principal_px) / f;
+    let ray = rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
+    let radiance = max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
+    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(len, r_eff, alpha_scale), radiance);
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -102,8 +113,5 @@ fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
 fn fs_main(v: VsOut) -> @location(0) vec4<f32> {
     let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0);
     if a <= 0.0 { discard; }
-    let d = (v.display_px - rain.principal_px) / rain.camera_pos_m.w;
-    let ray = rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
-    let radiance = max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
-    return vec4<f32>(radiance * a, a);
+    return vec4<f32>(v.radiance * a, a);
 }

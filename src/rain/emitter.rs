@@ -7,7 +7,7 @@
 //! here per frame in [`RainSetup::params_at`], so the shader never takes the cosine of a large
 //! argument in `f32`.
 
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 
 use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
@@ -228,9 +228,4 @@ impl RainSetup {
     pub fn summary(&self) -> String {
         self.volume.summary()
     }
-}
-
-/// World position of a camera-space point, for tests and tools.
-pub fn world_point(camera: &Camera, p_cam: DVec3) -> DVec3 {
-    camera.position_m + camera.world_from_camera * p_cam
 }
