@@ -1,18 +1,25 @@
 //! Boundaries: the simulation box (walls or open faces) and the height-field terrain.
 //!
-//! How it works: every wall and the terrain act on a particle twice.
-//! 1. As a continuum of fluid at rest beyond a plane (a semi-analytic boundary): for a particle at
-//!    distance d < h, the kernel's half-space integrals ([`super::kernels::HalfSpace`]) give the
-//!    missing density ρ₀Φ(d), a mirrored-pressure force and optional friction. Without this,
-//!    particles near walls see too few neighbours, pack too tightly and feel no pressure from
-//!    the wall. The terrain is treated as its local tangent plane: d = (z − H(x, y))·n_z with n
-//!    the interpolated normal.
+//! How it works: walls act on a particle twice.
+//! 1. By the method of images: every neighbour j has a ghost, its mirror image behind each wall
+//!    within h of particle i, carrying j's density and pressure (and j's velocity, mirrored;
+//!    the tangential part scaled by 1 − 2·friction, so friction 1 is no slip). Ghosts count in
+//!    density, pressure, viscosity and the colour field exactly like real neighbours. For plane
+//!    walls the ghosts are the mirror copy of the whole fluid, so the system stays Lagrangian:
+//!    forces are gradients of one energy and nothing is pumped in. (A semi-analytic wall whose
+//!    pressure copies pᵢ, tried first, is not a gradient and fed a growing oscillation.) Near a
+//!    box edge or corner, the compositions of the reflections (up to 7 images) are included.
+//!    The terrain is mirrored across particle i's tangent plane (height and barycentric normal
+//!    of the triangle below it) — exact for planes, close while the terrain's radius of
+//!    curvature is large against h. Only fluid on the fluid side of a plane is mirrored, and
+//!    for axis-aligned walls every ghost within h of i is the image of a real neighbour within h,
+//!    so the neighbour search needs nothing extra.
 //! 2. As a hard collision after each drift (thesis §5.3.1): a particle found beyond a wall or
 //!    below the terrain is moved back (by its damped penetration, at most half a spacing) and
 //!    the normal component of its velocity is reflected and multiplied by the damping factor
-//!    in (0, 1). The thesis damps the whole velocity; we damp only the normal part, because
-//!    damping the tangential part at every contact would be a hidden friction (friction is the
-//!    explicit `wall_friction` instead).
+//!    in [0, 1]. The thesis damps the whole velocity; we damp only the normal part, because
+//!    damping the tangential part at every contact would be a hidden friction (friction is
+//!    `wall_friction` instead).
 //!
 //! Particles beyond an open face leave the simulation and are counted as outflow.
 
@@ -103,35 +110,144 @@ pub(crate) enum Fate {
     Invalid,
 }
 
-const AXES: [Vec3; 3] = [Vec3::X, Vec3::Y, Vec3::Z];
+
+/// A reflection taking fluid points to their ghost images.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Mirror {
+    /// Reflect the coordinates selected by `mask` across the planes x_a = c_a
+    /// (`twice_plane` = 2c).
+    Axes {
+        /// Which axes are reflected.
+        mask: glam::BVec3,
+        /// Twice the plane coordinates.
+        twice_plane: Vec3,
+        /// Factor on the ghost's tangential velocity.
+        tangential: f32,
+    },
+    /// Reflect across the plane n·x = `offset` (the terrain's tangent plane).
+    Plane {
+        /// Unit normal towards the fluid.
+        normal: Vec3,
+        /// n·(a point of the plane).
+        offset: f32,
+        /// Factor on the ghost's tangential velocity.
+        tangential: f32,
+    },
+}
+
+impl Mirror {
+    /// The ghost of `x`, or None if `x` is behind the plane (it has no ghost there).
+    #[inline]
+    pub(crate) fn point(&self, x: Vec3) -> Option<Vec3> {
+        match *self {
+            Mirror::Axes {
+                mask, twice_plane, ..
+            } => Some(Vec3::select(mask, twice_plane - x, x)),
+            Mirror::Plane { normal, offset, .. } => {
+                let d = x.dot(normal) - offset;
+                (d >= 0.0).then(|| x - normal * (2.0 * d))
+            }
+        }
+    }
+
+    /// The ghost's velocity: normal part reversed, tangential part scaled by 1 − 2·friction
+    /// (free slip … no slip).
+    #[inline]
+    pub(crate) fn velocity(&self, v: Vec3) -> Vec3 {
+        match *self {
+            Mirror::Axes {
+                mask, tangential, ..
+            } => Vec3::select(mask, -v, v * tangential),
+            Mirror::Plane {
+                normal, tangential, ..
+            } => {
+                let vn = normal * v.dot(normal);
+                (v - vn) * tangential - vn
+            }
+        }
+    }
+}
+
+/// The mirrors acting on one particle (at most 26 box images plus the terrain).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Mirrors {
+    list: [Mirror; 27],
+    len: usize,
+}
+
+impl Mirrors {
+    #[inline]
+    pub(crate) fn as_slice(&self) -> &[Mirror] {
+        &self.list[..self.len]
+    }
+}
 
 impl Boundaries {
-    /// Calls `f(d, n)` for every wall and the terrain closer than `h_m` to `p`: `d` the signed
-    /// distance on the fluid side (m), `n` the unit normal pointing into the fluid.
+    /// The mirrors for a particle at `p`: reflections across every wall closer than `h_m`, their
+    /// compositions across different axes, and the terrain's tangent plane if closer than h.
+    /// `ground_friction` ∈ [0, 1] applies to the ground (terrain and box floor); the other
+    /// walls are free-slip (the side walls of the validation tanks stand for symmetry planes).
     #[inline]
-    pub fn for_each_wall(&self, p: Vec3, h_m: f32, mut f: impl FnMut(f32, Vec3)) {
+    pub(crate) fn mirrors(&self, p: Vec3, h_m: f32, ground_friction: f32) -> Mirrors {
+        let rough = 1.0 - 2.0 * ground_friction;
         let d = &self.domain;
-        for (axis, n) in AXES.iter().enumerate() {
-            if d.faces[2 * axis] == Face::Wall {
-                let dist = p[axis] - d.min_m[axis];
-                if dist < h_m {
-                    f(dist, *n);
-                }
+        let mut m = Mirrors {
+            list: [Mirror::Plane {
+                normal: Vec3::Z,
+                offset: 0.0,
+                tangential: 1.0,
+            }; 27],
+            len: 0,
+        };
+        // Per axis: the planes (twice their coordinate) within h.
+        let mut planes = [[0.0f32; 2]; 3];
+        let mut count = [0usize; 3];
+        for axis in 0..3 {
+            if d.faces[2 * axis] == Face::Wall && p[axis] - d.min_m[axis] < h_m {
+                planes[axis][count[axis]] = 2.0 * d.min_m[axis];
+                count[axis] += 1;
             }
-            if d.faces[2 * axis + 1] == Face::Wall {
-                let dist = d.max_m[axis] - p[axis];
-                if dist < h_m {
-                    f(dist, -*n);
+            if d.faces[2 * axis + 1] == Face::Wall && d.max_m[axis] - p[axis] < h_m {
+                planes[axis][count[axis]] = 2.0 * d.max_m[axis];
+                count[axis] += 1;
+            }
+        }
+        if count.iter().any(|&c| c > 0) {
+            for cz in 0..=count[2] {
+                for cy in 0..=count[1] {
+                    for cx in 0..=count[0] {
+                        if cx + cy + cz == 0 {
+                            continue;
+                        }
+                        let pick = |c: usize, axis: usize| {
+                            if c == 0 { 0.0 } else { planes[axis][c - 1] }
+                        };
+                        let twice_plane = Vec3::new(pick(cx, 0), pick(cy, 1), pick(cz, 2));
+                        let floor = cz > 0 && twice_plane.z == 2.0 * d.min_m.z;
+                        m.list[m.len] = Mirror::Axes {
+                            mask: glam::BVec3::new(cx > 0, cy > 0, cz > 0),
+                            twice_plane,
+                            tangential: if floor { rough } else { 1.0 },
+                        };
+                        m.len += 1;
+                    }
                 }
             }
         }
         if let Some(t) = &self.terrain {
             let s = t.sample(p.x, p.y);
             let dist = (p.z - s.height_m) * s.normal.z;
-            if dist < h_m {
-                f(dist, s.normal);
+            if dist < h_m && m.len < m.list.len() {
+                let foot = Vec3::new(p.x, p.y, s.height_m);
+                m.list[m.len] = Mirror::Plane {
+                    normal: s.normal,
+                    offset: s.normal.dot(foot),
+                    tangential: rough,
+                };
+                m.len += 1;
             }
         }
+        m
     }
 
     /// Terrain height at (x, y), or the box floor without a terrain, m.

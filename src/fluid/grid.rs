@@ -1,17 +1,18 @@
 //! Uniform-grid neighbour search by counting sort.
 //!
-//! How it works: each rebuild fits a dense grid of cubic cells (edge ≥ h) to the particles'
-//! bounding box, counts particles per cell, prefix-sums the counts into cell starts and scatters
-//! particle indices in increasing index order (a stable counting sort). Cells are numbered
-//! x-fastest, so the three cells (x−1..x+1, y, z) are adjacent in the sorted order and the 27
-//! neighbour cells of a particle are 9 contiguous runs. The solver permutes its particle arrays
+//! How it works: each rebuild fits a dense grid of cubic cells to the particles' bounding box,
+//! counts particles per cell, prefix-sums the counts into cell starts and scatters particle
+//! indices in increasing index order (a stable counting sort). Cells are numbered x-fastest, so
+//! a row of cells along x is one contiguous run of the sorted order: with cells of edge h the 27
+//! neighbour cells are 9 runs; the solver uses edge h/2 (125 cells, 25 runs), which scans 42 %
+//! fewer candidates for the same radius. The solver permutes its particle arrays
 //! into this order after every rebuild, so a run of slots is also a run of memory.
 //!
 //! Everything here is serial and integer-only, so the order — and hence every float sum the
 //! solver makes over neighbours — is the same whatever the thread count. Buffers are reused:
 //! after warm-up a rebuild allocates nothing. When the bounding box would need more cells than
 //! the budget (a sparse film on a wide terrain) the cells are enlarged, which stays correct
-//! (cells ≥ h) at the price of more candidates per particle.
+//! (the search reach in cells adapts) at the price of more candidates per particle.
 
 use glam::Vec3;
 use std::ops::Range;
@@ -20,6 +21,7 @@ use std::ops::Range;
 #[derive(Debug, Clone, Default)]
 pub struct UniformGrid {
     cell_m: f32,
+    reach: usize,
     origin_m: Vec3,
     dims: [usize; 3],
     cell_start: Vec<u32>,
@@ -35,8 +37,15 @@ impl UniformGrid {
     }
 
     /// Sorts `positions_m` into cells of edge at least `min_cell_m`, using at most about
-    /// `max_cells` cells (larger cells otherwise). Positions must be finite.
-    pub fn rebuild(&mut self, positions_m: &[Vec3], min_cell_m: f32, max_cells: usize) {
+    /// `max_cells` cells (larger cells otherwise), for searches within `radius_m`. Positions
+    /// must be finite.
+    pub fn rebuild(
+        &mut self,
+        positions_m: &[Vec3],
+        radius_m: f32,
+        min_cell_m: f32,
+        max_cells: usize,
+    ) {
         let (lo, hi) = positions_m.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(lo, hi), &p| (lo.min(p), hi.max(p)),
@@ -58,6 +67,7 @@ impl UniformGrid {
             cell *= 1.25;
         };
         self.cell_m = cell;
+        self.reach = ((radius_m / cell) * (1.0 - 1e-6)).ceil().max(1.0) as usize;
         self.origin_m = lo;
         self.dims = dims;
         let n_cells = dims[0] * dims[1] * dims[2];
@@ -115,15 +125,16 @@ impl UniformGrid {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
-    /// Calls `f` with the (at most 9) runs of sorted slots covering the 27 cells around `p`, in
-    /// a fixed order (z, then y, then x increasing).
+    /// Calls `f` with the runs of sorted slots covering the cells within the search radius of
+    /// `p` (one run per row of cells along x), in a fixed order (z, then y, then x increasing).
     #[inline]
     pub fn for_each_neighbour_run(&self, p: Vec3, mut f: impl FnMut(Range<usize>)) {
         let [cx, cy, cz] = self.cell_coords(p);
-        let x0 = cx.saturating_sub(1);
-        let x1 = (cx + 1).min(self.dims[0] - 1);
-        for z in cz.saturating_sub(1)..=(cz + 1).min(self.dims[2] - 1) {
-            for y in cy.saturating_sub(1)..=(cy + 1).min(self.dims[1] - 1) {
+        let r = self.reach;
+        let x0 = cx.saturating_sub(r);
+        let x1 = (cx + r).min(self.dims[0] - 1);
+        for z in cz.saturating_sub(r)..=(cz + r).min(self.dims[2] - 1) {
+            for y in cy.saturating_sub(r)..=(cy + r).min(self.dims[1] - 1) {
                 let a = self.cell_start[self.cell_index([x0, y, z])] as usize;
                 let b = self.cell_start[self.cell_index([x1, y, z]) + 1] as usize;
                 if a < b {
@@ -158,7 +169,7 @@ mod tests {
         pts.push(Vec3::new(0.2, 0.0, 0.1));
         for max_cells in [1 << 20, 50] {
             let mut g = UniformGrid::new();
-            g.rebuild(&pts, h, max_cells);
+            g.rebuild(&pts, h, h / 2.0, max_cells);
             let order = g.order().to_vec();
             for (i, &p) in pts.iter().enumerate() {
                 let mut found = Vec::new();

@@ -7,16 +7,9 @@
 //! vanish as r → 0, so close particles still repel) and [`Viscosity`] for viscosity (its
 //! Laplacian is positive everywhere, so viscosity only ever damps relative motion).
 //!
-//! Walls and the terrain are treated as a continuum of fluid at rest density beyond a plane.
-//! [`HalfSpace`] gives the kernel's integral over such a half-space at signed distance `d`
-//! (closed-form polynomials in q = d/h, derived from Φ(d) = 2π ∫_d^h (r − d) r W(r) dr), its
-//! slope, and for [`Viscosity`] the integral of ∇²W; the solver uses them for the wall's share of
-//! density, pressure, friction and colour field.
-//!
 //! All values are in SI: W in 1/m³, ∇W in 1/m⁴, ∇²W in 1/m⁵.
 
 use glam::Vec3;
-use std::f64::consts::PI;
 
 /// A radial SPH smoothing kernel with compact support `h` (metres).
 ///
@@ -33,16 +26,6 @@ pub trait Kernel: Copy + Default + Send + Sync + 'static {
     fn gradient(r_vec_m: Vec3, h_m: f32) -> Vec3;
     /// ∇²W(r, h), 1/m⁵. Zero for r ≥ h.
     fn laplacian(r_m: f32, h_m: f32) -> f32;
-}
-
-/// Integrals of a kernel over the half-space beyond a plane at signed distance `d` (positive:
-/// the point is on the fluid side). Used for walls and the terrain.
-pub trait HalfSpace: Kernel {
-    /// Φ(d) = ∫_{half-space} W dV, dimensionless, in [0, 1]; ½ on the plane, 0 for d ≥ h.
-    fn half_space(d_m: f32, h_m: f32) -> f32;
-    /// dΦ/dd, 1/m (≤ 0). The gradient of Φ with respect to the point is `dΦ/dd · n`, with n
-    /// the plane's unit normal pointing to the fluid side.
-    fn half_space_slope(d_m: f32, h_m: f32) -> f32;
 }
 
 /// Poly6 kernel, W = 315/(64π h⁹) (h² − r²)³ — thesis (3.11), used for density (5.18) and the
@@ -63,17 +46,6 @@ pub struct Viscosity;
 /// Smallest r at which the singular kernel expressions are evaluated (as a fraction of h), so
 /// that they stay finite when two particles coincide.
 const R_MIN_FRACTION: f32 = 1e-6;
-
-impl Poly6 {
-    /// d²Φ/dd² = ∫_{half-space} ∇²W dV, 1/m² — the wall's share of the colour-field Laplacian.
-    pub fn half_space_laplacian(d_m: f32, h_m: f32) -> f32 {
-        let h = h_m as f64;
-        let q = (d_m as f64 / h).clamp(-1.0, 1.0);
-        // Φ'' = 2π d W(d); odd in d because Φ(−d) = 1 − Φ(d).
-        let a = 2.0 * PI * 315.0 / (64.0 * PI);
-        (a * q * (1.0 - q * q).powi(3) / (h * h)) as f32
-    }
-}
 
 impl Kernel for Poly6 {
     #[inline]
@@ -113,39 +85,6 @@ impl Kernel for Poly6 {
     }
 }
 
-impl HalfSpace for Poly6 {
-    fn half_space(d_m: f32, h_m: f32) -> f32 {
-        let q = d_m as f64 / h_m as f64;
-        if q >= 1.0 {
-            return 0.0;
-        }
-        if q <= -1.0 {
-            return 1.0;
-        }
-        let phi = |q: f64| {
-            // 2πA [I2(d) − d I1(d)] in units of h: I1 = (1 − q²)⁴/8,
-            // I2 = 16/315 − (q³/3 − 3q⁵/5 + 3q⁷/7 − q⁹/9).
-            let q2 = q * q;
-            let i2 = 16.0 / 315.0
-                - (q * q2 / 3.0 - 3.0 * q * q2 * q2 / 5.0 + 3.0 * q * q2 * q2 * q2 / 7.0
-                    - q * q2 * q2 * q2 * q2 / 9.0);
-            let i1 = (1.0 - q2).powi(4) / 8.0;
-            2.0 * 315.0 / 64.0 * (i2 - q * i1)
-        };
-        (if q >= 0.0 { phi(q) } else { 1.0 - phi(-q) }) as f32
-    }
-
-    fn half_space_slope(d_m: f32, h_m: f32) -> f32 {
-        let h = h_m as f64;
-        let q = (d_m as f64 / h).abs();
-        if q >= 1.0 {
-            return 0.0;
-        }
-        // Φ' = −2πA (h² − d²)⁴/8, even in d.
-        (-2.0 * 315.0 / 64.0 * (1.0 - q * q).powi(4) / 8.0 / h) as f32
-    }
-}
-
 impl Kernel for Spiky {
     #[inline]
     fn value(r_m: f32, h_m: f32) -> f32 {
@@ -177,61 +116,6 @@ impl Kernel for Spiky {
         let u = h_m - r;
         let b = 15.0 / (std::f32::consts::PI * h_m.powi(6));
         6.0 * b * u - 6.0 * b * u * u / r
-    }
-}
-
-impl HalfSpace for Spiky {
-    fn half_space(d_m: f32, h_m: f32) -> f32 {
-        let q = d_m as f64 / h_m as f64;
-        if q >= 1.0 {
-            return 0.0;
-        }
-        if q <= -1.0 {
-            return 1.0;
-        }
-        let phi = |q: f64| {
-            let e = 1.0 - q;
-            let e4 = e.powi(4);
-            let j2 = e4 / 4.0 - 2.0 * e4 * e / 5.0 + e4 * e * e / 6.0;
-            let j1 = e4 / 4.0 - e4 * e / 5.0;
-            30.0 * (j2 - q * j1)
-        };
-        (if q >= 0.0 { phi(q) } else { 1.0 - phi(-q) }) as f32
-    }
-
-    fn half_space_slope(d_m: f32, h_m: f32) -> f32 {
-        let h = h_m as f64;
-        let q = (d_m as f64 / h).abs();
-        if q >= 1.0 {
-            return 0.0;
-        }
-        let e = 1.0 - q;
-        let e4 = e.powi(4);
-        (-30.0 * (e4 / 4.0 - e4 * e / 5.0) / h) as f32
-    }
-}
-
-impl Viscosity {
-    /// ∫_{half-space} ∇²W dV, 1/m² (> 0): the wall's share of the viscous Laplacian, used for
-    /// wall friction. 7.5/h² on the plane, 0 for d ≥ h.
-    pub fn half_space_laplacian(d_m: f32, h_m: f32) -> f32 {
-        let h = h_m as f64;
-        let q = d_m as f64 / h;
-        if q >= 1.0 {
-            return 0.0;
-        }
-        let l = |q: f64| {
-            let e = 1.0 - q;
-            let k2 = e * e / 2.0 - 2.0 * e * e * e / 3.0 + e.powi(4) / 4.0;
-            let k1 = e * e / 2.0 - e * e * e / 3.0;
-            90.0 * (k2 - q * k1) / (h * h)
-        };
-        // Inside the wall: the whole-space integral 15/h² minus the part on the fluid side.
-        (if q >= 0.0 {
-            l(q)
-        } else {
-            15.0 / (h * h) - l((-q).min(1.0))
-        }) as f32
     }
 }
 
@@ -273,6 +157,7 @@ impl Kernel for Viscosity {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     /// 4π ∫₀^h r² W dr by composite Simpson in f64 on the f32 kernel.
     fn volume_integral<K: Kernel>(h: f32) -> f64 {

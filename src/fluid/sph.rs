@@ -37,7 +37,7 @@
 use super::boundary::{Boundaries, Fate};
 use super::eos::{EquationOfState, STANDARD_GRAVITY_MPS2, positive};
 use super::grid::UniformGrid;
-use super::kernels::{HalfSpace, Kernel, Poly6, Spiky, Viscosity};
+use super::kernels::{Kernel, Poly6, Spiky, Viscosity};
 use super::particles::{Particles, PermuteScratch};
 use super::sources::{Emitter, MassLedger, NewParticle, unit_from_hash};
 use crate::{Error, Result};
@@ -97,11 +97,16 @@ pub struct SphSettings {
     /// Collision damping e ∈ [0, 1]: the normal velocity after a collision is −e times the one
     /// before (thesis §5.3.1 uses a factor in (0, 1)).
     pub collision_damping: f32,
-    /// Wall and terrain friction ∈ [0, 1]: 0 free slip, 1 the wall acts as fluid at rest
-    /// (no slip) in the viscous term.
+    /// Ground friction ∈ [0, 1] (terrain and box floor; other walls are free-slip): the
+    /// ghosts' tangential velocity is scaled by 1 − 2·friction, so 0 is free slip and 1 no slip.
     pub wall_friction: f32,
     /// Rate at which water in contact with the terrain soaks in, m/s (depth per second).
     pub infiltration_rate_mps: f32,
+    /// Gravity is ramped up smoothly over this time from the start, s (0: off). A scene that
+    /// starts from an unloaded lattice then settles quasi-statically instead of ringing in
+    /// its slowest sound mode, which viscosity damps only over seconds (Adami, Hu & Adams
+    /// 2012 do the same for their hydrostatic tank).
+    pub gravity_ramp_s: f32,
 }
 
 impl SphSettings {
@@ -130,8 +135,9 @@ impl SphSettings {
                 max_s: 0.01,
             },
             collision_damping: 0.5,
-            wall_friction: 0.0,
+            wall_friction: 1.0,
             infiltration_rate_mps: 0.0,
+            gravity_ramp_s: 0.0,
         }
     }
 
@@ -157,6 +163,7 @@ impl SphSettings {
             ("sph.viscosity_pa_s", self.viscosity_pa_s),
             ("sph.surface_tension_n_per_m", self.surface_tension_n_per_m),
             ("sph.infiltration_rate_mps", self.infiltration_rate_mps),
+            ("sph.gravity_ramp_s", self.gravity_ramp_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::Parameter {
@@ -207,30 +214,70 @@ impl SphSettings {
 }
 
 /// The mass that makes a cubic lattice of spacing `dx` have SPH density exactly `rho0`:
-/// m = ρ₀ / Σ_lattice W_poly6(|n·dx|, h). (m = ρ₀dx³ would be off by the lattice sum's
-/// quadrature error, a few per cent at h = 2dx.)
+/// m = ρ₀ / Σ_lattice W_spiky(|n·dx|, h). (m = ρ₀dx³ would be off by the lattice sum's
+/// quadrature error: the sum is 1.24/dx³ at h = 2dx because of spiky's cusp.)
 pub fn lattice_mass_kg(dx_m: f32, h_m: f32, rho0_kg_m3: f32) -> f32 {
-    let n = (h_m / dx_m).ceil() as i32;
-    let mut sum = 0.0f64;
-    for i in -n..=n {
-        for j in -n..=n {
-            for k in -n..=n {
-                let r2 = (i * i + j * j + k * k) as f32 * dx_m * dx_m;
-                sum += Poly6::value_sq(r2, h_m) as f64;
+    (rho0_kg_m3 as f64 * dx_m.powi(3) as f64 / LatticeMoments::new(dx_m, h_m).spiky_sum) as f32
+}
+
+/// Kernel moments over a cubic lattice of spacing Δx (each point weighted by Δx³), which fix
+/// the discrete operators' scale. In the continuum all three ratios below are 1; on the lattice
+/// at h = 2Δx they are 0.77 (gradient), 0.81 (colour) and 0.78 (Laplacian). Dividing by these
+/// constants makes the discrete gradient exact for linear fields on the lattice; constants
+/// keep the pressure force the gradient of an energy (the same as rescaling the EOS).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LatticeMoments {
+    /// Σ Δx³ W_spiky: the density sum, ≈ 1.
+    spiky_sum: f64,
+    /// (1/3) Σ Δx³ r |W'_spiky| / spiky_sum: scale of the pressure gradient.
+    gradient: f32,
+    /// Σ Δx³ W_poly6 / spiky_sum: scale of the colour field c (5.23).
+    colour: f32,
+    /// (1/6) Σ Δx³ r² ∇²W_visc / spiky_sum: scale of the viscous Laplacian (5.21).
+    laplacian: f32,
+}
+
+impl LatticeMoments {
+    fn new(dx_m: f32, h_m: f32) -> LatticeMoments {
+        let n = (h_m / dx_m).ceil() as i32;
+        let (dx, h) = (dx_m as f64, h_m as f64);
+        let (mut s0, mut s1, mut c0, mut l2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for i in -n..=n {
+            for j in -n..=n {
+                for k in -n..=n {
+                    let r = ((i * i + j * j + k * k) as f64).sqrt() * dx;
+                    if r >= h {
+                        continue;
+                    }
+                    let v = dx * dx * dx;
+                    let u = h - r;
+                    s0 += v * 15.0 / (std::f64::consts::PI * h.powi(6)) * u * u * u;
+                    s1 += v * r * 45.0 / (std::f64::consts::PI * h.powi(6)) * u * u / 3.0;
+                    c0 += v * Poly6::value(r as f32, h_m) as f64;
+                    l2 += v * r * r * Viscosity::laplacian(r as f32, h_m) as f64 / 6.0;
+                }
             }
         }
+        LatticeMoments {
+            spiky_sum: s0,
+            gradient: (s1 / s0) as f32,
+            colour: (c0 / s0) as f32,
+            laplacian: (l2 / s0) as f32,
+        }
     }
-    (rho0_kg_m3 as f64 / sum) as f32
 }
 
 /// The SPH solver (thesis Algorithm 2).
 #[derive(Debug, Clone)]
 pub struct Muller2003 {
     settings: SphSettings,
+    moments: LatticeMoments,
     boundaries: Boundaries,
     particles: Particles,
     grid: UniformGrid,
     permute_scratch: PermuteScratch,
+    neighbours: NeighbourLists,
+    pair_terms: Vec<[f32; 2]>,
     column_best: Vec<u32>,
     keep: Vec<bool>,
     fate: Vec<u8>,
@@ -256,10 +303,13 @@ impl Muller2003 {
         boundaries.domain.validate()?;
         Ok(Muller2003 {
             settings,
+            moments: LatticeMoments::new(settings.particle_spacing_m, settings.smoothing_length_m),
             boundaries,
             particles: Particles::default(),
             grid: UniformGrid::new(),
             permute_scratch: PermuteScratch::default(),
+            neighbours: NeighbourLists::default(),
+            pair_terms: Vec::new(),
             column_best: Vec::new(),
             keep: Vec::new(),
             fate: Vec::new(),
@@ -464,6 +514,7 @@ impl Muller2003 {
             e.emit(dt, &mut self.pending);
         }
         self.insert_pending();
+        self.time_s += dt as f64;
         self.compute_forces();
         let Particles {
             velocity_mps,
@@ -475,7 +526,6 @@ impl Muller2003 {
             .zip(acceleration_mps2.par_iter())
             .with_min_len(MIN_TASK)
             .for_each(|(v, a)| *v += *a * half);
-        self.time_s += dt as f64;
         self.steps += 1;
         self.last_dt_s = dt;
         dt
@@ -574,6 +624,16 @@ impl Muller2003 {
         }
     }
 
+    /// The gravity ramp at the current time: ½(1 − cos(π t/T)) for t < T, else 1.
+    pub fn gravity_factor(&self) -> f32 {
+        let ramp = self.settings.gravity_ramp_s as f64;
+        if self.time_s >= ramp {
+            1.0
+        } else {
+            (0.5 * (1.0 - (std::f64::consts::PI * self.time_s / ramp).cos())) as f32
+        }
+    }
+
     /// Largest particle speed, m/s.
     pub fn max_speed_mps(&self) -> f32 {
         self.particles
@@ -626,8 +686,9 @@ impl Muller2003 {
             return;
         }
         let h = self.settings.smoothing_length_m;
-        let budget = 32 * self.particles.len() + (1 << 16);
-        self.grid.rebuild(&self.particles.position_m, h, budget);
+        let budget = 64 * self.particles.len() + (1 << 16);
+        self.grid
+            .rebuild(&self.particles.position_m, h, 0.5 * h, budget);
         self.particles
             .permute(self.grid.order(), &mut self.permute_scratch);
         self.density_pass();
@@ -635,7 +696,8 @@ impl Muller2003 {
         self.force_pass();
     }
 
-    /// (5.18) and (5.19): density with self term and walls, then pressure.
+    /// (5.18) and (5.19): density with self term and wall ghosts, then pressure; records each
+    /// particle's neighbours (within h, in grid order) for the force pass.
     fn density_pass(&mut self) {
         let s = &self.settings;
         let (h, m, rho0, eos, clamp) = (
@@ -645,6 +707,13 @@ impl Muller2003 {
             s.eos,
             s.clamp_negative_pressure,
         );
+        let h2 = h * h;
+        let n = self.particles.len();
+        let cap = neighbour_capacity(s);
+        self.neighbours.capacity = cap;
+        self.neighbours.list.resize(n * cap, 0);
+        self.neighbours.count.resize(n, 0);
+        self.pair_terms.resize(n, [0.0; 2]);
         let grid = &self.grid;
         let bounds = &self.boundaries;
         let Particles {
@@ -654,27 +723,53 @@ impl Muller2003 {
             ..
         } = &mut self.particles;
         let pos = &*position_m;
-        let self_density = m * Poly6::value_sq(0.0, h);
+        let self_density = m * Spiky::value_sq(0.0, h);
         density_kg_m3
             .par_iter_mut()
             .zip(pressure_pa.par_iter_mut())
+            .zip(self.pair_terms.par_iter_mut())
+            .zip(self.neighbours.list.par_chunks_mut(cap))
+            .zip(self.neighbours.count.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
-            .for_each(|(i, (rho, p))| {
+            .for_each(|(i, ((((rho, p), terms), list), count))| {
                 let xi = pos[i];
+                // Friction only changes ghost velocities, unused here.
+                let mirrors = bounds.mirrors(xi, h, 0.0);
+                let mirrors = mirrors.as_slice();
                 let mut sum = 0.0f32;
+                let mut c = 0usize;
+                // Ghosts within h are images of neighbours within h (or of i itself).
+                let ghosts = |xj: Vec3| {
+                    let mut g = 0.0;
+                    for mirror in mirrors {
+                        if let Some(ghost) = mirror.point(xj) {
+                            g += Spiky::value_sq((xi - ghost).length_squared(), h);
+                        }
+                    }
+                    g
+                };
+                sum += ghosts(xi);
                 grid.for_each_neighbour_run(xi, |run| {
-                    for (j, xj) in pos[run.clone()].iter().enumerate() {
-                        if run.start + j != i {
-                            sum += Poly6::value_sq((xi - *xj).length_squared(), h);
+                    for j in run {
+                        let xj = pos[j];
+                        let r2 = (xi - xj).length_squared();
+                        if r2 < h2 && j != i {
+                            sum += Spiky::value_sq(r2, h) + ghosts(xj);
+                            if c < cap {
+                                list[c] = j as u32;
+                            }
+                            c += 1;
                         }
                     }
                 });
-                let mut r = self_density + m * sum;
-                bounds.for_each_wall(xi, h, |d, _| r += rho0 * Poly6::half_space(d, h));
+                *count = c as u32;
+                let r = self_density + m * sum;
                 *rho = r;
                 let pr = eos.pressure_pa(r, rho0);
-                *p = if clamp { pr.max(0.0) } else { pr };
+                let pr = if clamp { pr.max(0.0) } else { pr };
+                *p = pr;
+                *terms = [m / r, pr / (r * r)];
             });
     }
 
@@ -717,90 +812,132 @@ impl Muller2003 {
     /// (5.20)–(5.26): pressure, viscosity, surface tension and gravity → acceleration.
     fn force_pass(&mut self) {
         let s = &self.settings;
-        let (h, m, mu, sigma, g, friction) = (
+        let (h, m, mu, sigma, friction) = (
             s.smoothing_length_m,
             s.particle_mass_kg,
             s.viscosity_pa_s,
             s.surface_tension_n_per_m,
-            s.gravity_mps2,
             s.wall_friction,
         );
+        let g = s.gravity_mps2 * self.gravity_factor();
         let h2 = h * h;
         let grid = &self.grid;
         let bounds = &self.boundaries;
+        let neighbours = &self.neighbours;
+        let terms = &self.pair_terms;
+        let lattice = self.moments;
         let Particles {
             position_m,
             velocity_mps,
             acceleration_mps2,
             density_kg_m3,
-            pressure_pa,
             surface,
             ..
         } = &mut self.particles;
-        let (pos, vel, rho, pr, surf) = (
-            &*position_m,
-            &*velocity_mps,
-            &*density_kg_m3,
-            &*pressure_pa,
-            &*surface,
-        );
+        let (pos, vel, rho, surf) = (&*position_m, &*velocity_mps, &*density_kg_m3, &*surface);
         // |n| below this is no surface at all (n ~ 1/h at a real surface).
-        let n_min = 1e-3 / h;
+        let n_min = 1e-3 / h * lattice.colour;
         acceleration_mps2
             .par_iter_mut()
             .enumerate()
             .with_min_len(MIN_TASK)
             .for_each(|(i, acc)| {
-                let (xi, vi, rho_i, p_i) = (pos[i], vel[i], rho[i], pr[i]);
+                let (xi, vi, rho_i) = (pos[i], vel[i], rho[i]);
+                let [vol_i, p_over_rho2_i] = terms[i];
                 let at_surface = surf[i] && sigma > 0.0;
-                let mut f_press = Vec3::ZERO;
-                let mut f_visc = Vec3::ZERO;
+                // Σ m (pᵢ/ρᵢ² + pⱼ/ρⱼ²) ∇W: minus the pressure acceleration.
+                let mut a_press = Vec3::ZERO;
+                // Σ Vⱼ (vⱼ − vᵢ) ∇²W: the velocity Laplacian.
+                let mut lap_v = Vec3::ZERO;
                 let mut normal = Vec3::ZERO;
                 let mut lap_colour = if at_surface {
-                    m / rho_i * Poly6::laplacian(0.0, h)
+                    vol_i * Poly6::laplacian(0.0, h)
                 } else {
                     0.0
                 };
-                grid.for_each_neighbour_run(xi, |run| {
-                    for j in run {
-                        if j == i {
-                            continue;
-                        }
-                        let r_vec = xi - pos[j];
-                        let r2 = r_vec.length_squared();
-                        if r2 >= h2 {
-                            continue;
-                        }
-                        let r = r2.sqrt();
-                        let vol_j = m / rho[j];
-                        f_press += Spiky::gradient(r_vec, h) * (vol_j * (p_i + pr[j]));
-                        f_visc += (vel[j] - vi) * (vol_j * Viscosity::laplacian(r, h));
-                        if at_surface {
-                            normal += Poly6::gradient(r_vec, h) * vol_j;
-                            lap_colour += vol_j * Poly6::laplacian(r, h);
-                        }
+                let mirrors = bounds.mirrors(xi, h, friction);
+                let mirrors = mirrors.as_slice();
+                let mut add = |r_vec: Vec3, [vol_j, p_over_rho2_j]: [f32; 2], v_j: Vec3| {
+                    let r2 = r_vec.length_squared();
+                    if r2 >= h2 {
+                        return;
                     }
-                });
-                bounds.for_each_wall(xi, h, |d, n_wall| {
-                    // The wall as fluid at rest with the particle's own (mirrored) pressure.
-                    f_press += n_wall * (2.0 * p_i * Spiky::half_space_slope(d, h));
-                    if friction > 0.0 {
-                        f_visc -= vi * (friction * Viscosity::half_space_laplacian(d, h));
-                    }
+                    let r = r2.sqrt();
+                    a_press += Spiky::gradient(r_vec, h) * (m * (p_over_rho2_i + p_over_rho2_j));
+                    lap_v += (v_j - vi) * (vol_j * Viscosity::laplacian(r, h));
                     if at_surface {
-                        normal += n_wall * Poly6::half_space_slope(d, h);
-                        lap_colour += Poly6::half_space_laplacian(d, h);
+                        normal += Poly6::gradient(r_vec, h) * vol_j;
+                        lap_colour += vol_j * Poly6::laplacian(r, h);
                     }
-                });
-                let mut f = f_visc * mu - f_press;
+                };
+                let mut with_ghosts = |j: usize, real: bool| {
+                    let xj = pos[j];
+                    if real {
+                        add(xi - xj, terms[j], vel[j]);
+                    }
+                    for mirror in mirrors {
+                        if let Some(ghost) = mirror.point(xj) {
+                            add(xi - ghost, terms[j], mirror.velocity(vel[j]));
+                        }
+                    }
+                };
+                with_ghosts(i, false);
+                neighbours.for_each(i, grid, pos, h2, |j| with_ghosts(j, true));
+                let mut f = lap_v * (mu / lattice.laplacian);
                 if at_surface {
                     let n_len = normal.length();
                     if n_len > n_min {
                         // Müller 2003 eq. 19: f = −σ ∇²c n/|n| (n points into the fluid).
-                        f += normal * (-sigma * lap_colour / n_len);
+                        f += normal * (-sigma * lap_colour / (n_len * lattice.colour));
                     }
                 }
-                *acc = f / rho_i + g;
+                *acc = f / rho_i - a_press / lattice.gradient + g;
             });
+    }
+}
+
+/// Slots per particle in the neighbour lists: twice the lattice neighbour count in a sphere of
+/// radius h, plus a margin. Particles with more neighbours fall back to a grid scan.
+fn neighbour_capacity(s: &SphSettings) -> usize {
+    let ratio = s.smoothing_length_m / s.particle_spacing_m;
+    (2.0 * 4.0 / 3.0 * std::f32::consts::PI * ratio.powi(3)).ceil() as usize + 16
+}
+
+/// Each particle's neighbours within h (excluding itself), in grid order, from the density
+/// pass: fixed-size slots, so they can be written in parallel without allocation.
+#[derive(Debug, Clone, Default)]
+struct NeighbourLists {
+    capacity: usize,
+    list: Vec<u32>,
+    count: Vec<u32>,
+}
+
+impl NeighbourLists {
+    /// Calls `f(j)` for every neighbour of `i`, in grid order; rescans the grid when the
+    /// particle overflowed its slots (same order, so results do not depend on the capacity).
+    #[inline]
+    fn for_each(
+        &self,
+        i: usize,
+        grid: &UniformGrid,
+        pos: &[Vec3],
+        h2: f32,
+        mut f: impl FnMut(usize),
+    ) {
+        let c = self.count[i] as usize;
+        if c <= self.capacity {
+            for &j in &self.list[i * self.capacity..i * self.capacity + c] {
+                f(j as usize);
+            }
+        } else {
+            let xi = pos[i];
+            grid.for_each_neighbour_run(xi, |run| {
+                for j in run {
+                    if j != i && (xi - pos[j]).length_squared() < h2 {
+                        f(j);
+                    }
+                }
+            });
+        }
     }
 }
