@@ -110,7 +110,6 @@ pub(crate) enum Fate {
     Invalid,
 }
 
-
 /// A reflection taking fluid points to their ghost images.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Mirror {
@@ -262,7 +261,13 @@ impl Boundaries {
     /// walls, reflecting the normal velocity with factor `damping`; reports particles that left
     /// through an open face or became non-finite.
     #[inline]
-    pub(crate) fn collide(&self, p: &mut Vec3, v: &mut Vec3, damping: f32, max_push_m: f32) -> Fate {
+    pub(crate) fn collide(
+        &self,
+        p: &mut Vec3,
+        v: &mut Vec3,
+        damping: f32,
+        max_push_m: f32,
+    ) -> Fate {
         if !(p.is_finite() && v.is_finite()) {
             return Fate::Invalid;
         }

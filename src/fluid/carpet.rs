@@ -119,7 +119,11 @@ impl Carpet {
                 s.trail_acceleration_mps2,
                 s.trail_acceleration_mps2 >= 0.0,
             ),
-            ("carpet.drying_time_s", s.drying_time_s, s.drying_time_s > 0.0),
+            (
+                "carpet.drying_time_s",
+                s.drying_time_s,
+                s.drying_time_s > 0.0,
+            ),
             (
                 "carpet.wetting_per_hit",
                 s.wetting_per_hit,
@@ -146,8 +150,8 @@ impl Carpet {
         let n = s.nx * s.ny;
         let leaf_terrain_m: Vec<f32> = (0..n)
             .map(|k| {
-                let c = s.origin_m
-                    + (Vec2::new((k % s.nx) as f32, (k / s.nx) as f32) + 0.5) * s.cell_m;
+                let c =
+                    s.origin_m + (Vec2::new((k % s.nx) as f32, (k / s.nx) as f32) + 0.5) * s.cell_m;
                 terrain.height_at_m(c.x, c.y)
             })
             .collect();
@@ -285,10 +289,7 @@ impl Carpet {
                 continue;
             }
             let (i0, j0) = (g0.x.max(0.0) as usize, g0.y.max(0.0) as usize);
-            let (i1, j1) = (
-                (g1.x as usize).min(s.nx - 1),
-                (g1.y as usize).min(s.ny - 1),
-            );
+            let (i1, j1) = ((g1.x as usize).min(s.nx - 1), (g1.y as usize).min(s.ny - 1));
             let top = p.z + r;
             for j in j0..=j1 {
                 for i in i0..=i1 {

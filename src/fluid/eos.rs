@@ -132,7 +132,6 @@ mod tests {
         let rho = rho0 * 1.0005;
         let (pl, pt) = (lin.pressure_pa(rho, rho0), tait.pressure_pa(rho, rho0));
         assert!((pl / pt - 1.0).abs() < 5e-3, "{pl} {pt}");
-
     }
 
     #[test]

@@ -39,10 +39,14 @@ pub struct SurfaceFlowSettings {
 
 impl SurfaceFlowSettings {
     /// Defaults for puddles up to `depth_m` deep at particle spacing `particle_spacing_m`:
-    /// precipitation cells and carpet leaves of one spacing, S = 4, drying in 120 s.
+    /// precipitation cells and carpet leaves of one spacing, S = 4, drying in 120 s, and a
+    /// partly slipping ground (friction 0.3): the stabilising viscosity is hundreds of times
+    /// water's, so a no-slip ground would hold thin films back by as much.
     pub fn new(particle_spacing_m: f32, depth_m: f32) -> SurfaceFlowSettings {
+        let mut sph = SphSettings::water(particle_spacing_m, depth_m);
+        sph.wall_friction = 0.3;
         SurfaceFlowSettings {
-            sph: SphSettings::water(particle_spacing_m, depth_m),
+            sph,
             precipitation_cell_m: particle_spacing_m,
             precipitation_scale: 4,
             carpet_cell_m: particle_spacing_m,

@@ -56,10 +56,18 @@ impl UniformGrid {
             (lo, hi)
         };
         // The solver keeps positions finite; a non-finite extent would only make one big cell.
-        let extent = if (hi - lo).is_finite() { hi - lo } else { Vec3::ZERO };
+        let extent = if (hi - lo).is_finite() {
+            hi - lo
+        } else {
+            Vec3::ZERO
+        };
         let mut cell = min_cell_m;
         let dims = loop {
-            let d = (extent / cell).floor().as_uvec3().min(glam::UVec3::splat(1 << 20)) + 1;
+            let d = (extent / cell)
+                .floor()
+                .as_uvec3()
+                .min(glam::UVec3::splat(1 << 20))
+                + 1;
             let n = d.x as u64 * d.y as u64 * d.z as u64;
             if n <= max_cells.max(27) as u64 {
                 break [d.x as usize, d.y as usize, d.z as usize];

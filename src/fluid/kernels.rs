@@ -81,7 +81,9 @@ impl Kernel for Poly6 {
         if r2 >= h2 {
             return 0.0;
         }
-        -945.0 / (32.0 * std::f32::consts::PI * h2.powi(4) * h_m) * (h2 - r2) * (3.0 * h2 - 7.0 * r2)
+        -945.0 / (32.0 * std::f32::consts::PI * h2.powi(4) * h_m)
+            * (h2 - r2)
+            * (3.0 * h2 - 7.0 * r2)
     }
 }
 
@@ -166,7 +168,11 @@ mod tests {
         let mut s = 0.0;
         for k in 0..=n {
             let r = k as f64 * dr;
-            let w = if k == 0 { 0.0 } else { K::value(r as f32, h) as f64 * r * r };
+            let w = if k == 0 {
+                0.0
+            } else {
+                K::value(r as f32, h) as f64 * r * r
+            };
             let c = if k == 0 || k == n {
                 1.0
             } else if k % 2 == 1 {

@@ -68,7 +68,6 @@ impl SceneOptions {
         if let Some(mu) = self.viscosity_pa_s {
             s.viscosity_pa_s = mu;
         }
-
     }
 }
 
@@ -301,12 +300,12 @@ impl Basin {
         let (half, k) = (0.1f32, 5.0f32);
         let mut fs = SurfaceFlowSettings::new(dx, 2.0 * k * half * half);
         fs.open_edges = false;
-        fs.sph.wall_friction = 1.0;
         fs.headroom_m = 0.05;
         opts.apply(&mut fs.sph);
         let n = 2 * (half / (0.5 * dx)).round() as usize + 1;
-        let terrain =
-            HeightField::from_fn(n, n, Vec2::splat(-half), 0.5 * dx, |x, y| k * (x * x + y * y))?;
+        let terrain = HeightField::from_fn(n, n, Vec2::splat(-half), 0.5 * dx, |x, y| {
+            k * (x * x + y * y)
+        })?;
         Ok(Basin {
             flow: SurfaceFlow::new(terrain, fs)?,
             curvature_per_m: k,
@@ -317,12 +316,12 @@ impl Basin {
     }
 
     /// One frame: rain (while it lasts) then [`SurfaceFlow::advance`]. Every cell gets a drop
-    /// with probability ½ per frame, from a hash of (cell, frame) — deterministic.
+    /// with probability ¼ per frame, from a hash of (cell, frame) — deterministic.
     pub fn frame(&mut self) -> Result<usize> {
         if (self.frame as f32 * self.frame_s) < self.rain_duration_s {
             let (nx, ny) = self.flow.precipitation.dims();
             let counts: Vec<u32> = (0..nx * ny)
-                .map(|c| (splitmix64(((c as u64) << 24) ^ self.frame) & 1) as u32)
+                .map(|c| (splitmix64(((c as u64) << 24) ^ self.frame) & 3 == 0) as u32)
                 .collect();
             self.flow.add_hit_counts(&counts)?;
         }
@@ -363,8 +362,8 @@ impl Basin {
             }
         }
         let m = heights.iter().sum::<f32>() / heights.len().max(1) as f32;
-        let var = heights.iter().map(|z| (z - m) * (z - m)).sum::<f32>()
-            / heights.len().max(1) as f32;
+        let var =
+            heights.iter().map(|z| (z - m) * (z - m)).sum::<f32>() / heights.len().max(1) as f32;
         let (lo, hi) = heights
             .iter()
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &z| {

@@ -149,7 +149,10 @@ impl PrecipitationGrid {
         if !(g.x >= 0.0 && g.y >= 0.0 && g.x < self.nx as f32 && g.y < self.ny as f32) {
             return false;
         }
-        let (i, j) = ((g.x as usize).min(self.nx - 1), (g.y as usize).min(self.ny - 1));
+        let (i, j) = (
+            (g.x as usize).min(self.nx - 1),
+            (g.y as usize).min(self.ny - 1),
+        );
         self.add(j * self.nx + i, 1);
         true
     }
@@ -307,7 +310,10 @@ mod tests {
         g.drain(|_, _| 1.0, 0.01, Vec3::ZERO, &mut out);
         assert_eq!(out.len(), 3);
         assert!(out.iter().all(|p| (p.position_m.z - 1.01).abs() < 1e-6));
-        assert!(out[1].position_m != out[2].position_m, "jitter separates births");
+        assert!(
+            out[1].position_m != out[2].position_m,
+            "jitter separates births"
+        );
         assert!(g.add_hit(4, 0).is_err());
         assert!(!g.add_hit_at(-0.1, 0.2));
     }

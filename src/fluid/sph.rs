@@ -113,7 +113,8 @@ impl SphSettings {
     /// Water at spacing `particle_spacing_m`, for pools up to `depth_m` deep: h = 2Δx,
     /// ρ₀ = 998.29, the linear law with c = 10√(2gH), σ = 0.0728 N/m, and a viscosity equal to
     /// the artificial viscosity ν = αhc/10 with α = 0.05 (Monaghan 1992), the least that keeps a
-    /// weakly compressible flow stable at this resolution. Mass: see [`lattice_mass_kg`].
+    /// weakly compressible flow stable at this resolution. Mass ρ₀Δx³: each particle carries
+    /// the water of one lattice cell.
     pub fn water(particle_spacing_m: f32, depth_m: f32) -> SphSettings {
         let dx = particle_spacing_m;
         let h = 2.0 * dx;
@@ -124,7 +125,7 @@ impl SphSettings {
             particle_spacing_m: dx,
             smoothing_length_m: h,
             rest_density_kg_m3: rho0,
-            particle_mass_kg: lattice_mass_kg(dx, h, rho0),
+            particle_mass_kg: rho0 * dx * dx * dx,
             eos,
             clamp_negative_pressure: true,
             viscosity_pa_s: rho0 * 0.05 * h * c / 10.0,
@@ -213,27 +214,21 @@ impl SphSettings {
     }
 }
 
-/// The mass that makes a cubic lattice of spacing `dx` have SPH density exactly `rho0`:
-/// m = ρ₀ / Σ_lattice W_spiky(|n·dx|, h). (m = ρ₀dx³ would be off by the lattice sum's
-/// quadrature error: the sum is 1.24/dx³ at h = 2dx because of spiky's cusp.)
-pub fn lattice_mass_kg(dx_m: f32, h_m: f32, rho0_kg_m3: f32) -> f32 {
-    (rho0_kg_m3 as f64 * dx_m.powi(3) as f64 / LatticeMoments::new(dx_m, h_m).spiky_sum) as f32
-}
-
 /// Kernel moments over a cubic lattice of spacing Δx (each point weighted by Δx³), which fix
-/// the discrete operators' scale. In the continuum all three ratios below are 1; on the lattice
-/// at h = 2Δx they are 0.77 (gradient), 0.81 (colour) and 0.78 (Laplacian). Dividing by these
-/// constants makes the discrete gradient exact for linear fields on the lattice; constants
-/// keep the pressure force the gradient of an energy (the same as rescaling the EOS).
+/// the scale of the discrete operators. In the continuum all four are 1; at h = 2Δx the spiky
+/// sum is 1.24 (its cusp at r = 0 is poorly sampled), the gradient moment 0.96, the colour sum
+/// 1.01 and the Laplacian moment 0.97. Dividing by them makes density, gradients and
+/// Laplacians exact on the lattice; being constants, they keep the pressure force the
+/// gradient of an energy.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct LatticeMoments {
-    /// Σ Δx³ W_spiky: the density sum, ≈ 1.
-    spiky_sum: f64,
-    /// (1/3) Σ Δx³ r |W'_spiky| / spiky_sum: scale of the pressure gradient.
+    /// Σ Δx³ W_spiky: divides the density sum, so a lattice at spacing Δx has ρ = m/Δx³.
+    density: f32,
+    /// (1/3) Σ Δx³ r |W'_spiky|: scale of the pressure gradient.
     gradient: f32,
-    /// Σ Δx³ W_poly6 / spiky_sum: scale of the colour field c (5.23).
+    /// Σ Δx³ W_poly6: scale of the colour field c (5.23).
     colour: f32,
-    /// (1/6) Σ Δx³ r² ∇²W_visc / spiky_sum: scale of the viscous Laplacian (5.21).
+    /// (1/6) Σ Δx³ r² ∇²W_visc: scale of the viscous Laplacian (5.21).
     laplacian: f32,
 }
 
@@ -259,10 +254,10 @@ impl LatticeMoments {
             }
         }
         LatticeMoments {
-            spiky_sum: s0,
-            gradient: (s1 / s0) as f32,
-            colour: (c0 / s0) as f32,
-            laplacian: (l2 / s0) as f32,
+            density: s0 as f32,
+            gradient: s1 as f32,
+            colour: c0 as f32,
+            laplacian: l2 as f32,
         }
     }
 }
@@ -723,7 +718,9 @@ impl Muller2003 {
             ..
         } = &mut self.particles;
         let pos = &*position_m;
-        let self_density = m * Spiky::value_sq(0.0, h);
+        // The density sum, divided by its lattice value (see `LatticeMoments`).
+        let m_sum = m / self.moments.density;
+        let self_density = m_sum * Spiky::value_sq(0.0, h);
         density_kg_m3
             .par_iter_mut()
             .zip(pressure_pa.par_iter_mut())
@@ -764,7 +761,7 @@ impl Muller2003 {
                     }
                 });
                 *count = c as u32;
-                let r = self_density + m * sum;
+                let r = self_density + m_sum * sum;
                 *rho = r;
                 let pr = eos.pressure_pa(r, rho0);
                 let pr = if clamp { pr.max(0.0) } else { pr };
@@ -778,13 +775,20 @@ impl Muller2003 {
     fn surface_pass(&mut self) {
         let pos = &self.particles.position_m;
         let (lo, hi) = pos.iter().fold(
-            (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY)),
+            (
+                glam::Vec2::splat(f32::INFINITY),
+                glam::Vec2::splat(f32::NEG_INFINITY),
+            ),
             |(lo, hi), p| (lo.min(p.truncate()), hi.max(p.truncate())),
         );
         let budget = (4 * pos.len() + 1024) as u64;
         let mut cell = self.settings.particle_spacing_m;
         let (nx, ny) = loop {
-            let d = ((hi - lo) / cell).floor().min(glam::Vec2::splat(1e6)).as_uvec2() + 1;
+            let d = ((hi - lo) / cell)
+                .floor()
+                .min(glam::Vec2::splat(1e6))
+                .as_uvec2()
+                + 1;
             if d.x as u64 * d.y as u64 <= budget {
                 break (d.x as usize, d.y as usize);
             }

@@ -211,7 +211,10 @@ impl HeightField {
                 }
             }
         }
-        let heights = heights.into_iter().map(|z| z.unwrap_or(0.0) as f32).collect();
+        let heights = heights
+            .into_iter()
+            .map(|z| z.unwrap_or(0.0) as f32)
+            .collect();
         HeightField::new(nx, ny, origin_m, spacing_m, heights)
     }
 
@@ -284,8 +287,9 @@ impl HeightField {
         };
         let height_m =
             w00 * self.heights_m[k00] + wmid * self.heights_m[kmid] + w11 * self.heights_m[k11];
-        let normal = (self.normals[k00] * w00 + self.normals[kmid] * wmid + self.normals[k11] * w11)
-            .normalize_or(Vec3::Z);
+        let normal =
+            (self.normals[k00] * w00 + self.normals[kmid] * wmid + self.normals[k11] * w11)
+                .normalize_or(Vec3::Z);
         TerrainSample { height_m, normal }
     }
 
@@ -339,6 +343,8 @@ mod tests {
         assert!(HeightField::new(1, 5, Vec2::ZERO, 1.0, vec![0.0; 5]).is_err());
         assert!(HeightField::new(2, 2, Vec2::ZERO, 1.0, vec![0.0, f32::NAN, 0.0, 0.0]).is_err());
         assert!(HeightField::new(2, 2, Vec2::ZERO, 0.0, vec![0.0; 4]).is_err());
-        assert!(HeightField::from_ground_plane(Vec3::X, Vec3::ZERO, 3, 3, Vec2::ZERO, 1.0).is_err());
+        assert!(
+            HeightField::from_ground_plane(Vec3::X, Vec3::ZERO, 3, 3, Vec2::ZERO, 1.0).is_err()
+        );
     }
 }
