@@ -242,7 +242,7 @@ fn mass_is_conserved_exactly_with_sources_and_sinks() {
     let mut drops = 0u64;
     for frame in 0..60u64 {
         let counts: Vec<u32> = (0..nx * ny)
-            .map(|c| ((c as u64 * 7 + frame) % 17 == 0) as u32)
+            .map(|c| (c as u64 * 7 + frame).is_multiple_of(17) as u32)
             .collect();
         drops += counts.iter().map(|&c| c as u64).sum::<u64>();
         flow.add_hit_counts(&counts).expect("counts");
@@ -540,5 +540,52 @@ fn inspect_reports_every_scene() {
         assert_eq!(v["scene"], scene);
         assert_eq!(v["ledger"]["balanced"], true, "{v}");
         assert!(v["steps"].as_u64().is_some_and(|s| s >= 3), "{v}");
+    }
+}
+
+/// Speed against error: the hydrostatic column after 1 s for several stiffnesses and Courant
+/// numbers. Prints a Markdown table (run with `--release -- --ignored --nocapture`).
+#[test]
+#[ignore = "report, ~2 min in release"]
+fn report_density_error_against_stiffness_and_time_step() {
+    println!(
+        "| h/Δx | k (m²/s²) | c (m/s) | λ | δt (ms) | steps | mean |ρ−ρ₀|/ρ₀ | max | dp/dz vs ρ₀g | wall (s) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let rule = 196.2f32; // (10·√(2g·0.1 m))²
+    for (ratio, k, courant) in [
+        (2.0, 3.0, 0.4),
+        (2.0, 30.0, 0.4),
+        (2.0, rule, 0.4),
+        (2.0, rule, 0.2),
+        (2.0, rule, 0.1),
+        (2.0, 4.0 * rule, 0.4),
+        (2.5, rule, 0.4),
+    ] {
+        let opts = SceneOptions {
+            eos: Some(EquationOfState::Linear { stiffness_m2ps2: k }),
+            time_step: Some(TimeStep::Adaptive {
+                courant,
+                max_s: 0.01,
+            }),
+            smoothing_ratio: Some(ratio),
+            ..SceneOptions::default()
+        };
+        let mut sph = scenes::column(&opts).expect("column");
+        let started = std::time::Instant::now();
+        while sph.time_s() < 1.0 {
+            sph.step();
+        }
+        let wall = started.elapsed().as_secs_f64();
+        let hs = scenes::hydrostatics(&sph);
+        println!(
+            "| {ratio} | {k:.0} | {:.1} | {courant} | {:.3} | {} | {:.2} % | {:.2} % | {:+.1} % | {wall:.1} |",
+            k.sqrt(),
+            1e3 * sph.time_s() / sph.steps() as f64,
+            sph.steps(),
+            100.0 * hs.density_error_mean,
+            100.0 * hs.density_error_max,
+            100.0 * (hs.pressure_gradient_pa_per_m / hs.expected_gradient_pa_per_m - 1.0),
+        );
     }
 }

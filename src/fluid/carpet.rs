@@ -169,8 +169,7 @@ impl Carpet {
             touched: vec![false; n],
         };
         let mut levels = vec![leaves];
-        while levels.last().is_some_and(|l| l.nx > 1 || l.ny > 1) {
-            let below = levels.last().expect("non-empty");
+        while let Some(below) = levels.last().filter(|l| l.nx > 1 || l.ny > 1) {
             let (nx, ny) = (below.nx.div_ceil(2), below.ny.div_ceil(2));
             let mut level = Level {
                 nx,

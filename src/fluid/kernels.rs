@@ -2,10 +2,12 @@
 //! interactive applications" — thesis eq. (3.11)–(3.13).
 //!
 //! How it works: each kernel is a zero-sized type implementing [`Kernel`] (value W, gradient ∇W
-//! and Laplacian ∇²W, all for a support radius `h`; W = 0 for r ≥ h). The solver uses
-//! [`Poly6`] for density and the colour field, [`Spiky`] for pressure (its gradient does not
-//! vanish as r → 0, so close particles still repel) and [`Viscosity`] for viscosity (its
-//! Laplacian is positive everywhere, so viscosity only ever damps relative motion).
+//! and Laplacian ∇²W, all for a support radius `h`; W = 0 for r ≥ h). Müller uses [`Poly6`] for
+//! density and the colour field, [`Spiky`] for pressure (its gradient does not vanish as
+//! r → 0, so close particles still repel) and [`Viscosity`] for viscosity (its Laplacian is
+//! positive everywhere, so viscosity only ever damps relative motion). Our solver keeps poly6
+//! for the colour field and spiky for pressure, and computes density with spiky too, so that
+//! the pressure force is the gradient of an energy (see [`super::sph`]).
 //!
 //! All values are in SI: W in 1/m³, ∇W in 1/m⁴, ∇²W in 1/m⁵.
 
@@ -28,13 +30,13 @@ pub trait Kernel: Copy + Default + Send + Sync + 'static {
     fn laplacian(r_m: f32, h_m: f32) -> f32;
 }
 
-/// Poly6 kernel, W = 315/(64π h⁹) (h² − r²)³ — thesis (3.11), used for density (5.18) and the
-/// colour field (5.23).
+/// Poly6 kernel, W = 315/(64π h⁹) (h² − r²)³ — thesis (3.11); Müller's density kernel (5.18),
+/// used here for the colour field (5.23).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Poly6;
 
 /// Spiky kernel (Desbrun & Gascuel 1996), W = 15/(π h⁶) (h − r)³ — thesis (3.12), used for
-/// pressure (5.20).
+/// pressure (5.20) and, here, density (5.18).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Spiky;
 

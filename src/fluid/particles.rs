@@ -106,8 +106,8 @@ impl Particles {
     /// Keeps the particles whose `keep` flag is set, in order.
     pub(crate) fn retain(&mut self, keep: &[bool]) {
         let mut w = 0;
-        for r in 0..self.len() {
-            if keep[r] {
+        for (r, &kept) in keep.iter().enumerate().take(self.len()) {
+            if kept {
                 self.position_m[w] = self.position_m[r];
                 self.velocity_mps[w] = self.velocity_mps[r];
                 self.acceleration_mps2[w] = self.acceleration_mps2[r];

@@ -55,10 +55,17 @@ pub struct SceneOptions {
     pub time_step: Option<TimeStep>,
     /// Dynamic viscosity, Pa·s.
     pub viscosity_pa_s: Option<f32>,
+    /// Kernel support h as a multiple of the spacing (the default viscosity, ∝ h, follows).
+    pub smoothing_ratio: Option<f32>,
 }
 
 impl SceneOptions {
     fn apply(&self, s: &mut SphSettings) {
+        if let Some(ratio) = self.smoothing_ratio {
+            let h = ratio * s.particle_spacing_m;
+            s.viscosity_pa_s *= h / s.smoothing_length_m;
+            s.smoothing_length_m = h;
+        }
         if let Some(eos) = self.eos {
             s.eos = eos;
         }

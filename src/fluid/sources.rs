@@ -88,7 +88,7 @@ impl PrecipitationGrid {
                 expected: "between 1 and 2²⁶ cells".into(),
             });
         }
-        if !(cell_m.is_finite() && cell_m > 0.0) || !origin_m.is_finite() {
+        if !(cell_m.is_finite() && cell_m > 0.0 && origin_m.is_finite()) {
             return Err(Error::Parameter {
                 name: "precipitation.cell_m",
                 value: cell_m.to_string(),
@@ -241,10 +241,13 @@ impl Emitter {
         rate_per_s: f32,
         limit: u64,
     ) -> Result<Emitter> {
-        if !(centre_m.is_finite() && velocity_mps.is_finite())
-            || !(radius_m.is_finite() && radius_m >= 0.0)
-            || !(rate_per_s.is_finite() && rate_per_s >= 0.0)
-        {
+        let valid = centre_m.is_finite()
+            && velocity_mps.is_finite()
+            && radius_m.is_finite()
+            && radius_m >= 0.0
+            && rate_per_s.is_finite()
+            && rate_per_s >= 0.0;
+        if !valid {
             return Err(Error::Parameter {
                 name: "emitter",
                 value: format!("centre {centre_m}, radius {radius_m}, rate {rate_per_s}"),

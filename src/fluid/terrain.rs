@@ -58,7 +58,7 @@ impl HeightField {
                 expected: format!("{} values ({nx}×{ny})", nx * ny),
             });
         }
-        if !(spacing_m.is_finite() && spacing_m > 0.0) || !origin_m.is_finite() {
+        if !(spacing_m.is_finite() && spacing_m > 0.0 && origin_m.is_finite()) {
             return Err(Error::Parameter {
                 name: "terrain.spacing_m",
                 value: format!("{spacing_m} at origin {origin_m}"),
@@ -120,7 +120,8 @@ impl HeightField {
         spacing_m: f32,
     ) -> Result<HeightField> {
         let n = normal.normalize_or_zero();
-        if !(n.z >= 80f32.to_radians().cos()) || !point_m.is_finite() {
+        let steep = n.z.is_nan() || n.z < 80f32.to_radians().cos();
+        if steep || !point_m.is_finite() {
             return Err(Error::Parameter {
                 name: "terrain.ground_plane",
                 value: format!("normal {normal}, point {point_m}"),
