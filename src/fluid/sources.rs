@@ -270,11 +270,14 @@ impl Emitter {
         self.emitted
     }
 
-    /// Emits the particles due over `dt_s` into `out`, spread over the disk by a golden-angle
-    /// (Vogel) spiral so the pattern is even and deterministic.
+    /// Emits the particles due over `dt_s` into `out` (at most 2¹⁶ per call; the rest stay
+    /// owed), spread over the disk by a golden-angle (Vogel) spiral so the pattern is even and
+    /// deterministic.
     pub fn emit(&mut self, dt_s: f32, out: &mut Vec<NewParticle>) {
-        self.owed += self.rate_per_s as f64 * dt_s as f64;
-        while self.owed >= 1.0 && self.emitted < self.limit {
+        self.owed += self.rate_per_s as f64 * dt_s.max(0.0) as f64;
+        let mut budget = 1u32 << 16;
+        while self.owed >= 1.0 && self.emitted < self.limit && budget > 0 {
+            budget -= 1;
             self.owed -= 1.0;
             let k = self.emitted % 64;
             let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
