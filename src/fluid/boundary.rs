@@ -19,7 +19,7 @@
 //!    the normal component of its velocity is reflected and multiplied by the damping factor
 //!    in [0, 1]. The thesis damps the whole velocity; we damp only the normal part, because
 //!    damping the tangential part at every contact would be a hidden friction (friction is
-//!    `wall_friction` instead).
+//!    `ground_friction` instead).
 //!
 //! Particles beyond an open face leave the simulation and are counted as outflow.
 

@@ -44,7 +44,7 @@ impl SurfaceFlowSettings {
     /// water's, so a no-slip ground would hold thin films back by as much.
     pub fn new(particle_spacing_m: f32, depth_m: f32) -> SurfaceFlowSettings {
         let mut sph = SphSettings::water(particle_spacing_m, depth_m);
-        sph.wall_friction = 0.3;
+        sph.ground_friction = 0.3;
         SurfaceFlowSettings {
             sph,
             precipitation_cell_m: particle_spacing_m,
