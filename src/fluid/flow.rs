@@ -10,8 +10,9 @@
 
 use super::boundary::{Boundaries, Domain};
 use super::carpet::{Carpet, CarpetSettings, Field2};
+use super::settings::SphSettings;
 use super::sources::{NewParticle, PrecipitationGrid};
-use super::sph::{Muller2003, SphSettings};
+use super::sph::Muller2003;
 use super::terrain::HeightField;
 use crate::{Error, Result};
 use glam::{Vec2, Vec3};

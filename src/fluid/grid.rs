@@ -153,6 +153,53 @@ impl UniformGrid {
     }
 }
 
+/// Slots per particle in the neighbour lists: twice the lattice neighbour count in a sphere of
+/// radius h, plus a margin, at most 128 (83 at h = 2Δx). Particles with more neighbours fall
+/// back to a grid scan.
+pub(crate) fn neighbour_capacity(h_m: f32, dx_m: f32) -> usize {
+    let ratio = h_m / dx_m;
+    ((2.0 * 4.0 / 3.0 * std::f32::consts::PI * ratio.powi(3)).ceil() as usize + 16).min(128)
+}
+
+/// Each particle's neighbours within h (excluding itself), in grid order, from the density
+/// pass: fixed-size slots, so they can be written in parallel without allocation.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct NeighbourLists {
+    pub(crate) capacity: usize,
+    pub(crate) list: Vec<u32>,
+    pub(crate) count: Vec<u32>,
+}
+
+impl NeighbourLists {
+    /// Calls `f(j)` for every neighbour of `i`, in grid order; rescans the grid when the
+    /// particle overflowed its slots (same order, so results do not depend on the capacity).
+    #[inline]
+    pub(crate) fn for_each(
+        &self,
+        i: usize,
+        grid: &UniformGrid,
+        pos: &[Vec3],
+        h2: f32,
+        mut f: impl FnMut(usize),
+    ) {
+        let c = self.count[i] as usize;
+        if c <= self.capacity {
+            for &j in &self.list[i * self.capacity..i * self.capacity + c] {
+                f(j as usize);
+            }
+        } else {
+            let xi = pos[i];
+            grid.for_each_neighbour_run(xi, |run| {
+                for j in run {
+                    if j != i && (xi - pos[j]).length_squared() < h2 {
+                        f(j);
+                    }
+                }
+            });
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,11 +19,12 @@
 //! [`SurfaceFlow`] wires these together for the video pipeline; [`scenes`] holds the validation
 //! scenes behind `rain-composite inspect sph`.
 //!
-//! Modules: [`kernels`] (poly6, spiky, viscosity as types), [`eos`] (pressure laws and the
-//! stiffness rule), [`grid`] (counting-sort neighbour search), [`particles`] (SoA storage),
-//! [`boundary`] (box and terrain: semi-analytic walls and collisions), [`terrain`] (height
-//! fields), [`sph`] (the solver), [`sources`] (precipitation, emitters, mass ledger),
-//! [`carpet`] (free surface and wetness), [`flow`] (the rain-fed chain), [`scenes`].
+//! Modules: [`kernels`] (poly6, spiky, viscosity as types; lattice moments), [`eos`] (pressure
+//! laws and the stiffness rule), [`grid`] (counting-sort neighbour search, neighbour lists),
+//! [`particles`] (SoA storage), [`boundary`] (box and terrain: mirror ghosts and collisions),
+//! [`terrain`] (height fields), [`settings`] (parameters), [`sph`] (the solver), [`sources`]
+//! (precipitation, emitters, mass ledger), [`carpet`] (free surface and wetness), [`flow`]
+//! (the rain-fed chain), [`scenes`] (validation).
 //!
 //! Units are SI throughout and z is up, as in the rest of the crate.
 pub mod boundary;
@@ -34,6 +35,7 @@ pub mod grid;
 pub mod kernels;
 pub mod particles;
 pub mod scenes;
+pub mod settings;
 pub mod sources;
 pub mod sph;
 pub mod terrain;
@@ -46,6 +48,7 @@ pub use grid::UniformGrid;
 pub use kernels::{Kernel, Poly6, Spiky, Viscosity};
 pub use particles::Particles;
 pub use scenes::{SceneOptions, inspect_sph, inspect_sph_with};
+pub use settings::{SphSettings, TimeStep};
 pub use sources::{Emitter, MassLedger, NewParticle, PrecipitationGrid};
-pub use sph::{Muller2003, SphSettings, TimeStep};
+pub use sph::Muller2003;
 pub use terrain::{HeightField, TerrainSample};

@@ -14,8 +14,9 @@
 use super::boundary::{Boundaries, Domain};
 use super::eos::{EquationOfState, STANDARD_GRAVITY_MPS2};
 use super::flow::{SurfaceFlow, SurfaceFlowSettings};
+use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
 use super::sources::splitmix64;
-use super::sph::{Muller2003, SphSettings, TimeStep};
+use super::sph::Muller2003;
 use super::terrain::HeightField;
 use crate::{Error, Result};
 use glam::{Vec2, Vec3};
@@ -193,7 +194,7 @@ pub fn collapsing_block(particles: usize) -> Result<Muller2003> {
     let width = side as f32 * dx;
     let mut s = SphSettings::water(dx, 2.0 * width);
     s.time_step = TimeStep::Adaptive {
-        courant: super::sph::DEFAULT_COURANT,
+        courant: DEFAULT_COURANT,
         max_s: 0.005,
     };
     let mut sph = Muller2003::new(

@@ -6,7 +6,7 @@
 //! 2. Neighbour search (counting sort into cells of edge h/2, [`super::grid`]); particles are
 //!    reordered by cell.
 //! 3. Density (5.18) ρᵢ = (m/S₀) Σⱼ W(rᵢⱼ), self term and wall ghosts ([`super::boundary`])
-//!    included; pressure from the equation of state ([`EquationOfState`]; (5.19) with a
+//!    included; pressure from the equation of state ([`super::EquationOfState`]; (5.19) with a
 //!    stiffness from c ≥ 10·v_max, not k = 3).
 //! 4. Surface particles: the highest particle of each column of the particle spacing, as the
 //!    thesis does with the carpet cells instead of Müller's |∇c| threshold.
@@ -53,237 +53,17 @@
 //! after N steps is bit-identical whatever the number of rayon threads.
 
 use super::boundary::{Boundaries, Fate};
-use super::eos::{EquationOfState, STANDARD_GRAVITY_MPS2, positive};
-use super::grid::UniformGrid;
-use super::kernels::{Kernel, Poly6, Spiky, Viscosity};
+use super::grid::{NeighbourLists, UniformGrid, neighbour_capacity};
+use super::kernels::{Kernel, LatticeMoments, Poly6, Spiky, Viscosity};
 use super::particles::{Particles, PermuteScratch};
+use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
 use super::sources::{Emitter, MassLedger, NewParticle, unit_from_hash};
 use crate::{Error, Result};
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Water's rest density used by Müller 2003 and Kelager 2006, kg/m³.
-pub const WATER_REST_DENSITY_KG_M3: f32 = 998.29;
-/// Water's surface tension against air, N/m.
-pub const WATER_SURFACE_TENSION_N_PER_M: f32 = 0.0728;
-/// The default Courant number λ of the sound-speed limit.
-pub const DEFAULT_COURANT: f32 = 0.4;
 /// Smallest number of particles a rayon task handles.
 const MIN_TASK: usize = 128;
-
-/// How the time step is chosen.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TimeStep {
-    /// The largest stable step: min(λh/(c + v_max), 0.25√(h/a_max), 0.125h²ρ₀/μ, `max_s`).
-    Adaptive {
-        /// Courant number λ of the sound-speed limit (0.4 is usual).
-        courant: f32,
-        /// Upper bound, s.
-        max_s: f32,
-    },
-    /// A constant step, s (the caller is responsible for stability).
-    Fixed {
-        /// The step, s.
-        dt_s: f32,
-    },
-}
-
-/// Parameters of [`Muller2003`]. Build with [`SphSettings::water`] and adjust.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SphSettings {
-    /// Initial particle spacing Δx, m: sets the particle volume and the surface columns.
-    pub particle_spacing_m: f32,
-    /// Kernel support radius h, m (2Δx by default: about 33 neighbours).
-    pub smoothing_length_m: f32,
-    /// Rest density ρ₀, kg/m³.
-    pub rest_density_kg_m3: f32,
-    /// Mass of every particle, kg (ρ₀Δx³: the water of one lattice cell).
-    pub particle_mass_kg: f32,
-    /// The pressure law.
-    pub eos: EquationOfState,
-    /// Clamp negative pressures to 0: avoids the tensile instability at the free surface.
-    pub clamp_negative_pressure: bool,
-    /// Dynamic viscosity μ of (5.21), Pa·s. Müller's Laplacian is a consistent ∇² estimate,
-    /// so this is a real viscosity (water: 0.001; Müller 2003: 3.5).
-    pub viscosity_pa_s: f32,
-    /// Surface tension σ of (5.25), N/m.
-    pub surface_tension_n_per_m: f32,
-    /// Gravity, m/s².
-    pub gravity_mps2: Vec3,
-    /// The time step rule.
-    pub time_step: TimeStep,
-    /// Collision damping e ∈ [0, 1]: the normal velocity after a collision is −e times the one
-    /// before (thesis §5.3.1 uses a factor in (0, 1)).
-    pub collision_damping: f32,
-    /// Ground friction ∈ [0, 1] (terrain and box floor; other walls are free-slip): the
-    /// ghosts' tangential velocity is scaled by 1 − 2·friction, so 0 is free slip and 1 no slip.
-    pub ground_friction: f32,
-    /// Rate at which water in contact with the terrain soaks in, m/s (depth per second).
-    pub infiltration_rate_mps: f32,
-    /// Gravity is ramped up smoothly over this time from the start, s (0: off). A scene that
-    /// starts from an unloaded lattice then settles quasi-statically instead of ringing in
-    /// its slowest sound mode, which viscosity damps only over seconds (Adami, Hu & Adams
-    /// 2012 do the same for their hydrostatic tank).
-    pub gravity_ramp_s: f32,
-}
-
-impl SphSettings {
-    /// Water at spacing `particle_spacing_m`, for pools up to `depth_m` deep: h = 2Δx,
-    /// ρ₀ = 998.29, the linear law with c = 10√(2gH), σ = 0.0728 N/m, and a viscosity equal to
-    /// the artificial viscosity ν = αhc/10 with α = 0.05 (Monaghan 1992), the least that keeps a
-    /// weakly compressible flow stable at this resolution. Mass ρ₀Δx³: each particle carries
-    /// the water of one lattice cell. The ground is no-slip, as real walls are (with it the
-    /// dam-break front follows Martin & Moyce; free slip leads it by 11–15 %).
-    pub fn water(particle_spacing_m: f32, depth_m: f32) -> SphSettings {
-        let dx = particle_spacing_m;
-        let h = 2.0 * dx;
-        let rho0 = WATER_REST_DENSITY_KG_M3;
-        let eos = EquationOfState::for_depth(depth_m);
-        let c = eos.sound_speed_mps();
-        SphSettings {
-            particle_spacing_m: dx,
-            smoothing_length_m: h,
-            rest_density_kg_m3: rho0,
-            particle_mass_kg: rho0 * dx * dx * dx,
-            eos,
-            clamp_negative_pressure: true,
-            viscosity_pa_s: rho0 * 0.05 * h * c / 10.0,
-            surface_tension_n_per_m: WATER_SURFACE_TENSION_N_PER_M,
-            gravity_mps2: Vec3::new(0.0, 0.0, -STANDARD_GRAVITY_MPS2),
-            time_step: TimeStep::Adaptive {
-                courant: DEFAULT_COURANT,
-                max_s: 0.01,
-            },
-            collision_damping: 0.5,
-            ground_friction: 1.0,
-            infiltration_rate_mps: 0.0,
-            gravity_ramp_s: 0.0,
-        }
-    }
-
-    /// Checks every parameter; `Error::Parameter` names the first bad one.
-    pub fn validate(&self) -> Result<()> {
-        positive("sph.particle_spacing_m", self.particle_spacing_m)?;
-        positive("sph.smoothing_length_m", self.smoothing_length_m)?;
-        positive("sph.rest_density_kg_m3", self.rest_density_kg_m3)?;
-        positive("sph.particle_mass_kg", self.particle_mass_kg)?;
-        let ratio = self.smoothing_length_m / self.particle_spacing_m;
-        if !(1.0..=4.0).contains(&ratio) {
-            return Err(Error::Parameter {
-                name: "sph.smoothing_length_m",
-                value: self.smoothing_length_m.to_string(),
-                expected: format!(
-                    "between 1 and 4 particle spacings ({} m)",
-                    self.particle_spacing_m
-                ),
-            });
-        }
-        self.eos.validate()?;
-        for (name, v) in [
-            ("sph.viscosity_pa_s", self.viscosity_pa_s),
-            ("sph.surface_tension_n_per_m", self.surface_tension_n_per_m),
-            ("sph.infiltration_rate_mps", self.infiltration_rate_mps),
-            ("sph.gravity_ramp_s", self.gravity_ramp_s),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(Error::Parameter {
-                    name,
-                    value: v.to_string(),
-                    expected: "a finite number ≥ 0".into(),
-                });
-            }
-        }
-        for (name, v) in [
-            ("sph.collision_damping", self.collision_damping),
-            ("sph.ground_friction", self.ground_friction),
-        ] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(Error::Parameter {
-                    name,
-                    value: v.to_string(),
-                    expected: "a number in [0, 1]".into(),
-                });
-            }
-        }
-        if !self.gravity_mps2.is_finite() {
-            return Err(Error::Parameter {
-                name: "sph.gravity_mps2",
-                value: self.gravity_mps2.to_string(),
-                expected: "a finite vector".into(),
-            });
-        }
-        match self.time_step {
-            TimeStep::Adaptive { courant, max_s } => {
-                if !(courant > 0.0 && courant <= 1.0) {
-                    return Err(Error::Parameter {
-                        name: "sph.courant",
-                        value: courant.to_string(),
-                        expected: "a Courant number in (0, 1]".into(),
-                    });
-                }
-                positive("sph.max_time_step_s", max_s)
-            }
-            TimeStep::Fixed { dt_s } => positive("sph.time_step_s", dt_s),
-        }
-    }
-
-    /// The particle's volume at rest, m/ρ₀, m³.
-    pub fn particle_volume_m3(&self) -> f32 {
-        self.particle_mass_kg / self.rest_density_kg_m3
-    }
-}
-
-/// Kernel moments over a cubic lattice of spacing Δx (each point weighted by Δx³), which fix
-/// the scale of the discrete operators. In the continuum all four are 1; at h = 2Δx the spiky
-/// sum is 1.24 (its cusp at r = 0 is poorly sampled), the gradient moment 0.96, the colour sum
-/// 1.01 and the Laplacian moment 0.99. Dividing by them makes density, gradients and
-/// Laplacians exact on the lattice; being constants, they keep the pressure force the
-/// gradient of an energy. Other packings differ: the gradient moment is 0.92 on a bcc and 0.91
-/// on an fcc lattice at h = 2Δx (0.95–0.98 at h = 2.5Δx), which bounds the accuracy of
-/// hydrostatic pressure once the particles rearrange (+4 % after 1 s in the column).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct LatticeMoments {
-    /// Σ Δx³ W_spiky: divides the density sum, so a lattice at spacing Δx has ρ = m/Δx³.
-    density: f32,
-    /// (1/3) Σ Δx³ r |W'_spiky|: scale of the pressure gradient.
-    gradient: f32,
-    /// Σ Δx³ W_poly6: scale of the colour field c (5.23).
-    colour: f32,
-    /// (1/6) Σ Δx³ r² ∇²W_visc: scale of the viscous Laplacian (5.21).
-    laplacian: f32,
-}
-
-impl LatticeMoments {
-    fn new(dx_m: f32, h_m: f32) -> LatticeMoments {
-        let n = (h_m / dx_m).ceil() as i32;
-        let (dx, h) = (dx_m as f64, h_m as f64);
-        let v = dx * dx * dx;
-        let spiky = 15.0 / (std::f64::consts::PI * h.powi(6));
-        let (mut s0, mut s1, mut c0, mut l2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        for i in -n..=n {
-            for j in -n..=n {
-                for k in -n..=n {
-                    let r = ((i * i + j * j + k * k) as f64).sqrt() * dx;
-                    if r >= h {
-                        continue;
-                    }
-                    let u = h - r;
-                    s0 += v * spiky * u * u * u;
-                    // (1/3)·r·|W′| with |W′| = 3·(15/πh⁶)(h − r)².
-                    s1 += v * r * spiky * u * u;
-                    c0 += v * Poly6::value(r as f32, h_m) as f64;
-                    l2 += v * r * r * Viscosity::laplacian(r as f32, h_m) as f64 / 6.0;
-                }
-            }
-        }
-        LatticeMoments {
-            density: s0 as f32,
-            gradient: s1 as f32,
-            colour: c0 as f32,
-            laplacian: l2 as f32,
-        }
-    }
-}
 
 /// The SPH solver (thesis Algorithm 2).
 #[derive(Debug, Clone)]
@@ -730,7 +510,7 @@ impl Muller2003 {
         );
         let h2 = h * h;
         let n = self.particles.len();
-        let cap = neighbour_capacity(s);
+        let cap = neighbour_capacity(s.smoothing_length_m, s.particle_spacing_m);
         self.neighbours.capacity = cap;
         self.neighbours.list.resize(n * cap, 0);
         self.neighbours.count.resize(n, 0);
@@ -923,78 +703,5 @@ impl Muller2003 {
                 }
                 *acc = f / rho_i - a_press / lattice.gradient + g;
             });
-    }
-}
-
-/// Slots per particle in the neighbour lists: twice the lattice neighbour count in a sphere of
-/// radius h, plus a margin, at most 128 (83 at h = 2Δx). Particles with more neighbours fall
-/// back to a grid scan.
-fn neighbour_capacity(s: &SphSettings) -> usize {
-    let ratio = s.smoothing_length_m / s.particle_spacing_m;
-    ((2.0 * 4.0 / 3.0 * std::f32::consts::PI * ratio.powi(3)).ceil() as usize + 16).min(128)
-}
-
-/// Each particle's neighbours within h (excluding itself), in grid order, from the density
-/// pass: fixed-size slots, so they can be written in parallel without allocation.
-#[derive(Debug, Clone, Default)]
-struct NeighbourLists {
-    capacity: usize,
-    list: Vec<u32>,
-    count: Vec<u32>,
-}
-
-impl NeighbourLists {
-    /// Calls `f(j)` for every neighbour of `i`, in grid order; rescans the grid when the
-    /// particle overflowed its slots (same order, so results do not depend on the capacity).
-    #[inline]
-    fn for_each(
-        &self,
-        i: usize,
-        grid: &UniformGrid,
-        pos: &[Vec3],
-        h2: f32,
-        mut f: impl FnMut(usize),
-    ) {
-        let c = self.count[i] as usize;
-        if c <= self.capacity {
-            for &j in &self.list[i * self.capacity..i * self.capacity + c] {
-                f(j as usize);
-            }
-        } else {
-            let xi = pos[i];
-            grid.for_each_neighbour_run(xi, |run| {
-                for j in run {
-                    if j != i && (xi - pos[j]).length_squared() < h2 {
-                        f(j);
-                    }
-                }
-            });
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The lattice moments tend to their continuum values (all 1) as the lattice refines.
-    #[test]
-    fn lattice_moments_tend_to_the_continuum() {
-        let coarse = LatticeMoments::new(0.5, 1.0);
-        let fine = LatticeMoments::new(1.0 / 8.0, 1.0);
-        for (name, c, f) in [
-            ("density", coarse.density, fine.density),
-            ("gradient", coarse.gradient, fine.gradient),
-            ("colour", coarse.colour, fine.colour),
-            ("laplacian", coarse.laplacian, fine.laplacian),
-        ] {
-            assert!((f - 1.0).abs() < 0.01, "{name}: {f} at h = 8Δx");
-            assert!(
-                (f - 1.0).abs() <= (c - 1.0).abs() + 1e-6,
-                "{name}: {c} → {f}"
-            );
-        }
-        // Spiky's cusp: the coarse density sum is the 1.24 the docs quote.
-        assert!((coarse.density - 1.236).abs() < 1e-3, "{coarse:?}");
     }
 }
