@@ -1,0 +1,477 @@
+//! The carpet: the fluid's free surface as a height field over the terrain (Kipfer &
+//! Westermann 2006, "Realistic and interactive simulation of rivers"; thesis §5.3.2), and the
+//! wetness of the ground.
+//!
+//! How it works: a regular grid of leaves covers the terrain, with a quadtree above it (each
+//! level halves the resolution, up to one root). On every update:
+//! 1. Each particle raises the leaves its disk (the particle radius) covers to its height plus
+//!    its radius — the leaf keeps the highest. Splatting the disk rather than the centre keeps
+//!    a carpet finer than the particle spacing free of holes.
+//! 2. The quadtree is walked from the root, entering only nodes that hold water or received a
+//!    particle, so the cost follows the wet area, not the grid. A leaf with a particle sits at
+//!    its height with zero vertical speed; a wet leaf without one falls under the trail
+//!    acceleration (gravity in the thesis) until a particle arrives or it reaches the terrain —
+//!    the wet trails of §5.3.2.
+//! 3. On the way back up, each parent takes the mean of its children's heights (for level of
+//!    detail, as the thesis does), their minimum terrain height and the maximum water depth.
+//!    The mean alone can hide one wet leaf among dry ones (a dry leaf sits at the terrain), so
+//!    pruning uses the maximum depth instead of "mean below terrain".
+//!
+//! Wetness model (ours; the thesis only draws trails): a leaf under water has wetness 1. Once
+//! dry it decays exponentially, w(t) = w₀ e^{−(t − t₀)/τ}, τ the drying time; every raindrop
+//! hitting a dry leaf adds a fixed amount (capped at 1). It is evaluated lazily, so dry leaves
+//! cost nothing per update.
+
+use super::terrain::HeightField;
+use crate::{Error, Result};
+use glam::{Vec2, Vec3};
+
+/// Parameters of a [`Carpet`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CarpetSettings {
+    /// Leaves along x.
+    pub nx: usize,
+    /// Leaves along y.
+    pub ny: usize,
+    /// Corner of leaf (0, 0), m.
+    pub origin_m: Vec2,
+    /// Leaf edge, m.
+    pub cell_m: f32,
+    /// Radius of a particle's footprint and of its cap above its centre, m (half the spacing).
+    pub particle_radius_m: f32,
+    /// Downward acceleration of a leaf that lost its particles, m/s² (thesis: gravity).
+    pub trail_acceleration_mps2: f32,
+    /// Drying time constant τ, s.
+    pub drying_time_s: f32,
+    /// Wetness added by one raindrop on a dry leaf, in [0, 1].
+    pub wetting_per_hit: f32,
+}
+
+/// A cell-centred scalar field on a regular grid: value k sits at
+/// `origin + ((k mod nx) + ½, (k div nx) + ½)·cell`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field2 {
+    /// Cells along x.
+    pub nx: usize,
+    /// Cells along y.
+    pub ny: usize,
+    /// Corner of cell (0, 0), m.
+    pub origin_m: Vec2,
+    /// Cell edge, m.
+    pub cell_m: f32,
+    /// Values, row-major (x fastest).
+    pub values: Vec<f32>,
+}
+
+/// One quadtree node (or leaf) of the carpet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CarpetNode {
+    /// Surface height, m: water where wet, the terrain where dry; parents: the children's mean.
+    pub height_m: f32,
+    /// Lowest terrain under the node, m.
+    pub min_terrain_m: f32,
+    /// Deepest water under the node, m (0: dry, prunable).
+    pub max_depth_m: f32,
+}
+
+#[derive(Debug, Clone)]
+struct Level {
+    nx: usize,
+    ny: usize,
+    nodes: Vec<CarpetNode>,
+    touched: Vec<bool>,
+}
+
+/// The carpet over a terrain.
+#[derive(Debug, Clone)]
+pub struct Carpet {
+    settings: CarpetSettings,
+    levels: Vec<Level>,
+    leaf_terrain_m: Vec<f32>,
+    leaf_speed_mps: Vec<f32>,
+    splat_m: Vec<f32>,
+    splatted: Vec<u32>,
+    wet_ref: Vec<f32>,
+    wet_ref_time_s: Vec<f64>,
+    time_s: f64,
+}
+
+impl Carpet {
+    /// A dry carpet over `terrain`.
+    pub fn new(settings: CarpetSettings, terrain: &HeightField) -> Result<Carpet> {
+        let s = settings;
+        if s.nx == 0 || s.ny == 0 || s.nx.saturating_mul(s.ny) > 1 << 24 {
+            return Err(Error::Parameter {
+                name: "carpet.size",
+                value: format!("{}×{}", s.nx, s.ny),
+                expected: "between 1 and 2²⁴ leaves".into(),
+            });
+        }
+        for (name, v, ok) in [
+            ("carpet.cell_m", s.cell_m, s.cell_m > 0.0),
+            (
+                "carpet.particle_radius_m",
+                s.particle_radius_m,
+                s.particle_radius_m >= 0.0,
+            ),
+            (
+                "carpet.trail_acceleration_mps2",
+                s.trail_acceleration_mps2,
+                s.trail_acceleration_mps2 >= 0.0,
+            ),
+            (
+                "carpet.drying_time_s",
+                s.drying_time_s,
+                s.drying_time_s > 0.0,
+            ),
+            (
+                "carpet.wetting_per_hit",
+                s.wetting_per_hit,
+                (0.0..=1.0).contains(&s.wetting_per_hit),
+            ),
+        ] {
+            if !(v.is_finite() && ok) {
+                return Err(Error::Parameter {
+                    name,
+                    value: v.to_string(),
+                    expected: "a finite value in range (cell and drying time > 0, radius and \
+                               acceleration ≥ 0, wetting in [0, 1])"
+                        .into(),
+                });
+            }
+        }
+        if !s.origin_m.is_finite() {
+            return Err(Error::Parameter {
+                name: "carpet.origin_m",
+                value: s.origin_m.to_string(),
+                expected: "a finite corner".into(),
+            });
+        }
+        let n = s.nx * s.ny;
+        let leaf_terrain_m: Vec<f32> = (0..n)
+            .map(|k| {
+                let c =
+                    s.origin_m + (Vec2::new((k % s.nx) as f32, (k / s.nx) as f32) + 0.5) * s.cell_m;
+                terrain.height_at_m(c.x, c.y)
+            })
+            .collect();
+        let leaves = Level {
+            nx: s.nx,
+            ny: s.ny,
+            nodes: leaf_terrain_m
+                .iter()
+                .map(|&t| CarpetNode {
+                    height_m: t,
+                    min_terrain_m: t,
+                    max_depth_m: 0.0,
+                })
+                .collect(),
+            touched: vec![false; n],
+        };
+        let mut levels = vec![leaves];
+        while let Some(below) = levels.last().filter(|l| l.nx > 1 || l.ny > 1) {
+            let (nx, ny) = (below.nx.div_ceil(2), below.ny.div_ceil(2));
+            let mut level = Level {
+                nx,
+                ny,
+                nodes: vec![
+                    CarpetNode {
+                        height_m: 0.0,
+                        min_terrain_m: 0.0,
+                        max_depth_m: 0.0
+                    };
+                    nx * ny
+                ],
+                touched: vec![false; nx * ny],
+            };
+            for j in 0..ny {
+                for i in 0..nx {
+                    level.nodes[j * nx + i] = combine(below, i, j);
+                }
+            }
+            levels.push(level);
+        }
+        Ok(Carpet {
+            settings,
+            levels,
+            leaf_terrain_m,
+            leaf_speed_mps: vec![0.0; n],
+            splat_m: vec![f32::NEG_INFINITY; n],
+            splatted: Vec::new(),
+            wet_ref: vec![0.0; n],
+            wet_ref_time_s: vec![0.0; n],
+            time_s: 0.0,
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &CarpetSettings {
+        &self.settings
+    }
+
+    /// Number of quadtree levels (0 = leaves; the last has one node).
+    pub fn levels(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Nodes along x and y at `level`.
+    pub fn level_dims(&self, level: usize) -> Option<(usize, usize)> {
+        self.levels.get(level).map(|l| (l.nx, l.ny))
+    }
+
+    /// Node (i, j) of `level`.
+    pub fn node(&self, level: usize, i: usize, j: usize) -> Option<CarpetNode> {
+        let l = self.levels.get(level)?;
+        (i < l.nx && j < l.ny).then(|| l.nodes[j * l.nx + i])
+    }
+
+    /// Carpet time, s (the sum of update steps).
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    fn leaf_of(&self, x_m: f32, y_m: f32) -> Option<usize> {
+        let s = &self.settings;
+        let g = (Vec2::new(x_m, y_m) - s.origin_m) / s.cell_m;
+        (g.x >= 0.0 && g.y >= 0.0 && g.x < s.nx as f32 && g.y < s.ny as f32)
+            .then(|| (g.y as usize).min(s.ny - 1) * s.nx + (g.x as usize).min(s.nx - 1))
+    }
+
+    /// The fluid surface height at (x, y), m: the φ of (5.29) against which raindrops collide
+    /// (the terrain where dry). `None` outside the carpet.
+    pub fn surface_height_m(&self, x_m: f32, y_m: f32) -> Option<f32> {
+        self.leaf_of(x_m, y_m)
+            .map(|k| self.levels[0].nodes[k].height_m)
+    }
+
+    /// A raindrop hit the ground at (x, y): wets a dry leaf (no effect under water or outside).
+    pub fn add_hit(&mut self, x_m: f32, y_m: f32) {
+        if let Some(k) = self.leaf_of(x_m, y_m) {
+            let w = self.leaf_wetness(k);
+            self.wet_ref[k] = (w + self.settings.wetting_per_hit).min(1.0);
+            self.wet_ref_time_s[k] = self.time_s;
+        }
+    }
+
+    fn leaf_wetness(&self, k: usize) -> f32 {
+        if self.levels[0].nodes[k].max_depth_m > 0.0 {
+            return 1.0;
+        }
+        let age = (self.time_s - self.wet_ref_time_s[k]).max(0.0);
+        self.wet_ref[k] * (-age / self.settings.drying_time_s as f64).exp() as f32
+    }
+
+    /// Rebuilds the surface from particle positions and advances the trails and the drying by
+    /// `dt_s`.
+    pub fn update(&mut self, positions_m: &[Vec3], dt_s: f32) {
+        self.time_s += dt_s as f64;
+        self.splat(positions_m);
+        let top = self.levels.len() - 1;
+        for j in 0..self.levels[top].ny {
+            for i in 0..self.levels[top].nx {
+                self.visit(top, i, j, dt_s);
+            }
+        }
+        for &k in &self.splatted {
+            self.splat_m[k as usize] = f32::NEG_INFINITY;
+        }
+        self.splatted.clear();
+    }
+
+    fn splat(&mut self, positions_m: &[Vec3]) {
+        let s = self.settings;
+        let r = s.particle_radius_m;
+        for p in positions_m {
+            let g0 = (p.truncate() - r - s.origin_m) / s.cell_m;
+            let g1 = (p.truncate() + r - s.origin_m) / s.cell_m;
+            if !(g1.x >= 0.0 && g1.y >= 0.0 && g0.x < s.nx as f32 && g0.y < s.ny as f32) {
+                continue;
+            }
+            let (i0, j0) = (g0.x.max(0.0) as usize, g0.y.max(0.0) as usize);
+            let (i1, j1) = ((g1.x as usize).min(s.nx - 1), (g1.y as usize).min(s.ny - 1));
+            let top = p.z + r;
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    // Skip leaves the disk misses (its bounding square's corners).
+                    let lo = s.origin_m + Vec2::new(i as f32, j as f32) * s.cell_m;
+                    let nearest = p.truncate().clamp(lo, lo + s.cell_m);
+                    if (nearest - p.truncate()).length_squared() > r * r && r > 0.0 {
+                        continue;
+                    }
+                    let k = j * s.nx + i;
+                    if self.splat_m[k] == f32::NEG_INFINITY {
+                        self.splatted.push(k as u32);
+                        self.mark_touched(i, j);
+                    }
+                    self.splat_m[k] = self.splat_m[k].max(top);
+                }
+            }
+        }
+    }
+
+    fn mark_touched(&mut self, mut i: usize, mut j: usize) {
+        for level in &mut self.levels {
+            let t = &mut level.touched[j * level.nx + i];
+            if *t {
+                return;
+            }
+            *t = true;
+            i /= 2;
+            j /= 2;
+        }
+    }
+
+    fn visit(&mut self, level: usize, i: usize, j: usize, dt_s: f32) {
+        let k = j * self.levels[level].nx + i;
+        self.levels[level].touched[k] = false;
+        if level == 0 {
+            self.update_leaf(k, dt_s);
+            return;
+        }
+        let below = level - 1;
+        let (nx, ny) = (self.levels[below].nx, self.levels[below].ny);
+        for cj in 2 * j..(2 * j + 2).min(ny) {
+            for ci in 2 * i..(2 * i + 2).min(nx) {
+                let c = cj * nx + ci;
+                let child = &self.levels[below];
+                if child.touched[c] || child.nodes[c].max_depth_m > 0.0 {
+                    self.visit(below, ci, cj, dt_s);
+                }
+            }
+        }
+        self.levels[level].nodes[k] = combine(&self.levels[below], i, j);
+    }
+
+    fn update_leaf(&mut self, k: usize, dt_s: f32) {
+        let terrain = self.leaf_terrain_m[k];
+        let node = &mut self.levels[0].nodes[k];
+        let was_wet = node.max_depth_m > 0.0;
+        if self.splat_m[k] > f32::NEG_INFINITY {
+            node.height_m = self.splat_m[k].max(terrain);
+            self.leaf_speed_mps[k] = 0.0;
+        } else if node.height_m > terrain {
+            // The thesis's trail: the node falls until a particle arrives or it meets the ground.
+            let v = self.leaf_speed_mps[k] + self.settings.trail_acceleration_mps2 * dt_s;
+            self.leaf_speed_mps[k] = v;
+            node.height_m = (node.height_m - v * dt_s).max(terrain);
+        }
+        if node.height_m <= terrain {
+            node.height_m = terrain;
+            self.leaf_speed_mps[k] = 0.0;
+        }
+        node.max_depth_m = node.height_m - terrain;
+        if node.max_depth_m > 0.0 || was_wet {
+            // Wet now, or just dried: drying starts from 1 at this time.
+            self.wet_ref[k] = 1.0;
+            self.wet_ref_time_s[k] = self.time_s;
+        }
+    }
+
+    /// Water depth above the terrain per leaf, m.
+    pub fn water_depth(&self) -> Field2 {
+        self.field(|k| self.levels[0].nodes[k].max_depth_m)
+    }
+
+    /// Surface height per leaf (water or terrain), m.
+    pub fn surface_height(&self) -> Field2 {
+        self.field(|k| self.levels[0].nodes[k].height_m)
+    }
+
+    /// Wetness per leaf, in [0, 1] (see the module's wetness model).
+    pub fn wetness(&self) -> Field2 {
+        self.field(|k| self.leaf_wetness(k))
+    }
+
+    fn field(&self, f: impl Fn(usize) -> f32) -> Field2 {
+        let s = &self.settings;
+        Field2 {
+            nx: s.nx,
+            ny: s.ny,
+            origin_m: s.origin_m,
+            cell_m: s.cell_m,
+            values: (0..s.nx * s.ny).map(f).collect(),
+        }
+    }
+}
+
+/// A parent from its (up to four) children at the level below.
+fn combine(below: &Level, i: usize, j: usize) -> CarpetNode {
+    let mut sum = 0.0;
+    let mut n = 0;
+    let mut min_terrain = f32::INFINITY;
+    let mut max_depth = 0.0f32;
+    for cj in 2 * j..(2 * j + 2).min(below.ny) {
+        for ci in 2 * i..(2 * i + 2).min(below.nx) {
+            let c = below.nodes[cj * below.nx + ci];
+            sum += c.height_m;
+            n += 1;
+            min_terrain = min_terrain.min(c.min_terrain_m);
+            max_depth = max_depth.max(c.max_depth_m);
+        }
+    }
+    CarpetNode {
+        height_m: sum / n as f32,
+        min_terrain_m: min_terrain,
+        max_depth_m: max_depth,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flat_carpet(n: usize) -> Carpet {
+        let terrain = HeightField::flat(n + 1, n + 1, Vec2::ZERO, 0.01, 0.0).expect("terrain");
+        Carpet::new(
+            CarpetSettings {
+                nx: n,
+                ny: n,
+                origin_m: Vec2::ZERO,
+                cell_m: 0.01,
+                particle_radius_m: 0.004,
+                trail_acceleration_mps2: 9.81,
+                drying_time_s: 10.0,
+                wetting_per_hit: 0.25,
+            },
+            &terrain,
+        )
+        .expect("carpet")
+    }
+
+    #[test]
+    fn leaves_take_the_highest_particle_and_parents_the_mean() {
+        let mut c = flat_carpet(4);
+        let ps = [Vec3::new(0.005, 0.005, 0.02), Vec3::new(0.005, 0.005, 0.01)];
+        c.update(&ps, 0.01);
+        let leaf = c.node(0, 0, 0).expect("leaf");
+        assert!((leaf.height_m - 0.024).abs() < 1e-6);
+        let parent = c.node(1, 0, 0).expect("parent");
+        assert!((parent.height_m - 0.006).abs() < 1e-6, "{parent:?}");
+        assert!((c.node(2, 0, 0).expect("root").max_depth_m - 0.024).abs() < 1e-6);
+    }
+
+    #[test]
+    fn trails_fall_under_gravity_then_dry() {
+        let mut c = flat_carpet(4);
+        c.update(&[Vec3::new(0.015, 0.015, 0.05)], 0.01);
+        let h0 = c.node(0, 1, 1).expect("leaf").height_m;
+        // The particle leaves: free fall from h0, so after t the drop is ½gt² (semi-implicit
+        // Euler: ½g t² + ½g t δt).
+        let dt = 0.01;
+        for _ in 0..5 {
+            c.update(&[], dt);
+        }
+        let t = 5.0 * dt;
+        let expected = h0 - 0.5 * 9.81 * t * (t + dt);
+        let h = c.node(0, 1, 1).expect("leaf").height_m;
+        assert!((h - expected).abs() < 1e-5, "{h} vs {expected}");
+        for _ in 0..20 {
+            c.update(&[], dt);
+        }
+        assert_eq!(c.node(0, 1, 1).expect("leaf").max_depth_m, 0.0);
+        let w = c.wetness().values[4 + 1];
+        assert!(w < 1.0 && w > 0.9, "drying has started: {w}");
+        c.add_hit(0.035, 0.035);
+        assert!((c.wetness().values[15] - 0.25).abs() < 1e-6);
+    }
+}

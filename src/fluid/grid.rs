@@ -1,0 +1,248 @@
+//! Uniform-grid neighbour search by counting sort.
+//!
+//! How it works: each rebuild fits a dense grid of cubic cells to the particles' bounding box,
+//! counts particles per cell, prefix-sums the counts into cell starts and scatters particle
+//! indices in increasing index order (a stable counting sort). Cells are numbered x-fastest, so
+//! a row of cells along x is one contiguous run of the sorted order: with cells of edge h the 27
+//! neighbour cells are 9 runs; the solver uses edge h/2 (125 cells, 25 runs), which scans 42 %
+//! fewer candidates for the same radius. The solver permutes its particle arrays
+//! into this order after every rebuild, so a run of slots is also a run of memory.
+//!
+//! Everything here is serial and integer-only, so the order — and hence every float sum the
+//! solver makes over neighbours — is the same whatever the thread count. Buffers are reused:
+//! after warm-up a rebuild allocates nothing. When the bounding box would need more cells than
+//! the budget (a sparse film on a wide terrain) the cells are enlarged, which stays correct
+//! (the search reach in cells adapts) at the price of more candidates per particle.
+
+use glam::Vec3;
+use std::ops::Range;
+
+/// A dense uniform grid over the particles' bounding box.
+#[derive(Debug, Clone, Default)]
+pub struct UniformGrid {
+    cell_m: f32,
+    reach: usize,
+    origin_m: Vec3,
+    dims: [usize; 3],
+    cell_start: Vec<u32>,
+    cursor: Vec<u32>,
+    cell_of: Vec<u32>,
+    order: Vec<u32>,
+}
+
+impl UniformGrid {
+    /// An empty grid; call [`UniformGrid::rebuild`] before searching.
+    pub fn new() -> UniformGrid {
+        UniformGrid::default()
+    }
+
+    /// Sorts `positions_m` into cells of edge at least `min_cell_m`, using at most about
+    /// `max_cells` cells (larger cells otherwise), for searches within `radius_m`. Positions
+    /// must be finite.
+    pub fn rebuild(
+        &mut self,
+        positions_m: &[Vec3],
+        radius_m: f32,
+        min_cell_m: f32,
+        max_cells: usize,
+    ) {
+        let (lo, hi) = positions_m.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let (lo, hi) = if positions_m.is_empty() {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        };
+        // The solver keeps positions finite; a non-finite extent would only make one big cell.
+        let extent = if (hi - lo).is_finite() {
+            hi - lo
+        } else {
+            Vec3::ZERO
+        };
+        let mut cell = min_cell_m;
+        let dims = loop {
+            let d = (extent / cell)
+                .floor()
+                .as_uvec3()
+                .min(glam::UVec3::splat(1 << 20))
+                + 1;
+            let n = d.x as u64 * d.y as u64 * d.z as u64;
+            if n <= max_cells.max(27) as u64 {
+                break [d.x as usize, d.y as usize, d.z as usize];
+            }
+            cell *= 1.25;
+        };
+        self.cell_m = cell;
+        self.reach = ((radius_m / cell) * (1.0 - 1e-6)).ceil().max(1.0) as usize;
+        self.origin_m = lo;
+        self.dims = dims;
+        let n_cells = dims[0] * dims[1] * dims[2];
+
+        self.cell_start.clear();
+        self.cell_start.resize(n_cells + 1, 0);
+        self.cell_of.clear();
+        for &p in positions_m {
+            let c = self.cell_index(self.cell_coords(p));
+            self.cell_of.push(c as u32);
+            self.cell_start[c + 1] += 1;
+        }
+        for c in 0..n_cells {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.cell_start[..n_cells]);
+        self.order.clear();
+        self.order.resize(positions_m.len(), 0);
+        for (i, &c) in self.cell_of.iter().enumerate() {
+            let slot = &mut self.cursor[c as usize];
+            self.order[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+    }
+
+    /// Sorted slot → particle index, as of the last rebuild.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The cell edge in use, m (≥ the requested minimum).
+    pub fn cell_m(&self) -> f32 {
+        self.cell_m
+    }
+
+    /// Cells along x, y, z.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// Integer cell coordinates of `p`, clamped into the grid.
+    #[inline]
+    pub fn cell_coords(&self, p: Vec3) -> [usize; 3] {
+        let g = ((p - self.origin_m) / self.cell_m).max(Vec3::ZERO);
+        [
+            (g.x as usize).min(self.dims[0] - 1),
+            (g.y as usize).min(self.dims[1] - 1),
+            (g.z as usize).min(self.dims[2] - 1),
+        ]
+    }
+
+    #[inline]
+    fn cell_index(&self, c: [usize; 3]) -> usize {
+        c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
+    }
+
+    /// Calls `f` with the runs of sorted slots covering the cells within the search radius of
+    /// `p` (one run per row of cells along x), in a fixed order (z, then y, then x increasing).
+    #[inline]
+    pub fn for_each_neighbour_run(&self, p: Vec3, mut f: impl FnMut(Range<usize>)) {
+        let [cx, cy, cz] = self.cell_coords(p);
+        let r = self.reach;
+        let x0 = cx.saturating_sub(r);
+        let x1 = (cx + r).min(self.dims[0] - 1);
+        for z in cz.saturating_sub(r)..=(cz + r).min(self.dims[2] - 1) {
+            for y in cy.saturating_sub(r)..=(cy + r).min(self.dims[1] - 1) {
+                let a = self.cell_start[self.cell_index([x0, y, z])] as usize;
+                let b = self.cell_start[self.cell_index([x1, y, z]) + 1] as usize;
+                if a < b {
+                    f(a..b);
+                }
+            }
+        }
+    }
+}
+
+/// Slots per particle in the neighbour lists: twice the lattice neighbour count in a sphere of
+/// radius h, plus a margin, at most 128 (83 at h = 2Δx). Particles with more neighbours fall
+/// back to a grid scan.
+pub(crate) fn neighbour_capacity(h_m: f32, dx_m: f32) -> usize {
+    let ratio = h_m / dx_m;
+    ((2.0 * 4.0 / 3.0 * std::f32::consts::PI * ratio.powi(3)).ceil() as usize + 16).min(128)
+}
+
+/// Each particle's neighbours within h (excluding itself), in grid order, from the density
+/// pass: fixed-size slots, so they can be written in parallel without allocation.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct NeighbourLists {
+    pub(crate) capacity: usize,
+    pub(crate) list: Vec<u32>,
+    pub(crate) count: Vec<u32>,
+}
+
+impl NeighbourLists {
+    /// Calls `f(j)` for every neighbour of `i`, in grid order; rescans the grid when the
+    /// particle overflowed its slots (same order, so results do not depend on the capacity).
+    #[inline]
+    pub(crate) fn for_each(
+        &self,
+        i: usize,
+        grid: &UniformGrid,
+        pos: &[Vec3],
+        h2: f32,
+        mut f: impl FnMut(usize),
+    ) {
+        let c = self.count[i] as usize;
+        if c <= self.capacity {
+            for &j in &self.list[i * self.capacity..i * self.capacity + c] {
+                f(j as usize);
+            }
+        } else {
+            let xi = pos[i];
+            grid.for_each_neighbour_run(xi, |run| {
+                for j in run {
+                    if j != i && (xi - pos[j]).length_squared() < h2 {
+                        f(j);
+                    }
+                }
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pair closer than h is found exactly once, against brute force.
+    #[test]
+    fn finds_all_neighbours_like_brute_force() {
+        let mut s = 12345u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let h = 0.1;
+        // Include points exactly on cell boundaries (multiples of h from the minimum).
+        let mut pts: Vec<Vec3> = (0..400)
+            .map(|_| Vec3::new(rnd(), rnd() * 0.5, rnd() * 0.3))
+            .collect();
+        pts.push(Vec3::ZERO);
+        pts.push(Vec3::new(0.1, 0.1, 0.1));
+        pts.push(Vec3::new(0.2, 0.0, 0.1));
+        for max_cells in [1 << 20, 50] {
+            let mut g = UniformGrid::new();
+            g.rebuild(&pts, h, h / 2.0, max_cells);
+            let order = g.order().to_vec();
+            for (i, &p) in pts.iter().enumerate() {
+                let mut found = Vec::new();
+                g.for_each_neighbour_run(p, |run| {
+                    for slot in run {
+                        let j = order[slot] as usize;
+                        if (pts[j] - p).length_squared() < h * h {
+                            found.push(j);
+                        }
+                    }
+                });
+                let mut brute: Vec<usize> = (0..pts.len())
+                    .filter(|&j| (pts[j] - p).length_squared() < h * h)
+                    .collect();
+                found.sort_unstable();
+                brute.sort_unstable();
+                assert_eq!(found, brute, "particle {i}");
+            }
+        }
+    }
+}
