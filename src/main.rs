@@ -54,6 +54,20 @@ enum Command {
 
 #[derive(Subcommand, Debug)]
 enum InspectCommand {
+    /// Run an SPH validation scene and print its measures (density error, pressure against
+    /// depth, water front against Martin & Moyce, mass ledger, carpet flatness).
+    Sph {
+        /// column, dam-break or basin.
+        #[arg(long, value_parser = ["column", "dam-break", "basin"])]
+        scene: String,
+        /// Solver steps [default: the steps that reach the validated state: column 3500,
+        /// dam-break 1500, basin 5000].
+        #[arg(long)]
+        steps: Option<usize>,
+        /// Print JSON (the only format).
+        #[arg(long)]
+        json: bool,
+    },
     /// The raindrop's radiance-transfer function: table per order, energy, zonal SH coefficients.
     Rtf {
         /// Refractive index: one value, or R,G,B for dispersion.
@@ -602,6 +616,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 out(report.to_string().trim_end())?;
             }
+            Ok(())
+        }
+        Some(Command::Inspect(InspectCommand::Sph { scene, steps, .. })) => {
+            let steps = steps.unwrap_or(match scene.as_str() {
+                "column" => 3500,
+                "dam-break" => 1500,
+                _ => 5000,
+            });
+            let v = rain_composite::fluid::scenes::inspect_sph(scene, steps)?;
+            out(&serde_json::to_string_pretty(&v)?)?;
             Ok(())
         }
         Some(Command::Inspect(InspectCommand::Rtf {

@@ -740,6 +740,10 @@ fn inspect_prints_the_models_as_json() {
     ]));
     assert_eq!(sh["coeffs"].as_array().map(Vec::len), Some(9));
     assert!(plot.exists());
+    let sph = json_of(bin().args([
+        "inspect", "sph", "--scene", "column", "--steps", "20", "--json",
+    ]));
+    assert!(sph.is_object());
     let err = fails(bin().args(["inspect", "rtf", "--rho", "0.5"]));
     assert!(err.contains("rho"), "{err}");
 }
