@@ -128,7 +128,7 @@ enum InspectCommand {
         #[arg(long)]
         json: bool,
         #[command(flatten)]
-        look: LookArgs,
+        look: Box<LookArgs>,
     },
 }
 
