@@ -1,5 +1,5 @@
 // Stage rain_probe: writes the state of drops [first, first + count) at rain.time_s to a buffer
-// (position, diameter, velocity), so tests can hold the GPU emitter against its CPU twin.
+// (position, diameter, velocity, width), so tests can hold the GPU emitter against its CPU twin.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
@@ -11,5 +11,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
     let d = drop_state(id.x);
     probe_out[2u * id.x] = vec4<f32>(d.pos_m, d.diameter_mm);
-    probe_out[2u * id.x + 1u] = vec4<f32>(d.vel_mps, 0.0);
+    probe_out[2u * id.x + 1u] = vec4<f32>(d.vel_mps, d.width_mm);
 }

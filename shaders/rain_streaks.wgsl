@@ -54,7 +54,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     let q0 = rain.principal_px + f * c0.xy / c0.z;
     let q1 = rain.principal_px + f * c1.xy / c1.z;
     let z = min(c0.z, c1.z);
-    let r = 0.5e-3 * drop.diameter_mm * f / z;
+    let r = 0.5e-3 * drop.width_mm * f / z;
     // Defocus: the thin lens spreads the drop over its circle of confusion (Garg & Nayar,
     // "When does a camera see rain?"); coverage is conserved, so alpha falls as r²/r_eff².
     let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);

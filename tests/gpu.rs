@@ -9,6 +9,7 @@ use rain_composite::gpu::types::RainParams;
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
 use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
 use rain_composite::rain::emitter::{self, RainSetup};
+use rain_composite::rain::physics::streak_width_factor;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
@@ -241,6 +242,11 @@ fn gpu_drops_match_the_cpu_reference() {
                 "drop {id} t={t}"
             );
             assert!((g.diameter_mm - c.diameter_mm as f32).abs() < 1e-4);
+            let width = c.diameter_mm * streak_width_factor(c.diameter_mm);
+            assert!(
+                (g.width_mm as f64 - width).abs() < 1e-4 * width,
+                "drop {id}: width"
+            );
             let err = (g.pos_m - c_pos).length();
             if err > 2e-3 * (1.0 + t as f32) {
                 // f32 against f64: a drop a hair from its column's end may wrap on one side only.
@@ -416,4 +422,77 @@ fn the_same_seed_gives_the_same_rain_and_another_does_not() {
     assert_eq!(a, b);
     assert_ne!(a, c);
     assert!(a.iter().any(|&v| v > 0.0));
+}
+
+/// Hard cameras: straight up, straight down, 5° and 150° fields of view, violent wind-driven
+/// rain crossing the near plane. The render must stay finite and local: no streak may smear
+/// over the picture (a screen-sized quad would raise the mean of a dark frame far above the
+/// physical coverage), and the plan must stay finite.
+#[test]
+fn hard_cameras_render_finite_local_streaks() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (192u32, 108u32);
+    let format = FrameFormat {
+        width: w,
+        height: h,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let color = ColorParams::bt709(8);
+    let dark = YuvFrame::filled(format, color, [20, 128, 128]);
+    let cases = [
+        ("straight up", 60.0f64, 90.0f64, [0.0, 0.0], 25.0),
+        ("straight down", 60.0, -90.0, [0.0, 0.0], 25.0),
+        ("5° telephoto", 5.0, 0.0, [0.0, 0.0], 25.0),
+        ("150° fisheye", 150.0, 0.0, [0.0, 0.0], 25.0),
+        ("violent, 40 m/s wind", 60.0, 0.0, [40.0, 5.0], 300.0),
+    ];
+    for (name, fov_deg, tilt_deg, wind, rate) in cases {
+        let camera = Camera::new(w, h, fov_deg.to_radians(), 1.6, tilt_deg.to_radians(), 0.0);
+        // No haze: only the streaks change the picture.
+        let rain = RainConfig {
+            rate_mm_per_h: rate,
+            wind_mps: wind,
+            near_m: 0.1,
+            scene_depth_m: 0.0,
+            ..RainConfig::default()
+        };
+        let setup = emitter::build(
+            &camera,
+            &CameraConfig::default(),
+            &rain,
+            1.0 / 50.0,
+            0,
+            (w, h),
+        )
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(
+            setup.params.drop_weight.is_finite() && setup.params.drop_weight > 0.0,
+            "{name}"
+        );
+        assert!(
+            setup
+                .columns
+                .iter()
+                .all(|c| c.height_m.is_finite() && c.z_lo_m.is_finite()),
+            "{name}"
+        );
+        let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+        let out = comp.render_one(&dark, &lit(&setup, 3.0)).expect("render");
+        let luma: Vec<f64> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| out.sample(0, x, y) as f64)
+            .collect();
+        let mean_rise = luma.iter().map(|v| v - 20.0).sum::<f64>() / luma.len() as f64;
+        // Streaks stay streaks: the mean rise stays a small fraction of the way to white.
+        assert!(mean_rise < 0.1 * 215.0, "{name}: mean rise {mean_rise}");
+        eprintln!(
+            "{name}: {} drops, mean rise {mean_rise:.2}",
+            setup.drop_count()
+        );
+        assert!(
+            luma.iter().all(|&v| v >= 20.0),
+            "{name}: rain never darkens a dark frame here"
+        );
+    }
 }

@@ -14,7 +14,16 @@
 struct DropState {
     pos_m: vec3<f32>,
     vel_mps: vec3<f32>,
-    diameter_mm: f32,   // drawn diameter (× diameter_scale)
+    diameter_mm: f32,   // drawn equivalent diameter (× diameter_scale)
+    width_mm: f32,      // drawn horizontal diameter: the streak's width
+}
+
+// Horizontal over equivalent diameter, r^(−1/3), of an oblate drop with Beard & Chuang's (1987)
+// axis ratio r(D) (twin of rain::physics::streak_width_factor).
+fn streak_width_factor(d_mm: f32) -> f32 {
+    let d = clamp(d_mm, 0.0, 7.0);
+    let r = min(1.0048 + d * (5.7e-4 + d * (-2.628e-2 + d * (3.682e-3 + d * -1.677e-4))), 1.0);
+    return pow(r, -1.0 / 3.0);
 }
 
 fn terminal_speed_mps(d_mm: f32) -> f32 {
@@ -77,5 +86,6 @@ fn drop_state(id: u32) -> DropState {
     let uv = col.cell_min_m + rain.cell_size_m * vec2<f32>(u, v);
     let z = col.z_lo_m + w * col.height_m;
     let pos = vec3<f32>(uv + rain.column_slope * z, z);
-    return DropState(pos, vec3<f32>(vh, -vt), d_mm * rain.diameter_scale);
+    let drawn_mm = d_mm * rain.diameter_scale;
+    return DropState(pos, vec3<f32>(vh, -vt), drawn_mm, drawn_mm * streak_width_factor(d_mm));
 }

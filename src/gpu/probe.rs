@@ -18,6 +18,8 @@ pub struct GpuDrop {
     pub vel_mps: Vec3,
     /// Drawn diameter, mm.
     pub diameter_mm: f32,
+    /// Drawn horizontal diameter (the streak's width), mm.
+    pub width_mm: f32,
 }
 
 /// States of the first `count` drops of `setup` at `time_s`, as the GPU computes them.
@@ -114,6 +116,7 @@ pub fn probe_drops(
             pos_m: Vec3::new(c[0], c[1], c[2]),
             vel_mps: Vec3::new(c[4], c[5], c[6]),
             diameter_mm: c[3],
+            width_mm: c[7],
         })
         .collect();
     drop(view);
