@@ -7,11 +7,12 @@
 //!
 //! ```text
 //!  video::decode ──► YuvFrame ──► gpu::Compositor ─────────────────────────────► video::encode
-//!                       │          upload planes → YUV→linear RGB (canvas, f16)
+//!                       │          upload planes → YUV→linear RGB (canvas, f16) + haze
 //!                       │          rain: stateless drops (seed, id, t) → streaks
 //!                       │          composite (premultiplied, linear light)
 //!                       │          linear RGB → YUV planes → ring readback
-//!                       └──► lighting (frame → sphere → SH) ──► PRT colour of the drops
+//!                       └──► lighting (frame → sphere → SH, smoothed) ──► RainParams (PRT)
+//!  rain::volume (plan: columns, far distance, budget) ──► rain::emitter ──► RainParams
 //! ```
 //!
 //! Data flows one way: nothing downstream of the decoder changes what the decoder does, and
