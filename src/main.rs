@@ -168,7 +168,7 @@ struct LookArgs {
     /// JSON file of settings (see samples/presets/); flags given here override it.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Rain rate in mm/h, or drizzle|light|moderate|heavy|violent; 0 turns rain off. [default: 10]
+    /// Rain rate in mm/h, or drizzle (0.3) | light (1) | moderate (5) | heavy (20) | violent (75); 0 turns rain off. [default: 10]
     #[arg(long, value_name = "MM_PER_H")]
     rain: Option<String>,
     /// Multiplier on drop diameters. [default: 1]
@@ -392,18 +392,7 @@ impl log::Log for StderrLogger {
 }
 
 fn parse_rain(s: &str) -> anyhow::Result<f64> {
-    let rate = match s.to_ascii_lowercase().as_str() {
-        // Representative rates inside the AMS/WMO intensity classes.
-        "drizzle" => 0.5,
-        "light" => 1.5,
-        "moderate" => 5.0,
-        "heavy" => 20.0,
-        "violent" => 70.0,
-        other => other.parse::<f64>().with_context(|| {
-            format!("invalid --rain '{s}': expected mm/h or drizzle|light|moderate|heavy|violent")
-        })?,
-    };
-    Ok(rate)
+    Ok(rain_composite::rain::physics::RainRate::parse(s)?.mm_per_h())
 }
 
 fn parse_time_s(s: &str) -> anyhow::Result<f64> {
