@@ -697,3 +697,33 @@ fn ctrl_c_stops_cleanly_and_leaves_no_output() {
         "no output or temporary file left"
     );
 }
+
+#[test]
+fn a_truncated_stream_is_an_error_even_when_its_start_decodes() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    clip(
+        &input,
+        "160x120",
+        2.0,
+        &[
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+            "-movflags",
+            "+faststart",
+        ],
+    );
+    let bytes = std::fs::read(&input).expect("read");
+    let cut = p(&dir, "cut.mp4");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+    std::fs::remove_file(&input).expect("rm");
+    let err = fails(bin().args([s(&cut), "-o", s(&p(&dir, "out.mp4")), "--cpu"]));
+    assert!(err.contains("ends early"), "{err}");
+    assert_eq!(
+        only_files(dir.path()),
+        ["cut.mp4"],
+        "no output or temporary file left"
+    );
+}

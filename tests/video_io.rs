@@ -812,8 +812,8 @@ fn a_truncated_mp4_is_corrupt_input() {
     let err = Source::open(s(&cut)).err().unwrap();
     assert!(matches!(err, Error::CorruptInput(_)), "{err}");
 
-    // With the index up front, the first half still decodes, with a warning.
-    init_logger();
+    // With the index up front the first half decodes, then the missing data is an error
+    // (not a silently shorter output), naming where it stopped.
     let fast = dir.path().join("fast.mp4");
     ffmpeg(&[
         "-i",
@@ -829,11 +829,16 @@ fn a_truncated_mp4_is_corrupt_input() {
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
     let mut src = Source::open(s(&cut)).unwrap();
     let mut frames = 0;
-    while let Some(item) = src.next_item().unwrap() {
-        frames += matches!(item, SourceItem::Frame(_)) as u32;
-    }
+    let err = loop {
+        match src.next_item() {
+            Ok(Some(item)) => frames += matches!(item, SourceItem::Frame(_)) as u32,
+            Ok(None) => panic!("a truncated input must not end cleanly"),
+            Err(e) => break e,
+        }
+    };
     assert!(frames > 5 && frames < 50, "{frames} frames");
-    assert!(!my_warnings().is_empty());
+    assert!(matches!(err, Error::CorruptInput(_)), "{err}");
+    assert!(err.to_string().contains("ends early"), "{err}");
 }
 
 #[test]

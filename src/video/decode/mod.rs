@@ -92,6 +92,8 @@ pub struct Source {
     /// Ticks of one frame at the nominal rate (for frames without a timestamp).
     frame_ticks: i64,
     bad_packets_in_a_row: u32,
+    /// Decoding started from a seek, not the first frame (frame counts are partial).
+    sought: bool,
     warned_resize: bool,
     info: Option<VideoInfo>,
 }
@@ -163,6 +165,7 @@ impl Source {
             last_pts: None,
             frame_ticks,
             bad_packets_in_a_row: 0,
+            sought: false,
             warned_resize: false,
             info: None,
         };
@@ -250,13 +253,13 @@ impl Source {
                     return Ok(None);
                 }
                 Err(ff::Error::InvalidData) if super::ffi::input_at_eof(&self.input) => {
-                    log::warn!(
-                        "'{}': the input ends early (truncated?) near frame {}",
-                        self.path,
-                        self.next_index
-                    );
+                    // The container promised more than the file holds: a truncated input is
+                    // an error (a damaged packet inside a complete file is only a warning).
                     self.input_done = true;
-                    return Ok(None);
+                    return Err(Error::CorruptInput(format!(
+                        "'{}' ends early near frame {} (truncated?)",
+                        self.path, self.next_index
+                    )));
                 }
                 Err(ff::Error::InvalidData) => {
                     self.bad_packets_in_a_row += 1;
@@ -275,15 +278,12 @@ impl Source {
                     }
                 }
                 Err(e) => {
-                    // A terminal read error (truncated file, I/O error): what was decoded so far
-                    // is kept, as ffmpeg does; `open` turns "nothing at all" into CorruptInput.
-                    log::warn!(
-                        "'{}': input ends early near frame {}: {e}",
-                        self.path,
-                        self.next_index
-                    );
+                    // A terminal read error (truncated file, I/O error).
                     self.input_done = true;
-                    return Ok(None);
+                    return Err(Error::CorruptInput(format!(
+                        "'{}' cannot be read past frame {}: {e}",
+                        self.path, self.next_index
+                    )));
                 }
             }
         }
@@ -320,6 +320,17 @@ impl Source {
                 }
                 self.drain()?;
                 self.decoder_done = true;
+                // A file cut short often still reads to a clean end of file (the demuxer stops
+                // at the last whole packet): compare with the frame count its index promised.
+                if let Some(expected) = self.info.as_ref().and_then(|i| i.frame_count)
+                    && !self.sought
+                    && (self.next_index as f64) < 0.9 * expected as f64
+                {
+                    return Err(Error::CorruptInput(format!(
+                        "'{}' ends early: {} of the {expected} frames its index lists (truncated?)",
+                        self.path, self.next_index
+                    )));
+                }
             }
         }
         Ok(true)

@@ -122,6 +122,7 @@ impl Source {
     fn seek_raw(&mut self, ts_us: i64) -> Result<()> {
         // The keyframe at or before the time; failing that (no keyframe before it, e.g. a
         // rounding hair before the first one), the nearest: the caller checks where it landed.
+        self.sought = true;
         if let Err(e) = self.input.seek(ts_us, ..ts_us) {
             log::debug!("seek to {ts_us} µs backwards failed ({e}); seeking to the nearest");
             self.input
