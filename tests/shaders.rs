@@ -3,7 +3,7 @@
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
-use rain_composite::gpu::types::{Column, FrameParams, RainParams};
+use rain_composite::gpu::types::{Column, FrameParams, RainParams, Streak};
 
 fn module(stage: Stage) -> naga::Module {
     let src = stage.source();
@@ -96,6 +96,21 @@ fn rust_twins_match_wgsl_layouts() {
         m,
         Column,
         [cell_min_m, z_lo_m, height_m, first_drop, drop_count, _pad]
+    );
+    let m = module(Stage::RainSimulate);
+    assert_twin!(
+        m,
+        Streak,
+        [
+            q0_px,
+            dir,
+            len_px,
+            r_eff_px,
+            alpha_scale,
+            _pad,
+            radiance0,
+            radiance1
+        ]
     );
     let m = module(Stage::YuvToRgb);
     assert_twin!(

@@ -73,3 +73,15 @@ struct Column {
     drop_count: u32,
     _pad: vec2<u32>,
 }
+
+// One drop's streak for the frame (rain_simulate → rain_streaks), in the displayed picture.
+struct Streak {
+    q0_px: vec2<f32>,       // start of the centre's path
+    dir: vec2<f32>,         // unit direction of motion
+    len_px: f32,            // path length; < 0: not drawn
+    r_eff_px: f32,          // drawn radius (sub-pixel drops widened, defocus included)
+    alpha_scale: f32,       // coverage multiplier
+    _pad: f32,
+    radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb)
+    radiance1: vec4<f32>,   // and at the end of the path
+}

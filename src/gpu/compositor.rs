@@ -17,15 +17,16 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::shaders::Stage;
-use super::types::{FrameParams, RainParams};
+use super::types::{FrameParams, RainParams, Streak};
 use crate::rain::emitter::RainSetup;
 use crate::video::{FrameFormat, Plane, YuvFrame};
 use crate::{Error, Result};
 
 /// Frames in flight (readback slots).
 const RING: usize = 3;
-/// GPU stages timed with timestamp queries: yuv_to_rgb, rain_streaks, rgb_to_yuv.
-const TIMED_STAGES: usize = 3;
+/// GPU stages timed with timestamp queries: yuv_to_rgb, rain_simulate, rain_streaks,
+/// rgb_to_yuv.
+const TIMED_STAGES: usize = 4;
 
 /// GPU time per stage, summed over the frames read back so far (zero where the adapter has no
 /// timestamp queries).
@@ -35,6 +36,8 @@ pub struct GpuStageTimes {
     pub yuv_to_rgb_s: f64,
     /// Drop states (simulation, evaluated in the vertex shader) and streak rasterisation.
     pub rain_streaks_s: f64,
+    /// Drop states, projection and light, once per drop.
+    pub rain_simulate_s: f64,
     /// Canvas → packed YUV planes.
     pub rgb_to_yuv_s: f64,
 }
@@ -57,6 +60,7 @@ pub struct Compositor {
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
     yuv_to_rgb: (wgpu::ComputePipeline, wgpu::BindGroup),
+    simulate: (wgpu::ComputePipeline, wgpu::BindGroup),
     streaks: (wgpu::RenderPipeline, wgpu::BindGroup),
     luma: (wgpu::ComputePipeline, wgpu::BindGroup),
     chroma: (wgpu::ComputePipeline, wgpu::BindGroup),
@@ -250,6 +254,12 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE,
         });
         let module = Stage::RainStreaks.module(device);
+        let streak_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain_streaks"),
+            size: std::mem::size_of::<Streak>() as u64 * rain.params.drop_count.max(1) as u64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         let streak_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(Stage::RainStreaks.name()),
             layout: None,
@@ -285,7 +295,26 @@ impl Compositor {
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
+                    resource: streak_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        let simulate_pipeline = compute(Stage::RainSimulate, "main");
+        let simulate_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rain_simulate"),
+            layout: &simulate_pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: rain_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
                     resource: columns_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: streak_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -299,6 +328,7 @@ impl Compositor {
             out_buffer,
             staging,
             yuv_to_rgb: (yuv_pipeline, yuv_bind),
+            simulate: (simulate_pipeline, simulate_bind),
             streaks: (streak_pipeline, streak_bind),
             luma: (luma_pipeline, luma_bind),
             chroma: (chroma_pipeline, chroma_bind),
@@ -377,6 +407,15 @@ impl Compositor {
             pass.dispatch_workgroups(workgroups(fp.width, 16), workgroups(fp.height, 16), 1);
         }
         if self.rain_drops > 0 {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("rain_simulate"),
+                timestamp_writes: self.compute_timestamps(1),
+            });
+            pass.set_pipeline(&self.simulate.0);
+            pass.set_bind_group(0, &self.simulate.1, &[]);
+            pass.dispatch_workgroups(workgroups(self.rain_drops, 64), 1, 1);
+        }
+        if self.rain_drops > 0 {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("rain_streaks"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -392,8 +431,8 @@ impl Compositor {
                 timestamp_writes: self.timestamps.as_ref().map(|(set, _)| {
                     wgpu::RenderPassTimestampWrites {
                         query_set: set,
-                        beginning_of_pass_write_index: Some(2),
-                        end_of_pass_write_index: Some(3),
+                        beginning_of_pass_write_index: Some(4),
+                        end_of_pass_write_index: Some(5),
                     }
                 }),
                 occlusion_query_set: None,
@@ -406,7 +445,7 @@ impl Compositor {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("rgb_to_yuv"),
-                timestamp_writes: self.compute_timestamps(2),
+                timestamp_writes: self.compute_timestamps(3),
             });
             pass.set_pipeline(&self.luma.0);
             pass.set_bind_group(0, &self.luma.1, &[]);
@@ -515,9 +554,10 @@ impl Compositor {
                     |k: usize| ticks[2 * k + 1].saturating_sub(ticks[2 * k]) as f64 * period_s;
                 self.gpu_times.yuv_to_rgb_s += span(0);
                 if self.rain_drops > 0 {
-                    self.gpu_times.rain_streaks_s += span(1);
+                    self.gpu_times.rain_simulate_s += span(1);
+                    self.gpu_times.rain_streaks_s += span(2);
                 }
-                self.gpu_times.rgb_to_yuv_s += span(2);
+                self.gpu_times.rgb_to_yuv_s += span(3);
             }
         }
         buffer.unmap();

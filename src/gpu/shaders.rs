@@ -6,7 +6,9 @@
 pub enum Stage {
     /// Decoded planes → linear canvas.
     YuvToRgb,
-    /// Drops → streaks on the canvas.
+    /// Drops → their streaks for the frame (state, projection, light).
+    RainSimulate,
+    /// Streaks → the canvas.
     RainStreaks,
     /// Canvas → packed planes.
     RgbToYuv,
@@ -22,8 +24,9 @@ const SH: &str = include_str!("../../shaders/common/sh.wgsl");
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 4] = [
+    pub const ALL: [Stage; 5] = [
         Stage::YuvToRgb,
+        Stage::RainSimulate,
         Stage::RainStreaks,
         Stage::RgbToYuv,
         Stage::RainProbe,
@@ -33,6 +36,7 @@ impl Stage {
     pub fn name(self) -> &'static str {
         match self {
             Stage::YuvToRgb => "yuv_to_rgb",
+            Stage::RainSimulate => "rain_simulate",
             Stage::RainStreaks => "rain_streaks",
             Stage::RgbToYuv => "rgb_to_yuv",
             Stage::RainProbe => "rain_probe",
@@ -46,10 +50,11 @@ impl Stage {
                 &[TYPES, COLOR],
                 include_str!("../../shaders/yuv_to_rgb.wgsl"),
             ),
-            Stage::RainStreaks => (
+            Stage::RainSimulate => (
                 &[TYPES, RNG, DROPS, SH],
-                include_str!("../../shaders/rain_streaks.wgsl"),
+                include_str!("../../shaders/rain_simulate.wgsl"),
             ),
+            Stage::RainStreaks => (&[TYPES], include_str!("../../shaders/rain_streaks.wgsl")),
             Stage::RgbToYuv => (
                 &[TYPES, COLOR],
                 include_str!("../../shaders/rgb_to_yuv.wgsl"),

@@ -133,3 +133,18 @@ pub struct Column {
     pub drop_count: u32,
     pub _pad: [u32; 2],
 }
+
+/// WGSL `Streak`: one drop's streak for the frame (`rain_simulate` → `rain_streaks`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct Streak {
+    pub q0_px: [f32; 2],
+    pub dir: [f32; 2],
+    pub len_px: f32,
+    pub r_eff_px: f32,
+    pub alpha_scale: f32,
+    pub _pad: f32,
+    pub radiance0: [f32; 4],
+    pub radiance1: [f32; 4],
+}

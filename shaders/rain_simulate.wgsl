@@ -1,0 +1,82 @@
+// Stage rain_simulate: each drop once per frame — its closed-form state at the frame's time,
+// the streak it draws over the exposure (projected, near-clipped, widened and defocused), the
+// light it shows — written to `streaks[id]` for rain_streaks to rasterise. Evaluating this in
+// the vertex stage would repeat it for each of a quad's six vertices.
+//
+// A drop of projected radius r moving from q0 to q1 (px) during the exposure covers a pixel for
+// the fraction of the exposure its disc overlaps the pixel: Garg & Nayar's time-averaged streak
+// (alpha = τ/T). Drops thinner than a pixel are widened to r_eff and their alpha scaled by
+// (r/r_eff)², which keeps the integrated coverage; defocus widens them the same way. Streaks
+// whose brightest pixel would change by less than half a code value of 8-bit video are marked
+// invisible (len_px < 0): on CPU adapters raster work is most of the cost.
+// Colour: the drop's radiance for the view ray through each end of the streak, the dot product
+// of the frame's environment SH with the drop's transfer function rotated to the ray (PRT,
+// SPEC §3–5); the ray changes by a few degrees at most along a streak.
+// Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl.
+
+@group(0) @binding(0) var<uniform> rain: RainParams;
+@group(0) @binding(1) var<storage, read> columns: array<Column>;
+@group(0) @binding(2) var<storage, read_write> streaks: array<Streak>;
+
+const MIN_RADIUS_PX: f32 = 0.7;
+const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
+
+fn hidden() -> Streak {
+    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+}
+
+fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
+    let d = p_world - rain.camera_pos_m.xyz;
+    return vec3<f32>(dot(rain.camera_from_world_0.xyz, d), dot(rain.camera_from_world_1.xyz, d), dot(rain.camera_from_world_2.xyz, d));
+}
+
+fn radiance_at(q_px: vec2<f32>) -> vec4<f32> {
+    let d = (q_px - rain.principal_px) / rain.camera_pos_m.w;
+    let ray = rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
+    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray);
+    return vec4<f32>(max(c, vec3<f32>(0.0)), 0.0);
+}
+
+fn streak_of(id: u32) -> Streak {
+    let drop = drop_state(id);
+    let half = drop.vel_mps * (0.5 * rain.exposure_s);
+    var c0 = to_camera(drop.pos_m - half);
+    var c1 = to_camera(drop.pos_m + half);
+    let near = rain.near_clip_m;
+    if c0.z < near && c1.z < near { return hidden(); }
+    // Clip the segment to the near plane.
+    if c0.z < near { c0 = mix(c0, c1, (near - c0.z) / (c1.z - c0.z)); }
+    if c1.z < near { c1 = mix(c1, c0, (near - c1.z) / (c0.z - c1.z)); }
+    let f = rain.camera_pos_m.w;
+    let q0 = rain.principal_px + f * c0.xy / c0.z;
+    let q1 = rain.principal_px + f * c1.xy / c1.z;
+    let z = min(c0.z, c1.z);
+    let r = 0.5e-3 * drop.width_mm * f / z;
+    // Defocus: the thin lens spreads the drop over its circle of confusion (Garg & Nayar,
+    // "When does a camera see rain?"); coverage is conserved, so alpha falls as r²/r_eff².
+    let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);
+    let r_eff = max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX);
+    // A drop this close fills the view: it is a blur on the lens, not a streak.
+    if r_eff > 0.1 * rain.display_size_px.y { return hidden(); }
+    let seg = q1 - q0;
+    let len = length(seg);
+    var dir = vec2<f32>(0.0, 1.0);
+    if len > 1e-4 { dir = seg / len; }
+    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight;
+    // Peak coverage on the streak's axis: the disc's chord over the path length.
+    let peak = alpha_scale * min(1.0, 2.0 * r_eff / max(len, 1e-3));
+    if peak < MIN_PEAK_ALPHA { return hidden(); }
+    let ext = r_eff + 1.0;
+    let lo = min(q0, q1) - vec2<f32>(ext);
+    let hi = max(q0, q1) + vec2<f32>(ext);
+    if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
+        return hidden();
+    }
+    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(q0), radiance_at(q1));
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= rain.drop_count { return; }
+    streaks[id.x] = streak_of(id.x);
+}
