@@ -36,6 +36,7 @@ pub mod gpu;
 pub mod lighting;
 pub mod pipeline;
 pub mod rain;
+pub mod rng;
 pub mod scene;
 pub mod video;
 

@@ -17,23 +17,17 @@ use rayon::prelude::*;
 // ---------------------------------------------------------------------------------------------
 // Helpers
 
-/// SplitMix64: a small seeded generator (deterministic tests).
-struct Rng(u64);
+use rain_composite::rng::SplitMix64 as Rng;
 
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
+/// A uniform random direction on the sphere.
+trait RandomDir {
+    fn dir(&mut self) -> DVec3;
+}
+
+impl RandomDir for Rng {
     fn dir(&mut self) -> DVec3 {
-        let z = 2.0 * self.f64() - 1.0;
-        let phi = 2.0 * PI * self.f64();
+        let z = 2.0 * self.next_f64() - 1.0;
+        let phi = 2.0 * PI * self.next_f64();
         let s = (1.0 - z * z).sqrt();
         DVec3::new(s * phi.cos(), s * phi.sin(), z)
     }
@@ -206,7 +200,7 @@ fn sh_zonal_rotation_matches_direct_projection() {
 #[test]
 fn sh_rotation_preserves_band_energy_and_values() {
     let mut rng = Rng(11);
-    let coeffs: Vec<f64> = (0..64).map(|_| rng.f64() * 2.0 - 1.0).collect();
+    let coeffs: Vec<f64> = (0..64).map(|_| rng.next_f64() * 2.0 - 1.0).collect();
     let axis = DVec3::new(0.234, -0.642, 0.829).normalize();
     let rot = DMat3::from_axis_angle(axis, 0.423) * DMat3::from_rotation_z(1.1);
     let rotated = sh::rotate(&coeffs, rot);
@@ -303,7 +297,7 @@ fn mc_trace(rho: f64, n_max: usize, bins: usize, rays: usize, seed: u64) -> McTa
             };
             for _ in 0..chunk.min(rays - c * chunk) {
                 // Uniform point on the projected disc → hit point on the sphere.
-                let (r, phi) = (rng.f64().sqrt(), 2.0 * PI * rng.f64());
+                let (r, phi) = (rng.next_f64().sqrt(), 2.0 * PI * rng.next_f64());
                 let p = DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - r * r).max(0.0).sqrt());
                 let ci = -d_in.dot(p);
                 let (rs, rp) = mc_fresnel(1.0, rho, ci);
@@ -759,7 +753,7 @@ fn envmap_lookup_is_the_pinhole_inside_the_frame() {
         let mapper = EnvMapper::new(&cam, 4).unwrap();
         let mut rng = Rng(9);
         for _ in 0..200 {
-            let px = DVec2::new(rng.f64() * 319.0 + 0.5, rng.f64() * 179.0 + 0.5);
+            let px = DVec2::new(rng.next_f64() * 319.0 + 0.5, rng.next_f64() * 179.0 + 0.5);
             let lk = mapper.lookup(cam.ray_world(px));
             assert!(lk.inside && lk.blur == 0.0);
             assert!(

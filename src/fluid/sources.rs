@@ -46,13 +46,7 @@ impl MassLedger {
     }
 }
 
-/// SplitMix64: a small, well-mixed hash for deterministic jitter.
-pub(crate) fn splitmix64(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
+pub(crate) use crate::rng::splitmix64;
 
 /// A uniform number in [0, 1) from a hash.
 pub(crate) fn unit_from_hash(x: u64) -> f32 {

@@ -29,6 +29,8 @@
 
 use glam::DVec2;
 
+use crate::rng::SplitMix64;
+
 use crate::{Error, Result};
 
 /// Number of gust components (≤ 8 keeps the GPU loop short).
@@ -195,23 +197,6 @@ pub fn step_response_velocity_mps(v0_mps: DVec2, w_mps: DVec2, t_s: f64, tau_s: 
         return w_mps;
     }
     w_mps + (v0_mps - w_mps) * (-t_s.max(0.0) / tau_s).exp()
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny seeded generator for the gust phases.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
 }
 
 #[cfg(test)]
