@@ -28,6 +28,20 @@ pub struct CameraConfig {
     pub sensor_width_mm: f64,
 }
 
+impl CameraConfig {
+    /// The pinhole camera of this configuration for a displayed picture of `width_px`×`height_px`.
+    pub fn camera(&self, width_px: u32, height_px: u32) -> crate::scene::Camera {
+        crate::scene::Camera::new(
+            width_px,
+            height_px,
+            self.fov_deg.to_radians(),
+            self.height_m,
+            self.tilt_deg.to_radians(),
+            self.roll_deg.to_radians(),
+        )
+    }
+}
+
 impl Default for CameraConfig {
     fn default() -> Self {
         CameraConfig {

@@ -682,19 +682,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .with_context(|| {
                     format!("invalid --size '{size}': expected WxH, e.g. 1920x1080")
                 })?;
-            if !(*fps > 0.0 && fps.is_finite()) {
-                bail!("invalid --fps {fps}: expected a positive frame rate");
-            }
             let cam = &c.camera;
-            let camera = rain_composite::scene::Camera::new(
-                w,
-                h,
-                cam.fov_deg.to_radians(),
-                cam.height_m,
-                cam.tilt_deg.to_radians(),
-                cam.roll_deg.to_radians(),
-            );
-            let exposure = cam.shutter_deg / 360.0 / fps;
+            let camera = cam.camera(w, h);
+            let exposure = rain_composite::rain::physics::exposure_s(cam.shutter_deg, *fps)?;
             let setup =
                 rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
             let params = rain_composite::rain::volume::VolumeParams {

@@ -66,15 +66,7 @@ pub struct Summary {
 /// The camera looking at the displayed picture of `info`.
 pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Camera {
     let (w, h) = display_size(info);
-    let c = &config.camera;
-    Camera::new(
-        w,
-        h,
-        c.fov_deg.to_radians(),
-        c.height_m,
-        c.tilt_deg.to_radians(),
-        c.roll_deg.to_radians(),
-    )
+    config.camera.camera(w, h)
 }
 
 fn display_size(info: &VideoInfo) -> (u32, u32) {

@@ -14,6 +14,7 @@ use super::rtf::ChannelIndices;
 use crate::Result;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
+use crate::video::frame::coded_pixel;
 
 /// SH bands used on the GPU.
 pub const GPU_BANDS: usize = 4;
@@ -113,7 +114,6 @@ impl FrameLighting {
         let cam = self.mapper.camera();
         let (dw, dh) = (cam.width_px as usize, cam.height_px as usize);
         let f = &frame.format;
-        let (cw, ch) = (f.width as usize, f.height as usize);
         let (sx, sy) = f.chroma.shift();
         let rotation = self.rotation_deg.rem_euclid(360);
         let mut out = Vec::with_capacity(sw * sh);
@@ -129,13 +129,7 @@ impl FrameLighting {
                         // Sample centres spread evenly over the block.
                         let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
                         let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
-                        let (cx, cy) = match rotation {
-                            90 => (cw - 1 - y, x),
-                            180 => (cw - 1 - x, ch - 1 - y),
-                            270 => (y, ch - 1 - x),
-                            _ => (x, y),
-                        };
-                        let (cx, cy) = (cx.min(cw - 1) as u32, cy.min(ch - 1) as u32);
+                        let (cx, cy) = coded_pixel(rotation, f.width, f.height, x as u32, y as u32);
                         let code = [
                             frame.sample(0, cx, cy) as f64,
                             frame.sample(1, cx >> sx, cy >> sy) as f64,

@@ -740,7 +740,7 @@ pub const DEFAULT_SENSOR_WIDTH_MM: f64 = 36.0;
 pub fn exposure_s(shutter_angle_deg: f64, fps: f64) -> Result<f64> {
     if !(shutter_angle_deg.is_finite() && shutter_angle_deg > 0.0 && shutter_angle_deg <= 360.0) {
         return Err(param_error(
-            "--shutter-angle",
+            "--shutter",
             shutter_angle_deg,
             "degrees in (0, 360]",
         ));

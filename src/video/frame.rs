@@ -86,6 +86,18 @@ pub struct YuvFrame {
     pub index: u64,
 }
 
+/// The coded pixel shown at displayed pixel (x, y) of a picture of coded size `coded_w`×`coded_h`
+/// with display rotation `rotation_deg` (counter-clockwise, as `VideoInfo::rotation_deg`).
+/// The GPU twin is `rain::emitter::coded_from_display`.
+pub fn coded_pixel(rotation_deg: i32, coded_w: u32, coded_h: u32, x: u32, y: u32) -> (u32, u32) {
+    match rotation_deg.rem_euclid(360) {
+        90 => (coded_w - 1 - y, x),
+        180 => (coded_w - 1 - x, coded_h - 1 - y),
+        270 => (y, coded_h - 1 - x),
+        _ => (x, y),
+    }
+}
+
 impl YuvFrame {
     /// A picture of one flat colour given as code values `(y, cb, cr)`, tightly packed.
     pub fn filled(format: FrameFormat, color: ColorParams, yuv: [u16; 3]) -> YuvFrame {

@@ -23,12 +23,7 @@ pub fn to_rgb16(frame: &YuvFrame, rotation_deg: i32) -> (u32, u32, Vec<u16>) {
     for y in 0..h {
         for x in 0..w {
             // Display (x, y) ← coded (cx, cy); see rain::emitter::coded_from_display.
-            let (cx, cy) = match rotation {
-                90 => (f.width - 1 - y, x),
-                180 => (f.width - 1 - x, f.height - 1 - y),
-                270 => (y, f.height - 1 - x),
-                _ => (x, y),
-            };
+            let (cx, cy) = super::frame::coded_pixel(rotation, f.width, f.height, x, y);
             let code = [
                 frame.sample(0, cx, cy) as f64,
                 frame.sample(1, cx >> sx, cy >> sy) as f64,
