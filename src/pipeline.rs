@@ -382,6 +382,7 @@ impl Lighting {
             None => FrameLight {
                 env: EnvironmentSh::zeros(4),
                 haze_radiance: [0.0; 3],
+                lights: Vec::new(),
             },
         };
         rain.params_at(t_s, &light, self.drop_zonal)

@@ -80,6 +80,7 @@ fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
         &FrameLight {
             env,
             haze_radiance: [1.0; 3],
+            lights: Vec::new(),
         },
         zonal,
     )

@@ -50,6 +50,8 @@ pub struct FrameLight {
     pub env: EnvironmentSh,
     /// Mean radiance the drops scatter toward the camera (the haze's in-scatter), linear RGB.
     pub haze_radiance: [f32; 3],
+    /// Compact sources lit directly through the RTF table (empty: the SH carries all light).
+    pub lights: Vec<super::sources::LightSource>,
 }
 
 /// Turns frames into lighting, keeping the short history the smoothing needs.
@@ -104,7 +106,11 @@ impl FrameLighting {
         let env = self.smoother.update(&raw, t_s);
         let forward = self.mapper.camera().world_from_camera * DVec3::Z;
         let haze_radiance = prt_colour(&env, &self.rtf, forward).map(|v| v.max(0.0) as f32);
-        FrameLight { env, haze_radiance }
+        FrameLight {
+            env,
+            haze_radiance,
+            lights: Vec::new(),
+        }
     }
 
     /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation.

@@ -12,6 +12,7 @@
 //! - [`envmap`]: the frame spread over the sphere around the camera, projected on SH.
 //! - [`rtf`]: the raindrop's radiance-transfer function (thesis Algorithm 1) and its zonal SH.
 //! - [`prt`]: the drop colour for a view ray, and the brute-force reference.
+//! - [`sources`]: compact light sources (direct term beside the SH).
 //! - [`inspect`]: JSON reports and PNG plots for the CLI.
 //!
 //! Angles: θ between the environment lookup direction ω and the view ray v (eye → drop),
@@ -24,8 +25,10 @@ pub mod inspect;
 pub mod prt;
 pub mod rtf;
 pub mod sh;
+pub mod sources;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, FrameLighting, LightConfig};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
+pub use sources::LightSource;
