@@ -120,6 +120,50 @@ pub struct RenderConfig {
     pub light: crate::lighting::LightConfig,
 }
 
+/// Largest configuration file read, bytes: presets are a few hundred bytes, and a bound keeps a
+/// wrong path (a device, a huge file) from filling the memory.
+pub const MAX_CONFIG_BYTES: u64 = 4 << 20;
+
+impl RenderConfig {
+    /// Reads a JSON configuration (any field may be left out). Only regular files of at most
+    /// [`MAX_CONFIG_BYTES`] are read, so a FIFO or a device such as `/dev/zero` is refused at
+    /// once instead of blocking or growing without bound.
+    pub fn from_json_file(path: &std::path::Path) -> Result<RenderConfig> {
+        use std::io::Read;
+        let fail = |reason: String| Error::Config {
+            path: path.display().to_string(),
+            reason,
+        };
+        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+        if !meta.is_file() {
+            return Err(fail("not a regular file".into()));
+        }
+        if meta.len() > MAX_CONFIG_BYTES {
+            return Err(fail(format!(
+                "{} bytes; a configuration is at most {} MiB",
+                meta.len(),
+                MAX_CONFIG_BYTES >> 20
+            )));
+        }
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| fail(e.to_string()))?;
+        if text.len() as u64 > MAX_CONFIG_BYTES {
+            return Err(fail(format!(
+                "more than {} MiB; a configuration is at most that",
+                MAX_CONFIG_BYTES >> 20
+            )));
+        }
+        Self::from_json(&text).map_err(|e| fail(e.to_string()))
+    }
+
+    /// Parses a JSON configuration (any field may be left out; unknown keys are errors).
+    pub fn from_json(text: &str) -> std::result::Result<RenderConfig, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+}
+
 fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
     if ok && value.is_finite() {
         Ok(())
@@ -240,20 +284,20 @@ impl RenderConfig {
         check(
             "--max-drops",
             r.max_drops as f64,
-            r.max_drops <= 20_000_000,
-            "at most 20000000",
+            (1..=20_000_000).contains(&r.max_drops),
+            "drops from 1 to 20000000 (for no rain, use --rain 0)",
         )?;
         let l = &self.light;
         for n in l.refractive_index {
             check(
-                "--refractive-index",
+                "light.refractive_index",
                 n,
                 (1.0..=3.0).contains(&n),
                 "an index in [1, 3]",
             )?;
         }
         check(
-            "--n-max",
+            "light.n_max",
             l.n_max as f64,
             (1..=64).contains(&l.n_max),
             "an order from 1 to 64",

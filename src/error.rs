@@ -24,6 +24,14 @@ pub enum Error {
     /// The output path already exists and `-y` was not given.
     #[error("output '{}' already exists (use -y to overwrite)", .0.display())]
     OutputExists(PathBuf),
+    /// The output names the input file: writing it would destroy the input.
+    #[error("output '{output}' is the input '{input}': write to another file")]
+    OutputIsInput {
+        /// The input as the user gave it.
+        input: String,
+        /// The output as the user gave it.
+        output: String,
+    },
     /// The output cannot be created or written.
     #[error("cannot write output '{path}': {reason}")]
     OutputWrite {
@@ -41,6 +49,14 @@ pub enum Error {
         value: String,
         /// What is accepted.
         expected: String,
+    },
+    /// A configuration file cannot be read or parsed.
+    #[error("invalid --config '{path}': {reason}")]
+    Config {
+        /// The path as the user gave it.
+        path: String,
+        /// What is wrong, with the line and column for a parse error.
+        reason: String,
     },
     /// The input uses a pixel format, codec or feature we cannot handle.
     #[error("unsupported: {0}")]
@@ -60,6 +76,9 @@ pub enum Error {
     /// A seek or frame request outside the clip.
     #[error("{0}")]
     OutOfRange(String),
+    /// The encoding thread ended early; the job reports the encoder's own error instead.
+    #[error("the encoder stopped")]
+    EncoderStopped,
     /// The job was interrupted (Ctrl-C).
     #[error("interrupted")]
     Interrupted,

@@ -19,7 +19,8 @@ mod bench;
 #[command(
     name = "rain-composite",
     version,
-    args_conflicts_with_subcommands = true
+    args_conflicts_with_subcommands = true,
+    allow_negative_numbers = true
 )]
 #[command(
     after_help = "Examples:\n  rain-composite in.mp4 -o out.mp4 --rain heavy --wind 3,0\n  rain-composite preview in.mp4 --at 2.5s -o frame.png\n  ffmpeg -i in.mp4 -f yuv4mpegpipe - | rain-composite - -o - | ffplay -"
@@ -36,6 +37,7 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render one frame exactly as the full render would, to a PNG.
+    #[command(allow_negative_numbers = true)]
     Preview(PreviewArgs),
     /// Describe the streams of a file: colour tags, rotation, frame rate, what would be copied.
     Probe(ProbeArgs),
@@ -43,6 +45,7 @@ enum Command {
     #[command(subcommand)]
     Inspect(InspectCommand),
     /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
+    #[command(allow_negative_numbers = true)]
     Bench(BenchArgs),
     /// List the GPU adapters, best first.
     Adapters {
@@ -90,6 +93,7 @@ enum InspectCommand {
         plot: Option<PathBuf>,
     },
     /// The SH coefficients of an image used as a frame under the camera model.
+    #[command(allow_negative_numbers = true)]
     Sh {
         /// An image (PNG, sRGB) standing for a video frame.
         image: PathBuf,
@@ -111,6 +115,7 @@ enum InspectCommand {
         plot: Option<PathBuf>,
     },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
+    #[command(allow_negative_numbers = true)]
     Drops {
         /// Picture size the camera sees, WxH.
         #[arg(long, default_value = "1920x1080")]
@@ -272,9 +277,9 @@ struct PreviewArgs {
     /// Zero-based frame index.
     #[arg(long)]
     frame: Option<u64>,
-    /// Output PNG.
+    /// Output PNG, or - for stdout.
     #[arg(short, long)]
-    output: PathBuf,
+    output: String,
     /// Overwrite the output if it exists.
     #[arg(short = 'y', long)]
     overwrite: bool,
@@ -369,13 +374,20 @@ enum AudioArg {
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
+/// Our messages at the chosen level; other crates' (wgpu, naga) only at `-vv`, and then only
+/// their warnings and errors.
 struct StderrLogger {
     level: log::LevelFilter,
+    third_party: bool,
 }
 
 impl log::Log for StderrLogger {
     fn enabled(&self, m: &log::Metadata) -> bool {
-        m.level() <= self.level && m.target().starts_with("rain_composite")
+        if m.target().starts_with("rain_composite") {
+            m.level() <= self.level
+        } else {
+            self.third_party && m.level() <= log::Level::Warn
+        }
     }
     fn log(&self, r: &log::Record) {
         if self.enabled(r.metadata()) {
@@ -420,12 +432,7 @@ fn parse_time_s(s: &str) -> anyhow::Result<f64> {
 
 fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     let mut c = match &look.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read --config '{}'", path.display()))?;
-            serde_json::from_str::<RenderConfig>(&text)
-                .with_context(|| format!("invalid --config '{}'", path.display()))?
-        }
+        Some(path) => RenderConfig::from_json_file(path)?,
         None => RenderConfig::default(),
     };
     if let Some(r) = &look.rain {
@@ -563,11 +570,18 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
-    if args.output.exists() && !args.overwrite {
-        bail!(
-            "output '{}' already exists (use -y to overwrite)",
-            args.output.display()
-        );
+    let to_stdout = args.output == "-";
+    if !to_stdout {
+        let is_png = std::path::Path::new(&args.output)
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !is_png {
+            bail!(
+                "output '{}': preview writes PNG, give a name ending in .png (or - for stdout)",
+                args.output
+            );
+        }
+        video::check_output(&args.output, &[&args.input], args.overwrite)?;
     }
     let at = match (&args.at, args.frame) {
         (Some(t), _) => FrameSelector::At(parse_time_s(t)?),
@@ -575,13 +589,34 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
         (None, None) => bail!("give --at TIME or --frame N"),
     };
     let render = render_config(&args.look)?;
-    let (frame, info) = pipeline::preview(&args.input, at, &render, &adapter(&args.gpu))?;
-    // Write beside, then rename: never a half-written PNG.
-    let tmp = args.output.with_extension("png.tmp");
+    let (frame, info) = pipeline::preview(
+        &args.input,
+        at,
+        &render,
+        &adapter(&args.gpu),
+        &INTERRUPTED,
+    )?;
     let bits = if args.bits == Bits::Sixteen { 16 } else { 8 };
-    video::still::write_png(&frame, info.rotation_deg, bits, &tmp)?;
-    std::fs::rename(&tmp, &args.output)
-        .with_context(|| format!("cannot write output '{}'", args.output.display()))?;
+    let png = video::still::encode_png(&frame, info.rotation_deg, bits)?;
+    if to_stdout {
+        use std::io::Write;
+        let mut stdout = std::io::stdout().lock();
+        return stdout
+            .write_all(&png)
+            .and_then(|()| stdout.flush())
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::BrokenPipe => {
+                    anyhow::anyhow!("stdout was closed before the PNG was complete")
+                }
+                _ => anyhow::anyhow!("cannot write the PNG to stdout: {e}"),
+            });
+    }
+    // Written beside under a hidden name, then renamed: never a half-written PNG, and nothing
+    // left behind when writing fails.
+    let tmp = video::TempFile::beside(std::path::Path::new(&args.output));
+    std::fs::write(tmp.path(), &png)
+        .with_context(|| format!("cannot write output '{}'", args.output))?;
+    tmp.publish()?;
     Ok(())
 }
 
@@ -739,6 +774,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // Mesa's device-select Vulkan layer connects to a Wayland display to order the GPUs,
+        // and libwayland prints "error: XDG_RUNTIME_DIR is invalid or not set" on stderr when
+        // there is none (a server, CI, ssh), which reads as a failure. We rank adapters
+        // ourselves, so the layer has nothing to add.
+        // SAFETY: no other thread exists yet; nothing reads the environment concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     let cli = Cli::parse();
     let level = match (cli.log.quiet, cli.log.verbose) {
         (true, _) => log::LevelFilter::Error,
@@ -746,8 +789,12 @@ fn main() -> ExitCode {
         (false, 1) => log::LevelFilter::Info,
         _ => log::LevelFilter::Debug,
     };
-    if log::set_logger(Box::leak(Box::new(StderrLogger { level }))).is_ok() {
+    let third_party = !cli.log.quiet && cli.log.verbose >= 2;
+    if log::set_logger(Box::leak(Box::new(StderrLogger { level, third_party }))).is_ok() {
         log::set_max_level(level);
+    }
+    if third_party {
+        video::set_ffmpeg_log_level(ffmpeg_next::util::log::Level::Warning);
     }
     let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     match run(cli) {

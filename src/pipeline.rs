@@ -90,13 +90,38 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> f64 {
     config.camera.shutter_deg / 360.0 * den as f64 / num as f64
 }
 
-/// The rain of a shot.
-pub fn rain_for(info: &VideoInfo, config: &RenderConfig) -> Result<RainSetup> {
+/// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
+/// limit is lowered to it, with a warning naming the limit (the plan then shrinks the far
+/// distance and weights drops exactly as for any other budget).
+pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Result<RainSetup> {
+    let exposure = exposure_s(info, config);
+    if exposure > 1.0 {
+        let fps = config.camera.shutter_deg / 360.0 / exposure;
+        return Err(Error::Parameter {
+            name: "--shutter",
+            value: config.camera.shutter_deg.to_string(),
+            expected: format!(
+                "an exposure of at most 1 s: this clip runs at {fps:.3} fps, so at most {:.1} degrees",
+                360.0 * fps
+            ),
+        });
+    }
+    let cap = crate::gpu::max_drops(ctx);
+    let mut rain = config.rain;
+    if rain.max_drops > cap {
+        log::warn!(
+            "--max-drops {} is more than this GPU holds in one frame ({cap} drops: its largest \
+             storage buffer is {} MiB); using {cap}",
+            rain.max_drops,
+            ctx.device.limits().max_storage_buffer_binding_size >> 20
+        );
+        rain.max_drops = cap;
+    }
     emitter::build(
         &camera_for(info, config),
         &config.camera,
-        &config.rain,
-        exposure_s(info, config),
+        &rain,
+        exposure,
         info.rotation_deg,
         (info.format.width, info.format.height),
     )
@@ -138,12 +163,14 @@ pub fn render(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Summary> {
     job.render.validate()?;
+    job.encode.validate()?;
+    crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
     let started = Instant::now();
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &job.render)?;
+    let rain = rain_for(&info, &job.render, &ctx)?;
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
     let mut lighting = Lighting::new(&info, &job.render, &rain)?;
@@ -208,10 +235,7 @@ pub fn render(
         let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
             out_tx
                 .send(ToEncode::Frame(f))
-                .map_err(|_| Error::OutputWrite {
-                    path: job.output.clone(),
-                    reason: "the encoder stopped".into(),
-                })?;
+                .map_err(|_| Error::EncoderStopped)?;
             *written += 1;
             progress(Progress {
                 frames_done: *written,
@@ -255,9 +279,18 @@ pub fn render(
         // Closing the channel without finishing tells the encoder to give up; its Sink is
         // dropped unfinished, which removes the temporary file.
         drop(out_tx);
-        let _ = encoder.join();
+        let encoded = encoder.join();
         let _ = decoder.join();
-        return Err(gpu_result.err().unwrap_or(Error::Interrupted));
+        let err = gpu_result.err().unwrap_or(Error::Interrupted);
+        // When the encoder stopped first (a full disk, a closed pipe), its error is the cause.
+        return Err(match (err, encoded) {
+            (Error::EncoderStopped, Ok(Err(cause))) => cause,
+            (Error::EncoderStopped, _) => Error::OutputWrite {
+                path: job.output.clone(),
+                reason: "the encoder stopped".into(),
+            },
+            (err, _) => err,
+        });
     }
     // If the encoder already stopped, its own error comes out of `join` below.
     let _ = out_tx.send(ToEncode::Finish);
@@ -298,8 +331,16 @@ pub fn preview(
     at: FrameSelector,
     render: &RenderConfig,
     adapter: &AdapterRequest,
+    cancel: &AtomicBool,
 ) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
+    let check = || {
+        if cancel.load(Ordering::Relaxed) {
+            Err(Error::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let mut source = Source::open(input)?;
     let info = source.info().clone();
     let target = match at {
@@ -307,13 +348,14 @@ pub fn preview(
         FrameSelector::Index(n) => source.frame_at_index(n)?,
     };
     let ctx = Arc::new(GpuContext::new(adapter)?);
-    let rain = rain_for(&info, render)?;
+    let rain = rain_for(&info, render, &ctx)?;
     let mut lighting = Lighting::new(&info, render, &rain)?;
     let t_target = frame_time_s(&info, &target);
     if let Some(window) = lighting.window_secs() {
         let from = (t_target - window).max(0.0);
         let mut frame = source.seek_to_time(from)?;
         while frame.pts < target.pts {
+            check()?;
             let t = frame_time_s(&info, &frame);
             if t > t_target - window {
                 lighting.params(&rain, &frame, t);
@@ -329,9 +371,11 @@ pub fn preview(
             };
         }
     }
+    check()?;
     let params = lighting.params(&rain, &target, t_target);
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
     let out = compositor.render_one(&target, &params)?;
+    check()?;
     Ok((out, info))
 }
 

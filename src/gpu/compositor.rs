@@ -72,6 +72,20 @@ pub struct Compositor {
     gpu_times: GpuStageTimes,
 }
 
+/// Drops per `rain_simulate` workgroup (`@workgroup_size` in `shaders/rain_simulate.wgsl`).
+const SIMULATE_WORKGROUP: u32 = 64;
+
+/// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
+/// binding (and one buffer), and the simulation's dispatch one grid dimension.
+pub fn max_drops(ctx: &GpuContext) -> u32 {
+    let limits = ctx.device.limits();
+    let bytes = u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+    let by_memory = bytes / std::mem::size_of::<Streak>() as u64;
+    let by_dispatch =
+        u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SIMULATE_WORKGROUP);
+    by_memory.min(by_dispatch).min(u64::from(u32::MAX)) as u32
+}
+
 fn workgroups(n: u32, size: u32) -> u32 {
     n.div_ceil(size).max(1)
 }
@@ -413,7 +427,7 @@ impl Compositor {
             });
             pass.set_pipeline(&self.simulate.0);
             pass.set_bind_group(0, &self.simulate.1, &[]);
-            pass.dispatch_workgroups(workgroups(self.rain_drops, 64), 1, 1);
+            pass.dispatch_workgroups(workgroups(self.rain_drops, SIMULATE_WORKGROUP), 1, 1);
         }
         if self.rain_drops > 0 {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -39,8 +39,33 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
 }
 
-fn instance() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+/// An instance for `backends`, narrowed further by `WGPU_BACKEND` when the user sets it.
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    desc.backends &= backends;
+    wgpu::Instance::new(desc)
+}
+
+/// Every adapter with compute shaders, best first. The primary backends (Vulkan, Metal, DX12)
+/// are asked first; GL is probed only when they offer none, because initialising it on a
+/// headless Linux machine prints EGL/Wayland complaints (`XDG_RUNTIME_DIR is invalid`) on
+/// stderr that a user reads as a failure.
+fn compute_adapters() -> Vec<wgpu::Adapter> {
+    let usable = |backends| {
+        let mut adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
+        adapters.retain(|a| {
+            a.get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        });
+        adapters
+    };
+    let mut adapters = usable(wgpu::Backends::PRIMARY);
+    if adapters.is_empty() {
+        adapters = usable(wgpu::Backends::SECONDARY);
+    }
+    adapters.sort_by_key(|a| rank(&a.get_info()));
+    adapters
 }
 
 fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
@@ -69,32 +94,27 @@ fn summary(info: &wgpu::AdapterInfo) -> AdapterSummary {
     }
 }
 
-/// Every adapter wgpu can see, best first.
+/// The adapters a job can use, best first (GL ones only where no primary backend has one).
 pub fn list_adapters() -> Vec<AdapterSummary> {
-    let mut adapters = pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
-    adapters.sort_by_key(|a| rank(&a.get_info()));
-    adapters.iter().map(|a| summary(&a.get_info())).collect()
+    compute_adapters()
+        .iter()
+        .map(|a| summary(&a.get_info()))
+        .collect()
 }
 
 impl GpuContext {
     /// Picks an adapter per `request` and opens a device on it.
     pub fn new(request: &AdapterRequest) -> Result<GpuContext> {
-        let instance = instance();
-        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let mut adapters = compute_adapters();
         adapters.retain(|a| {
             let info = a.get_info();
-            let compute = a
-                .get_downlevel_capabilities()
-                .flags
-                .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS);
             let name_ok = request
                 .name
                 .as_ref()
                 .is_none_or(|n| info.name.to_lowercase().contains(&n.to_lowercase()));
             let cpu_ok = !request.cpu_only || info.device_type == wgpu::DeviceType::Cpu;
-            compute && name_ok && cpu_ok
+            name_ok && cpu_ok
         });
-        adapters.sort_by_key(|a| rank(&a.get_info()));
         let Some(adapter) = adapters.into_iter().next() else {
             let what = match (&request.name, request.cpu_only) {
                 (Some(n), _) => format!("no adapter named like '{n}' (see `rain-composite adapters`)"),

@@ -5,5 +5,5 @@ pub mod probe;
 pub mod shaders;
 pub mod types;
 
-pub use compositor::{Compositor, GpuStageTimes};
+pub use compositor::{Compositor, GpuStageTimes, max_drops};
 pub use context::{AdapterRequest, AdapterSummary, GpuContext, list_adapters};

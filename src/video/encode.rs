@@ -17,6 +17,7 @@ use super::audio::AacTranscoder;
 use super::decode::{CopiedPacket, init};
 use super::ffi;
 use super::info::{StreamAction, StreamKind, VideoInfo};
+use super::output_path::{check_output, temp_path};
 use super::pixfmt::{self, Converter};
 use super::{Chroma, FrameFormat, YuvFrame};
 use crate::{Error, Result};
@@ -84,6 +85,42 @@ pub struct EncodeOptions {
     pub audio: AudioMode,
     /// Replace an existing output.
     pub overwrite: bool,
+}
+
+/// The speed presets libx264 and libx265 share, fastest first.
+pub const X26X_PRESETS: [&str; 10] = [
+    "ultrafast",
+    "superfast",
+    "veryfast",
+    "faster",
+    "fast",
+    "medium",
+    "slow",
+    "slower",
+    "veryslow",
+    "placebo",
+];
+
+impl EncodeOptions {
+    /// Checks the options before any work is done (the encoders' own messages for a bad preset
+    /// or CRF name neither the option nor the choices).
+    pub fn validate(&self) -> Result<()> {
+        if !X26X_PRESETS.contains(&self.preset.as_str()) {
+            return Err(Error::Parameter {
+                name: "--preset",
+                value: format!("'{}'", self.preset),
+                expected: format!("one of {}", X26X_PRESETS.join(", ")),
+            });
+        }
+        if self.crf > 51 {
+            return Err(Error::Parameter {
+                name: "--crf",
+                value: self.crf.to_string(),
+                expected: "0 to 51".into(),
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for EncodeOptions {
@@ -167,14 +204,6 @@ pub fn plan_streams(
         .collect()
 }
 
-/// Refuses an existing output unless `overwrite`, before any work is done. `"-"` is stdout.
-pub fn check_output(output: &str, overwrite: bool) -> Result<()> {
-    if output != "-" && !overwrite && Path::new(output).exists() {
-        return Err(Error::OutputExists(PathBuf::from(output)));
-    }
-    Ok(())
-}
-
 /// Where a copied or transcoded input stream goes.
 enum Route {
     Copy {
@@ -220,7 +249,8 @@ impl Sink {
     /// header into a temporary file beside it.
     pub fn create(output: &str, info: &VideoInfo, opts: &EncodeOptions) -> Result<Sink> {
         init();
-        check_output(output, opts.overwrite)?;
+        opts.validate()?;
+        check_output(output, &[], opts.overwrite)?;
         let ofmt = output_format(output, opts.container.as_deref())?;
         let muxer = ofmt.name().to_owned();
         let plan = plan_streams(info, &ofmt, opts);
@@ -447,7 +477,10 @@ impl Sink {
             path: self.output.clone(),
             reason: format!("finishing the file: {e}"),
         })?;
-        ffi::flush_io(octx);
+        ffi::flush_io(octx).map_err(|e| Error::OutputWrite {
+            path: self.output.clone(),
+            reason: io_reason(&self.output, e),
+        })?;
         // Close the file before renaming it.
         drop(self.octx.take());
         if let Some(temp) = &self.temp {
@@ -477,7 +510,7 @@ impl Sink {
                 .write_interleaved(octx)
                 .map_err(|e| Error::OutputWrite {
                     path: self.output.clone(),
-                    reason: format!("writing video: {e}"),
+                    reason: format!("writing video: {}", io_reason(&self.output, e)),
                 })?;
         }
     }
@@ -516,24 +549,19 @@ impl Drop for TempGuard {
     }
 }
 
-/// `.name.rain-<pid>-<n>.ext` in the output's directory: hidden, on the same file system (so
-/// the final rename is atomic), keeping the extension.
-fn temp_path(output: &Path) -> PathBuf {
-    use std::sync::atomic::{AtomicU32, Ordering};
-    static COUNTER: AtomicU32 = AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let stem = output
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "output".into());
-    let ext = output
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    let name = format!(".{stem}.rain-{}-{n}{ext}", std::process::id());
-    match output.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir.join(name),
-        _ => PathBuf::from(name),
+/// A write error as a user reads it: a closed stdout is named as such.
+fn io_reason(output: &str, e: ff::Error) -> String {
+    match e {
+        ff::Error::Other { errno } if errno == ff::error::EPIPE && output == "-" => {
+            "stdout was closed before the video was complete".into()
+        }
+        ff::Error::Other { errno } if errno == ff::error::EPIPE => {
+            "the reader closed the pipe before the video was complete".into()
+        }
+        ff::Error::Other { errno } if errno == ff::error::ENOSPC => {
+            "no space left on the device".into()
+        }
+        e => e.to_string(),
     }
 }
 

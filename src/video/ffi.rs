@@ -217,15 +217,22 @@ pub(crate) fn probe_content(head: &[u8]) -> Option<(String, i32)> {
     Some((name, score))
 }
 
-/// Flushes the output's I/O buffer (a pipe is not flushed by the trailer alone).
-pub(crate) fn flush_io(octx: &mut ff::format::context::Output) {
+/// Flushes the output's I/O buffer (a pipe is not flushed by the trailer alone) and returns the
+/// I/O layer's sticky error: FFmpeg's muxers ignore failed writes (a full disk, a closed pipe)
+/// and record them in `AVIOContext::error` instead.
+pub(crate) fn flush_io(octx: &mut ff::format::context::Output) -> Result<(), ff::Error> {
     // SAFETY: the output context is open; `pb` is either null (no file) or a valid AVIOContext.
     unsafe {
         let pb = (*octx.as_mut_ptr()).pb;
         if !pb.is_null() {
             ffi::avio_flush(pb);
+            let err = (*pb).error;
+            if err < 0 {
+                return Err(ff::Error::from(err));
+            }
         }
     }
+    Ok(())
 }
 
 /// Whether the demuxer marked a packet to be decoded but not shown (`AV_PKT_FLAG_DISCARD`, e.g.
@@ -233,6 +240,16 @@ pub(crate) fn flush_io(octx: &mut ff::format::context::Output) {
 pub(crate) fn packet_discarded(packet: &ff::Packet) -> bool {
     // SAFETY: the packet wraps a valid AVPacket; `flags` is a plain field.
     unsafe { (*packet.as_ptr()).flags & ffi::AV_PKT_FLAG_DISCARD != 0 }
+}
+
+/// Whether the input's container allows timestamp discontinuities (`AVFMT_TS_DISCONT`: MPEG-TS
+/// and other broadcast streams, where joined recordings restart their clocks).
+pub(crate) fn input_allows_discontinuities(ictx: &ff::format::context::Input) -> bool {
+    // SAFETY: the input context is open, so `iformat` points at its demuxer's static description.
+    unsafe {
+        let iformat = (*ictx.as_ptr()).iformat;
+        !iformat.is_null() && (*iformat).flags & ffi::AVFMT_TS_DISCONT != 0
+    }
 }
 
 /// Whether the input's I/O layer has hit the end of the file (a demuxer error there means the

@@ -11,6 +11,7 @@ pub mod encode;
 mod ffi;
 pub mod frame;
 pub mod info;
+pub mod output_path;
 pub mod pixfmt;
 pub mod probe;
 pub mod still;
@@ -18,8 +19,9 @@ pub mod still;
 pub use color::{ColorParams, Matrix, Transfer};
 pub use decode::{CopiedPacket, Source, SourceItem, init, set_ffmpeg_log_level};
 pub use encode::{
-    AudioMode, EncodeOptions, Sink, VideoCodec, check_output, output_format, plan_streams,
+    AudioMode, EncodeOptions, Sink, VideoCodec, output_format, plan_streams,
 };
+pub use output_path::{TempFile, check_output, same_file};
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
 pub use info::{ColorTags, StreamAction, StreamInfo, StreamKind, VideoInfo};
 pub use pixfmt::RGB_SOURCE_COLOR;

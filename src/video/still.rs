@@ -44,18 +44,16 @@ pub fn to_rgb16(frame: &YuvFrame, rotation_deg: i32) -> (u32, u32, Vec<u16>) {
     (w, h, out)
 }
 
-/// Writes `frame` as an 8- or 16-bit PNG at `path`.
-pub fn write_png(frame: &YuvFrame, rotation_deg: i32, bits: u8, path: &Path) -> Result<()> {
+/// `frame` encoded as an 8- or 16-bit PNG, in display orientation.
+pub fn encode_png(frame: &YuvFrame, rotation_deg: i32, bits: u8) -> Result<Vec<u8>> {
     let (w, h, rgb) = to_rgb16(frame, rotation_deg);
-    let fail = |e: image::ImageError| Error::OutputWrite {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    };
+    let mut png = std::io::Cursor::new(Vec::new());
+    let fail = |e: image::ImageError| Error::Unsupported(format!("encoding the PNG: {e}"));
     if bits == 16 {
         let img = image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(w, h, rgb)
             .ok_or_else(|| Error::Unsupported("picture size".into()))?;
-        img.save_with_format(path, image::ImageFormat::Png)
-            .map_err(fail)
+        img.write_to(&mut png, image::ImageFormat::Png)
+            .map_err(fail)?;
     } else {
         let bytes: Vec<u8> = rgb
             .iter()
@@ -63,7 +61,17 @@ pub fn write_png(frame: &YuvFrame, rotation_deg: i32, bits: u8, path: &Path) -> 
             .collect();
         let img = image::RgbImage::from_raw(w, h, bytes)
             .ok_or_else(|| Error::Unsupported("picture size".into()))?;
-        img.save_with_format(path, image::ImageFormat::Png)
-            .map_err(fail)
+        img.write_to(&mut png, image::ImageFormat::Png)
+            .map_err(fail)?;
     }
+    Ok(png.into_inner())
+}
+
+/// Writes `frame` as an 8- or 16-bit PNG at `path`.
+pub fn write_png(frame: &YuvFrame, rotation_deg: i32, bits: u8, path: &Path) -> Result<()> {
+    let png = encode_png(frame, rotation_deg, bits)?;
+    std::fs::write(path, png).map_err(|e| Error::OutputWrite {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })
 }

@@ -92,11 +92,28 @@ pub struct Source {
     /// Ticks of one frame at the nominal rate (for frames without a timestamp).
     frame_ticks: i64,
     bad_packets_in_a_row: u32,
+    /// Timestamp continuity across joined segments, per stream (the video's included).
+    clocks: std::collections::HashMap<usize, StreamClock>,
+    /// The container may restart or jump its clocks (MPEG-TS).
+    discontinuous: bool,
     /// Decoding started from a seek, not the first frame (frame counts are partial).
     sought: bool,
     warned_resize: bool,
+    warned_interlaced: bool,
     info: Option<VideoInfo>,
 }
+
+/// One stream's timestamp continuity: the shift applied since the last discontinuity and the
+/// latest timestamp handed out.
+#[derive(Debug, Clone, Copy, Default)]
+struct StreamClock {
+    offset: i64,
+    last: Option<i64>,
+}
+
+/// A forward leap in a discontinuous container's clock treated as a new segment, seconds
+/// (ffmpeg's `-dts_delta_threshold` default).
+const DISCONTINUITY_LEAP_S: f64 = 10.0;
 
 /// Brings FFmpeg up once and keeps its own logging quiet (our errors and warnings carry its
 /// messages); [`set_ffmpeg_log_level`] raises it for debugging.
@@ -165,10 +182,14 @@ impl Source {
             last_pts: None,
             frame_ticks,
             bad_packets_in_a_row: 0,
+            clocks: std::collections::HashMap::new(),
+            discontinuous: false,
             sought: false,
             warned_resize: false,
+            warned_interlaced: false,
             info: None,
         };
+        source.discontinuous = super::ffi::input_allows_discontinuities(&source.input);
         let vfr_by_scan = source.read_ahead()?;
         while !source
             .ready
@@ -302,12 +323,21 @@ impl Source {
             Some(packet) if packet.stream() == self.video => {
                 self.send_video(&packet)?;
             }
-            Some(packet) => {
+            Some(mut packet) => {
                 let time_base = self
                     .input
                     .stream(packet.stream())
                     .map(|s| s.time_base())
                     .unwrap_or(self.tb);
+                if let Some(dts) = packet.dts().or(packet.pts()) {
+                    let duration = packet.duration().max(1);
+                    let shifted = self.continuous(packet.stream(), dts, duration, time_base);
+                    let offset = shifted - dts;
+                    if offset != 0 {
+                        packet.set_dts(packet.dts().map(|t| t + offset));
+                        packet.set_pts(packet.pts().map(|t| t + offset));
+                    }
+                }
                 self.ready
                     .push_back(SourceItem::Packet(CopiedPacket { packet, time_base }));
             }
@@ -401,6 +431,14 @@ impl Source {
                 self.path
             );
         }
+        if self.raw.is_interlaced() && !self.warned_interlaced {
+            log::warn!(
+                "'{}' is interlaced: the rain is drawn on whole frames and the output is marked \
+                 progressive (deinterlace first, e.g. with ffmpeg's bwdif, for moving shots)",
+                self.path
+            );
+            self.warned_interlaced = true;
+        }
         let (w, h, pixel) = (self.raw.width(), self.raw.height(), self.raw.format());
         if self.layout.is_none() {
             self.layout = Some(self.decide_layout()?);
@@ -443,7 +481,7 @@ impl Source {
             pixfmt::planes_from_av(conv.run(&self.raw)?, &format)
         };
         let pts = match self.raw.timestamp().or(self.raw.pts()) {
-            Some(p) => p,
+            Some(p) => self.continuous(self.video, p, self.frame_ticks, self.tb),
             None => self.last_pts.map_or(0, |p| p + self.frame_ticks),
         };
         self.last_pts = Some(pts);
@@ -455,6 +493,40 @@ impl Source {
             pts,
             index,
         })
+    }
+
+    /// `ts` of `stream` on a clock that keeps running across joined segments, the way ffmpeg
+    /// treats them: where the timestamps step back by more than one `step` (or, in containers
+    /// that allow discontinuities, leap forward by more than [`DISCONTINUITY_LEAP_S`]), the
+    /// new segment is shifted to follow the last timestamp by one `step`, and the shift is
+    /// kept for the rest of the stream. Each stream keeps its own clock.
+    fn continuous(&mut self, stream: usize, ts: i64, step: i64, time_base: Rational) -> i64 {
+        let leap = (DISCONTINUITY_LEAP_S * f64::from(time_base.invert())) as i64;
+        let discontinuous = self.discontinuous;
+        let clock = self.clocks.entry(stream).or_default();
+        let t = ts + clock.offset;
+        if let Some(last) = clock.last {
+            let back = t < last - step;
+            let jump = discontinuous && t > last + leap.max(step);
+            if back || jump {
+                let shifted = last + step;
+                clock.offset += shifted - t;
+                if stream == self.video {
+                    log::warn!(
+                        "'{}': the timestamps {} by {:.3} s at frame {} (joined recordings?); the \
+                         time goes on at the frame rate from there",
+                        self.path,
+                        if back { "go back" } else { "leap ahead" },
+                        ((t - last).abs() as f64) * f64::from(time_base),
+                        self.next_index
+                    );
+                }
+                clock.last = Some(shifted);
+                return shifted;
+            }
+        }
+        clock.last = Some(clock.last.map_or(t, |l| l.max(t)));
+        t
     }
 
     /// Chooses the layout and colour interpretation from the first decoded frame.
@@ -622,9 +694,20 @@ fn open_error(input: &str, e: ff::Error) -> Error {
             };
         }
     }
+    let reason = match e {
+        ff::Error::Other { errno }
+            if [ff::error::ENOENT, ff::error::EACCES, ff::error::EISDIR].contains(&errno) =>
+        {
+            e.to_string()
+        }
+        ff::Error::Other { .. } | ff::Error::InvalidData => {
+            format!("FFmpeg cannot read its header as video ({e}); is it a video file?")
+        }
+        e => e.to_string(),
+    };
     Error::InputOpen {
         path: input.to_owned(),
-        reason: e.to_string(),
+        reason,
     }
 }
 

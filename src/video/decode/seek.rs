@@ -132,6 +132,8 @@ impl Source {
         self.decoder.flush();
         self.pending.clear();
         self.ready.clear();
+        // A seek starts the clocks afresh (within a joined recording it lands in one segment).
+        self.clocks.clear();
         self.input_done = false;
         self.decoder_done = false;
         self.bad_packets_in_a_row = 0;

@@ -1,0 +1,372 @@
+//! Hostile but fair use of the binary: every failure is one `error:` line and exit status 1,
+//! never a panic (101), never a destroyed input and never a file left behind; a successful
+//! run is quiet on stderr.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use tempfile::TempDir;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+use fixtures::{ffmpeg, files_in, frame_times};
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
+    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    c
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs `cmd`, killing it after `limit` (a hang is a failure, not a stuck test run).
+fn run_within(cmd: &mut Command, limit: Duration) -> Output {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let start = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!("{cmd:?} still running after {limit:?}: {}", stderr(&out));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("output")
+}
+
+fn run(cmd: &mut Command) -> Output {
+    run_within(cmd, Duration::from_secs(300))
+}
+
+/// The run failed cleanly: status 1 and a single `error:` line. Returns that line.
+fn fails(cmd: &mut Command) -> String {
+    let out = run(cmd);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{cmd:?}: {err}");
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line expected: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    errors[0].to_owned()
+}
+
+fn succeeds(cmd: &mut Command) -> Output {
+    let out = run(cmd);
+    assert!(out.status.success(), "{cmd:?}: {}", stderr(&out));
+    out
+}
+
+fn clip(dir: &Path, name: &str, size: &str, secs: f64) -> PathBuf {
+    fixtures::clip(
+        dir,
+        name,
+        size,
+        25,
+        secs,
+        &[
+            "-c:v",
+            "libx264",
+            "-preset",
+            "ultrafast",
+            "-pix_fmt",
+            "yuv420p",
+        ],
+    )
+}
+
+#[test]
+fn a_drop_budget_beyond_the_gpu_is_lowered_with_a_warning_not_a_panic() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let png = dir.path().join("m.png");
+    let out = succeeds(bin().args([
+        "preview",
+        s(&input),
+        "--frame",
+        "0",
+        "-o",
+        s(&png),
+        "--rain",
+        "500",
+        "--max-drops",
+        "20000000",
+        "--fov",
+        "169",
+        "--camera-height",
+        "1000",
+        "--near",
+        "0.05",
+    ]));
+    assert!(png.exists());
+    let err = stderr(&out);
+    // lavapipe's largest storage binding (128 MiB) holds about 2 M drops; a GPU that holds 20 M
+    // needs no warning.
+    if err.contains("--max-drops") {
+        assert!(err.contains("more than this GPU holds"), "{err}");
+    }
+}
+
+#[test]
+fn the_input_is_never_the_output() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "a.mp4", "64x64", 0.2);
+    let before = std::fs::read(&input).expect("read");
+    let hard = dir.path().join("hard.mp4");
+    std::fs::hard_link(&input, &hard).expect("link");
+    let soft = dir.path().join("soft.mp4");
+    std::os::unix::fs::symlink(&input, &soft).expect("symlink");
+    for out in [&input, &hard, &soft] {
+        let e = fails(bin().args([s(&input), "-o", s(out), "-y", "--rain", "0"]));
+        assert!(e.contains("is the input"), "{e}");
+        let e = fails(bin().args(["preview", s(&soft), "--frame", "0", "-o", s(out), "-y"]));
+        assert!(e.contains("PNG") || e.contains("is the input"), "{e}");
+    }
+    assert_eq!(std::fs::read(&input).expect("read"), before);
+    assert_eq!(files_in(dir.path()), ["a.mp4", "hard.mp4", "soft.mp4"]);
+}
+
+#[test]
+fn a_config_is_read_from_regular_files_of_bounded_size_only() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let fifo = dir.path().join("fifo.json");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .expect("mkfifo")
+            .success()
+    );
+    let big = dir.path().join("big.json");
+    std::fs::write(&big, vec![b' '; 5 << 20]).expect("write");
+    for (config, says) in [
+        (Path::new("/dev/zero"), "not a regular file"),
+        (fifo.as_path(), "not a regular file"),
+        (big.as_path(), "MiB"),
+        (dir.path(), "not a regular file"),
+    ] {
+        let out = run_within(
+            bin().args([
+                "preview",
+                s(&input),
+                "--frame",
+                "0",
+                "-o",
+                s(&dir.path().join("p.png")),
+                "--config",
+                s(config),
+            ]),
+            Duration::from_secs(20),
+        );
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains("--config") && err.contains(says), "{err}");
+    }
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, r#"{"rain": {"rate_mm_per_h": "lots"}}"#).expect("write");
+    let e = fails(bin().args([s(&input), "-o", "o.mp4", "--config", s(&bad)]));
+    assert!(e.contains("rate_mm_per_h") || e.contains("line 1"), "{e}");
+}
+
+#[test]
+fn joined_transport_streams_keep_time_running() {
+    let dir = TempDir::new().expect("tmp");
+    let ts = dir.path().join("a.ts");
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc2=s=96x64:r=25:d=1",
+        "-f",
+        "lavfi",
+        "-i",
+        "sine=r=48000:d=1",
+        "-c:v",
+        "libx264",
+        "-preset",
+        "ultrafast",
+        "-c:a",
+        "aac",
+        "-f",
+        "mpegts",
+        s(&ts),
+    ]);
+    let part = std::fs::read(&ts).expect("read");
+    let joined = dir.path().join("joined.ts");
+    std::fs::write(&joined, [part.clone(), part].concat()).expect("write");
+    let out_path = dir.path().join("out.mkv");
+    let out = succeeds(bin().args([s(&joined), "-o", s(&out_path), "--rain", "0"]));
+    assert!(stderr(&out).contains("timestamps go back"), "{}", stderr(&out));
+    let t = frame_times(&out_path);
+    assert_eq!(t.len(), 50);
+    for w in t.windows(2) {
+        let step = w[1] - w[0];
+        assert!((step - 0.04).abs() < 0.002, "frames {step} s apart: {t:?}");
+    }
+}
+
+#[test]
+fn preview_outputs_are_checked_first_and_never_left_half_written() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let sub = dir.path().join("sub");
+    std::fs::create_dir(&sub).expect("mkdir");
+    let e = fails(bin().args(["preview", s(&input), "--frame", "0", "-o", s(&sub), "-y"]));
+    assert!(e.contains("PNG") || e.contains("directory"), "{e}");
+    let e = fails(bin().args(["preview", s(&input), "--frame", "0", "-o", "p.jpg"]));
+    assert!(e.contains(".png"), "{e}");
+    let e = fails(bin().args([
+        "preview",
+        s(&input),
+        "--frame",
+        "0",
+        "-o",
+        s(&dir.path().join("missing/p.png")),
+    ]));
+    assert!(e.contains("does not exist"), "{e}");
+    // A directory named like a PNG: refused before any work.
+    let trap = dir.path().join("trap.png");
+    std::fs::create_dir(&trap).expect("mkdir");
+    let e = fails(bin().args(["preview", s(&input), "--frame", "0", "-o", s(&trap), "-y"]));
+    assert!(e.contains("directory"), "{e}");
+    assert_eq!(files_in(dir.path()), ["in.mp4", "sub", "trap.png"]);
+    assert!(files_in(&sub).is_empty());
+    // `-o -` is stdout, as for the render.
+    let out = succeeds(bin().args(["preview", s(&input), "--frame", "0", "-o", "-"]));
+    assert_eq!(&out.stdout[..8], b"\x89PNG\r\n\x1a\n");
+    assert!(!Path::new("-").exists());
+}
+
+#[test]
+fn preview_stops_on_interrupt_and_leaves_nothing() {
+    let dir = TempDir::new().expect("tmp");
+    // Enough frames before the target that feeding the light's smoothing window takes a while.
+    let input = clip(dir.path(), "in.mp4", "1280x720", 10.0);
+    let png = dir.path().join("p.png");
+    let child = bin()
+        .args([
+            "preview",
+            s(&input),
+            "--at",
+            "9.9",
+            "-o",
+            s(&png),
+            "--light-smoothing",
+            "2.4",
+            "--cpu",
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    std::thread::sleep(Duration::from_millis(700));
+    let pid = child.id().to_string();
+    let _ = Command::new("kill").args(["-INT", &pid]).status();
+    let out = child.wait_with_output().expect("wait");
+    let err = stderr(&out);
+    if out.status.success() {
+        // This machine finished before the signal: nothing to check but the output.
+        assert!(png.exists());
+        return;
+    }
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert_eq!(files_in(dir.path()), ["in.mp4"]);
+}
+
+#[test]
+fn output_names_at_the_file_system_limit_work() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let name = format!("{}.mp4", "r".repeat(251));
+    let out = dir.path().join(&name);
+    succeeds(bin().args([s(&input), "-o", s(&out), "--rain", "0"]));
+    assert_eq!(files_in(dir.path()), ["in.mp4".to_string(), name]);
+    let png = dir.path().join(format!("{}.png", "p".repeat(251)));
+    succeeds(bin().args(["preview", s(&input), "--frame", "0", "-o", s(&png)]));
+    assert!(png.exists());
+}
+
+#[test]
+fn a_directory_as_output_is_refused_before_the_render() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let started = Instant::now();
+    let e = fails(bin().args([s(&input), "-o", s(dir.path()), "-y"]));
+    assert!(e.contains("directory"), "{e}");
+    let e = fails(bin().args([s(&input), "-o", s(&dir.path().join("no/such/out.mp4"))]));
+    assert!(e.contains("does not exist"), "{e}");
+    assert!(started.elapsed() < Duration::from_secs(60));
+    assert_eq!(files_in(dir.path()), ["in.mp4"]);
+}
+
+#[test]
+fn messages_name_the_option_and_the_cause() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let out = dir.path().join("o.mp4");
+    let o = s(&out);
+    let i = s(&input);
+    for (args, says) in [
+        (vec![i, "-o", o, "--preset", "nonsense"], "--preset"),
+        (vec![i, "-o", o, "--preset", ""], "--preset"),
+        (vec![i, "-o", o, "--max-drops", "0"], "--rain 0"),
+        (vec![i, "-o", o, "--fov", "-5"], "--fov"),
+        (vec![i, "-o", o, "--near", "-1"], "--near"),
+        (vec![i, "-o", o, "--shutter", "0"], "--shutter"),
+    ] {
+        let e = fails(bin().args(&args));
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(!e.contains("-- -"), "clap's tip is wrong for our options: {e}");
+        assert!(!e.contains("Invalid argument: Invalid argument"), "{e}");
+    }
+    // Negative values need no `=`.
+    succeeds(bin().args([
+        "preview", i, "--frame", "0", "-o", "-", "--tilt", "-5", "--roll", "-3",
+    ]));
+    // A full disk names the cause, not "the encoder stopped".
+    for format in ["y4m", "nut"] {
+        let out = bin()
+            .args([i, "-o", "-", "--rain", "0", "--format", format])
+            .stdout(std::fs::File::create("/dev/full").expect("/dev/full"))
+            .output()
+            .expect("spawn");
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains("no space left"), "{format}: {err}");
+    }
+    // A header FFmpeg cannot read is not "Device or resource busy" alone.
+    let y4m = dir.path().join("bad.y4m");
+    std::fs::write(&y4m, b"YUV4MPEG2 W99999 H99999 F25:1 C420jpeg\nFRAME\nxxxx").expect("write");
+    let e = fails(bin().args([s(&y4m), "-o", o]));
+    assert!(e.contains("cannot read its header"), "{e}");
+    assert_eq!(files_in(dir.path()), ["bad.y4m", "in.mp4"]);
+}
+
+#[test]
+fn a_successful_run_is_quiet_even_without_a_display_environment() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let out = succeeds(
+        bin()
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("WAYLAND_DISPLAY")
+            .args(["preview", s(&input), "--frame", "0", "-o", "-"]),
+    );
+    assert_eq!(stderr(&out), "", "nothing on stderr on success");
+    let out = succeeds(
+        bin()
+            .env_remove("XDG_RUNTIME_DIR")
+            .args([s(&input), "-o", s(&dir.path().join("o.mp4"))]),
+    );
+    assert_eq!(stderr(&out), "", "nothing on stderr on success");
+}
