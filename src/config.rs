@@ -242,8 +242,16 @@ impl RenderConfig {
             r.fall_speed_scale > 0.0 && r.fall_speed_scale <= 10.0,
             "a factor in (0, 10]",
         )?;
-        for w in r.wind_mps {
-            check("--wind", w, w.abs() <= 60.0, "m/s components within ±60")?;
+        let wind_mps = r.wind_mps[0].hypot(r.wind_mps[1]);
+        if !(wind_mps.is_finite() && wind_mps <= crate::rain::wind::MAX_WIND_MPS) {
+            return Err(Error::Parameter {
+                name: "--wind",
+                value: format!("{},{}", r.wind_mps[0], r.wind_mps[1]),
+                expected: format!(
+                    "a horizontal wind of at most {} m/s (the vector's length)",
+                    crate::rain::wind::MAX_WIND_MPS
+                ),
+            });
         }
         check(
             "--gust",

@@ -589,13 +589,8 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
         (None, None) => bail!("give --at TIME or --frame N"),
     };
     let render = render_config(&args.look)?;
-    let (frame, info) = pipeline::preview(
-        &args.input,
-        at,
-        &render,
-        &adapter(&args.gpu),
-        &INTERRUPTED,
-    )?;
+    let (frame, info) =
+        pipeline::preview(&args.input, at, &render, &adapter(&args.gpu), &INTERRUPTED)?;
     let bits = if args.bits == Bits::Sixteen { 16 } else { 8 };
     let png = video::still::encode_png(&frame, info.rotation_deg, bits)?;
     if to_stdout {

@@ -206,7 +206,11 @@ fn joined_transport_streams_keep_time_running() {
     std::fs::write(&joined, [part.clone(), part].concat()).expect("write");
     let out_path = dir.path().join("out.mkv");
     let out = succeeds(bin().args([s(&joined), "-o", s(&out_path), "--rain", "0"]));
-    assert!(stderr(&out).contains("timestamps go back"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("timestamps go back"),
+        "{}",
+        stderr(&out)
+    );
     let t = frame_times(&out_path);
     assert_eq!(t.len(), 50);
     for w in t.windows(2) {
@@ -326,7 +330,10 @@ fn messages_name_the_option_and_the_cause() {
     ] {
         let e = fails(bin().args(&args));
         assert!(e.contains(says), "{args:?}: {e}");
-        assert!(!e.contains("-- -"), "clap's tip is wrong for our options: {e}");
+        assert!(
+            !e.contains("-- -"),
+            "clap's tip is wrong for our options: {e}"
+        );
         assert!(!e.contains("Invalid argument: Invalid argument"), "{e}");
     }
     // Negative values need no `=`.
@@ -363,10 +370,10 @@ fn a_successful_run_is_quiet_even_without_a_display_environment() {
             .args(["preview", s(&input), "--frame", "0", "-o", "-"]),
     );
     assert_eq!(stderr(&out), "", "nothing on stderr on success");
-    let out = succeeds(
-        bin()
-            .env_remove("XDG_RUNTIME_DIR")
-            .args([s(&input), "-o", s(&dir.path().join("o.mp4"))]),
-    );
+    let out = succeeds(bin().env_remove("XDG_RUNTIME_DIR").args([
+        s(&input),
+        "-o",
+        s(&dir.path().join("o.mp4")),
+    ]));
     assert_eq!(stderr(&out), "", "nothing on stderr on success");
 }

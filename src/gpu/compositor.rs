@@ -79,7 +79,9 @@ const SIMULATE_WORKGROUP: u32 = 64;
 /// binding (and one buffer), and the simulation's dispatch one grid dimension.
 pub fn max_drops(ctx: &GpuContext) -> u32 {
     let limits = ctx.device.limits();
-    let bytes = u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+    let bytes = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
     let by_memory = bytes / std::mem::size_of::<Streak>() as u64;
     let by_dispatch =
         u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SIMULATE_WORKGROUP);

@@ -187,7 +187,11 @@ mod tests {
         std::fs::hard_link(&input, &hard).unwrap();
         let s = |p: &Path| p.to_string_lossy().into_owned();
         let inp = s(&input);
-        for out in [s(&input), s(&hard), format!("{}/./a.mp4", dir.path().display())] {
+        for out in [
+            s(&input),
+            s(&hard),
+            format!("{}/./a.mp4", dir.path().display()),
+        ] {
             let err = check_output(&out, &[&inp], true).unwrap_err();
             assert!(matches!(err, Error::OutputIsInput { .. }), "{err}");
         }
