@@ -681,14 +681,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if !(*fov > 1.0 && *fov < 170.0) {
                 bail!("invalid --fov {fov}: expected degrees in (1, 170)");
             }
-            let camera = rain_composite::scene::Camera::new(
-                img.width as u32,
-                img.height as u32,
-                fov.to_radians(),
-                1.6,
-                tilt.to_radians(),
-                0.0,
-            );
+            let camera = rain_composite::config::CameraConfig {
+                fov_deg: *fov,
+                tilt_deg: *tilt,
+                ..Default::default()
+            }
+            .camera(img.width as u32, img.height as u32);
             let v = inspect::inspect_sh(&img, &camera, *bands)?;
             if let Some(path) = plot {
                 inspect::plot_sh(&img, &camera, *bands, path)?;
@@ -717,13 +715,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let exposure = rain_composite::rain::physics::exposure_s(cam.shutter_deg, *fps)?;
             let setup =
                 rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
-            let params = rain_composite::rain::volume::VolumeParams {
-                exposure_s: exposure,
-                near_m: c.rain.near_m,
-                far_max_m: c.rain.far_m,
-                budget: c.rain.max_drops.max(1) as u64,
-                ..Default::default()
-            };
+            let params = rain_composite::rain::emitter::plan_params(cam, &c.rain, exposure)?;
             let v = rain_composite::rain::volume::inspect_drops(
                 &camera,
                 &setup.model,

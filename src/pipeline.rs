@@ -349,6 +349,7 @@ pub fn preview(
     };
     let ctx = Arc::new(GpuContext::new(adapter)?);
     let rain = rain_for(&info, render, &ctx)?;
+    log::info!("{}", rain.summary());
     let mut lighting = Lighting::new(&info, render, &rain)?;
     let t_target = frame_time_s(&info, &target);
     if let Some(window) = lighting.window_secs() {

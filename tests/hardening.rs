@@ -377,3 +377,44 @@ fn a_successful_run_is_quiet_even_without_a_display_environment() {
     ]));
     assert_eq!(stderr(&out), "", "nothing on stderr on success");
 }
+
+#[test]
+fn inspect_drops_prints_the_plan_the_render_uses() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "320x180", 0.2);
+    // A fast lens focused close: defocus changes how far drops stay visible.
+    let look = ["--f-number", "1.4", "--focus", "1", "--rain", "20"];
+    let out = succeeds(
+        bin()
+            .args([
+                "inspect", "drops", "--size", "320x180", "--fps", "25", "--count", "3",
+            ])
+            .args(look),
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let plan = &v["volume"];
+    let out = succeeds(
+        bin()
+            .args(["preview", s(&input), "--frame", "0", "-o", "-", "-v"])
+            .args(look),
+    );
+    let log = stderr(&out);
+    let expected = format!(
+        "view {:.2}–{:.2} m",
+        plan["near_m"].as_f64().expect("near"),
+        plan["far_m"].as_f64().expect("far")
+    );
+    assert!(log.contains(&expected), "{expected} not in: {log}");
+    let simulated = format!("simulating {} ", plan["simulated"].as_u64().expect("count"));
+    assert!(log.contains(&simulated), "{simulated} not in: {log}");
+    // And the lens matters: without it the plan differs.
+    let out = succeeds(
+        bin()
+            .args([
+                "inspect", "drops", "--size", "320x180", "--fps", "25", "--count", "3",
+            ])
+            .args(["--f-number", "0", "--rain", "20"]),
+    );
+    let pinhole: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_ne!(pinhole["volume"]["far_m"], plan["far_m"]);
+}

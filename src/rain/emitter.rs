@@ -50,6 +50,33 @@ pub fn coded_from_display(rotation_deg: i32, coded_w: f32, coded_h: f32) -> ([f3
     }
 }
 
+/// What the volume plan needs from the configuration: the one place that turns the camera and
+/// rain settings into [`VolumeParams`], so `inspect drops` prints the plan the render uses.
+pub fn plan_params(
+    camera_config: &CameraConfig,
+    rain: &RainConfig,
+    exposure_s: f64,
+) -> Result<VolumeParams> {
+    let lens = if camera_config.f_number > 0.0 {
+        Some(ThinLens::new(
+            camera_config.sensor_width_mm,
+            camera_config.f_number,
+            camera_config.focus_m,
+        )?)
+    } else {
+        None
+    };
+    Ok(VolumeParams {
+        exposure_s,
+        near_m: rain.near_m,
+        far_max_m: rain.far_m,
+        budget: rain.max_drops.max(1) as u64,
+        lens,
+        ground_z_m: Some(0.0),
+        ..VolumeParams::default()
+    })
+}
+
 /// Plans the rain of a shot seen by `camera` (the displayed picture) and prepares the GPU
 /// inputs for a coded picture of `coded_size_px`.
 pub fn build(
@@ -66,24 +93,8 @@ pub fn build(
         rain.altitude_m,
     )?;
     let wind = Wind::new(DVec2::from(rain.wind_mps), rain.gust_mps, rain.seed as u64)?;
-    let lens = if camera_config.f_number > 0.0 {
-        Some(ThinLens::new(
-            camera_config.sensor_width_mm,
-            camera_config.f_number,
-            camera_config.focus_m,
-        )?)
-    } else {
-        None
-    };
-    let plan = VolumeParams {
-        exposure_s,
-        near_m: rain.near_m,
-        far_max_m: rain.far_m,
-        budget: rain.max_drops.max(1) as u64,
-        lens,
-        ground_z_m: Some(0.0),
-        ..VolumeParams::default()
-    };
+    let plan = plan_params(camera_config, rain, exposure_s)?;
+    let lens = plan.lens;
     let volume = RainVolume::plan(camera, &model, &wind, &plan)?;
     let grid = &volume.grid;
     let mut columns: Vec<Column> = grid
