@@ -11,7 +11,8 @@
 // invisible (len_px < 0): on CPU adapters raster work is most of the cost.
 // Colour: the drop's radiance for the view ray through each end of the streak, the dot product
 // of the frame's environment SH with the drop's transfer function rotated to the ray (PRT,
-// SPEC §3–5); the ray changes by a few degrees at most along a streak.
+// thesis §5.1.2; docs/method.md, "Lighting"); the ray changes by a few degrees at most along a
+// streak.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;

@@ -3,6 +3,12 @@
 //! Adds physically based rain to real video. Each decoded frame is both the background and the
 //! environment that lights the rain.
 //!
+//! The method follows B. B. S. Coutinho's M.Sc. dissertation, "Animação Computacional da Chuva
+//! com Fluxo Superficial Simulado via SPH" (COPPE/UFRJ, 2011), with measured rain physics in
+//! place of its ballistic drops. `docs/method.md` explains it module by module, with the meaning
+//! of every equation number cited in the code (a bare `(5.7)` is the dissertation's) and full
+//! references.
+//!
 //! ## How a frame flows
 //!
 //! ```text

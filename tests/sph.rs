@@ -167,7 +167,7 @@ fn hydrostatic_column_settles_to_rho_g_h() {
 }
 
 /// Martin & Moyce (1952), a = 2.25 in, n² = 2: (T = t√(2g/a), Z = front/a), as transcribed by
-/// PySPH's `db_exp_data.py` (physics notes §5.4).
+/// PySPH's `db_exp_data.py`.
 const MARTIN_MOYCE: [(f32, f32); 5] = [
     (0.832, 1.217),
     (1.219, 1.474),

@@ -1,7 +1,7 @@
 //! Equations of state: pressure from density.
 //!
 //! How it works: the thesis (5.19) uses Desbrun's p = k(ρ − ρ₀) with k = 3 m²/s², whose sound
-//! speed c = √k = 1.7 m/s lets a 10 cm column compress by gH/c² ≈ 33 % (physics notes §5.3).
+//! speed c = √k = 1.7 m/s lets a 10 cm column compress by gH/c² ≈ 33 % (`docs/method.md`, "Fluid").
 //! We keep the linear law but choose k from the weakly-compressible rule (Monaghan 1994):
 //! c ≥ 10·v_max, v_max ≈ √(2gH) for water of depth H, so density errors stay near
 //! (v/c)² ≈ 1 %. Tait's law (Monaghan 1994; Becker & Teschner 2007) is offered as an alternative:
@@ -122,7 +122,7 @@ mod tests {
     fn tait_and_linear_agree_to_first_order() {
         let lin = EquationOfState::for_depth(0.1);
         let c = lin.sound_speed_mps();
-        // 10·√(2·9.81·0.1) = 14.0 m/s (physics notes §5.3).
+        // 10·√(2·9.81·0.1) = 14.0 m/s (Monaghan's rule, `docs/method.md`, "Fluid").
         assert!((c - 14.007).abs() < 0.01, "{c}");
         let tait = EquationOfState::Tait {
             sound_speed_mps: c,

@@ -1,5 +1,6 @@
 //! Surface flow on a terrain fed by rain: the precipitation counters, the SPH solver and the
-//! carpet wired together — the interface the video pipeline drives once per frame.
+//! carpet wired together — the interface a video pipeline is to drive once per frame (nothing
+//! in the render path calls it yet).
 //!
 //! How it works: the rain system reports where drops hit the ground (per precipitation cell,
 //! or one position at a time). Every S drops in a cell become one particle (5.29–5.31),

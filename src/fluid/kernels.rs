@@ -251,7 +251,7 @@ mod tests {
 
     #[test]
     fn published_constants_at_kelager_h() {
-        // physics notes §5.1: W_poly6(0) = 315/(64π h³) = 16414.67 at h = 0.0457.
+        // W_poly6(0) = 315/(64π h³) = 16414.67 at Kelager (2006)'s h = 0.0457 m.
         let w0 = Poly6::value(0.0, 0.0457);
         assert!((w0 / 16414.67 - 1.0).abs() < 1e-5, "{w0}");
         assert!((Spiky::value(0.0, 1.0) - 15.0 / std::f32::consts::PI).abs() < 1e-6);

@@ -16,8 +16,8 @@
 //!                  water depth field, wetness field, φ for raindrop collisions
 //! ```
 //!
-//! [`SurfaceFlow`] wires these together for the video pipeline; [`scenes`] holds the validation
-//! scenes behind `rain-composite inspect sph`.
+//! [`SurfaceFlow`] wires these together (not yet in the video path: the render does not drive
+//! it); [`scenes`] holds the validation scenes behind `rain-composite inspect sph`.
 //!
 //! Modules: [`kernels`] (poly6, spiky, viscosity as types; lattice moments), [`eos`] (pressure
 //! laws and the stiffness rule), [`grid`] (counting-sort neighbour search, neighbour lists),

@@ -26,7 +26,7 @@ use serde_json::{Value, json};
 pub const SCENES: [&str; 3] = ["column", "dam-break", "basin"];
 
 /// Martin & Moyce (1952), two-dimensional collapse, a = 2.25 in, n² = 2: surge front
-/// (T = t√(2g/a), Z = x/a), as transcribed in PySPH's `db_exp_data.py` (physics notes §5.4).
+/// (T = t√(2g/a), Z = x/a), as transcribed in PySPH's `db_exp_data.py`.
 pub const MARTIN_MOYCE_1952: [(f32, f32); 15] = [
     (0.832, 1.217),
     (1.219, 1.474),

@@ -1,5 +1,6 @@
-//! One frame's GPU journey: upload planes → `yuv_to_rgb` → `rain_streaks` → `rgb_to_yuv` →
-//! copy into a readback ring.
+//! One frame's GPU journey: upload planes → `yuv_to_rgb` (with the haze) → `rain_simulate`
+//! (each drop once) → `rain_streaks` → `rgb_to_yuv` (luma, then chroma) → copy into a readback
+//! ring.
 //!
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
@@ -34,7 +35,7 @@ const TIMED_STAGES: usize = 4;
 pub struct GpuStageTimes {
     /// YUV planes → linear canvas.
     pub yuv_to_rgb_s: f64,
-    /// Drop states (simulation, evaluated in the vertex shader) and streak rasterisation.
+    /// Streak rasterisation (the drops were evaluated once each by `rain_simulate`).
     pub rain_streaks_s: f64,
     /// Drop states, projection and light, once per drop.
     pub rain_simulate_s: f64,

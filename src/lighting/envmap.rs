@@ -1,5 +1,6 @@
 //! The environment map: a video frame spread over the sphere of directions around the camera,
-//! projected on real SH (SPEC §1 step 2), plus temporal smoothing.
+//! projected on real SH (the thesis's environment map; `docs/method.md`, "Lighting"), plus
+//! temporal smoothing.
 //!
 //! ## The mapping (frame → sphere)
 //!
@@ -23,7 +24,7 @@
 //!   fans; the blurred copy keeps only the frame's large-scale light, which is all that four SH
 //!   bands can carry anyway.
 //!
-//! The fill is defined in the camera's frame; for a level camera (SPEC default) camera up is
+//! The fill is defined in the camera's frame; for a level camera (the default) camera up is
 //! world up. Everything above is linear in the frame, and 4 bands need little resolution, so
 //! [`EnvMapper`] precomputes once per camera the linear map from a box-downsampled frame
 //! (≈ 1° per pixel, at most 64 wide) to the SH coefficients, integrating the mapping over a

@@ -1,4 +1,5 @@
-//! Lighting the rain with the frame (GitHub issue "Rain lit by the scene", the mathematics).
+//! Lighting the rain with the frame: the thesis's environment lighting by PRT (its chapter 4 and
+//! §5.1.2), with the mathematics in `docs/method.md`, "Lighting".
 //!
 //! ## How it works
 //!

@@ -1,4 +1,5 @@
-//! Precomputed radiance transfer for raindrops (SPEC §3–§5): the drop colour for a view ray is
+//! Precomputed radiance transfer for raindrops (thesis §5.1.2, after Wang et al. 2006 and Sloan,
+//! Kautz & Snyder 2002; `docs/method.md`, "Lighting"): the drop colour for a view ray is
 //! the dot product of the environment's SH coefficients with the RTF's, rotated onto the ray.
 //!
 //! ## How it works
