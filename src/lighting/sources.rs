@@ -328,3 +328,32 @@ mod tests {
         assert!((s - 0.25).abs() < 1e-12);
     }
 }
+
+#[cfg(test)]
+mod config_tests {
+    use crate::Error;
+    use crate::config::RenderConfig;
+
+    #[test]
+    fn config_lights_are_read_and_validated() {
+        let ok: RenderConfig = serde_json::from_str(
+            r#"{"light": {"lights": [{"azimuth_deg": 170, "elevation_deg": 20,
+                "radiance_rgb": [3000, 2600, 2000], "distance_m": 4}]}}"#,
+        )
+        .expect("parses");
+        ok.validate().expect("valid");
+        let l = ok.light.lights[0];
+        assert_eq!(l.angular_diameter_deg, super::DEFAULT_ANGULAR_DIAMETER_DEG);
+        let bad: RenderConfig = serde_json::from_str(
+            r#"{"light": {"lights": [{"elevation_deg": 100, "radiance_rgb": [1, 1, 1]}]}}"#,
+        )
+        .expect("parses");
+        match bad.validate() {
+            Err(Error::Parameter { name, expected, .. }) => {
+                assert_eq!(name, "--light elevation");
+                assert!(expected.contains("[-90, 90]"), "{expected}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -139,3 +139,79 @@ pub fn streak_of(
     }
     Some(shape)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{CameraConfig, RainConfig};
+    use crate::rain::emitter;
+    use crate::scene::Camera;
+
+    /// Σ alpha over the picture plane (0.5 px grid over the streak's footprint), px².
+    fn integrated_alpha(s: &StreakShape) -> f64 {
+        let ext = s.r_eff_px + 1.0;
+        let q1 = s.q0_px + s.dir * s.len_px;
+        let (lo, hi) = (s.q0_px.min(q1) - ext, s.q0_px.max(q1) + ext);
+        let step = 0.5;
+        let mut sum = 0.0;
+        let mut y = lo.y + 0.5 * step;
+        while y < hi.y {
+            let mut x = lo.x + 0.5 * step;
+            while x < hi.x {
+                sum += s.alpha_at(DVec2::new(x, y));
+                x += step;
+            }
+            y += step;
+        }
+        sum * step * step
+    }
+
+    /// A 2.5 mm drop falling at 7 m/s, `z_m` in front of a 20° lens at `f_number` focused at
+    /// 10 m, 1/100 s exposure: its uniforms and streak.
+    fn near_drop(z_m: f64, f_number: f64) -> (RainParams, Option<StreakShape>) {
+        let camera = Camera::new(1280, 720, 20f64.to_radians(), 1.6, 0.0, 0.0);
+        let lens = CameraConfig {
+            fov_deg: 20.0,
+            f_number,
+            focus_m: 10.0,
+            ..CameraConfig::default()
+        };
+        let setup =
+            emitter::build(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
+                .expect("rain");
+        let mut p = setup.motion_at(0.0);
+        p.drop_weight = 1.0;
+        let pos = camera.position_m + camera.world_from_camera * DVec3::new(0.0, 0.0, z_m);
+        let s = streak_of(&p, pos, DVec3::new(0.0, 0.0, -7.0), 2.5);
+        (p, s)
+    }
+
+    #[test]
+    fn a_drop_near_the_lens_is_a_soft_visible_disc_with_its_physical_coverage() {
+        let (p, s) = near_drop(0.35, 4.0);
+        let s = s.expect("drawn");
+        let z = s.ends_camera_m[0].z.min(s.ends_camera_m[1].z);
+        let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
+        // Wider than a tenth of the picture: the blur of a drop on the lens, not a streak.
+        assert!(blur > 0.1 * 720.0, "blur radius {blur} px");
+        assert!(s.r_eff_px > 5.0 * s.r_px, "soft: {} vs drop {}", s.r_eff_px, s.r_px);
+        assert!(s.peak_alpha() >= MIN_PEAK_ALPHA, "visible: peak {}", s.peak_alpha());
+        // Time-averaged coverage integrates to the drop's own projected area, π r².
+        let want = std::f64::consts::PI * s.r_px * s.r_px;
+        let got = integrated_alpha(&s);
+        assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want} px²");
+    }
+
+    #[test]
+    fn a_drop_whose_blur_would_fill_the_view_is_capped_and_keeps_its_coverage() {
+        let (p, s) = near_drop(0.2, 2.0);
+        let s = s.expect("drawn");
+        let z = s.ends_camera_m[0].z.min(s.ends_camera_m[1].z);
+        let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
+        assert!(blur > NEAR_FIELD_MAX_RADIUS * 720.0, "blur radius {blur} px");
+        assert!((s.r_eff_px - NEAR_FIELD_MAX_RADIUS * 720.0).abs() < 1e-9);
+        let want = std::f64::consts::PI * s.r_px * s.r_px;
+        let got = integrated_alpha(&s);
+        assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want} px²");
+    }
+}
