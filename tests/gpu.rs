@@ -552,7 +552,7 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
         },
     ];
     let t = 2.5;
-    let mut params = setup.params_at(
+    let params = setup.params_at(
         t,
         &FrameLight {
             env: env.clone(),
@@ -660,4 +660,52 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
         mismatched * 200 <= drawn,
         "{mismatched} visibility mismatches"
     );
+}
+
+/// Cost of the direct light term in `rain_simulate`: the stage with 0, 1 and 16 lights on the
+/// default rain of a 720p frame (run with `--ignored --nocapture`; medians of 15 runs, readback
+/// included and the same in all three).
+#[test]
+#[ignore]
+fn direct_light_cost() {
+    use glam::DVec3;
+    use rain_composite::gpu::probe::SimulateProbe;
+    use rain_composite::gpu::types::LightList;
+    use rain_composite::lighting::{FrameLighting, LightConfig, LightSource};
+
+    let Some(ctx) = gpu() else { return };
+    let camera = CameraConfig::default().camera(1280, 720);
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        0.01,
+        0,
+        (1280, 720),
+    )
+    .expect("rain");
+    let lighting = FrameLighting::new(&camera, 0, &LightConfig::default()).expect("lighting");
+    let probe = SimulateProbe::new(&ctx, &setup, setup.drop_count(), lighting.transfer_tables());
+    let params = lit(&setup, 1.0);
+    let lamp = |i: usize| LightSource {
+        direction_world: DVec3::new((i as f64).sin(), (i as f64).cos(), 0.2).normalize(),
+        solid_angle_sr: 2e-3,
+        radiance_rgb: [1000.0; 3],
+        distance_m: i.is_multiple_of(2).then_some(3.0 + i as f64),
+    };
+    for n in [0usize, 1, 16, 0, 1, 16] {
+        let lights = LightList::new(&(0..n).map(lamp).collect::<Vec<_>>());
+        let mut t = Vec::new();
+        for _ in 0..15 {
+            let start = std::time::Instant::now();
+            probe.run(&ctx, &params, &lights).expect("run");
+            t.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        t.sort_by(f64::total_cmp);
+        eprintln!(
+            "{n:2} lights: rain_simulate + readback {:.2} ms (median), {} drops",
+            t[t.len() / 2],
+            setup.drop_count()
+        );
+    }
 }

@@ -137,68 +137,112 @@ pub fn probe_streaks(
     lights: &LightList,
     tables: &[RtfTable; 3],
 ) -> Result<Vec<Streak>> {
-    let device = &ctx.device;
-    let n = params.drop_count.max(1) as u64;
-    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_params"),
-        contents: bytemuck::bytes_of(params),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_columns"),
-        contents: bytemuck::cast_slice(&setup.columns),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let direct = DirectLightBuffers::new(device);
-    direct.upload_table(&ctx.queue, tables);
-    direct.upload_lights(&ctx.queue, lights);
-    let size = n * std::mem::size_of::<Streak>() as u64;
-    let out = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("rain_streaks"),
-        size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let module = Stage::RainSimulate.module(device);
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(Stage::RainSimulate.name()),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("rain_simulate"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: columns.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: out.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: direct.list.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 4,
-                resource: direct.table.as_entire_binding(),
-            },
-        ],
-    });
-    let bytes = run_and_read(ctx, &pipeline, &bind, n as u32, &out, size)?;
-    Ok(bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes)
-        .into_iter()
-        .take(params.drop_count as usize)
-        .collect())
+    SimulateProbe::new(ctx, setup, params.drop_count, tables).run(ctx, params, lights)
+}
+
+/// The `rain_simulate` stage set up once for repeated runs (tests and timing).
+pub struct SimulateProbe {
+    pipeline: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+    uniform: wgpu::Buffer,
+    direct: DirectLightBuffers,
+    out: wgpu::Buffer,
+    capacity: u32,
+}
+
+impl SimulateProbe {
+    /// The stage for up to `capacity` drops of `setup`, with the transfer table `tables`.
+    pub fn new(
+        ctx: &GpuContext,
+        setup: &RainSetup,
+        capacity: u32,
+        tables: &[RtfTable; 3],
+    ) -> SimulateProbe {
+        let device = &ctx.device;
+        let capacity = capacity.max(1);
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain_params"),
+            size: std::mem::size_of::<RainParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain_columns"),
+            contents: bytemuck::cast_slice(&setup.columns),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let direct = DirectLightBuffers::new(device);
+        direct.upload_table(&ctx.queue, tables);
+        let out = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain_streaks"),
+            size: capacity as u64 * std::mem::size_of::<Streak>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let module = Stage::RainSimulate.module(device);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(Stage::RainSimulate.name()),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rain_simulate"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &uniform),
+                entry(1, &columns),
+                entry(2, &out),
+                entry(3, &direct.list),
+                entry(4, &direct.table),
+            ],
+        });
+        SimulateProbe {
+            pipeline,
+            bind,
+            uniform,
+            direct,
+            out,
+            capacity,
+        }
+    }
+
+    /// Runs the stage for `params.drop_count` drops (at most the capacity) and reads the
+    /// streaks back.
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        params: &RainParams,
+        lights: &LightList,
+    ) -> Result<Vec<Streak>> {
+        let mut params = *params;
+        params.drop_count = params.drop_count.min(self.capacity);
+        ctx.queue
+            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
+        self.direct.upload_lights(&ctx.queue, lights);
+        let size = params.drop_count.max(1) as u64 * std::mem::size_of::<Streak>() as u64;
+        let bytes = run_and_read(
+            ctx,
+            &self.pipeline,
+            &self.bind,
+            params.drop_count.max(1),
+            &self.out,
+            size,
+        )?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes)
+            .into_iter()
+            .take(params.drop_count as usize)
+            .collect())
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
 }
 
 /// Dispatches one thread per item (workgroups of 64) and reads `out` back.

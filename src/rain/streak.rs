@@ -176,9 +176,8 @@ mod tests {
             focus_m: 10.0,
             ..CameraConfig::default()
         };
-        let setup =
-            emitter::build(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
-                .expect("rain");
+        let setup = emitter::build(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
+            .expect("rain");
         let mut p = setup.motion_at(0.0);
         p.drop_weight = 1.0;
         let pos = camera.position_m + camera.world_from_camera * DVec3::new(0.0, 0.0, z_m);
@@ -194,8 +193,17 @@ mod tests {
         let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
         // Wider than a tenth of the picture: the blur of a drop on the lens, not a streak.
         assert!(blur > 0.1 * 720.0, "blur radius {blur} px");
-        assert!(s.r_eff_px > 5.0 * s.r_px, "soft: {} vs drop {}", s.r_eff_px, s.r_px);
-        assert!(s.peak_alpha() >= MIN_PEAK_ALPHA, "visible: peak {}", s.peak_alpha());
+        assert!(
+            s.r_eff_px > 5.0 * s.r_px,
+            "soft: {} vs drop {}",
+            s.r_eff_px,
+            s.r_px
+        );
+        assert!(
+            s.peak_alpha() >= MIN_PEAK_ALPHA,
+            "visible: peak {}",
+            s.peak_alpha()
+        );
         // Time-averaged coverage integrates to the drop's own projected area, π r².
         let want = std::f64::consts::PI * s.r_px * s.r_px;
         let got = integrated_alpha(&s);
@@ -208,7 +216,10 @@ mod tests {
         let s = s.expect("drawn");
         let z = s.ends_camera_m[0].z.min(s.ends_camera_m[1].z);
         let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
-        assert!(blur > NEAR_FIELD_MAX_RADIUS * 720.0, "blur radius {blur} px");
+        assert!(
+            blur > NEAR_FIELD_MAX_RADIUS * 720.0,
+            "blur radius {blur} px"
+        );
         assert!((s.r_eff_px - NEAR_FIELD_MAX_RADIUS * 720.0).abs() < 1e-9);
         let want = std::f64::consts::PI * s.r_px * s.r_px;
         let got = integrated_alpha(&s);
