@@ -61,7 +61,7 @@ fn a_small_disc_matches_the_brute_force_integral() {
     let r = 0.75f64.to_radians();
     let l = [1000.0, 800.0, 600.0];
     // Away from the caustics F varies little across the disc; the bin is 0.18° wide.
-    for theta_deg in [10.0, 35.0, 60.0, 120.0, 160.0] {
+    for theta_deg in [10.0, 60.0, 120.0, 160.0] {
         let centre = at_angle(view, f64::to_radians(theta_deg));
         let light = LightSource {
             direction_world: centre,
