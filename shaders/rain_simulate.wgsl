@@ -9,18 +9,27 @@
 // (r/r_eff)², which keeps the integrated coverage; defocus widens them the same way. Streaks
 // whose brightest pixel would change by less than half a code value of 8-bit video are marked
 // invisible (len_px < 0): on CPU adapters raster work is most of the cost.
+// Drops near the lens are large soft discs (the circle of confusion): they are drawn no wider
+// than NEAR_FIELD_MAX_RADIUS of the picture height, their alpha still (r/r_drawn)², so the
+// integrated coverage stays physical while the cost of the few such drops stays bounded.
 // Colour: the drop's radiance for the view ray through each end of the streak, the dot product
 // of the frame's environment SH with the drop's transfer function rotated to the ray (PRT,
-// thesis §5.1.2; docs/method.md, "Lighting"); the ray changes by a few degrees at most along a
-// streak.
-// Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl.
+// thesis §5.1.2; docs/method.md, "Lighting"), plus the compact lights through the exact
+// transfer table (lights.wgsl), seen from the end's position; the ray changes by a few degrees
+// at most along a streak.
+// Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl,
+// common/lights.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
 @group(0) @binding(2) var<storage, read_write> streaks: array<Streak>;
+@group(0) @binding(3) var<uniform> lights: LightList;
+@group(0) @binding(4) var<storage, read> rtf_table: array<vec4<f32>>;
 
 const MIN_RADIUS_PX: f32 = 0.7;
 const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
+// Largest drawn radius, as a fraction of the picture height (near-field drops).
+const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
 
 fn hidden() -> Streak {
     return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
@@ -31,10 +40,12 @@ fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(rain.camera_from_world_0.xyz, d), dot(rain.camera_from_world_1.xyz, d), dot(rain.camera_from_world_2.xyz, d));
 }
 
-fn radiance_at(q_px: vec2<f32>) -> vec4<f32> {
-    let d = (q_px - rain.principal_px) / rain.camera_pos_m.w;
-    let ray = rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
-    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray);
+// Drop radiance at camera-space point `p_cam`: environment (PRT) plus compact lights.
+fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
+    // World offset from the camera: world_from_camera · p, the rows of camera_from_world.
+    let offset = rain.camera_from_world_0.xyz * p_cam.x + rain.camera_from_world_1.xyz * p_cam.y + rain.camera_from_world_2.xyz * p_cam.z;
+    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
+        + direct_light(offset, offset);
     return vec4<f32>(max(c, vec3<f32>(0.0)), 0.0);
 }
 
@@ -56,9 +67,9 @@ fn streak_of(id: u32) -> Streak {
     // Defocus: the thin lens spreads the drop over its circle of confusion (Garg & Nayar,
     // "When does a camera see rain?"); coverage is conserved, so alpha falls as r²/r_eff².
     let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);
-    let r_eff = max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX);
-    // A drop this close fills the view: it is a blur on the lens, not a streak.
-    if r_eff > 0.1 * rain.display_size_px.y { return hidden(); }
+    // Near the lens the blur disc can fill the view: cap the drawn radius (coverage is kept by
+    // the alpha below, the cost by the cap).
+    let r_eff = min(max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX), NEAR_FIELD_MAX_RADIUS * rain.display_size_px.y);
     let seg = q1 - q0;
     let len = length(seg);
     var dir = vec2<f32>(0.0, 1.0);
@@ -73,7 +84,7 @@ fn streak_of(id: u32) -> Streak {
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(q0), radiance_at(q1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(c0), radiance_at(c1));
 }
 
 @compute @workgroup_size(64)

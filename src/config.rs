@@ -109,7 +109,7 @@ impl Default for RainConfig {
 }
 
 /// Everything that shapes the picture (not the encoding).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RenderConfig {
     /// The camera.
@@ -316,6 +316,9 @@ impl RenderConfig {
             (0.0..=10.0).contains(&l.smoothing_s),
             "seconds in [0, 10]",
         )?;
+        for light in &l.lights {
+            light.validate()?;
+        }
         Ok(())
     }
 }

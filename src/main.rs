@@ -236,6 +236,13 @@ struct LookArgs {
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze. [default: 50]
     #[arg(long)]
     scene_depth: Option<f64>,
+    /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
+    #[arg(
+        long = "light",
+        value_name = "AZ,EL,R,G,B[,DISTANCE_M]",
+        allow_hyphen_values = true
+    )]
+    lights: Vec<String>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -446,6 +453,11 @@ fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
             Some([x]) => c.rain.wind_mps = [*x, 0.0],
             _ => bail!("invalid --wind '{w}': expected X,Y in m/s, e.g. 3,-1"),
         }
+    }
+    for text in &look.lights {
+        c.light
+            .lights
+            .push(rain_composite::lighting::UserLight::parse(text)?);
     }
     let r = &mut c.rain;
     let cam = &mut c.camera;

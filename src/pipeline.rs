@@ -12,6 +12,7 @@ use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use crate::config::RenderConfig;
+use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext};
 use crate::lighting::{EnvironmentSh, FrameLight, FrameLighting};
 use crate::rain::emitter::{self, RainSetup};
@@ -174,6 +175,7 @@ pub fn render(
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
     let mut lighting = Lighting::new(&info, &job.render, &rain)?;
+    lighting.upload_table(&mut compositor);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
     let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
@@ -251,7 +253,9 @@ pub fn render(
             match item? {
                 SourceItem::Frame(frame) => {
                     let t = Instant::now();
-                    let params = lighting.params(&rain, &frame, frame_time_s(&info, &frame));
+                    let (params, lights) =
+                        lighting.params(&rain, &frame, frame_time_s(&info, &frame));
+                    compositor.set_lights(&lights);
                     let done = compositor.submit(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
@@ -373,8 +377,10 @@ pub fn preview(
         }
     }
     check()?;
-    let params = lighting.params(&rain, &target, t_target);
+    let (params, lights) = lighting.params(&rain, &target, t_target);
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
+    lighting.upload_table(&mut compositor);
+    compositor.set_lights(&lights);
     let out = compositor.render_one(&target, &params)?;
     check()?;
     Ok((out, info))
@@ -390,11 +396,10 @@ impl Lighting {
     fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<Lighting> {
         let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
         let frame_lighting = if needed {
-            Some(FrameLighting::new(
-                &camera_for(info, render),
-                info.rotation_deg,
-                &render.light,
-            )?)
+            Some(
+                FrameLighting::new(&camera_for(info, render), info.rotation_deg, &render.light)?
+                    .with_haze_distance(rain.volume.far_m),
+            )
         } else {
             None
         };
@@ -415,13 +420,15 @@ impl Lighting {
             .filter(|&w| w > 0.0)
     }
 
-    /// The GPU uniforms of `frame`, shown at `t_s`.
-    fn params(
-        &mut self,
-        rain: &RainSetup,
-        frame: &YuvFrame,
-        t_s: f64,
-    ) -> crate::gpu::types::RainParams {
+    /// The drop's transfer table for the direct light term, once per job.
+    fn upload_table(&self, compositor: &mut Compositor) {
+        if let Some(l) = &self.frame_lighting {
+            compositor.set_transfer_table(l.transfer_tables());
+        }
+    }
+
+    /// The GPU uniforms of `frame`, shown at `t_s`: the rain's and the compact lights'.
+    fn params(&mut self, rain: &RainSetup, frame: &YuvFrame, t_s: f64) -> (RainParams, LightList) {
         let light = match &mut self.frame_lighting {
             Some(l) => l.update(frame, t_s),
             None => FrameLight {
@@ -430,6 +437,9 @@ impl Lighting {
                 lights: Vec::new(),
             },
         };
-        rain.params_at(t_s, &light, self.drop_zonal)
+        (
+            rain.params_at(t_s, &light, self.drop_zonal),
+            LightList::new(&light.lights),
+        )
     }
 }

@@ -497,3 +497,215 @@ fn hard_cameras_render_finite_local_streaks() {
         );
     }
 }
+
+/// `rain_simulate` against its CPU twin (`rain::streak::streak_of`, `prt_colour`,
+/// `direct_colour`): streak geometry, near-field drops capped, and each end's radiance from the
+/// environment plus a sun and a near lamp, for drops at the GPU's own positions.
+#[test]
+fn gpu_streaks_match_the_cpu_twin_with_lights() {
+    use glam::DVec3;
+    use rain_composite::gpu::probe::probe_streaks;
+    use rain_composite::gpu::types::LightList;
+    use rain_composite::lighting::prt::{channel_optics, prt_colour};
+    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+    use rain_composite::lighting::{LightSource, direct_colour};
+    use rain_composite::rain::streak::{NEAR_FIELD_MAX_RADIUS, streak_of};
+
+    let Some(ctx) = gpu() else { return };
+    // A long lens wide open, focused far: drops near the lens blur into large discs.
+    let camera = Camera::new(640, 360, 0.45, 1.6, 0.05, 0.0);
+    let lens = CameraConfig {
+        fov_deg: 0.45f64.to_degrees(),
+        f_number: 2.0,
+        focus_m: 20.0,
+        ..CameraConfig::default()
+    };
+    // Opacity well above 1 keeps the faint defocused streaks above the visibility cut.
+    let rain = RainConfig {
+        rate_mm_per_h: 40.0,
+        near_m: 0.1,
+        opacity: 30.0,
+        seed: 11,
+        ..RainConfig::default()
+    };
+    let setup = emitter::build(&camera, &lens, &rain, 0.01, 0, (640, 360)).expect("rain");
+    let optics =
+        channel_optics(ChannelIndices(WATER_RHO_RGB), 9, Polarisation::default()).expect("optics");
+    let tables = optics.map(|o| o.tabulate(1024).expect("table"));
+    let rtf = RtfSh::from_optics(&optics, 4).expect("rtf");
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.8, 0.9, 1.0];
+    env.coeffs[2] = [0.3, 0.35, 0.5];
+    env.coeffs[7] = [0.05, -0.02, 0.01];
+    let lights = vec![
+        LightSource {
+            direction_world: DVec3::new(0.3, -0.8, 0.5).normalize(),
+            solid_angle_sr: 6.8e-5,
+            radiance_rgb: [2e4, 1.9e4, 1.7e4],
+            distance_m: None,
+        },
+        LightSource {
+            direction_world: DVec3::new(0.14, 0.99, 0.08).normalize(),
+            solid_angle_sr: 2e-3,
+            radiance_rgb: [3000.0, 2500.0, 1500.0],
+            distance_m: Some(6.0),
+        },
+    ];
+    let t = 2.5;
+    let params = setup.params_at(
+        t,
+        &FrameLight {
+            env: env.clone(),
+            haze_radiance: [0.0; 3],
+            lights: lights.clone(),
+        },
+        rtf.to_gpu_array()
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect::<Vec<_>>()
+            .try_into()
+            .expect("3 channels"),
+    );
+    let list = LightList::new(&lights);
+    let gpu_streaks = probe_streaks(&ctx, &setup, &params, &list, &tables).expect("streaks");
+    let drops = probe_drops(&ctx, &setup, t as f32, params.drop_count).expect("drops");
+    let (mut drawn, mut capped, mut mismatched, mut lit) = (0, 0, 0, 0);
+    let (mut compared, mut steep) = (0, 0);
+    for (id, (g, d)) in gpu_streaks.iter().zip(&drops).enumerate() {
+        let cpu = streak_of(
+            &params,
+            d.pos_m.as_dvec3(),
+            d.vel_mps.as_dvec3(),
+            d.width_mm as f64,
+        );
+        let Some(c) = cpu else {
+            mismatched += (g.len_px >= 0.0) as usize;
+            continue;
+        };
+        if g.len_px < 0.0 {
+            mismatched += 1;
+            continue;
+        }
+        drawn += 1;
+        let near_cap = NEAR_FIELD_MAX_RADIUS * 360.0;
+        capped += (c.r_eff_px >= near_cap * 0.999) as usize;
+        let close = |a: f32, b: f64, tol: f64| (a as f64 - b).abs() <= tol * (1.0 + b.abs());
+        assert!(
+            close(g.r_eff_px, c.r_eff_px, 1e-3),
+            "drop {id}: r_eff {} vs {}",
+            g.r_eff_px,
+            c.r_eff_px
+        );
+        assert!(
+            close(g.alpha_scale, c.alpha_scale, 2e-3),
+            "drop {id}: alpha {} vs {}",
+            g.alpha_scale,
+            c.alpha_scale
+        );
+        assert!(
+            close(g.len_px, c.len_px, 1e-3),
+            "drop {id}: len {} vs {}",
+            g.len_px,
+            c.len_px
+        );
+        assert!(
+            close(g.q0_px[0], c.q0_px.x, 1e-3) && close(g.q0_px[1], c.q0_px.y, 1e-3),
+            "drop {id}: q0"
+        );
+        for (k, gr) in [g.radiance0, g.radiance1].iter().enumerate() {
+            let offset = camera.world_from_camera * c.ends_camera_m[k];
+            let sh = prt_colour(&env, &rtf, offset);
+            let direct = direct_colour(&lights, &tables, Some(offset), offset);
+            for ch in 0..3 {
+                let want = (sh[ch] + direct[ch]).max(0.0);
+                let err = (gr[ch] as f64 - want).abs();
+                // On a bow caustic F steps by several times per 0.18° bin, so the f32 angle's
+                // last bits show; elsewhere the two agree to f32 rounding.
+                if err > 2e-3 * want + 1e-4 {
+                    steep += 1;
+                    assert!(
+                        err <= 2e-2 * want,
+                        "drop {id} end {k} channel {ch}: GPU {} vs CPU {want} (SH {}, lights {})",
+                        gr[ch],
+                        sh[ch],
+                        direct[ch]
+                    );
+                }
+                compared += 1;
+            }
+            lit += (direct[1] > sh[1]) as usize;
+        }
+    }
+    eprintln!(
+        "{drawn} streaks compared, {capped} capped near the lens, {lit} ends lit mostly by \
+         the lights, {mismatched} visibility mismatches, {steep} of {compared} radiances \
+         beyond f32 rounding"
+    );
+    assert!(
+        steep * 200 <= compared,
+        "{steep} of {compared} radiances off"
+    );
+    assert!(
+        lit * 10 < compared,
+        "the environment never dominates: {lit} of {compared}"
+    );
+    assert!(drawn > 500, "{drawn} streaks");
+    assert!(capped > 0, "no near-field drop reached the cap");
+    assert!(
+        lit > 0,
+        "the lights never dominate: the test would not see them"
+    );
+    // f32 against f64 at the visibility threshold.
+    assert!(
+        mismatched * 200 <= drawn,
+        "{mismatched} visibility mismatches"
+    );
+}
+
+/// Cost of the direct light term in `rain_simulate`: the stage with 0, 1 and 16 lights on the
+/// default rain of a 720p frame (run with `--ignored --nocapture`; medians of 15 runs, readback
+/// included and the same in all three).
+#[test]
+#[ignore]
+fn direct_light_cost() {
+    use glam::DVec3;
+    use rain_composite::gpu::probe::SimulateProbe;
+    use rain_composite::gpu::types::LightList;
+    use rain_composite::lighting::{FrameLighting, LightConfig, LightSource};
+
+    let Some(ctx) = gpu() else { return };
+    let camera = CameraConfig::default().camera(1280, 720);
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        0.01,
+        0,
+        (1280, 720),
+    )
+    .expect("rain");
+    let lighting = FrameLighting::new(&camera, 0, &LightConfig::default()).expect("lighting");
+    let probe = SimulateProbe::new(&ctx, &setup, setup.drop_count(), lighting.transfer_tables());
+    let params = lit(&setup, 1.0);
+    let lamp = |i: usize| LightSource {
+        direction_world: DVec3::new((i as f64).sin(), (i as f64).cos(), 0.2).normalize(),
+        solid_angle_sr: 2e-3,
+        radiance_rgb: [1000.0; 3],
+        distance_m: i.is_multiple_of(2).then_some(3.0 + i as f64),
+    };
+    for n in [0usize, 1, 16, 0, 1, 16] {
+        let lights = LightList::new(&(0..n).map(lamp).collect::<Vec<_>>());
+        let mut t = Vec::new();
+        for _ in 0..15 {
+            let start = std::time::Instant::now();
+            probe.run(&ctx, &params, &lights).expect("run");
+            t.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        t.sort_by(f64::total_cmp);
+        eprintln!(
+            "{n:2} lights: rain_simulate + readback {:.2} ms (median), {} drops",
+            t[t.len() / 2],
+            setup.drop_count()
+        );
+    }
+}

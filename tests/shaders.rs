@@ -3,7 +3,7 @@
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
-use rain_composite::gpu::types::{Column, FrameParams, RainParams, Streak};
+use rain_composite::gpu::types::{Column, DirectLight, FrameParams, LightList, RainParams, Streak};
 
 fn module(stage: Stage) -> naga::Module {
     let src = stage.source();
@@ -112,6 +112,8 @@ fn rust_twins_match_wgsl_layouts() {
             radiance1
         ]
     );
+    assert_twin!(m, DirectLight, [direction_distance, strength]);
+    assert_twin!(m, LightList, [count, table_bins, _pad, lights]);
     let m = module(Stage::YuvToRgb);
     assert_twin!(
         m,

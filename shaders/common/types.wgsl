@@ -85,3 +85,17 @@ struct Streak {
     radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb)
     radiance1: vec4<f32>,   // and at the end of the path
 }
+
+// One compact light for the direct term (src/lighting/sources.rs, LightSource).
+struct DirectLight {
+    direction_distance: vec4<f32>,  // xyz: unit camera → light, world; w: distance m, 0 = infinity
+    strength: vec4<f32>,            // rgb: radiance × solid angle at the camera; w: closest a drop may be, m
+}
+
+// The frame's compact lights (the brightest MAX_LIGHTS) and the size of the RTF table.
+struct LightList {
+    count: u32,
+    table_bins: u32,                // θ bins of rtf_table over [0, π]
+    _pad: vec2<u32>,
+    lights: array<DirectLight, 16>,
+}

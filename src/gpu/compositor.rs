@@ -17,8 +17,9 @@ use std::sync::mpsc;
 use wgpu::util::DeviceExt;
 
 use super::GpuContext;
+use super::lights::DirectLightBuffers;
 use super::shaders::Stage;
-use super::types::{FrameParams, RainParams, Streak};
+use super::types::{FrameParams, LightList, RainParams, Streak};
 use crate::rain::emitter::RainSetup;
 use crate::video::{FrameFormat, Plane, YuvFrame};
 use crate::{Error, Result};
@@ -58,6 +59,7 @@ pub struct Compositor {
     planes: [wgpu::Texture; 3],
     rain_buffer: wgpu::Buffer,
     rain_drops: u32,
+    direct_lights: DirectLightBuffers,
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
     yuv_to_rgb: (wgpu::ComputePipeline, wgpu::BindGroup),
@@ -316,6 +318,8 @@ impl Compositor {
                 },
             ],
         });
+        let direct_lights = DirectLightBuffers::new(device);
+        direct_lights.upload_lights(&ctx.queue, &LightList::new(&[]));
         let simulate_pipeline = compute(Stage::RainSimulate, "main");
         let simulate_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("rain_simulate"),
@@ -333,6 +337,14 @@ impl Compositor {
                     binding: 2,
                     resource: streak_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: direct_lights.list.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: direct_lights.table.as_entire_binding(),
+                },
             ],
         });
         Ok(Compositor {
@@ -342,6 +354,7 @@ impl Compositor {
             planes,
             rain_buffer,
             rain_drops: rain.params.drop_count,
+            direct_lights,
             out_buffer,
             staging,
             yuv_to_rgb: (yuv_pipeline, yuv_bind),
@@ -366,6 +379,17 @@ impl Compositor {
     /// Drops drawn per frame.
     pub fn drop_count(&self) -> u32 {
         self.rain_drops
+    }
+
+    /// Sets the drop's transfer table (R, G, B) the direct light term reads; once per job
+    /// (see `FrameLighting::transfer_tables`). Until then the lights add nothing.
+    pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
+        self.direct_lights.upload_table(&self.ctx.queue, tables);
+    }
+
+    /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
+    pub fn set_lights(&mut self, lights: &LightList) {
+        self.direct_lights.upload_lights(&self.ctx.queue, lights);
     }
 
     /// Records and submits `frame` with the rain of `rain` (see `RainSetup::params_at`).

@@ -1,6 +1,7 @@
 //! GPU plumbing: adapter choice, the WGSL stages and their Rust twins, the per-frame compositor.
 pub mod compositor;
 pub mod context;
+pub mod lights;
 pub mod probe;
 pub mod shaders;
 pub mod types;

@@ -21,6 +21,7 @@ const COLOR: &str = include_str!("../../shaders/common/color.wgsl");
 const RNG: &str = include_str!("../../shaders/common/rng.wgsl");
 const DROPS: &str = include_str!("../../shaders/common/drops.wgsl");
 const SH: &str = include_str!("../../shaders/common/sh.wgsl");
+const LIGHTS: &str = include_str!("../../shaders/common/lights.wgsl");
 
 impl Stage {
     /// Every stage, for validation.
@@ -51,7 +52,7 @@ impl Stage {
                 include_str!("../../shaders/yuv_to_rgb.wgsl"),
             ),
             Stage::RainSimulate => (
-                &[TYPES, RNG, DROPS, SH],
+                &[TYPES, RNG, DROPS, SH, LIGHTS],
                 include_str!("../../shaders/rain_simulate.wgsl"),
             ),
             Stage::RainStreaks => (&[TYPES], include_str!("../../shaders/rain_streaks.wgsl")),

@@ -148,3 +148,65 @@ pub struct Streak {
     pub radiance0: [f32; 4],
     pub radiance1: [f32; 4],
 }
+
+/// Most compact lights the GPU's direct term takes per frame (`LightList::lights`).
+pub const MAX_LIGHTS: usize = 16;
+
+/// WGSL `DirectLight`: one compact light (see [`crate::lighting::LightSource`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct DirectLight {
+    /// xyz: unit direction camera → light, world; w: distance, m (0 = at infinity).
+    pub direction_distance: [f32; 4],
+    /// rgb: radiance × solid angle at the camera; w: closest a drop may be, m.
+    pub strength: [f32; 4],
+}
+
+/// WGSL `LightList`: the frame's compact lights and the size of the RTF table.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct LightList {
+    pub count: u32,
+    pub table_bins: u32,
+    pub _pad: [u32; 2],
+    pub lights: [DirectLight; MAX_LIGHTS],
+}
+
+impl LightList {
+    /// The [`MAX_LIGHTS`] strongest of `sources` (by the luminance of radiance × solid angle at
+    /// the camera; the rest are dropped), for the table of [`super::lights::TABLE_BINS`] bins.
+    pub fn new(sources: &[crate::lighting::LightSource]) -> LightList {
+        let luminance = |s: &crate::lighting::LightSource| {
+            let [r, g, b] = s.radiance_times_solid_angle();
+            0.2126 * r + 0.7152 * g + 0.0722 * b
+        };
+        let mut order: Vec<&crate::lighting::LightSource> = sources.iter().collect();
+        order.sort_by(|a, b| luminance(b).total_cmp(&luminance(a)));
+        let mut list = LightList {
+            table_bins: super::lights::TABLE_BINS as u32,
+            ..Zeroable::zeroed()
+        };
+        for (slot, s) in list.lights.iter_mut().zip(order) {
+            let d = s.direction_world;
+            let [r, g, b] = s.radiance_times_solid_angle();
+            *slot = DirectLight {
+                direction_distance: [
+                    d.x as f32,
+                    d.y as f32,
+                    d.z as f32,
+                    s.distance_m.unwrap_or(0.0) as f32,
+                ],
+                strength: [
+                    r as f32,
+                    g as f32,
+                    b as f32,
+                    s.min_distance_m().unwrap_or(0.0) as f32,
+                ],
+            };
+            list.count += 1;
+        }
+        list
+    }
+}

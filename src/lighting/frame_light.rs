@@ -9,8 +9,9 @@
 use glam::DVec3;
 
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
-use super::prt::{RtfSh, prt_colour};
-use super::rtf::ChannelIndices;
+use super::prt::{RtfSh, channel_optics, prt_colour};
+use super::rtf::{ChannelIndices, Polarisation, RtfTable};
+use super::sources::{LightSource, UserLight, direct_colour};
 use crate::Result;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
@@ -18,11 +19,14 @@ use crate::video::frame::coded_pixel;
 
 /// SH bands used on the GPU.
 pub const GPU_BANDS: usize = 4;
+/// θ bins of the transfer table the GPU's direct light term reads (0.18° each: finer than
+/// the bows' width and the sun's disc).
+pub const GPU_RTF_BINS: usize = 1024;
 /// Samples per side of each downsampled block.
 const SAMPLES_PER_BLOCK: usize = 4;
 
 /// How the rain is lit.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LightConfig {
     /// Refractive index of the drops per channel (R, G, B); differing values model dispersion.
@@ -31,6 +35,9 @@ pub struct LightConfig {
     pub n_max: usize,
     /// Time constant of the lighting's temporal smoothing, seconds (0 = off).
     pub smoothing_s: f64,
+    /// Lights the frame does not show (a street lamp behind the camera), added to every
+    /// frame's light list after the sources found in the frame.
+    pub lights: Vec<UserLight>,
 }
 
 impl Default for LightConfig {
@@ -39,6 +46,7 @@ impl Default for LightConfig {
             refractive_index: super::rtf::WATER_RHO_RGB,
             n_max: super::rtf::DEFAULT_N_MAX,
             smoothing_s: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
+            lights: Vec::new(),
         }
     }
 }
@@ -61,12 +69,26 @@ pub struct FrameLighting {
     rtf: RtfSh,
     smoother: ShSmoother,
     rotation_deg: i32,
+    tables: [RtfTable; 3],
+    user_lights: Vec<LightSource>,
+    haze_distance_m: Option<f64>,
 }
 
 impl FrameLighting {
     /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
     /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
     pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<FrameLighting> {
+        let optics = channel_optics(
+            ChannelIndices::from(config.refractive_index),
+            config.n_max,
+            Polarisation::default(),
+        )?;
+        let [r, g, b] = optics.map(|o| o.tabulate(GPU_RTF_BINS));
+        let user_lights = config
+            .lights
+            .iter()
+            .map(|l| l.validate().map(|()| l.source(camera.world_from_camera)))
+            .collect::<Result<Vec<_>>>()?;
         Ok(FrameLighting {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
             rtf: RtfSh::water(
@@ -76,7 +98,29 @@ impl FrameLighting {
             )?,
             smoother: ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?,
             rotation_deg,
+            tables: [r?, g?, b?],
+            user_lights,
+            haze_distance_m: None,
         })
+    }
+
+    /// Where the haze begins along the view direction, metres: lights at a finite distance
+    /// light it as they light a drop there (the nearest haze is the brightest and the least
+    /// veiled). Without it the haze sees every light as the camera does.
+    pub fn with_haze_distance(mut self, distance_m: f64) -> FrameLighting {
+        self.haze_distance_m = Some(distance_m).filter(|d| d.is_finite() && *d > 0.0);
+        self
+    }
+
+    /// The drop's transfer table per channel (R, G, B), [`GPU_RTF_BINS`] bins: what the
+    /// direct light term reads.
+    pub fn transfer_tables(&self) -> &[RtfTable; 3] {
+        &self.tables
+    }
+
+    /// The lights the user added, in the world.
+    pub fn user_lights(&self) -> &[LightSource] {
+        &self.user_lights
     }
 
     /// Frames older than this (seconds before the current one) no longer affect the light.
@@ -104,12 +148,17 @@ impl FrameLighting {
     pub fn update(&mut self, frame: &YuvFrame, t_s: f64) -> FrameLight {
         let raw = self.environment(frame);
         let env = self.smoother.update(&raw, t_s);
+        let mut lights = Vec::new();
+        lights.extend_from_slice(&self.user_lights);
         let forward = self.mapper.camera().world_from_camera * DVec3::Z;
-        let haze_radiance = prt_colour(&env, &self.rtf, forward).map(|v| v.max(0.0) as f32);
+        let haze_at = self.haze_distance_m.map(|d| forward * d);
+        let sh = prt_colour(&env, &self.rtf, forward);
+        let direct = direct_colour(&lights, &self.tables, haze_at, forward);
+        let haze_radiance = [0, 1, 2].map(|c| (sh[c] + direct[c]).max(0.0) as f32);
         FrameLight {
             env,
             haze_radiance,
-            lights: Vec::new(),
+            lights,
         }
     }
 

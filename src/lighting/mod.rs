@@ -32,4 +32,4 @@ pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, FrameLighting, LightConfig};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
-pub use sources::LightSource;
+pub use sources::{LightSource, UserLight, direct_colour};

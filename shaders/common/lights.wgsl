@@ -1,0 +1,49 @@
+// lights.wgsl — the direct light term: compact sources through the drop's exact transfer
+// function (the RTF table), beside the SH environment that keeps only the extended light.
+//
+// GPU twin of src/lighting/sources.rs (`direct_colour`); keep them in sync. Convention: θ is
+// the angle between ω (from the drop toward the light) and the view ray v (eye → drop); θ = 0
+// is straight through the drop, the primary bow is near θ = 138°. A light of radiance L and
+// solid angle Ω adds L·Ω·F(θ); a light at distance d from the camera is seen from the drop,
+// its Ω scaled by (d/|light − drop|)², the distance clamped where Ω would exceed a hemisphere.
+//
+// Needs, declared by the stage that includes it:
+//   var<uniform> lights: LightList;  var<storage, read> rtf_table: array<vec4<f32>>;
+// rtf_table[m].rgb = F (sr⁻¹) per channel over θ bin [mΔ, (m+1)Δ), Δ = π / lights.table_bins.
+
+const LIGHTS_PI: f32 = 3.14159265358979;
+
+// F per channel at scattering angle θ, linear between bin centres, clamped at the ends (twin of
+// RtfTable::interpolated).
+fn rtf_at(theta: f32) -> vec3<f32> {
+    let n = lights.table_bins;
+    let u = theta / LIGHTS_PI * f32(n) - 0.5;
+    if u <= 0.0 { return rtf_table[0].rgb; }
+    let m = u32(floor(u));
+    if m + 1u >= n { return rtf_table[n - 1u].rgb; }
+    return mix(rtf_table[m].rgb, rtf_table[m + 1u].rgb, u - f32(m));
+}
+
+// Radiance the compact lights give a drop at `drop_from_camera_m` (world axes, metres from the
+// camera) seen along `view` (eye → drop, any length).
+fn direct_light(view: vec3<f32>, drop_from_camera_m: vec3<f32>) -> vec3<f32> {
+    let v = normalize(view);
+    var c = vec3<f32>(0.0);
+    for (var i = 0u; i < min(lights.count, 16u); i++) {
+        let l = lights.lights[i];
+        var omega = l.direction_distance.xyz;
+        var scale = 1.0;
+        let d = l.direction_distance.w;
+        if d > 0.0 {
+            let to_light = omega * d - drop_from_camera_m;
+            let r = length(to_light);
+            if r > 0.0 { omega = to_light / r; }
+            let q = d / max(r, l.strength.w);
+            scale = q * q;
+        }
+        // atan2(|ω×v|, ω·v): accurate near 0 and π, unlike acos.
+        let theta = atan2(length(cross(omega, v)), dot(omega, v));
+        c += l.strength.rgb * scale * rtf_at(theta);
+    }
+    return c;
+}

@@ -1,0 +1,228 @@
+//! The CPU twin of `streak_of` in `shaders/rain_simulate.wgsl` and `coverage` in
+//! `shaders/rain_streaks.wgsl`: where a drop's streak lies in the picture, how wide it is drawn
+//! and how much of each pixel it covers. `tests/gpu.rs` holds the GPU to it.
+//!
+//! ## How it works
+//!
+//! The drop's path over the exposure is clipped to the near plane and projected. Its disc of
+//! radius r (px) is widened to `r_eff = √(r² + b²)` by the defocus blur radius b (at least
+//! [`MIN_RADIUS_PX`]) and its alpha scaled by `(r/r_eff)²`, so the integrated coverage stays
+//! `π r²` (Garg & Nayar's time-averaged streak, thesis 5.1.2). Near the lens b can fill the
+//! view: the drawn radius is capped at [`NEAR_FIELD_MAX_RADIUS`] of the picture height and the
+//! alpha follows the cap, which keeps both the coverage and the cost of those few drops bounded.
+
+use glam::{DVec2, DVec3};
+
+use crate::gpu::types::RainParams;
+
+/// Drops thinner than this (px) are drawn this wide, their alpha scaled down.
+pub const MIN_RADIUS_PX: f64 = 0.7;
+/// Streaks whose peak alpha is below half an 8-bit code value are not drawn.
+pub const MIN_PEAK_ALPHA: f64 = 0.5 / 255.0;
+/// Largest drawn radius, as a fraction of the picture height (near-field drops).
+pub const NEAR_FIELD_MAX_RADIUS: f64 = 0.25;
+
+/// One drop's streak in the displayed picture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreakShape {
+    /// Start of the centre's path, px.
+    pub q0_px: DVec2,
+    /// Unit direction of motion in the picture.
+    pub dir: DVec2,
+    /// Path length, px.
+    pub len_px: f64,
+    /// Drawn radius, px.
+    pub r_eff_px: f64,
+    /// Projected radius of the drop itself, px.
+    pub r_px: f64,
+    /// Coverage multiplier (`(r/r_eff)²` × opacity × weight).
+    pub alpha_scale: f64,
+    /// Path ends in camera space (after near clipping), metres.
+    pub ends_camera_m: [DVec3; 2],
+}
+
+impl StreakShape {
+    /// Alpha at display position `p_px` (coverage × alpha scale, clamped to 1).
+    pub fn alpha_at(&self, p_px: DVec2) -> f64 {
+        let d = p_px - self.q0_px;
+        let along = d.dot(self.dir);
+        let across = d.perp_dot(self.dir);
+        (coverage(along, across, self.len_px, self.r_eff_px) * self.alpha_scale).clamp(0.0, 1.0)
+    }
+
+    /// Peak alpha on the streak's axis.
+    pub fn peak_alpha(&self) -> f64 {
+        self.alpha_scale * (2.0 * self.r_eff_px / self.len_px.max(1e-3)).min(1.0)
+    }
+}
+
+/// Fraction of the exposure during which a disc of radius `r`, moving uniformly from 0 to
+/// `len` along x, covers the point (`along`, `across`).
+pub fn coverage(along: f64, across: f64, len: f64, r: f64) -> f64 {
+    let h2 = r * r - across * across;
+    if h2 <= 0.0 {
+        return 0.0;
+    }
+    let h = h2.sqrt();
+    if len < 1e-3 {
+        return if along.abs() < h { 1.0 } else { 0.0 };
+    }
+    ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) / len
+}
+
+/// The streak of a drop at `pos_m` (world) moving at `vel_mps`, drawn `width_mm` wide, under
+/// the uniforms `p`; `None` where the GPU hides it (behind the near plane, off the picture, or
+/// fainter than [`MIN_PEAK_ALPHA`]).
+pub fn streak_of(
+    p: &RainParams,
+    pos_m: DVec3,
+    vel_mps: DVec3,
+    width_mm: f64,
+) -> Option<StreakShape> {
+    let v3 = |a: [f32; 4]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
+    let cam = v3(p.camera_pos_m);
+    let rows = [
+        v3(p.camera_from_world_0),
+        v3(p.camera_from_world_1),
+        v3(p.camera_from_world_2),
+    ];
+    let to_camera = |w: DVec3| {
+        let d = w - cam;
+        DVec3::new(rows[0].dot(d), rows[1].dot(d), rows[2].dot(d))
+    };
+    let half = vel_mps * (0.5 * p.exposure_s as f64);
+    let (mut c0, mut c1) = (to_camera(pos_m - half), to_camera(pos_m + half));
+    let near = p.near_clip_m as f64;
+    if c0.z < near && c1.z < near {
+        return None;
+    }
+    if c0.z < near {
+        c0 = c0.lerp(c1, (near - c0.z) / (c1.z - c0.z));
+    }
+    if c1.z < near {
+        c1 = c1.lerp(c0, (near - c1.z) / (c0.z - c1.z));
+    }
+    let f = p.camera_pos_m[3] as f64;
+    let principal = v2(p.principal_px);
+    let q0 = principal + f * DVec2::new(c0.x, c0.y) / c0.z;
+    let q1 = principal + f * DVec2::new(c1.x, c1.y) / c1.z;
+    let z = c0.z.min(c1.z);
+    let r = 0.5e-3 * width_mm * f / z;
+    let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
+    let size = v2(p.display_size_px);
+    let r_eff = (r * r + blur * blur)
+        .sqrt()
+        .max(MIN_RADIUS_PX)
+        .min(NEAR_FIELD_MAX_RADIUS * size.y);
+    let seg = q1 - q0;
+    let len = seg.length();
+    let dir = if len > 1e-4 { seg / len } else { DVec2::Y };
+    let alpha_scale = r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64;
+    let shape = StreakShape {
+        q0_px: q0,
+        dir,
+        len_px: len,
+        r_eff_px: r_eff,
+        r_px: r,
+        alpha_scale,
+        ends_camera_m: [c0, c1],
+    };
+    if shape.peak_alpha() < MIN_PEAK_ALPHA {
+        return None;
+    }
+    let ext = r_eff + 1.0;
+    let lo = q0.min(q1) - DVec2::splat(ext);
+    let hi = q0.max(q1) + DVec2::splat(ext);
+    if hi.x < 0.0 || hi.y < 0.0 || lo.x > size.x || lo.y > size.y {
+        return None;
+    }
+    Some(shape)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{CameraConfig, RainConfig};
+    use crate::rain::emitter;
+    use crate::scene::Camera;
+
+    /// Σ alpha over the picture plane (0.5 px grid over the streak's footprint), px².
+    fn integrated_alpha(s: &StreakShape) -> f64 {
+        let ext = s.r_eff_px + 1.0;
+        let q1 = s.q0_px + s.dir * s.len_px;
+        let (lo, hi) = (s.q0_px.min(q1) - ext, s.q0_px.max(q1) + ext);
+        let step = 0.5;
+        let mut sum = 0.0;
+        let mut y = lo.y + 0.5 * step;
+        while y < hi.y {
+            let mut x = lo.x + 0.5 * step;
+            while x < hi.x {
+                sum += s.alpha_at(DVec2::new(x, y));
+                x += step;
+            }
+            y += step;
+        }
+        sum * step * step
+    }
+
+    /// A 2.5 mm drop falling at 7 m/s, `z_m` in front of a 20° lens at `f_number` focused at
+    /// 10 m, 1/100 s exposure: its uniforms and streak.
+    fn near_drop(z_m: f64, f_number: f64) -> (RainParams, Option<StreakShape>) {
+        let camera = Camera::new(1280, 720, 20f64.to_radians(), 1.6, 0.0, 0.0);
+        let lens = CameraConfig {
+            fov_deg: 20.0,
+            f_number,
+            focus_m: 10.0,
+            ..CameraConfig::default()
+        };
+        let setup = emitter::build(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
+            .expect("rain");
+        let mut p = setup.motion_at(0.0);
+        p.drop_weight = 1.0;
+        let pos = camera.position_m + camera.world_from_camera * DVec3::new(0.0, 0.0, z_m);
+        let s = streak_of(&p, pos, DVec3::new(0.0, 0.0, -7.0), 2.5);
+        (p, s)
+    }
+
+    #[test]
+    fn a_drop_near_the_lens_is_a_soft_visible_disc_with_its_physical_coverage() {
+        let (p, s) = near_drop(0.35, 4.0);
+        let s = s.expect("drawn");
+        let z = s.ends_camera_m[0].z.min(s.ends_camera_m[1].z);
+        let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
+        // Wider than a tenth of the picture: the blur of a drop on the lens, not a streak.
+        assert!(blur > 0.1 * 720.0, "blur radius {blur} px");
+        assert!(
+            s.r_eff_px > 5.0 * s.r_px,
+            "soft: {} vs drop {}",
+            s.r_eff_px,
+            s.r_px
+        );
+        assert!(
+            s.peak_alpha() >= MIN_PEAK_ALPHA,
+            "visible: peak {}",
+            s.peak_alpha()
+        );
+        // Time-averaged coverage integrates to the drop's own projected area, π r².
+        let want = std::f64::consts::PI * s.r_px * s.r_px;
+        let got = integrated_alpha(&s);
+        assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want} px²");
+    }
+
+    #[test]
+    fn a_drop_whose_blur_would_fill_the_view_is_capped_and_keeps_its_coverage() {
+        let (p, s) = near_drop(0.2, 2.0);
+        let s = s.expect("drawn");
+        let z = s.ends_camera_m[0].z.min(s.ends_camera_m[1].z);
+        let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
+        assert!(
+            blur > NEAR_FIELD_MAX_RADIUS * 720.0,
+            "blur radius {blur} px"
+        );
+        assert!((s.r_eff_px - NEAR_FIELD_MAX_RADIUS * 720.0).abs() < 1e-9);
+        let want = std::f64::consts::PI * s.r_px * s.r_px;
+        let got = integrated_alpha(&s);
+        assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want} px²");
+    }
+}
