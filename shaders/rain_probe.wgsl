@@ -1,4 +1,4 @@
-// Stage rain_probe: writes the state of drops [first, first + count) at rain.time_s to a buffer
+// Stage rain_probe: writes the state of drops [first, first + count) at the frame's time to a buffer
 // (position, diameter, velocity, width), so tests can hold the GPU emitter against its CPU twin.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl.
 
@@ -6,7 +6,7 @@
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
 @group(0) @binding(2) var<storage, read_write> probe_out: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(SIMULATE_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
     let d = drop_state(id.x);

@@ -59,7 +59,7 @@ fn streak_of(id: u32) -> Streak {
     // Clip the segment to the near plane.
     if c0.z < near { c0 = mix(c0, c1, (near - c0.z) / (c1.z - c0.z)); }
     if c1.z < near { c1 = mix(c1, c0, (near - c1.z) / (c0.z - c1.z)); }
-    let f = rain.camera_pos_m.w;
+    let f = rain.focal_px;
     let q0 = rain.principal_px + f * c0.xy / c0.z;
     let q1 = rain.principal_px + f * c1.xy / c1.z;
     let z = min(c0.z, c1.z);
@@ -87,7 +87,7 @@ fn streak_of(id: u32) -> Streak {
     return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(c0), radiance_at(c1));
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(SIMULATE_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
     streaks[id.x] = streak_of(id.x);

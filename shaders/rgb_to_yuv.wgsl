@@ -25,7 +25,7 @@ fn pack(word: u32, j: u32, code: u32) -> u32 {
     return word | (code << (j * 8u * frame.bytes_per_sample));
 }
 
-@compute @workgroup_size(16, 16)
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn luma(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.y_row_words || id.y >= frame.height { return; }
     let n = samples_per_word();
@@ -39,7 +39,7 @@ fn luma(@builtin(global_invocation_id) id: vec3<u32>) {
     out_words[id.y * frame.y_row_words + id.x] = word;
 }
 
-@compute @workgroup_size(16, 16)
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn chroma(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.c_row_words || id.y >= frame.chroma_height { return; }
     let n = samples_per_word();

@@ -12,7 +12,7 @@
 @group(0) @binding(4) var canvas: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(5) var<uniform> rain: RainParams;
 
-@compute @workgroup_size(16, 16)
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
     let c = vec2<u32>(id.x >> frame.chroma_shift_x, id.y >> frame.chroma_shift_y);

@@ -726,8 +726,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let camera = cam.camera(w, h);
             let exposure = rain_composite::rain::physics::exposure_s(cam.shutter_deg, *fps)?;
             let setup =
-                rain_composite::rain::emitter::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
-            let params = rain_composite::rain::emitter::plan_params(cam, &c.rain, exposure)?;
+                rain_composite::gpu::uniforms::build(&camera, cam, &c.rain, exposure, 0, (w, h))?;
+            let params = rain_composite::gpu::uniforms::plan_params(cam, &c.rain, exposure)?;
             let v = rain_composite::rain::volume::inspect_drops(
                 &camera,
                 &setup.model,

@@ -13,9 +13,9 @@ use std::time::{Duration, Instant};
 
 use crate::config::RenderConfig;
 use crate::gpu::types::{LightList, RainParams};
+use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext};
 use crate::lighting::{EnvironmentSh, FrameLight, FrameLighting};
-use crate::rain::emitter::{self, RainSetup};
 use crate::scene::Camera;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
 use crate::{Error, Result};
@@ -71,16 +71,12 @@ pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Camera {
 }
 
 fn display_size(info: &VideoInfo) -> (u32, u32) {
-    let (w, h) = (info.format.width, info.format.height);
-    if info.rotation_deg.rem_euclid(180) == 90 {
-        (h, w)
-    } else {
-        (w, h)
-    }
+    crate::video::frame::display_size(info.rotation_deg, info.format.width, info.format.height)
 }
 
-/// Exposure time: shutter angle over 360° times the frame duration (180° → 1/(2·fps)).
-pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> f64 {
+/// Exposure time: shutter angle over 360° times the frame duration (180° → 1/(2·fps)), by
+/// [`crate::rain::physics::exposure_s`] at the clip's frame rate (25 fps where unknown).
+pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> Result<f64> {
     let (num, den) = if info.avg_frame_rate.0 > 0 && info.avg_frame_rate.1 > 0 {
         info.avg_frame_rate
     } else if info.frame_rate.0 > 0 && info.frame_rate.1 > 0 {
@@ -88,14 +84,14 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> f64 {
     } else {
         (25, 1)
     };
-    config.camera.shutter_deg / 360.0 * den as f64 / num as f64
+    crate::rain::physics::exposure_s(config.camera.shutter_deg, num as f64 / den as f64)
 }
 
 /// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
 /// limit is lowered to it, with a warning naming the limit (the plan then shrinks the far
 /// distance and weights drops exactly as for any other budget).
 pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Result<RainSetup> {
-    let exposure = exposure_s(info, config);
+    let exposure = exposure_s(info, config)?;
     if exposure > 1.0 {
         let fps = config.camera.shutter_deg / 360.0 / exposure;
         return Err(Error::Parameter {
@@ -437,9 +433,6 @@ impl Lighting {
                 lights: Vec::new(),
             },
         };
-        (
-            rain.params_at(t_s, &light, self.drop_zonal),
-            LightList::new(&light.lights),
-        )
+        rain.frame_uniforms(t_s, &light, self.drop_zonal)
     }
 }

@@ -147,7 +147,7 @@ fn exercise_config(text: &str) {
     else {
         return;
     };
-    let _ = rain_composite::rain::emitter::build(
+    let _ = rain_composite::gpu::uniforms::build(
         &camera,
         &config.camera,
         &config.rain,

@@ -6,9 +6,9 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::types::RainParams;
+use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
 use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
-use rain_composite::rain::emitter::{self, RainSetup};
 use rain_composite::rain::physics::streak_width_factor;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
@@ -225,7 +225,7 @@ fn gpu_drops_match_the_cpu_reference() {
     .expect("rain");
     assert!(setup.drop_count() > 1000);
     for t in [0.0f64, 0.7, 13.25] {
-        let gpu_states = probe_drops(&ctx, &setup, t as f32, 4096).expect("probe");
+        let gpu_states = probe_drops(&ctx, &setup, t, 4096).expect("probe");
         let mut wrapped = 0;
         for (id, g) in gpu_states.iter().enumerate() {
             let c = sample_drop(
@@ -498,18 +498,18 @@ fn hard_cameras_render_finite_local_streaks() {
     }
 }
 
-/// `rain_simulate` against its CPU twin (`rain::streak::streak_of`, `prt_colour`,
+/// `rain_simulate` against its CPU twin (`gpu::cpu::rain_simulate::streak_of`, `prt_colour`,
 /// `direct_colour`): streak geometry, near-field drops capped, and each end's radiance from the
 /// environment plus a sun and a near lamp, for drops at the GPU's own positions.
 #[test]
 fn gpu_streaks_match_the_cpu_twin_with_lights() {
     use glam::DVec3;
+    use rain_composite::gpu::cpu::rain_simulate::{NEAR_FIELD_MAX_RADIUS, streak_of};
     use rain_composite::gpu::probe::probe_streaks;
     use rain_composite::gpu::types::LightList;
     use rain_composite::lighting::prt::{channel_optics, prt_colour};
     use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
     use rain_composite::lighting::{LightSource, direct_colour};
-    use rain_composite::rain::streak::{NEAR_FIELD_MAX_RADIUS, streak_of};
 
     let Some(ctx) = gpu() else { return };
     // A long lens wide open, focused far: drops near the lens blur into large discs.
@@ -568,7 +568,7 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
     );
     let list = LightList::new(&lights);
     let gpu_streaks = probe_streaks(&ctx, &setup, &params, &list, &tables).expect("streaks");
-    let drops = probe_drops(&ctx, &setup, t as f32, params.drop_count).expect("drops");
+    let drops = probe_drops(&ctx, &setup, t, params.drop_count).expect("drops");
     let (mut drawn, mut capped, mut mismatched, mut lit) = (0, 0, 0, 0);
     let (mut compared, mut steep) = (0, 0);
     for (id, (g, d)) in gpu_streaks.iter().zip(&drops).enumerate() {

@@ -57,6 +57,7 @@ fn rust_twins_match_wgsl_layouts() {
         RainParams,
         [
             camera_pos_m,
+            focal_px,
             camera_from_world_0,
             camera_from_world_1,
             camera_from_world_2,
@@ -68,12 +69,14 @@ fn rust_twins_match_wgsl_layouts() {
             column_slope,
             cell_size_m,
             wind_mean_mps,
+            mean_travel_cells,
             haze,
             env_sh,
             drop_zonal,
             gust_amp,
             gust_phase,
-            time_s,
+            time_whole_s,
+            time_frac_s,
             exposure_s,
             seed,
             drop_count,
@@ -85,17 +88,26 @@ fn rust_twins_match_wgsl_layouts() {
             d_max_mm,
             lambda_per_mm,
             diameter_scale,
-            speed_table_step_mm,
             lens_blur_k_px_m,
             inv_focus_per_m,
             gravity_mps2,
-            speed_table,
+            drift_q,
+            _pad,
+            speed_q,
         ]
     );
     assert_twin!(
         m,
         Column,
-        [cell_min_m, z_lo_m, height_m, first_drop, drop_count, _pad]
+        [
+            cell_min_m,
+            z_lo_m,
+            height_m,
+            first_drop,
+            drop_count,
+            inv_height_q,
+            _pad
+        ]
     );
     let m = module(Stage::RainSimulate);
     assert_twin!(
@@ -141,4 +153,34 @@ fn rust_twins_match_wgsl_layouts() {
             _pad,
         ]
     );
+}
+
+#[test]
+fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
+    use rain_composite::gpu::shaders::{constants, includes};
+    let simulate = Stage::RainSimulate.source();
+    // The header spans two comment lines; every module it names is included once, in order.
+    assert_eq!(
+        includes(Stage::RainSimulate.body()),
+        [
+            "common/types.wgsl",
+            "common/rng.wgsl",
+            "common/drops.wgsl",
+            "common/sh.wgsl",
+            "common/lights.wgsl"
+        ]
+    );
+    assert_eq!(includes(Stage::RainStreaks.body()), ["common/types.wgsl"]);
+    assert!(simulate.starts_with(&constants()));
+    assert_eq!(simulate.matches("fn pcg_hash").count(), 1);
+    // Sizes are defined once, in Rust: no WGSL file repeats them as literals.
+    let gusts = format!("const GUSTS: u32 = {}u;", rain_composite::gpu::types::GUSTS);
+    assert!(constants().contains(&gusts));
+    for stage in Stage::ALL {
+        let body = stage.body();
+        assert!(!body.contains("workgroup_size(64)") && !body.contains("workgroup_size(16"));
+    }
+    let types = Stage::RainStreaks.source();
+    assert!(types.contains("array<vec4<f32>, GUSTS>"));
+    assert!(types.contains("array<DirectLight, MAX_LIGHTS>"));
 }

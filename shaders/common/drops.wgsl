@@ -1,5 +1,6 @@
 // The stateless drop (thesis eq. 5.1–5.3, with rebirth): a drop's state at time t is a closed
-// form of (seed, drop id, t); the CPU reference is `rain::volume::sample_drop`.
+// form of (seed, drop id, t); the CPU reference is `rain::volume::sample_drop`, whose module
+// notes explain the fixed-point phases that keep long clips exact.
 //
 // Each drop lives in a column of the rain volume (sheared along the mean fall direction, see
 // src/rain/volume.rs). It is born at fractions (u0, v0, w0) of its column, moves with its
@@ -26,13 +27,39 @@ fn streak_width_factor(d_mm: f32) -> f32 {
     return pow(r, -1.0 / 3.0);
 }
 
-fn terminal_speed_mps(d_mm: f32) -> f32 {
-    let x = clamp((d_mm - rain.d_min_mm) / rain.speed_table_step_mm, 0.0, 30.999);
-    let i = u32(floor(x));
-    let f = x - f32(i);
-    let a = rain.speed_table[i / 4u][i % 4u];
-    let b = rain.speed_table[(i + 1u) / 4u][(i + 1u) % 4u];
-    return mix(a, b, f);
+// Fall speed, 2^-SPEED_BITS m/s, of the drop whose size quantile has the 24 bits `q`: the
+// table interpolated in integers, bit-identical to rain::volume::DropMotion::fall_speed_q.
+fn fall_speed_q(q: u32) -> u32 {
+    let x = (q & 0xFFFFFFu) * (SPEED_TABLE_LEN - 1u);
+    let i = x >> 24u;
+    let f = i32((x >> 12u) & 0xFFFu);
+    let j = min(i + 1u, SPEED_TABLE_LEN - 1u);
+    let a = i32(rain.speed_q[i / 4u][i % 4u]);
+    let b = i32(rain.speed_q[j / 4u][j % 4u]);
+    return u32(a + (((b - a) * f) >> 12u));
+}
+
+// The 64-bit product a·b as (low, high) words.
+fn mul_wide(a: u32, b: u32) -> vec2<u32> {
+    let a0 = a & 0xFFFFu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xFFFFu;
+    let b1 = b >> 16u;
+    let p00 = a0 * b0;
+    let p01 = a0 * b1;
+    let p10 = a1 * b0;
+    let mid = (p00 >> 16u) + (p01 & 0xFFFFu) + (p10 & 0xFFFFu);
+    let lo = (p00 & 0xFFFFu) | (mid << 16u);
+    let hi = a1 * b1 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
+    return vec2<u32>(lo, hi);
+}
+
+// Column heights per second, 2^-FALL_RATE_BITS s^-1, saturating (rain::volume::fall_rate_q).
+fn fall_rate_q(speed_q: u32, inv_height_q: u32) -> u32 {
+    let p = mul_wide(speed_q, inv_height_q);
+    let shift = SPEED_BITS + INV_HEIGHT_BITS - FALL_RATE_BITS;
+    if (p.y >> shift) != 0u { return 0xFFFFFFFFu; }
+    return (p.x >> shift) | (p.y << (32u - shift));
 }
 
 // Truncated exponential (Marshall–Palmer) diameter by inverse CDF.
@@ -58,12 +85,13 @@ fn drop_state(id: u32) -> DropState {
     let col = columns[column_of(id)];
     let seed = rain.seed;
     let d_mm = diameter_from_unit(drop_uniform(seed, id, 3u));
-    let vt = terminal_speed_mps(d_mm);
+    let speed_q = fall_speed_q(drop_bits(seed, id, 3u));
+    let vt = f32(speed_q) * (1.0 / f32(1u << SPEED_BITS));
     let wt_per_omega = vt / rain.gravity_mps2;  // τ
     // Steady-state response to the gusts (src/rain/wind.rs): velocity and displacement.
-    var vh = rain.wind_mean_mps.xy;
-    var disp = rain.wind_mean_mps.zw;
-    for (var k = 0u; k < 8u; k++) {
+    var vh = rain.wind_mean_mps;
+    var gust = vec2<f32>(0.0);
+    for (var k = 0u; k < GUSTS; k++) {
         let a = rain.gust_amp[k];
         let p = rain.gust_phase[k];
         let wt = a.z * wt_per_omega;
@@ -71,18 +99,29 @@ fn drop_state(id: u32) -> DropState {
         vh += a.xy * ((p.x + wt * p.y) / den);
         let s1 = (p.y - wt * p.x) / den;
         let s0 = (p.w - wt * p.z) / den;
-        disp += a.xy * ((s1 - s0) / a.z);
+        gust += a.xy * ((s1 - s0) / a.z);
     }
-    let dz = -vt * rain.time_s;
-    // Displacement in sheared column coordinates, in cells.
-    let du = (disp.x - rain.column_slope.x * dz) / rain.cell_size_m.x;
-    let dv = (disp.y - rain.column_slope.y * dz) / rain.cell_size_m.y;
-    let w_total = drop_uniform(seed, id, 2u) + dz / col.height_m;
-    let cycle = floor(w_total);
-    let k = bitcast<u32>(i32(cycle));
-    let u = fract(drop_uniform(seed, id, 0u) + fract(du) + cycle_uniform(seed, id, k, 4u));
-    let v = fract(drop_uniform(seed, id, 1u) + fract(dv) + cycle_uniform(seed, id, k, 5u));
-    let w = w_total - cycle;
+    let frac_s = rain.time_frac_s;
+    // Fall, in column heights: w = w0 − rate·t, the whole seconds in exact integers.
+    let rate_q = fall_rate_q(speed_q, col.inv_height_q);
+    let p = mul_wide(rate_q, rain.time_whole_s);
+    let passes = (p.x >> FALL_RATE_BITS) | (p.y << (32u - FALL_RATE_BITS));
+    let whole_frac = f32(p.x & ((1u << FALL_RATE_BITS) - 1u)) * (1.0 / f32(1u << FALL_RATE_BITS));
+    let rate = f32(rate_q) * (1.0 / f32(1u << FALL_RATE_BITS));
+    let x = drop_uniform(seed, id, 2u) - whole_frac - rate * frac_s;
+    let c = floor(x);
+    let k = bitcast<u32>(i32(c)) - passes;
+    // Drift in cells: the columns' shear as the drop falls (exact for the whole seconds), the
+    // mean wind (reduced modulo a cell on the CPU), the gusts.
+    let drift = vec2<u32>(bitcast<u32>(i32(speed_q) * rain.drift_q.x), bitcast<u32>(i32(speed_q) * rain.drift_q.y));
+    let mask = (1u << DRIFT_PHASE_BITS) - 1u;
+    let unit = 1.0 / f32(1u << DRIFT_PHASE_BITS);
+    let drift_whole = vec2<f32>(vec2<u32>(drift.x * rain.time_whole_s, drift.y * rain.time_whole_s) & vec2<u32>(mask)) * unit;
+    let drift_rate = f32(speed_q) * vec2<f32>(rain.drift_q) * unit;
+    let duv = drift_whole + drift_rate * frac_s + rain.mean_travel_cells + gust / rain.cell_size_m;
+    let u = fract(drop_uniform(seed, id, 0u) + fract(duv.x) + cycle_uniform(seed, id, k, 4u));
+    let v = fract(drop_uniform(seed, id, 1u) + fract(duv.y) + cycle_uniform(seed, id, k, 5u));
+    let w = x - c;
     let uv = col.cell_min_m + rain.cell_size_m * vec2<f32>(u, v);
     let z = col.z_lo_m + w * col.height_m;
     let pos = vec3<f32>(uv + rain.column_slope * z, z);

@@ -29,7 +29,7 @@ fn rtf_at(theta: f32) -> vec3<f32> {
 fn direct_light(view: vec3<f32>, drop_from_camera_m: vec3<f32>) -> vec3<f32> {
     let v = normalize(view);
     var c = vec3<f32>(0.0);
-    for (var i = 0u; i < min(lights.count, 16u); i++) {
+    for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
         let l = lights.lights[i];
         var omega = l.direction_distance.xyz;
         var scale = 1.0;

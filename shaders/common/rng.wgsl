@@ -13,9 +13,14 @@ fn unit_from_hash(h: u32) -> f32 {
     return f32(h >> 8u) * (1.0 / 16777216.0);
 }
 
+// The 24 random bits of stream `stream` of drop `id`.
+fn drop_bits(seed: u32, id: u32, stream: u32) -> u32 {
+    return pcg_hash(pcg_hash(pcg_hash(seed) ^ id) ^ (stream * 0x9E3779B9u)) >> 8u;
+}
+
 // Random stream `stream` of drop `id`.
 fn drop_uniform(seed: u32, id: u32, stream: u32) -> f32 {
-    return unit_from_hash(pcg_hash(pcg_hash(pcg_hash(seed) ^ id) ^ (stream * 0x9E3779B9u)));
+    return f32(drop_bits(seed, id, stream)) * (1.0 / 16777216.0);
 }
 
 // Random stream `stream` of drop `id` in its `cycle`-th pass through its column.

@@ -27,7 +27,8 @@ struct FrameParams {
 
 // The camera, the rain volume and the look of the streaks, for one frame.
 struct RainParams {
-    camera_pos_m: vec4<f32>,         // xyz; w = focal length, px
+    camera_pos_m: vec3<f32>,
+    focal_px: f32,
     camera_from_world_0: vec4<f32>,  // rows of camera_from_world (w unused)
     camera_from_world_1: vec4<f32>,
     camera_from_world_2: vec4<f32>,
@@ -38,13 +39,15 @@ struct RainParams {
     coded_size_px: vec2<f32>,
     column_slope: vec2<f32>,         // sheared columns: x = u + slope.x·z, y = v + slope.y·z
     cell_size_m: vec2<f32>,
-    wind_mean_mps: vec4<f32>,        // xy; z = mean wind · t (x), w = mean wind · t (y), m
+    wind_mean_mps: vec2<f32>,
+    mean_travel_cells: vec2<f32>,    // mean wind · t / cell size, modulo 1 (computed in f64)
     haze: vec4<f32>,                 // rain beyond the drawn drops: rgb in-scatter, w transmittance
     env_sh: array<vec4<f32>, 16>,    // the frame's environment, 4 SH bands, rgb per coefficient
     drop_zonal: array<vec4<f32>, 3>, // the drop's RTF zonal coefficients z0..z3 per channel R, G, B
-    gust_amp: array<vec4<f32>, 8>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
-    gust_phase: array<vec4<f32>, 8>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)
-    time_s: f32,
+    gust_amp: array<vec4<f32>, GUSTS>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
+    gust_phase: array<vec4<f32>, GUSTS>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)
+    time_whole_s: u32,               // t = whole + frac (see drops.wgsl: long clips)
+    time_frac_s: f32,
     exposure_s: f32,
     seed: u32,
     drop_count: u32,
@@ -56,11 +59,12 @@ struct RainParams {
     d_max_mm: f32,
     lambda_per_mm: f32,
     diameter_scale: f32,             // drawn diameter = sampled diameter × this
-    speed_table_step_mm: f32,
     lens_blur_k_px_m: f32,           // defocus diameter px = k·|1/focus − 1/z|; 0 = pinhole
     inv_focus_per_m: f32,
     gravity_mps2: f32,
-    speed_table: array<vec4<f32>, 8>,  // terminal speed, m/s, at i·step (32 entries)
+    drift_q: vec2<i32>,              // the columns' drift per metre fallen, 2^-DRIFT_BITS cells/m
+    _pad: vec2<u32>,
+    speed_q: array<vec4<u32>, SPEED_TABLE_LEN / 4u>,  // fall speed at size quantile i/(N−1), 2^-SPEED_BITS m/s
 }
 
 // A column of the rain volume: a sheared prism over cell [u0, u0+du] × [v0, v0+dv] between
@@ -71,7 +75,8 @@ struct Column {
     height_m: f32,
     first_drop: u32,
     drop_count: u32,
-    _pad: vec2<u32>,
+    inv_height_q: u32,      // 1 / height_m, 2^-INV_HEIGHT_BITS m^-1 (the fall rate's grid)
+    _pad: u32,
 }
 
 // One drop's streak for the frame (rain_simulate → rain_streaks), in the displayed picture.
@@ -97,5 +102,5 @@ struct LightList {
     count: u32,
     table_bins: u32,                // θ bins of rtf_table over [0, π]
     _pad: vec2<u32>,
-    lights: array<DirectLight, 16>,
+    lights: array<DirectLight, MAX_LIGHTS>,
 }

@@ -1,6 +1,7 @@
-//! One frame's GPU journey: upload planes → `yuv_to_rgb` (with the haze) → `rain_simulate`
-//! (each drop once) → `rain_streaks` → `rgb_to_yuv` (luma, then chroma) → copy into a readback
-//! ring.
+//! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
+//! `rain_simulate` once per drop, `rain_streaks`, `rgb_to_yuv` luma then chroma; each an object
+//! in [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers,
+//! the order and the ring; each stage's timestamp slot is its place in the order.
 //!
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
@@ -18,17 +19,17 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::lights::DirectLightBuffers;
-use super::shaders::Stage;
+use super::stages::{
+    FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
+    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, yuv_to_rgb::YuvToRgb,
+};
 use super::types::{FrameParams, LightList, RainParams, Streak};
-use crate::rain::emitter::RainSetup;
+use super::uniforms::RainSetup;
 use crate::video::{FrameFormat, Plane, YuvFrame};
 use crate::{Error, Result};
 
 /// Frames in flight (readback slots).
 const RING: usize = 3;
-/// GPU stages timed with timestamp queries: yuv_to_rgb, rain_simulate, rain_streaks,
-/// rgb_to_yuv.
-const TIMED_STAGES: usize = 4;
 
 /// GPU time per stage, summed over the frames read back so far (zero where the adapter has no
 /// timestamp queries).
@@ -42,6 +43,20 @@ pub struct GpuStageTimes {
     pub rain_simulate_s: f64,
     /// Canvas → packed YUV planes.
     pub rgb_to_yuv_s: f64,
+}
+
+impl GpuStageTimes {
+    /// Adds `seconds` to stage `name` (stages without a field of their own are not reported).
+    fn add(&mut self, name: &str, seconds: f64) {
+        let field = match name {
+            "yuv_to_rgb" => &mut self.yuv_to_rgb_s,
+            "rain_simulate" => &mut self.rain_simulate_s,
+            "rain_streaks" => &mut self.rain_streaks_s,
+            "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
+            _ => return,
+        };
+        *field += seconds;
+    }
 }
 
 struct InFlight {
@@ -62,21 +77,14 @@ pub struct Compositor {
     direct_lights: DirectLightBuffers,
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
-    yuv_to_rgb: (wgpu::ComputePipeline, wgpu::BindGroup),
-    simulate: (wgpu::ComputePipeline, wgpu::BindGroup),
-    streaks: (wgpu::RenderPipeline, wgpu::BindGroup),
-    luma: (wgpu::ComputePipeline, wgpu::BindGroup),
-    chroma: (wgpu::ComputePipeline, wgpu::BindGroup),
-    canvas_view: wgpu::TextureView,
+    /// The frame's stages in order; a stage's index is its timestamp slot.
+    stages: Vec<Box<dyn FrameStage>>,
     in_flight: VecDeque<InFlight>,
     next_slot: usize,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     out_bytes: u64,
     gpu_times: GpuStageTimes,
 }
-
-/// Drops per `rain_simulate` workgroup (`@workgroup_size` in `shaders/rain_simulate.wgsl`).
-const SIMULATE_WORKGROUP: u32 = 64;
 
 /// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
 /// binding (and one buffer), and the simulation's dispatch one grid dimension.
@@ -86,13 +94,9 @@ pub fn max_drops(ctx: &GpuContext) -> u32 {
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size);
     let by_memory = bytes / std::mem::size_of::<Streak>() as u64;
-    let by_dispatch =
-        u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SIMULATE_WORKGROUP);
+    let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
+        * u64::from(super::stages::rain_simulate::WORKGROUP);
     by_memory.min(by_dispatch).min(u64::from(u32::MAX)) as u32
-}
-
-fn workgroups(n: u32, size: u32) -> u32 {
-    n.div_ceil(size).max(1)
 }
 
 impl Compositor {
@@ -122,7 +126,7 @@ impl Compositor {
         } else {
             wgpu::TextureFormat::R16Uint
         };
-        let planes = std::array::from_fn(|i| {
+        let planes: [wgpu::Texture; 3] = std::array::from_fn(|i| {
             let (w, h) = format.plane_size(i);
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(["plane_y", "plane_cb", "plane_cr"][i]),
@@ -149,14 +153,55 @@ impl Compositor {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba16Float,
+            format: super::stages::rain_streaks::CANVAS_FORMAT,
             usage: wgpu::TextureUsages::STORAGE_BINDING
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::RENDER_ATTACHMENT,
             view_formats: &[],
         });
-        let canvas_view = canvas.create_view(&Default::default());
         let out_bytes = frame_params.total_words() as u64 * 4;
+        let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("packed_planes"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let rain_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain_params"),
+            contents: bytemuck::bytes_of(&rain.params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let direct_lights = DirectLightBuffers::new(device);
+        direct_lights.upload_lights(&ctx.queue, &LightList::new(&[]));
+        let resources = FrameResources {
+            frame_params: frame_buffer,
+            frame: frame_params,
+            planes: std::array::from_fn(|i| planes[i].create_view(&Default::default())),
+            canvas: canvas.create_view(&Default::default()),
+            rain_params: rain_buffer.clone(),
+            columns: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("rain_columns"),
+                contents: bytemuck::cast_slice(&rain.columns),
+                usage: wgpu::BufferUsages::STORAGE,
+            }),
+            streaks: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("rain_streaks"),
+                size: std::mem::size_of::<Streak>() as u64 * rain.params.drop_count.max(1) as u64,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+            drop_count: rain.params.drop_count,
+            lights: direct_lights.clone(),
+            out_words: out_buffer.clone(),
+        };
+        // The frame, in order.
+        let stages: Vec<Box<dyn FrameStage>> = vec![
+            Box::new(YuvToRgb::new(device, &resources)),
+            Box::new(RainSimulate::new(device, &resources)),
+            Box::new(RainStreaks::new(device, &resources)),
+            Box::new(RgbToYuv::new(device, &resources)),
+        ];
+        let timed = stages.len() as u64;
         let timestamps = device
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
@@ -164,189 +209,26 @@ impl Compositor {
                 let set = device.create_query_set(&wgpu::QuerySetDescriptor {
                     label: Some("stage_timestamps"),
                     ty: wgpu::QueryType::Timestamp,
-                    count: 2 * TIMED_STAGES as u32,
+                    count: 2 * timed as u32,
                 });
                 let resolve = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("stage_timestamps"),
-                    size: 16 * TIMED_STAGES as u64,
+                    size: 16 * timed,
                     usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 });
                 (set, resolve)
             });
-        let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("packed_planes"),
-            size: out_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
         let staging = (0..RING)
             .map(|_| {
                 device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("readback"),
-                    size: out_bytes + 16 * TIMED_STAGES as u64,
+                    size: out_bytes + 16 * timed,
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 })
             })
             .collect();
-
-        let compute = |stage: Stage, entry: &str| {
-            let module = stage.module(device);
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(stage.name()),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let views: Vec<wgpu::TextureView> = planes
-            .iter()
-            .map(|t| t.create_view(&Default::default()))
-            .collect();
-        let rain_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rain_params"),
-            contents: bytemuck::bytes_of(&rain.params),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let yuv_pipeline = compute(Stage::YuvToRgb, "main");
-        let yuv_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("yuv_to_rgb"),
-            layout: &yuv_pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: frame_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&views[0]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&views[1]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&views[2]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&canvas_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: rain_buffer.as_entire_binding(),
-                },
-            ],
-        });
-        let out_bind = |pipeline: &wgpu::ComputePipeline| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("rgb_to_yuv"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: frame_buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&canvas_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: out_buffer.as_entire_binding(),
-                    },
-                ],
-            })
-        };
-        let luma_pipeline = compute(Stage::RgbToYuv, "luma");
-        let luma_bind = out_bind(&luma_pipeline);
-        let chroma_pipeline = compute(Stage::RgbToYuv, "chroma");
-        let chroma_bind = out_bind(&chroma_pipeline);
-
-        let columns_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rain_columns"),
-            contents: bytemuck::cast_slice(&rain.columns),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let module = Stage::RainStreaks.module(device);
-        let streak_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("rain_streaks"),
-            size: std::mem::size_of::<Streak>() as u64 * rain.params.drop_count.max(1) as u64,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let streak_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(Stage::RainStreaks.name()),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: wgpu::TextureFormat::Rgba16Float,
-                    blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let streak_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rain_streaks"),
-            layout: &streak_pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: rain_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: streak_buffer.as_entire_binding(),
-                },
-            ],
-        });
-        let direct_lights = DirectLightBuffers::new(device);
-        direct_lights.upload_lights(&ctx.queue, &LightList::new(&[]));
-        let simulate_pipeline = compute(Stage::RainSimulate, "main");
-        let simulate_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rain_simulate"),
-            layout: &simulate_pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: rain_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: columns_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: streak_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: direct_lights.list.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: direct_lights.table.as_entire_binding(),
-                },
-            ],
-        });
         Ok(Compositor {
             ctx,
             format,
@@ -357,12 +239,7 @@ impl Compositor {
             direct_lights,
             out_buffer,
             staging,
-            yuv_to_rgb: (yuv_pipeline, yuv_bind),
-            simulate: (simulate_pipeline, simulate_bind),
-            streaks: (streak_pipeline, streak_bind),
-            luma: (luma_pipeline, luma_bind),
-            chroma: (chroma_pipeline, chroma_bind),
-            canvas_view,
+            stages,
             in_flight: VecDeque::with_capacity(RING),
             next_slot: 0,
             timestamps,
@@ -437,73 +314,20 @@ impl Compositor {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
         });
-        let fp = &self.frame_params;
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("yuv_to_rgb"),
-                timestamp_writes: self.compute_timestamps(0),
-            });
-            pass.set_pipeline(&self.yuv_to_rgb.0);
-            pass.set_bind_group(0, &self.yuv_to_rgb.1, &[]);
-            pass.dispatch_workgroups(workgroups(fp.width, 16), workgroups(fp.height, 16), 1);
-        }
-        if self.rain_drops > 0 {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("rain_simulate"),
-                timestamp_writes: self.compute_timestamps(1),
-            });
-            pass.set_pipeline(&self.simulate.0);
-            pass.set_bind_group(0, &self.simulate.1, &[]);
-            pass.dispatch_workgroups(workgroups(self.rain_drops, SIMULATE_WORKGROUP), 1, 1);
-        }
-        if self.rain_drops > 0 {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("rain_streaks"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.canvas_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: self.timestamps.as_ref().map(|(set, _)| {
-                    wgpu::RenderPassTimestampWrites {
-                        query_set: set,
-                        beginning_of_pass_write_index: Some(4),
-                        end_of_pass_write_index: Some(5),
-                    }
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.streaks.0);
-            pass.set_bind_group(0, &self.streaks.1, &[]);
-            pass.draw(0..6, 0..self.rain_drops);
-        }
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("rgb_to_yuv"),
-                timestamp_writes: self.compute_timestamps(3),
-            });
-            pass.set_pipeline(&self.luma.0);
-            pass.set_bind_group(0, &self.luma.1, &[]);
-            pass.dispatch_workgroups(workgroups(fp.y_row_words, 16), workgroups(fp.height, 16), 1);
-            pass.set_pipeline(&self.chroma.0);
-            pass.set_bind_group(0, &self.chroma.1, &[]);
-            pass.dispatch_workgroups(
-                workgroups(fp.c_row_words, 16),
-                workgroups(fp.chroma_height, 16),
-                1,
-            );
+        for (slot, stage) in self.stages.iter().enumerate() {
+            if stage.runs() {
+                let timestamps = self.timestamps.as_ref().map(|(set, _)| TimestampSlot {
+                    set,
+                    slot: slot as u32,
+                });
+                stage.record(&mut encoder, timestamps);
+            }
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
         encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_bytes);
         if let Some((set, resolve)) = &self.timestamps {
-            encoder.resolve_query_set(set, 0..2 * TIMED_STAGES as u32, resolve, 0);
+            encoder.resolve_query_set(set, 0..2 * self.stages.len() as u32, resolve, 0);
             encoder.copy_buffer_to_buffer(
                 resolve,
                 0,
@@ -531,16 +355,6 @@ impl Compositor {
             template,
         });
         Ok(done)
-    }
-
-    fn compute_timestamps(&self, stage: u32) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-        self.timestamps
-            .as_ref()
-            .map(|(set, _)| wgpu::ComputePassTimestampWrites {
-                query_set: set,
-                beginning_of_pass_write_index: Some(2 * stage),
-                end_of_pass_write_index: Some(2 * stage + 1),
-            })
     }
 
     /// Waits for the oldest frame in flight and reads it back.
@@ -586,19 +400,18 @@ impl Compositor {
             }
             if self.timestamps.is_some() {
                 let at = self.out_bytes as usize;
-                let ticks: Vec<u64> = view[at..at + 16 * TIMED_STAGES]
+                let ticks: Vec<u64> = view[at..at + 16 * self.stages.len()]
                     .chunks_exact(8)
                     .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
                     .collect();
                 let period_s = self.ctx.queue.get_timestamp_period() as f64 * 1e-9;
                 let span =
                     |k: usize| ticks[2 * k + 1].saturating_sub(ticks[2 * k]) as f64 * period_s;
-                self.gpu_times.yuv_to_rgb_s += span(0);
-                if self.rain_drops > 0 {
-                    self.gpu_times.rain_simulate_s += span(1);
-                    self.gpu_times.rain_streaks_s += span(2);
+                for (slot, stage) in self.stages.iter().enumerate() {
+                    if stage.runs() {
+                        self.gpu_times.add(stage.name(), span(slot));
+                    }
                 }
-                self.gpu_times.rgb_to_yuv_s += span(3);
             }
         }
         buffer.unmap();

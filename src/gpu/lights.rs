@@ -9,6 +9,7 @@ use crate::lighting::RtfTable;
 pub const TABLE_BINS: usize = crate::lighting::frame_light::GPU_RTF_BINS;
 
 /// The buffers of the direct light term.
+#[derive(Clone)]
 pub struct DirectLightBuffers {
     /// `LightList` uniform.
     pub list: wgpu::Buffer,

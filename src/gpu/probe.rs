@@ -7,10 +7,11 @@ use wgpu::util::DeviceExt;
 
 use super::GpuContext;
 use super::lights::DirectLightBuffers;
-use super::shaders::Stage;
+use super::stages::rain_probe::{BYTES_PER_DROP, RainProbe};
+use super::stages::rain_simulate::RainSimulate;
 use super::types::{LightList, RainParams, Streak};
+use super::uniforms::RainSetup;
 use crate::lighting::RtfTable;
-use crate::rain::emitter::RainSetup;
 use crate::{Error, Result};
 
 /// One drop as the GPU computed it.
@@ -30,11 +31,21 @@ pub struct GpuDrop {
 pub fn probe_drops(
     ctx: &GpuContext,
     setup: &RainSetup,
-    time_s: f32,
+    time_s: f64,
+    count: u32,
+) -> Result<Vec<GpuDrop>> {
+    probe_drops_with(ctx, setup, &setup.motion_at(time_s), count)
+}
+
+/// States of the first `count` drops of `setup` under the uniforms `params`.
+pub fn probe_drops_with(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    params: &RainParams,
     count: u32,
 ) -> Result<Vec<GpuDrop>> {
     let device = &ctx.device;
-    let mut params = setup.motion_at(time_s as f64);
+    let mut params = *params;
     params.drop_count = count.min(setup.params.drop_count);
     let n = params.drop_count.max(1) as u64;
     let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -47,72 +58,21 @@ pub fn probe_drops(
         contents: bytemuck::cast_slice(&setup.columns),
         usage: wgpu::BufferUsages::STORAGE,
     });
-    let size = n * 32;
+    let size = n * BYTES_PER_DROP;
     let out = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("probe_out"),
         size,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let read = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe_read"),
+    let stage = RainProbe::new(device, &uniform, &columns, &out);
+    let bytes = run_and_read(
+        ctx,
+        |encoder| stage.record(encoder, None, n as u32),
+        &out,
         size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let module = Stage::RainProbe.module(device);
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(Stage::RainProbe.name()),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("rain_probe"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: columns.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: out.as_entire_binding(),
-            },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    }
-    encoder.copy_buffer_to_buffer(&out, 0, &read, 0, size);
-    let (tx, rx) = std::sync::mpsc::channel();
-    encoder.map_buffer_on_submit(&read, wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    let submission = ctx.queue.submit([encoder.finish()]);
-    device
-        .poll(wgpu::PollType::Wait {
-            submission_index: Some(submission),
-            timeout: None,
-        })
-        .map_err(|e| Error::Gpu(e.to_string()))?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("probe readback dropped".into()))?
-        .map_err(|e| Error::Gpu(e.to_string()))?;
-    let view = read
-        .get_mapped_range(..)
-        .map_err(|e| Error::Gpu(e.to_string()))?;
-    let floats: &[f32] = bytemuck::cast_slice(&view);
+    )?;
+    let floats: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
     let states = floats
         .chunks_exact(8)
         .take(params.drop_count as usize)
@@ -123,8 +83,6 @@ pub fn probe_drops(
             width_mm: c[7],
         })
         .collect();
-    drop(view);
-    read.unmap();
     Ok(states)
 }
 
@@ -142,8 +100,7 @@ pub fn probe_streaks(
 
 /// The `rain_simulate` stage set up once for repeated runs (tests and timing).
 pub struct SimulateProbe {
-    pipeline: wgpu::ComputePipeline,
-    bind: wgpu::BindGroup,
+    stage: RainSimulate,
     uniform: wgpu::Buffer,
     direct: DirectLightBuffers,
     out: wgpu::Buffer,
@@ -179,29 +136,9 @@ impl SimulateProbe {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let module = Stage::RainSimulate.module(device);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(Stage::RainSimulate.name()),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rain_simulate"),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &uniform),
-                entry(1, &columns),
-                entry(2, &out),
-                entry(3, &direct.list),
-                entry(4, &direct.table),
-            ],
-        });
+        let stage = RainSimulate::with_buffers(device, &uniform, &columns, &out, &direct, capacity);
         SimulateProbe {
-            pipeline,
-            bind,
+            stage,
             uniform,
             direct,
             out,
@@ -223,11 +160,10 @@ impl SimulateProbe {
             .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
         self.direct.upload_lights(&ctx.queue, lights);
         let size = params.drop_count.max(1) as u64 * std::mem::size_of::<Streak>() as u64;
+        let drops = params.drop_count.max(1);
         let bytes = run_and_read(
             ctx,
-            &self.pipeline,
-            &self.bind,
-            params.drop_count.max(1),
+            |encoder| self.stage.record_drops(encoder, None, drops),
             &self.out,
             size,
         )?;
@@ -238,19 +174,10 @@ impl SimulateProbe {
     }
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
-
-/// Dispatches one thread per item (workgroups of 64) and reads `out` back.
+/// Records a stage with `record`, runs it and reads `out` back.
 fn run_and_read(
     ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    bind: &wgpu::BindGroup,
-    items: u32,
+    record: impl FnOnce(&mut wgpu::CommandEncoder),
     out: &wgpu::Buffer,
     size: u64,
 ) -> Result<Vec<u8>> {
@@ -262,12 +189,7 @@ fn run_and_read(
         mapped_at_creation: false,
     });
     let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind, &[]);
-        pass.dispatch_workgroups(items.div_ceil(64), 1, 1);
-    }
+    record(&mut encoder);
     encoder.copy_buffer_to_buffer(out, 0, &read, 0, size);
     let (tx, rx) = std::sync::mpsc::channel();
     encoder.map_buffer_on_submit(&read, wgpu::MapMode::Read, .., move |r| {

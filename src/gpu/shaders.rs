@@ -1,5 +1,13 @@
-//! The WGSL stages, embedded in the binary. A stage file names the shared modules it needs;
-//! [`Stage::source`] prepends them (WGSL has no includes), so every stage validates alone.
+//! The WGSL stages, embedded in the binary, and the assembler that makes each one a complete
+//! module. WGSL has no includes: a stage file declares the shared modules it needs in its
+//! `// Includes:` header, and [`Stage::source`] prepends them, after the constants the Rust side
+//! defines ([`constants`]), so every stage validates alone and no size is written twice.
+
+use super::stages;
+use super::types::{GUSTS, MAX_LIGHTS};
+use crate::rain::volume::drop::{
+    DRIFT_BITS, DRIFT_PHASE_BITS, FALL_RATE_BITS, INV_HEIGHT_BITS, SPEED_BITS, SPEED_TABLE_LEN,
+};
 
 /// One GPU stage: one file in `shaders/`, one pipeline label, one Rust twin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -16,12 +24,85 @@ pub enum Stage {
     RainProbe,
 }
 
-const TYPES: &str = include_str!("../../shaders/common/types.wgsl");
-const COLOR: &str = include_str!("../../shaders/common/color.wgsl");
-const RNG: &str = include_str!("../../shaders/common/rng.wgsl");
-const DROPS: &str = include_str!("../../shaders/common/drops.wgsl");
-const SH: &str = include_str!("../../shaders/common/sh.wgsl");
-const LIGHTS: &str = include_str!("../../shaders/common/lights.wgsl");
+/// The shared modules a stage may name in its `// Includes:` header.
+const COMMON: [(&str, &str); 6] = [
+    (
+        "common/types.wgsl",
+        include_str!("../../shaders/common/types.wgsl"),
+    ),
+    (
+        "common/color.wgsl",
+        include_str!("../../shaders/common/color.wgsl"),
+    ),
+    (
+        "common/rng.wgsl",
+        include_str!("../../shaders/common/rng.wgsl"),
+    ),
+    (
+        "common/drops.wgsl",
+        include_str!("../../shaders/common/drops.wgsl"),
+    ),
+    (
+        "common/sh.wgsl",
+        include_str!("../../shaders/common/sh.wgsl"),
+    ),
+    (
+        "common/lights.wgsl",
+        include_str!("../../shaders/common/lights.wgsl"),
+    ),
+];
+
+/// The `const` lines every stage starts with: sizes and workgroup sizes defined in Rust.
+pub fn constants() -> String {
+    [
+        ("GUSTS", GUSTS as u32),
+        ("SPEED_TABLE_LEN", SPEED_TABLE_LEN as u32),
+        ("SPEED_BITS", SPEED_BITS),
+        ("INV_HEIGHT_BITS", INV_HEIGHT_BITS),
+        ("FALL_RATE_BITS", FALL_RATE_BITS),
+        ("DRIFT_BITS", DRIFT_BITS),
+        ("DRIFT_PHASE_BITS", DRIFT_PHASE_BITS),
+        ("MAX_LIGHTS", MAX_LIGHTS as u32),
+        ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
+        ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+    ]
+    .iter()
+    .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
+    .collect()
+}
+
+/// The shared modules named by the `// Includes:` header of `body` (a comma-separated list that
+/// may run over several comment lines and ends with a full stop).
+pub fn includes(body: &str) -> Vec<&str> {
+    let mut list = String::new();
+    let mut in_header = false;
+    for line in body.lines() {
+        let Some(text) = line.trim_start().strip_prefix("//") else {
+            if in_header {
+                break;
+            }
+            continue;
+        };
+        let text = if in_header {
+            text
+        } else if let Some(rest) = text.trim_start().strip_prefix("Includes:") {
+            in_header = true;
+            rest
+        } else {
+            continue;
+        };
+        list.push_str(text);
+        list.push(',');
+        if text.trim_end().ends_with('.') {
+            break;
+        }
+    }
+    list.split(',')
+        .map(|s| s.trim().trim_end_matches('.'))
+        .filter(|s| !s.is_empty())
+        .filter_map(|name| COMMON.iter().find(|(n, _)| *n == name).map(|(n, _)| *n))
+        .collect()
+}
 
 impl Stage {
     /// Every stage, for validation.
@@ -44,29 +125,27 @@ impl Stage {
         }
     }
 
-    /// The complete WGSL source: shared modules, then the stage.
+    /// The stage file as written.
+    pub fn body(self) -> &'static str {
+        match self {
+            Stage::YuvToRgb => include_str!("../../shaders/yuv_to_rgb.wgsl"),
+            Stage::RainSimulate => include_str!("../../shaders/rain_simulate.wgsl"),
+            Stage::RainStreaks => include_str!("../../shaders/rain_streaks.wgsl"),
+            Stage::RgbToYuv => include_str!("../../shaders/rgb_to_yuv.wgsl"),
+            Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
+        }
+    }
+
+    /// The complete WGSL source: the Rust constants, the included modules, then the stage.
     pub fn source(self) -> String {
-        let (common, body): (&[&str], &str) = match self {
-            Stage::YuvToRgb => (
-                &[TYPES, COLOR],
-                include_str!("../../shaders/yuv_to_rgb.wgsl"),
-            ),
-            Stage::RainSimulate => (
-                &[TYPES, RNG, DROPS, SH, LIGHTS],
-                include_str!("../../shaders/rain_simulate.wgsl"),
-            ),
-            Stage::RainStreaks => (&[TYPES], include_str!("../../shaders/rain_streaks.wgsl")),
-            Stage::RgbToYuv => (
-                &[TYPES, COLOR],
-                include_str!("../../shaders/rgb_to_yuv.wgsl"),
-            ),
-            Stage::RainProbe => (
-                &[TYPES, RNG, DROPS],
-                include_str!("../../shaders/rain_probe.wgsl"),
-            ),
-        };
-        let mut s = common.join("\n");
-        s.push('\n');
+        let body = self.body();
+        let mut s = constants();
+        for name in includes(body) {
+            if let Some((_, text)) = COMMON.iter().find(|(n, _)| *n == name) {
+                s.push_str(text);
+                s.push('\n');
+            }
+        }
         s.push_str(body);
         s
     }

@@ -74,8 +74,8 @@ impl FrameParams {
     }
 }
 
-/// Number of entries of the terminal-speed table (`RainParams::speed_table`).
-pub const SPEED_TABLE_LEN: usize = 32;
+/// Entries of the fall-speed-by-quantile table (`RainParams::speed_q`).
+pub use crate::rain::volume::drop::SPEED_TABLE_LEN;
 
 /// Gust components in `RainParams` (`rain::wind::GUST_COMPONENTS`).
 pub const GUSTS: usize = 8;
@@ -85,7 +85,9 @@ pub const GUSTS: usize = 8;
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 #[allow(missing_docs)]
 pub struct RainParams {
-    pub camera_pos_m: [f32; 4],
+    pub camera_pos_m: [f32; 3],
+    /// The pinhole's focal length, px.
+    pub focal_px: f32,
     pub camera_from_world_0: [f32; 4],
     pub camera_from_world_1: [f32; 4],
     pub camera_from_world_2: [f32; 4],
@@ -96,13 +98,18 @@ pub struct RainParams {
     pub coded_size_px: [f32; 2],
     pub column_slope: [f32; 2],
     pub cell_size_m: [f32; 2],
-    pub wind_mean_mps: [f32; 4],
+    pub wind_mean_mps: [f32; 2],
+    /// The mean wind's travel over the cell size, modulo 1.
+    pub mean_travel_cells: [f32; 2],
     pub haze: [f32; 4],
     pub env_sh: [[f32; 4]; 16],
     pub drop_zonal: [[f32; 4]; 3],
     pub gust_amp: [[f32; 4]; GUSTS],
     pub gust_phase: [[f32; 4]; GUSTS],
-    pub time_s: f32,
+    /// Whole seconds of the frame's time.
+    pub time_whole_s: u32,
+    /// The rest of the frame's time, s, in [0, 1).
+    pub time_frac_s: f32,
     pub exposure_s: f32,
     pub seed: u32,
     pub drop_count: u32,
@@ -114,11 +121,14 @@ pub struct RainParams {
     pub d_max_mm: f32,
     pub lambda_per_mm: f32,
     pub diameter_scale: f32,
-    pub speed_table_step_mm: f32,
     pub lens_blur_k_px_m: f32,
     pub inv_focus_per_m: f32,
     pub gravity_mps2: f32,
-    pub speed_table: [f32; SPEED_TABLE_LEN],
+    /// The columns' drift per metre fallen, 2⁻¹⁶ cells/m (`rain::volume::DropMotion`).
+    pub drift_q: [i32; 2],
+    pub _pad: [u32; 2],
+    /// Fall speed by size quantile, 2⁻¹⁰ m/s (`rain::volume::DropMotion`).
+    pub speed_q: [u32; SPEED_TABLE_LEN],
 }
 
 /// WGSL `Column`: a sheared prism of the rain volume.
@@ -131,7 +141,9 @@ pub struct Column {
     pub height_m: f32,
     pub first_drop: u32,
     pub drop_count: u32,
-    pub _pad: [u32; 2],
+    /// 1 / height, 2⁻²² m⁻¹ (`rain::volume::drop::inv_height_q`).
+    pub inv_height_q: u32,
+    pub _pad: u32,
 }
 
 /// WGSL `Streak`: one drop's streak for the frame (`rain_simulate` → `rain_streaks`).

@@ -150,7 +150,12 @@ impl Wind {
     /// Displacement ∫₀ᵗ v dt, m, of a drop in steady state with time constant `tau_s`:
     /// W̄ t + Σ a_k g_k [sin(ω_k t + φ_k − θ_k) − sin(φ_k − θ_k)]/ω_k.
     pub fn drop_displacement_m(&self, t_s: f64, tau_s: f64) -> DVec2 {
-        self.gusts.iter().fold(self.mean_mps * t_s, |acc, g| {
+        self.mean_mps * t_s + self.gust_displacement_m(t_s, tau_s)
+    }
+
+    /// The gusts' share of [`Wind::drop_displacement_m`] (bounded: it does not grow with t).
+    pub fn gust_displacement_m(&self, t_s: f64, tau_s: f64) -> DVec2 {
+        self.gusts.iter().fold(DVec2::ZERO, |acc, g| {
             let wt = g.omega_radps * tau_s.max(0.0);
             // g_k sin(x − θ_k) = (sin x − wt cos x)/(1 + wt²).
             let s = |x: f64| (x.sin() - wt * x.cos()) / (1.0 + wt * wt);

@@ -86,16 +86,41 @@ pub struct YuvFrame {
     pub index: u64,
 }
 
-/// The coded pixel shown at displayed pixel (x, y) of a picture of coded size `coded_w`×`coded_h`
-/// with display rotation `rotation_deg` (counter-clockwise, as `VideoInfo::rotation_deg`).
-/// The GPU twin is `rain::emitter::coded_from_display`.
-pub fn coded_pixel(rotation_deg: i32, coded_w: u32, coded_h: u32, x: u32, y: u32) -> (u32, u32) {
+/// The one display-rotation map: coded position = m·display + offset, for a picture of coded
+/// size `coded_w`×`coded_h` shown turned by `rotation_deg` (counter-clockwise, as
+/// `VideoInfo::rotation_deg`; other angles than quarter turns are shown as coded).
+/// Returns (column-major 2×2 matrix, offset), continuous coordinates (pixel corners).
+pub fn coded_from_display(rotation_deg: i32, coded_w: f64, coded_h: f64) -> ([f64; 4], [f64; 2]) {
     match rotation_deg.rem_euclid(360) {
-        90 => (coded_w - 1 - y, x),
-        180 => (coded_w - 1 - x, coded_h - 1 - y),
-        270 => (y, coded_h - 1 - x),
-        _ => (x, y),
+        // Displayed = coded turned 90° counter-clockwise: display (x, y) ← coded (W − y, x).
+        90 => ([0.0, 1.0, -1.0, 0.0], [coded_w, 0.0]),
+        180 => ([-1.0, 0.0, 0.0, -1.0], [coded_w, coded_h]),
+        // Displayed = coded turned 90° clockwise: display (x, y) ← coded (y, H − x).
+        270 => ([0.0, -1.0, 1.0, 0.0], [0.0, coded_h]),
+        _ => ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0]),
     }
+}
+
+/// The displayed size of a coded picture `coded_w`×`coded_h` turned by `rotation_deg`.
+pub fn display_size(rotation_deg: i32, coded_w: u32, coded_h: u32) -> (u32, u32) {
+    if rotation_deg.rem_euclid(180) == 90 {
+        (coded_h, coded_w)
+    } else {
+        (coded_w, coded_h)
+    }
+}
+
+/// The coded pixel shown at displayed pixel (x, y): [`coded_from_display`] at the pixel's
+/// centre.
+pub fn coded_pixel(rotation_deg: i32, coded_w: u32, coded_h: u32, x: u32, y: u32) -> (u32, u32) {
+    let (m, off) = coded_from_display(rotation_deg, coded_w as f64, coded_h as f64);
+    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+    let cx = m[0] * px + m[2] * py + off[0];
+    let cy = m[1] * px + m[3] * py + off[1];
+    (
+        (cx.floor().max(0.0) as u32).min(coded_w.saturating_sub(1)),
+        (cy.floor().max(0.0) as u32).min(coded_h.saturating_sub(1)),
+    )
 }
 
 impl YuvFrame {

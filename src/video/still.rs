@@ -14,15 +14,11 @@ pub fn to_rgb16(frame: &YuvFrame, rotation_deg: i32) -> (u32, u32, Vec<u16>) {
     let (sx, sy) = f.chroma.shift();
     let s = frame.color.range_scale();
     let rotation = rotation_deg.rem_euclid(360);
-    let (w, h) = if rotation % 180 == 90 {
-        (f.height, f.width)
-    } else {
-        (f.width, f.height)
-    };
+    let (w, h) = super::frame::display_size(rotation, f.width, f.height);
     let mut out = vec![0u16; (w * h * 3) as usize];
     for y in 0..h {
         for x in 0..w {
-            // Display (x, y) ← coded (cx, cy); see rain::emitter::coded_from_display.
+            // Display (x, y) ← coded (cx, cy); see video::frame::coded_from_display.
             let (cx, cy) = super::frame::coded_pixel(rotation, f.width, f.height, x, y);
             let code = [
                 frame.sample(0, cx, cy) as f64,

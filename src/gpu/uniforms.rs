@@ -1,20 +1,23 @@
-//! The GPU emitter's inputs: the rain volume planned for the shot (`rain::volume`), turned
-//! into the uniforms and column buffer of `shaders/common/drops.wgsl`.
+//! The uniforms builder: the rain volume planned for the shot (`rain::volume`, CPU physics
+//! only) and the frame's light, packed into the uniforms and column buffer the stages read
+//! (`shaders/common/types.wgsl`), with the display↔coded mapping.
 //!
 //! The per-drop algorithm lives in the WGSL; its plain CPU reference is
 //! [`sample_drop`](crate::rain::volume::sample_drop), which `tests/gpu.rs` holds the GPU to.
-//! Everything time-dependent that needs `f64` (gust phases, the mean wind's travel) is computed
-//! here per frame in [`RainSetup::params_at`], so the shader never takes the cosine of a large
-//! argument in `f32`.
+//! Everything time-dependent that needs `f64` (gust phases, the mean wind's travel modulo a
+//! cell) is computed here per frame in [`RainSetup::params_at`], so the shader never takes the
+//! cosine of a large argument in `f32`; the time itself arrives split into whole seconds and a
+//! fraction (see `rain::volume::drop`, "Long clips").
 
 use glam::DVec2;
 
+use super::types::{Column, GUSTS, LightList, RainParams};
 use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
-use crate::gpu::types::{Column, GUSTS, RainParams, SPEED_TABLE_LEN};
 use crate::lighting::FrameLight;
 use crate::rain::physics::{DsdShape, G_MPS2, RainModel, RainRate, ThinLens, haze_alpha};
-use crate::rain::volume::{RainVolume, VolumeParams};
+use crate::rain::volume::drop::inv_height_q;
+use crate::rain::volume::{RainVolume, SplitTime, VolumeParams, mean_travel_cells};
 use crate::rain::wind::Wind;
 use crate::scene::Camera;
 
@@ -36,18 +39,13 @@ pub struct RainSetup {
     pub haze_alpha: f64,
 }
 
-/// Maps display pixels to coded pixels for a display rotation of `rotation_deg` (the angle, in
-/// degrees counter-clockwise, by which the coded picture is turned for display).
+/// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
+/// the uniforms ([`crate::video::frame::coded_from_display`]).
 /// Returns (column-major 2×2 matrix, offset).
 pub fn coded_from_display(rotation_deg: i32, coded_w: f32, coded_h: f32) -> ([f32; 4], [f32; 2]) {
-    match rotation_deg.rem_euclid(360) {
-        // Displayed = coded turned 90° counter-clockwise: display (x, y) ← coded (W − y, x).
-        90 => ([0.0, 1.0, -1.0, 0.0], [coded_w, 0.0]),
-        180 => ([-1.0, 0.0, 0.0, -1.0], [coded_w, coded_h]),
-        // Displayed = coded turned 90° clockwise: display (x, y) ← coded (y, H − x).
-        270 => ([0.0, -1.0, 1.0, 0.0], [0.0, coded_h]),
-        _ => ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0]),
-    }
+    let (m, o) =
+        crate::video::frame::coded_from_display(rotation_deg, coded_w as f64, coded_h as f64);
+    (m.map(|v| v as f32), o.map(|v| v as f32))
 }
 
 /// What the volume plan needs from the configuration: the one place that turns the camera and
@@ -73,6 +71,8 @@ pub fn plan_params(
         budget: rain.max_drops.max(1) as u64,
         lens,
         ground_z_m: Some(0.0),
+        diameter_scale: rain.drop_scale,
+        fall_speed_scale: rain.fall_speed_scale,
         ..VolumeParams::default()
     })
 }
@@ -106,7 +106,8 @@ pub fn build(
             height_m: c.height_m() as f32,
             first_drop: c.first_id as u32,
             drop_count: c.count,
-            _pad: [0; 2],
+            inv_height_q: inv_height_q(c.height_m()),
+            _pad: 0,
         })
         .collect();
     if columns.is_empty() {
@@ -114,8 +115,6 @@ pub fn build(
     }
 
     let (d_min, d_max) = model.dsd.range_mm();
-    let table = model.fall.velocity_table(SPEED_TABLE_LEN, d_min, d_max);
-    let speed_table = std::array::from_fn(|i| table.v_mps[i] * rain.fall_speed_scale as f32);
     let mut gust_amp = [[0.0, 0.0, 1.0, 0.0]; GUSTS];
     for (a, g) in gust_amp.iter_mut().zip(&wind.gusts) {
         *a = [
@@ -140,7 +139,8 @@ pub fn build(
     let (m, off) = coded_from_display(rotation_deg, coded_size_px.0 as f32, coded_size_px.1 as f32);
     let p = camera.position_m;
     let params = RainParams {
-        camera_pos_m: [p.x as f32, p.y as f32, p.z as f32, f as f32],
+        camera_pos_m: [p.x as f32, p.y as f32, p.z as f32],
+        focal_px: f as f32,
         camera_from_world_0: row(0),
         camera_from_world_1: row(1),
         camera_from_world_2: row(2),
@@ -155,13 +155,15 @@ pub fn build(
             .max(DVec2::splat(1e-6))
             .as_vec2()
             .to_array(),
-        wind_mean_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32, 0.0, 0.0],
+        wind_mean_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32],
+        mean_travel_cells: [0.0; 2],
         haze: [0.0, 0.0, 0.0, 1.0],
         env_sh: [[0.0; 4]; 16],
         drop_zonal: [[0.0; 4]; 3],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
-        time_s: 0.0,
+        time_whole_s: 0,
+        time_frac_s: 0.0,
         exposure_s: exposure_s as f32,
         seed: rain.seed,
         drop_count: volume.simulated.min(u32::MAX as u64) as u32,
@@ -172,12 +174,13 @@ pub fn build(
         d_min_mm: d_min as f32,
         d_max_mm: d_max as f32,
         lambda_per_mm: model.dsd.lambda_per_mm() as f32,
-        diameter_scale: rain.drop_scale as f32,
-        speed_table_step_mm: table.step_mm() as f32,
+        diameter_scale: volume.motion.diameter_scale as f32,
         lens_blur_k_px_m,
         inv_focus_per_m: lens.map_or(0.0, |l| (1.0 / l.focus_m) as f32),
         gravity_mps2: G_MPS2 as f32,
-        speed_table,
+        drift_q: volume.motion.drift_q,
+        _pad: [0; 2],
+        speed_q: volume.motion.speed_q,
     };
     // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
     let haze_alpha = if rain.scene_depth_m > volume.far_m {
@@ -209,15 +212,32 @@ impl RainSetup {
         p
     }
 
-    /// The uniforms at time `t_s`, unlit: the drops' motion only. Gust phases and the mean
-    /// wind's travel are computed in `f64` here, so the shader never takes the cosine of a
-    /// large argument in `f32`.
+    /// The uniforms and the compact lights at time `t_s`, the drops lit by `light` with
+    /// transfer coefficients `drop_zonal`: everything the frame's stages read.
+    pub fn frame_uniforms(
+        &self,
+        t_s: f64,
+        light: &FrameLight,
+        drop_zonal: [[f32; 4]; 3],
+    ) -> (RainParams, LightList) {
+        (
+            self.params_at(t_s, light, drop_zonal),
+            LightList::new(&light.lights),
+        )
+    }
+
+    /// The uniforms at time `t_s`, unlit: the drops' motion only. The time is split into whole
+    /// seconds and a fraction; gust phases and the mean wind's travel (modulo a cell) are
+    /// computed in `f64` here, so the shader never takes the cosine of a large argument in
+    /// `f32` nor loses a drop's phase as t grows.
     pub fn motion_at(&self, t_s: f64) -> RainParams {
         let mut p = self.params;
-        p.time_s = t_s as f32;
-        let travel = self.wind.mean_mps * t_s;
-        p.wind_mean_mps[2] = travel.x as f32;
-        p.wind_mean_mps[3] = travel.y as f32;
+        let t = SplitTime::new(t_s);
+        p.time_whole_s = t.whole_s;
+        p.time_frac_s = t.frac_s as f32;
+        let travel = mean_travel_cells(&self.wind, &self.volume.grid, t);
+        p.mean_travel_cells = [travel.x as f32, travel.y as f32];
+        let t_s = t.seconds();
         for (ph, g) in p.gust_phase.iter_mut().zip(&self.wind.gusts) {
             let x = g.omega_radps * t_s + g.phase_rad;
             *ph = [

@@ -1,5 +1,5 @@
-//! The CPU twin of `streak_of` in `shaders/rain_simulate.wgsl` and `coverage` in
-//! `shaders/rain_streaks.wgsl`: where a drop's streak lies in the picture, how wide it is drawn
+//! The CPU twin of the `rain_simulate` stage (`streak_of` in `shaders/rain_simulate.wgsl`),
+//! with `coverage` of `shaders/rain_streaks.wgsl`: where a drop's streak lies in the picture, how wide it is drawn
 //! and how much of each pixel it covers. `tests/gpu.rs` holds the GPU to it.
 //!
 //! ## How it works
@@ -79,13 +79,13 @@ pub fn streak_of(
     vel_mps: DVec3,
     width_mm: f64,
 ) -> Option<StreakShape> {
-    let v3 = |a: [f32; 4]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let v3 = |a: &[f32]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
     let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
-    let cam = v3(p.camera_pos_m);
+    let cam = v3(&p.camera_pos_m);
     let rows = [
-        v3(p.camera_from_world_0),
-        v3(p.camera_from_world_1),
-        v3(p.camera_from_world_2),
+        v3(&p.camera_from_world_0),
+        v3(&p.camera_from_world_1),
+        v3(&p.camera_from_world_2),
     ];
     let to_camera = |w: DVec3| {
         let d = w - cam;
@@ -103,7 +103,7 @@ pub fn streak_of(
     if c1.z < near {
         c1 = c1.lerp(c0, (near - c1.z) / (c0.z - c1.z));
     }
-    let f = p.camera_pos_m[3] as f64;
+    let f = p.focal_px as f64;
     let principal = v2(p.principal_px);
     let q0 = principal + f * DVec2::new(c0.x, c0.y) / c0.z;
     let q1 = principal + f * DVec2::new(c1.x, c1.y) / c1.z;
@@ -144,7 +144,7 @@ pub fn streak_of(
 mod tests {
     use super::*;
     use crate::config::{CameraConfig, RainConfig};
-    use crate::rain::emitter;
+    use crate::gpu::uniforms as emitter;
     use crate::scene::Camera;
 
     /// Σ alpha over the picture plane (0.5 px grid over the streak's footprint), px².
