@@ -28,15 +28,19 @@ fn streak_width_factor(d_mm: f32) -> f32 {
 }
 
 // Fall speed, 2^-SPEED_BITS m/s, of the drop whose size quantile has the 24 bits `q`: the
-// table interpolated in integers, bit-identical to rain::volume::DropMotion::fall_speed_q.
+// table (even steps through each octave of 1 − u) interpolated in integers, bit-identical to
+// rain::volume::DropMotion::fall_speed_q.
 fn fall_speed_q(q: u32) -> u32 {
-    let x = (q & 0xFFFFFFu) * (SPEED_TABLE_LEN - 1u);
-    let i = x >> 24u;
-    let f = i32((x >> 12u) & 0xFFFu);
-    let j = min(i + 1u, SPEED_TABLE_LEN - 1u);
-    let a = i32(rain.speed_q[i / 4u][i % 4u]);
-    let b = i32(rain.speed_q[j / 4u][j % 4u]);
-    return u32(a + (((b - a) * f) >> 12u));
+    let r = max(0xFFFFFFu - (q & 0xFFFFFFu), 1u);
+    let e = firstLeadingBit(r);
+    var f12 = (r << (12u - min(e, 12u))) & 0xFFFu;
+    if e >= 12u { f12 = (r >> (e - 12u)) & 0xFFFu; }
+    let j = (e << SPEED_STEPS_LOG2) + (f12 >> (12u - SPEED_STEPS_LOG2));
+    let g = i32(f12 & ((1u << (12u - SPEED_STEPS_LOG2)) - 1u));
+    let k = min(j + 1u, SPEED_TABLE_LEN - 1u);
+    let a = i32(rain.speed_q[j / 4u][j % 4u]);
+    let b = i32(rain.speed_q[k / 4u][k % 4u]);
+    return u32(a + (((b - a) * g) >> (12u - SPEED_STEPS_LOG2)));
 }
 
 // The 64-bit product a·b as (low, high) words.

@@ -6,7 +6,8 @@
 use super::stages;
 use super::types::{GUSTS, MAX_LIGHTS};
 use crate::rain::volume::drop::{
-    DRIFT_BITS, DRIFT_PHASE_BITS, FALL_RATE_BITS, INV_HEIGHT_BITS, SPEED_BITS, SPEED_TABLE_LEN,
+    DRIFT_BITS, DRIFT_PHASE_BITS, FALL_RATE_BITS, INV_HEIGHT_BITS, SPEED_BITS, SPEED_STEPS_LOG2,
+    SPEED_TABLE_LEN,
 };
 
 /// One GPU stage: one file in `shaders/`, one pipeline label, one Rust twin.
@@ -58,6 +59,7 @@ pub fn constants() -> String {
         ("GUSTS", GUSTS as u32),
         ("SPEED_TABLE_LEN", SPEED_TABLE_LEN as u32),
         ("SPEED_BITS", SPEED_BITS),
+        ("SPEED_STEPS_LOG2", SPEED_STEPS_LOG2),
         ("INV_HEIGHT_BITS", INV_HEIGHT_BITS),
         ("FALL_RATE_BITS", FALL_RATE_BITS),
         ("DRIFT_BITS", DRIFT_BITS),

@@ -20,8 +20,14 @@ use super::{ColumnGrid, RainVolume};
 use crate::rain::physics::{G_MPS2, RainModel, streak_width_factor};
 use crate::rain::wind::Wind;
 
-/// Entries of the fall-speed-by-quantile table ([`DropMotion::speed_q`]).
-pub const SPEED_TABLE_LEN: usize = 64;
+/// Octaves of 1 − u the fall-speed table spans (u a 24-bit size quantile).
+pub const SPEED_OCTAVES: u32 = 24;
+/// log₂ of the table's steps per octave.
+pub const SPEED_STEPS_LOG2: u32 = 4;
+/// Entries of the fall-speed-by-quantile table ([`DropMotion::speed_q`]): one per step of
+/// each octave and the end, padded to whole `vec4`s.
+pub const SPEED_TABLE_LEN: usize =
+    (((SPEED_OCTAVES << SPEED_STEPS_LOG2) + 1).div_ceil(4) * 4) as usize;
 /// Fixed-point bits of a fall speed (units of 2⁻¹⁰ m/s ≈ 1 mm/s).
 pub const SPEED_BITS: u32 = 10;
 /// Fixed-point bits of a column's inverse height (units of 2⁻²² m⁻¹).
@@ -64,7 +70,8 @@ impl SplitTime {
 /// The drops' motion on the fixed-point grid the CPU and the GPU share.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DropMotion {
-    /// Fall speed at size quantile i/(N−1), 2⁻¹⁰ m/s (the fall speed scale applied).
+    /// Fall speed at the table's size quantiles (see [`DropMotion::fall_speed_q`]), 2⁻¹⁰ m/s,
+    /// the fall speed scale applied.
     pub speed_q: [u32; SPEED_TABLE_LEN],
     /// The columns' drift in cells per metre fallen, (slope / cell size), 2⁻¹⁶ cells/m.
     pub drift_q: [i32; 2],
@@ -81,9 +88,18 @@ impl DropMotion {
         fall_speed_scale: f64,
         diameter_scale: f64,
     ) -> DropMotion {
-        let last = (SPEED_TABLE_LEN - 1) as f64;
-        let speed_q = std::array::from_fn(|i| {
-            let d = model.dsd.diameter_from_uniform_mm(i as f64 / last);
+        let last = (SPEED_OCTAVES << SPEED_STEPS_LOG2) as usize;
+        let steps = (1u32 << SPEED_STEPS_LOG2) as f64;
+        let speed_q = std::array::from_fn(|j| {
+            // Node j: 1 − u = 2^e (1 + k/steps) / 2²⁴, e = j / steps, k = j mod steps.
+            let j = j.min(last);
+            let (e, k) = (
+                (j >> SPEED_STEPS_LOG2) as i32,
+                (j % (1 << SPEED_STEPS_LOG2)) as f64,
+            );
+            let r = 2f64.powi(e) * (1.0 + k / steps);
+            let u = (1.0 - (r + 1.0) / (1u32 << 24) as f64).clamp(0.0, 1.0);
+            let d = model.dsd.diameter_from_uniform_mm(u);
             let v = model.fall.terminal_velocity_mps(d) * fall_speed_scale;
             (v * (1u32 << SPEED_BITS) as f64)
                 .round()
@@ -104,14 +120,23 @@ impl DropMotion {
     }
 
     /// Fall speed (2⁻¹⁰ m/s) of a drop whose size quantile has the 24 bits `quantile`: the
-    /// table interpolated in integers (12 fraction bits), so CPU and GPU agree to the bit.
+    /// table interpolated in integers, so CPU and GPU agree to the bit. The table steps
+    /// evenly through each octave of 1 − u: the size distribution's tail, where the diameter
+    /// climbs fastest with u, is resolved as finely as its bulk (for an exponential
+    /// distribution the diameter is linear in log(1 − u)).
     pub fn fall_speed_q(&self, quantile: u32) -> u32 {
-        let x = (quantile & 0x00FF_FFFF) * (SPEED_TABLE_LEN as u32 - 1);
-        let i = (x >> 24) as usize;
-        let f = ((x >> 12) & 0xFFF) as i32;
-        let a = self.speed_q[i] as i32;
-        let b = self.speed_q[(i + 1).min(SPEED_TABLE_LEN - 1)] as i32;
-        (a + (((b - a) * f) >> 12)) as u32
+        let r = (0x00FF_FFFF - (quantile & 0x00FF_FFFF)).max(1);
+        let e = 31 - r.leading_zeros();
+        let f12 = if e >= 12 {
+            (r >> (e - 12)) & 0xFFF
+        } else {
+            (r << (12 - e)) & 0xFFF
+        };
+        let j = ((e << SPEED_STEPS_LOG2) + (f12 >> (12 - SPEED_STEPS_LOG2))) as usize;
+        let g = (f12 & ((1 << (12 - SPEED_STEPS_LOG2)) - 1)) as i32;
+        let a = self.speed_q[j] as i32;
+        let b = self.speed_q[(j + 1).min(SPEED_TABLE_LEN - 1)] as i32;
+        (a + (((b - a) * g) >> (12 - SPEED_STEPS_LOG2))) as u32
     }
 }
 
