@@ -41,9 +41,9 @@ pub fn rain_streaks(canvas: &mut [[f64; 3]], p: &RainParams, streaks: &[Streak])
                 }
                 let t = (along + ext) / (len + 2.0 * ext);
                 let px = &mut canvas[(y * w + x) as usize];
-                for k in 0..3 {
+                for (k, c) in px.iter_mut().enumerate() {
                     let rad = s.radiance0[k] as f64 * (1.0 - t) + s.radiance1[k] as f64 * t;
-                    px[k] = rad * a + px[k] * (1.0 - a);
+                    *c = rad * a + *c * (1.0 - a);
                 }
             }
         }
