@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 /// One compact light source, seen from the camera.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightSource {
     /// Unit vector from the camera toward the light, world frame (z up).
     pub direction_world: DVec3,
