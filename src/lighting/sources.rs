@@ -5,6 +5,8 @@
 
 use glam::DVec3;
 
+use super::rtf::RtfTable;
+
 /// One compact light source, seen from the camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightSource {
@@ -25,4 +27,46 @@ impl LightSource {
     pub fn radiance_times_solid_angle(&self) -> [f64; 3] {
         self.radiance_rgb.map(|l| l * self.solid_angle_sr)
     }
+}
+
+/// The direct term of compact sources for a drop seen along `view` (eye → drop, unit): each
+/// light of radiance L and solid angle Ω in direction ω (from the drop toward the light) adds
+/// `L Ω F(θ)` per channel, `cos θ = ω·v` and F the drop's phase function from the RTF table
+/// ([`RtfTable::interpolated`], the table's bin averages interpolated linearly between bin
+/// centres, as a linearly filtered 1-D texture does). This is the small-source limit of
+/// `∫ L(ω) F(θ) dω` (rtf.rs), the same integral the SH term approximates for the extended
+/// light.
+///
+/// A light at infinity (`distance_m = None`) has the same ω at every drop. A light at a
+/// distance d from the camera sits at `d · direction` (camera at the origin); for a drop at
+/// `drop_pos_from_camera_m` it is seen along the normalised `d · direction − drop` and its
+/// irradiance scales by `(d / |d · direction − drop|)²` (inverse square; its solid angle is
+/// measured at the camera). With `drop_pos_from_camera_m = None` the drop is at the camera.
+pub fn direct_colour(
+    lights: &[LightSource],
+    tables: &[RtfTable; 3],
+    drop_pos_from_camera_m: Option<DVec3>,
+    view: DVec3,
+) -> [f64; 3] {
+    let v = view.normalize_or(DVec3::Z);
+    let mut out = [0.0; 3];
+    for l in lights {
+        let dir = l.direction_world.normalize_or(DVec3::Z);
+        let (omega, scale) = match (l.distance_m, drop_pos_from_camera_m) {
+            (Some(d), Some(p)) if d.is_finite() && d > 0.0 => {
+                let to_light = dir * d - p;
+                let r = to_light.length();
+                if r <= 1e-9 * d {
+                    continue; // the drop sits on the light: no finite direction
+                }
+                (to_light / r, (d / r).powi(2))
+            }
+            _ => (dir, 1.0),
+        };
+        let theta = omega.dot(v).clamp(-1.0, 1.0).acos();
+        for (c, t) in tables.iter().enumerate() {
+            out[c] += l.radiance_rgb[c] * l.solid_angle_sr * scale * t.interpolated(theta);
+        }
+    }
+    out
 }

@@ -1,0 +1,579 @@
+//! Scene-referred light from a display-referred frame: the highlights that clipping removed.
+//!
+//! A frame stores the sky, the sun, lamps and lit windows at its code-value ceiling, when the
+//! scene holds tens to millions of times more; those are exactly the light a drop shows
+//! (`notes/light.md`). This module finds what was clipped and puts an estimate of it back.
+//!
+//! ## How it works
+//!
+//! 1. **Clip statistics** ([`BlockStats`]): beside the mean of each thumbnail block (the
+//!    environment's input), the fraction of samples whose channel sits at the frame's own ceiling
+//!    (within [`CLIP_TOLERANCE_CODES`] code values, per channel), so clipping is seen before the
+//!    block average smears it.
+//! 2. **Regions**: connected components (8-neighbour) of blocks holding clipped samples, with
+//!    their clipped solid angle `Ω_clip = Σ f_b Ω_b` through the pinhole model and the level of
+//!    the unclipped ring around them.
+//! 3. **Classes**: a region whose clipped solid angle is at most [`COMPACT_MAX_SR`] (a disc of
+//!    ≈ 9°) is a *compact source* (sun, lamp, window); a larger one is *extended* (bright sky).
+//! 4. **Compact sources: an exposure-anchored illuminance prior.** The camera's exposure puts
+//!    a mid-grey surface near the frame's median luminance `L_med`, so the illuminance on the
+//!    scene's typical surfaces is `E = π L_med / a` (grey-world albedo `a` = 0.18, Lambert). The
+//!    compact sources deliver, at the camera, an illuminance of the same order: the sun gives
+//!    ≈ 10× the sky's diffuse light at high elevation and ≈ 1× near the horizon; a street lamp
+//!    lights the road about as much as it lights a camera at a similar distance. Their total
+//!    `Σ L Ω` is set to [`SOURCE_ILLUMINANCE_RATIO`] (3, the geometric middle of 1–10) times
+//!    `E`, shared in proportion to their clipped solid angles (a source's bloom grows with its
+//!    flux); each source's radiance is that flux over its clipped solid angle, never below the
+//!    clip level, and at most [`MAX_GAIN`] times it. Because the prior is on flux (`L Ω`) rather
+//!    than radiance, it does not depend on the picture's resolution or on how far the bloom
+//!    spread the clipped area. Sources become [`LightSource`]s; their blocks are replaced in
+//!    the environment by the ring's level, so their light is not counted twice.
+//! 5. **Extended regions: the CIE standard overcast sky**, `L(z) ∝ (1 + 2 cos z)/3` with `z`
+//!    the zenith angle, fitted to the unclipped ring of the region and extrapolated into its
+//!    clipped blocks (never below the clip level; a region with no ring stays at the clip
+//!    level). Sky gradients are gentle (3:1 from zenith to horizon), so this restores at most a
+//!    few times the clip level, which is what an unclipped sky next to the region allows.
+//! 6. `highlight_gain` replaces steps 4–5 by a fixed factor: every clipped sample becomes
+//!    `G ×` the clip level, compact regions still becoming lights.
+//!
+//! A frame without clipped samples comes back unchanged (the same thumbnail, no lights).
+//! [`LightTracker`] smooths the sources over a window of past frames (a pure function of that
+//! window, like [`ShSmoother`](super::envmap::ShSmoother)), so `preview` sees what the render sees.
+
+use std::collections::VecDeque;
+
+use glam::{DVec2, DVec3};
+
+use super::sources::LightSource;
+use crate::scene::Camera;
+
+/// Samples within this many code values of the ceiling count as clipped (compression and
+/// chroma rounding keep clipped areas a code value or two below it).
+pub const CLIP_TOLERANCE_CODES: f64 = 3.0;
+/// Largest clipped solid angle of a compact source, steradians (a disc of ≈ 9°).
+pub const COMPACT_MAX_SR: f64 = 0.02;
+/// Illuminance of all compact sources at the camera over the illuminance on typical surfaces.
+pub const SOURCE_ILLUMINANCE_RATIO: f64 = 3.0;
+/// Grey-world albedo that the exposure maps to the frame's median luminance.
+pub const GREY_ALBEDO: f64 = 0.18;
+/// Largest recovered radiance over the clip level (the sun over a mid-grey exposure is ~10⁶).
+pub const MAX_GAIN: f64 = 1e6;
+/// Floor of the frame's median luminance used by the prior (a black frame has no exposure
+/// anchor; this keeps a lamp in it finite and small), frame units.
+pub const MIN_MEDIAN_LUMINANCE: f64 = 1e-3;
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Where a frame's channels clip, in its linear units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClipLevel {
+    /// A sample at or above this (per channel) is clipped.
+    pub threshold: [f64; 3],
+    /// The value of the ceiling itself (per channel).
+    pub level: [f64; 3],
+}
+
+impl ClipLevel {
+    /// The ceiling of a frame with transfer `eotf` (encoded [0, 1] → linear) and `codes_per_unit`
+    /// code values from black to white.
+    pub fn from_eotf(eotf: impl Fn(f64) -> f64, codes_per_unit: f64) -> ClipLevel {
+        let t = eotf(1.0 - CLIP_TOLERANCE_CODES / codes_per_unit.max(CLIP_TOLERANCE_CODES + 1.0));
+        let l = eotf(1.0);
+        ClipLevel {
+            threshold: [t; 3],
+            level: [l; 3],
+        }
+    }
+}
+
+/// The thumbnail the environment is projected from, with its clipping per block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockStats {
+    /// Blocks per row.
+    pub width: usize,
+    /// Blocks per column.
+    pub height: usize,
+    /// Side of a block, frame pixels.
+    pub block_px: usize,
+    /// Frame size, pixels (the displayed picture).
+    pub frame_px: (usize, usize),
+    /// Mean linear RGB per block (each sample clamped to [0, 10³]).
+    pub mean: Vec<[f32; 3]>,
+    /// Fraction of the block's samples clipped, per channel.
+    pub clipped: Vec<[f32; 3]>,
+    /// The frame's ceiling.
+    pub clip: ClipLevel,
+}
+
+impl BlockStats {
+    /// Statistics of a `frame_w × frame_h` picture read through `sample(x, y)` (linear RGB of
+    /// displayed pixel (x, y)) in `block_px` blocks, with `samples_per_block` samples per block
+    /// side spread evenly (`None`: every pixel).
+    pub fn build(
+        frame_px: (usize, usize),
+        block_px: usize,
+        samples_per_block: Option<usize>,
+        clip: ClipLevel,
+        sample: impl Fn(usize, usize) -> [f64; 3],
+    ) -> BlockStats {
+        let (dw, dh) = frame_px;
+        let block = block_px.max(1);
+        let (sw, sh) = (dw.div_ceil(block), dh.div_ceil(block));
+        let mut mean = Vec::with_capacity(sw * sh);
+        let mut clipped = Vec::with_capacity(sw * sh);
+        for by in 0..sh {
+            for bx in 0..sw {
+                let (x0, y0) = (bx * block, by * block);
+                let (x1, y1) = ((x0 + block).min(dw), (y0 + block).min(dh));
+                let spb = samples_per_block.unwrap_or(block);
+                let n = spb.min(x1 - x0).max(1);
+                let m = spb.min(y1 - y0).max(1);
+                let mut acc = [0.0f64; 3];
+                let mut clip_n = [0usize; 3];
+                for j in 0..m {
+                    for i in 0..n {
+                        // Sample centres spread evenly over the block.
+                        let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
+                        let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
+                        let rgb = sample(x, y);
+                        for k in 0..3 {
+                            acc[k] += rgb[k].clamp(0.0, 1e3);
+                            clip_n[k] += usize::from(rgb[k] >= clip.threshold[k]);
+                        }
+                    }
+                }
+                let count = (n * m) as f64;
+                mean.push(acc.map(|v| (v / count) as f32));
+                clipped.push(clip_n.map(|c| (c as f64 / count) as f32));
+            }
+        }
+        BlockStats {
+            width: sw,
+            height: sh,
+            block_px: block,
+            frame_px,
+            mean,
+            clipped,
+            clip,
+        }
+    }
+
+    /// True when any sample of the frame is clipped.
+    pub fn any_clipped(&self) -> bool {
+        self.clipped.iter().flatten().any(|f| *f > 0.0)
+    }
+
+    fn clipped_fraction(&self, b: usize) -> f64 {
+        f64::from(self.clipped[b].iter().cloned().fold(0.0, f32::max))
+    }
+}
+
+/// How recovery treats clipped samples.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RecoverySettings {
+    /// A fixed factor on the clip level for every clipped sample instead of the estimate.
+    pub highlight_gain: Option<f64>,
+}
+
+/// The class of a clipped region.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionKind {
+    /// Small solid angle: becomes a light source.
+    Compact,
+    /// Large solid angle: stays in the environment, extrapolated by the sky model.
+    Extended,
+}
+
+/// One connected clipped region and what recovery made of it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Region {
+    /// Compact or extended.
+    pub kind: RegionKind,
+    /// Blocks in the region.
+    pub blocks: usize,
+    /// Clipped solid angle `Σ f_b Ω_b`, steradians.
+    pub clipped_solid_angle_sr: f64,
+    /// Centroid of the clipped area, frame pixels.
+    pub centre_px: [f64; 2],
+    /// Direction of that centroid, world frame.
+    pub direction_world: [f64; 3],
+    /// True when the region touches the picture's border (partly outside the frame).
+    pub touches_edge: bool,
+    /// Recovered radiance of the clipped samples over the clip level (1 = nothing added).
+    pub gain: f64,
+}
+
+/// What recovery returns for one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recovered {
+    /// Compact sources (frame units), brightest first.
+    pub lights: Vec<LightSource>,
+    /// The thumbnail of the extended remainder: compact sources replaced by their
+    /// surroundings, extended regions extrapolated.
+    pub remainder: Vec<[f32; 3]>,
+    /// The clipped regions found.
+    pub regions: Vec<Region>,
+}
+
+/// Geometry of the blocks through the camera.
+struct BlockGeometry {
+    dir: Vec<DVec3>,
+    centre_px: Vec<DVec2>,
+    solid_angle_sr: Vec<f64>,
+}
+
+fn block_geometry(stats: &BlockStats, camera: &Camera) -> BlockGeometry {
+    let f = camera.focal_px();
+    let c = camera.principal_px();
+    let (dw, dh) = stats.frame_px;
+    let b = stats.block_px;
+    let mut g = BlockGeometry {
+        dir: Vec::with_capacity(stats.mean.len()),
+        centre_px: Vec::with_capacity(stats.mean.len()),
+        solid_angle_sr: Vec::with_capacity(stats.mean.len()),
+    };
+    for by in 0..stats.height {
+        for bx in 0..stats.width {
+            let (x0, y0) = ((bx * b) as f64, (by * b) as f64);
+            let (x1, y1) = (((bx + 1) * b).min(dw) as f64, ((by + 1) * b).min(dh) as f64);
+            let p = DVec2::new(0.5 * (x0 + x1), 0.5 * (y0 + y1));
+            let r2 = (p - c).length_squared();
+            let cos_a = f / (f * f + r2).sqrt();
+            g.dir.push(camera.ray_world(p));
+            g.centre_px.push(p);
+            // Pinhole: dΩ = dA cos³α / f².
+            g.solid_angle_sr
+                .push((x1 - x0) * (y1 - y0) * cos_a.powi(3) / (f * f));
+        }
+    }
+    g
+}
+
+/// Connected components (8-neighbour) of the blocks where `mask` is true, in scan order.
+fn components(w: usize, h: usize, mask: &[bool]) -> Vec<Vec<usize>> {
+    let mut label = vec![usize::MAX; w * h];
+    let mut out = Vec::new();
+    for start in 0..w * h {
+        if !mask[start] || label[start] != usize::MAX {
+            continue;
+        }
+        let id = out.len();
+        let mut comp = vec![start];
+        label[start] = id;
+        let mut i = 0;
+        while i < comp.len() {
+            let b = comp[i];
+            i += 1;
+            let (x, y) = ((b % w) as isize, (b / w) as isize);
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
+                        continue;
+                    }
+                    let n = ny as usize * w + nx as usize;
+                    if mask[n] && label[n] == usize::MAX {
+                        label[n] = id;
+                        comp.push(n);
+                    }
+                }
+            }
+        }
+        comp.sort_unstable();
+        out.push(comp);
+    }
+    out
+}
+
+/// CIE standard overcast sky, relative: `(1 + 2 cos z)/3`, `cos z` = the direction's z.
+fn overcast(dir: DVec3) -> f64 {
+    (1.0 + 2.0 * dir.z.max(0.0)) / 3.0
+}
+
+/// Recovers the clipped light of one frame (module doc). `stats` must come from a frame seen
+/// through `camera`.
+pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings) -> Recovered {
+    let mut remainder = stats.mean.clone();
+    if !stats.any_clipped() {
+        return Recovered {
+            lights: Vec::new(),
+            remainder,
+            regions: Vec::new(),
+        };
+    }
+    let (w, h) = (stats.width, stats.height);
+    let geo = block_geometry(stats, camera);
+    let lum: Vec<f64> = stats
+        .mean
+        .iter()
+        .map(|m| luminance(m.map(f64::from)))
+        .collect();
+    let mask: Vec<bool> = (0..w * h).map(|b| stats.clipped_fraction(b) > 0.0).collect();
+    let clip_lum = luminance(stats.clip.level).max(1e-12);
+    // The exposure anchor: the frame's median luminance.
+    let mut sorted = lum.clone();
+    sorted.sort_by(f64::total_cmp);
+    let l_med = sorted[sorted.len() / 2].max(MIN_MEDIAN_LUMINANCE);
+    let e_frame = std::f64::consts::PI * l_med / GREY_ALBEDO;
+
+    struct Comp {
+        blocks: Vec<usize>,
+        omega_clip: f64,
+        centre: DVec2,
+        dir: DVec3,
+        ring: Vec<usize>,
+        touches_edge: bool,
+    }
+    let comps: Vec<Comp> = components(w, h, &mask)
+        .into_iter()
+        .map(|blocks| {
+            let mut omega_clip = 0.0;
+            let mut omega_all = 0.0;
+            let mut dir = DVec3::ZERO;
+            let mut centre = DVec2::ZERO;
+            let mut touches_edge = false;
+            for &b in &blocks {
+                let f = stats.clipped_fraction(b);
+                omega_clip += f * geo.solid_angle_sr[b];
+                omega_all += geo.solid_angle_sr[b];
+                dir += f * geo.solid_angle_sr[b] * geo.dir[b];
+                centre += f * geo.solid_angle_sr[b] * geo.centre_px[b];
+                let (x, y) = (b % w, b / w);
+                touches_edge |= x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+            }
+            let dir = dir.normalize_or(geo.dir[blocks[0]]);
+            let centre = centre / omega_clip.max(1e-300);
+            // The unclipped ring: blocks within three equivalent radii of the centroid (at
+            // least two blocks' width), outside the region.
+            let r_eq = (omega_all / std::f64::consts::PI).sqrt();
+            let block_rad = geo.solid_angle_sr[blocks[0]].sqrt();
+            let cos_ring = (3.0 * r_eq).max(2.5 * block_rad).min(1.5).cos();
+            let ring = (0..w * h)
+                .filter(|&b| !mask[b] && geo.dir[b].dot(dir) >= cos_ring)
+                .collect();
+            Comp {
+                blocks,
+                omega_clip,
+                centre,
+                dir,
+                ring,
+                touches_edge,
+            }
+        })
+        .collect();
+
+    let total_compact_omega: f64 = comps
+        .iter()
+        .filter(|c| c.omega_clip <= COMPACT_MAX_SR)
+        .map(|c| c.omega_clip)
+        .sum();
+    let mut lights = Vec::new();
+    let mut regions = Vec::new();
+    for c in &comps {
+        let compact = c.omega_clip <= COMPACT_MAX_SR;
+        let ring_mean = if c.ring.is_empty() {
+            None
+        } else {
+            let mut acc = [0.0f64; 3];
+            for &b in &c.ring {
+                (0..3).for_each(|k| acc[k] += f64::from(stats.mean[b][k]));
+            }
+            Some(acc.map(|v| v / c.ring.len() as f64))
+        };
+        // Radiance of a clipped sample over the clip level, per block.
+        let gain_of = |b: usize| -> f64 {
+            if let Some(g) = settings.highlight_gain {
+                return g;
+            }
+            if compact {
+                let flux = SOURCE_ILLUMINANCE_RATIO * e_frame * c.omega_clip
+                    / total_compact_omega.max(1e-300);
+                (flux / c.omega_clip.max(1e-300) / clip_lum).clamp(1.0, MAX_GAIN)
+            } else {
+                // Overcast gradient fitted to the ring (mean of L/g over its blocks).
+                let fit: Vec<f64> = c
+                    .ring
+                    .iter()
+                    .filter(|&&r| geo.dir[r].z > 0.0)
+                    .map(|&r| lum[r] / overcast(geo.dir[r]))
+                    .collect();
+                if fit.is_empty() {
+                    return 1.0;
+                }
+                let lz = fit.iter().sum::<f64>() / fit.len() as f64;
+                (lz * overcast(geo.dir[b]) / clip_lum).clamp(1.0, MAX_GAIN)
+            }
+        };
+        let mut gain_sum = 0.0;
+        let mut flux = [0.0f64; 3];
+        let surround = ring_mean.unwrap_or([0.0; 3]);
+        for &b in &c.blocks {
+            let g = gain_of(b);
+            gain_sum += g;
+            let mut m = [0.0f64; 3];
+            for k in 0..3 {
+                m[k] = f64::from(stats.mean[b][k])
+                    + f64::from(stats.clipped[b][k]) * (g - 1.0) * stats.clip.level[k];
+            }
+            if compact {
+                for k in 0..3 {
+                    flux[k] += (m[k] - surround[k]).max(0.0) * geo.solid_angle_sr[b];
+                }
+                remainder[b] = surround.map(|v| v as f32);
+            } else {
+                remainder[b] = m.map(|v| v as f32);
+            }
+        }
+        let gain = gain_sum / c.blocks.len() as f64;
+        if compact && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
+            lights.push(LightSource {
+                direction_world: c.dir,
+                solid_angle_sr: c.omega_clip,
+                radiance_rgb: flux.map(|v| v / c.omega_clip),
+                distance_m: None,
+            });
+        }
+        regions.push(Region {
+            kind: if compact {
+                RegionKind::Compact
+            } else {
+                RegionKind::Extended
+            },
+            blocks: c.blocks.len(),
+            clipped_solid_angle_sr: c.omega_clip,
+            centre_px: c.centre.to_array(),
+            direction_world: c.dir.to_array(),
+            touches_edge: c.touches_edge,
+            gain,
+        });
+    }
+    lights.sort_by(|a, b| {
+        luminance(b.radiance_times_solid_angle())
+            .total_cmp(&luminance(a.radiance_times_solid_angle()))
+    });
+    Recovered {
+        lights,
+        remainder,
+        regions,
+    }
+}
+
+/// Smallest angle at which two sightings of a source are the same source, radians.
+const MATCH_MIN_RAD: f64 = 0.035;
+
+/// Temporal smoothing of the recovered sources over a window of past frames, reset at scene
+/// cuts: a pure function of the frames in the window, like
+/// [`ShSmoother`](super::envmap::ShSmoother), with the same weights `exp(−(t − t_k)/τ)` over
+/// (t − 4τ, t].
+///
+/// Sightings are grouped by direction (newest first; a sighting joins the group whose newest
+/// direction is within `max(2°, 2 (r_a + r_b))`, r the sources' angular radii). A group's flux
+/// `L Ω` is the weighted mean over *all* frames of the window, a frame that did not see it
+/// counting as zero, so a lamp that switches on fades in over τ and a lamp flickering every other
+/// frame shows as a steady lamp at its mean flux instead of blinking; its solid angle and
+/// direction are the weighted means over the frames that saw it.
+#[derive(Debug, Clone)]
+pub struct LightTracker {
+    time_constant_secs: f64,
+    window_secs: f64,
+    window: VecDeque<(f64, Vec<LightSource>)>,
+}
+
+impl LightTracker {
+    /// A tracker with time constant `time_constant_secs` (0: no smoothing) and window
+    /// `window_secs` (the smoother's).
+    pub fn new(time_constant_secs: f64, window_secs: f64) -> LightTracker {
+        LightTracker {
+            time_constant_secs,
+            window_secs,
+            window: VecDeque::new(),
+        }
+    }
+
+    /// Forgets the history.
+    pub fn reset(&mut self) {
+        self.window.clear();
+    }
+
+    /// Feeds the sources seen at `t_secs` (increasing); `cut` restarts the window. Returns the
+    /// smoothed sources, brightest first.
+    pub fn update(&mut self, lights: &[LightSource], t_secs: f64, cut: bool) -> Vec<LightSource> {
+        if cut || self.time_constant_secs <= 0.0 {
+            self.window.clear();
+        }
+        self.window.push_back((t_secs, lights.to_vec()));
+        let horizon = t_secs - self.window_secs;
+        while self.window.front().is_some_and(|(t, _)| *t <= horizon) {
+            self.window.pop_front();
+        }
+        struct Group {
+            newest: LightSource,
+            flux: [f64; 3],
+            omega_w: f64,
+            w_seen: f64,
+            dir: DVec3,
+            last_frame: usize,
+        }
+        let mut groups: Vec<Group> = Vec::new();
+        let mut total_w = 0.0;
+        for (frame, (t, seen)) in self.window.iter().rev().enumerate() {
+            let w = if self.time_constant_secs > 0.0 {
+                (-(t_secs - t) / self.time_constant_secs).exp()
+            } else {
+                1.0
+            };
+            total_w += w;
+            for l in seen {
+                let r = (l.solid_angle_sr / std::f64::consts::PI).sqrt();
+                let phi = l.radiance_times_solid_angle();
+                let weight_dir = luminance(phi).max(1e-300);
+                let found = groups.iter_mut().find(|g| {
+                    let rg = (g.newest.solid_angle_sr / std::f64::consts::PI).sqrt();
+                    let limit = MATCH_MIN_RAD.max(2.0 * (r + rg));
+                    g.newest.direction_world.dot(l.direction_world) >= limit.min(3.0).cos()
+                });
+                match found {
+                    Some(g) => {
+                        (0..3).for_each(|k| g.flux[k] += w * phi[k]);
+                        if g.last_frame != frame {
+                            g.omega_w += w * l.solid_angle_sr;
+                            g.w_seen += w;
+                            g.last_frame = frame;
+                        }
+                        g.dir += w * weight_dir * l.direction_world;
+                    }
+                    None => groups.push(Group {
+                        newest: *l,
+                        flux: phi.map(|v| w * v),
+                        omega_w: w * l.solid_angle_sr,
+                        w_seen: w,
+                        dir: w * weight_dir * l.direction_world,
+                        last_frame: frame,
+                    }),
+                }
+            }
+        }
+        let mut out: Vec<LightSource> = groups
+            .into_iter()
+            .filter(|g| g.w_seen > 0.0 && g.omega_w > 0.0)
+            .map(|g| {
+                let omega = g.omega_w / g.w_seen;
+                LightSource {
+                    direction_world: g.dir.normalize_or(g.newest.direction_world),
+                    solid_angle_sr: omega,
+                    radiance_rgb: g.flux.map(|f| f / total_w / omega),
+                    distance_m: g.newest.distance_m,
+                }
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            luminance(b.radiance_times_solid_angle())
+                .total_cmp(&luminance(a.radiance_times_solid_angle()))
+        });
+        out
+    }
+}
