@@ -170,7 +170,12 @@ pub fn inspect_light(report: &LightReport, camera: &Camera) -> Value {
 /// The frame (sRGB) with each light ringed at its clipped solid angle (at least 6 px) and
 /// crossed, compact regions' rings in red, extended regions' centroids in cyan, grid positions as
 /// yellow dots.
-pub fn plot_light(image: &LinearImage, camera: &Camera, report: &LightReport, path: &Path) -> Result<()> {
+pub fn plot_light(
+    image: &LinearImage,
+    camera: &Camera,
+    report: &LightReport,
+    path: &Path,
+) -> Result<()> {
     let (w, h) = (image.width, image.height);
     let mut px: Vec<[u8; 3]> = image
         .pixels
@@ -193,7 +198,11 @@ pub fn plot_light(image: &LinearImage, camera: &Camera, report: &LightReport, pa
         for s in 0..steps {
             let a = 2.0 * std::f64::consts::PI * s as f64 / steps as f64;
             for dr in [0.0, 1.0] {
-                put(p.x + (r + dr) * a.cos(), p.y + (r + dr) * a.sin(), [255, 40, 40]);
+                put(
+                    p.x + (r + dr) * a.cos(),
+                    p.y + (r + dr) * a.sin(),
+                    [255, 40, 40],
+                );
             }
         }
         for d in -(2.0 * r) as i64..=(2.0 * r) as i64 {

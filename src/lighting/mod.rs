@@ -33,6 +33,6 @@ pub mod sources;
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, FrameLighting, LightConfig};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
-pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
 pub use recovery::{LightTracker, RecoverySettings};
+pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
 pub use sources::{LightSource, direct_colour};

@@ -312,7 +312,9 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         .iter()
         .map(|m| luminance(m.map(f64::from)))
         .collect();
-    let mask: Vec<bool> = (0..w * h).map(|b| stats.clipped_fraction(b) > 0.0).collect();
+    let mask: Vec<bool> = (0..w * h)
+        .map(|b| stats.clipped_fraction(b) > 0.0)
+        .collect();
     let clip_lum = luminance(stats.clip.level).max(1e-12);
     // The exposure anchor: the frame's median luminance.
     let mut sorted = lum.clone();
@@ -507,7 +509,7 @@ impl LightTracker {
         }
         self.window.push_back((t_secs, lights.to_vec()));
         let horizon = t_secs - self.window_secs;
-        while self.window.front().is_some_and(|(t, _)| *t <= horizon) {
+        while self.window.len() > 1 && self.window.front().is_some_and(|(t, _)| *t <= horizon) {
             self.window.pop_front();
         }
         struct Group {
