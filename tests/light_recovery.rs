@@ -62,14 +62,12 @@ impl Pano {
         let x1 = (x0 + 1) % self.w;
         let y1 = (y0 + 1).min(self.h - 1);
         let p = |x: usize, y: usize| self.px[y * self.w + x];
-        let mut out = [0.0; 3];
-        for k in 0..3 {
-            out[k] = (1.0 - fx) * (1.0 - fy) * p(x0, y0)[k]
+        std::array::from_fn(|k| {
+            (1.0 - fx) * (1.0 - fy) * p(x0, y0)[k]
                 + fx * (1.0 - fy) * p(x1, y0)[k]
                 + (1.0 - fx) * fy * p(x0, y1)[k]
-                + fx * fy * p(x1, y1)[k];
-        }
-        out
+                + fx * fy * p(x1, y1)[k]
+        })
     }
 
     /// Direction of the brightest texel (luminance).
@@ -176,8 +174,12 @@ fn median_worst(mut e: Vec<f64>) -> (f64, f64) {
     (e[e.len() / 2], e[e.len() - 1])
 }
 
-/// Median |log₂| after recovery, before recovery, per panorama and view.
-fn accuracy_table() -> Vec<(String, &'static str, (f64, f64), (f64, f64))> {
+/// One row of the accuracy table: panorama, view, (median, worst) |log₂| before recovery, and
+/// after.
+type AccuracyRow = (String, &'static str, (f64, f64), (f64, f64));
+
+/// The accuracy table, per panorama and view.
+fn accuracy_table() -> Vec<AccuracyRow> {
     let mut rows = Vec::new();
     for (name, scale) in PANORAMAS {
         let p = load_pano(name, scale);

@@ -15,9 +15,10 @@ use glam::DVec3;
 
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 use super::prt::{RtfSh, prt_colour};
-use super::recovery::{BlockStats, ClipLevel, LightTracker, RecoverySettings, recover};
+use super::recovery::{BlockStats, ClipLevel, RecoverySettings, recover};
 use super::rtf::ChannelIndices;
 use super::sources::LightSource;
+use super::tracker::LightTracker;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
 use crate::video::color::eotf_signed;

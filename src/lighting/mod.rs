@@ -14,6 +14,7 @@
 //! - [`prt`]: the drop colour for a view ray, and the brute-force reference.
 //! - [`recovery`]: the light clipping removed from the frame (compact sources, extended sky).
 //! - [`sources`]: compact light sources (direct term beside the SH).
+//! - [`tracker`]: recovered sources smoothed over frames.
 //! - [`inspect`], [`inspect_light`]: JSON reports and PNG plots for the CLI.
 //!
 //! Angles: θ between the environment lookup direction ω and the view ray v (eye → drop),
@@ -29,10 +30,12 @@ pub mod recovery;
 pub mod rtf;
 pub mod sh;
 pub mod sources;
+pub mod tracker;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, FrameLighting, LightConfig};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
-pub use recovery::{LightTracker, RecoverySettings};
+pub use recovery::RecoverySettings;
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
 pub use sources::{LightSource, direct_colour};
+pub use tracker::LightTracker;
