@@ -14,7 +14,10 @@
 //!    their clipped solid angle `Ω_clip = Σ f_b Ω_b` through the pinhole model and the level of
 //!    the unclipped ring around them.
 //! 3. **Classes**: a region whose clipped solid angle is at most [`COMPACT_MAX_SR`] (a disc of
-//!    ≈ 9°) is a *compact source* (sun, lamp, window); a larger one is *extended* (bright sky).
+//!    ≈ 9°), or at most [`EMITTER_MAX_SR`] (≈ 20°) with an unclipped ring darker than
+//!    [`EMITTER_RING_CONTRAST`] × the clip level, is a *compact source* (sun, lamp, window, a
+//!    softbox against a dark studio); any other is *extended* (bright sky, a sunlit wall, which
+//!    fade into surroundings near the clip level).
 //! 4. **Compact sources: an exposure-anchored illuminance prior.** The camera's exposure puts
 //!    a mid-grey surface near the frame's median luminance `L_med`, so the illuminance on the
 //!    scene's typical surfaces is `E = π L_med / a` (grey-world albedo `a` = 0.18, Lambert). The
@@ -50,6 +53,11 @@ use crate::scene::Camera;
 pub const CLIP_TOLERANCE_CODES: f64 = 3.0;
 /// Largest clipped solid angle of a compact source, steradians (a disc of ≈ 9°).
 pub const COMPACT_MAX_SR: f64 = 0.02;
+/// Largest clipped solid angle of a compact source standing out against darker surroundings,
+/// steradians (a disc of ≈ 20°).
+pub const EMITTER_MAX_SR: f64 = 0.1;
+/// Surroundings at most this fraction of the clip level make a clipped region an emitter.
+pub const EMITTER_RING_CONTRAST: f64 = 0.25;
 /// Illuminance of all compact sources at the camera over the illuminance on typical surfaces.
 pub const SOURCE_ILLUMINANCE_RATIO: f64 = 3.0;
 /// Grey-world albedo that the exposure maps to the frame's median luminance.
@@ -326,6 +334,8 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         centre: DVec2,
         dir: DVec3,
         ring: Vec<usize>,
+        ring_mean: Option<[f64; 3]>,
+        compact: bool,
         touches_edge: bool,
     }
     let comps: Vec<Comp> = components(w, h, &mask)
@@ -352,15 +362,31 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             let r_eq = (omega_all / std::f64::consts::PI).sqrt();
             let block_rad = geo.solid_angle_sr[blocks[0]].sqrt();
             let cos_ring = (3.0 * r_eq).max(2.5 * block_rad).min(1.5).cos();
-            let ring = (0..w * h)
+            let ring: Vec<usize> = (0..w * h)
                 .filter(|&b| !mask[b] && geo.dir[b].dot(dir) >= cos_ring)
                 .collect();
+            let ring_mean = (!ring.is_empty()).then(|| {
+                let mut acc = [0.0f64; 3];
+                for &b in &ring {
+                    (0..3).for_each(|k| acc[k] += f64::from(stats.mean[b][k]));
+                }
+                acc.map(|v| v / ring.len() as f64)
+            });
+            // An emitter: small, or moderately large but standing out against darker
+            // surroundings (a luminaire, a window at night); a bright sky or a sunlit wall
+            // fades into surroundings near the clip level instead.
+            let dark_ring =
+                ring_mean.is_some_and(|m| luminance(m) <= EMITTER_RING_CONTRAST * clip_lum);
+            let compact =
+                omega_clip <= COMPACT_MAX_SR || (omega_clip <= EMITTER_MAX_SR && dark_ring);
             Comp {
                 blocks,
                 omega_clip,
                 centre,
                 dir,
                 ring,
+                ring_mean,
+                compact,
                 touches_edge,
             }
         })
@@ -368,22 +394,13 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
 
     let total_compact_omega: f64 = comps
         .iter()
-        .filter(|c| c.omega_clip <= COMPACT_MAX_SR)
+        .filter(|c| c.compact)
         .map(|c| c.omega_clip)
         .sum();
     let mut lights = Vec::new();
     let mut regions = Vec::new();
     for c in &comps {
-        let compact = c.omega_clip <= COMPACT_MAX_SR;
-        let ring_mean = if c.ring.is_empty() {
-            None
-        } else {
-            let mut acc = [0.0f64; 3];
-            for &b in &c.ring {
-                (0..3).for_each(|k| acc[k] += f64::from(stats.mean[b][k]));
-            }
-            Some(acc.map(|v| v / c.ring.len() as f64))
-        };
+        let (compact, ring_mean) = (c.compact, c.ring_mean);
         // Radiance of a clipped sample over the clip level, per block.
         let gain_of = |b: usize| -> f64 {
             if let Some(g) = settings.highlight_gain {
