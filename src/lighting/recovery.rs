@@ -29,15 +29,20 @@
 //!    flux); each source's radiance is that flux over its clipped solid angle, never below the
 //!    clip level, and at most [`MAX_GAIN`] times it. Because the prior is on flux (`L Ω`) rather
 //!    than radiance, it does not depend on the picture's resolution or on how far the bloom
-//!    spread the clipped area. Sources become [`LightSource`]s; their blocks are replaced in
-//!    the environment by the ring's level, so their light is not counted twice.
+//!    spread the clipped area. The [`MAX_RECOVERED_LIGHTS`] largest become [`LightSource`]s;
+//!    their blocks are replaced in the environment by the ring's level, so their light is not
+//!    counted twice (smaller ones keep their recovered light in the environment). Clipped
+//!    samples keep their measured colour (a sodium lamp clipped in red and green stays
+//!    yellow), scaled by the gain.
 //! 5. **Extended regions: the CIE standard overcast sky**, `L(z) ∝ (1 + 2 cos z)/3` with `z`
 //!    the zenith angle, fitted to the unclipped ring of the region and extrapolated into its
 //!    clipped blocks (never below the clip level; a region with no ring stays at the clip
 //!    level). Sky gradients are gentle (3:1 from zenith to horizon), so this restores at most a
 //!    few times the clip level, which is what an unclipped sky next to the region allows.
-//! 6. `highlight_gain` replaces steps 4–5 by a fixed factor: every clipped sample becomes
-//!    `G ×` the clip level, compact regions still becoming lights.
+//!    Both estimates are luminances; the clipped samples keep their measured colour, scaled to
+//!    reach them.
+//! 6. `highlight_gain` replaces steps 4–5 by a fixed factor: every clipped sample becomes `G ×`
+//!    its own value, compact regions still becoming lights.
 //!
 //! A frame without clipped samples comes back unchanged (the same thumbnail, no lights).
 //! [`LightTracker`](super::tracker::LightTracker) smooths the sources over a window of past frames (a pure function of that
@@ -58,6 +63,9 @@ pub const COMPACT_MAX_SR: f64 = 0.02;
 pub const EMITTER_MAX_SR: f64 = 0.1;
 /// Surroundings at most this fraction of the clip level make a clipped region an emitter.
 pub const EMITTER_RING_CONTRAST: f64 = 0.25;
+/// Most compact regions turned into light sources per frame; smaller ones stay in the
+/// environment (their recovered light still counts, through the SH).
+pub const MAX_RECOVERED_LIGHTS: usize = 16;
 /// Illuminance of all compact sources at the camera over the illuminance on typical surfaces.
 pub const SOURCE_ILLUMINANCE_RATIO: f64 = 3.0;
 /// Grey-world albedo that the exposure maps to the frame's median luminance.
@@ -108,8 +116,11 @@ pub struct BlockStats {
     pub frame_px: (usize, usize),
     /// Mean linear RGB per block (each sample clamped to [0, 10³]).
     pub mean: Vec<[f32; 3]>,
-    /// Fraction of the block's samples clipped, per channel.
-    pub clipped: Vec<[f32; 3]>,
+    /// Fraction of the block's samples with at least one channel clipped.
+    pub clipped: Vec<f32>,
+    /// Mean linear RGB of those samples (zero where there are none): the colour the recovered
+    /// light keeps.
+    pub clipped_colour: Vec<[f32; 3]>,
     /// The frame's ceiling.
     pub clip: ClipLevel,
 }
@@ -130,6 +141,7 @@ impl BlockStats {
         let (sw, sh) = (dw.div_ceil(block), dh.div_ceil(block));
         let mut mean = Vec::with_capacity(sw * sh);
         let mut clipped = Vec::with_capacity(sw * sh);
+        let mut clipped_colour = Vec::with_capacity(sw * sh);
         for by in 0..sh {
             for bx in 0..sw {
                 let (x0, y0) = (bx * block, by * block);
@@ -138,22 +150,29 @@ impl BlockStats {
                 let n = spb.min(x1 - x0).max(1);
                 let m = spb.min(y1 - y0).max(1);
                 let mut acc = [0.0f64; 3];
-                let mut clip_n = [0usize; 3];
+                let mut clip_acc = [0.0f64; 3];
+                let mut clip_n = 0usize;
                 for j in 0..m {
                     for i in 0..n {
                         // Sample centres spread evenly over the block.
                         let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
                         let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
                         let rgb = sample(x, y);
+                        let mut any = false;
                         for k in 0..3 {
                             acc[k] += rgb[k].clamp(0.0, 1e3);
-                            clip_n[k] += usize::from(rgb[k] >= clip.threshold[k]);
+                            any |= rgb[k] >= clip.threshold[k];
+                        }
+                        if any {
+                            clip_n += 1;
+                            (0..3).for_each(|k| clip_acc[k] += rgb[k].clamp(0.0, 1e3));
                         }
                     }
                 }
                 let count = (n * m) as f64;
                 mean.push(acc.map(|v| (v / count) as f32));
-                clipped.push(clip_n.map(|c| (c as f64 / count) as f32));
+                clipped.push((clip_n as f64 / count) as f32);
+                clipped_colour.push(clip_acc.map(|v| (v / clip_n.max(1) as f64) as f32));
             }
         }
         BlockStats {
@@ -163,24 +182,26 @@ impl BlockStats {
             frame_px,
             mean,
             clipped,
+            clipped_colour,
             clip,
         }
     }
 
     /// True when any sample of the frame is clipped.
     pub fn any_clipped(&self) -> bool {
-        self.clipped.iter().flatten().any(|f| *f > 0.0)
+        self.clipped.iter().any(|f| *f > 0.0)
     }
 
     fn clipped_fraction(&self, b: usize) -> f64 {
-        f64::from(self.clipped[b].iter().cloned().fold(0.0, f32::max))
+        f64::from(self.clipped[b])
     }
 }
 
 /// How recovery treats clipped samples.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RecoverySettings {
-    /// A fixed factor on the clip level for every clipped sample instead of the estimate.
+    /// A fixed factor on every clipped sample (its value, i.e. the clip level) instead of the
+    /// estimate.
     pub highlight_gain: Option<f64>,
 }
 
@@ -209,6 +230,9 @@ pub struct Region {
     pub direction_world: [f64; 3],
     /// True when the region touches the picture's border (partly outside the frame).
     pub touches_edge: bool,
+    /// True when the region became a light source (compact regions beyond the
+    /// [`MAX_RECOVERED_LIGHTS`] largest stay in the environment, with the same recovered flux).
+    pub light: bool,
     /// Recovered radiance of the clipped samples over the clip level (1 = nothing added).
     pub gain: f64,
 }
@@ -397,10 +421,23 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         .filter(|c| c.compact)
         .map(|c| c.omega_clip)
         .sum();
+    // The largest compact regions (largest flux under the prior) become lights.
+    let mut order: Vec<usize> = (0..comps.len()).filter(|&i| comps[i].compact).collect();
+    order.sort_by(|&a, &b| {
+        comps[b]
+            .omega_clip
+            .total_cmp(&comps[a].omega_clip)
+            .then(a.cmp(&b))
+    });
+    let mut as_light = vec![false; comps.len()];
+    for &i in order.iter().take(MAX_RECOVERED_LIGHTS) {
+        as_light[i] = true;
+    }
     let mut lights = Vec::new();
     let mut regions = Vec::new();
-    for c in &comps {
+    for (ci, c) in comps.iter().enumerate() {
         let (compact, ring_mean) = (c.compact, c.ring_mean);
+        let light = as_light[ci];
         // Radiance of a clipped sample over the clip level, per block.
         let gain_of = |b: usize| -> f64 {
             if let Some(g) = settings.highlight_gain {
@@ -429,13 +466,25 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         let mut flux = [0.0f64; 3];
         let surround = ring_mean.unwrap_or([0.0; 3]);
         for &b in &c.blocks {
-            let g = gain_of(b);
+            // The estimates are luminances: the gain on the clipped samples' own colour that
+            // reaches it (a coloured clip has less luminance than the white level).
+            let colour_lum = luminance(stats.clipped_colour[b].map(f64::from));
+            let g = match settings.highlight_gain {
+                Some(g) => g,
+                None => {
+                    let to_lum = (clip_lum / colour_lum.max(0.25 * clip_lum)).max(1.0);
+                    (gain_of(b) * to_lum).min(MAX_GAIN)
+                }
+            };
             gain_sum += g;
+            // The clipped samples keep their colour, scaled by the gain.
             let m: [f64; 3] = std::array::from_fn(|k| {
                 f64::from(stats.mean[b][k])
-                    + f64::from(stats.clipped[b][k]) * (g - 1.0) * stats.clip.level[k]
+                    + f64::from(stats.clipped[b])
+                        * (g - 1.0)
+                        * f64::from(stats.clipped_colour[b][k])
             });
-            if compact {
+            if light {
                 for k in 0..3 {
                     flux[k] += (m[k] - surround[k]).max(0.0) * geo.solid_angle_sr[b];
                 }
@@ -445,7 +494,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             }
         }
         let gain = gain_sum / c.blocks.len() as f64;
-        if compact && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
+        if light && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
             lights.push(LightSource {
                 direction_world: c.dir,
                 solid_angle_sr: c.omega_clip,
@@ -464,6 +513,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             centre_px: c.centre.to_array(),
             direction_world: c.dir.to_array(),
             touches_edge: c.touches_edge,
+            light,
             gain,
         });
     }
