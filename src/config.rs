@@ -264,6 +264,14 @@ impl RenderConfig {
             (0.0..=10.0).contains(&l.smoothing_s),
             "seconds in [0, 10]",
         )?;
+        if let Some(g) = l.highlight_gain {
+            check(
+                "--highlight-gain",
+                g,
+                (1.0..=crate::lighting::recovery::MAX_GAIN).contains(&g),
+                "a factor in [1, 1000000] on the clip level",
+            )?;
+        }
         Ok(())
     }
 }

@@ -260,7 +260,8 @@ struct LookArgs {
     /// estimate (compact ones still become light sources).
     #[arg(long)]
     highlight_gain: Option<f64>,
-    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing.
+    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing
+    /// (ignores --highlight-gain).
     #[arg(long)]
     hdr_input: bool,
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze. [default: 50]

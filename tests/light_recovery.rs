@@ -790,3 +790,87 @@ fn inspect_light_cli_prints_the_grid_and_plots() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--grid"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+// ---------------------------------------------------------------------------------------------
+// The direct term
+
+#[test]
+fn direct_term_matches_brute_force_over_a_small_bright_disc() {
+    use rain_composite::lighting::prt::{brute_force_colour, channel_optics};
+    use rain_composite::lighting::rtf::Polarisation;
+    let config = LightConfig::default();
+    let optics = channel_optics(
+        config.refractive_index.into(),
+        config.n_max,
+        Polarisation::default(),
+    )
+    .unwrap();
+    let tables = rtf_tables(&config).unwrap();
+    // A smooth spot L0 exp(−(α/σ)²), σ = 2°: radiance L0 over π σ² (small-angle).
+    let sigma = 2f64.to_radians();
+    let l0 = [900.0, 1000.0, 1100.0];
+    let spot_dir = DVec3::new(0.2, 0.9, 0.3).normalize();
+    let env = move |d: DVec3| {
+        let a = d.angle_between(spot_dir);
+        let w = (-(a / sigma).powi(2)).exp();
+        l0.map(|l| l * w)
+    };
+    let light = LightSource {
+        direction_world: spot_dir,
+        solid_angle_sr: PI * sigma * sigma,
+        radiance_rgb: l0,
+        distance_m: None,
+    };
+    for theta_deg in [25.0f64, 100.0] {
+        let v = off_axis(spot_dir, theta_deg.to_radians());
+        let brute = brute_force_colour(env, &optics, v, 1_000_000).unwrap();
+        let direct = direct_colour(&[light], &tables, None, v);
+        for k in 0..3 {
+            assert!(
+                (direct[k] / brute[k] - 1.0).abs() < 0.01,
+                "θ {theta_deg}°, channel {k}: direct {} vs brute force {}",
+                direct[k],
+                brute[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn direct_term_of_a_near_light_follows_the_drop() {
+    let tables = rtf_tables(&LightConfig::default()).unwrap();
+    let lamp = LightSource {
+        direction_world: DVec3::Y,
+        solid_angle_sr: 1e-4,
+        radiance_rgb: [5e3; 3],
+        distance_m: Some(10.0),
+    };
+    let at_infinity = LightSource {
+        distance_m: None,
+        ..lamp
+    };
+    let v = DVec3::new(0.3, 1.0, 0.1).normalize();
+    // A drop at the camera sees the lamp as if it were at infinity.
+    assert_eq!(
+        direct_colour(&[lamp], &tables, Some(DVec3::ZERO), v),
+        direct_colour(&[at_infinity], &tables, None, v)
+    );
+    // Halfway to the lamp, looking at it: the same θ = 0, four times the irradiance.
+    let near = direct_colour(&[lamp], &tables, Some(DVec3::Y * 5.0), DVec3::Y);
+    let far = direct_colour(&[lamp], &tables, None, DVec3::Y);
+    for k in 0..3 {
+        assert!((near[k] / far[k] - 4.0).abs() < 1e-9);
+    }
+    // A drop at (10, 10, 0) m, seen along +y: the lamp at (0, 10, 0) is 10 m to its left, as
+    // far as from the camera (scale 1), at θ = 90° from the view ray.
+    let side = direct_colour(
+        &[lamp],
+        &tables,
+        Some(DVec3::new(10.0, 10.0, 0.0)),
+        DVec3::Y,
+    );
+    for k in 0..3 {
+        let expected = 5e3 * 1e-4 * tables[k].interpolated(0.5 * PI);
+        assert!((side[k] / expected - 1.0).abs() < 1e-12);
+    }
+}

@@ -189,11 +189,11 @@ impl FrameLighting {
 /// The recovery settings of a configuration (`None`: the input is trusted as it is).
 pub fn recovery_settings(config: &LightConfig) -> Result<Option<RecoverySettings>> {
     if let Some(g) = config.highlight_gain {
-        if !(g.is_finite() && g >= 1.0) {
+        if !(1.0..=super::recovery::MAX_GAIN).contains(&g) {
             return Err(Error::Parameter {
                 name: "--highlight-gain",
                 value: g.to_string(),
-                expected: "a factor ≥ 1 on the clip level".into(),
+                expected: "a factor in [1, 1000000] on the clip level".into(),
             });
         }
     }
