@@ -45,6 +45,27 @@
 //!    its own value, compact regions still becoming lights.
 //!
 //! A frame without clipped samples comes back unchanged (the same thumbnail, no lights).
+//!
+//! ## Hard frames (all tested; every output finite)
+//!
+//! - **All white**: one region with no unclipped ring: nothing to extrapolate from, so it stays
+//!   at the clip level (the light of the frame as it is), no lights.
+//! - **All black**: nothing clipped. A lamp in an otherwise black frame gets its flux from
+//!   [`MIN_MEDIAN_LUMINANCE`], small and finite.
+//! - **One huge clipped region**: extended; the sky model raises it at most to 3× its ring.
+//! - **A lamp at the picture's edge**: still compact, in the direction of its visible part.
+//! - **PQ / HLG**: only samples at the code-value ceiling are clipped; values above diffuse
+//!   white below it are real light and pass unchanged (`hdr_input` trusts even the ceiling).
+//! - **Flicker**: see [`LightTracker`](super::tracker::LightTracker): a lamp switching every other
+//!   frame is a steady lamp at its mean flux.
+//!
+//! ## Limits
+//!
+//! The frame holds no measure of a compact source's flux once it clips (a real lens's glow
+//! around it would, but its spread function is unknown and compression flattens it), so the
+//! flux is a prior, right to within a few stops when the exposure sits on a grey-world scene and
+//! the sources are the scene's main light. Light from outside the view (a sun above the frame,
+//! a lamp behind the camera) is not recovered: the frame does not show it.
 //! [`LightTracker`](super::tracker::LightTracker) smooths the sources over a window of past frames (a pure function of that
 //! window, like [`ShSmoother`](super::envmap::ShSmoother)), so `preview` sees what the render sees.
 
