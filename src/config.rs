@@ -319,6 +319,14 @@ impl RenderConfig {
         for light in &l.lights {
             light.validate()?;
         }
+        if let Some(g) = l.highlight_gain {
+            check(
+                "--highlight-gain",
+                g,
+                (1.0..=crate::lighting::recovery::MAX_GAIN).contains(&g),
+                "a factor in [1, 1000000] on the clip level",
+            )?;
+        }
         Ok(())
     }
 }

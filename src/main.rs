@@ -114,6 +114,34 @@ enum InspectCommand {
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
     },
+    /// The light of an image used as a frame: recovered light sources, the SH of the extended
+    /// remainder, and the radiance of a drop seen through a grid of pixel positions, with and
+    /// without recovery (linear RGB, 1.0 = the frame's white).
+    Light {
+        /// An image (PNG, sRGB, 8 or 16 bit) standing for a video frame.
+        image: PathBuf,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = 60.0)]
+        fov: f64,
+        /// Camera pitch, degrees up.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        tilt: f64,
+        /// Grid of view rays, NxM (columns x rows).
+        #[arg(long, default_value = "3x3")]
+        grid: String,
+        /// A fixed factor on the clip level for clipped pixels instead of the estimate.
+        #[arg(long)]
+        highlight_gain: Option<f64>,
+        /// Trust the image as it is (no recovery).
+        #[arg(long)]
+        hdr_input: bool,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the frame with the lights marked to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
     #[command(allow_negative_numbers = true)]
     Drops {
@@ -233,6 +261,14 @@ struct LookArgs {
     /// Time constant of the lighting's smoothing over frames, seconds; 0 = off. [default: 0.25]
     #[arg(long)]
     light_smoothing: Option<f64>,
+    /// Clipped highlights become this factor times the clip level, instead of the recovery's
+    /// estimate (compact ones still become light sources).
+    #[arg(long)]
+    highlight_gain: Option<f64>,
+    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing
+    /// (ignores --highlight-gain).
+    #[arg(long)]
+    hdr_input: bool,
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze. [default: 50]
     #[arg(long)]
     scene_depth: Option<f64>,
@@ -477,6 +513,12 @@ fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.max_drops => r.max_drops);
     set!(look.gust => r.gust_mps);
     set!(look.light_smoothing => c.light.smoothing_s);
+    if look.highlight_gain.is_some() {
+        c.light.highlight_gain = look.highlight_gain;
+    }
+    if look.hdr_input {
+        c.light.hdr_input = true;
+    }
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
     set!(look.focus => cam.focus_m);
@@ -703,6 +745,48 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(path) = plot {
                 inspect::plot_sh(&img, &camera, *bands, path)?;
             }
+            out(&serde_json::to_string_pretty(&v)?)?;
+            Ok(())
+        }
+        Some(Command::Inspect(InspectCommand::Light {
+            image,
+            fov,
+            tilt,
+            grid,
+            highlight_gain,
+            hdr_input,
+            plot,
+            ..
+        })) => {
+            use rain_composite::lighting::{LightConfig, inspect, inspect_light};
+            let img = inspect::LinearImage::load_png(image)?;
+            if !(*fov > 1.0 && *fov < 170.0) {
+                bail!("invalid --fov {fov}: expected degrees in (1, 170)");
+            }
+            let parsed = grid
+                .split_once(['x', 'X'])
+                .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
+            let Some(grid) = parsed else {
+                bail!("invalid --grid '{grid}': expected NxM, e.g. 3x3");
+            };
+            let camera = rain_composite::scene::Camera::new(
+                img.width as u32,
+                img.height as u32,
+                fov.to_radians(),
+                1.6,
+                tilt.to_radians(),
+                0.0,
+            );
+            let config = LightConfig {
+                highlight_gain: *highlight_gain,
+                hdr_input: *hdr_input,
+                ..LightConfig::default()
+            };
+            let report = inspect_light::light_report(&img, &camera, grid, &config)?;
+            if let Some(path) = plot {
+                inspect_light::plot_light(&img, &camera, &report, path)?;
+            }
+            let v = inspect_light::inspect_light(&report, &camera);
             out(&serde_json::to_string_pretty(&v)?)?;
             Ok(())
         }
