@@ -85,7 +85,7 @@ pub struct RainConfig {
     /// Distance of the filmed scene, metres: the rain between the farthest drawn drop and the
     /// scene veils it (0 turns the haze off).
     pub scene_depth_m: f64,
-    /// Most drops simulated per frame; beyond it drops are weighted (see `rain::emitter`).
+    /// Most drops simulated per frame; beyond it drops are weighted (see `rain::volume`).
     pub max_drops: u32,
 }
 

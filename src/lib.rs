@@ -18,7 +18,7 @@
 //!                       │          composite (premultiplied, linear light)
 //!                       │          linear RGB → YUV planes → ring readback
 //!                       └──► lighting (frame → sphere → SH, smoothed) ──► RainParams (PRT)
-//!  rain::volume (plan: columns, far distance, budget) ──► rain::emitter ──► RainParams
+//!  rain::volume (plan: columns, far distance, budget) ──► gpu::uniforms ──► RainParams
 //! ```
 //!
 //! Data flows one way: nothing downstream of the decoder changes what the decoder does, and
@@ -27,8 +27,10 @@
 //!
 //! Modules, each with one job:
 //! - [`video`]: FFmpeg demux/decode, encode/mux, colour tags, probing.
-//! - [`gpu`]: adapter choice, the WGSL stages and their Rust twins, readback.
-//! - [`rain`]: the stateless drop emitter (the CPU twin of the GPU one) and rain physics.
+//! - [`gpu`]: adapter choice, one object per WGSL stage (`gpu::stages`) and a CPU twin of each
+//!   (`gpu::cpu`), the uniforms builder, the compositor and its readback.
+//! - [`rain`]: CPU rain physics only: sizes, fall speeds, wind, the planned volume and the
+//!   stateless drop (the CPU twin of the GPU one).
 //! - [`scene`]: the pinhole camera and (later) the ground.
 //! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT.
 //! - [`fluid`]: SPH surface flow and the carpet free surface.

@@ -38,14 +38,18 @@
 //! often but overhang the slab more (1080p, 10 mm/h, still air: 64 cells overhang 34 %, 1024
 //! cells 9 %, 4096 cells 4 %); planning takes ~10 ms at 4096 cells.
 //!
-//! GPU precision: displacements grow with time (v_t t reaches kilometres after minutes), so
-//! wrap with care in `f32` — e.g. pass t modulo a long period split into high and low parts,
-//! or reduce per-frame terms on the CPU in `f64`.
+//! GPU precision: displacements grow with time (v_t t reaches kilometres after minutes), so the
+//! drop's phases are computed on a fixed-point grid with t split into whole seconds and a
+//! fraction ([`drop`](mod@drop), "Long clips").
+//!
+//! Files: this one plans (near, far, count, budget, bands); [`geometry`] is the view volume as
+//! a polytope; [`columns`](mod@columns) the emitter's prisms; [`drop`](mod@drop) the stateless drop (the CPU twin of
+//! `shaders/common/drops.wgsl`); [`inspect`] the `inspect drops` report.
 
-mod columns;
+pub mod columns;
 pub mod drop;
-mod geometry;
-mod inspect;
+pub mod geometry;
+pub mod inspect;
 
 pub use columns::{Column, ColumnGrid, columns};
 pub use drop::{
