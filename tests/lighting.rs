@@ -1051,24 +1051,13 @@ fn run_wgsl_parity(params: &[f32], dirs: &[[f32; 4]]) -> Option<Vec<f32>> {
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: p.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: d.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: out.as_entire_binding(),
-            },
-        ],
-    });
+    use rain_composite::gpu::bind::{bind_group, buffer};
+    let bind = bind_group(
+        &device,
+        "sh_parity",
+        &pipeline.get_bind_group_layout(0),
+        &[buffer(&p), buffer(&d), buffer(&out)],
+    );
     let mut enc = device.create_command_encoder(&Default::default());
     {
         let mut pass = enc.begin_compute_pass(&Default::default());
