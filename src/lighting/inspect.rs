@@ -27,23 +27,16 @@ pub struct LinearImage {
     pub pixels: Vec<[f32; 3]>,
 }
 
-/// The sRGB transfer function, encoded → linear.
+/// The sRGB transfer function, encoded → linear ([`crate::video::color`]'s, in `f32`).
 pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.040_45 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    crate::video::color::eotf_signed(crate::video::Transfer::Srgb, f64::from(c)) as f32
 }
 
-/// The sRGB transfer function, linear → encoded.
+/// The sRGB transfer function, linear → encoded, clamped to [0, 1] first
+/// ([`crate::video::color`]'s, in `f32`).
 pub fn linear_to_srgb(c: f32) -> f32 {
-    let c = c.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
+    crate::video::color::oetf_signed(crate::video::Transfer::Srgb, f64::from(c.clamp(0.0, 1.0)))
+        as f32
 }
 
 impl LinearImage {
