@@ -75,16 +75,16 @@ fn display_size(info: &VideoInfo) -> (u32, u32) {
 }
 
 /// Exposure time: shutter angle over 360° times the frame duration (180° → 1/(2·fps)), by
-/// [`crate::rain::physics::exposure_s`] at the clip's frame rate (25 fps where unknown).
+/// [`crate::rain::physics::exposure_s`] at the clip's frame rate: the average rate, else the
+/// nominal one, else 25 fps (a rate outside what the physics accepts counts as unknown).
 pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> Result<f64> {
-    let (num, den) = if info.avg_frame_rate.0 > 0 && info.avg_frame_rate.1 > 0 {
-        info.avg_frame_rate
-    } else if info.frame_rate.0 > 0 && info.frame_rate.1 > 0 {
-        info.frame_rate
-    } else {
-        (25, 1)
-    };
-    crate::rain::physics::exposure_s(config.camera.shutter_deg, num as f64 / den as f64)
+    let fps = [info.avg_frame_rate, info.frame_rate]
+        .into_iter()
+        .filter(|&(num, den)| num > 0 && den > 0)
+        .map(|(num, den)| num as f64 / den as f64)
+        .find(|&fps| crate::rain::physics::exposure_s(360.0, fps).is_ok())
+        .unwrap_or(25.0);
+    crate::rain::physics::exposure_s(config.camera.shutter_deg, fps)
 }
 
 /// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
