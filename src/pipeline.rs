@@ -433,7 +433,7 @@ impl Lighting {
             Some(l) => l.update(frame, t_s),
             None => FrameLight {
                 env: EnvironmentSh::zeros(4),
-                haze_radiance: [0.0; 3],
+                haze_sh: EnvironmentSh::zeros(4),
                 lights: Vec::new(),
             },
         };

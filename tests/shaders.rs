@@ -70,6 +70,7 @@ fn rust_twins_match_wgsl_layouts() {
             wind_mean_mps,
             haze,
             env_sh,
+            haze_sh,
             drop_zonal,
             gust_amp,
             gust_phase,

@@ -39,8 +39,9 @@ struct RainParams {
     column_slope: vec2<f32>,         // sheared columns: x = u + slope.x·z, y = v + slope.y·z
     cell_size_m: vec2<f32>,
     wind_mean_mps: vec4<f32>,        // xy; z = mean wind · t (x), w = mean wind · t (y), m
-    haze: vec4<f32>,                 // rain beyond the drawn drops: rgb in-scatter, w transmittance
+    haze: vec4<f32>,                 // rain beyond the drawn drops: w transmittance (xyz unused)
     env_sh: array<vec4<f32>, 16>,    // the frame's environment, 4 SH bands, rgb per coefficient
+    haze_sh: array<vec4<f32>, 16>,   // the haze's light (environment + compact lights) × its opacity
     drop_zonal: array<vec4<f32>, 3>, // the drop's RTF zonal coefficients z0..z3 per channel R, G, B
     gust_amp: array<vec4<f32>, 8>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
     gust_phase: array<vec4<f32>, 8>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)

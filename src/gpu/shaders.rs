@@ -48,7 +48,7 @@ impl Stage {
     pub fn source(self) -> String {
         let (common, body): (&[&str], &str) = match self {
             Stage::YuvToRgb => (
-                &[TYPES, COLOR],
+                &[TYPES, COLOR, SH],
                 include_str!("../../shaders/yuv_to_rgb.wgsl"),
             ),
             Stage::RainSimulate => (

@@ -14,10 +14,10 @@
 use glam::DVec3;
 
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
-use super::prt::{RtfSh, channel_optics, prt_colour};
+use super::prt::{RtfSh, channel_optics};
 use super::recovery::{BlockStats, ClipLevel, RecoverySettings, recover};
 use super::rtf::{ChannelIndices, Polarisation, RtfTable};
-use super::sources::{LightSource, UserLight, direct_colour};
+use super::sources::{LightSource, UserLight};
 use super::tracker::LightTracker;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
@@ -71,8 +71,10 @@ impl Default for LightConfig {
 pub struct FrameLight {
     /// The smoothed environment, 4 bands.
     pub env: EnvironmentSh,
-    /// Mean radiance the drops scatter toward the camera (the haze's in-scatter), linear RGB.
-    pub haze_radiance: [f32; 3],
+    /// What the haze (the rain beyond the drawn drops) scatters toward the camera: the
+    /// environment with the compact lights added, on SH; its in-scatter along a view ray is the
+    /// drop's PRT colour for that ray.
+    pub haze_sh: EnvironmentSh,
     /// Compact sources lit directly through the RTF table (empty: the SH carries all light).
     pub lights: Vec<super::sources::LightSource>,
 }
@@ -200,16 +202,37 @@ impl FrameLighting {
         }
         self.frames_seen += 1;
         lights.extend_from_slice(&self.user_lights);
-        let forward = self.mapper.camera().world_from_camera * DVec3::Z;
-        let haze_at = self.haze_distance_m.map(|d| forward * d);
-        let sh = prt_colour(&env, &self.rtf, forward);
-        let direct = direct_colour(&lights, &self.tables, haze_at, forward);
-        let haze_radiance = [0, 1, 2].map(|c| (sh[c] + direct[c]).max(0.0) as f32);
+        let haze_sh = self.haze_environment(&env, &lights);
         FrameLight {
             env,
-            haze_radiance,
+            haze_sh,
             lights,
         }
+    }
+
+    /// The light the haze scatters: the environment plus each compact light as a point of
+    /// `L·Ω` on the SH (seen from where the haze begins along the view direction). The GPU
+    /// evaluates it along every pixel's ray with the drop's PRT, so the haze glows around a lamp
+    /// or the sun and stays dark away from them; the band limit widens the glow, which suits
+    /// the many drops of a veil (each of their forward lobes is far wider than a pixel).
+    fn haze_environment(&self, env: &EnvironmentSh, lights: &[LightSource]) -> EnvironmentSh {
+        let forward = self.mapper.camera().world_from_camera * DVec3::Z;
+        let haze_at = self.haze_distance_m.map(|d| forward * d);
+        let mut out = env.clone();
+        for light in lights {
+            let (omega, scale) = light.seen_from(haze_at);
+            let strength = light.radiance_times_solid_angle();
+            for (c, y) in out
+                .coeffs
+                .iter_mut()
+                .zip(super::sh::basis(omega, env.bands))
+            {
+                for k in 0..3 {
+                    c[k] += (strength[k] * scale * y) as f32;
+                }
+            }
+        }
+        out
     }
 
     /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation,

@@ -158,6 +158,7 @@ pub fn build(
         wind_mean_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32, 0.0, 0.0],
         haze: [0.0, 0.0, 0.0, 1.0],
         env_sh: [[0.0; 4]; 16],
+        haze_sh: [[0.0; 4]; 16],
         drop_zonal: [[0.0; 4]; 3],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
@@ -204,8 +205,8 @@ impl RainSetup {
         p.drop_zonal = drop_zonal;
         // The aggregate far drops scatter the same light as the near ones.
         let a = self.haze_alpha as f32;
-        let h = light.haze_radiance;
-        p.haze = [h[0] * a, h[1] * a, h[2] * a, 1.0 - a];
+        p.haze_sh = light.haze_sh.to_gpu_array().map(|c| c.map(|v| v * a));
+        p.haze = [0.0, 0.0, 0.0, 1.0 - a];
         p
     }
 
