@@ -351,6 +351,36 @@ fn messages_name_the_option_and_the_cause() {
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains("no space left"), "{format}: {err}");
     }
+    // An animation container cannot hold the video codec: said before anything is written.
+    let e = fails(bin().args([i, "-o", s(&dir.path().join("o.gif"))]));
+    assert!(e.contains("cannot hold"), "{e}");
+    // An exposure longer than a second (a 0.5 fps clip at 360°) names --shutter.
+    let slow = dir.path().join("slow.mp4");
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc2=s=64x64:r=1/2:d=4",
+        "-c:v",
+        "libx264",
+        "-preset",
+        "ultrafast",
+        "-pix_fmt",
+        "yuv420p",
+        s(&slow),
+    ]);
+    let e = fails(bin().args([
+        "preview",
+        s(&slow),
+        "--frame",
+        "0",
+        "-o",
+        "-",
+        "--shutter",
+        "360",
+    ]));
+    assert!(e.contains("--shutter") && e.contains("at most"), "{e}");
+    std::fs::remove_file(&slow).expect("rm");
     // A header FFmpeg cannot read is not "Device or resource busy" alone.
     let y4m = dir.path().join("bad.y4m");
     std::fs::write(&y4m, b"YUV4MPEG2 W99999 H99999 F25:1 C420jpeg\nFRAME\nxxxx").expect("write");

@@ -601,7 +601,9 @@ fn open_video(
             opts.codec.encoder_name()
         ))
     })?;
-    if !y4m && ffi::muxer_accepts(ofmt, codec.id()) == Some(false) {
+    // Animation muxers take only their own codec but do not say so when asked.
+    let animation_only = ["gif", "apng", "webp"].contains(&muxer.as_str());
+    if !y4m && (animation_only || ffi::muxer_accepts(ofmt, codec.id()) == Some(false)) {
         return Err(Error::Unsupported(format!(
             "the {muxer} container cannot hold {}; use .mkv or .mov",
             codec.id().name()
