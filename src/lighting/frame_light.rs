@@ -1,6 +1,9 @@
 //! The light of one video frame, as the GPU needs it: the frame's environment on SH
 //! (smoothed over time), the drop's transfer function, and the haze's in-scatter.
 //!
+//! Three names: [`LightConfig`] is what the user sets; a [`LightEstimator`], one per shot,
+//! turns the shot's frames, in order, into one [`FrameLight`] each.
+//!
 //! The environment is projected from a small linear-light copy of the frame made straight from
 //! its YUV planes (a sparse box filter in the displayed orientation, converted with the frame's
 //! own colour parameters): four SH bands need about one sample per degree, not the full
@@ -62,9 +65,9 @@ pub struct FrameLight {
     pub lights: Vec<super::sources::LightSource>,
 }
 
-/// Turns frames into lighting, keeping the short history the smoothing needs.
+/// Estimates each frame's light from the frame and the short history the smoothing needs.
 #[derive(Debug, Clone)]
-pub struct FrameLighting {
+pub struct LightEstimator {
     mapper: EnvMapper,
     rtf: RtfSh,
     smoother: ShSmoother,
@@ -74,10 +77,10 @@ pub struct FrameLighting {
     haze_distance_m: Option<f64>,
 }
 
-impl FrameLighting {
+impl LightEstimator {
     /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
     /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
-    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<FrameLighting> {
+    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<LightEstimator> {
         let optics = channel_optics(
             ChannelIndices::from(config.refractive_index),
             config.n_max,
@@ -89,7 +92,7 @@ impl FrameLighting {
             .iter()
             .map(|l| l.validate().map(|()| l.source(camera.world_from_camera)))
             .collect::<Result<Vec<_>>>()?;
-        Ok(FrameLighting {
+        Ok(LightEstimator {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
             rtf: RtfSh::water(
                 ChannelIndices::from(config.refractive_index),
@@ -107,7 +110,7 @@ impl FrameLighting {
     /// Where the haze begins along the view direction, metres: lights at a finite distance
     /// light it as they light a drop there (the nearest haze is the brightest and the least
     /// veiled). Without it the haze sees every light as the camera does.
-    pub fn with_haze_distance(mut self, distance_m: f64) -> FrameLighting {
+    pub fn with_haze_distance(mut self, distance_m: f64) -> LightEstimator {
         self.haze_distance_m = Some(distance_m).filter(|d| d.is_finite() && *d > 0.0);
         self
     }

@@ -29,7 +29,7 @@ pub mod sh;
 pub mod sources;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
-pub use frame_light::{FrameLight, FrameLighting, LightConfig};
+pub use frame_light::{FrameLight, LightConfig, LightEstimator};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
 pub use sources::{LightSource, UserLight, direct_colour};
