@@ -166,7 +166,8 @@ impl RenderConfig {
 
 impl RenderConfig {
     /// Each flag that sets a value of this configuration, with the value as a user would type
-    /// it (`("--wind", "3,-1")`), in the order of the CLI's help. Of
+    /// it (`("--wind", "3,-1")`); `--highlight-gain` only when set (its default is the
+    /// recovery's estimate), `--hdr-input` never (a switch, off unless given). Of
     /// [`RenderConfig::default`], these are the defaults the help shows and the README's
     /// options table lists (a test checks both), so each default is written once, in the
     /// `Default` impls.
@@ -195,6 +196,12 @@ impl RenderConfig {
             ("--light-smoothing", l.smoothing_s.to_string()),
             ("--scene-depth", r.scene_depth_m.to_string()),
         ]
+        .into_iter()
+        .chain(
+            l.highlight_gain
+                .map(|g| ("--highlight-gain", g.to_string())),
+        )
+        .collect()
     }
 }
 
@@ -352,6 +359,14 @@ impl RenderConfig {
         )?;
         for light in &l.lights {
             light.validate()?;
+        }
+        if let Some(g) = l.highlight_gain {
+            check(
+                "--highlight-gain",
+                g,
+                (1.0..=crate::lighting::recovery::MAX_GAIN).contains(&g),
+                "a factor in [1, 1000000] on the clip level",
+            )?;
         }
         Ok(())
     }

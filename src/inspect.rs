@@ -14,7 +14,7 @@ use serde_json::Value;
 use crate::Result;
 use crate::config::{CameraConfig, RenderConfig};
 use crate::lighting::inspect::{self as light_inspect, LinearImage};
-use crate::lighting::{ChannelIndices, rtf};
+use crate::lighting::{ChannelIndices, LightConfig, inspect_light, rtf};
 use crate::rain::{emitter, physics, volume};
 
 /// `inspect sph`: runs a validation scene (`column`, `dam-break`, `basin`) for `steps` solver
@@ -55,6 +55,26 @@ pub fn sh(image: &Path, camera: &CameraConfig, bands: usize, plot: Option<&Path>
         light_inspect::plot_sh(&img, &camera, bands, path)?;
     }
     Ok(v)
+}
+
+/// `inspect light`: the light sources recovered from the clipped highlights of the image at
+/// `image` seen through `camera`, the SH of the extended remainder, and the radiance of a drop
+/// seen through the centre of each cell of a `grid` (columns, rows), with and without
+/// recovery; with `plot`, also the frame with the lights marked.
+pub fn light(
+    image: &Path,
+    camera: &CameraConfig,
+    grid: (usize, usize),
+    light: &LightConfig,
+    plot: Option<&Path>,
+) -> Result<Value> {
+    let img = LinearImage::load_png(image)?;
+    let camera = camera.camera(img.width as u32, img.height as u32);
+    let report = inspect_light::light_report(&img, &camera, grid, light)?;
+    if let Some(path) = plot {
+        inspect_light::plot_light(&img, &camera, &report, path)?;
+    }
+    Ok(inspect_light::inspect_light(&report, &camera))
 }
 
 /// `inspect drops`: the plan the render of a `size_px` picture at `fps` would use under

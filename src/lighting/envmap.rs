@@ -588,7 +588,7 @@ impl ShSmoother {
         }
         self.window.push_back((t_secs, raw.clone()));
         let horizon = t_secs - self.window_secs();
-        while self.window.front().is_some_and(|(t, _)| *t <= horizon) {
+        while self.window.len() > 1 && self.window.front().is_some_and(|(t, _)| *t <= horizon) {
             self.window.pop_front();
         }
         let mut sum = vec![[0.0f64; 3]; raw.coeffs.len()];

@@ -8,17 +8,25 @@
 //! its YUV planes (a sparse box filter in the displayed orientation, converted with the frame's
 //! own colour parameters): four SH bands need about one sample per degree, not the full
 //! picture, so this costs a few thousand conversions per frame instead of millions.
+//!
+//! The same pass counts, per block and channel, the samples at the frame's code-value ceiling;
+//! [`recovery`](super::recovery) turns the clipped regions into light sources and an extended
+//! remainder, and [`LightTracker`] smooths the sources like the SH. A frame without clipped
+//! samples gives exactly the light it gave without recovery.
 
 use glam::DVec3;
 
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 use super::prt::{RtfSh, channel_optics, prt_colour};
+use super::recovery::{BlockStats, ClipLevel, RecoverySettings, recover};
 use super::rtf::{ChannelIndices, Polarisation, RtfTable};
 use super::sources::{LightSource, UserLight, direct_colour};
-use crate::Result;
+use super::tracker::LightTracker;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
+use crate::video::color::eotf_signed;
 use crate::video::frame::coded_pixel;
+use crate::{Error, Result};
 
 /// SH bands used on the GPU.
 pub const GPU_BANDS: usize = 4;
@@ -41,6 +49,11 @@ pub struct LightConfig {
     /// Lights the frame does not show (a street lamp behind the camera), added to every
     /// frame's light list after the sources found in the frame.
     pub lights: Vec<UserLight>,
+    /// A fixed factor on the clip level for clipped samples instead of the recovery's estimate
+    /// (`None`: estimate).
+    pub highlight_gain: Option<f64>,
+    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0 and recover nothing.
+    pub hdr_input: bool,
 }
 
 impl Default for LightConfig {
@@ -50,6 +63,8 @@ impl Default for LightConfig {
             n_max: super::rtf::DEFAULT_N_MAX,
             smoothing_s: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
             lights: Vec::new(),
+            highlight_gain: None,
+            hdr_input: false,
         }
     }
 }
@@ -71,10 +86,13 @@ pub struct LightEstimator {
     mapper: EnvMapper,
     rtf: RtfSh,
     smoother: ShSmoother,
+    tracker: LightTracker,
+    recovery: Option<RecoverySettings>,
     rotation_deg: i32,
     tables: [RtfTable; 3],
     user_lights: Vec<LightSource>,
     haze_distance_m: Option<f64>,
+    frames_seen: u64,
 }
 
 impl LightEstimator {
@@ -92,6 +110,8 @@ impl LightEstimator {
             .iter()
             .map(|l| l.validate().map(|()| l.source(camera.world_from_camera)))
             .collect::<Result<Vec<_>>>()?;
+        let recovery = recovery_settings(config)?;
+        let smoother = ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?;
         Ok(LightEstimator {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
             rtf: RtfSh::water(
@@ -99,11 +119,14 @@ impl LightEstimator {
                 config.n_max,
                 GPU_BANDS,
             )?,
-            smoother: ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?,
+            tracker: LightTracker::new(config.smoothing_s, smoother.window_secs()),
+            smoother,
+            recovery,
             rotation_deg,
             tables: [r?, g?, b?],
             user_lights,
             haze_distance_m: None,
+            frames_seen: 0,
         })
     }
 
@@ -142,16 +165,34 @@ impl LightEstimator {
         &self.rtf
     }
 
-    /// Raw (unsmoothed) environment of `frame`.
+    /// Raw (unsmoothed) environment of `frame`: the extended remainder after recovery.
     pub fn environment(&self, frame: &YuvFrame) -> EnvironmentSh {
-        self.mapper.project_small(&self.thumbnail(frame))
+        self.raw_light(frame).0
+    }
+
+    /// Raw environment and compact sources of one frame.
+    fn raw_light(&self, frame: &YuvFrame) -> (EnvironmentSh, Vec<LightSource>) {
+        let stats = self.block_stats(frame);
+        match &self.recovery {
+            Some(settings) if stats.any_clipped() => {
+                let r = recover(&stats, self.mapper.camera(), settings);
+                (self.mapper.project_small(&r.remainder), r.lights)
+            }
+            _ => (self.mapper.project_small(&stats.mean), Vec::new()),
+        }
     }
 
     /// Feeds the frame shown at `t_s` (increasing) and returns its light.
     pub fn update(&mut self, frame: &YuvFrame, t_s: f64) -> FrameLight {
-        let raw = self.environment(frame);
+        let (raw, found) = self.raw_light(frame);
         let env = self.smoother.update(&raw, t_s);
-        let mut lights = Vec::new();
+        let cut = self.smoother.last_was_cut();
+        // Sources found in the frame (smoothed over time), then the user's lights.
+        let mut lights = self.tracker.update(&found, t_s, cut);
+        if (self.frames_seen == 0 || cut) && self.recovery.is_some() {
+            log_lights(t_s, &found);
+        }
+        self.frames_seen += 1;
         lights.extend_from_slice(&self.user_lights);
         let forward = self.mapper.camera().world_from_camera * DVec3::Z;
         let haze_at = self.haze_distance_m.map(|d| forward * d);
@@ -165,44 +206,70 @@ impl LightEstimator {
         }
     }
 
-    /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation.
-    fn thumbnail(&self, frame: &YuvFrame) -> Vec<[f32; 3]> {
-        let (sw, sh) = self.mapper.small_size();
-        let block = self.mapper.block_px();
+    /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation,
+    /// with the fraction of clipped samples per block.
+    fn block_stats(&self, frame: &YuvFrame) -> BlockStats {
         let cam = self.mapper.camera();
         let (dw, dh) = (cam.width_px as usize, cam.height_px as usize);
         let f = &frame.format;
         let (sx, sy) = f.chroma.shift();
         let rotation = self.rotation_deg.rem_euclid(360);
-        let mut out = Vec::with_capacity(sw * sh);
-        for by in 0..sh {
-            for bx in 0..sw {
-                let (x0, y0) = (bx * block, by * block);
-                let (x1, y1) = ((x0 + block).min(dw), (y0 + block).min(dh));
-                let n = SAMPLES_PER_BLOCK.min(x1 - x0).max(1);
-                let m = SAMPLES_PER_BLOCK.min(y1 - y0).max(1);
-                let mut acc = [0.0f64; 3];
-                for j in 0..m {
-                    for i in 0..n {
-                        // Sample centres spread evenly over the block.
-                        let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
-                        let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
-                        let (cx, cy) = coded_pixel(rotation, f.width, f.height, x as u32, y as u32);
-                        let code = [
-                            frame.sample(0, cx, cy) as f64,
-                            frame.sample(1, cx >> sx, cy >> sy) as f64,
-                            frame.sample(2, cx >> sx, cy >> sy) as f64,
-                        ];
-                        let rgb = frame.color.code_to_linear(code);
-                        for k in 0..3 {
-                            acc[k] += rgb[k].clamp(0.0, 1e3);
-                        }
-                    }
-                }
-                let count = (n * m) as f64;
-                out.push(acc.map(|v| (v / count) as f32));
-            }
+        let transfer = frame.color.transfer;
+        let clip = ClipLevel::from_eotf(
+            |e| eotf_signed(transfer, e),
+            frame.color.range_scale().y_scale,
+        );
+        BlockStats::build(
+            (dw, dh),
+            self.mapper.block_px(),
+            Some(SAMPLES_PER_BLOCK),
+            clip,
+            |x, y| {
+                let (cx, cy) = coded_pixel(rotation, f.width, f.height, x as u32, y as u32);
+                let code = [
+                    frame.sample(0, cx, cy) as f64,
+                    frame.sample(1, cx >> sx, cy >> sy) as f64,
+                    frame.sample(2, cx >> sx, cy >> sy) as f64,
+                ];
+                frame.color.code_to_linear(code)
+            },
+        )
+    }
+}
+
+/// The recovery settings of a configuration (`None`: the input is trusted as it is).
+pub fn recovery_settings(config: &LightConfig) -> Result<Option<RecoverySettings>> {
+    if let Some(g) = config.highlight_gain {
+        if !(1.0..=super::recovery::MAX_GAIN).contains(&g) {
+            return Err(Error::Parameter {
+                name: "--highlight-gain",
+                value: g.to_string(),
+                expected: "a factor in [1, 1000000] on the clip level".into(),
+            });
         }
-        out
+    }
+    Ok((!config.hdr_input).then_some(RecoverySettings {
+        highlight_gain: config.highlight_gain,
+    }))
+}
+
+/// `-v`: the sources found at the start of a scene.
+fn log_lights(t_s: f64, lights: &[LightSource]) {
+    if lights.is_empty() {
+        log::info!("scene at {t_s:.3} s: no clipped light sources");
+        return;
+    }
+    log::info!("scene at {t_s:.3} s: {} light source(s)", lights.len());
+    for l in lights {
+        let d = l.direction_world;
+        log::info!(
+            "  light: azimuth {:.1}° elevation {:.1}°, {:.2e} sr, radiance {:.3e} {:.3e} {:.3e}",
+            d.x.atan2(d.y).to_degrees(),
+            d.z.clamp(-1.0, 1.0).asin().to_degrees(),
+            l.solid_angle_sr,
+            l.radiance_rgb[0],
+            l.radiance_rgb[1],
+            l.radiance_rgb[2],
+        );
     }
 }

@@ -13,8 +13,10 @@
 //! - [`envmap`]: the frame spread over the sphere around the camera, projected on SH.
 //! - [`rtf`]: the raindrop's radiance-transfer function (thesis Algorithm 1) and its zonal SH.
 //! - [`prt`]: the drop colour for a view ray, and the brute-force reference.
+//! - [`recovery`]: the light clipping removed from the frame (compact sources, extended sky).
 //! - [`sources`]: compact light sources (direct term beside the SH).
-//! - [`inspect`]: JSON reports and PNG plots for the CLI.
+//! - [`tracker`]: recovered sources smoothed over frames.
+//! - [`inspect`], [`inspect_light`]: JSON reports and PNG plots for the CLI.
 //!
 //! Angles: θ between the environment lookup direction ω and the view ray v (eye → drop),
 //! `cos θ = ω·v`; θ = 0 is straight through the drop. The GPU twin lives in
@@ -23,13 +25,18 @@
 pub mod envmap;
 pub mod frame_light;
 pub mod inspect;
+pub mod inspect_light;
 pub mod prt;
+pub mod recovery;
 pub mod rtf;
 pub mod sh;
 pub mod sources;
+pub mod tracker;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, LightConfig, LightEstimator};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
+pub use recovery::RecoverySettings;
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};
 pub use sources::{LightSource, UserLight, direct_colour};
+pub use tracker::LightTracker;

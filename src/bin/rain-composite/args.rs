@@ -153,6 +153,14 @@ pub struct LookArgs {
     /// Time constant of the lighting's smoothing over frames, seconds; 0 = off.
     #[arg(long)]
     pub light_smoothing: Option<f64>,
+    /// Clipped highlights become this factor times the clip level, instead of the recovery's
+    /// estimate (compact ones still become light sources).
+    #[arg(long)]
+    pub highlight_gain: Option<f64>,
+    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing
+    /// (ignores --highlight-gain).
+    #[arg(long)]
+    pub hdr_input: bool,
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
@@ -432,6 +440,12 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.max_drops => r.max_drops);
     set!(look.gust => r.gust_mps);
     set!(look.light_smoothing => c.light.smoothing_s);
+    if look.highlight_gain.is_some() {
+        c.light.highlight_gain = look.highlight_gain;
+    }
+    if look.hdr_input {
+        c.light.hdr_input = true;
+    }
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
     set!(look.focus => cam.focus_m);
@@ -498,13 +512,24 @@ mod tests {
         (r.wind_mps, r.gust_mps, r.altitude_m) = ([2.5, -1.5], 1.5, 350.0);
         (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
-        c.light.smoothing_s = 0.5;
+        (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
-        for ((flag, v), (_, d)) in values.iter().zip(&defaults) {
-            assert_ne!(v, d, "{flag} keeps its default in the test configuration");
+        for (flag, d) in &defaults {
+            let v = values.iter().find(|(f, _)| f == flag).map(|(_, v)| v);
+            assert_ne!(
+                v,
+                Some(d),
+                "{flag} keeps its default in the test configuration"
+            );
         }
-        let mut args = vec!["rain-composite".to_string(), "in.mp4".into()];
+        assert!(values.iter().any(|(f, _)| *f == "--highlight-gain"));
+        c.light.hdr_input = true;
+        let mut args = vec![
+            "rain-composite".to_string(),
+            "in.mp4".into(),
+            "--hdr-input".into(),
+        ];
         for (flag, v) in &values {
             args.push(format!("{flag}={v}"));
         }

@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::Subcommand;
 use rain_composite::config::CameraConfig;
 use rain_composite::inspect;
-use rain_composite::lighting::ChannelIndices;
+use rain_composite::lighting::{ChannelIndices, LightConfig};
 
 use crate::args::{LookArgs, render_config};
 use crate::out;
@@ -68,6 +68,34 @@ pub enum InspectCommand {
         json: bool,
         /// Also draw the environment reconstructed from its coefficients beside the mapped
         /// original to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
+    /// The light of an image used as a frame: recovered light sources, the SH of the extended
+    /// remainder, and the radiance of a drop seen through a grid of pixel positions, with and
+    /// without recovery (linear RGB, 1.0 = the frame's white).
+    Light {
+        /// An image (PNG, sRGB, 8 or 16 bit) standing for a video frame.
+        image: PathBuf,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = CameraConfig::default().fov_deg)]
+        fov: f64,
+        /// Camera pitch, degrees up.
+        #[arg(long, default_value_t = CameraConfig::default().tilt_deg, allow_hyphen_values = true)]
+        tilt: f64,
+        /// Grid of view rays, NxM (columns x rows).
+        #[arg(long, default_value = "3x3")]
+        grid: String,
+        /// A fixed factor on the clip level for clipped pixels instead of the estimate.
+        #[arg(long)]
+        highlight_gain: Option<f64>,
+        /// Trust the image as it is (no recovery).
+        #[arg(long)]
+        hdr_input: bool,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the frame with the lights marked to this PNG.
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
     },
@@ -136,6 +164,35 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                 ..CameraConfig::default()
             };
             inspect::sh(image, &camera, *bands, plot.as_deref())?
+        }
+        InspectCommand::Light {
+            image,
+            fov,
+            tilt,
+            grid,
+            highlight_gain,
+            hdr_input,
+            plot,
+            ..
+        } => {
+            check_fov(*fov)?;
+            let parsed = grid
+                .split_once(['x', 'X'])
+                .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
+            let Some(grid) = parsed else {
+                bail!("invalid --grid '{grid}': expected NxM, e.g. 3x3");
+            };
+            let camera = CameraConfig {
+                fov_deg: *fov,
+                tilt_deg: *tilt,
+                ..CameraConfig::default()
+            };
+            let light = LightConfig {
+                highlight_gain: *highlight_gain,
+                hdr_input: *hdr_input,
+                ..LightConfig::default()
+            };
+            inspect::light(image, &camera, grid, &light, plot.as_deref())?
         }
         InspectCommand::Drops {
             size,
