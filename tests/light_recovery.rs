@@ -874,3 +874,42 @@ fn direct_term_of_a_near_light_follows_the_drop() {
         assert!((side[k] / expected - 1.0).abs() < 1e-12);
     }
 }
+
+/// A steady shot full of clipped windows (the sample clip) is one scene: the recovered light
+/// moves from frame to frame more than the picture does, and must not be read as cuts (each
+/// would restart the smoothing and make the rain's light flicker).
+#[test]
+fn recovered_light_does_not_cut_a_steady_shot() {
+    use rain_composite::video::{Source, SourceItem};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/city.mp4");
+    let mut source = Source::open(path).expect("sample clip");
+    let info = source.info().clone();
+    let camera = Camera::new(
+        info.format.width,
+        info.format.height,
+        60f64.to_radians(),
+        1.6,
+        25f64.to_radians(),
+        0.0,
+    );
+    let mut lighting =
+        FrameLighting::new(&camera, info.rotation_deg, &LightConfig::default()).expect("lighting");
+    let (mut frames, mut cuts, mut with_lights) = (0, 0, 0);
+    while let Some(item) = source.next_item().expect("decode") {
+        let SourceItem::Frame(f) = item else { continue };
+        let t = frames as f64 / 25.0;
+        let light = lighting.update(&f, t);
+        with_lights += usize::from(!light.lights.is_empty());
+        cuts += usize::from(lighting.last_was_cut());
+        frames += 1;
+        if frames == 40 {
+            break;
+        }
+    }
+    assert_eq!(frames, 40);
+    assert!(
+        with_lights > 30,
+        "the clip's lit windows are found: {with_lights}"
+    );
+    assert_eq!(cuts, 0, "no cut in one continuous shot");
+}

@@ -523,6 +523,8 @@ pub struct ShSmoother {
     time_constant_secs: f64,
     cut_threshold: f64,
     window: std::collections::VecDeque<(f64, EnvironmentSh)>,
+    /// What the last frame's cut test compared against (see [`ShSmoother::update_keyed`]).
+    last_key: Option<EnvironmentSh>,
     last_was_cut: bool,
 }
 
@@ -532,6 +534,7 @@ impl Default for ShSmoother {
             time_constant_secs: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
             cut_threshold: ShSmoother::DEFAULT_CUT_THRESHOLD,
             window: Default::default(),
+            last_key: None,
             last_was_cut: false,
         }
     }
@@ -578,10 +581,23 @@ impl ShSmoother {
     /// Feeds the coefficients of the frame at `t_secs` (increasing); returns the smoothed
     /// environment at that time.
     pub fn update(&mut self, raw: &EnvironmentSh, t_secs: f64) -> EnvironmentSh {
+        self.update_keyed(raw, raw, t_secs)
+    }
+
+    /// As [`update`](Self::update), but scene cuts are detected on `key` instead of `raw`:
+    /// the frame's display-referred environment, when `raw` carries light recovered from
+    /// clipped pixels, whose estimate moves more from frame to frame than the picture does.
+    pub fn update_keyed(
+        &mut self,
+        raw: &EnvironmentSh,
+        key: &EnvironmentSh,
+        t_secs: f64,
+    ) -> EnvironmentSh {
         let cut = self
-            .window
-            .back()
-            .is_some_and(|(_, prev)| prev.normalised_distance(raw) > self.cut_threshold);
+            .last_key
+            .as_ref()
+            .is_some_and(|prev| prev.normalised_distance(key) > self.cut_threshold);
+        self.last_key = Some(key.clone());
         self.last_was_cut = cut;
         if cut || self.time_constant_secs == 0.0 {
             self.window.clear();
@@ -620,6 +636,7 @@ impl ShSmoother {
     /// Forgets the history (e.g. after a seek).
     pub fn reset(&mut self) {
         self.window.clear();
+        self.last_key = None;
         self.last_was_cut = false;
     }
 }

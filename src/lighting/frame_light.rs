@@ -154,6 +154,12 @@ impl LightEstimator {
         self.smoother.window_secs()
     }
 
+    /// Whether the last [`update`](Self::update) started a new scene (the smoothing and the
+    /// light tracking restarted).
+    pub fn last_was_cut(&self) -> bool {
+        self.smoother.last_was_cut()
+    }
+
     /// The drop's zonal transfer coefficients per channel, as `RainParams::drop_zonal`.
     pub fn drop_zonal_gpu(&self) -> [[f32; 4]; 3] {
         let z = self.rtf.to_gpu_array();
@@ -171,21 +177,24 @@ impl LightEstimator {
     }
 
     /// Raw environment and compact sources of one frame.
-    fn raw_light(&self, frame: &YuvFrame) -> (EnvironmentSh, Vec<LightSource>) {
+    /// The frame's environment with recovered light (the remainder where sources became
+    /// lights), the sources, and the display-referred environment that scene cuts are told by.
+    fn raw_light(&self, frame: &YuvFrame) -> (EnvironmentSh, Vec<LightSource>, EnvironmentSh) {
         let stats = self.block_stats(frame);
+        let display = self.mapper.project_small(&stats.mean);
         match &self.recovery {
             Some(settings) if stats.any_clipped() => {
                 let r = recover(&stats, self.mapper.camera(), settings);
-                (self.mapper.project_small(&r.remainder), r.lights)
+                (self.mapper.project_small(&r.remainder), r.lights, display)
             }
-            _ => (self.mapper.project_small(&stats.mean), Vec::new()),
+            _ => (display.clone(), Vec::new(), display),
         }
     }
 
     /// Feeds the frame shown at `t_s` (increasing) and returns its light.
     pub fn update(&mut self, frame: &YuvFrame, t_s: f64) -> FrameLight {
-        let (raw, found) = self.raw_light(frame);
-        let env = self.smoother.update(&raw, t_s);
+        let (raw, found, display) = self.raw_light(frame);
+        let env = self.smoother.update_keyed(&raw, &display, t_s);
         let cut = self.smoother.last_was_cut();
         // Sources found in the frame (smoothed over time), then the user's lights.
         let mut lights = self.tracker.update(&found, t_s, cut);
