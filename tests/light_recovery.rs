@@ -893,7 +893,7 @@ fn recovered_light_does_not_cut_a_steady_shot() {
         0.0,
     );
     let mut lighting =
-        FrameLighting::new(&camera, info.rotation_deg, &LightConfig::default()).expect("lighting");
+        LightEstimator::new(&camera, info.rotation_deg, &LightConfig::default()).expect("lighting");
     let (mut frames, mut cuts, mut with_lights) = (0, 0, 0);
     while let Some(item) = source.next_item().expect("decode") {
         let SourceItem::Frame(f) = item else { continue };
