@@ -671,7 +671,7 @@ fn direct_light_cost() {
     use glam::DVec3;
     use rain_composite::gpu::probe::SimulateProbe;
     use rain_composite::gpu::types::LightList;
-    use rain_composite::lighting::{FrameLighting, LightConfig, LightSource};
+    use rain_composite::lighting::{LightConfig, LightEstimator, LightSource};
 
     let Some(ctx) = gpu() else { return };
     let camera = CameraConfig::default().camera(1280, 720);
@@ -684,7 +684,7 @@ fn direct_light_cost() {
         (1280, 720),
     )
     .expect("rain");
-    let lighting = FrameLighting::new(&camera, 0, &LightConfig::default()).expect("lighting");
+    let lighting = LightEstimator::new(&camera, 0, &LightConfig::default()).expect("lighting");
     let probe = SimulateProbe::new(&ctx, &setup, setup.drop_count(), lighting.transfer_tables());
     let params = lit(&setup, 1.0);
     let lamp = |i: usize| LightSource {

@@ -1,6 +1,9 @@
 //! The light of one video frame, as the GPU needs it: the frame's environment on SH
 //! (smoothed over time), the drop's transfer function, and the haze's in-scatter.
 //!
+//! Three names: [`LightConfig`] is what the user sets; a [`LightEstimator`], one per shot,
+//! turns the shot's frames, in order, into one [`FrameLight`] each.
+//!
 //! The environment is projected from a small linear-light copy of the frame made straight from
 //! its YUV planes (a sparse box filter in the displayed orientation, converted with the frame's
 //! own colour parameters): four SH bands need about one sample per degree, not the full
@@ -79,9 +82,9 @@ pub struct FrameLight {
     pub lights: Vec<super::sources::LightSource>,
 }
 
-/// Turns frames into lighting, keeping the short history the smoothing needs.
+/// Estimates each frame's light from the frame and the short history the smoothing needs.
 #[derive(Debug, Clone)]
-pub struct FrameLighting {
+pub struct LightEstimator {
     mapper: EnvMapper,
     rtf: RtfSh,
     smoother: ShSmoother,
@@ -94,10 +97,10 @@ pub struct FrameLighting {
     frames_seen: u64,
 }
 
-impl FrameLighting {
+impl LightEstimator {
     /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
     /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
-    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<FrameLighting> {
+    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<LightEstimator> {
         let optics = channel_optics(
             ChannelIndices::from(config.refractive_index),
             config.n_max,
@@ -111,7 +114,7 @@ impl FrameLighting {
             .collect::<Result<Vec<_>>>()?;
         let recovery = recovery_settings(config)?;
         let smoother = ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?;
-        Ok(FrameLighting {
+        Ok(LightEstimator {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
             rtf: RtfSh::water(
                 ChannelIndices::from(config.refractive_index),
@@ -132,7 +135,7 @@ impl FrameLighting {
     /// Where the haze begins along the view direction, metres: lights at a finite distance
     /// light it as they light a drop there (the nearest haze is the brightest and the least
     /// veiled). Without it the haze sees every light as the camera does.
-    pub fn with_haze_distance(mut self, distance_m: f64) -> FrameLighting {
+    pub fn with_haze_distance(mut self, distance_m: f64) -> LightEstimator {
         self.haze_distance_m = Some(distance_m).filter(|d| d.is_finite() && *d > 0.0);
         self
     }

@@ -198,7 +198,7 @@ pub fn build(
 
 impl RainSetup {
     /// The uniforms at time `t_s`, the drops lit by `light` with transfer coefficients
-    /// `drop_zonal` (see [`crate::lighting::FrameLighting`]).
+    /// `drop_zonal` (see [`crate::lighting::LightEstimator`]).
     pub fn params_at(&self, t_s: f64, light: &FrameLight, drop_zonal: [[f32; 4]; 3]) -> RainParams {
         let mut p = self.motion_at(t_s);
         p.env_sh = light.env.to_gpu_array();
