@@ -397,10 +397,11 @@ impl LightFeed {
     fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<LightFeed> {
         let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
         let estimator = if needed {
-            Some(
-                LightEstimator::new(&camera_for(info, render), info.rotation_deg, &render.light)?
-                    .with_haze_distance(rain.volume.far_m),
-            )
+            Some(LightEstimator::new(
+                &camera_for(info, render),
+                info.rotation_deg,
+                &render.light,
+            )?)
         } else {
             None
         };

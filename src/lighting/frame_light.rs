@@ -14,8 +14,6 @@
 //! remainder, and [`LightTracker`] smooths the sources like the SH. A frame without clipped
 //! samples gives exactly the light it gave without recovery.
 
-use glam::DVec3;
-
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 use super::prt::{RtfSh, channel_optics};
 use super::recovery::{BlockStats, ClipLevel, RecoverySettings, recover};
@@ -74,9 +72,12 @@ impl Default for LightConfig {
 pub struct FrameLight {
     /// The smoothed environment, 4 bands.
     pub env: EnvironmentSh,
-    /// What the haze (the rain beyond the drawn drops) scatters toward the camera: the
-    /// environment with the compact lights added, on SH; its in-scatter along a view ray is the
-    /// drop's PRT colour for that ray.
+    /// What the haze (the rain beyond the drawn drops) scatters toward the camera, on SH; its
+    /// in-scatter along a pixel's ray is the drop's PRT colour for that ray. It is the
+    /// environment (the extended light, recovered where it clipped): compact lights are left
+    /// out because on four bands a source a fraction of a degree wide would spread its drops'
+    /// forward lobe over the whole sphere, and the veil would glow as brightly opposite a lamp
+    /// as beside it. Drawn drops carry the lights exactly.
     pub haze_sh: EnvironmentSh,
     /// Compact sources lit directly through the RTF table (empty: the SH carries all light).
     pub lights: Vec<super::sources::LightSource>,
@@ -93,7 +94,6 @@ pub struct LightEstimator {
     rotation_deg: i32,
     tables: [RtfTable; 3],
     user_lights: Vec<LightSource>,
-    haze_distance_m: Option<f64>,
     frames_seen: u64,
 }
 
@@ -127,17 +127,8 @@ impl LightEstimator {
             rotation_deg,
             tables: [r?, g?, b?],
             user_lights,
-            haze_distance_m: None,
             frames_seen: 0,
         })
-    }
-
-    /// Where the haze begins along the view direction, metres: lights at a finite distance
-    /// light it as they light a drop there (the nearest haze is the brightest and the least
-    /// veiled). Without it the haze sees every light as the camera does.
-    pub fn with_haze_distance(mut self, distance_m: f64) -> LightEstimator {
-        self.haze_distance_m = Some(distance_m).filter(|d| d.is_finite() && *d > 0.0);
-        self
     }
 
     /// The drop's transfer table per channel (R, G, B), [`GPU_RTF_BINS`] bins: what the
@@ -205,37 +196,11 @@ impl LightEstimator {
         }
         self.frames_seen += 1;
         lights.extend_from_slice(&self.user_lights);
-        let haze_sh = self.haze_environment(&env, &lights);
         FrameLight {
+            haze_sh: env.clone(),
             env,
-            haze_sh,
             lights,
         }
-    }
-
-    /// The light the haze scatters: the environment plus each compact light as a point of
-    /// `L·Ω` on the SH (seen from where the haze begins along the view direction). The GPU
-    /// evaluates it along every pixel's ray with the drop's PRT, so the haze glows around a lamp
-    /// or the sun and stays dark away from them; the band limit widens the glow, which suits
-    /// the many drops of a veil (each of their forward lobes is far wider than a pixel).
-    fn haze_environment(&self, env: &EnvironmentSh, lights: &[LightSource]) -> EnvironmentSh {
-        let forward = self.mapper.camera().world_from_camera * DVec3::Z;
-        let haze_at = self.haze_distance_m.map(|d| forward * d);
-        let mut out = env.clone();
-        for light in lights {
-            let (omega, scale) = light.seen_from(haze_at);
-            let strength = light.radiance_times_solid_angle();
-            for (c, y) in out
-                .coeffs
-                .iter_mut()
-                .zip(super::sh::basis(omega, env.bands))
-            {
-                for k in 0..3 {
-                    c[k] += (strength[k] * scale * y) as f32;
-                }
-            }
-        }
-        out
     }
 
     /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation,
