@@ -130,3 +130,18 @@ fn help_shows_the_library_defaults() {
         );
     }
 }
+
+/// `samples/presets/default.json` is the built-in configuration written out, field by field.
+#[test]
+fn the_default_preset_is_the_built_in_configuration() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/presets/default.json");
+    let text = std::fs::read_to_string(path).expect("default.json");
+    let preset = rain_composite::config::RenderConfig::from_json(&text).expect("parses");
+    let built_in = rain_composite::config::RenderConfig::default();
+    if preset != built_in {
+        panic!(
+            "default.json differs from the built-in defaults; write it as:\n{}",
+            serde_json::to_string_pretty(&built_in).expect("json")
+        );
+    }
+}
