@@ -3,7 +3,10 @@
 // (nearest): rgb_to_yuv box-averages it back, so a frame without rain returns unchanged.
 // The rain too far to draw drop by drop veils the background here, before the streaks are drawn
 // over it: background · T + in-scatter (T = 1 and in-scatter = 0 without rain: exact identity).
-// Includes: common/types.wgsl, common/color.wgsl.
+// The in-scatter along a pixel's ray is what a drop on that ray shows of the haze's light
+// (environment and compact lights on SH, premultiplied by the haze's opacity): the PRT colour
+// for the ray, so the veil glows around a lamp or the sun and stays dark away from them.
+// Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
 @group(0) @binding(1) var plane_y: texture_2d<u32>;
@@ -27,5 +30,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         (code.z - frame.c_offset) / frame.c_scale,
     );
     let linear = to_linear(frame.transfer, ycbcr_to_rgb(frame.kr, frame.kb, ycc));
-    textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + rain.haze.rgb, 1.0));
+    var in_scatter = vec3<f32>(0.0);
+    if rain.haze.w < 1.0 {
+        in_scatter = max(prt_colour(rain.haze_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(id.xy)), vec3<f32>(0.0));
+    }
+    textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + in_scatter, 1.0));
+}
+
+// World direction of the ray through the centre of coded pixel `p`: back to display pixels
+// (the display rotation is orthogonal, so its inverse is its transpose), then the pinhole.
+fn view_ray(p: vec2<u32>) -> vec3<f32> {
+    let m = rain.coded_from_display;
+    let c = vec2<f32>(p) + vec2<f32>(0.5) - rain.coded_offset_px;
+    let q = vec2<f32>(m.x * c.x + m.y * c.y, m.z * c.x + m.w * c.y);
+    let d = (q - rain.principal_px) / rain.focal_px;
+    return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
 }

@@ -164,6 +164,47 @@ impl RenderConfig {
     }
 }
 
+impl RenderConfig {
+    /// Each flag that sets a value of this configuration, with the value as a user would type
+    /// it (`("--wind", "3,-1")`); `--highlight-gain` only when set (its default is the
+    /// recovery's estimate), `--hdr-input` never (a switch, off unless given). Of
+    /// [`RenderConfig::default`], these are the defaults the help shows and the README's
+    /// options table lists (a test checks both), so each default is written once, in the
+    /// `Default` impls.
+    pub fn flag_values(&self) -> Vec<(&'static str, String)> {
+        let (c, r, l) = (&self.camera, &self.rain, &self.light);
+        vec![
+            ("--rain", r.rate_mm_per_h.to_string()),
+            ("--drop-scale", r.drop_scale.to_string()),
+            ("--fall-speed-scale", r.fall_speed_scale.to_string()),
+            ("--wind", format!("{},{}", r.wind_mps[0], r.wind_mps[1])),
+            ("--opacity", r.opacity.to_string()),
+            ("--seed", r.seed.to_string()),
+            ("--fov", c.fov_deg.to_string()),
+            ("--camera-height", c.height_m.to_string()),
+            ("--tilt", c.tilt_deg.to_string()),
+            ("--roll", c.roll_deg.to_string()),
+            ("--shutter", c.shutter_deg.to_string()),
+            ("--near", r.near_m.to_string()),
+            ("--far", r.far_m.to_string()),
+            ("--max-drops", r.max_drops.to_string()),
+            ("--gust", r.gust_mps.to_string()),
+            ("--altitude", r.altitude_m.to_string()),
+            ("--focus", c.focus_m.to_string()),
+            ("--f-number", c.f_number.to_string()),
+            ("--sensor-width", c.sensor_width_mm.to_string()),
+            ("--light-smoothing", l.smoothing_s.to_string()),
+            ("--scene-depth", r.scene_depth_m.to_string()),
+        ]
+        .into_iter()
+        .chain(
+            l.highlight_gain
+                .map(|g| ("--highlight-gain", g.to_string())),
+        )
+        .collect()
+    }
+}
+
 fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
     if ok && value.is_finite() {
         Ok(())

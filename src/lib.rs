@@ -35,12 +35,18 @@
 //! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT.
 //! - [`fluid`]: SPH surface flow and the carpet free surface.
 //! - [`pipeline`]: one render job, from input to output, and single-frame preview.
+//! - [`inspect`]: the `inspect` reports (JSON, plots), one function per subcommand.
+//! - [`config`]: the settings, each default written once (the CLI and README read them).
+//!
+//! The `rain-composite` binary (`src/bin/rain-composite/`) only parses flags, calls these and
+//! prints.
 #![cfg_attr(not(test), warn(clippy::unwrap_used))]
 
 pub mod config;
 pub mod error;
 pub mod fluid;
 pub mod gpu;
+pub mod inspect;
 pub mod lighting;
 pub mod pipeline;
 pub mod rain;

@@ -15,7 +15,7 @@ use crate::config::RenderConfig;
 use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext};
-use crate::lighting::{EnvironmentSh, FrameLight, FrameLighting};
+use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
 use crate::scene::Camera;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
 use crate::{Error, Result};
@@ -170,7 +170,7 @@ pub fn render(
     let rain = rain_for(&info, &job.render, &ctx)?;
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
-    let mut lighting = Lighting::new(&info, &job.render, &rain)?;
+    let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
     lighting.upload_table(&mut compositor);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
@@ -350,7 +350,7 @@ pub fn preview(
     let ctx = Arc::new(GpuContext::new(adapter)?);
     let rain = rain_for(&info, render, &ctx)?;
     log::info!("{}", rain.summary());
-    let mut lighting = Lighting::new(&info, render, &rain)?;
+    let mut lighting = LightFeed::new(&info, render, &rain)?;
     let t_target = frame_time_s(&info, &target);
     if let Some(window) = lighting.window_secs() {
         let from = (t_target - window).max(0.0);
@@ -382,35 +382,37 @@ pub fn preview(
     Ok((out, info))
 }
 
-/// The frames' light, or none where nothing would show it (no drops, no haze).
-struct Lighting {
-    frame_lighting: Option<FrameLighting>,
+/// Feeds each frame's light to the GPU: from a [`LightEstimator`] where anything shows light,
+/// none where nothing would (no drops, no haze).
+struct LightFeed {
+    estimator: Option<LightEstimator>,
     drop_zonal: [[f32; 4]; 3],
 }
 
-impl Lighting {
-    fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<Lighting> {
+impl LightFeed {
+    fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<LightFeed> {
         let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
-        let frame_lighting = if needed {
-            Some(
-                FrameLighting::new(&camera_for(info, render), info.rotation_deg, &render.light)?
-                    .with_haze_distance(rain.volume.far_m),
-            )
+        let estimator = if needed {
+            Some(LightEstimator::new(
+                &camera_for(info, render),
+                info.rotation_deg,
+                &render.light,
+            )?)
         } else {
             None
         };
-        let drop_zonal = frame_lighting
+        let drop_zonal = estimator
             .as_ref()
             .map_or([[0.0; 4]; 3], |l| l.drop_zonal_gpu());
-        Ok(Lighting {
-            frame_lighting,
+        Ok(LightFeed {
+            estimator,
             drop_zonal,
         })
     }
 
     /// How far back frames affect the light, when there is light to compute.
     fn window_secs(&self) -> Option<f64> {
-        self.frame_lighting
+        self.estimator
             .as_ref()
             .map(|l| l.window_secs())
             .filter(|&w| w > 0.0)
@@ -418,18 +420,18 @@ impl Lighting {
 
     /// The drop's transfer table for the direct light term, once per job.
     fn upload_table(&self, compositor: &mut Compositor) {
-        if let Some(l) = &self.frame_lighting {
+        if let Some(l) = &self.estimator {
             compositor.set_transfer_table(l.transfer_tables());
         }
     }
 
     /// The GPU uniforms of `frame`, shown at `t_s`: the rain's and the compact lights'.
     fn params(&mut self, rain: &RainSetup, frame: &YuvFrame, t_s: f64) -> (RainParams, LightList) {
-        let light = match &mut self.frame_lighting {
+        let light = match &mut self.estimator {
             Some(l) => l.update(frame, t_s),
             None => FrameLight {
                 env: EnvironmentSh::zeros(4),
-                haze_radiance: [0.0; 3],
+                haze_sh: EnvironmentSh::zeros(4),
                 lights: Vec::new(),
             },
         };

@@ -78,8 +78,8 @@ fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
     setup.params_at(
         t_s,
         &FrameLight {
+            haze_sh: env.clone(),
             env,
-            haze_radiance: [1.0; 3],
             lights: Vec::new(),
         },
         zonal,
@@ -556,7 +556,7 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
         t,
         &FrameLight {
             env: env.clone(),
-            haze_radiance: [0.0; 3],
+            haze_sh: EnvironmentSh::zeros(4),
             lights: lights.clone(),
         },
         rtf.to_gpu_array()
@@ -671,7 +671,7 @@ fn direct_light_cost() {
     use glam::DVec3;
     use rain_composite::gpu::probe::SimulateProbe;
     use rain_composite::gpu::types::LightList;
-    use rain_composite::lighting::{FrameLighting, LightConfig, LightSource};
+    use rain_composite::lighting::{LightConfig, LightEstimator, LightSource};
 
     let Some(ctx) = gpu() else { return };
     let camera = CameraConfig::default().camera(1280, 720);
@@ -684,7 +684,7 @@ fn direct_light_cost() {
         (1280, 720),
     )
     .expect("rain");
-    let lighting = FrameLighting::new(&camera, 0, &LightConfig::default()).expect("lighting");
+    let lighting = LightEstimator::new(&camera, 0, &LightConfig::default()).expect("lighting");
     let probe = SimulateProbe::new(&ctx, &setup, setup.drop_count(), lighting.transfer_tables());
     let params = lit(&setup, 1.0);
     let lamp = |i: usize| LightSource {
@@ -708,4 +708,89 @@ fn direct_light_cost() {
             setup.drop_count()
         );
     }
+}
+
+/// The haze's in-scatter along each pixel's ray is the drop's PRT colour of the haze light for
+/// that ray (here: a bright source up and to the right, on SH), in a picture displayed rotated
+/// by 90°: the GPU's coded → display → ray mapping is held to the CPU camera, pixel by pixel.
+#[test]
+fn haze_in_scatter_follows_each_pixels_ray() {
+    use rain_composite::lighting::prt_colour;
+    let Some(ctx) = gpu() else { return };
+    // Coded 48×80, displayed 80×48 (rotated 90°).
+    let (cw, ch) = (48u32, 80u32);
+    let (dw, dh) = (ch, cw);
+    let format = FrameFormat {
+        width: cw,
+        height: ch,
+        chroma: Chroma::Cs444,
+        bit_depth: 8,
+    };
+    let color = ColorParams {
+        full_range: true,
+        ..ColorParams::bt709(8)
+    };
+    let black = YuvFrame::filled(format, color, [0, 128, 128]);
+    let camera = Camera::new(dw, dh, 70f64.to_radians(), 1.6, 10f64.to_radians(), 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 20.0,
+        scene_depth_m: 5000.0,
+        ..RainConfig::default()
+    };
+    let setup = emitter::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        90,
+        (cw, ch),
+    )
+    .expect("rain");
+    assert!(setup.haze_alpha > 0.01, "haze {}", setup.haze_alpha);
+    // A source up and to the right of the view, as compact lights reach the haze.
+    let mut haze_sh = EnvironmentSh::zeros(4);
+    let toward = camera.world_from_camera * glam::DVec3::new(0.5, -0.3, 1.0).normalize();
+    let y = rain_composite::lighting::sh::basis(toward, 4);
+    for (c, yi) in haze_sh.coeffs.iter_mut().zip(&y) {
+        *c = [(3.0 * yi) as f32, (2.0 * yi) as f32, (1.0 * yi) as f32];
+    }
+    haze_sh.coeffs[0] = [0.3, 0.3, 0.3];
+    let rtf = RtfSh::water(1.333, 9, 4).expect("rtf");
+    let mut params = setup.params_at(
+        1.0,
+        &FrameLight {
+            env: EnvironmentSh::zeros(4),
+            haze_sh: haze_sh.clone(),
+            lights: Vec::new(),
+        },
+        {
+            let z = rtf.to_gpu_array();
+            [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]])
+        },
+    );
+    params.drop_count = 0; // the veil alone
+    let mut comp = Compositor::new(ctx, format, &color, &setup).expect("compositor");
+    let out = comp.render_one(&black, &params).expect("render");
+    let alpha = setup.haze_alpha;
+    let mut worst = 0.0f64;
+    let mut brightest = 0.0f64;
+    for yd in 0..dh {
+        for xd in 0..dw {
+            let ray = camera.ray_world(DVec2::new(xd as f64 + 0.5, yd as f64 + 0.5));
+            let want = prt_colour(&haze_sh, &rtf, ray).map(|v| (v * alpha).max(0.0));
+            let code = color.linear_to_code(want);
+            // Displayed (x, y) ← coded (W − 1 − y, x) for a 90° display rotation.
+            let (xc, yc) = (cw - 1 - yd, xd);
+            let got = [0, 1, 2].map(|i| f64::from(out.sample(i, xc, yc)));
+            for i in 0..3 {
+                worst = worst.max((got[i] - code[i].round()).abs());
+            }
+            brightest = brightest.max(got[0]);
+        }
+    }
+    assert!(
+        brightest > 60.0,
+        "the veil must show: brightest luma {brightest}"
+    );
+    assert!(worst <= 1.0, "GPU veil off the CPU by {worst} code values");
 }

@@ -10,7 +10,7 @@ use rain_composite::lighting::inspect_light::{light_report, rtf_tables};
 use rain_composite::lighting::prt::{RtfSh, prt_colour};
 use rain_composite::lighting::recovery::luminance;
 use rain_composite::lighting::rtf::RtfTable;
-use rain_composite::lighting::{FrameLighting, LightConfig, LightSource, direct_colour, sh};
+use rain_composite::lighting::{LightConfig, LightEstimator, LightSource, direct_colour, sh};
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Transfer, YuvFrame};
 
@@ -467,13 +467,13 @@ fn yuv_frame(w: usize, h: usize, color: ColorParams, f: impl Fn(f64, f64) -> [f6
     frame
 }
 
-fn lighting(config: LightConfig) -> FrameLighting {
-    FrameLighting::new(&camera(), 0, &config).unwrap()
+fn lighting(config: LightConfig) -> LightEstimator {
+    LightEstimator::new(&camera(), 0, &config).unwrap()
 }
 
 fn all_finite(l: &rain_composite::lighting::FrameLight) -> bool {
     l.env.coeffs.iter().flatten().all(|v| v.is_finite())
-        && l.haze_radiance.iter().all(|v| v.is_finite())
+        && l.haze_sh.coeffs.iter().flatten().all(|v| v.is_finite())
         && l.lights.iter().all(|s| {
             s.direction_world.is_finite()
                 && s.solid_angle_sr.is_finite()
@@ -691,14 +691,14 @@ fn report_recovery_cost() {
                 hdr_input,
                 ..LightConfig::default()
             };
-            let mut l = FrameLighting::new(&cam, 0, &config).unwrap();
+            let mut l = LightEstimator::new(&cam, 0, &config).unwrap();
             let t0 = std::time::Instant::now();
             for k in 0..n {
                 std::hint::black_box(l.update(&frame, k as f64 / 25.0));
             }
             let per = t0.elapsed().as_secs_f64() / n as f64;
             println!(
-                "{w}x{h} FrameLighting::update {label}: {:.3} ms per frame",
+                "{w}x{h} LightEstimator::update {label}: {:.3} ms per frame",
                 per * 1e3
             );
         }
@@ -893,7 +893,7 @@ fn recovered_light_does_not_cut_a_steady_shot() {
         0.0,
     );
     let mut lighting =
-        FrameLighting::new(&camera, info.rotation_deg, &LightConfig::default()).expect("lighting");
+        LightEstimator::new(&camera, info.rotation_deg, &LightConfig::default()).expect("lighting");
     let (mut frames, mut cuts, mut with_lights) = (0, 0, 0);
     while let Some(item) = source.next_item().expect("decode") {
         let SourceItem::Frame(f) = item else { continue };

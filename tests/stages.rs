@@ -147,20 +147,26 @@ fn heavy_rain() -> RainConfig {
     }
 }
 
-/// The uniforms at `t_s` in a bluish uniform environment with a haze veil.
+/// The uniforms at `t_s` in a bluish environment brighter overhead, with a haze veil lit by
+/// a sky brighter to one side.
 fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
     let mut env = EnvironmentSh::zeros(4);
     env.coeffs[0] = [0.9, 1.0, 1.3];
+    env.coeffs[2] = [0.3, 0.3, 0.4];
     let mut p = setup.params_at(
         t_s,
         &FrameLight {
+            haze_sh: env.clone(),
             env,
-            haze_radiance: [0.0; 3],
             lights: Vec::new(),
         },
-        [[1.0, 0.0, 0.0, 0.0]; 3],
+        [[1.0, 0.4, 0.2, 0.1]; 3],
     );
-    p.haze = [0.02, 0.025, 0.03, 0.9];
+    p.haze = [0.0, 0.0, 0.0, 0.9];
+    p.haze_sh = [[0.0; 4]; 16];
+    p.haze_sh[0] = [0.05, 0.06, 0.08, 0.0];
+    p.haze_sh[3] = [0.04, 0.03, 0.02, 0.0];
+    p.haze_sh[1] = [0.01, 0.01, 0.02, 0.0];
     p
 }
 
@@ -216,7 +222,7 @@ fn both_frames(
     } else {
         Vec::new()
     };
-    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, params.haze);
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, params);
     rain_streaks::rain_streaks(&mut canvas, params, &streaks);
     let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, case.format, &case.color);
     let drawn = streaks.iter().filter(|s| s.len_px >= 0.0).count();

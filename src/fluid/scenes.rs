@@ -25,6 +25,17 @@ use serde_json::{Value, json};
 /// The scene names [`inspect_sph`] accepts.
 pub const SCENES: [&str; 3] = ["column", "dam-break", "basin"];
 
+/// Solver steps that bring `scene` to its validated state: `column` 3 500 (1 s), `dam-break`
+/// 1 500 (T ≈ 3.7), `basin` 5 000 (≈ 1 s; the basin runs whole 1/60 s frames, so it may
+/// overshoot by a frame). An unknown name gets the basin's, and [`inspect_sph`] refuses it.
+pub fn validated_steps(scene: &str) -> usize {
+    match scene {
+        "column" => 3500,
+        "dam-break" => 1500,
+        _ => 5000,
+    }
+}
+
 /// Martin & Moyce (1952), two-dimensional collapse, a = 2.25 in, n² = 2: surge front
 /// (T = t√(2g/a), Z = x/a), as transcribed in PySPH's `db_exp_data.py`.
 pub const MARTIN_MOYCE_1952: [(f32, f32); 15] = [
@@ -391,9 +402,8 @@ impl Basin {
 }
 
 /// Runs scene `scene` ([`SCENES`]) for `steps` SPH steps and returns its measures as JSON
-/// (`rain-composite inspect sph --scene … --steps N --json`). Steps that reach the validated
-/// states: `column` 3 500 (1 s), `dam-break` 1 500 (T ≈ 3.7), `basin` 5 000 (≈ 1 s; the basin
-/// runs whole 1/60 s frames, so it may overshoot by a frame).
+/// (`rain-composite inspect sph --scene … --steps N --json`); [`validated_steps`] gives the
+/// steps that reach the validated states.
 pub fn inspect_sph(scene: &str, steps: usize) -> Result<Value> {
     inspect_sph_with(scene, steps, &SceneOptions::default())
 }

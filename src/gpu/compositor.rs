@@ -259,7 +259,7 @@ impl Compositor {
     }
 
     /// Sets the drop's transfer table (R, G, B) the direct light term reads; once per job
-    /// (see `FrameLighting::transfer_tables`). Until then the lights add nothing.
+    /// (see `LightEstimator::transfer_tables`). Until then the lights add nothing.
     pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
         self.direct_lights.upload_table(&self.ctx.queue, tables);
     }

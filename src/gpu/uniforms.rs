@@ -159,6 +159,7 @@ pub fn build(
         mean_travel_cells: [0.0; 2],
         haze: [0.0, 0.0, 0.0, 1.0],
         env_sh: [[0.0; 4]; 16],
+        haze_sh: [[0.0; 4]; 16],
         drop_zonal: [[0.0; 4]; 3],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
@@ -200,15 +201,15 @@ pub fn build(
 
 impl RainSetup {
     /// The uniforms at time `t_s`, the drops lit by `light` with transfer coefficients
-    /// `drop_zonal` (see [`crate::lighting::FrameLighting`]).
+    /// `drop_zonal` (see [`crate::lighting::LightEstimator`]).
     pub fn params_at(&self, t_s: f64, light: &FrameLight, drop_zonal: [[f32; 4]; 3]) -> RainParams {
         let mut p = self.motion_at(t_s);
         p.env_sh = light.env.to_gpu_array();
         p.drop_zonal = drop_zonal;
         // The aggregate far drops scatter the same light as the near ones.
         let a = self.haze_alpha as f32;
-        let h = light.haze_radiance;
-        p.haze = [h[0] * a, h[1] * a, h[2] * a, 1.0 - a];
+        p.haze_sh = light.haze_sh.to_gpu_array().map(|c| c.map(|v| v * a));
+        p.haze = [0.0, 0.0, 0.0, 1.0 - a];
         p
     }
 

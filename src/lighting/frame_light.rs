@@ -1,6 +1,9 @@
 //! The light of one video frame, as the GPU needs it: the frame's environment on SH
 //! (smoothed over time), the drop's transfer function, and the haze's in-scatter.
 //!
+//! Three names: [`LightConfig`] is what the user sets; a [`LightEstimator`], one per shot,
+//! turns the shot's frames, in order, into one [`FrameLight`] each.
+//!
 //! The environment is projected from a small linear-light copy of the frame made straight from
 //! its YUV planes (a sparse box filter in the displayed orientation, converted with the frame's
 //! own colour parameters): four SH bands need about one sample per degree, not the full
@@ -11,13 +14,11 @@
 //! remainder, and [`LightTracker`] smooths the sources like the SH. A frame without clipped
 //! samples gives exactly the light it gave without recovery.
 
-use glam::DVec3;
-
 use super::envmap::{EnvMapper, EnvironmentSh, ShSmoother};
-use super::prt::{RtfSh, channel_optics, prt_colour};
+use super::prt::{RtfSh, channel_optics};
 use super::recovery::{BlockStats, ClipLevel, RecoverySettings, recover};
 use super::rtf::{ChannelIndices, Polarisation, RtfTable};
-use super::sources::{LightSource, UserLight, direct_colour};
+use super::sources::{LightSource, UserLight};
 use super::tracker::LightTracker;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
@@ -71,15 +72,20 @@ impl Default for LightConfig {
 pub struct FrameLight {
     /// The smoothed environment, 4 bands.
     pub env: EnvironmentSh,
-    /// Mean radiance the drops scatter toward the camera (the haze's in-scatter), linear RGB.
-    pub haze_radiance: [f32; 3],
+    /// What the haze (the rain beyond the drawn drops) scatters toward the camera, on SH; its
+    /// in-scatter along a pixel's ray is the drop's PRT colour for that ray. It is the
+    /// environment (the extended light, recovered where it clipped): compact lights are left
+    /// out because on four bands a source a fraction of a degree wide would spread its drops'
+    /// forward lobe over the whole sphere, and the veil would glow as brightly opposite a lamp
+    /// as beside it. Drawn drops carry the lights exactly.
+    pub haze_sh: EnvironmentSh,
     /// Compact sources lit directly through the RTF table (empty: the SH carries all light).
     pub lights: Vec<super::sources::LightSource>,
 }
 
-/// Turns frames into lighting, keeping the short history the smoothing needs.
+/// Estimates each frame's light from the frame and the short history the smoothing needs.
 #[derive(Debug, Clone)]
-pub struct FrameLighting {
+pub struct LightEstimator {
     mapper: EnvMapper,
     rtf: RtfSh,
     smoother: ShSmoother,
@@ -88,14 +94,13 @@ pub struct FrameLighting {
     rotation_deg: i32,
     tables: [RtfTable; 3],
     user_lights: Vec<LightSource>,
-    haze_distance_m: Option<f64>,
     frames_seen: u64,
 }
 
-impl FrameLighting {
+impl LightEstimator {
     /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
     /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
-    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<FrameLighting> {
+    pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<LightEstimator> {
         let optics = channel_optics(
             ChannelIndices::from(config.refractive_index),
             config.n_max,
@@ -109,7 +114,7 @@ impl FrameLighting {
             .collect::<Result<Vec<_>>>()?;
         let recovery = recovery_settings(config)?;
         let smoother = ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?;
-        Ok(FrameLighting {
+        Ok(LightEstimator {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
             rtf: RtfSh::water(
                 ChannelIndices::from(config.refractive_index),
@@ -122,17 +127,8 @@ impl FrameLighting {
             rotation_deg,
             tables: [r?, g?, b?],
             user_lights,
-            haze_distance_m: None,
             frames_seen: 0,
         })
-    }
-
-    /// Where the haze begins along the view direction, metres: lights at a finite distance
-    /// light it as they light a drop there (the nearest haze is the brightest and the least
-    /// veiled). Without it the haze sees every light as the camera does.
-    pub fn with_haze_distance(mut self, distance_m: f64) -> FrameLighting {
-        self.haze_distance_m = Some(distance_m).filter(|d| d.is_finite() && *d > 0.0);
-        self
     }
 
     /// The drop's transfer table per channel (R, G, B), [`GPU_RTF_BINS`] bins: what the
@@ -200,14 +196,9 @@ impl FrameLighting {
         }
         self.frames_seen += 1;
         lights.extend_from_slice(&self.user_lights);
-        let forward = self.mapper.camera().world_from_camera * DVec3::Z;
-        let haze_at = self.haze_distance_m.map(|d| forward * d);
-        let sh = prt_colour(&env, &self.rtf, forward);
-        let direct = direct_colour(&lights, &self.tables, haze_at, forward);
-        let haze_radiance = [0, 1, 2].map(|c| (sh[c] + direct[c]).max(0.0) as f32);
         FrameLight {
+            haze_sh: env.clone(),
             env,
-            haze_radiance,
             lights,
         }
     }

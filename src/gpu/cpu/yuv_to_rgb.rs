@@ -1,14 +1,45 @@
 //! The CPU twin of the `yuv_to_rgb` stage: decoded code values → linear RGB, chroma taken
-//! from the co-sited sample, then the haze (`background · T + in-scatter`), through
-//! [`crate::video::ColorParams::code_to_linear`].
+//! from the co-sited sample, through [`crate::video::ColorParams::code_to_linear`]; then the
+//! haze: `background · T + in-scatter`, the in-scatter the PRT colour of the haze's light
+//! (`RainParams::haze_sh`, premultiplied by its opacity) for the pixel's view ray
+//! ([`crate::lighting::prt::prt_colour_f64`]).
 
+use glam::{DVec2, DVec3};
+
+use crate::gpu::types::RainParams;
+use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::video::YuvFrame;
 
-/// The linear canvas of `frame` (coded orientation, row-major RGB) under the haze
-/// `haze` = (in-scatter rgb, transmittance), as `RainParams::haze` holds it.
-pub fn yuv_to_rgb(frame: &YuvFrame, haze: [f32; 4]) -> Vec<[f64; 3]> {
+/// The world direction of the view ray through the centre of coded pixel (`x`, `y`) under the
+/// uniforms `p` (back to display pixels, then the pinhole).
+pub fn view_ray(p: &RainParams, x: u32, y: u32) -> DVec3 {
+    let m = p.coded_from_display.map(f64::from);
+    let c = DVec2::new(x as f64 + 0.5, y as f64 + 0.5)
+        - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
+    // The rotation is orthogonal: display = mᵀ (coded − offset).
+    let q = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
+    let d =
+        (q - DVec2::new(p.principal_px[0] as f64, p.principal_px[1] as f64)) / p.focal_px as f64;
+    let row = |r: [f32; 4]| DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64);
+    row(p.camera_from_world_0) * d.x + row(p.camera_from_world_1) * d.y + row(p.camera_from_world_2)
+}
+
+/// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
+pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
+    let transmittance = p.haze[3] as f64;
+    let haze_env: Vec<[f64; 3]> = p
+        .haze_sh
+        .iter()
+        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
+        .collect();
+    let drop = RtfSh {
+        bands: 4,
+        zonal: (0..4)
+            .map(|l| std::array::from_fn(|c| p.drop_zonal[c][l] as f64))
+            .collect(),
+    };
     let mut out = Vec::with_capacity((f.width * f.height) as usize);
     for y in 0..f.height {
         for x in 0..f.width {
@@ -18,8 +49,13 @@ pub fn yuv_to_rgb(frame: &YuvFrame, haze: [f32; 4]) -> Vec<[f64; 3]> {
                 frame.sample(2, x >> sx, y >> sy) as f64,
             ];
             let rgb = frame.color.code_to_linear(code);
+            let in_scatter = if transmittance < 1.0 {
+                prt_colour_f64(&haze_env, &drop, view_ray(p, x, y)).map(|v| v.max(0.0))
+            } else {
+                [0.0; 3]
+            };
             out.push(std::array::from_fn(|k| {
-                rgb[k] * haze[3] as f64 + haze[k] as f64
+                rgb[k] * transmittance + in_scatter[k]
             }));
         }
     }

@@ -7,7 +7,41 @@ use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use clap::Args;
 use rain_composite::pipeline::{self, Job, StageTimes};
+
+use crate::args::{EncodeArgs, GpuArgs, LookArgs, adapter, encode_options, render_config};
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Input video (scaled to each height).
+    pub input: String,
+    /// Picture heights to test.
+    #[arg(long, value_delimiter = ',', default_value = "720,1080")]
+    pub heights: Vec<u32>,
+    /// Runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=50))]
+    pub runs: u32,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub encode: EncodeArgs,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// `rain-composite bench`: checks the input, then measures.
+pub fn run_command(b: &BenchArgs) -> anyhow::Result<()> {
+    check_input(&b.input)?;
+    let job = Job {
+        input: b.input.clone(),
+        output: String::new(),
+        render: render_config(&b.look)?,
+        encode: encode_options(&b.encode, true),
+        adapter: adapter(&b.gpu),
+    };
+    run(&job, &b.input, &b.heights, b.runs as usize)
+}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -35,7 +69,7 @@ fn ffmpeg(args: &[&str]) -> anyhow::Result<()> {
 }
 
 /// Runs the benchmark on `input` scaled to each height in `heights`; prints a Markdown table.
-pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Result<()> {
+fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Result<()> {
     let dir = std::env::temp_dir().join(format!("rain-composite-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let result = (|| -> anyhow::Result<()> {
@@ -113,7 +147,7 @@ pub fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow:
 }
 
 /// Whether `path` looks usable as a benchmark input.
-pub fn check_input(path: &str) -> anyhow::Result<()> {
+fn check_input(path: &str) -> anyhow::Result<()> {
     if !Path::new(path).is_file() {
         bail!("cannot open input '{path}': no such file");
     }

@@ -1,0 +1,554 @@
+//! The command line's shape (clap) and its translation into the library's settings. Defaults
+//! of values that live in the library are read from it (`RenderConfig::default`,
+//! `EncodeOptions::default`), never repeated here.
+
+use std::path::PathBuf;
+
+use anyhow::bail;
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
+use rain_composite::config::RenderConfig;
+use rain_composite::gpu::AdapterRequest;
+use rain_composite::video::{AudioMode, EncodeOptions, VideoCodec};
+
+use crate::bench::BenchArgs;
+use crate::inspect::InspectCommand;
+
+/// Adds physically based rain to video.
+#[derive(Parser, Debug)]
+#[command(
+    name = "rain-composite",
+    version,
+    args_conflicts_with_subcommands = true,
+    allow_negative_numbers = true
+)]
+#[command(
+    after_help = "Examples:\n  rain-composite in.mp4 -o out.mp4 --rain heavy --wind 3,0\n  rain-composite preview in.mp4 --at 2.5s -o frame.png\n  ffmpeg -i in.mp4 -f yuv4mpegpipe - | rain-composite - -o - | ffplay -"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    #[command(flatten)]
+    pub render: RenderArgs,
+    #[command(flatten)]
+    pub log: LogArgs,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render one frame exactly as the full render would, to a PNG.
+    #[command(allow_negative_numbers = true)]
+    Preview(PreviewArgs),
+    /// Describe the streams of a file: colour tags, rotation, frame rate, what would be copied.
+    Probe(ProbeArgs),
+    /// Print the models behind the rain as JSON (drop sampling, ...).
+    #[command(subcommand)]
+    Inspect(InspectCommand),
+    /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
+    #[command(allow_negative_numbers = true)]
+    Bench(BenchArgs),
+    /// List the GPU adapters, best first.
+    Adapters {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+pub struct LogArgs {
+    /// Print only errors.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// Print more (repeat for debug output).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Input video, or - for a stream on stdin (y4m, nut, matroska, mpegts).
+    pub input: Option<String>,
+    /// Output video (container from the extension), or - for stdout.
+    #[arg(short, long)]
+    pub output: Option<String>,
+    /// Overwrite the output if it exists.
+    #[arg(short = 'y', long)]
+    pub overwrite: bool,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub encode: EncodeArgs,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+    /// Progress report on stderr.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    pub progress: ProgressMode,
+}
+
+/// The rain and camera: every value is optional, so that only the flags given override the
+/// `--config` file; the help's `[default: …]` comes from `RenderConfig::default` (see
+/// [`parse`]).
+#[derive(Args, Debug, Clone)]
+pub struct LookArgs {
+    /// JSON file of settings (see samples/presets/); flags given here override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Rain rate in mm/h, or drizzle (0.3) | light (1) | moderate (5) | heavy (20) | violent (75); 0 turns rain off.
+    #[arg(long, value_name = "MM_PER_H")]
+    pub rain: Option<String>,
+    /// Multiplier on drop diameters.
+    #[arg(long)]
+    pub drop_scale: Option<f64>,
+    /// Multiplier on fall speeds.
+    #[arg(long)]
+    pub fall_speed_scale: Option<f64>,
+    /// Mean wind in m/s as X,Y: X to the right of the picture, Y away from the camera.
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    pub wind: Option<String>,
+    /// Multiplier on the streaks' physical coverage.
+    #[arg(long)]
+    pub opacity: Option<f64>,
+    /// Random seed: the same seed gives the same rain.
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Horizontal field of view of the picture, degrees.
+    #[arg(long)]
+    pub fov: Option<f64>,
+    /// Camera height above the ground, metres.
+    #[arg(long)]
+    pub camera_height: Option<f64>,
+    /// Camera pitch, degrees up (negative: down).
+    #[arg(long, allow_hyphen_values = true)]
+    pub tilt: Option<f64>,
+    /// Camera roll, degrees clockwise.
+    #[arg(long, allow_hyphen_values = true)]
+    pub roll: Option<f64>,
+    /// Shutter angle, degrees (exposure = angle/360 of a frame).
+    #[arg(long)]
+    pub shutter: Option<f64>,
+    /// Nearest drop distance, metres.
+    #[arg(long)]
+    pub near: Option<f64>,
+    /// Farthest drop distance, metres; drops are drawn only as far as they are visible.
+    #[arg(long)]
+    pub far: Option<f64>,
+    /// Most drops drawn per frame (beyond it the far distance shrinks, then drops are weighted).
+    #[arg(long)]
+    pub max_drops: Option<u32>,
+    /// RMS of the wind gusts along the mean wind, m/s.
+    #[arg(long)]
+    pub gust: Option<f64>,
+    /// Altitude of the scene, metres (thinner air, faster drops).
+    #[arg(long, allow_hyphen_values = true)]
+    pub altitude: Option<f64>,
+    /// Focus distance, metres.
+    #[arg(long)]
+    pub focus: Option<f64>,
+    /// Aperture f-number; 0 for a pinhole (no defocus).
+    #[arg(long)]
+    pub f_number: Option<f64>,
+    /// Sensor width, mm (36 = full-frame equivalent).
+    #[arg(long)]
+    pub sensor_width: Option<f64>,
+    /// Time constant of the lighting's smoothing over frames, seconds; 0 = off.
+    #[arg(long)]
+    pub light_smoothing: Option<f64>,
+    /// Clipped highlights become this factor times the clip level, instead of the recovery's
+    /// estimate (compact ones still become light sources).
+    #[arg(long)]
+    pub highlight_gain: Option<f64>,
+    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing
+    /// (ignores --highlight-gain).
+    #[arg(long)]
+    pub hdr_input: bool,
+    /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
+    #[arg(long)]
+    pub scene_depth: Option<f64>,
+    /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
+    #[arg(
+        long = "light",
+        value_name = "AZ,EL,R,G,B[,DISTANCE_M]",
+        allow_hyphen_values = true
+    )]
+    pub lights: Vec<String>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct EncodeArgs {
+    /// Video codec.
+    #[arg(long, value_enum, default_value_t = CodecArg::from(EncodeOptions::default().codec))]
+    pub codec: CodecArg,
+    /// Constant rate factor (H.264/HEVC; lower is better).
+    #[arg(long, default_value_t = EncodeOptions::default().crf, value_parser = clap::value_parser!(u8).range(0..=51))]
+    pub crf: u8,
+    /// Encoder preset (H.264/HEVC).
+    #[arg(long, default_value_t = EncodeOptions::default().preset)]
+    pub preset: String,
+    /// Container for stdout (or to override the extension).
+    #[arg(long, value_enum)]
+    pub format: Option<FormatArg>,
+    /// What to do with audio and other streams.
+    #[arg(long, value_enum, default_value_t = AudioArg::from(EncodeOptions::default().audio))]
+    pub audio: AudioArg,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GpuArgs {
+    /// Use the adapter whose name contains NAME (see `rain-composite adapters`).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// Use a CPU (software) adapter only.
+    #[arg(long)]
+    pub cpu: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct PreviewArgs {
+    /// Input video.
+    pub input: String,
+    /// Time of the frame: seconds, or with a unit (2.5s, 1500ms, 00:01:02.5).
+    #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
+    pub at: Option<String>,
+    /// Zero-based frame index.
+    #[arg(long)]
+    pub frame: Option<u64>,
+    /// Output PNG, or - for stdout.
+    #[arg(short, long)]
+    pub output: String,
+    /// Overwrite the output if it exists.
+    #[arg(short = 'y', long)]
+    pub overwrite: bool,
+    /// Bits per PNG channel.
+    #[arg(long, value_enum, default_value_t = Bits::Eight)]
+    pub bits: Bits,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ProbeArgs {
+    /// Input video.
+    pub input: String,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Container the output would be written to (decides what can be copied).
+    #[arg(long, value_name = "EXT")]
+    pub for_output: Option<String>,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum ProgressMode {
+    /// A bar when stderr is a terminal, nothing otherwise.
+    Auto,
+    /// One JSON object per line on stderr.
+    Json,
+    /// Nothing.
+    None,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum Bits {
+    /// 8 bits per channel.
+    #[value(name = "8")]
+    Eight,
+    /// 16 bits per channel.
+    #[value(name = "16")]
+    Sixteen,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum CodecArg {
+    /// H.264 (libx264).
+    H264,
+    /// HEVC (libx265).
+    Hevc,
+    /// Apple ProRes 422 HQ (prores_ks), 10-bit.
+    Prores,
+    /// FFV1, lossless.
+    Ffv1,
+}
+
+impl From<CodecArg> for VideoCodec {
+    fn from(c: CodecArg) -> VideoCodec {
+        match c {
+            CodecArg::H264 => VideoCodec::H264,
+            CodecArg::Hevc => VideoCodec::Hevc,
+            CodecArg::Prores => VideoCodec::ProRes,
+            CodecArg::Ffv1 => VideoCodec::Ffv1,
+        }
+    }
+}
+
+impl From<VideoCodec> for CodecArg {
+    fn from(c: VideoCodec) -> CodecArg {
+        match c {
+            VideoCodec::H264 => CodecArg::H264,
+            VideoCodec::Hevc => CodecArg::Hevc,
+            VideoCodec::ProRes => CodecArg::Prores,
+            VideoCodec::Ffv1 => CodecArg::Ffv1,
+        }
+    }
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+pub enum FormatArg {
+    /// YUV4MPEG2 (raw, constant frame rate).
+    Y4m,
+    /// NUT.
+    Nut,
+    /// Matroska.
+    Matroska,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum AudioArg {
+    /// Copy audio and other streams bit for bit (AAC where the container cannot hold them).
+    Copy,
+    /// Video only.
+    None,
+}
+
+impl From<AudioArg> for AudioMode {
+    fn from(a: AudioArg) -> AudioMode {
+        match a {
+            AudioArg::Copy => AudioMode::Copy,
+            AudioArg::None => AudioMode::None,
+        }
+    }
+}
+
+impl From<AudioMode> for AudioArg {
+    fn from(a: AudioMode) -> AudioArg {
+        match a {
+            AudioMode::Copy => AudioArg::Copy,
+            AudioMode::None => AudioArg::None,
+        }
+    }
+}
+
+/// Parses the command line (exiting with clap's message on an error), with each rain and
+/// camera flag's help ending in its default from [`RenderConfig::flag_values`].
+pub fn parse() -> Cli {
+    let command = with_look_defaults(Cli::command(), &RenderConfig::default().flag_values());
+    let matches = command.get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
+/// Appends `[default: …]` to the help of each [`LookArgs`] flag in `command` and its
+/// subcommands. A command flattens [`LookArgs`] exactly when it has `--config`; flags there
+/// that carry a clap default of their own (none today) are left alone.
+fn with_look_defaults(mut command: clap::Command, defaults: &[(&str, String)]) -> clap::Command {
+    if command
+        .get_arguments()
+        .any(|a| a.get_long() == Some("config"))
+    {
+        for (flag, value) in defaults {
+            let long = flag.trim_start_matches("--");
+            let id = command
+                .get_arguments()
+                .find(|a| a.get_long() == Some(long) && a.get_default_values().is_empty())
+                .map(|a| a.get_id().clone());
+            if let Some(id) = id {
+                command = command.mut_arg(id, |a| {
+                    // clap drops the final period of a one-line doc comment; the default
+                    // follows the sentence.
+                    let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+                    a.help(format!("{help}. [default: {value}]"))
+                });
+            }
+        }
+    }
+    let names: Vec<String> = command
+        .get_subcommands()
+        .map(|s| s.get_name().to_string())
+        .collect();
+    for name in names {
+        command = command.mut_subcommand(name, |s| with_look_defaults(s, defaults));
+    }
+    command
+}
+
+fn parse_rain(s: &str) -> anyhow::Result<f64> {
+    Ok(rain_composite::rain::physics::RainRate::parse(s)?.mm_per_h())
+}
+
+/// A time of the stream: seconds, `2.5s`, `1500ms` or `00:01:02.5`.
+pub fn parse_time_s(s: &str) -> anyhow::Result<f64> {
+    let bad = || {
+        anyhow::anyhow!("invalid time '{s}': expected seconds (2.5, 2.5s, 1500ms or 00:01:02.5)")
+    };
+    let t = if let Some(ms) = s.strip_suffix("ms") {
+        ms.trim().parse::<f64>().map_err(|_| bad())? / 1000.0
+    } else if s.contains(':') {
+        s.split(':')
+            .try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v))
+            .map_err(|_| bad())?
+    } else {
+        s.strip_suffix('s')
+            .unwrap_or(s)
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| bad())?
+    };
+    if !t.is_finite() || t < 0.0 {
+        return Err(bad());
+    }
+    Ok(t)
+}
+
+/// The render settings: the `--config` file (or the defaults), then each flag given.
+pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
+    let mut c = match &look.config {
+        Some(path) => RenderConfig::from_json_file(path)?,
+        None => RenderConfig::default(),
+    };
+    if let Some(r) = &look.rain {
+        c.rain.rate_mm_per_h = parse_rain(r)?;
+    }
+    if let Some(w) = &look.wind {
+        let parts: Vec<&str> = w.split(',').collect();
+        let parsed: Option<Vec<f64>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
+        match parsed.as_deref() {
+            Some([x, y]) => c.rain.wind_mps = [*x, *y],
+            Some([x]) => c.rain.wind_mps = [*x, 0.0],
+            _ => bail!("invalid --wind '{w}': expected X,Y in m/s, e.g. 3,-1"),
+        }
+    }
+    for text in &look.lights {
+        c.light
+            .lights
+            .push(rain_composite::lighting::UserLight::parse(text)?);
+    }
+    let r = &mut c.rain;
+    let cam = &mut c.camera;
+    macro_rules! set {
+        ($src:expr => $dst:expr) => {
+            if let Some(v) = $src {
+                $dst = v;
+            }
+        };
+    }
+    set!(look.drop_scale => r.drop_scale);
+    set!(look.fall_speed_scale => r.fall_speed_scale);
+    set!(look.opacity => r.opacity);
+    set!(look.seed => r.seed);
+    set!(look.near => r.near_m);
+    set!(look.far => r.far_m);
+    set!(look.max_drops => r.max_drops);
+    set!(look.gust => r.gust_mps);
+    set!(look.light_smoothing => c.light.smoothing_s);
+    if look.highlight_gain.is_some() {
+        c.light.highlight_gain = look.highlight_gain;
+    }
+    if look.hdr_input {
+        c.light.hdr_input = true;
+    }
+    set!(look.altitude => r.altitude_m);
+    set!(look.scene_depth => r.scene_depth_m);
+    set!(look.focus => cam.focus_m);
+    set!(look.f_number => cam.f_number);
+    set!(look.sensor_width => cam.sensor_width_mm);
+    set!(look.fov => cam.fov_deg);
+    set!(look.camera_height => cam.height_m);
+    set!(look.tilt => cam.tilt_deg);
+    set!(look.roll => cam.roll_deg);
+    set!(look.shutter => cam.shutter_deg);
+    c.validate()?;
+    Ok(c)
+}
+
+/// Which GPU adapter the flags ask for.
+pub fn adapter(g: &GpuArgs) -> AdapterRequest {
+    AdapterRequest {
+        name: g.adapter.clone(),
+        cpu_only: g.cpu,
+    }
+}
+
+/// The encoder settings the flags ask for.
+pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
+    EncodeOptions {
+        codec: e.codec.into(),
+        crf: e.crf,
+        preset: e.preset.clone(),
+        container: e.format.map(|f| {
+            match f {
+                FormatArg::Y4m => "yuv4mpegpipe",
+                FormatArg::Nut => "nut",
+                FormatArg::Matroska => "matroska",
+            }
+            .to_string()
+        }),
+        audio: e.audio.into(),
+        overwrite,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parsed(args: &[&str]) -> Cli {
+        let command = with_look_defaults(Cli::command(), &RenderConfig::default().flag_values());
+        let m = command
+            .try_get_matches_from(args)
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        Cli::from_arg_matches(&m).expect("matches")
+    }
+
+    /// Every flag of `flag_values` sets the field it names: a configuration unlike the
+    /// default in every value, given back as flags, is read back unchanged.
+    #[test]
+    fn each_flag_sets_the_value_it_names() {
+        let mut c = RenderConfig::default();
+        let (cam, r) = (&mut c.camera, &mut c.rain);
+        (cam.fov_deg, cam.height_m, cam.tilt_deg, cam.roll_deg) = (47.5, 2.25, -7.5, 3.5);
+        (cam.shutter_deg, cam.focus_m, cam.f_number) = (90.0, 3.5, 2.8);
+        cam.sensor_width_mm = 23.5;
+        (r.rate_mm_per_h, r.drop_scale, r.fall_speed_scale) = (7.5, 1.25, 0.75);
+        (r.wind_mps, r.gust_mps, r.altitude_m) = ([2.5, -1.5], 1.5, 350.0);
+        (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
+        (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
+        (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
+        let values = c.flag_values();
+        let defaults = RenderConfig::default().flag_values();
+        for (flag, d) in &defaults {
+            let v = values.iter().find(|(f, _)| f == flag).map(|(_, v)| v);
+            assert_ne!(
+                v,
+                Some(d),
+                "{flag} keeps its default in the test configuration"
+            );
+        }
+        assert!(values.iter().any(|(f, _)| *f == "--highlight-gain"));
+        c.light.hdr_input = true;
+        let mut args = vec![
+            "rain-composite".to_string(),
+            "in.mp4".into(),
+            "--hdr-input".into(),
+        ];
+        for (flag, v) in &values {
+            args.push(format!("{flag}={v}"));
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let cli = parsed(&args);
+        assert_eq!(render_config(&cli.render.look).expect("valid"), c);
+        assert_eq!(
+            render_config(&parsed(&["rain-composite", "in.mp4"]).render.look).expect("valid"),
+            RenderConfig::default()
+        );
+    }
+
+    /// The encoder flags' defaults are the library's.
+    #[test]
+    fn encode_defaults_are_the_library_defaults() {
+        let cli = parsed(&["rain-composite", "in.mp4"]);
+        assert_eq!(
+            encode_options(&cli.render.encode, false),
+            EncodeOptions::default()
+        );
+    }
+}

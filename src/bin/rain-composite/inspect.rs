@@ -1,0 +1,217 @@
+//! `rain-composite inspect …`: the flags of each report, read into the settings that
+//! `rain_composite::inspect` takes; the reports themselves are the library's.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use clap::Subcommand;
+use rain_composite::config::CameraConfig;
+use rain_composite::inspect;
+use rain_composite::lighting::{ChannelIndices, LightConfig};
+
+use crate::args::{LookArgs, render_config};
+use crate::out;
+
+#[derive(Subcommand, Debug)]
+pub enum InspectCommand {
+    /// Run an SPH validation scene and print its measures (density error, pressure against
+    /// depth, water front against Martin & Moyce, mass ledger, carpet flatness).
+    Sph {
+        /// column, dam-break or basin.
+        #[arg(long, value_parser = ["column", "dam-break", "basin"])]
+        scene: String,
+        /// Solver steps [default: the steps that reach the validated state: column 3500,
+        /// dam-break 1500, basin 5000].
+        #[arg(long)]
+        steps: Option<usize>,
+        /// Print JSON (the only format).
+        #[arg(long)]
+        json: bool,
+    },
+    /// The raindrop's radiance-transfer function: table per order, energy, zonal SH coefficients.
+    Rtf {
+        /// Refractive index: one value, or R,G,B for dispersion.
+        #[arg(long, default_value = "1.333", value_delimiter = ',')]
+        rho: Vec<f64>,
+        /// Highest scattering order.
+        #[arg(long, default_value_t = inspect::RTF_N_MAX)]
+        nmax: usize,
+        /// Angular bins of the table over [0, π].
+        #[arg(long, default_value_t = 1024)]
+        bins: usize,
+        /// SH bands of the zonal coefficients.
+        #[arg(long, default_value_t = 4)]
+        bands: usize,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw a polar plot with the rainbow angles marked to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
+    /// The SH coefficients of an image used as a frame under the camera model.
+    #[command(allow_negative_numbers = true)]
+    Sh {
+        /// An image (PNG, sRGB) standing for a video frame.
+        image: PathBuf,
+        /// SH bands.
+        #[arg(long, default_value_t = 4)]
+        bands: usize,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = CameraConfig::default().fov_deg)]
+        fov: f64,
+        /// Camera pitch, degrees up.
+        #[arg(long, default_value_t = CameraConfig::default().tilt_deg, allow_hyphen_values = true)]
+        tilt: f64,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the environment reconstructed from its coefficients beside the mapped
+        /// original to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
+    /// The light of an image used as a frame: recovered light sources, the SH of the extended
+    /// remainder, and the radiance of a drop seen through a grid of pixel positions, with and
+    /// without recovery (linear RGB, 1.0 = the frame's white).
+    Light {
+        /// An image (PNG, sRGB, 8 or 16 bit) standing for a video frame.
+        image: PathBuf,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = CameraConfig::default().fov_deg)]
+        fov: f64,
+        /// Camera pitch, degrees up.
+        #[arg(long, default_value_t = CameraConfig::default().tilt_deg, allow_hyphen_values = true)]
+        tilt: f64,
+        /// Grid of view rays, NxM (columns x rows).
+        #[arg(long, default_value = "3x3")]
+        grid: String,
+        /// A fixed factor on the clip level for clipped pixels instead of the estimate.
+        #[arg(long)]
+        highlight_gain: Option<f64>,
+        /// Trust the image as it is (no recovery).
+        #[arg(long)]
+        hdr_input: bool,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the frame with the lights marked to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
+    /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
+    #[command(allow_negative_numbers = true)]
+    Drops {
+        /// Picture size the camera sees, WxH.
+        #[arg(long, default_value = "1920x1080")]
+        size: String,
+        /// Drops to sample.
+        #[arg(long, default_value_t = 1000)]
+        count: usize,
+        /// Time, seconds.
+        #[arg(long, default_value_t = 0.0)]
+        time: f64,
+        /// Frame rate, for the exposure (shutter angle / 360 / fps).
+        #[arg(long, default_value_t = 25.0)]
+        fps: f64,
+        /// Print JSON (the only format).
+        #[arg(long)]
+        json: bool,
+        #[command(flatten)]
+        look: Box<LookArgs>,
+    },
+}
+
+/// `--fov` of the image reports: the range the render accepts.
+fn check_fov(fov: f64) -> anyhow::Result<()> {
+    if !(fov > 1.0 && fov < 170.0) {
+        bail!("invalid --fov {fov}: expected degrees in (1, 170)");
+    }
+    Ok(())
+}
+
+/// Runs one report and prints it.
+pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
+    let report = match command {
+        InspectCommand::Sph { scene, steps, .. } => inspect::sph(scene, *steps)?,
+        InspectCommand::Rtf {
+            rho,
+            nmax,
+            bins,
+            bands,
+            plot,
+            ..
+        } => {
+            let rho: ChannelIndices = match rho.as_slice() {
+                [r] => (*r).into(),
+                [r, g, b] => [*r, *g, *b].into(),
+                _ => bail!("invalid --rho: give one index or three (R,G,B)"),
+            };
+            inspect::rtf(rho, *nmax, *bins, *bands, plot.as_deref())?
+        }
+        InspectCommand::Sh {
+            image,
+            bands,
+            fov,
+            tilt,
+            plot,
+            ..
+        } => {
+            check_fov(*fov)?;
+            let camera = CameraConfig {
+                fov_deg: *fov,
+                tilt_deg: *tilt,
+                ..CameraConfig::default()
+            };
+            inspect::sh(image, &camera, *bands, plot.as_deref())?
+        }
+        InspectCommand::Light {
+            image,
+            fov,
+            tilt,
+            grid,
+            highlight_gain,
+            hdr_input,
+            plot,
+            ..
+        } => {
+            check_fov(*fov)?;
+            let parsed = grid
+                .split_once(['x', 'X'])
+                .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
+            let Some(grid) = parsed else {
+                bail!("invalid --grid '{grid}': expected NxM, e.g. 3x3");
+            };
+            let camera = CameraConfig {
+                fov_deg: *fov,
+                tilt_deg: *tilt,
+                ..CameraConfig::default()
+            };
+            let light = LightConfig {
+                highlight_gain: *highlight_gain,
+                hdr_input: *hdr_input,
+                ..LightConfig::default()
+            };
+            inspect::light(image, &camera, grid, &light, plot.as_deref())?
+        }
+        InspectCommand::Drops {
+            size,
+            count,
+            time,
+            fps,
+            look,
+            ..
+        } => {
+            let config = render_config(look)?;
+            let size_px = size
+                .split_once('x')
+                .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+                .filter(|&(w, h)| w > 0 && h > 0)
+                .with_context(|| {
+                    format!("invalid --size '{size}': expected WxH, e.g. 1920x1080")
+                })?;
+            inspect::drops(&config, size_px, *count, *time, *fps)?
+        }
+    };
+    out(&serde_json::to_string_pretty(&report)?)
+}

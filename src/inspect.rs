@@ -1,0 +1,106 @@
+//! The `inspect` reports: one function per subcommand, taking the settings the command line
+//! parsed and returning the JSON report (and drawing the optional plot). The binary only parses
+//! flags, calls one of these and prints the value, so a report can also be produced (and
+//! tested) without the CLI.
+//!
+//! Each report builds its model with the constructor the render uses — the drop plan with
+//! the lens and the budget, the camera from [`CameraConfig`] — so what it prints is what a
+//! render with the same settings draws.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::Result;
+use crate::config::{CameraConfig, RenderConfig};
+use crate::gpu::uniforms as emitter;
+use crate::lighting::inspect::{self as light_inspect, LinearImage};
+use crate::lighting::{ChannelIndices, LightConfig, inspect_light, rtf};
+use crate::rain::{physics, volume};
+
+/// `inspect sph`: runs a validation scene (`column`, `dam-break`, `basin`) for `steps` solver
+/// steps, or for the steps that reach its validated state when `None`.
+pub fn sph(scene: &str, steps: Option<usize>) -> Result<Value> {
+    let steps = steps.unwrap_or_else(|| crate::fluid::scenes::validated_steps(scene));
+    crate::fluid::scenes::inspect_sph(scene, steps)
+}
+
+/// Highest scattering order `inspect rtf` tabulates unless told: the render's.
+pub const RTF_N_MAX: usize = rtf::DEFAULT_N_MAX;
+
+/// `inspect rtf`: the raindrop's transfer function for refractive index `rho` (one per
+/// channel for dispersion): the table per order, energies and zonal SH coefficients; with
+/// `plot`, also a polar plot with the rainbow angles marked.
+pub fn rtf(
+    rho: ChannelIndices,
+    n_max: usize,
+    bins: usize,
+    bands: usize,
+    plot: Option<&Path>,
+) -> Result<Value> {
+    let v = light_inspect::inspect_rtf(rho, n_max, bins, bands)?;
+    if let Some(path) = plot {
+        light_inspect::plot_rtf(rho, n_max, bins, path)?;
+    }
+    Ok(v)
+}
+
+/// `inspect sh`: the SH coefficients of the image at `image` (a PNG standing for a frame) seen
+/// through `camera` (the render's camera model: its height and roll included); with `plot`,
+/// also the environment reconstructed from the coefficients beside the mapped original.
+pub fn sh(image: &Path, camera: &CameraConfig, bands: usize, plot: Option<&Path>) -> Result<Value> {
+    let img = LinearImage::load_png(image)?;
+    let camera = camera.camera(img.width as u32, img.height as u32);
+    let v = light_inspect::inspect_sh(&img, &camera, bands)?;
+    if let Some(path) = plot {
+        light_inspect::plot_sh(&img, &camera, bands, path)?;
+    }
+    Ok(v)
+}
+
+/// `inspect light`: the light sources recovered from the clipped highlights of the image at
+/// `image` seen through `camera`, the SH of the extended remainder, and the radiance of a drop
+/// seen through the centre of each cell of a `grid` (columns, rows), with and without
+/// recovery; with `plot`, also the frame with the lights marked.
+pub fn light(
+    image: &Path,
+    camera: &CameraConfig,
+    grid: (usize, usize),
+    light: &LightConfig,
+    plot: Option<&Path>,
+) -> Result<Value> {
+    let img = LinearImage::load_png(image)?;
+    let camera = camera.camera(img.width as u32, img.height as u32);
+    let report = inspect_light::light_report(&img, &camera, grid, light)?;
+    if let Some(path) = plot {
+        inspect_light::plot_light(&img, &camera, &report, path)?;
+    }
+    Ok(inspect_light::inspect_light(&report, &camera))
+}
+
+/// `inspect drops`: the plan the render of a `size_px` picture at `fps` would use under
+/// `config` (distances, counts per band, lens and budget included), and `count` drops sampled
+/// from it at `time_s`.
+pub fn drops(
+    config: &RenderConfig,
+    size_px: (u32, u32),
+    count: usize,
+    time_s: f64,
+    fps: f64,
+) -> Result<Value> {
+    let (w, h) = size_px;
+    let cam = &config.camera;
+    let camera = cam.camera(w, h);
+    let exposure = physics::exposure_s(cam.shutter_deg, fps)?;
+    let setup = emitter::build(&camera, cam, &config.rain, exposure, 0, size_px)?;
+    let params = emitter::plan_params(cam, &config.rain, exposure)?;
+    volume::inspect_drops(
+        &camera,
+        &setup.model,
+        &setup.wind,
+        &params,
+        count,
+        config.rain.seed,
+        time_s,
+    )
+}
