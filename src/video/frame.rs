@@ -159,3 +159,34 @@ impl YuvFrame {
         }
     }
 }
+
+#[cfg(test)]
+mod rotation_tests {
+    use super::*;
+
+    /// The pixel map derived from the one affine map agrees with each quarter turn written out
+    /// by hand, and the displayed size with the turn.
+    #[test]
+    fn coded_pixel_follows_each_quarter_turn() {
+        let (w, h) = (5u32, 3u32);
+        for rotation in [0, 90, 180, 270, -90, 450] {
+            let (dw, dh) = display_size(rotation, w, h);
+            assert_eq!((dw * dh), w * h);
+            for y in 0..dh {
+                for x in 0..dw {
+                    let want = match rotation.rem_euclid(360) {
+                        90 => (w - 1 - y, x),
+                        180 => (w - 1 - x, h - 1 - y),
+                        270 => (y, h - 1 - x),
+                        _ => (x, y),
+                    };
+                    assert_eq!(
+                        coded_pixel(rotation, w, h, x, y),
+                        want,
+                        "{rotation}° at {x},{y}"
+                    );
+                }
+            }
+        }
+    }
+}
