@@ -77,6 +77,9 @@ impl FrameParams {
 /// Entries of the fall-speed-by-quantile table (`RainParams::speed_q`).
 pub use crate::rain::volume::drop::SPEED_TABLE_LEN;
 
+/// SH coefficients of an environment on the GPU (4 bands, the order of `shaders/common/sh.wgsl`).
+pub const SH_COEFFS: usize = 16;
+
 /// Gust components in `RainParams` (`rain::wind::GUST_COMPONENTS`).
 pub const GUSTS: usize = 8;
 
@@ -102,8 +105,8 @@ pub struct RainParams {
     /// The mean wind's travel over the cell size, modulo 1.
     pub mean_travel_cells: [f32; 2],
     pub haze: [f32; 4],
-    pub env_sh: [[f32; 4]; 16],
-    pub haze_sh: [[f32; 4]; 16],
+    pub env_sh: [[f32; 4]; SH_COEFFS],
+    pub haze_sh: [[f32; 4]; SH_COEFFS],
     pub drop_zonal: [[f32; 4]; 3],
     pub gust_amp: [[f32; 4]; GUSTS],
     pub gust_phase: [[f32; 4]; GUSTS],
