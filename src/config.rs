@@ -205,7 +205,9 @@ impl RenderConfig {
     }
 }
 
-fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
+/// `Ok` when `ok` holds and `value` is finite; otherwise the error naming `name` (the flag or
+/// key a user types) and what is `expected`.
+pub(crate) fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
     if ok && value.is_finite() {
         Ok(())
     } else {

@@ -134,21 +134,7 @@ fn every_numeric_option_at_and_beyond_its_bounds() {
     let dir = tempfile::tempdir().expect("tmp");
     let sizes = [("96x64", "small.mp4"), ("640x360", "large.mp4")];
     for (size, name) in sizes {
-        fixtures::clip(
-            dir.path(),
-            name,
-            size,
-            25,
-            0.16,
-            &[
-                "-c:v",
-                "libx264",
-                "-preset",
-                "ultrafast",
-                "-pix_fmt",
-                "yuv420p",
-            ],
-        );
+        fixtures::quick_clip(dir.path(), name, size, 0.16);
     }
     let mut cases = Vec::new();
     for (size, _) in sizes {

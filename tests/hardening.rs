@@ -67,21 +67,7 @@ fn succeeds(cmd: &mut Command) -> Output {
 }
 
 fn clip(dir: &Path, name: &str, size: &str, secs: f64) -> PathBuf {
-    fixtures::clip(
-        dir,
-        name,
-        size,
-        25,
-        secs,
-        &[
-            "-c:v",
-            "libx264",
-            "-preset",
-            "ultrafast",
-            "-pix_fmt",
-            "yuv420p",
-        ],
-    )
+    fixtures::quick_clip(dir, name, size, secs)
 }
 
 #[test]

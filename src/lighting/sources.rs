@@ -25,6 +25,7 @@
 use glam::DVec3;
 
 use super::rtf::RtfTable;
+use crate::config::check;
 use crate::{Error, Result};
 
 /// One compact light source, seen from the camera.
@@ -156,35 +157,23 @@ impl Default for UserLight {
     }
 }
 
-fn expect(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
-    if ok && value.is_finite() {
-        Ok(())
-    } else {
-        Err(Error::Parameter {
-            name,
-            value: value.to_string(),
-            expected: expected.to_string(),
-        })
-    }
-}
-
 impl UserLight {
     /// Rejects values outside their range, naming the key.
     pub fn validate(&self) -> Result<()> {
-        expect(
+        check(
             "--light azimuth",
             self.azimuth_deg,
             (-360.0..=360.0).contains(&self.azimuth_deg),
             "degrees in [-360, 360]",
         )?;
-        expect(
+        check(
             "--light elevation",
             self.elevation_deg,
             (-90.0..=90.0).contains(&self.elevation_deg),
             "degrees in [-90, 90]",
         )?;
         for l in self.radiance_rgb {
-            expect(
+            check(
                 "--light radiance",
                 l,
                 (0.0..=1e9).contains(&l),
@@ -192,14 +181,14 @@ impl UserLight {
             )?;
         }
         if let Some(d) = self.distance_m {
-            expect(
+            check(
                 "--light distance",
                 d,
                 d > 0.0 && d <= 1e7,
                 "metres, above 0 (and at most 1e7)",
             )?;
         }
-        expect(
+        check(
             "light angular_diameter_deg",
             self.angular_diameter_deg,
             self.angular_diameter_deg > 0.0 && self.angular_diameter_deg <= 90.0,

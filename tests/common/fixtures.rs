@@ -152,6 +152,26 @@ pub fn clip(dir: &Path, name: &str, size: &str, rate: u32, secs: f64, vargs: &[&
     path
 }
 
+/// A quickly encoded H.264 4:2:0 `testsrc2` clip at 25 fps (for tests about anything but the
+/// encoding).
+pub fn quick_clip(dir: &Path, name: &str, size: &str, secs: f64) -> PathBuf {
+    clip(
+        dir,
+        name,
+        size,
+        25,
+        secs,
+        &[
+            "-c:v",
+            "libx264",
+            "-preset",
+            "ultrafast",
+            "-pix_fmt",
+            "yuv420p",
+        ],
+    )
+}
+
 /// A clip with a sine-wave audio track: `vargs` for the video, `aargs` for the audio (and any
 /// extra output options).
 pub fn clip_with_audio(
