@@ -248,10 +248,9 @@ fn depth_map_holes_and_resampling() {
             }
         }
     }
-    // The 4×4 hole is still a hole at its centre, and no value is zero.
-    assert!(
-        up.depth_m[(12 * 45 / 30) * 80 + 22 * 2 - 1].is_nan() || up.depth_m[24 * 80 + 43].is_nan()
-    );
+    // The 4×4 hole (x 20..24, y 10..14) is still a hole at its centre: output (44, 18) samples
+    // source (21.75, 11.83), whose four neighbours are all holes.
+    assert!(up.depth_m[18 * 80 + 44].is_nan());
     assert!(up.depth_m.iter().all(|v| !v.is_finite() || *v > 1.9));
     let down = map.resampled(13, 7);
     assert_eq!((down.width, down.height, down.depth_m.len()), (13, 7, 91));
@@ -290,4 +289,47 @@ fn cost_per_frame() {
     let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
     eprintln!("auto ground: {ms:.2} ms per 640x360 frame");
     assert!(ms < 200.0);
+}
+
+/// `--ground none` is the default configuration, so a render with it is the render without it.
+#[test]
+fn ground_none_is_the_default() {
+    use rain_composite::config::RenderConfig;
+    use rain_composite::scene::GroundMode;
+    let d = RenderConfig::default();
+    assert_eq!(d.ground.mode, GroundMode::None);
+    let explicit = RenderConfig::from_json(r#"{"ground": {"mode": "none"}}"#).expect("valid");
+    assert_eq!(explicit, d);
+    assert!(RenderConfig::from_json(r#"{"ground": {"mode": "none", "sky": 1}}"#).is_err());
+    let bad = RenderConfig::from_json(r#"{"ground": {"mode": "horizon=0.5,roll=120"}}"#);
+    assert!(
+        bad.expect_err("roll out of range")
+            .to_string()
+            .contains("--ground")
+    );
+}
+
+/// Wrong values are refused by the CLI, naming the flag and the range.
+#[test]
+fn cli_names_the_flag_and_range() {
+    for (args, flag, range) in [
+        (
+            &["--ground", "horizon=0.5,roll=95"][..],
+            "--ground",
+            "(-90, 90)",
+        ),
+        (&["--ground", "plane=0,-1,0,0"][..], "--ground", "d ≠ 0"),
+        (&["--ground", "sky"][..], "--ground", "horizon=ROW"),
+        (&["--depth-scale", "0"][..], "--depth-scale", "(0, 1000000]"),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+            .args(["inspect", "drops", "--count", "1"])
+            .args(args)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .expect("spawn");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(err.contains(flag) && err.contains(range), "{args:?}: {err}");
+    }
 }
