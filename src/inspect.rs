@@ -104,3 +104,10 @@ pub fn drops(
         time_s,
     )
 }
+
+/// `inspect ground`: the horizon (tilt, roll, confidence and evidence) that `--ground auto`
+/// estimates at `at_s` of the clip `input` through `camera`'s field of view; with `plot`, also
+/// the frame with the horizon and a metre grid on the ground (at `camera.height_m`).
+pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
+    crate::scene::ground_inspect::report(input, at_s, camera, plot)
+}

@@ -1,8 +1,14 @@
-//! The scene around the camera: the pinhole camera model (and, later, the ground).
+//! The scene around the camera: the pinhole camera model, the ground and depth maps.
 //!
 //! World frame: right-handed, **z up**, metres. With zero tilt and roll the camera stands at
 //! `(0, 0, height_m)` looking along +y, with +x to the right of the picture. This is the frame the
 //! environment map, the spherical harmonics and the rain all share.
 pub mod camera;
+pub mod depth;
+pub mod ground;
+pub mod ground_inspect;
+pub mod horizon;
 
 pub use camera::Camera;
+pub use depth::DepthMap;
+pub use ground::{GroundMode, GroundPlane, GroundPose};

@@ -99,6 +99,28 @@ pub enum InspectCommand {
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
     },
+    /// The ground `--ground auto` finds at a time of a clip: horizon_row (where the horizon
+    /// crosses the vertical centre line, a fraction of the height from the top), tilt_deg and
+    /// roll_deg (as --tilt and --roll), confidence (0–1) and the evidence.
+    Ground {
+        /// Input video.
+        video: String,
+        /// Time of the frame: seconds, or with a unit (2.5s, 1500ms, 00:01:02.5).
+        #[arg(long, default_value = "0")]
+        at: String,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = CameraConfig::default().fov_deg)]
+        fov: f64,
+        /// Camera height above the ground, metres (for the plot's metre grid).
+        #[arg(long, default_value_t = CameraConfig::default().height_m)]
+        camera_height: f64,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the frame with the horizon and a metre grid on the ground to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+    },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
     #[command(allow_negative_numbers = true)]
     Drops {
@@ -193,6 +215,26 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                 ..LightConfig::default()
             };
             inspect::light(image, &camera, grid, &light, plot.as_deref())?
+        }
+        InspectCommand::Ground {
+            video,
+            at,
+            fov,
+            camera_height,
+            plot,
+            ..
+        } => {
+            check_fov(*fov)?;
+            let camera = CameraConfig {
+                fov_deg: *fov,
+                height_m: *camera_height,
+                ..CameraConfig::default()
+            };
+            if !(camera_height.is_finite() && *camera_height > 0.0 && *camera_height <= 1000.0) {
+                bail!("invalid --camera-height {camera_height}: expected metres in (0, 1000]");
+            }
+            let at_s = crate::args::parse_time_s(at)?;
+            inspect::ground(video, at_s, &camera, plot.as_deref())?
         }
         InspectCommand::Drops {
             size,

@@ -1,0 +1,162 @@
+//! Depth maps: metres per pixel, with holes.
+//!
+//! Read from a 16-bit greyscale PNG in millimetres (the format depth cameras and most
+//! monocular-depth tools write); `--depth-scale` multiplies the values (a relative depth map
+//! becomes metres with the right factor). A zero sample, a NaN or an infinity is **unknown**,
+//! never "at the camera". Resampling to the video's size is bilinear over the known neighbours
+//! only, so a hole neither spreads nor drags its neighbours toward zero.
+//!
+//! Only read and validated for now: the render does not use depth yet.
+
+use std::path::Path;
+
+use crate::{Error, Result};
+
+/// Depth in metres per pixel, row-major; `NaN` where unknown.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DepthMap {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Metres, `NaN` = unknown.
+    pub depth_m: Vec<f32>,
+}
+
+/// Largest side of a depth map read, pixels (a bound on memory for a wrong file).
+pub const MAX_DEPTH_SIDE: u32 = 16_384;
+
+impl DepthMap {
+    /// A map from raw values times `scale_m` (metres per unit); 0, NaN, infinities and negative
+    /// values become unknown.
+    pub fn from_values(
+        width: usize,
+        height: usize,
+        values: &[f32],
+        scale_m: f64,
+    ) -> Result<DepthMap> {
+        if width == 0 || height == 0 || values.len() != width * height {
+            return Err(Error::Parameter {
+                name: "--depth",
+                value: format!("{width}x{height} with {} samples", values.len()),
+                expected: "a non-empty map of width × height samples".into(),
+            });
+        }
+        let depth_m = values
+            .iter()
+            .map(|&v| {
+                let m = v as f64 * scale_m;
+                if m.is_finite() && m > 0.0 {
+                    m as f32
+                } else {
+                    f32::NAN
+                }
+            })
+            .collect();
+        Ok(DepthMap {
+            width,
+            height,
+            depth_m,
+        })
+    }
+
+    /// Reads a 16-bit (or 8-bit) greyscale PNG in millimetres, times `depth_scale`.
+    pub fn load_png(path: &Path, depth_scale: f64) -> Result<DepthMap> {
+        let fail = |reason: String| Error::InputOpen {
+            path: path.display().to_string(),
+            reason,
+        };
+        check_scale(depth_scale)?;
+        let img = image::ImageReader::open(path)
+            .map_err(|e| fail(e.to_string()))?
+            .with_guessed_format()
+            .map_err(|e| fail(e.to_string()))?
+            .decode()
+            .map_err(|e| fail(e.to_string()))?;
+        if img.width() > MAX_DEPTH_SIDE || img.height() > MAX_DEPTH_SIDE {
+            return Err(fail(format!("larger than {MAX_DEPTH_SIDE} pixels a side")));
+        }
+        if img.color().has_color() {
+            return Err(fail(
+                "a depth map is one channel (greyscale), millimetres".into(),
+            ));
+        }
+        let grey = img.to_luma16();
+        let values: Vec<f32> = grey.pixels().map(|p| p.0[0] as f32).collect();
+        DepthMap::from_values(
+            grey.width() as usize,
+            grey.height() as usize,
+            &values,
+            depth_scale / 1000.0,
+        )
+    }
+
+    /// Depth at pixel (x, y), metres; `None` where unknown.
+    pub fn at(&self, x: usize, y: usize) -> Option<f32> {
+        let v = self.depth_m[y * self.width + x];
+        v.is_finite().then_some(v)
+    }
+
+    /// The map resampled to `width`×`height` (pixel centres aligned, as a picture scales):
+    /// bilinear over the known neighbours, weights renormalised; unknown where all four are.
+    pub fn resampled(&self, width: usize, height: usize) -> DepthMap {
+        if (width, height) == (self.width, self.height) {
+            return self.clone();
+        }
+        let sx = self.width as f64 / width as f64;
+        let sy = self.height as f64 / height as f64;
+        let mut out = Vec::with_capacity(width * height);
+        for y in 0..height {
+            let fy = ((y as f64 + 0.5) * sy - 0.5).clamp(0.0, (self.height - 1) as f64);
+            let y0 = fy.floor() as usize;
+            let y1 = (y0 + 1).min(self.height - 1);
+            let ty = fy - y0 as f64;
+            for x in 0..width {
+                let fx = ((x as f64 + 0.5) * sx - 0.5).clamp(0.0, (self.width - 1) as f64);
+                let x0 = fx.floor() as usize;
+                let x1 = (x0 + 1).min(self.width - 1);
+                let tx = fx - x0 as f64;
+                let (mut sum, mut wsum) = (0.0, 0.0);
+                for (xx, yy, w) in [
+                    (x0, y0, (1.0 - tx) * (1.0 - ty)),
+                    (x1, y0, tx * (1.0 - ty)),
+                    (x0, y1, (1.0 - tx) * ty),
+                    (x1, y1, tx * ty),
+                ] {
+                    if let Some(d) = self.at(xx, yy).filter(|_| w > 0.0) {
+                        sum += w * d as f64;
+                        wsum += w;
+                    }
+                }
+                out.push(if wsum > 1e-12 {
+                    (sum / wsum) as f32
+                } else {
+                    f32::NAN
+                });
+            }
+        }
+        DepthMap {
+            width,
+            height,
+            depth_m: out,
+        }
+    }
+
+    /// Fraction of the pixels whose depth is known.
+    pub fn known_fraction(&self) -> f64 {
+        self.depth_m.iter().filter(|v| v.is_finite()).count() as f64 / self.depth_m.len() as f64
+    }
+}
+
+/// Checks `--depth-scale`: metres per millimetre of the file, relative; (0, 1000000].
+pub fn check_scale(depth_scale: f64) -> Result<()> {
+    if depth_scale.is_finite() && depth_scale > 0.0 && depth_scale <= 1e6 {
+        Ok(())
+    } else {
+        Err(Error::Parameter {
+            name: "--depth-scale",
+            value: depth_scale.to_string(),
+            expected: "a factor in (0, 1000000] on the file's millimetres".into(),
+        })
+    }
+}

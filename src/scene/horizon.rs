@@ -1,0 +1,564 @@
+//! `--ground auto`: the horizon (so the camera's tilt and roll) estimated from the frames.
+//!
+//! # Method
+//!
+//! Man-made and natural scenes are full of straight edges that are either **vertical**
+//! (posts, walls, door frames) or **horizontal** (kerbs, paving joints, roof lines, a sea
+//! horizon). Seen through a pinhole camera of known field of view, each image segment
+//! defines an *interpretation plane* through the camera centre, with unit normal `l` on the
+//! Gaussian sphere. With `n` the ground's upward normal in camera space (the camera's tilt and
+//! roll, see [`crate::scene::ground`]):
+//!
+//! - a vertical edge's plane contains `n`: `l · n = 0` (all verticals meet at the vertical
+//!   vanishing point `n`);
+//! - parallel horizontal edges share a vanishing point `d` on the horizon (`d · n = 0`), and
+//!   for each edge `d = l × n` up to sign: a family shows as a peak of the edges' azimuths
+//!   along the horizon;
+//! - the horizon itself (a sea or a flat far skyline) is an edge with `l = ±n`.
+//!
+//! The estimate is the `n` with the most support from the three kinds of evidence, found by
+//! an exhaustive search over tilt ∈ [−65°, 65°] × roll ∈ [−60°, 60°] (3° steps, then two finer
+//! levels around the three best cells), so it has no random start and is a pure function of
+//! the frame. A segment's discrepancy to a vertical vanishing point is measured as the angle
+//! between it and the great circle through its midpoint and `n` (not as a distance to the
+//! point, which would favour far-away points), with a Gaussian kernel of 2.5°, 1° then 0.4°.
+//! In a world of right angles the vertical and a horizontal vanishing point look alike to these
+//! tests (the "Manhattan" ambiguity); the tie is broken by the ground being where the texture
+//! is: the support is multiplied by `0.85 + 0.3 g`, with `g` the fraction of the edges' length
+//! below the candidate horizon.
+//!
+//! Segments come from a small line-segment detector on a downscaled luma (the frame's Y plane,
+//! box-averaged to about 320 pixels wide): Sobel gradients; region growing from the strongest
+//! edgels over neighbours whose edge direction agrees within 22.5° (as in LSD, von Gioi et al.
+//! 2010); a region is kept as a segment when its principal axis is at least 12 pixels long and
+//! it is thin (width under a fifth of the length). At most the 400 longest segments are used.
+//!
+//! # Confidence
+//!
+//! `confidence = (1 − exp(−S/0.5)) · (1 − exp(−max(0, k − 2)/3))`, where `S` is the support
+//! (inlier segment length in frame diagonals, kernel-weighted) and `k` the number of inlier
+//! segments (a horizon line counts 4): two segments always meet somewhere, so two inliers
+//! prove nothing, and the confidence rises with each independent one. Below
+//! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
+//!
+//! # Over time
+//!
+//! [`GroundTracker`] averages the per-frame upward normals over a window of past frames,
+//! weighted by confidence, after the last scene cut in the window (a cut: the mean absolute
+//! change of a 16×9 thumbnail of the luma above 0.12) — a pure function of the window's
+//! frames, so a preview of frame *t* that feeds the same window gets the same answer as the
+//! render.
+
+use std::collections::VecDeque;
+
+use glam::DVec3;
+
+use crate::scene::Camera;
+use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+use crate::video::YuvFrame;
+use crate::video::frame::coded_pixel;
+
+/// Below this confidence `auto` falls back to no ground.
+pub const MIN_CONFIDENCE: f64 = 0.3;
+
+/// Width of the luma the segments are detected on, pixels (about; an integer factor of the
+/// frame's width).
+pub const WORK_WIDTH: usize = 320;
+
+/// A greyscale picture in [0, 1], row-major, `scale` frame pixels per sample.
+#[derive(Debug, Clone)]
+pub struct Luma {
+    /// Width, samples.
+    pub width: usize,
+    /// Height, samples.
+    pub height: usize,
+    /// Values in [0, 1].
+    pub data: Vec<f32>,
+    /// Displayed-frame pixels per sample (the box size).
+    pub scale: usize,
+}
+
+impl Luma {
+    /// The Y plane of `frame` as displayed (after `rotation_deg`), box-averaged down to about
+    /// `target_width` samples wide.
+    pub fn from_frame(frame: &YuvFrame, rotation_deg: i32, target_width: usize) -> Luma {
+        let (cw, ch) = (frame.format.width, frame.format.height);
+        let (dw, dh) = if rotation_deg.rem_euclid(180) == 90 {
+            (ch, cw)
+        } else {
+            (cw, ch)
+        };
+        let scale = (dw as usize).div_ceil(target_width.max(1)).max(1);
+        let (w, h) = ((dw as usize / scale).max(1), (dh as usize / scale).max(1));
+        let max = ((1u32 << frame.format.bit_depth) - 1) as f32;
+        let norm = 1.0 / (max * (scale * scale) as f32);
+        let mut data = vec![0.0f32; w * h];
+        for (j, row) in data.chunks_mut(w).enumerate() {
+            for (i, out) in row.iter_mut().enumerate() {
+                let mut sum = 0u32;
+                for y in j * scale..((j + 1) * scale).min(dh as usize) {
+                    for x in i * scale..((i + 1) * scale).min(dw as usize) {
+                        let (cx, cy) = coded_pixel(rotation_deg, cw, ch, x as u32, y as u32);
+                        sum += frame.sample(0, cx, cy) as u32;
+                    }
+                }
+                *out = sum as f32 * norm;
+            }
+        }
+        Luma {
+            width: w,
+            height: h,
+            data,
+            scale,
+        }
+    }
+
+    /// A 16×9 thumbnail (means over blocks), for scene-cut detection.
+    pub fn thumbnail(&self) -> [f32; 144] {
+        let mut sum = [0.0f32; 144];
+        let mut count = [0u32; 144];
+        for y in 0..self.height {
+            let by = (y * 9 / self.height).min(8);
+            for x in 0..self.width {
+                let b = by * 16 + (x * 16 / self.width).min(15);
+                sum[b] += self.data[y * self.width + x];
+                count[b] += 1;
+            }
+        }
+        std::array::from_fn(|i| sum[i] / count[i].max(1) as f32)
+    }
+}
+
+/// A straight edge, in displayed-frame pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    /// One end, pixels.
+    pub a: [f64; 2],
+    /// The other end, pixels.
+    pub b: [f64; 2],
+}
+
+impl Segment {
+    /// Length, pixels.
+    pub fn length(&self) -> f64 {
+        (self.a[0] - self.b[0]).hypot(self.a[1] - self.b[1])
+    }
+}
+
+/// Line segments of `luma` (LSD-like region growing; see the module doc), in frame pixels,
+/// longest first, at most `max_count`.
+pub fn detect_segments(luma: &Luma, max_count: usize) -> Vec<Segment> {
+    let (w, h) = (luma.width, luma.height);
+    if w < 3 || h < 3 {
+        return Vec::new();
+    }
+    let px = |x: usize, y: usize| luma.data[y * w + x];
+    let mut mag = vec![0.0f32; w * h];
+    let mut ang = vec![0.0f32; w * h];
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let gx = (px(x + 1, y - 1) + 2.0 * px(x + 1, y) + px(x + 1, y + 1))
+                - (px(x - 1, y - 1) + 2.0 * px(x - 1, y) + px(x - 1, y + 1));
+            let gy = (px(x - 1, y + 1) + 2.0 * px(x, y + 1) + px(x + 1, y + 1))
+                - (px(x - 1, y - 1) + 2.0 * px(x, y - 1) + px(x + 1, y - 1));
+            let (gx, gy) = (gx / 8.0, gy / 8.0);
+            mag[y * w + x] = gx.hypot(gy);
+            // Direction along the edge (perpendicular to the gradient), mod π.
+            ang[y * w + x] = gx.atan2(-gy);
+        }
+    }
+    const MIN_GRAD: f32 = 0.012;
+    let tol = 22.5f32.to_radians();
+    let mut order: Vec<u32> = (0..(w * h) as u32)
+        .filter(|&i| mag[i as usize] > MIN_GRAD)
+        .collect();
+    order.sort_unstable_by(|&a, &b| mag[b as usize].total_cmp(&mag[a as usize]));
+    let mut used = vec![false; w * h];
+    let mut segs = Vec::new();
+    let mut region: Vec<u32> = Vec::new();
+    let mut stack: Vec<u32> = Vec::new();
+    let diff = |a: f32, b: f32| {
+        let d = (a - b).rem_euclid(std::f32::consts::PI);
+        d.min(std::f32::consts::PI - d)
+    };
+    for &seed in &order {
+        if used[seed as usize] {
+            continue;
+        }
+        region.clear();
+        stack.clear();
+        used[seed as usize] = true;
+        stack.push(seed);
+        let (mut c2, mut s2) = (0.0f32, 0.0f32);
+        let mut mean;
+        while let Some(i) = stack.pop() {
+            region.push(i);
+            let a = 2.0 * ang[i as usize];
+            c2 += a.cos();
+            s2 += a.sin();
+            mean = 0.5 * s2.atan2(c2);
+            let (x, y) = ((i as usize % w) as isize, (i as usize / w) as isize);
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 1 || ny < 1 || nx >= w as isize - 1 || ny >= h as isize - 1 {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if !used[j] && mag[j] > MIN_GRAD && diff(ang[j], mean) < tol {
+                        used[j] = true;
+                        stack.push(j as u32);
+                    }
+                }
+            }
+        }
+        if region.len() < 8 {
+            continue;
+        }
+        // Principal axis, magnitude-weighted.
+        let (mut sw, mut mx, mut my) = (0.0f64, 0.0, 0.0);
+        for &i in &region {
+            let m = mag[i as usize] as f64;
+            sw += m;
+            mx += m * (i as usize % w) as f64;
+            my += m * (i as usize / w) as f64;
+        }
+        let (mx, my) = (mx / sw, my / sw);
+        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+        for &i in &region {
+            let m = mag[i as usize] as f64;
+            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
+            sxx += m * dx * dx;
+            sxy += m * dx * dy;
+            syy += m * dy * dy;
+        }
+        let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (ux, uy) = (theta.cos(), theta.sin());
+        let (mut lo, mut hi, mut wlo, mut whi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &i in &region {
+            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
+            let along = dx * ux + dy * uy;
+            let across = -dx * uy + dy * ux;
+            lo = lo.min(along);
+            hi = hi.max(along);
+            wlo = wlo.min(across);
+            whi = whi.max(across);
+        }
+        let (len, width) = (hi - lo + 1.0, whi - wlo + 1.0);
+        if len < 12.0 || width > 0.2 * len {
+            continue;
+        }
+        let s = luma.scale as f64;
+        let to_frame = |t: f64| [(mx + 0.5 + t * ux) * s, (my + 0.5 + t * uy) * s];
+        segs.push(Segment {
+            a: to_frame(lo),
+            b: to_frame(hi),
+        });
+    }
+    segs.sort_by(|a, b| b.length().total_cmp(&a.length()));
+    segs.truncate(max_count);
+    segs
+}
+
+/// One frame's estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HorizonEstimate {
+    /// The ground's upward normal in camera space.
+    pub up_cam: DVec3,
+    /// Pitch up, degrees (as `--tilt`).
+    pub tilt_deg: f64,
+    /// Roll clockwise, degrees (as `--roll`).
+    pub roll_deg: f64,
+    /// Where the horizon crosses the vertical centre line, fraction of the height from the
+    /// top; `None` when it does not.
+    pub horizon_row: Option<f64>,
+    /// In [0, 1]; see the module doc.
+    pub confidence: f64,
+    /// Evidence: segments found.
+    pub segments: usize,
+    /// Evidence: segments through the vertical vanishing point.
+    pub vertical_inliers: usize,
+    /// Evidence: segments in the two strongest horizontal vanishing points.
+    pub horizontal_inliers: usize,
+    /// Evidence: segments along the horizon itself.
+    pub horizon_inliers: usize,
+}
+
+/// A segment on the Gaussian sphere.
+struct Edge {
+    /// Interpretation-plane normal.
+    l: DVec3,
+    /// Unit ray through the midpoint.
+    m: DVec3,
+    /// Length in frame diagonals.
+    w: f64,
+}
+
+struct Score {
+    total: f64,
+    vertical: usize,
+    horizontal: usize,
+    horizon: usize,
+}
+
+fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) -> Score {
+    let bins = (std::f64::consts::PI / sigma).ceil() as usize;
+    hist.clear();
+    hist.resize(bins, (0.0, 0.0, 0));
+    let e1 = (DVec3::X - n * n.x).normalize_or(DVec3::Z);
+    let e2 = n.cross(e1);
+    let cut = 3.0 * sigma;
+    let inv2s2 = 0.5 / (sigma * sigma);
+    let (mut v_sum, mut l_sum, mut below, mut all) = (0.0, 0.0, 0.0, 0.0);
+    let (mut nv, mut nl) = (0, 0);
+    for e in edges {
+        all += e.w;
+        if e.m.dot(n) < 0.0 {
+            below += e.w;
+        }
+        let ln = e.l.dot(n);
+        let mxn = e.m.cross(n).length().max(1e-9);
+        let alpha = (ln.abs() / mxn).min(1.0).asin();
+        if alpha < cut {
+            v_sum += e.w * (-alpha * alpha * inv2s2).exp();
+            if alpha < 2.0 * sigma {
+                nv += 1;
+            }
+            continue;
+        }
+        let lxn = e.l.cross(n);
+        let s = lxn.length();
+        let beta = s.min(1.0).asin();
+        if beta < cut {
+            l_sum += e.w * (-beta * beta * inv2s2).exp();
+            nl += 1;
+            continue;
+        }
+        let d = lxn / s;
+        let phi = d.dot(e2).atan2(d.dot(e1)).rem_euclid(std::f64::consts::PI);
+        let b = ((phi / sigma) as usize).min(bins - 1);
+        let cell = &mut hist[b];
+        cell.0 += e.w;
+        cell.1 = cell.1.max(e.w);
+        cell.2 += 1;
+    }
+    // The two strongest families: a window of three bins, less its longest segment (one
+    // segment alone is no vanishing point).
+    let mut h_sum = 0.0;
+    let mut nh = 0;
+    let mut taken: Vec<usize> = Vec::new();
+    for _ in 0..2 {
+        let mut best = (0.0, 0usize, 0u32);
+        for b in 0..bins {
+            if taken.iter().any(|&t| {
+                let d = b.abs_diff(t);
+                d.min(bins - d) <= 3
+            }) {
+                continue;
+            }
+            let (mut s, mut m, mut c) = (0.0, 0.0f64, 0);
+            for k in [bins - 1, 0, 1] {
+                let cell = hist[(b + k) % bins];
+                s += cell.0;
+                m = m.max(cell.1);
+                c += cell.2;
+            }
+            if c >= 2 && s - m > best.0 {
+                best = (s - m, b, c);
+            }
+        }
+        if best.0 > 0.0 {
+            h_sum += best.0;
+            nh += best.2 as usize;
+            taken.push(best.1);
+        }
+    }
+    let g = if all > 0.0 { below / all } else { 0.5 };
+    Score {
+        total: (v_sum + h_sum + 1.5 * l_sum) * (0.85 + 0.3 * g),
+        vertical: nv,
+        horizontal: nh,
+        horizon: nl,
+    }
+}
+
+/// Estimates the horizon of one picture seen through `camera`'s intrinsics (its own tilt and
+/// roll are ignored) from its segments.
+pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonEstimate {
+    let f = camera.focal_px();
+    let c = camera.principal_px();
+    let diag = (camera.width_px as f64).hypot(camera.height_px as f64);
+    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
+    let edges: Vec<Edge> = segments
+        .iter()
+        .filter_map(|s| {
+            let (a, b) = (ray(s.a), ray(s.b));
+            let l = a.cross(b).try_normalize()?;
+            Some(Edge {
+                l,
+                m: (a + b).normalize(),
+                w: s.length() / diag,
+            })
+        })
+        .collect();
+    let mut hist = Vec::new();
+    let eval = |t: f64, r: f64, sigma: f64, hist: &mut Vec<_>| {
+        score(
+            &edges,
+            crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians()),
+            sigma.to_radians(),
+            hist,
+        )
+    };
+    // Coarse: the whole range.
+    let mut coarse: Vec<(f64, f64, f64)> = Vec::new();
+    let mut t = -MAX_TILT_DEG;
+    while t <= MAX_TILT_DEG {
+        let mut r = -MAX_ROLL_DEG;
+        while r <= MAX_ROLL_DEG {
+            coarse.push((eval(t, r, 2.5, &mut hist).total, t, r));
+            r += 3.0;
+        }
+        t += 3.0;
+    }
+    coarse.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut starts: Vec<(f64, f64)> = Vec::new();
+    for &(_, t, r) in &coarse {
+        if starts
+            .iter()
+            .all(|&(t0, r0)| (t - t0).abs() > 6.0 || (r - r0).abs() > 6.0)
+        {
+            starts.push((t, r));
+        }
+        if starts.len() == 3 {
+            break;
+        }
+    }
+    let refine = |(t0, r0): (f64, f64), half: f64, step: f64, sigma: f64, hist: &mut Vec<_>| {
+        let mut best = (f64::MIN, t0, r0);
+        let k = (half / step).round() as i32;
+        for i in -k..=k {
+            for j in -k..=k {
+                let (t, r) = (t0 + i as f64 * step, r0 + j as f64 * step);
+                if t.abs() > MAX_TILT_DEG || r.abs() > MAX_ROLL_DEG {
+                    continue;
+                }
+                let s = eval(t, r, sigma, hist).total;
+                if s > best.0 {
+                    best = (s, t, r);
+                }
+            }
+        }
+        best
+    };
+    let mut best = (f64::MIN, 0.0, 0.0);
+    for s in starts {
+        let b = refine(s, 3.0, 0.5, 1.0, &mut hist);
+        if b.0 > best.0 {
+            best = b;
+        }
+    }
+    let (_, t, r) = refine((best.1, best.2), 0.6, 0.1, 0.4, &mut hist);
+    let fin = eval(t, r, 0.4, &mut hist);
+    let up_cam = crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
+    let k = fin.vertical + fin.horizontal + 4 * fin.horizon;
+    let support =
+        (1.0 - (-fin.total / 0.5).exp()) * (1.0 - (-((k as f64 - 2.0).max(0.0)) / 3.0).exp());
+    HorizonEstimate {
+        up_cam,
+        tilt_deg: t,
+        roll_deg: r,
+        horizon_row: horizon_row_of_up(up_cam, camera),
+        confidence: if edges.is_empty() {
+            0.0
+        } else {
+            support.clamp(0.0, 1.0)
+        },
+        segments: edges.len(),
+        vertical_inliers: fin.vertical,
+        horizontal_inliers: fin.horizontal,
+        horizon_inliers: fin.horizon,
+    }
+}
+
+/// Largest |tilt| `auto` considers, degrees: beyond it the optical axis is within 25° of the
+/// vertical and, in a picture of right angles, the vertical vanishing point cannot be told
+/// from the point straight ahead (any two families of image-parallel lines fit it).
+pub const MAX_TILT_DEG: f64 = 65.0;
+
+/// Largest |roll| `auto` considers, degrees (beyond, up and sideways trade places).
+pub const MAX_ROLL_DEG: f64 = 60.0;
+
+/// Most segments used per frame.
+pub const MAX_SEGMENTS: usize = 400;
+
+/// Estimates the horizon of one luma picture through `camera`'s intrinsics.
+pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
+    estimate_from_segments(&detect_segments(luma, MAX_SEGMENTS), camera)
+}
+
+/// Smoothing of the per-frame estimates over a window of past frames, reset at cuts (see the
+/// module doc).
+#[derive(Debug, Clone)]
+pub struct GroundTracker {
+    window: usize,
+    frames: VecDeque<(HorizonEstimate, [f32; 144])>,
+}
+
+/// Mean absolute thumbnail change above which two consecutive frames are a cut.
+pub const CUT_THRESHOLD: f32 = 0.12;
+
+impl GroundTracker {
+    /// A tracker averaging over the last `window` frames (1 = no smoothing).
+    pub fn new(window: usize) -> GroundTracker {
+        GroundTracker {
+            window: window.max(1),
+            frames: VecDeque::new(),
+        }
+    }
+
+    /// Adds a frame's estimate and returns the smoothed one.
+    pub fn update(
+        &mut self,
+        est: HorizonEstimate,
+        luma: &Luma,
+        camera: &Camera,
+    ) -> HorizonEstimate {
+        let thumb = luma.thumbnail();
+        if let Some((_, prev)) = self.frames.back() {
+            let change: f32 = prev
+                .iter()
+                .zip(&thumb)
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f32>()
+                / 144.0;
+            if change > CUT_THRESHOLD {
+                self.frames.clear();
+            }
+        }
+        self.frames.push_back((est, thumb));
+        while self.frames.len() > self.window {
+            self.frames.pop_front();
+        }
+        let (mut sum, mut wsum) = (DVec3::ZERO, 0.0);
+        for (e, _) in &self.frames {
+            sum += e.up_cam * e.confidence;
+            wsum += e.confidence;
+        }
+        if wsum <= 0.0 {
+            return est;
+        }
+        let up_cam = sum.normalize_or(est.up_cam);
+        // Agreement: the mean vector's length (1 when all frames agree).
+        let agreement = (sum.length() / wsum).clamp(0.0, 1.0);
+        let (t, r) = tilt_roll_from_up(up_cam);
+        HorizonEstimate {
+            up_cam,
+            tilt_deg: t.to_degrees(),
+            roll_deg: r.to_degrees(),
+            horizon_row: horizon_row_of_up(up_cam, camera),
+            confidence: (wsum / self.frames.len() as f64) * agreement.powi(50),
+            ..est
+        }
+    }
+}

