@@ -108,30 +108,6 @@ impl Default for RainConfig {
     }
 }
 
-/// The ground under the rain (see `scene::ground`): read, validated and reported by
-/// `inspect ground`; the render does not use it yet (the default, no ground, renders exactly
-/// as without it).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct GroundConfig {
-    /// `none`, `auto`, `horizon=ROW[,roll=DEG]` or `plane=nx,ny,nz,d`.
-    pub mode: crate::scene::GroundMode,
-    /// A depth map: 16-bit greyscale PNG in millimetres (0 = unknown).
-    pub depth: Option<std::path::PathBuf>,
-    /// Multiplier on the depth map's values (for relative depth).
-    pub depth_scale: f64,
-}
-
-impl Default for GroundConfig {
-    fn default() -> Self {
-        GroundConfig {
-            mode: crate::scene::GroundMode::None,
-            depth: None,
-            depth_scale: 1.0,
-        }
-    }
-}
-
 /// Everything that shapes the picture (not the encoding).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -142,8 +118,6 @@ pub struct RenderConfig {
     pub rain: RainConfig,
     /// How the rain is lit by the frame.
     pub light: crate::lighting::LightConfig,
-    /// The ground (not used by the render yet).
-    pub ground: GroundConfig,
 }
 
 /// Largest configuration file read, bytes: presets are a few hundred bytes, and a bound keeps a
@@ -221,19 +195,11 @@ impl RenderConfig {
             ("--sensor-width", c.sensor_width_mm.to_string()),
             ("--light-smoothing", l.smoothing_s.to_string()),
             ("--scene-depth", r.scene_depth_m.to_string()),
-            ("--ground", self.ground.mode.to_string()),
-            ("--depth-scale", self.ground.depth_scale.to_string()),
         ]
         .into_iter()
         .chain(
             l.highlight_gain
                 .map(|g| ("--highlight-gain", g.to_string())),
-        )
-        .chain(
-            self.ground
-                .depth
-                .as_ref()
-                .map(|p| ("--depth", p.display().to_string())),
         )
         .collect()
     }
@@ -396,8 +362,6 @@ impl RenderConfig {
         for light in &l.lights {
             light.validate()?;
         }
-        self.ground.mode.validate()?;
-        crate::scene::depth::check_scale(self.ground.depth_scale)?;
         if let Some(g) = l.highlight_gain {
             check(
                 "--highlight-gain",

@@ -291,45 +291,32 @@ fn cost_per_frame() {
     assert!(ms < 200.0);
 }
 
-/// `--ground none` is the default configuration, so a render with it is the render without it.
+/// Ground modes as a user writes them: wrong values are refused naming the option and the
+/// range, and every valid mode prints back as it parses.
 #[test]
-fn ground_none_is_the_default() {
-    use rain_composite::config::RenderConfig;
+fn ground_modes_parse_and_name_their_errors() {
     use rain_composite::scene::GroundMode;
-    let d = RenderConfig::default();
-    assert_eq!(d.ground.mode, GroundMode::None);
-    let explicit = RenderConfig::from_json(r#"{"ground": {"mode": "none"}}"#).expect("valid");
-    assert_eq!(explicit, d);
-    assert!(RenderConfig::from_json(r#"{"ground": {"mode": "none", "sky": 1}}"#).is_err());
-    let bad = RenderConfig::from_json(r#"{"ground": {"mode": "horizon=0.5,roll=120"}}"#);
-    assert!(
-        bad.expect_err("roll out of range")
-            .to_string()
-            .contains("--ground")
-    );
-}
-
-/// Wrong values are refused by the CLI, naming the flag and the range.
-#[test]
-fn cli_names_the_flag_and_range() {
-    for (args, flag, range) in [
-        (
-            &["--ground", "horizon=0.5,roll=95"][..],
-            "--ground",
-            "(-90, 90)",
-        ),
-        (&["--ground", "plane=0,-1,0,0"][..], "--ground", "d ≠ 0"),
-        (&["--ground", "sky"][..], "--ground", "horizon=ROW"),
-        (&["--depth-scale", "0"][..], "--depth-scale", "(0, 1000000]"),
+    for (text, range) in [
+        ("horizon=0.5,roll=95", "(-90, 90)"),
+        ("plane=0,-1,0,0", "d ≠ 0"),
+        ("sky", "horizon=ROW"),
     ] {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
-            .args(["inspect", "drops", "--count", "1"])
-            .args(args)
-            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-            .output()
-            .expect("spawn");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?}");
-        assert!(err.contains(flag) && err.contains(range), "{args:?}: {err}");
+        let err = text
+            .parse::<GroundMode>()
+            .and_then(|m| m.validate().map(|()| m))
+            .expect_err(text)
+            .to_string();
+        assert!(
+            err.contains("--ground") && err.contains(range),
+            "{text}: {err}"
+        );
+    }
+    for text in ["none", "auto", "horizon=0.4,roll=2.5", "plane=0,-1,0.1,1.6"] {
+        let mode: GroundMode = text.parse().expect(text);
+        mode.validate().expect(text);
+        assert_eq!(
+            mode.to_string().parse::<GroundMode>().expect("round trip"),
+            mode
+        );
     }
 }

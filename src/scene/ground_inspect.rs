@@ -94,7 +94,7 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
     })
 }
 
-/// The report: the smoothed estimate (what `--ground auto` would use), the target frame's own,
+/// The report: the smoothed estimate (what an automatic ground would use), the target frame's own,
 /// and the decision (`auto` or `none` below [`horizon::MIN_CONFIDENCE`]).
 pub fn report(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
     let (raw, smooth, frame, rot, ms, frames) = estimate_at(input, at_s, camera)?;
@@ -102,7 +102,7 @@ pub fn report(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>
         "auto"
     } else {
         log::warn!(
-            "ground: confidence {:.2} is below {}: no ground (give --ground horizon=ROW or plane=…)",
+            "ground: confidence {:.2} is below {}: no ground (too few straight edges agree on a horizon)",
             smooth.confidence,
             horizon::MIN_CONFIDENCE
         );

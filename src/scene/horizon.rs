@@ -1,4 +1,4 @@
-//! `--ground auto`: the horizon (so the camera's tilt and roll) estimated from the frames.
+//! The ground's horizon (so the camera's tilt and roll) estimated from the frames.
 //!
 //! # Method
 //!

@@ -171,15 +171,6 @@ pub struct LookArgs {
         allow_hyphen_values = true
     )]
     pub lights: Vec<String>,
-    /// The ground: auto (estimated from the frames; none with a warning when unsure) | none | horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the vertical centre line, a fraction of the height from the top) | plane=nx,ny,nz,d (n·X + d = 0 in the camera's frame: x right, y down, z forward, metres). Read and checked; the render does not use it yet (see `inspect ground`).
-    #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
-    pub ground: Option<String>,
-    /// Depth map: a 16-bit greyscale PNG in millimetres, 0 = unknown (resampled to the video's size). Read and checked; the render does not use it yet.
-    #[arg(long, value_name = "PNG")]
-    pub depth: Option<PathBuf>,
-    /// Multiplier on the depth map's values (for relative depth).
-    #[arg(long)]
-    pub depth_scale: Option<f64>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -465,13 +456,6 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.tilt => cam.tilt_deg);
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
-    if let Some(g) = &look.ground {
-        c.ground.mode = g.parse()?;
-    }
-    if let Some(d) = &look.depth {
-        c.ground.depth = Some(d.clone());
-    }
-    set!(look.depth_scale => c.ground.depth_scale);
     c.validate()?;
     Ok(c)
 }
@@ -529,8 +513,6 @@ mod tests {
         (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
-        c.ground.mode = "horizon=0.4,roll=2.5".parse().expect("valid");
-        (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 2.5);
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {
