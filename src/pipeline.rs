@@ -361,15 +361,9 @@ pub fn preview(
             if t > t_target - window {
                 lighting.params(&rain, &frame, t);
             }
-            frame = loop {
-                match source.next_item()? {
-                    Some(SourceItem::Frame(f)) => break f,
-                    Some(SourceItem::Packet(_)) => continue,
-                    None => {
-                        return Err(Error::OutOfRange("the clip ended before the frame".into()));
-                    }
-                }
-            };
+            frame = source
+                .next_frame()?
+                .ok_or_else(|| Error::OutOfRange("the clip ended before the frame".into()))?;
         }
     }
     check()?;

@@ -10,7 +10,7 @@ use crate::pipeline::frame_time_s;
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_points_px, up_from_tilt_roll};
 use crate::scene::horizon::{self, GroundTracker, HorizonEstimate, Luma};
-use crate::video::{Source, SourceItem, YuvFrame};
+use crate::video::{Source, YuvFrame};
 use crate::{Error, Result};
 
 /// Seconds of past frames the estimate at a time averages over (the tracker's window).
@@ -63,15 +63,9 @@ pub fn estimate_at(
             if frame_time_s(&info, &frame) > t_target - WINDOW_S {
                 feed(&frame, &mut tracker);
             }
-            frame = loop {
-                match source.next_item()? {
-                    Some(SourceItem::Frame(f)) => break f,
-                    Some(SourceItem::Packet(_)) => continue,
-                    None => {
-                        return Err(Error::OutOfRange("the clip ended before the frame".into()));
-                    }
-                }
-            };
+            frame = source
+                .next_frame()?
+                .ok_or_else(|| Error::OutOfRange("the clip ended before the frame".into()))?;
         }
     }
     let (raw, smooth) = feed(&target, &mut tracker);

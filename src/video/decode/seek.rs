@@ -103,7 +103,7 @@ impl Source {
             self.seek_raw(ts)?;
             let mut first_seen = None;
             loop {
-                let Some(frame) = self.next_frame_only()? else {
+                let Some(frame) = self.next_frame()? else {
                     return Err(Error::OutOfRange(format!("pts {target} is beyond the end")));
                 };
                 let first = *first_seen.get_or_insert(frame.pts);
@@ -140,7 +140,9 @@ impl Source {
         Ok(())
     }
 
-    fn next_frame_only(&mut self) -> Result<Option<YuvFrame>> {
+    /// The next decoded frame, skipping (dropping) packets of other streams; `None` at the end.
+    /// For reading ahead to a frame (preview, inspection), not for a render that copies audio.
+    pub fn next_frame(&mut self) -> Result<Option<YuvFrame>> {
         while let Some(item) = self.next_item()? {
             if let SourceItem::Frame(f) = item {
                 return Ok(Some(f));
