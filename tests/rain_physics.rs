@@ -779,3 +779,51 @@ fn the_drop_twin_equals_its_closed_form_at_any_time() {
         "{compared} compared, {edge} at an edge"
     );
 }
+
+/// The drawn scales reach the plan: wider drops stay visible farther, faster ones (longer,
+/// fainter streaks) less far, and with a fall-speed scale the streaks lean by the wind over the
+/// *scaled* fall speed (the columns follow the drawn fall direction).
+#[test]
+fn the_plan_follows_the_drop_and_fall_speed_scales() {
+    let cam = camera_1080(60.0, 0.0);
+    let model = RainModel::marshall_palmer(rate(10.0));
+    let still = Wind::steady(DVec2::ZERO).expect("wind");
+    let far = |diameter_scale: f64, fall_speed_scale: f64| {
+        let params = VolumeParams {
+            diameter_scale,
+            fall_speed_scale,
+            ..VolumeParams::default()
+        };
+        RainVolume::plan(&cam, &model, &still, &params)
+            .expect("plan")
+            .far_visible_m
+    };
+    let base = far(1.0, 1.0);
+    assert!(far(2.0, 1.0) > 1.5 * base, "{} vs {base}", far(2.0, 1.0));
+    assert!(far(1.0, 3.0) < base, "{} vs {base}", far(1.0, 3.0));
+
+    let w = 6.0;
+    let scale = 2.0;
+    let wind = Wind::steady(DVec2::new(w, 0.0)).expect("wind");
+    let params = VolumeParams {
+        fall_speed_scale: scale,
+        ..VolumeParams::default()
+    };
+    let vol = RainVolume::plan(&cam, &model, &wind, &params).expect("plan");
+    let (mut got, mut want, mut n) = (0.0, 0.0, 0);
+    for id in 0..vol.simulated {
+        let d = sample_drop(&vol, &model, &wind, 8, id, 2.0).expect("drop");
+        let q = cam.camera_from_world_point(d.position_m);
+        if q.z < 1.0 || (q.x / q.z).abs() > 0.05 || (q.y / q.z).abs() > 0.05 {
+            continue;
+        }
+        let ends = projected_streak_px(&cam, d.position_m, d.velocity_mps, 0.02).expect("ok");
+        let s = ends[1] - ends[0];
+        got += s.x.atan2(s.y);
+        want += (w / (scale * model.fall.terminal_velocity_mps(d.diameter_mm))).atan();
+        n += 1;
+    }
+    assert!(n > 50, "only {n} drops near the axis");
+    let (got, want) = ((got / n as f64).to_degrees(), (want / n as f64).to_degrees());
+    assert!((got - want).abs() < 0.5, "{got}° vs {want}°");
+}

@@ -268,9 +268,12 @@ impl RainVolume {
             .unwrap_or_else(|| dsd.mass_weighted_diameter_mm())
             .clamp(d_lo, d_hi);
         let v_ref = model.fall.terminal_velocity_mps(d_ref);
-        let slope = -wind.mean_mps / v_ref.max(0.1);
+        // The reference drop as drawn: the scales change how wide and how fast it streaks, so
+        // how far it stays visible, and the fall direction the columns follow.
+        let (d_drawn, v_drawn) = (d_ref * params.diameter_scale, v_ref * params.fall_speed_scale);
+        let slope = -wind.mean_mps / v_drawn.max(0.1);
         let near = params.near_m;
-        let far_visible = visible_far_m(camera, params, d_ref, v_ref, wind.mean_mps);
+        let far_visible = visible_far_m(camera, params, d_drawn, v_drawn, wind.mean_mps);
         let far0 = far_visible.clamp((near + MIN_SPAN_M).min(params.far_max_m), params.far_max_m);
         let ground = params.ground_z_m;
         let mut far = far0;
