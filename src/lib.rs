@@ -17,7 +17,8 @@
 //!                       │          rain: stateless drops (seed, id, t) → streaks
 //!                       │          composite (premultiplied, linear light)
 //!                       │          linear RGB → YUV planes → ring readback
-//!                       └──► lighting (frame → sphere → SH, smoothed) ──► RainParams (PRT)
+//!                       └──► lighting: clipped light recovered → compact sources (direct term,
+//!                            exact RTF) + the rest on SH (PRT), smoothed ──► RainParams, light list
 //!  rain::volume (plan: columns, far distance, budget) ──► gpu::uniforms ──► RainParams
 //! ```
 //!
@@ -31,8 +32,10 @@
 //!   (`gpu::cpu`), the uniforms builder, the compositor and its readback.
 //! - [`rain`]: CPU rain physics only: sizes, fall speeds, wind, the planned volume and the
 //!   stateless drop (the CPU twin of the GPU one).
-//! - [`scene`]: the pinhole camera and (later) the ground.
-//! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT.
+//! - [`scene`]: the pinhole camera; the ground plane, its estimate from the frames and depth maps
+//!   (reported by `inspect ground`, not used by the render yet).
+//! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT, light
+//!   recovered from clipped frames and compact light sources.
 //! - [`fluid`]: SPH surface flow and the carpet free surface.
 //! - [`pipeline`]: one render job, from input to output, and single-frame preview.
 //! - [`inspect`]: the `inspect` reports (JSON, plots), one function per subcommand.
