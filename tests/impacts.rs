@@ -329,3 +329,112 @@ fn without_a_ground_the_render_is_unchanged_byte_for_byte() {
     let landed = render("ground.mkv", &["--ground", &format!("horizon={row}")]);
     assert!(plain != landed, "a given ground changes the rain");
 }
+
+/// A 16-bit preview's luma-ish samples (the green channel) of `path`.
+fn green16(path: &Path) -> (u32, u32, Vec<u16>) {
+    let img = image::open(path).expect("png").into_rgb16();
+    let (w, h) = img.dimensions();
+    (w, h, img.pixels().map(|p| p.0[1]).collect())
+}
+
+/// The rendered picture near the horizon: with the drops kept beyond 1.5 m (the near clip of
+/// `--near 3`), a pixel whose ray meets the ground nearer than that sees only ground, so rain
+/// there can only be a drop below the ground. With the ground given, no such pixel changes;
+/// the same camera without the ground's impacts changes some.
+#[test]
+fn rendered_rain_stays_above_the_ground_in_the_picture() {
+    let dir = TempDir::new().expect("tmp");
+    let input = dir.path().join("in.mkv");
+    fixtures::ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "nullsrc=s=320x180:r=25:d=0.12,format=yuv420p,geq=lum='if(lt(Y,45),235,40)':cb=128:cr=128",
+        "-c:v",
+        "ffv1",
+        s(&input),
+    ]);
+    let tilt_deg = -30.0;
+    let mut config = RenderConfig::default();
+    (config.camera.fov_deg, config.camera.tilt_deg) = (90.0, tilt_deg);
+    config.camera.height_m = 0.5;
+    let camera = config.camera(320, 180).expect("camera");
+    let row = rain_composite::scene::GroundPlane::LEVEL
+        .horizon_row(&camera)
+        .expect("row");
+    let near_clip_m = 0.5 * 3.0;
+    let preview = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let o = bin()
+            .args([
+                "preview",
+                s(&input),
+                "--frame",
+                "1",
+                "-o",
+                s(&out),
+                "--bits",
+                "16",
+            ])
+            .args(["--rain", "60", "--drop-scale", "3", "--fov", "90"])
+            // Streaks 2.8 m long from a camera 0.5 m above the ground: what would reach below
+            // the ground shows far into the near ground's part of the picture.
+            .args([
+                "--fall-speed-scale",
+                "10",
+                "--shutter",
+                "360",
+                "--camera-height",
+                "0.5",
+            ])
+            .args([
+                "--near",
+                "3",
+                "--f-number",
+                "0",
+                "--scene-depth",
+                "0",
+                "--cpu",
+            ])
+            .args(extra)
+            .output()
+            .expect("spawn");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        green16(&out)
+    };
+    let tilt = format!("--tilt={tilt_deg}");
+    let (w, h, dry) = preview("dry.png", &[&tilt, "--opacity", "0"]);
+    let landed = preview(
+        "ground.png",
+        &["--opacity", "20", "--ground", &format!("horizon={row}")],
+    )
+    .2;
+    let through = preview("through.png", &[&tilt, "--opacity", "20"]).2;
+    // Pixels whose ray meets the ground nearer (in camera depth) than 90 % of the near clip.
+    let r_cam = camera.world_from_camera.transpose();
+    let ground_only = |i: usize| {
+        let px = glam::DVec2::new((i as u32 % w) as f64 + 0.5, (i as u32 / w) as f64 + 0.5);
+        let ray = camera.ray_world(px);
+        ray.z < 0.0 && (r_cam * (ray * (camera.position_m.z / -ray.z))).z < 0.9 * near_clip_m
+    };
+    let region = (0..(w * h) as usize).filter(|&i| ground_only(i)).count();
+    let changed = |frame: &[u16]| {
+        (0..(w * h) as usize)
+            .filter(|&i| ground_only(i) && frame[i].abs_diff(dry[i]) > 64)
+            .count()
+    };
+    let rain_anywhere = (0..(w * h) as usize)
+        .filter(|&i| landed[i].abs_diff(dry[i]) > 64)
+        .count();
+    let (with, without) = (changed(&landed), changed(&through));
+    eprintln!(
+        "{region} pixels see only ground nearer than the drops; rain changes {with} of them with \
+         the ground, {without} without; {rain_anywhere} pixels changed in all"
+    );
+    assert!(
+        region > 1000 && rain_anywhere > 500,
+        "{region} {rain_anywhere}"
+    );
+    assert_eq!(with, 0);
+    assert!(without > 0, "{without}");
+}
