@@ -438,3 +438,36 @@ fn rendered_rain_stays_above_the_ground_in_the_picture() {
     assert_eq!(with, 0);
     assert!(without > 0, "{without}");
 }
+
+/// A given ground is the level world ground z = 0 seen by the render's camera: `horizon=ROW`
+/// puts the horizon of z = 0 at ROW with the roll asked for, `plane=n,d` makes z = 0 the plane
+/// n·X + d = 0 of the camera's frame at height d/|n|; and a configuration giving the pose twice
+/// is refused naming both.
+#[test]
+fn the_given_ground_is_the_level_world_ground() {
+    let level = rain_composite::scene::GroundPlane::LEVEL;
+    let mut c = RenderConfig::default();
+    c.ground.mode = "horizon=0.3,roll=10".parse().expect("mode");
+    c.validate().expect("valid");
+    let cam = c.camera(640, 360).expect("camera");
+    assert!((level.horizon_row(&cam).expect("row") - 0.3).abs() < 1e-12);
+    assert!((level.pose(&cam).roll_rad.to_degrees() - 10.0).abs() < 1e-9);
+    assert!((cam.position_m.z - c.camera.height_m).abs() < 1e-12);
+    let n = DVec3::new(0.2, -0.9, 0.35);
+    c.ground.mode = "plane=0.2,-0.9,0.35,2.5".parse().expect("mode");
+    let cam = c.camera(640, 360).expect("camera");
+    assert!((level.normal_camera(&cam) - n.normalize()).length() < 1e-12);
+    assert!((cam.position_m.z - 2.5 / n.length()).abs() < 1e-12);
+    c.camera.tilt_deg = 5.0;
+    let e = c.validate().expect_err("pose twice").to_string();
+    assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
+    let e = RenderConfig::from_json(r#"{"ground": {"mode": "auto"}}"#)
+        .expect("parses")
+        .validate()
+        .expect_err("auto")
+        .to_string();
+    assert!(
+        e.contains("--ground") && e.contains("inspect ground"),
+        "{e}"
+    );
+}

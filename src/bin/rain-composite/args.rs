@@ -431,11 +431,19 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
             for (flag, given) in [
                 ("--tilt", look.tilt.is_some()),
                 ("--roll", look.roll.is_some()),
+                (
+                    "--camera-height",
+                    look.camera_height.is_some()
+                        && matches!(
+                            c.ground.mode,
+                            rain_composite::scene::GroundMode::Plane { .. }
+                        ),
+                ),
             ] {
                 if given {
                     bail!(
                         "--ground {g} and {flag} both set the camera's pose: give one of them \
-                         (the ground's horizon or plane fixes the tilt and roll)"
+                         (the ground's horizon fixes the tilt and roll, a plane also the height)"
                     );
                 }
             }
@@ -572,7 +580,7 @@ mod tests {
         let cli = parsed(&["rain-composite", "in.mp4", "--ground", "horizon=0.4,roll=5"]);
         let c = render_config(&cli.render.look).expect("valid");
         assert_eq!(c.ground.mode.to_string(), "horizon=0.4,roll=5");
-        for extra in ["--tilt=-3", "--roll=2"] {
+        for extra in ["--tilt=-3", "--roll=2", "--camera-height=2"] {
             let cli = parsed(&[
                 "rain-composite",
                 "in.mp4",
@@ -585,6 +593,20 @@ mod tests {
             let flag = extra.split('=').next().expect("flag");
             assert!(e.contains("--ground") && e.contains(flag), "{e}");
         }
+        // A horizon leaves the height to --camera-height.
+        let cli = parsed(&[
+            "rain-composite",
+            "in.mp4",
+            "--ground=horizon=0.4",
+            "--camera-height=2",
+        ]);
+        assert_eq!(
+            render_config(&cli.render.look)
+                .expect("valid")
+                .camera
+                .height_m,
+            2.0
+        );
         // `none` leaves the pose to --tilt and --roll.
         let cli = parsed(&["rain-composite", "in.mp4", "--ground", "none", "--tilt=-3"]);
         assert_eq!(
