@@ -9,6 +9,9 @@
 // (r/r_eff)², which keeps the integrated coverage; defocus widens them the same way. Streaks
 // whose brightest pixel would change by less than half a code value of 8-bit video are marked
 // invisible (len_px < 0): on CPU adapters raster work is most of the cost.
+// With a ground (ground_clip), a streak ends where its drop lands on z = 0 during the exposure,
+// and a drop that landed before it opened is not drawn: no streak reaches below the ground
+// (but for its end disc, under a pixel wide for all but the nearest drops).
 // Drops near the lens are large soft discs (the circle of confusion): they are drawn no wider
 // than NEAR_FIELD_MAX_RADIUS of the picture height, their alpha still (r/r_drawn)², so the
 // integrated coverage stays physical while the cost of the few such drops stays bounded.
@@ -52,8 +55,19 @@ fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
 fn streak_of(id: u32) -> Streak {
     let drop = drop_state(id);
     let half = drop.vel_mps * (0.5 * rain.exposure_s);
-    var c0 = to_camera(drop.pos_m - half);
-    var c1 = to_camera(drop.pos_m + half);
+    let w0 = drop.pos_m - half;
+    var w1 = drop.pos_m + half;
+    // Impact: at constant velocity over the exposure the drop meets the ground z = 0 at the
+    // fraction w0.z / (w0.z − w1.z) of it; the streak ends there and covers each pixel for
+    // that much less of the exposure (its alpha scales by the fraction, its length too).
+    var exposed = 1.0;
+    if rain.ground_clip != 0u && w1.z < 0.0 {
+        if w0.z <= 0.0 { return hidden(); }
+        exposed = w0.z / (w0.z - w1.z);
+        w1 = mix(w0, w1, exposed);
+    }
+    var c0 = to_camera(w0);
+    var c1 = to_camera(w1);
     let near = rain.near_clip_m;
     if c0.z < near && c1.z < near { return hidden(); }
     // Clip the segment to the near plane.
@@ -74,7 +88,7 @@ fn streak_of(id: u32) -> Streak {
     let len = length(seg);
     var dir = vec2<f32>(0.0, 1.0);
     if len > 1e-4 { dir = seg / len; }
-    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight;
+    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight * exposed;
     // Peak coverage on the streak's axis: the disc's chord over the path length.
     let peak = alpha_scale * min(1.0, 2.0 * r_eff / max(len, 1e-3));
     if peak < MIN_PEAK_ALPHA { return hidden(); }

@@ -118,6 +118,28 @@ pub struct RenderConfig {
     pub rain: RainConfig,
     /// How the rain is lit by the frame.
     pub light: crate::lighting::LightConfig,
+    /// The ground the rain lands on.
+    pub ground: GroundConfig,
+}
+
+/// The ground under the rain (see [`crate::scene::ground`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GroundConfig {
+    /// `none` (the default: the render is as without a ground), `horizon=ROW[,roll=DEG]` or
+    /// `plane=nx,ny,nz,d`. A given ground fixes the camera's tilt and roll (and, for `plane=`,
+    /// its height), and streaks end where their drops land on it.
+    pub mode: crate::scene::GroundMode,
+}
+
+impl GroundConfig {
+    /// Whether a ground is given: streaks end where their drops land.
+    pub fn is_given(&self) -> bool {
+        !matches!(
+            self.mode,
+            crate::scene::GroundMode::None | crate::scene::GroundMode::Auto
+        )
+    }
 }
 
 /// Largest configuration file read, bytes: presets are a few hundred bytes, and a bound keeps a
@@ -195,6 +217,7 @@ impl RenderConfig {
             ("--sensor-width", c.sensor_width_mm.to_string()),
             ("--light-smoothing", l.smoothing_s.to_string()),
             ("--scene-depth", r.scene_depth_m.to_string()),
+            ("--ground", self.ground.mode.to_string()),
         ]
         .into_iter()
         .chain(
@@ -202,6 +225,58 @@ impl RenderConfig {
                 .map(|g| ("--highlight-gain", g.to_string())),
         )
         .collect()
+    }
+}
+
+impl RenderConfig {
+    /// The ground's checks: a mode the render can use, and a camera pose given once — by the
+    /// ground or by `--tilt`/`--roll`, not both.
+    fn validate_ground(&self) -> Result<()> {
+        use crate::scene::GroundMode;
+        let mode = self.ground.mode;
+        mode.validate()?;
+        let bad = |expected: &str| Error::Parameter {
+            name: "--ground",
+            value: mode.to_string(),
+            expected: expected.to_string(),
+        };
+        match mode {
+            GroundMode::None => Ok(()),
+            GroundMode::Auto => Err(bad(
+                "none, horizon=ROW[,roll=DEG] or plane=nx,ny,nz,d for a render: the estimate \
+                 from the frames is not used by the render yet (`rain-composite inspect ground` \
+                 prints the horizon to pass as horizon=ROW,roll=DEG)",
+            )),
+            GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
+                let c = &self.camera;
+                if c.tilt_deg != 0.0 || c.roll_deg != 0.0 {
+                    return Err(bad(
+                        "no --tilt or --roll besides it: --ground horizon=/plane= sets the \
+                         camera's tilt and roll",
+                    ));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The camera looking at a displayed picture of `width_px`×`height_px`: the camera settings,
+    /// with the tilt and roll (and for `plane=`, the height) of a given ground, so the ground
+    /// is the level world plane z = 0 the rain volume stands on.
+    pub fn camera(&self, width_px: u32, height_px: u32) -> Result<crate::scene::Camera> {
+        let c = &self.camera;
+        let base = c.camera(width_px, height_px);
+        Ok(match self.ground.mode.fixed_pose(&base, c.height_m)? {
+            None => base,
+            Some(pose) => crate::scene::Camera::new(
+                width_px,
+                height_px,
+                c.fov_deg.to_radians(),
+                pose.height_m,
+                pose.tilt_rad,
+                pose.roll_rad,
+            ),
+        })
     }
 }
 
@@ -362,6 +437,7 @@ impl RenderConfig {
         for light in &l.lights {
             light.validate()?;
         }
+        self.validate_ground()?;
         if let Some(g) = l.highlight_gain {
             check(
                 "--highlight-gain",

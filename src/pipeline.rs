@@ -65,9 +65,9 @@ pub struct Summary {
 }
 
 /// The camera looking at the displayed picture of `info`.
-pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Camera {
+pub fn camera_for(info: &VideoInfo, config: &RenderConfig) -> Result<Camera> {
     let (w, h) = display_size(info);
-    config.camera.camera(w, h)
+    config.camera(w, h)
 }
 
 fn display_size(info: &VideoInfo) -> (u32, u32) {
@@ -114,14 +114,15 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         );
         rain.max_drops = cap;
     }
-    emitter::build(
-        &camera_for(info, config),
+    let setup = emitter::build(
+        &camera_for(info, config)?,
         &config.camera,
         &rain,
         exposure,
         info.rotation_deg,
         (info.format.width, info.format.height),
-    )
+    )?;
+    Ok(setup.with_ground(config.ground.is_given()))
 }
 
 /// Seconds since the start of the stream at `frame`.
@@ -388,7 +389,7 @@ impl LightFeed {
         let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
         let estimator = if needed {
             Some(LightEstimator::new(
-                &camera_for(info, render),
+                &camera_for(info, render)?,
                 info.rotation_deg,
                 &render.light,
             )?)

@@ -824,6 +824,9 @@ fn the_plan_follows_the_drop_and_fall_speed_scales() {
         n += 1;
     }
     assert!(n > 50, "only {n} drops near the axis");
-    let (got, want) = ((got / n as f64).to_degrees(), (want / n as f64).to_degrees());
+    let (got, want) = (
+        (got / n as f64).to_degrees(),
+        (want / n as f64).to_degrees(),
+    );
     assert!((got - want).abs() < 0.5, "{got}° vs {want}°");
 }

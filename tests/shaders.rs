@@ -93,6 +93,7 @@ fn rust_twins_match_wgsl_layouts() {
             inv_focus_per_m,
             gravity_mps2,
             drift_q,
+            ground_clip,
             _pad,
             speed_q,
         ]

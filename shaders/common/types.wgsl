@@ -64,7 +64,8 @@ struct RainParams {
     inv_focus_per_m: f32,
     gravity_mps2: f32,
     drift_q: vec2<i32>,              // the columns' drift per metre fallen, 2^-DRIFT_BITS cells/m
-    _pad: vec2<u32>,
+    ground_clip: u32,                // 1: streaks end where drops land on the ground z = 0
+    _pad: u32,
     speed_q: array<vec4<u32>, SPEED_TABLE_LEN / 4u>,  // fall speed at size quantile i/(N−1), 2^-SPEED_BITS m/s
 }
 

@@ -130,7 +130,10 @@ pub struct RainParams {
     pub gravity_mps2: f32,
     /// The columns' drift per metre fallen, 2⁻¹⁶ cells/m (`rain::volume::DropMotion`).
     pub drift_q: [i32; 2],
-    pub _pad: [u32; 2],
+    /// 1: streaks end where their drops land on the ground z = 0 (a ground is given); 0: as
+    /// without a ground.
+    pub ground_clip: u32,
+    pub _pad: u32,
     /// Fall speed by size quantile, 2⁻¹⁰ m/s (`rain::volume::DropMotion`).
     pub speed_q: [u32; SPEED_TABLE_LEN],
 }

@@ -180,7 +180,8 @@ pub fn build(
         inv_focus_per_m: lens.map_or(0.0, |l| (1.0 / l.focus_m) as f32),
         gravity_mps2: G_MPS2 as f32,
         drift_q: volume.motion.drift_q,
-        _pad: [0; 2],
+        ground_clip: 0,
+        _pad: 0,
         speed_q: volume.motion.speed_q,
     };
     // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
@@ -249,6 +250,13 @@ impl RainSetup {
             ];
         }
         p
+    }
+
+    /// With `ground` true, streaks end where their drops land on the ground z = 0 the volume
+    /// stands on (a ground is given); false leaves the render as without a ground.
+    pub fn with_ground(mut self, ground: bool) -> RainSetup {
+        self.params.ground_clip = ground as u32;
+        self
     }
 
     /// Drops drawn per frame.

@@ -164,6 +164,9 @@ pub struct LookArgs {
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
+    /// The ground the rain lands on: none, horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
+    #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
+    pub ground: Option<String>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
     #[arg(
         long = "light",
@@ -422,6 +425,30 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
             .lights
             .push(rain_composite::lighting::UserLight::parse(text)?);
     }
+    if let Some(g) = &look.ground {
+        c.ground.mode = g.parse()?;
+        if c.ground.is_given() {
+            for (flag, given) in [
+                ("--tilt", look.tilt.is_some()),
+                ("--roll", look.roll.is_some()),
+                (
+                    "--camera-height",
+                    look.camera_height.is_some()
+                        && matches!(
+                            c.ground.mode,
+                            rain_composite::scene::GroundMode::Plane { .. }
+                        ),
+                ),
+            ] {
+                if given {
+                    bail!(
+                        "--ground {g} and {flag} both set the camera's pose: give one of them \
+                         (the ground's horizon fixes the tilt and roll, a plane also the height)"
+                    );
+                }
+            }
+        }
+    }
     let r = &mut c.rain;
     let cam = &mut c.camera;
     macro_rules! set {
@@ -516,6 +543,10 @@ mod tests {
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {
+            if *flag == "--ground" {
+                // Sets the tilt and roll itself: checked below.
+                continue;
+            }
             let v = values.iter().find(|(f, _)| f == flag).map(|(_, v)| v);
             assert_ne!(
                 v,
@@ -539,6 +570,60 @@ mod tests {
         assert_eq!(
             render_config(&parsed(&["rain-composite", "in.mp4"]).render.look).expect("valid"),
             RenderConfig::default()
+        );
+    }
+
+    /// `--ground` sets the ground mode, and refuses `--tilt` or `--roll` beside a ground that
+    /// fixes the pose, naming both flags.
+    #[test]
+    fn ground_flag_sets_the_mode_and_excludes_tilt_and_roll() {
+        let cli = parsed(&["rain-composite", "in.mp4", "--ground", "horizon=0.4,roll=5"]);
+        let c = render_config(&cli.render.look).expect("valid");
+        assert_eq!(c.ground.mode.to_string(), "horizon=0.4,roll=5");
+        for extra in ["--tilt=-3", "--roll=2", "--camera-height=2"] {
+            let cli = parsed(&[
+                "rain-composite",
+                "in.mp4",
+                "--ground=plane=0,-1,0,1.6",
+                extra,
+            ]);
+            let e = render_config(&cli.render.look)
+                .expect_err(extra)
+                .to_string();
+            let flag = extra.split('=').next().expect("flag");
+            assert!(e.contains("--ground") && e.contains(flag), "{e}");
+        }
+        // A horizon leaves the height to --camera-height.
+        let cli = parsed(&[
+            "rain-composite",
+            "in.mp4",
+            "--ground=horizon=0.4",
+            "--camera-height=2",
+        ]);
+        assert_eq!(
+            render_config(&cli.render.look)
+                .expect("valid")
+                .camera
+                .height_m,
+            2.0
+        );
+        // `none` leaves the pose to --tilt and --roll.
+        let cli = parsed(&["rain-composite", "in.mp4", "--ground", "none", "--tilt=-3"]);
+        assert_eq!(
+            render_config(&cli.render.look)
+                .expect("valid")
+                .camera
+                .tilt_deg,
+            -3.0
+        );
+        // `auto` is not a render option yet.
+        let cli = parsed(&["rain-composite", "in.mp4", "--ground", "auto"]);
+        let e = render_config(&cli.render.look)
+            .expect_err("auto")
+            .to_string();
+        assert!(
+            e.contains("--ground") && e.contains("inspect ground"),
+            "{e}"
         );
     }
 

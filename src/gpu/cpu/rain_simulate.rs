@@ -10,6 +10,12 @@
 //! `π r²` (Garg & Nayar's time-averaged streak, thesis 5.1.2). Near the lens b can fill the
 //! view: the drawn radius is capped at [`NEAR_FIELD_MAX_RADIUS`] of the picture height and the
 //! alpha follows the cap, which keeps both the coverage and the cost of those few drops bounded.
+//!
+//! With a ground (`RainParams::ground_clip`), a drop moving at constant velocity over the
+//! exposure meets the ground z = 0 at the fraction `s = z₀/(z₀ − z₁)` of it (z₀, z₁ its heights
+//! at the exposure's start and end): the streak ends at the impact and, being in the air for
+//! only `s` of the exposure, covers each pixel for `s` times as long (alpha × s). A drop that
+//! landed before the exposure opened (z₀ ≤ 0) is not drawn.
 
 use glam::{DVec2, DVec3};
 
@@ -39,6 +45,9 @@ pub struct StreakShape {
     pub alpha_scale: f64,
     /// Path ends in camera space (after near clipping), metres.
     pub ends_camera_m: [DVec3; 2],
+    /// Fraction of the exposure the drop is in the air: below 1 when it lands on the ground
+    /// during the exposure (`RainParams::ground_clip`), where its streak ends.
+    pub exposed_fraction: f64,
 }
 
 impl StreakShape {
@@ -92,7 +101,16 @@ pub fn streak_of(
         DVec3::new(rows[0].dot(d), rows[1].dot(d), rows[2].dot(d))
     };
     let half = vel_mps * (0.5 * p.exposure_s as f64);
-    let (mut c0, mut c1) = (to_camera(pos_m - half), to_camera(pos_m + half));
+    let (w0, mut w1) = (pos_m - half, pos_m + half);
+    let mut exposed = 1.0;
+    if p.ground_clip != 0 && w1.z < 0.0 {
+        if w0.z <= 0.0 {
+            return None;
+        }
+        exposed = w0.z / (w0.z - w1.z);
+        w1 = w0.lerp(w1, exposed);
+    }
+    let (mut c0, mut c1) = (to_camera(w0), to_camera(w1));
     let near = p.near_clip_m as f64;
     if c0.z < near && c1.z < near {
         return None;
@@ -118,7 +136,7 @@ pub fn streak_of(
     let seg = q1 - q0;
     let len = seg.length();
     let dir = if len > 1e-4 { seg / len } else { DVec2::Y };
-    let alpha_scale = r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64;
+    let alpha_scale = r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64 * exposed;
     let shape = StreakShape {
         q0_px: q0,
         dir,
@@ -127,6 +145,7 @@ pub fn streak_of(
         r_px: r,
         alpha_scale,
         ends_camera_m: [c0, c1],
+        exposed_fraction: exposed,
     };
     if shape.peak_alpha() < MIN_PEAK_ALPHA {
         return None;

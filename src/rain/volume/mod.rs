@@ -270,7 +270,10 @@ impl RainVolume {
         let v_ref = model.fall.terminal_velocity_mps(d_ref);
         // The reference drop as drawn: the scales change how wide and how fast it streaks, so
         // how far it stays visible, and the fall direction the columns follow.
-        let (d_drawn, v_drawn) = (d_ref * params.diameter_scale, v_ref * params.fall_speed_scale);
+        let (d_drawn, v_drawn) = (
+            d_ref * params.diameter_scale,
+            v_ref * params.fall_speed_scale,
+        );
         let slope = -wind.mean_mps / v_drawn.max(0.1);
         let near = params.near_m;
         let far_visible = visible_far_m(camera, params, d_drawn, v_drawn, wind.mean_mps);
