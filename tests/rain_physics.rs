@@ -343,33 +343,49 @@ fn defocus_equals_the_thin_lens_circle_of_confusion() {
     }
 }
 
+/// Mean streak angle from the picture's downward vertical, degrees, of the drops near the
+/// optical axis (where perspective does not bend a streak), and the mean of
+/// `atan(wind / (fall_speed_scale · v_t(D)))` over the same drops: what a steady wind predicts.
+fn streak_angles_deg(
+    cam: &Camera,
+    model: &RainModel,
+    wind_x_mps: f64,
+    fall_speed_scale: f64,
+) -> (f64, f64) {
+    let wind = Wind::steady(DVec2::new(wind_x_mps, 0.0)).expect("wind");
+    let params = VolumeParams {
+        fall_speed_scale,
+        ..VolumeParams::default()
+    };
+    let vol = RainVolume::plan(cam, model, &wind, &params).expect("plan");
+    let (mut got, mut want, mut n) = (0.0, 0.0, 0);
+    for id in 0..vol.simulated {
+        let d = sample_drop(&vol, model, &wind, 8, id, 2.0).expect("drop");
+        let q = cam.camera_from_world_point(d.position_m);
+        if q.z < 1.0 || (q.x / q.z).abs() > 0.05 || (q.y / q.z).abs() > 0.05 {
+            continue;
+        }
+        let ends = projected_streak_px(cam, d.position_m, d.velocity_mps, 0.02).expect("ok");
+        let s = ends[1] - ends[0];
+        got += s.x.atan2(s.y);
+        let v = fall_speed_scale * model.fall.terminal_velocity_mps(d.diameter_mm);
+        want += (wind_x_mps / v).atan();
+        n += 1;
+    }
+    assert!(n > 50, "only {n} drops near the axis");
+    (
+        (got / n as f64).to_degrees(),
+        (want / n as f64).to_degrees(),
+    )
+}
+
 #[test]
 fn mean_streak_angle_matches_wind_over_fall_speed() {
     let cam = camera_1080(60.0, 0.0);
     let model = RainModel::marshall_palmer(rate(10.0));
     for w in [3.0, 12.0] {
-        let wind = Wind::steady(DVec2::new(w, 0.0)).expect("wind");
-        let vol = RainVolume::plan(&cam, &model, &wind, &VolumeParams::default()).expect("plan");
-        let (mut got, mut want, mut n) = (0.0, 0.0, 0);
-        for id in 0..vol.simulated {
-            let d = sample_drop(&vol, &model, &wind, 8, id, 2.0).expect("drop");
-            let q = cam.camera_from_world_point(d.position_m);
-            // Near the optical axis, where perspective does not bend the streak.
-            if q.z < 1.0 || (q.x / q.z).abs() > 0.05 || (q.y / q.z).abs() > 0.05 {
-                continue;
-            }
-            let ends = projected_streak_px(&cam, d.position_m, d.velocity_mps, 0.02).expect("ok");
-            let s = ends[1] - ends[0];
-            got += s.x.atan2(s.y); // from the downward vertical of the picture
-            want += (w / model.fall.terminal_velocity_mps(d.diameter_mm)).atan();
-            n += 1;
-        }
-        assert!(n > 50, "only {n} drops near the axis");
-        let (got, want) = (got / n as f64, want / n as f64);
-        assert!(
-            (got - want).abs().to_degrees() < 0.5,
-            "w={w}: {got} vs {want}"
-        );
+        let (got, want) = streak_angles_deg(&cam, &model, w, 1.0);
+        assert!((got - want).abs() < 0.5, "w={w}: {got}° vs {want}°");
     }
 }
 
@@ -802,31 +818,6 @@ fn the_plan_follows_the_drop_and_fall_speed_scales() {
     assert!(far(2.0, 1.0) > 1.5 * base, "{} vs {base}", far(2.0, 1.0));
     assert!(far(1.0, 3.0) < base, "{} vs {base}", far(1.0, 3.0));
 
-    let w = 6.0;
-    let scale = 2.0;
-    let wind = Wind::steady(DVec2::new(w, 0.0)).expect("wind");
-    let params = VolumeParams {
-        fall_speed_scale: scale,
-        ..VolumeParams::default()
-    };
-    let vol = RainVolume::plan(&cam, &model, &wind, &params).expect("plan");
-    let (mut got, mut want, mut n) = (0.0, 0.0, 0);
-    for id in 0..vol.simulated {
-        let d = sample_drop(&vol, &model, &wind, 8, id, 2.0).expect("drop");
-        let q = cam.camera_from_world_point(d.position_m);
-        if q.z < 1.0 || (q.x / q.z).abs() > 0.05 || (q.y / q.z).abs() > 0.05 {
-            continue;
-        }
-        let ends = projected_streak_px(&cam, d.position_m, d.velocity_mps, 0.02).expect("ok");
-        let s = ends[1] - ends[0];
-        got += s.x.atan2(s.y);
-        want += (w / (scale * model.fall.terminal_velocity_mps(d.diameter_mm))).atan();
-        n += 1;
-    }
-    assert!(n > 50, "only {n} drops near the axis");
-    let (got, want) = (
-        (got / n as f64).to_degrees(),
-        (want / n as f64).to_degrees(),
-    );
+    let (got, want) = streak_angles_deg(&cam, &model, 6.0, 2.0);
     assert!((got - want).abs() < 0.5, "{got}° vs {want}°");
 }
