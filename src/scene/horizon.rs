@@ -23,9 +23,15 @@
 //! between it and the great circle through its midpoint and `n` (not as a distance to the
 //! point, which would favour far-away points), with a Gaussian kernel of 2.5°, 1° then 0.4°.
 //! In a world of right angles the vertical and a horizontal vanishing point look alike to these
-//! tests (the "Manhattan" ambiguity); the tie is broken by the ground being where the texture
-//! is: the support is multiplied by `0.85 + 0.3 g`, with `g` the fraction of the edges' length
-//! below the candidate horizon.
+//! tests (the "Manhattan" ambiguity: a camera looking up 25° at buildings reads as well as one
+//! looking down 65°). The tie is broken by three priors multiplying the support (weights
+//! [`TEXTURE_PRIOR`], [`BRIGHTNESS_PRIOR`], [`TILT_PRIOR`]): the ground is where the texture
+//! is (`1 − w/2 + w g`, `g` the fraction of the edges' length below the candidate horizon);
+//! the sky is brighter than what stands under it (`1 + w ρ`, `ρ` the correlation of 32 columns
+//! of block means of the luma with the blocks' elevation `r · n` above the candidate horizon,
+//! which is defined even when the horizon is out of the picture); and a camera is more often
+//! near level than steep (`1 − w (tilt/90°)²`; the two readings of a Manhattan picture have
+//! tilts `t` and about `±(90° − |t|)`, so this favours the truth whenever |t| < 45°).
 //!
 //! Segments come from a small line-segment detector on a downscaled luma (the frame's Y plane,
 //! box-averaged to about 320 pixels wide): Sobel gradients; region growing from the strongest
@@ -375,16 +381,85 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     }
     let g = if all > 0.0 { below / all } else { 0.5 };
     Score {
-        total: (v_sum + h_sum + 1.5 * l_sum) * (0.85 + 0.3 * g),
+        total: (v_sum + h_sum + 1.5 * l_sum) * (1.0 - 0.5 * TEXTURE_PRIOR + TEXTURE_PRIOR * g),
         vertical: nv,
         horizontal: nh,
         horizon: nl,
     }
 }
 
+/// Block means of the luma with their rays, for the brightness prior (see the module doc).
+struct Brightness {
+    /// Unit ray through each block's centre.
+    rays: Vec<DVec3>,
+    /// Block mean less the picture's mean.
+    dev: Vec<f64>,
+    /// √Σ dev².
+    norm: f64,
+}
+
+impl Brightness {
+    fn new(luma: &Luma, camera: &Camera) -> Option<Brightness> {
+        const COLS: usize = 32;
+        let rows = (COLS * luma.height / luma.width.max(1)).max(2);
+        let (f, c) = (camera.focal_px(), camera.principal_px());
+        let sx = camera.width_px as f64 / luma.width as f64;
+        let sy = camera.height_px as f64 / luma.height as f64;
+        let mut rays = Vec::with_capacity(COLS * rows);
+        let mut vals = Vec::with_capacity(COLS * rows);
+        for by in 0..rows {
+            let (y0, y1) = (by * luma.height / rows, (by + 1) * luma.height / rows);
+            for bx in 0..COLS {
+                let (x0, x1) = (bx * luma.width / COLS, (bx + 1) * luma.width / COLS);
+                if x1 <= x0 || y1 <= y0 {
+                    continue;
+                }
+                let mut sum = 0.0f64;
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        sum += luma.data[y * luma.width + x] as f64;
+                    }
+                }
+                vals.push(sum / ((x1 - x0) * (y1 - y0)) as f64);
+                let (px, py) = (0.5 * (x0 + x1) as f64 * sx, 0.5 * (y0 + y1) as f64 * sy);
+                rays.push(DVec3::new((px - c.x) / f, (py - c.y) / f, 1.0).normalize());
+            }
+        }
+        let mean = vals.iter().sum::<f64>() / vals.len().max(1) as f64;
+        let dev: Vec<f64> = vals.iter().map(|v| v - mean).collect();
+        let norm = dev.iter().map(|d| d * d).sum::<f64>().sqrt();
+        (norm > 1e-6).then_some(Brightness { rays, dev, norm })
+    }
+
+    /// Correlation of brightness with elevation above the horizon of `n`, in [−1, 1].
+    fn correlation(&self, n: DVec3) -> f64 {
+        let k = self.rays.len() as f64;
+        let (mut se, mut see, mut sde) = (0.0, 0.0, 0.0);
+        for (r, d) in self.rays.iter().zip(&self.dev) {
+            let e = r.dot(n);
+            se += e;
+            see += e * e;
+            sde += d * e;
+        }
+        let var = (see - se * se / k).max(0.0);
+        if var < 1e-12 {
+            return 0.0;
+        }
+        sde / (self.norm * var.sqrt())
+    }
+}
+
 /// Estimates the horizon of one picture seen through `camera`'s intrinsics (its own tilt and
-/// roll are ignored) from its segments.
+/// roll are ignored) from its segments alone (no brightness prior: see [`estimate`]).
 pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonEstimate {
+    estimate_with(segments, None, camera)
+}
+
+fn estimate_with(
+    segments: &[Segment],
+    brightness: Option<&Brightness>,
+    camera: &Camera,
+) -> HorizonEstimate {
     let f = camera.focal_px();
     let c = camera.principal_px();
     let diag = (camera.width_px as f64).hypot(camera.height_px as f64);
@@ -410,13 +485,20 @@ pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonE
             hist,
         )
     };
+    // The priors choose between readings (the coarse cells, the refined starts); they do not
+    // bias the fit within one (a start is refined on the edges alone).
+    let prior = |t: f64, r: f64| {
+        let n = crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
+        let c = brightness.map_or(0.0, |b| b.correlation(n));
+        (1.0 + BRIGHTNESS_PRIOR * c) * (1.0 - TILT_PRIOR * (t / 90.0).powi(2))
+    };
     // Coarse: the whole range.
     let mut coarse: Vec<(f64, f64, f64)> = Vec::new();
     let mut t = -MAX_TILT_DEG;
     while t <= MAX_TILT_DEG {
         let mut r = -MAX_ROLL_DEG;
         while r <= MAX_ROLL_DEG {
-            coarse.push((eval(t, r, 2.5, &mut hist).total, t, r));
+            coarse.push((eval(t, r, 2.5, &mut hist).total * prior(t, r), t, r));
             r += 3.0;
         }
         t += 3.0;
@@ -453,7 +535,8 @@ pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonE
     };
     let mut best = (f64::MIN, 0.0, 0.0);
     for s in starts {
-        let b = refine(s, 3.0, 0.5, 1.0, &mut hist);
+        let mut b = refine(s, 3.0, 0.5, 1.0, &mut hist);
+        b.0 *= prior(b.1, b.2);
         if b.0 > best.0 {
             best = b;
         }
@@ -481,6 +564,21 @@ pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonE
     }
 }
 
+/// Weight of the texture prior: the support is scaled by `1 − w/2 + w g`, `g` the fraction of
+/// the edges' length below the candidate horizon (the ground is where the texture is). Kept
+/// weak: looking up, all the edges are above the true horizon.
+pub const TEXTURE_PRIOR: f64 = 0.15;
+
+/// Weight of the brightness prior: the support is scaled by `1 + w ρ`, `ρ` the correlation of
+/// the picture's block brightness with elevation above the candidate horizon (daylight skies
+/// are brighter than what stands under them).
+pub const BRIGHTNESS_PRIOR: f64 = 1.5;
+
+/// Weight of the tilt prior: the support is scaled by `1 − w (tilt/90°)²` (most footage is
+/// shot within 45° of level, and of the two Manhattan readings of a picture, the vertical and a
+/// horizontal vanishing point swapped, the one nearer level is the likelier).
+pub const TILT_PRIOR: f64 = 0.6;
+
 /// Largest |tilt| `auto` considers, degrees: beyond it the optical axis is within 25° of the
 /// vertical and, in a picture of right angles, the vertical vanishing point cannot be told
 /// from the point straight ahead (any two families of image-parallel lines fit it).
@@ -494,7 +592,11 @@ pub const MAX_SEGMENTS: usize = 400;
 
 /// Estimates the horizon of one luma picture through `camera`'s intrinsics.
 pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
-    estimate_from_segments(&detect_segments(luma, MAX_SEGMENTS), camera)
+    estimate_with(
+        &detect_segments(luma, MAX_SEGMENTS),
+        Brightness::new(luma, camera).as_ref(),
+        camera,
+    )
 }
 
 /// Smoothing of the per-frame estimates over a window of past frames, reset at cuts (see the
