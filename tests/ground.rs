@@ -319,3 +319,18 @@ fn ground_modes_parse_and_name_their_errors() {
         );
     }
 }
+
+/// Across the range where the priors must choose between the Manhattan readings: looking up
+/// 15° and 30°, down 20° and 30°, and rolled 20° while looking up.
+#[test]
+fn auto_across_tilts() {
+    for (t, r) in [
+        (15.0, 0.0),
+        (30.0, -3.0),
+        (-20.0, 0.0),
+        (-30.0, -5.0),
+        (12.0, -20.0),
+    ] {
+        check(t, r);
+    }
+}

@@ -24,14 +24,18 @@
 //! point, which would favour far-away points), with a Gaussian kernel of 2.5°, 1° then 0.4°.
 //! In a world of right angles the vertical and a horizontal vanishing point look alike to these
 //! tests (the "Manhattan" ambiguity: a camera looking up 25° at buildings reads as well as one
-//! looking down 65°). The tie is broken by three priors multiplying the support (weights
-//! [`TEXTURE_PRIOR`], [`BRIGHTNESS_PRIOR`], [`TILT_PRIOR`]): the ground is where the texture
-//! is (`1 − w/2 + w g`, `g` the fraction of the edges' length below the candidate horizon);
+//! looking down 65°). The tie is broken by four priors multiplying the support (weights
+//! [`TEXTURE_PRIOR`], [`BRIGHTNESS_PRIOR`], [`TILT_PRIOR`], [`ROLL_PRIOR`]): the ground is
+//! where the texture is (`1 − w/2 + w g`, `g` the fraction of the edges' length below the
+//! candidate horizon);
 //! the sky is brighter than what stands under it (`1 + w ρ`, `ρ` the correlation of 32 columns
 //! of block means of the luma with the blocks' elevation `r · n` above the candidate horizon,
 //! which is defined even when the horizon is out of the picture); and a camera is more often
 //! near level than steep (`1 − w (tilt/90°)²`; the two readings of a Manhattan picture have
-//! tilts `t` and about `±(90° − |t|)`, so this favours the truth whenever |t| < 45°).
+//! tilts `t` and about `±(90° − |t|)`, so this favours the truth whenever |t| < 45°) and more
+//! often level than rolled (`1 − w (roll/90°)²`). The priors only choose between readings
+//! (the coarse cells and the refined starts); each start is refined on the edges alone, so
+//! they do not pull a fit towards level.
 //!
 //! Segments come from a small line-segment detector on a downscaled luma (the frame's Y plane,
 //! box-averaged to about 320 pixels wide): Sobel gradients; region growing from the strongest
@@ -490,7 +494,9 @@ fn estimate_with(
     let prior = |t: f64, r: f64| {
         let n = crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
         let c = brightness.map_or(0.0, |b| b.correlation(n));
-        (1.0 + BRIGHTNESS_PRIOR * c) * (1.0 - TILT_PRIOR * (t / 90.0).powi(2))
+        (1.0 + BRIGHTNESS_PRIOR * c)
+            * (1.0 - TILT_PRIOR * (t / 90.0).powi(2))
+            * (1.0 - ROLL_PRIOR * (r / 90.0).powi(2))
     };
     // Coarse: the whole range.
     let mut coarse: Vec<(f64, f64, f64)> = Vec::new();
@@ -577,7 +583,11 @@ pub const BRIGHTNESS_PRIOR: f64 = 1.5;
 /// Weight of the tilt prior: the support is scaled by `1 − w (tilt/90°)²` (most footage is
 /// shot within 45° of level, and of the two Manhattan readings of a picture, the vertical and a
 /// horizontal vanishing point swapped, the one nearer level is the likelier).
-pub const TILT_PRIOR: f64 = 0.6;
+pub const TILT_PRIOR: f64 = 0.3;
+
+/// Weight of the roll prior: the support is scaled by `1 − w (roll/90°)²` (footage is mostly
+/// shot near level; it keeps a steep reading at a large roll from beating a moderate one).
+pub const ROLL_PRIOR: f64 = 0.6;
 
 /// Largest |tilt| `auto` considers, degrees: beyond it the optical axis is within 25° of the
 /// vertical and, in a picture of right angles, the vertical vanishing point cannot be told
