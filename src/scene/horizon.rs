@@ -61,7 +61,7 @@
 
 use std::collections::VecDeque;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
@@ -392,13 +392,18 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     }
 }
 
-/// Block means of the luma with their rays, for the brightness prior (see the module doc).
+/// Moments of the luma's block means and their rays, for the brightness prior (see the module
+/// doc): elevation `r · n` is linear in `n`, so the correlation for any `n` follows from them.
 struct Brightness {
-    /// Unit ray through each block's centre.
-    rays: Vec<DVec3>,
-    /// Block mean less the picture's mean.
-    dev: Vec<f64>,
-    /// √Σ dev².
+    /// Number of blocks.
+    count: f64,
+    /// Σ r over the blocks' unit rays.
+    sum_r: DVec3,
+    /// Σ r rᵀ.
+    sum_rr: DMat3,
+    /// Σ (v − v̄) r, `v` the block means.
+    sum_dr: DVec3,
+    /// √Σ (v − v̄)².
     norm: f64,
 }
 
@@ -409,8 +414,7 @@ impl Brightness {
         let (f, c) = (camera.focal_px(), camera.principal_px());
         let sx = camera.width_px as f64 / luma.width as f64;
         let sy = camera.height_px as f64 / luma.height as f64;
-        let mut rays = Vec::with_capacity(COLS * rows);
-        let mut vals = Vec::with_capacity(COLS * rows);
+        let mut blocks: Vec<(DVec3, f64)> = Vec::with_capacity(COLS * rows);
         for by in 0..rows {
             let (y0, y1) = (by * luma.height / rows, (by + 1) * luma.height / rows);
             for bx in 0..COLS {
@@ -424,32 +428,38 @@ impl Brightness {
                         sum += luma.data[y * luma.width + x] as f64;
                     }
                 }
-                vals.push(sum / ((x1 - x0) * (y1 - y0)) as f64);
                 let (px, py) = (0.5 * (x0 + x1) as f64 * sx, 0.5 * (y0 + y1) as f64 * sy);
-                rays.push(DVec3::new((px - c.x) / f, (py - c.y) / f, 1.0).normalize());
+                let r = DVec3::new((px - c.x) / f, (py - c.y) / f, 1.0).normalize();
+                blocks.push((r, sum / ((x1 - x0) * (y1 - y0)) as f64));
             }
         }
-        let mean = vals.iter().sum::<f64>() / vals.len().max(1) as f64;
-        let dev: Vec<f64> = vals.iter().map(|v| v - mean).collect();
-        let norm = dev.iter().map(|d| d * d).sum::<f64>().sqrt();
-        (norm > 1e-6).then_some(Brightness { rays, dev, norm })
+        let count = blocks.len() as f64;
+        let mean = blocks.iter().map(|b| b.1).sum::<f64>() / count.max(1.0);
+        let mut b = Brightness {
+            count,
+            sum_r: DVec3::ZERO,
+            sum_rr: DMat3::ZERO,
+            sum_dr: DVec3::ZERO,
+            norm: 0.0,
+        };
+        for &(r, v) in &blocks {
+            b.sum_r += r;
+            b.sum_rr += DMat3::from_cols(r * r.x, r * r.y, r * r.z);
+            b.sum_dr += r * (v - mean);
+            b.norm += (v - mean) * (v - mean);
+        }
+        b.norm = b.norm.sqrt();
+        (b.norm > 1e-6).then_some(b)
     }
 
     /// Correlation of brightness with elevation above the horizon of `n`, in [−1, 1].
     fn correlation(&self, n: DVec3) -> f64 {
-        let k = self.rays.len() as f64;
-        let (mut se, mut see, mut sde) = (0.0, 0.0, 0.0);
-        for (r, d) in self.rays.iter().zip(&self.dev) {
-            let e = r.dot(n);
-            se += e;
-            see += e * e;
-            sde += d * e;
-        }
-        let var = (see - se * se / k).max(0.0);
+        let se = self.sum_r.dot(n);
+        let var = (n.dot(self.sum_rr * n) - se * se / self.count).max(0.0);
         if var < 1e-12 {
             return 0.0;
         }
-        sde / (self.norm * var.sqrt())
+        self.sum_dr.dot(n) / (self.norm * var.sqrt())
     }
 }
 
