@@ -3,9 +3,9 @@
 // (nearest): rgb_to_yuv box-averages it back, so a frame without rain returns unchanged.
 // The rain too far to draw drop by drop veils the background here, before the streaks are drawn
 // over it: background · T + in-scatter (T = 1 and in-scatter = 0 without rain: exact identity).
-// The in-scatter along a pixel's ray is what a drop on that ray shows of the haze's light
-// (environment and compact lights on SH, premultiplied by the haze's opacity): the PRT colour
-// for the ray, so the veil glows around a lamp or the sun and stays dark away from them.
+// The in-scatter along a pixel's ray is what a drop on that ray shows (the PRT colour of the
+// frame's environment, compact lights left to the drawn drops) times the haze's opacity, so the
+// veil follows the light of the scene across the picture.
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
@@ -32,7 +32,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let linear = to_linear(frame.transfer, ycbcr_to_rgb(frame.kr, frame.kb, ycc));
     var in_scatter = vec3<f32>(0.0);
     if rain.haze.w < 1.0 {
-        in_scatter = max(prt_colour(rain.haze_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(id.xy)), vec3<f32>(0.0));
+        in_scatter = (1.0 - rain.haze.w) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(id.xy)), vec3<f32>(0.0));
     }
     textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + in_scatter, 1.0));
 }

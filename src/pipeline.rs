@@ -426,7 +426,6 @@ impl LightFeed {
             Some(l) => l.update(frame, t_s),
             None => FrameLight {
                 env: EnvironmentSh::zeros(4),
-                haze_sh: EnvironmentSh::zeros(4),
                 lights: Vec::new(),
             },
         };

@@ -78,7 +78,6 @@ fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
     setup.params_at(
         t_s,
         &FrameLight {
-            haze_sh: env.clone(),
             env,
             lights: Vec::new(),
         },
@@ -556,7 +555,6 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
         t,
         &FrameLight {
             env: env.clone(),
-            haze_sh: EnvironmentSh::zeros(4),
             lights: lights.clone(),
         },
         rtf.to_gpu_array()
@@ -710,8 +708,8 @@ fn direct_light_cost() {
     }
 }
 
-/// The haze's in-scatter along each pixel's ray is the drop's PRT colour of the haze light for
-/// that ray (here: a bright source up and to the right, on SH), in a picture displayed rotated
+/// The haze's in-scatter along each pixel's ray is the drop's PRT colour of the environment for
+/// that ray (here: brighter up and to the right), in a picture displayed rotated
 /// by 90°: the GPU's coded → display → ray mapping is held to the CPU camera, pixel by pixel.
 #[test]
 fn haze_in_scatter_follows_each_pixels_ray() {
@@ -747,20 +745,19 @@ fn haze_in_scatter_follows_each_pixels_ray() {
     )
     .expect("rain");
     assert!(setup.haze_alpha > 0.01, "haze {}", setup.haze_alpha);
-    // A source up and to the right of the view, as compact lights reach the haze.
-    let mut haze_sh = EnvironmentSh::zeros(4);
+    // An environment brighter up and to the right of the view.
+    let mut env = EnvironmentSh::zeros(4);
     let toward = camera.world_from_camera * glam::DVec3::new(0.5, -0.3, 1.0).normalize();
     let y = rain_composite::lighting::sh::basis(toward, 4);
-    for (c, yi) in haze_sh.coeffs.iter_mut().zip(&y) {
+    for (c, yi) in env.coeffs.iter_mut().zip(&y) {
         *c = [(3.0 * yi) as f32, (2.0 * yi) as f32, (1.0 * yi) as f32];
     }
-    haze_sh.coeffs[0] = [0.3, 0.3, 0.3];
+    env.coeffs[0] = [0.3, 0.3, 0.3];
     let rtf = RtfSh::water(1.333, 9, 4).expect("rtf");
     let mut params = setup.params_at(
         1.0,
         &FrameLight {
-            env: EnvironmentSh::zeros(4),
-            haze_sh: haze_sh.clone(),
+            env: env.clone(),
             lights: Vec::new(),
         },
         {
@@ -777,7 +774,7 @@ fn haze_in_scatter_follows_each_pixels_ray() {
     for yd in 0..dh {
         for xd in 0..dw {
             let ray = camera.ray_world(DVec2::new(xd as f64 + 0.5, yd as f64 + 0.5));
-            let want = prt_colour(&haze_sh, &rtf, ray).map(|v| (v * alpha).max(0.0));
+            let want = prt_colour(&env, &rtf, ray).map(|v| (v * alpha).max(0.0));
             let code = color.linear_to_code(want);
             // Displayed (x, y) ← coded (W − 1 − y, x) for a 90° display rotation.
             let (xc, yc) = (cw - 1 - yd, xd);

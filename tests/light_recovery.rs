@@ -473,7 +473,6 @@ fn lighting(config: LightConfig) -> LightEstimator {
 
 fn all_finite(l: &rain_composite::lighting::FrameLight) -> bool {
     l.env.coeffs.iter().flatten().all(|v| v.is_finite())
-        && l.haze_sh.coeffs.iter().flatten().all(|v| v.is_finite())
         && l.lights.iter().all(|s| {
             s.direction_world.is_finite()
                 && s.solid_angle_sr.is_finite()

@@ -72,7 +72,6 @@ fn rust_twins_match_wgsl_layouts() {
             mean_travel_cells,
             haze,
             env_sh,
-            haze_sh,
             drop_zonal,
             gust_amp,
             gust_phase,

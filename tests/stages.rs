@@ -156,17 +156,13 @@ fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
     let mut p = setup.params_at(
         t_s,
         &FrameLight {
-            haze_sh: env.clone(),
             env,
             lights: Vec::new(),
         },
         [[1.0, 0.4, 0.2, 0.1]; 3],
     );
     p.haze = [0.0, 0.0, 0.0, 0.9];
-    p.haze_sh = [[0.0; 4]; 16];
-    p.haze_sh[0] = [0.05, 0.06, 0.08, 0.0];
-    p.haze_sh[3] = [0.04, 0.03, 0.02, 0.0];
-    p.haze_sh[1] = [0.01, 0.01, 0.02, 0.0];
+    p.env_sh[3] = [0.4, 0.3, 0.2, 0.0]; // brighter to one side
     p
 }
 

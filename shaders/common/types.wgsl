@@ -41,9 +41,8 @@ struct RainParams {
     cell_size_m: vec2<f32>,
     wind_mean_mps: vec2<f32>,
     mean_travel_cells: vec2<f32>,    // mean wind · t / cell size, modulo 1 (computed in f64)
-    haze: vec4<f32>,                 // rain beyond the drawn drops: w transmittance (xyz unused)
+    haze: vec4<f32>,                 // rain beyond the drawn drops: w transmittance (xyz unused); it scatters env_sh
     env_sh: array<vec4<f32>, SH_COEFFS>,    // the frame's environment, 4 SH bands, rgb per coefficient
-    haze_sh: array<vec4<f32>, SH_COEFFS>,   // the haze's light (environment + compact lights) × its opacity
     drop_zonal: array<vec4<f32>, 3>, // the drop's RTF zonal coefficients z0..z3 per channel R, G, B
     gust_amp: array<vec4<f32>, GUSTS>,   // per gust component: ax, ay (m/s), ω (rad/s), unused
     gust_phase: array<vec4<f32>, GUSTS>, // cos(ωt+φ), sin(ωt+φ), cos φ, sin φ (computed in f64)

@@ -106,7 +106,6 @@ pub struct RainParams {
     pub mean_travel_cells: [f32; 2],
     pub haze: [f32; 4],
     pub env_sh: [[f32; 4]; SH_COEFFS],
-    pub haze_sh: [[f32; 4]; SH_COEFFS],
     pub drop_zonal: [[f32; 4]; 3],
     pub gust_amp: [[f32; 4]; GUSTS],
     pub gust_phase: [[f32; 4]; GUSTS],

@@ -159,7 +159,6 @@ pub fn build(
         mean_travel_cells: [0.0; 2],
         haze: [0.0, 0.0, 0.0, 1.0],
         env_sh: [[0.0; 4]; 16],
-        haze_sh: [[0.0; 4]; 16],
         drop_zonal: [[0.0; 4]; 3],
         gust_amp,
         gust_phase: [[1.0, 0.0, 1.0, 0.0]; GUSTS],
@@ -207,10 +206,8 @@ impl RainSetup {
         let mut p = self.motion_at(t_s);
         p.env_sh = light.env.to_gpu_array();
         p.drop_zonal = drop_zonal;
-        // The aggregate far drops scatter the same light as the near ones.
-        let a = self.haze_alpha as f32;
-        p.haze_sh = light.haze_sh.to_gpu_array().map(|c| c.map(|v| v * a));
-        p.haze = [0.0, 0.0, 0.0, 1.0 - a];
+        // The far drops of the haze scatter the same light as the drawn ones.
+        p.haze = [0.0, 0.0, 0.0, 1.0 - self.haze_alpha as f32];
         p
     }
 

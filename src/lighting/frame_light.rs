@@ -70,15 +70,12 @@ impl Default for LightConfig {
 /// What one frame contributes to the GPU's lighting.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameLight {
-    /// The smoothed environment, 4 bands.
+    /// The smoothed environment, 4 bands: what the drawn drops show through PRT, and what the
+    /// haze (the rain beyond them) scatters along each pixel's ray. Compact lights are not in
+    /// it: on four bands a source a fraction of a degree wide would spread its drops' forward
+    /// lobe over the whole sphere, and the veil would glow as brightly opposite a lamp as
+    /// beside it; drawn drops carry them exactly.
     pub env: EnvironmentSh,
-    /// What the haze (the rain beyond the drawn drops) scatters toward the camera, on SH; its
-    /// in-scatter along a pixel's ray is the drop's PRT colour for that ray. It is the
-    /// environment (the extended light, recovered where it clipped): compact lights are left
-    /// out because on four bands a source a fraction of a degree wide would spread its drops'
-    /// forward lobe over the whole sphere, and the veil would glow as brightly opposite a lamp
-    /// as beside it. Drawn drops carry the lights exactly.
-    pub haze_sh: EnvironmentSh,
     /// Compact sources lit directly through the RTF table (empty: the SH carries all light).
     pub lights: Vec<super::sources::LightSource>,
 }
@@ -196,11 +193,7 @@ impl LightEstimator {
         }
         self.frames_seen += 1;
         lights.extend_from_slice(&self.user_lights);
-        FrameLight {
-            haze_sh: env.clone(),
-            env,
-            lights,
-        }
+        FrameLight { env, lights }
     }
 
     /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation,

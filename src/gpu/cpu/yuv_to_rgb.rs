@@ -1,7 +1,7 @@
 //! The CPU twin of the `yuv_to_rgb` stage: decoded code values → linear RGB, chroma taken
 //! from the co-sited sample, through [`crate::video::ColorParams::code_to_linear`]; then the
-//! haze: `background · T + in-scatter`, the in-scatter the PRT colour of the haze's light
-//! (`RainParams::haze_sh`, premultiplied by its opacity) for the pixel's view ray
+//! haze: `background · T + (1 − T) · in-scatter`, the in-scatter the PRT colour of the
+//! environment (`RainParams::env_sh`, what the drawn drops show too) for the pixel's view ray
 //! ([`crate::lighting::prt::prt_colour_f64`]).
 
 use glam::{DVec2, DVec3};
@@ -30,7 +30,7 @@ pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     let (sx, sy) = f.chroma.shift();
     let transmittance = p.haze[3] as f64;
     let haze_env: Vec<[f64; 3]> = p
-        .haze_sh
+        .env_sh
         .iter()
         .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
         .collect();
@@ -50,7 +50,8 @@ pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
             ];
             let rgb = frame.color.code_to_linear(code);
             let in_scatter = if transmittance < 1.0 {
-                prt_colour_f64(&haze_env, &drop, view_ray(p, x, y)).map(|v| v.max(0.0))
+                prt_colour_f64(&haze_env, &drop, view_ray(p, x, y))
+                    .map(|v| (1.0 - transmittance) * v.max(0.0))
             } else {
                 [0.0; 3]
             };
