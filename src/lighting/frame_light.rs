@@ -94,16 +94,23 @@ pub struct LightEstimator {
     frames_seen: u64,
 }
 
+/// The drop's exact transfer table per channel (R, G, B) for `config`, [`GPU_RTF_BINS`] bins:
+/// what the direct light term reads, on the GPU and in `inspect light`.
+pub fn rtf_tables(config: &LightConfig) -> Result<[RtfTable; 3]> {
+    let [r, g, b] = channel_optics(
+        ChannelIndices::from(config.refractive_index),
+        config.n_max,
+        Polarisation::default(),
+    )?
+    .map(|o| o.tabulate(GPU_RTF_BINS));
+    Ok([r?, g?, b?])
+}
+
 impl LightEstimator {
     /// Lighting for frames seen through `camera` (the displayed picture), stored rotated by
     /// `rotation_deg` (see `video::VideoInfo::rotation_deg`).
     pub fn new(camera: &Camera, rotation_deg: i32, config: &LightConfig) -> Result<LightEstimator> {
-        let optics = channel_optics(
-            ChannelIndices::from(config.refractive_index),
-            config.n_max,
-            Polarisation::default(),
-        )?;
-        let [r, g, b] = optics.map(|o| o.tabulate(GPU_RTF_BINS));
+        let tables = rtf_tables(config)?;
         let user_lights = config
             .lights
             .iter()
@@ -122,7 +129,7 @@ impl LightEstimator {
             smoother,
             recovery,
             rotation_deg,
-            tables: [r?, g?, b?],
+            tables,
             user_lights,
             frames_seen: 0,
         })

@@ -15,9 +15,8 @@ use serde_json::{Value, json};
 use super::envmap::{EnvMapper, EnvironmentSh};
 use super::frame_light::{GPU_BANDS, LightConfig, recovery_settings};
 use super::inspect::{LinearImage, linear_to_srgb, srgb_to_linear};
-use super::prt::{RtfSh, channel_optics, prt_colour};
+use super::prt::{RtfSh, prt_colour};
 use super::recovery::{BlockStats, ClipLevel, Region, recover};
-use super::rtf::{DEFAULT_BINS, Polarisation, RtfTable};
 use super::sources::{LightSource, direct_colour};
 use crate::scene::Camera;
 use crate::{Error, Result};
@@ -117,19 +116,7 @@ pub fn light_report(
     })
 }
 
-/// The exact RTF tables (one per channel) of a lighting configuration.
-pub fn rtf_tables(config: &LightConfig) -> Result<[RtfTable; 3]> {
-    let o = channel_optics(
-        config.refractive_index.into(),
-        config.n_max,
-        Polarisation::default(),
-    )?;
-    Ok([
-        o[0].tabulate(DEFAULT_BINS)?,
-        o[1].tabulate(DEFAULT_BINS)?,
-        o[2].tabulate(DEFAULT_BINS)?,
-    ])
-}
+pub use super::frame_light::rtf_tables;
 
 /// The report as JSON.
 pub fn inspect_light(report: &LightReport, camera: &Camera) -> Value {
