@@ -30,11 +30,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         (code.z - frame.c_offset) / frame.c_scale,
     );
     let linear = to_linear(frame.transfer, ycbcr_to_rgb(frame.kr, frame.kb, ycc));
-    var in_scatter = vec3<f32>(0.0);
-    if rain.haze.w < 1.0 {
-        in_scatter = (1.0 - rain.haze.w) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(id.xy)), vec3<f32>(0.0));
-    }
-    textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + in_scatter, 1.0));
+    textureStore(canvas, id.xy, vec4<f32>(linear * rain.haze.w + in_scatter(id.xy), 1.0));
+}
+
+// The rain layer's starting canvas: the haze alone, premultiplied over nothing (colour
+// (1 − T) · L, alpha 1 − T), so that this over the frame is what `main` writes.
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn layer(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.width || id.y >= frame.height { return; }
+    textureStore(canvas, id.xy, vec4<f32>(in_scatter(id.xy), 1.0 - rain.haze.w));
+}
+
+// The haze's in-scatter at pixel `p`, already weighted by its opacity 1 − T.
+fn in_scatter(p: vec2<u32>) -> vec3<f32> {
+    if rain.haze.w >= 1.0 { return vec3<f32>(0.0); }
+    return (1.0 - rain.haze.w) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(p)), vec3<f32>(0.0));
 }
 
 // World direction of the ray through the centre of coded pixel `p`: back to display pixels

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use crate::config::RenderConfig;
 use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::uniforms::{self as emitter, RainSetup};
-use crate::gpu::{AdapterRequest, Compositor, GpuContext};
+use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
 use crate::scene::Camera;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
@@ -146,7 +146,7 @@ pub struct Job {
 }
 
 enum ToEncode {
-    Frame(YuvFrame),
+    Frame(Rendered),
     Packet(crate::video::CopiedPacket),
     /// Everything was sent: flush and publish the output. A channel that closes without it
     /// means the job failed, and the unfinished Sink removes its temporary file.
@@ -170,7 +170,13 @@ pub fn render(
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
     let rain = rain_for(&info, &job.render, &ctx)?;
     log::info!("{}", rain.summary());
-    let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
+    let mut compositor = Compositor::with_layer(
+        ctx.clone(),
+        info.format,
+        &info.color,
+        &rain,
+        job.encode.layer,
+    )?;
     let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
     lighting.upload_table(&mut compositor);
 
@@ -210,7 +216,7 @@ pub fn render(
                 let t = Instant::now();
                 match item {
                     ToEncode::Frame(f) => {
-                        sink.write_frame(&f)?;
+                        sink.write_rendered(&f)?;
                         frames += 1;
                     }
                     ToEncode::Packet(p) => sink.write_packet(p)?,
@@ -231,7 +237,7 @@ pub fn render(
     let mut stages = StageTimes::default();
     let mut written = 0u64;
     let gpu_result = (|| -> Result<()> {
-        let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
+        let mut send = |f: Rendered, written: &mut u64| -> Result<()> {
             out_tx
                 .send(ToEncode::Frame(f))
                 .map_err(|_| Error::EncoderStopped)?;
@@ -253,7 +259,7 @@ pub fn render(
                     let (params, lights) =
                         lighting.params(&rain, &frame, frame_time_s(&info, &frame));
                     compositor.set_lights(&lights);
-                    let done = compositor.submit(&frame, &params)?;
+                    let done = compositor.submit_rendered(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
                         send(done, &mut written)?;
@@ -267,7 +273,7 @@ pub fn render(
             }
         }
         let t = Instant::now();
-        let rest = compositor.flush()?;
+        let rest = compositor.flush_rendered()?;
         stages.readback_s += t.elapsed().as_secs_f64();
         for f in rest {
             send(f, &mut written)?;

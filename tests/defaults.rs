@@ -26,7 +26,11 @@ fn help_defaults() -> BTreeMap<String, Option<String>> {
             let names = spec
                 .split([',', ' '])
                 .filter(|w| w.starts_with('-'))
-                .map(|w| w.trim_end_matches("...").to_string())
+                .map(|w| {
+                    // `--flag[=<VALUE>]`: an optional value is not part of the name.
+                    let w = w.split("[=").next().unwrap_or(w);
+                    w.trim_end_matches("...").to_string()
+                })
                 .collect();
             entries.push((names, t[spec.len()..].to_string()));
         } else if let Some((_, help)) = entries.last_mut() {

@@ -6,7 +6,9 @@
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
 //! rotation is applied to the streaks' vertices, not to the pixels, so a frame without rain
-//! comes back bit for bit). `submit` records one frame and returns the frame submitted
+//! comes back bit for bit). For the rain as a layer ([`Layer`]) the canvas starts transparent
+//! (the haze alone) instead of the frame, the same stages draw over it, and `rgba_out` packs
+//! R'G'B'A in place of `rgb_to_yuv` (the layer over black keeps `rgb_to_yuv`). `submit` records one frame and returns the frame submitted
 //! `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame it just
 //! submitted, so upload, GPU work and readback of consecutive frames overlap. `flush` drains
 //! the ring at the end.
@@ -21,11 +23,11 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
-    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, yuv_to_rgb::YuvToRgb,
+    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, rgba_out::RgbaOut, yuv_to_rgb::YuvToRgb,
 };
 use super::types::{FrameParams, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
-use crate::video::{FrameFormat, Plane, YuvFrame};
+use crate::video::{FrameFormat, Layer, LayerFrame, Plane, YuvFrame};
 use crate::{Error, Result};
 
 /// Frames in flight (readback slots).
@@ -43,6 +45,8 @@ pub struct GpuStageTimes {
     pub rain_simulate_s: f64,
     /// Canvas → packed YUV planes.
     pub rgb_to_yuv_s: f64,
+    /// Canvas → packed R'G'B'A (the rain as a layer).
+    pub rgba_out_s: f64,
 }
 
 impl GpuStageTimes {
@@ -53,6 +57,7 @@ impl GpuStageTimes {
             "rain_simulate" => &mut self.rain_simulate_s,
             "rain_streaks" => &mut self.rain_streaks_s,
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
+            "rgba_out" => &mut self.rgba_out_s,
             _ => return,
         };
         *field += seconds;
@@ -66,10 +71,34 @@ struct InFlight {
     template: YuvFrame,
 }
 
+/// A frame read back: the composite (or the layer over black) as Y'CbCr planes, or the
+/// rain as an R'G'B'A layer.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rendered {
+    /// Planes in the input's layout.
+    Picture(YuvFrame),
+    /// The layer, or the matte.
+    Layer(LayerFrame),
+}
+
+impl Rendered {
+    /// The picture, or an error for a layer.
+    pub fn into_picture(self) -> Result<YuvFrame> {
+        match self {
+            Rendered::Picture(f) => Ok(f),
+            Rendered::Layer(_) => Err(Error::Gpu(
+                "this compositor writes R'G'B'A layers, not pictures".into(),
+            )),
+        }
+    }
+}
+
 /// Renders rain onto frames of one fixed format.
 pub struct Compositor {
     ctx: Arc<GpuContext>,
     format: FrameFormat,
+    /// Whether frames come back as R'G'B'A layers.
+    rgba: bool,
     frame_params: FrameParams,
     planes: [wgpu::Texture; 3],
     rain_buffer: wgpu::Buffer,
@@ -107,6 +136,18 @@ impl Compositor {
         color: &crate::video::ColorParams,
         rain: &RainSetup,
     ) -> Result<Compositor> {
+        Compositor::with_layer(ctx, format, color, rain, None)
+    }
+
+    /// As [`Compositor::new`], writing the rain as `layer` when given.
+    pub fn with_layer(
+        ctx: Arc<GpuContext>,
+        format: FrameFormat,
+        color: &crate::video::ColorParams,
+        rain: &RainSetup,
+        layer: Option<Layer>,
+    ) -> Result<Compositor> {
+        let rgba = layer.is_some_and(Layer::is_rgba);
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
             return Err(Error::Unsupported(format!(
@@ -159,7 +200,14 @@ impl Compositor {
                 | wgpu::TextureUsages::RENDER_ATTACHMENT,
             view_formats: &[],
         });
-        let out_bytes = frame_params.total_words() as u64 * 4;
+        let out_words = if rgba {
+            u64::from(format.width)
+                * u64::from(format.height)
+                * u64::from(super::stages::rgba_out::WORDS_PER_PIXEL)
+        } else {
+            frame_params.total_words() as u64
+        };
+        let out_bytes = out_words * 4;
         let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("packed_planes"),
             size: out_bytes,
@@ -195,11 +243,19 @@ impl Compositor {
             out_words: out_buffer.clone(),
         };
         // The frame, in order.
+        let start = match layer {
+            None => YuvToRgb::new(device, &resources),
+            Some(_) => YuvToRgb::layer(device, &resources),
+        };
+        let out: Box<dyn FrameStage> = match layer {
+            Some(l) if rgba => Box::new(RgbaOut::new(device, &resources, l)),
+            _ => Box::new(RgbToYuv::new(device, &resources)),
+        };
         let stages: Vec<Box<dyn FrameStage>> = vec![
-            Box::new(YuvToRgb::new(device, &resources)),
+            Box::new(start),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainStreaks::new(device, &resources)),
-            Box::new(RgbToYuv::new(device, &resources)),
+            out,
         ];
         let timed = stages.len() as u64;
         let timestamps = device
@@ -232,6 +288,7 @@ impl Compositor {
         Ok(Compositor {
             ctx,
             format,
+            rgba,
             frame_params,
             planes,
             rain_buffer,
@@ -272,6 +329,17 @@ impl Compositor {
     /// Records and submits `frame` with the rain of `rain` (see `RainSetup::params_at`).
     /// Returns the oldest finished frame once `RING` frames are in flight.
     pub fn submit(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Option<YuvFrame>> {
+        self.submit_rendered(frame, rain)?
+            .map(Rendered::into_picture)
+            .transpose()
+    }
+
+    /// As [`Compositor::submit`], for any output (a layer compositor's frames are layers).
+    pub fn submit_rendered(
+        &mut self,
+        frame: &YuvFrame,
+        rain: &RainParams,
+    ) -> Result<Option<Rendered>> {
         if frame.format != self.format {
             return Err(Error::Unsupported(format!(
                 "the picture format changed mid-stream ({:?} → {:?})",
@@ -358,7 +426,7 @@ impl Compositor {
     }
 
     /// Waits for the oldest frame in flight and reads it back.
-    fn receive(&mut self) -> Result<YuvFrame> {
+    fn receive(&mut self) -> Result<Rendered> {
         let Some(f) = self.in_flight.pop_front() else {
             return Err(Error::Gpu("no frame in flight".into()));
         };
@@ -375,11 +443,21 @@ impl Compositor {
             .map_err(|e| Error::Gpu(format!("readback of frame {}: {e}", f.template.index)))?;
         let buffer = &self.staging[f.slot];
         let mut out = f.template;
+        let mut layer = None;
         {
             let view = buffer
                 .get_mapped_range(..)
                 .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
             let fp = &self.frame_params;
+            if self.rgba {
+                layer = Some(LayerFrame {
+                    width: fp.width,
+                    height: fp.height,
+                    rgba: bytemuck::pod_collect_to_vec(&view[..self.out_bytes as usize]),
+                    pts: out.pts,
+                    index: out.index,
+                });
+            }
             let y_len = (fp.y_row_words * fp.height) as usize * 4;
             let c_len = (fp.c_row_words * fp.chroma_height) as usize * 4;
             let bounds = [
@@ -392,7 +470,7 @@ impl Compositor {
                 fp.c_row_words as usize * 4,
                 fp.c_row_words as usize * 4,
             ];
-            for i in 0..3 {
+            for i in (0..3).filter(|_| !self.rgba) {
                 out.planes[i] = Plane {
                     data: view[bounds[i].0..bounds[i].1].to_vec(),
                     stride: strides[i],
@@ -415,11 +493,22 @@ impl Compositor {
             }
         }
         buffer.unmap();
-        Ok(out)
+        Ok(match layer {
+            Some(l) => Rendered::Layer(l),
+            None => Rendered::Picture(out),
+        })
     }
 
     /// Reads back every frame still in flight, oldest first.
     pub fn flush(&mut self) -> Result<Vec<YuvFrame>> {
+        self.flush_rendered()?
+            .into_iter()
+            .map(Rendered::into_picture)
+            .collect()
+    }
+
+    /// As [`Compositor::flush`], for any output.
+    pub fn flush_rendered(&mut self) -> Result<Vec<Rendered>> {
         let mut out = Vec::with_capacity(self.in_flight.len());
         while !self.in_flight.is_empty() {
             out.push(self.receive()?);
@@ -429,11 +518,16 @@ impl Compositor {
 
     /// Renders one frame and waits for it (preview).
     pub fn render_one(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<YuvFrame> {
-        let mut out = self.flush()?;
-        if let Some(f) = self.submit(frame, rain)? {
+        self.render_one_rendered(frame, rain)?.into_picture()
+    }
+
+    /// As [`Compositor::render_one`], for any output.
+    pub fn render_one_rendered(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Rendered> {
+        let mut out = self.flush_rendered()?;
+        if let Some(f) = self.submit_rendered(frame, rain)? {
             out.push(f);
         }
-        out.extend(self.flush()?);
+        out.extend(self.flush_rendered()?);
         out.pop()
             .ok_or_else(|| Error::Gpu("no frame came back".into()))
     }

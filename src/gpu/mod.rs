@@ -10,5 +10,5 @@ pub mod stages;
 pub mod types;
 pub mod uniforms;
 
-pub use compositor::{Compositor, GpuStageTimes, max_drops};
+pub use compositor::{Compositor, GpuStageTimes, Rendered, max_drops};
 pub use context::{AdapterRequest, AdapterSummary, GpuContext, list_adapters};

@@ -6,7 +6,8 @@
 //! frame's pts passes through unchanged, CFR or VFR), adds the copied streams, and writes the
 //! header, all into a hidden temporary file beside the output. [`Sink::finish`] flushes and
 //! renames it onto the output; dropping an unfinished sink deletes it, so a failed or
-//! interrupted job never leaves a half-written output.
+//! interrupted job never leaves a half-written output. A PNG sequence is written into a hidden
+//! temporary directory whose files are moved beside the output pattern at the end.
 
 use std::path::{Path, PathBuf};
 
@@ -17,6 +18,7 @@ use super::audio::AacTranscoder;
 use super::decode::{CopiedPacket, init};
 use super::ffi;
 use super::info::{StreamAction, StreamKind, VideoInfo};
+use super::layer::{Layer, LayerEncoding, LayerFrame, layer_encoding};
 use super::output_path::{check_output, temp_path};
 use super::pixfmt::{self, Converter};
 use super::{Chroma, FrameFormat, YuvFrame};
@@ -85,6 +87,8 @@ pub struct EncodeOptions {
     pub audio: AudioMode,
     /// Replace an existing output.
     pub overwrite: bool,
+    /// Write the rain as a layer instead of the composite.
+    pub layer: Option<Layer>,
 }
 
 /// The speed presets libx264 and libx265 share, fastest first.
@@ -132,6 +136,7 @@ impl Default for EncodeOptions {
             container: None,
             audio: AudioMode::Copy,
             overwrite: false,
+            layer: None,
         }
     }
 }
@@ -226,6 +231,10 @@ struct VideoOut {
     /// Layout change for an encoder that does not take the input's layout.
     converter: Option<Converter>,
     enc_pixel: Pixel,
+    /// How frames are packed when the output is an R'G'B'A layer or a matte.
+    layer: Option<(Layer, LayerEncoding)>,
+    /// The input's colour, for the Y'CbCr of a ProRes layer.
+    color: super::ColorParams,
     /// y4m: constant rate, pts = frame counter.
     y4m: bool,
     frames: i64,
@@ -244,6 +253,29 @@ pub struct Sink {
     finished: bool,
 }
 
+/// The image2 muxer's name (PNG sequences).
+const IMAGE2: &str = "image2";
+
+/// The hidden temporary file beside `output`, or for an image sequence the hidden directory
+/// (whose name must not read as a second frame-number pattern).
+fn sink_temp_path(output: &str, sequence: bool) -> PathBuf {
+    let t = temp_path(Path::new(output));
+    if !sequence {
+        return t;
+    }
+    let name = t.file_name().unwrap_or_default().to_string_lossy();
+    t.with_file_name(name.replace('%', "_"))
+}
+
+/// Removes a temporary output: a file, or a PNG sequence's directory.
+fn discard(temp: &Path) {
+    if temp.is_dir() {
+        let _ = std::fs::remove_dir_all(temp);
+    } else {
+        let _ = std::fs::remove_file(temp);
+    }
+}
+
 impl Sink {
     /// Creates the output (`"-"` = stdout) for frames shaped like `info` says, and writes its
     /// header into a temporary file beside it.
@@ -258,9 +290,18 @@ impl Sink {
             path: output.to_owned(),
             reason,
         };
+        let sequence = muxer == IMAGE2;
+        if sequence {
+            check_sequence(output, opts)?;
+        }
 
-        let temp = (output != "-").then(|| temp_path(Path::new(output)));
+        let temp = (output != "-").then(|| sink_temp_path(output, sequence));
         let url = match &temp {
+            Some(t) if sequence => {
+                std::fs::create_dir(t).map_err(|e| write_err(e.to_string()))?;
+                let name = Path::new(output).file_name().unwrap_or_default();
+                t.join(name).to_string_lossy().into_owned()
+            }
             Some(t) => t.to_string_lossy().into_owned(),
             None => "pipe:1".to_owned(),
         };
@@ -326,7 +367,13 @@ impl Sink {
             }
         }
 
-        octx.set_metadata(dictionary(&info.metadata, &["encoder"]));
+        let mut metadata = dictionary(&info.metadata, &["encoder", "alpha_mode"]);
+        if let Some(Layer::Alpha(mode)) = opts.layer {
+            // No container has a standard field for it: a tag, in the file (MOV keeps only
+            // file-level tags) and on the video stream (Matroska).
+            metadata.set("alpha_mode", mode.name());
+        }
+        octx.set_metadata(metadata);
         let mp4_family =
             ["mp4", "mov", "ipod", "ismv", "3gp", "3g2", "psp", "f4v"].contains(&muxer.as_str());
         let mut header_opts = ff::Dictionary::new();
@@ -338,7 +385,12 @@ impl Sink {
             } else {
                 "+faststart"
             };
-            header_opts.set("movflags", flags);
+            let tagged = if opts.layer.is_some_and(Layer::is_rgba) {
+                "+use_metadata_tags"
+            } else {
+                ""
+            };
+            header_opts.set("movflags", &format!("{flags}{tagged}"));
         }
         if muxer == Y4M && (info.format.bit_depth > 8) {
             // FFmpeg calls high-depth y4m "unofficial" but writes it (rav1e, x264 read it).
@@ -379,6 +431,11 @@ impl Sink {
     /// its pts (input time base) is passed through.
     pub fn write_frame(&mut self, frame: &YuvFrame) -> Result<()> {
         let v = &mut self.video;
+        if v.layer.is_some() {
+            return Err(Error::Unsupported(
+                "this output was opened for layers, not pictures".into(),
+            ));
+        }
         if frame.format != v.format {
             return Err(Error::Parameter {
                 name: "frame",
@@ -389,7 +446,7 @@ impl Sink {
         // A fresh frame each time: encoders (and the y4m muxer) may keep a reference to it.
         let mut av = ff::frame::Video::new(v.in_pixel, v.format.width, v.format.height);
         pixfmt::planes_to_av(frame, &mut av)?;
-        let mut av = match v.converter.as_mut() {
+        let av = match v.converter.as_mut() {
             Some(c) => {
                 let mut out = ff::frame::Video::new(v.enc_pixel, v.format.width, v.format.height);
                 c.run_into(&av, &mut out)?;
@@ -397,30 +454,73 @@ impl Sink {
             }
             None => av,
         };
+        let tags = self.info_tags;
+        self.send_video(av, frame.pts, frame.index, tags)
+    }
+
+    /// Encodes one layer (a sink created with an R'G'B'A [`Layer`]).
+    pub fn write_layer(&mut self, frame: &LayerFrame) -> Result<()> {
+        let v = &self.video;
+        let Some((layer, encoding)) = v.layer else {
+            return Err(Error::Unsupported(
+                "this output was opened for pictures, not layers".into(),
+            ));
+        };
+        let (w, h) = (v.format.width, v.format.height);
+        if (frame.width, frame.height) != (w, h) || frame.rgba.len() != 4 * (w * h) as usize {
+            return Err(Error::Parameter {
+                name: "layer",
+                value: format!("{}x{}", frame.width, frame.height),
+                expected: format!("the size the sink was created for, {w}x{h}"),
+            });
+        }
+        let mut av = ff::frame::Video::new(encoding.pixel, w, h);
+        super::layer::pack(frame, layer, encoding, &v.color, &mut av);
+        let tags = layer_tags(self.info_tags, layer, encoding);
+        self.send_video(av, frame.pts, frame.index, tags)
+    }
+
+    /// Encodes a rendered frame of either kind.
+    pub fn write_rendered(&mut self, frame: &crate::gpu::Rendered) -> Result<()> {
+        match frame {
+            crate::gpu::Rendered::Picture(f) => self.write_frame(f),
+            crate::gpu::Rendered::Layer(l) => self.write_layer(l),
+        }
+    }
+
+    /// Stamps `av` with its pts (kept increasing) and colour tags, and encodes it.
+    fn send_video(
+        &mut self,
+        mut av: ff::frame::Video,
+        frame_pts: i64,
+        index: u64,
+        tags: super::info::ColorTags,
+    ) -> Result<()> {
+        let v = &mut self.video;
+        let frame = (frame_pts, index);
         let pts = if v.y4m {
             v.frames
         } else {
             match v.last_pts {
-                Some(last) if frame.pts <= last => {
+                Some(last) if frame.0 <= last => {
                     if !v.warned_pts {
                         log::warn!(
                             "frame {} has pts {} after {last}; shifting it to keep time moving \
                              forward",
-                            frame.index,
-                            frame.pts
+                            frame.1,
+                            frame.0
                         );
                         v.warned_pts = true;
                     }
                     last + 1
                 }
-                _ => frame.pts,
+                _ => frame.0,
             }
         };
         v.last_pts = Some(pts);
         v.frames += 1;
         av.set_pts(Some(pts));
         av.set_kind(ff::picture::Type::None);
-        let tags = self.info_tags;
         av.set_color_space(tags.matrix);
         av.set_color_range(tags.range);
         av.set_color_primaries(tags.primaries);
@@ -428,7 +528,7 @@ impl Sink {
         self.video
             .encoder
             .send_frame(&av)
-            .map_err(Error::ffmpeg(format!("encoding frame {}", frame.index)))?;
+            .map_err(Error::ffmpeg(format!("encoding frame {}", frame.1)))?;
         self.drain_video()
     }
 
@@ -484,7 +584,7 @@ impl Sink {
         // Close the file before renaming it.
         drop(self.octx.take());
         if let Some(temp) = &self.temp {
-            std::fs::rename(temp, &self.output).map_err(|e| Error::OutputWrite {
+            publish(temp, &self.output).map_err(|e| Error::OutputWrite {
                 path: self.output.clone(),
                 reason: format!("renaming the finished temporary file: {e}"),
             })?;
@@ -521,7 +621,7 @@ impl Drop for Sink {
         if !self.finished {
             drop(self.octx.take());
             if let Some(temp) = &self.temp {
-                let _ = std::fs::remove_file(temp);
+                discard(temp);
             }
         }
     }
@@ -544,7 +644,7 @@ impl Drop for TempGuard {
     fn drop(&mut self) {
         drop(self.octx.take());
         if let Some(temp) = &self.temp {
-            let _ = std::fs::remove_file(temp);
+            discard(temp);
         }
     }
 }
@@ -590,16 +690,21 @@ fn open_video(
 ) -> Result<VideoOut> {
     let muxer = ofmt.name().to_owned();
     let y4m = muxer == Y4M;
+    let layer = match opts.layer.filter(|l| l.is_rgba()) {
+        Some(l) => Some((l, layer_encoding(&muxer, opts.codec, l)?)),
+        None => None,
+    };
+    let encoder_name = match layer {
+        Some((_, e)) => e.codec.encoder_name(),
+        None => opts.codec.encoder_name(),
+    };
     let codec = if y4m {
         ff::encoder::find(ff::codec::Id::WRAPPED_AVFRAME)
     } else {
-        ff::encoder::find_by_name(opts.codec.encoder_name())
+        ff::encoder::find_by_name(encoder_name)
     }
     .ok_or_else(|| {
-        Error::Unsupported(format!(
-            "this FFmpeg build has no {} encoder",
-            opts.codec.encoder_name()
-        ))
+        Error::Unsupported(format!("this FFmpeg build has no {encoder_name} encoder"))
     })?;
     // Animation muxers take only their own codec but do not say so when asked.
     let animation_only = ["gif", "apng", "webp"].contains(&muxer.as_str());
@@ -618,12 +723,13 @@ fn open_video(
                 || (format.height % 2 == 1 && d.log2_chroma.1 > 0)
         })
     };
-    let mut enc_pixel = if y4m {
+    let in_pixel = layer.map_or(in_pixel, |(_, e)| e.pixel);
+    let mut enc_pixel = if y4m || layer.is_some() {
         in_pixel
     } else {
         choose_pixel(&codec, in_pixel, &format)?
     };
-    if !y4m && opts.codec != VideoCodec::Ffv1 && odd_for(enc_pixel) {
+    if !y4m && layer.is_none() && opts.codec != VideoCodec::Ffv1 && odd_for(enc_pixel) {
         // Subsampled chroma needs even sizes in H.264/HEVC/ProRes: keep the picture's size and
         // encode full-resolution chroma instead (the input's chroma is repeated, nothing is
         // lost).
@@ -689,33 +795,46 @@ fn open_video(
     if sn > 0 && sd > 0 {
         enc.set_aspect_ratio(Rational::new(sn, sd));
     }
-    enc.set_colorspace(info.tags.matrix);
-    enc.set_color_range(info.tags.range);
-    enc.set_color_primaries(info.tags.primaries);
-    enc.set_color_transfer_characteristic(info.tags.transfer);
+    let tags = match layer {
+        Some((l, e)) => layer_tags(info.tags, l, e),
+        None => info.tags,
+    };
+    enc.set_colorspace(tags.matrix);
+    enc.set_color_range(tags.range);
+    enc.set_color_primaries(tags.primaries);
+    enc.set_color_transfer_characteristic(tags.transfer);
     if global_header {
         enc.set_flags(ff::codec::Flags::GLOBAL_HEADER);
     }
     let mut dict = ff::Dictionary::new();
-    match (y4m, opts.codec) {
-        (true, _) => {}
-        (false, VideoCodec::H264) => {
+    let codec_kind = match layer {
+        Some((_, e)) if e.codec == super::layer::LayerCodec::ProRes4444 => {
+            dict.set("profile", "4444");
+            None
+        }
+        Some((_, e)) if e.codec == super::layer::LayerCodec::Ffv1 => Some(VideoCodec::Ffv1),
+        Some(_) => None,
+        None => Some(opts.codec),
+    };
+    match (y4m, codec_kind) {
+        (_, None) | (true, _) => {}
+        (false, Some(VideoCodec::H264)) => {
             dict.set("preset", &opts.preset);
             dict.set("crf", &opts.crf.to_string());
         }
-        (false, VideoCodec::Hevc) => {
+        (false, Some(VideoCodec::Hevc)) => {
             dict.set("preset", &opts.preset);
             dict.set("crf", &opts.crf.to_string());
             dict.set("x265-params", "log-level=error");
         }
-        (false, VideoCodec::ProRes) => {}
-        (false, VideoCodec::Ffv1) => {
+        (false, Some(VideoCodec::ProRes)) => {}
+        (false, Some(VideoCodec::Ffv1)) => {
             // Version 3: slices (multi-threaded) and per-slice CRCs.
             dict.set("level", "3");
             dict.set("slicecrc", "1");
         }
     }
-    let name = if y4m { Y4M } else { opts.codec.encoder_name() };
+    let name = if y4m { Y4M } else { encoder_name };
     let encoder = enc
         .open_as_with(codec, dict)
         .map_err(Error::ffmpeg(format!("opening the {name} encoder")))?;
@@ -729,7 +848,13 @@ fn open_video(
         ost.set_avg_frame_rate(Rational::new(info.avg_frame_rate.0, info.avg_frame_rate.1));
     }
     if let Some(vs) = info.stream(info.video_stream) {
-        ost.set_metadata(dictionary(&vs.metadata, &["rotate", "encoder"]));
+        let mut metadata = dictionary(&vs.metadata, &["rotate", "encoder", "alpha_mode"]);
+        if let Some((Layer::Alpha(mode), _)) = layer {
+            // Containers have no standard field for it; Matroska keeps stream tags, and the
+            // MOV muxer writes them with `use_metadata_tags`.
+            metadata.set("alpha_mode", mode.name());
+        }
+        ost.set_metadata(metadata);
     }
     const IDENTITY: [i32; 9] = [1 << 16, 0, 0, 0, 1 << 16, 0, 0, 0, 1 << 30];
     if let Some(m) = &info.display_matrix
@@ -758,7 +883,7 @@ fn open_video(
         );
     }
 
-    let converter = if enc_pixel != in_pixel {
+    let converter = if enc_pixel != in_pixel && layer.is_none() {
         let c = (info.color.matrix, info.color.full_range);
         Some(Converter::new(
             (in_pixel, format.width, format.height),
@@ -778,11 +903,91 @@ fn open_video(
         in_pixel,
         converter,
         enc_pixel,
+        layer,
+        color: info.color,
         y4m,
         frames: 0,
         last_pts: None,
         warned_pts: false,
     })
+}
+
+/// The colour tags of a layer written as `encoding`: R'G'B' samples carry no matrix and are
+/// full range, ProRes's Y'CbCr keeps the video's matrix at limited range, and a matte is linear.
+fn layer_tags(
+    video: super::info::ColorTags,
+    layer: Layer,
+    encoding: LayerEncoding,
+) -> super::info::ColorTags {
+    use ff::color::{Range, Space, TransferCharacteristic};
+    let prores = encoding.codec == super::layer::LayerCodec::ProRes4444;
+    super::info::ColorTags {
+        matrix: if prores { video.matrix } else { Space::RGB },
+        range: if prores { Range::MPEG } else { Range::JPEG },
+        primaries: video.primaries,
+        transfer: if layer == Layer::Matte {
+            TransferCharacteristic::Linear
+        } else {
+            video.transfer
+        },
+    }
+}
+
+/// Refuses a PNG sequence that could not be written: a layer is required (PNG holds R'G'B'A
+/// layers only), the name needs a frame-number pattern, and an existing first image needs
+/// `overwrite`.
+fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
+    if !opts.layer.is_some_and(Layer::is_rgba) {
+        return Err(Error::Parameter {
+            name: "--output",
+            value: output.to_owned(),
+            expected: "a video file; image sequences are written for --layer-only or --matte"
+                .into(),
+        });
+    }
+    let name = Path::new(output)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let Some(first) = ffi::sequence_file_name(&name, 1) else {
+        return Err(Error::Parameter {
+            name: "--output",
+            value: output.to_owned(),
+            expected: "an image-sequence name with a frame number pattern, e.g. out_%05d.png"
+                .into(),
+        });
+    };
+    let first = Path::new(output).with_file_name(first);
+    if first.exists() && !opts.overwrite {
+        return Err(Error::OutputExists(first));
+    }
+    Ok(())
+}
+
+/// Moves a finished temporary output onto `output`: renames a file, or moves each image of a
+/// sequence's directory beside the output pattern and removes the directory.
+fn publish(temp: &Path, output: &str) -> std::io::Result<()> {
+    if !temp.is_dir() {
+        return std::fs::rename(temp, output);
+    }
+    let dir = match Path::new(output).parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    // The file named like the pattern itself is the I/O context opened with the muxer; the
+    // image2 muxer writes each image to a file of its own and leaves that one empty.
+    let pattern = Path::new(output).file_name().unwrap_or_default();
+    for entry in std::fs::read_dir(temp)? {
+        let entry = entry?;
+        if entry.file_name() != pattern {
+            std::fs::rename(entry.path(), dir.join(entry.file_name()))?;
+        }
+    }
+    std::fs::remove_file(temp.join(pattern)).or_else(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => Ok(()),
+        _ => Err(e),
+    })?;
+    std::fs::remove_dir(temp)
 }
 
 /// The encoder's pixel format: the input's layout if supported, else the closest supported

@@ -262,3 +262,24 @@ pub(crate) fn input_at_eof(ictx: &ff::format::context::Input) -> bool {
         !pb.is_null() && (*pb).eof_reached != 0
     }
 }
+
+/// The file name of image `number` of sequence pattern `pattern` (`out_%05d.png` → `out_00001.png`),
+/// or `None` when the pattern has no frame number (FFmpeg's own substitution, so the check
+/// agrees with what the image2 muxer writes).
+pub(crate) fn sequence_file_name(pattern: &str, number: i32) -> Option<String> {
+    let pattern = CString::new(pattern).ok()?;
+    let mut buf = vec![0u8; 4096];
+    // SAFETY: `buf` is writable for its length, which is passed; `pattern` is NUL-terminated.
+    let ok = unsafe {
+        ffi::av_get_frame_filename2(
+            buf.as_mut_ptr().cast(),
+            buf.len() as c_int,
+            pattern.as_ptr(),
+            number,
+            0,
+        )
+    } >= 0;
+    let end = buf.iter().position(|&b| b == 0)?;
+    buf.truncate(end);
+    ok.then(|| String::from_utf8_lossy(&buf).into_owned())
+}

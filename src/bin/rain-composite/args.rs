@@ -8,7 +8,7 @@ use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
 use rain_composite::gpu::AdapterRequest;
-use rain_composite::video::{AudioMode, EncodeOptions, VideoCodec};
+use rain_composite::video::{AlphaMode, AudioMode, EncodeOptions, Layer, VideoCodec};
 
 use crate::bench::BenchArgs;
 use crate::inspect::InspectCommand;
@@ -193,6 +193,31 @@ pub struct EncodeArgs {
     /// What to do with audio and other streams.
     #[arg(long, value_enum, default_value_t = AudioArg::from(EncodeOptions::default().audio))]
     pub audio: AudioArg,
+    /// Write the rain alone: `alpha` (the default) with its alpha to .mov (ProRes 4444), .mkv (FFV1) or a 16-bit PNG sequence (out_%05d.png); `black` over black, an ordinary video for a screen blend.
+    #[arg(long, value_enum, num_args = 0..=1, require_equals = true, default_missing_value = "alpha", value_name = "MODE")]
+    pub layer_only: Option<LayerArg>,
+    /// Colour of the layer relative to its alpha [default: premultiplied].
+    #[arg(long, value_enum, requires = "layer_only")]
+    pub alpha: Option<AlphaArg>,
+    /// Write the rain's coverage alone, as grey (to the outputs of --layer-only).
+    #[arg(long, conflicts_with = "layer_only")]
+    pub matte: bool,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum LayerArg {
+    /// The rain with its alpha.
+    Alpha,
+    /// The rain over black.
+    Black,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum AlphaArg {
+    /// Colour multiplied by alpha in linear light.
+    Premultiplied,
+    /// Colour divided by alpha.
+    Straight,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -511,6 +536,15 @@ pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
         }),
         audio: e.audio.into(),
         overwrite,
+        layer: match (e.layer_only, e.matte) {
+            (_, true) => Some(Layer::Matte),
+            (Some(LayerArg::Black), _) => Some(Layer::OverBlack),
+            (Some(LayerArg::Alpha), _) => Some(Layer::Alpha(match e.alpha {
+                Some(AlphaArg::Straight) => AlphaMode::Straight,
+                Some(AlphaArg::Premultiplied) | None => AlphaMode::Premultiplied,
+            })),
+            (None, false) => None,
+        },
     }
 }
 

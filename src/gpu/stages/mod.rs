@@ -9,6 +9,7 @@ pub mod rain_probe;
 pub mod rain_simulate;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
+pub mod rgba_out;
 pub mod yuv_to_rgb;
 
 use super::lights::DirectLightBuffers;
@@ -38,7 +39,7 @@ pub struct FrameResources {
     pub drop_count: u32,
     /// The direct light term's inputs.
     pub lights: DirectLightBuffers,
-    /// The packed output planes (`rgb_to_yuv` → readback).
+    /// The packed output planes (`rgb_to_yuv` → readback), or the packed layer (`rgba_out`).
     pub out_words: wgpu::Buffer,
 }
 

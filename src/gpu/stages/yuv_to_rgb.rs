@@ -1,5 +1,6 @@
-//! Stage `yuv_to_rgb`: decoded planes → the linear canvas, with the haze
-//! (`shaders/yuv_to_rgb.wgsl`; CPU twin [`crate::gpu::cpu::yuv_to_rgb`]).
+//! Stage `yuv_to_rgb`: decoded planes → the linear canvas, with the haze; for the rain as a
+//! layer, the haze alone over a transparent canvas (`shaders/yuv_to_rgb.wgsl`; CPU twin
+//! [`crate::gpu::cpu::yuv_to_rgb`]).
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::gpu::bind::{bind_group, buffer, view};
@@ -30,6 +31,28 @@ impl YuvToRgb {
                 buffer(&r.rain_params),
             ],
         );
+        YuvToRgb {
+            pipeline,
+            bind,
+            size: (r.frame.width, r.frame.height),
+        }
+    }
+
+    /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
+    /// reads no planes, so its inferred layout holds bindings 0, 4 and 5 only).
+    pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
+        let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "layer");
+        let entries = [
+            (0, buffer(&r.frame_params)),
+            (4, view(&r.canvas)),
+            (5, buffer(&r.rain_params)),
+        ]
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(Stage::YuvToRgb.name()),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
         YuvToRgb {
             pipeline,
             bind,

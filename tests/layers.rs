@@ -1,0 +1,388 @@
+//! The rain as a layer, end to end through the binary: the layer over the original frame, with
+//! the over operation in linear light (written here from its definition, not from the
+//! renderer), gives back the normal render; the matte is the layer's alpha; the black variant
+//! is the layer over black; outputs that cannot hold the layer are refused before any work.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use rain_composite::gpu::cpu::rgb_to_yuv::rgb_to_yuv;
+use rain_composite::video::color::eotf_signed;
+use rain_composite::video::{Source, YuvFrame};
+use tempfile::TempDir;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+use fixtures::{clip, files_in, stream};
+
+/// Heavy rain, so that many pixels are covered; the haze is on by default, so every pixel has
+/// some alpha too.
+const RAIN: [&str; 4] = ["--rain", "60", "--seed", "7"];
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
+    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    c
+}
+
+fn render(input: &Path, output: &Path, extra: &[&str]) -> Output {
+    let out = bin()
+        .arg(input)
+        .arg("-o")
+        .arg(output)
+        .args(RAIN)
+        .args(extra)
+        .arg("-q")
+        .output()
+        .expect("spawn");
+    out
+}
+
+fn render_ok(input: &Path, output: &Path, extra: &[&str]) {
+    let out = render(input, output, extra);
+    assert!(
+        out.status.success(),
+        "render to {} failed:\n{}",
+        output.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A BT.709-tagged test clip of `pix_fmt`, losslessly coded so the decoded source is exact.
+fn source(dir: &Path, pix_fmt: &str) -> PathBuf {
+    clip(
+        dir,
+        &format!("in_{pix_fmt}.mkv"),
+        "96x64",
+        25,
+        0.12,
+        &[
+            "-c:v",
+            "ffv1",
+            "-pix_fmt",
+            pix_fmt,
+            "-color_primaries",
+            "bt709",
+            "-color_trc",
+            "bt709",
+            "-colorspace",
+            "bt709",
+            "-color_range",
+            "tv",
+        ],
+    )
+}
+
+fn frames(path: &Path) -> Vec<YuvFrame> {
+    let mut s = Source::open(path.to_str().unwrap()).expect("open");
+    let mut out = Vec::new();
+    while let Some(f) = s.next_frame().expect("decode") {
+        out.push(f);
+    }
+    out
+}
+
+/// A layer's R'G'B'A samples, 16 bits, frame by frame, whatever it was written as.
+fn layer_samples(path: &Path, w: u32, h: u32) -> Vec<Vec<u16>> {
+    let out = Command::new("ffmpeg")
+        .args(["-v", "error", "-i"])
+        .arg(path)
+        .args(["-f", "rawvideo", "-pix_fmt", "rgba64le", "-"])
+        .output()
+        .expect("ffmpeg");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let per_frame = (w * h * 8) as usize;
+    assert_eq!(out.stdout.len() % per_frame, 0);
+    out.stdout
+        .chunks_exact(per_frame)
+        .map(|f| {
+            f.chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]))
+                .collect()
+        })
+        .collect()
+}
+
+/// A PNG sequence's samples in file order (the `image` crate, independently of FFmpeg).
+fn png_samples(dir: &Path, prefix: &str) -> Vec<Vec<u16>> {
+    files_in(dir)
+        .iter()
+        .filter(|n| n.starts_with(prefix) && n.ends_with(".png"))
+        .map(|n| {
+            image::open(dir.join(n))
+                .expect("png")
+                .into_rgba16()
+                .into_raw()
+        })
+        .collect()
+}
+
+/// `layer` over `frame` in linear light — `premultiplied + background · (1 − α)`, colour
+/// decoded with the video's transfer (`straight`: times α first) — then coded as the render
+/// codes its canvas.
+fn over(frame: &YuvFrame, layer: &[u16], straight: bool) -> [Vec<u16>; 3] {
+    let f = frame.format;
+    let (sx, sy) = f.chroma.shift();
+    let color = frame.color;
+    let canvas: Vec<[f64; 3]> = (0..f.height)
+        .flat_map(|y| (0..f.width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let code = [
+                frame.sample(0, x, y) as f64,
+                frame.sample(1, x >> sx, y >> sy) as f64,
+                frame.sample(2, x >> sx, y >> sy) as f64,
+            ];
+            let background = color.code_to_linear(code);
+            let p = &layer[4 * (y * f.width + x) as usize..][..4];
+            let alpha = p[3] as f64 / 65535.0;
+            std::array::from_fn(|k| {
+                let c = eotf_signed(color.transfer, p[k] as f64 / 65535.0);
+                let premultiplied = if straight { c * alpha } else { c };
+                premultiplied + background[k] * (1.0 - alpha)
+            })
+        })
+        .collect();
+    rgb_to_yuv(&canvas, f, &color)
+}
+
+/// The largest code difference between `expected` planes and `frame`'s, and how many samples
+/// differ at all; samples that draw on a pixel where `skip` is true are left out.
+fn max_diff(expected: &[Vec<u16>; 3], frame: &YuvFrame, skip: &[bool]) -> (u16, usize) {
+    let mut worst = 0;
+    let mut differ = 0;
+    let f = frame.format;
+    for (i, plane) in expected.iter().enumerate() {
+        let (w, _) = f.plane_size(i);
+        let (sx, sy) = if i == 0 { (0, 0) } else { f.chroma.shift() };
+        for (n, &e) in plane.iter().enumerate() {
+            let (x, y) = (n as u32 % w, n as u32 / w);
+            let skipped = (y << sy..((y + 1) << sy).min(f.height)).any(|py| {
+                (x << sx..((x + 1) << sx).min(f.width)).any(|px| skip[(py * f.width + px) as usize])
+            });
+            if skipped {
+                continue;
+            }
+            let got = frame.sample(i, x, y);
+            let d = got.abs_diff(e);
+            worst = worst.max(d);
+            differ += usize::from(d > 0);
+        }
+    }
+    (worst, differ)
+}
+
+/// The pixels of a premultiplied `layer` whose colour exceeds their alpha (light added beyond
+/// what covers the background, e.g. a drop brighter than the frame's white): straight colour
+/// = premultiplied / α is then above 1, which no straight R'G'B'A sample holds.
+fn superluminous(layer: &[u16], frame: &YuvFrame) -> Vec<bool> {
+    layer
+        .chunks_exact(4)
+        .map(|p| {
+            let alpha = p[3] as f64 / 65535.0;
+            p[..3]
+                .iter()
+                .any(|&c| eotf_signed(frame.color.transfer, c as f64 / 65535.0) > alpha)
+        })
+        .collect()
+}
+
+/// Pixels of `layer` whose alpha is above 1 %, of all.
+fn covered_fraction(layer: &[u16]) -> f64 {
+    let n = layer.len() / 4;
+    layer.chunks_exact(4).filter(|p| p[3] > 655).count() as f64 / n as f64
+}
+
+fn round_trip(pix_fmt: &str) {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), pix_fmt);
+    let normal = dir.path().join("normal.mkv");
+    render_ok(&input, &normal, &["--codec", "ffv1"]);
+    let premult_mkv = dir.path().join("premult.mkv");
+    render_ok(&input, &premult_mkv, &["--layer-only"]);
+    let straight_png = dir.path().join("straight_%05d.png");
+    render_ok(
+        &input,
+        &straight_png,
+        &["--layer-only=alpha", "--alpha", "straight"],
+    );
+    let premult_png = dir.path().join("premult_%05d.png");
+    render_ok(&input, &premult_png, &["--layer-only"]);
+
+    let originals = frames(&input);
+    let rendered = frames(&normal);
+    let (w, h) = (originals[0].format.width, originals[0].format.height);
+    let layers = [
+        (
+            "premultiplied FFV1",
+            layer_samples(&premult_mkv, w, h),
+            false,
+        ),
+        (
+            "premultiplied PNG",
+            png_samples(dir.path(), "premult_"),
+            false,
+        ),
+        ("straight PNG", png_samples(dir.path(), "straight_"), true),
+    ];
+    for (name, layer, straight) in &layers {
+        assert_eq!(layer.len(), originals.len(), "{name}: frame count");
+        for (((frame, out), l), premultiplied) in
+            originals.iter().zip(&rendered).zip(layer).zip(&layers[0].1)
+        {
+            let skip = if *straight {
+                superluminous(premultiplied, frame)
+            } else {
+                vec![false; premultiplied.len() / 4]
+            };
+            let skipped = skip.iter().filter(|&&s| s).count();
+            assert!(
+                skipped * 4 < skip.len(),
+                "{name}: {skipped} of {} pixels superluminous",
+                skip.len()
+            );
+            assert!(
+                covered_fraction(l) > 0.01,
+                "{name}: the test needs rain ({:.3} covered)",
+                covered_fraction(l)
+            );
+            let (worst, differ) = max_diff(&over(frame, l, *straight), out, &skip);
+            assert!(
+                worst <= 1,
+                "{pix_fmt} {name}, frame {}: off by {worst} code values ({differ} samples \
+                 differ; {skipped} superluminous pixels left out)",
+                frame.index
+            );
+        }
+    }
+    // The PNG (read by `image`) and the FFV1 layer (read by FFmpeg) hold the same samples.
+    assert_eq!(layers[0].1, layers[1].1);
+}
+
+#[test]
+fn layer_over_the_original_is_the_render_8_bit() {
+    round_trip("yuv420p");
+}
+
+#[test]
+fn layer_over_the_original_is_the_render_10_bit() {
+    round_trip("yuv422p10le");
+}
+
+#[test]
+fn matte_is_the_alpha_and_black_is_the_layer_over_black() {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), "yuv420p10le");
+    let layer_path = dir.path().join("layer.mkv");
+    render_ok(&input, &layer_path, &["--layer-only"]);
+    let matte_path = dir.path().join("matte.mkv");
+    render_ok(&input, &matte_path, &["--matte"]);
+    let black_path = dir.path().join("black.mkv");
+    render_ok(
+        &input,
+        &black_path,
+        &["--layer-only=black", "--codec", "ffv1"],
+    );
+
+    let originals = frames(&input);
+    let (w, h) = (originals[0].format.width, originals[0].format.height);
+    let layer = layer_samples(&layer_path, w, h);
+    let matte = layer_samples(&matte_path, w, h);
+    assert_eq!(stream(&matte_path, "v:0")["pix_fmt"], "gray16le");
+    for (l, m) in layer.iter().zip(&matte) {
+        for (lp, mp) in l.chunks_exact(4).zip(m.chunks_exact(4)) {
+            assert_eq!(
+                [mp[0], mp[1], mp[2]],
+                [lp[3]; 3],
+                "matte grey = layer alpha"
+            );
+        }
+    }
+
+    // Over black: a black frame of the same layout as background.
+    let black = frames(&black_path);
+    assert_eq!(black.len(), originals.len());
+    for ((frame, l), out) in originals.iter().zip(&layer).zip(&black) {
+        let mut dark = frame.clone();
+        let s = frame.color.range_scale();
+        for (i, plane) in dark.planes.iter_mut().enumerate() {
+            let code = if i == 0 { s.y_offset } else { s.c_offset } as u16;
+            for px in plane.data.chunks_exact_mut(2) {
+                px.copy_from_slice(&code.to_le_bytes());
+            }
+        }
+        let (worst, differ) = max_diff(&over(&dark, l, false), out, &vec![false; l.len() / 4]);
+        assert!(
+            worst <= 1,
+            "black: off by {worst} ({differ} samples differ)"
+        );
+    }
+}
+
+#[test]
+fn prores_layer_has_alpha_and_says_premultiplied() {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), "yuv420p");
+    let out = dir.path().join("layer.mov");
+    render_ok(&input, &out, &["--layer-only"]);
+    let v = stream(&out, "v:0");
+    assert_eq!(v["codec_name"], "prores");
+    assert_eq!(v["profile"], "4444");
+    assert!(
+        v["pix_fmt"].as_str().unwrap().starts_with("yuva444p"),
+        "{v}"
+    );
+    let tags = fixtures::ffprobe(&out, &["-show_format"]);
+    assert_eq!(tags["format"]["tags"]["alpha_mode"], "premultiplied");
+    // Its alpha is ProRes's lossless alpha at 10 bits: within half a 10-bit step of FFV1's.
+    let lossless = dir.path().join("layer.mkv");
+    render_ok(&input, &lossless, &["--layer-only"]);
+    let (w, h) = (96, 64);
+    let a = layer_samples(&out, w, h);
+    let b = layer_samples(&lossless, w, h);
+    for (fa, fb) in a.iter().zip(&b) {
+        for (pa, pb) in fa.chunks_exact(4).zip(fb.chunks_exact(4)) {
+            assert!(pa[3].abs_diff(pb[3]) <= 65, "alpha {} vs {}", pa[3], pb[3]);
+        }
+    }
+}
+
+#[test]
+fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), "yuv420p");
+    let cases: [(&str, &[&str], &str); 5] = [
+        ("out.mp4", &["--layer-only"], "cannot hold"),
+        ("out.mp4", &["--matte"], "cannot hold"),
+        (
+            "out.mkv",
+            &["--layer-only", "--codec", "prores"],
+            "cannot hold",
+        ),
+        ("single.png", &["--layer-only"], "frame number pattern"),
+        ("plain_%05d.png", &[], "image sequences are written for"),
+    ];
+    for (name, flags, says) in cases {
+        let out = render(&input, &dir.path().join(name), flags);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name} {flags:?} was accepted");
+        assert_eq!(err.lines().count(), 1, "one line: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains(says),
+            "{name}: {err}"
+        );
+    }
+    // Flags that make no sense together are refused by the parser.
+    for flags in [&["--alpha", "straight"][..], &["--matte", "--layer-only"]] {
+        let out = render(&input, &dir.path().join("x.mkv"), flags);
+        assert!(!out.status.success(), "{flags:?} was accepted");
+    }
+    let left: Vec<String> = files_in(dir.path())
+        .into_iter()
+        .filter(|n| !n.starts_with("in_"))
+        .collect();
+    assert!(left.is_empty(), "nothing written: {left:?}");
+}
