@@ -386,3 +386,130 @@ fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
         .collect();
     assert!(left.is_empty(), "nothing written: {left:?}");
 }
+
+/// An `f32` exactly representable as a normal `f16` (at most 11 significant bits), as its bits.
+fn f16_bits(v: f32) -> u16 {
+    if v == 0.0 {
+        return 0;
+    }
+    let b = v.to_bits();
+    let exponent = ((b >> 23) & 0xff) as i32 - 127 + 15;
+    assert!(
+        (1..31).contains(&exponent) && b & 0x1fff == 0,
+        "{v} is no normal f16"
+    );
+    (((b >> 16) & 0x8000) | ((exponent as u32) << 10) | ((b >> 13) & 0x3ff)) as u16
+}
+
+/// The GPU stage `rgba_out` against its CPU twin, every mode, on a canvas of exact `f16`
+/// values: dark and bright colour, α from 0 to 1, colour above α (superluminous) and above 1.
+#[test]
+fn rgba_out_matches_its_cpu_twin() {
+    use rain_composite::gpu::cpu::rgba_out::rgba_out;
+    use rain_composite::gpu::stages::{FrameStage, rgba_out::RgbaOut};
+    use rain_composite::gpu::types::FrameParams;
+    use rain_composite::gpu::{AdapterRequest, GpuContext};
+    use rain_composite::video::{AlphaMode, ColorParams, FrameFormat, Layer, Transfer};
+    use wgpu::util::DeviceExt;
+
+    let ctx = match GpuContext::new(&AdapterRequest::default()) {
+        Ok(c) => c,
+        Err(e) => {
+            assert!(
+                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
+                "no GPU adapter: {e}"
+            );
+            return;
+        }
+    };
+    let (w, h) = (37u32, 11u32);
+    let canvas: Vec<[f64; 4]> = (0..w * h)
+        .map(|i| {
+            let a = f64::from(i % 33) / 32.0;
+            let level = f64::from((i * 7) % 41) / 32.0; // up to 1.25: some above α and above 1
+            [level * a, level * a * 0.5, f64::from(i % 5) / 1024.0, a]
+        })
+        .collect();
+    let texels: Vec<u16> = canvas
+        .iter()
+        .flat_map(|p| p.map(|v| f16_bits(v as f32)))
+        .collect();
+    let device = &ctx.device;
+    let texture = device.create_texture_with_data(
+        &ctx.queue,
+        &wgpu::TextureDescriptor {
+            label: Some("canvas"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba16Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&texels),
+    );
+    let view = texture.create_view(&Default::default());
+    let bytes = u64::from(w * h) * 8;
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("out"),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let read = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read"),
+        size: bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let format = FrameFormat {
+        width: w,
+        height: h,
+        chroma: rain_composite::video::Chroma::Cs444,
+        bit_depth: 10,
+    };
+    for transfer in [Transfer::Bt709, Transfer::Srgb] {
+        let color = ColorParams {
+            transfer,
+            ..ColorParams::bt709(10)
+        };
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("frame_params"),
+            contents: bytemuck::bytes_of(&FrameParams::new(&format, &color)),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        for layer in [
+            Layer::Alpha(AlphaMode::Premultiplied),
+            Layer::Alpha(AlphaMode::Straight),
+            Layer::Matte,
+        ] {
+            let stage = RgbaOut::with_buffers(device, &params, (w, h), &view, &out, layer);
+            let mut encoder = device.create_command_encoder(&Default::default());
+            stage.record(&mut encoder, None);
+            encoder.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
+            ctx.queue.submit([encoder.finish()]);
+            read.slice(..)
+                .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+            device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: None,
+                    timeout: None,
+                })
+                .expect("poll");
+            let gpu: Vec<u16> =
+                bytemuck::pod_collect_to_vec(&read.slice(..).get_mapped_range().expect("mapped"));
+            read.unmap();
+            let cpu = rgba_out(&canvas, transfer, layer);
+            // f32 against f64 transfer: a rounding may land on the other side of a half.
+            let worst = gpu.iter().zip(&cpu).map(|(g, c)| g.abs_diff(*c)).max();
+            assert!(worst <= Some(1), "{transfer:?} {layer:?}: off by {worst:?}");
+            assert!(gpu.iter().zip(&cpu).filter(|(g, c)| g != c).count() * 100 < gpu.len());
+        }
+    }
+}

@@ -253,6 +253,9 @@ fn every_stage_matches_its_cpu_twin() {
                     assert!(worst <= 1, "{what}: {worst} codes off");
                     assert!(share == 0.0, "{what}");
                 }
+                // The layer's output stage, on a canvas of its own: `tests/layers.rs`
+                // (`rgba_out_matches_its_cpu_twin`).
+                Stage::RgbaOut => {}
                 // The drop states and the streaks they draw.
                 Stage::RainProbe | Stage::RainSimulate => {
                     let setup = rain_for(&case, &heavy_rain());

@@ -106,7 +106,7 @@ pub fn layer_encoding(muxer: &str, codec: VideoCodec, layer: Layer) -> Result<La
         "mov" if matches!(codec, VideoCodec::H264 | VideoCodec::ProRes) => {
             Some(LayerCodec::ProRes4444)
         }
-        "matroska" | "mov" if matches!(codec, VideoCodec::H264 | VideoCodec::Ffv1) => {
+        "matroska" if matches!(codec, VideoCodec::H264 | VideoCodec::Ffv1) => {
             Some(LayerCodec::Ffv1)
         }
         _ => None,

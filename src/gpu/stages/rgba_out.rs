@@ -19,6 +19,27 @@ pub struct RgbaOut {
 impl RgbaOut {
     /// Builds the pipeline of `layer`'s entry point and binds `r`.
     pub fn new(device: &wgpu::Device, r: &FrameResources, layer: Layer) -> RgbaOut {
+        RgbaOut::with_buffers(
+            device,
+            &r.frame_params,
+            (r.frame.width, r.frame.height),
+            &r.canvas,
+            &r.out_words,
+            layer,
+        )
+    }
+
+    /// The stage over explicit resources (the twin test uploads its own canvas): the
+    /// `FrameParams` uniform of a `size` picture, an `Rgba16Float` canvas, and an output
+    /// buffer of [`WORDS_PER_PIXEL`] words a pixel.
+    pub fn with_buffers(
+        device: &wgpu::Device,
+        frame_params: &wgpu::Buffer,
+        size: (u32, u32),
+        canvas: &wgpu::TextureView,
+        out_words: &wgpu::Buffer,
+        layer: Layer,
+    ) -> RgbaOut {
         let entry = match layer {
             Layer::Alpha(AlphaMode::Straight) => "straight",
             Layer::Matte => "matte",
@@ -29,16 +50,12 @@ impl RgbaOut {
             device,
             Stage::RgbaOut.name(),
             &pipeline.get_bind_group_layout(0),
-            &[
-                buffer(&r.frame_params),
-                view(&r.canvas),
-                buffer(&r.out_words),
-            ],
+            &[buffer(frame_params), view(canvas), buffer(out_words)],
         );
         RgbaOut {
             pipeline,
             bind,
-            size: (r.frame.width, r.frame.height),
+            size,
         }
     }
 }
