@@ -83,7 +83,7 @@ fn readme_defaults() -> Vec<(String, String)> {
         }
         let name = first
             .trim_matches('`')
-            .split([' ', '`'])
+            .split([' ', '`', '['])
             .next()
             .expect("an option name")
             .to_string();

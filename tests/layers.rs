@@ -26,7 +26,7 @@ fn bin() -> Command {
 }
 
 fn render(input: &Path, output: &Path, extra: &[&str]) -> Output {
-    let out = bin()
+    bin()
         .arg(input)
         .arg("-o")
         .arg(output)
@@ -34,8 +34,7 @@ fn render(input: &Path, output: &Path, extra: &[&str]) -> Output {
         .args(extra)
         .arg("-q")
         .output()
-        .expect("spawn");
-    out
+        .expect("spawn")
 }
 
 fn render_ok(input: &Path, output: &Path, extra: &[&str]) {
