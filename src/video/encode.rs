@@ -18,7 +18,7 @@ use super::audio::AacTranscoder;
 use super::decode::{CopiedPacket, init};
 use super::ffi;
 use super::info::{StreamAction, StreamKind, VideoInfo};
-use super::layer::{Layer, LayerEncoding, LayerFrame, layer_encoding};
+use super::layer::{Layer, LayerCodec, LayerEncoding, LayerFrame, layer_encoding};
 use super::output_path::{check_output, temp_path};
 use super::pixfmt::{self, Converter};
 use super::{Chroma, FrameFormat, YuvFrame};
@@ -497,24 +497,23 @@ impl Sink {
         tags: super::info::ColorTags,
     ) -> Result<()> {
         let v = &mut self.video;
-        let frame = (frame_pts, index);
         let pts = if v.y4m {
             v.frames
         } else {
             match v.last_pts {
-                Some(last) if frame.0 <= last => {
+                Some(last) if frame_pts <= last => {
                     if !v.warned_pts {
                         log::warn!(
                             "frame {} has pts {} after {last}; shifting it to keep time moving \
                              forward",
-                            frame.1,
-                            frame.0
+                            index,
+                            frame_pts
                         );
                         v.warned_pts = true;
                     }
                     last + 1
                 }
-                _ => frame.0,
+                _ => frame_pts,
             }
         };
         v.last_pts = Some(pts);
@@ -528,7 +527,7 @@ impl Sink {
         self.video
             .encoder
             .send_frame(&av)
-            .map_err(Error::ffmpeg(format!("encoding frame {}", frame.1)))?;
+            .map_err(Error::ffmpeg(format!("encoding frame {index}")))?;
         self.drain_video()
     }
 
@@ -807,16 +806,17 @@ fn open_video(
         enc.set_flags(ff::codec::Flags::GLOBAL_HEADER);
     }
     let mut dict = ff::Dictionary::new();
-    let codec_kind = match layer {
-        Some((_, e)) if e.codec == super::layer::LayerCodec::ProRes4444 => {
+    // A layer's encoder takes the options of the codec of the same name, ProRes its 4444 profile.
+    let tuned = match layer.map(|(_, e)| e.codec) {
+        None => Some(opts.codec),
+        Some(LayerCodec::Ffv1) => Some(VideoCodec::Ffv1),
+        Some(LayerCodec::ProRes4444) => {
             dict.set("profile", "4444");
             None
         }
-        Some((_, e)) if e.codec == super::layer::LayerCodec::Ffv1 => Some(VideoCodec::Ffv1),
-        Some(_) => None,
-        None => Some(opts.codec),
+        Some(LayerCodec::Png) => None,
     };
-    match (y4m, codec_kind) {
+    match (y4m, tuned) {
         (_, None) | (true, _) => {}
         (false, Some(VideoCodec::H264)) => {
             dict.set("preset", &opts.preset);
@@ -850,8 +850,8 @@ fn open_video(
     if let Some(vs) = info.stream(info.video_stream) {
         let mut metadata = dictionary(&vs.metadata, &["rotate", "encoder", "alpha_mode"]);
         if let Some((Layer::Alpha(mode), _)) = layer {
-            // Containers have no standard field for it; Matroska keeps stream tags, and the
-            // MOV muxer writes them with `use_metadata_tags`.
+            // No container has a standard field for it: Matroska keeps it as a stream tag
+            // (MOV only as the file tag `Sink::create` sets).
             metadata.set("alpha_mode", mode.name());
         }
         ost.set_metadata(metadata);
@@ -920,7 +920,7 @@ fn layer_tags(
     encoding: LayerEncoding,
 ) -> super::info::ColorTags {
     use ff::color::{Range, Space, TransferCharacteristic};
-    let prores = encoding.codec == super::layer::LayerCodec::ProRes4444;
+    let prores = encoding.codec == LayerCodec::ProRes4444;
     super::info::ColorTags {
         matrix: if prores { video.matrix } else { Space::RGB },
         range: if prores { Range::MPEG } else { Range::JPEG },

@@ -65,8 +65,8 @@ pub struct LayerFrame {
     pub index: u64,
 }
 
-/// How a layer is encoded in one container: the codec, and the pixel format with and without
-/// alpha (the matte is grey).
+/// How a layer is encoded in one container: the codec and the pixel format it is given (with
+/// alpha for the layer, grey for the matte).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LayerEncoding {
     /// The encoder.
