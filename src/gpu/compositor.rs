@@ -21,7 +21,7 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
-    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, yuv_to_rgb::YuvToRgb,
+    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, wet_ground::WetGround, yuv_to_rgb::YuvToRgb,
 };
 use super::types::{FrameParams, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
@@ -43,6 +43,8 @@ pub struct GpuStageTimes {
     pub rain_simulate_s: f64,
     /// Canvas → packed YUV planes.
     pub rgb_to_yuv_s: f64,
+    /// The wet ground (zero without one).
+    pub wet_ground_s: f64,
 }
 
 impl GpuStageTimes {
@@ -53,6 +55,7 @@ impl GpuStageTimes {
             "rain_simulate" => &mut self.rain_simulate_s,
             "rain_streaks" => &mut self.rain_streaks_s,
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
+            "wet_ground" => &mut self.wet_ground_s,
             _ => return,
         };
         *field += seconds;
@@ -156,7 +159,8 @@ impl Compositor {
             format: super::stages::rain_streaks::CANVAS_FORMAT,
             usage: wgpu::TextureUsages::STORAGE_BINDING
                 | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::RENDER_ATTACHMENT,
+                | wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
         let out_bytes = frame_params.total_words() as u64 * 4;
@@ -197,6 +201,7 @@ impl Compositor {
         // The frame, in order.
         let stages: Vec<Box<dyn FrameStage>> = vec![
             Box::new(YuvToRgb::new(device, &resources)),
+            Box::new(WetGround::new(device, &resources, rain.wetting.as_ref())),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainStreaks::new(device, &resources)),
             Box::new(RgbToYuv::new(device, &resources)),
@@ -316,6 +321,7 @@ impl Compositor {
         });
         for (slot, stage) in self.stages.iter().enumerate() {
             if stage.runs() {
+                stage.prepare(queue, rain);
                 let timestamps = self.timestamps.as_ref().map(|(set, _)| TimestampSlot {
                     set,
                     slot: slot as u32,

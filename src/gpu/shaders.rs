@@ -23,6 +23,8 @@ pub enum Stage {
     RgbToYuv,
     /// Drop states written to a buffer (the GPU side of the CPU-twin test and `inspect`).
     RainProbe,
+    /// The ground below the horizon wetted on the canvas.
+    WetGround,
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
@@ -109,12 +111,13 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 5] = [
+    pub const ALL: [Stage; 6] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
         Stage::RainStreaks,
         Stage::RgbToYuv,
         Stage::RainProbe,
+        Stage::WetGround,
     ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
@@ -125,6 +128,7 @@ impl Stage {
             Stage::RainStreaks => "rain_streaks",
             Stage::RgbToYuv => "rgb_to_yuv",
             Stage::RainProbe => "rain_probe",
+            Stage::WetGround => "wet_ground",
         }
     }
 
@@ -136,6 +140,7 @@ impl Stage {
             Stage::RainStreaks => include_str!("../../shaders/rain_streaks.wgsl"),
             Stage::RgbToYuv => include_str!("../../shaders/rgb_to_yuv.wgsl"),
             Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
+            Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),
         }
     }
 

@@ -4,4 +4,5 @@
 pub mod rain_simulate;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
+pub mod wet_ground;
 pub mod yuv_to_rgb;
