@@ -85,26 +85,24 @@ fn the_films_diffuse_reflectances_obey_reciprocity() {
     assert!((film.diffuse_internal - internal).abs() < 1e-6, "{film:?}");
 }
 
-/// dS/dt = P(1 − S/C) − S/τ integrated by RK4 in small steps over `history` to `t_s`.
+/// dS/dt = P(1 − S/C) − S/τ integrated by RK4 in small steps over `history` (piecewise
+/// constant rates) to `t_s`.
 fn store_by_steps(store: &SurfaceStore, history: &[(f64, f64)], t_s: f64) -> f64 {
-    let rate_at = |t: f64| {
-        history
-            .iter()
-            .rev()
-            .find(|&&(start, _)| t >= start)
-            .map_or(0.0, |&(_, r)| r / 3600.0)
-    };
-    let f = |t: f64, s: f64| rate_at(t) * (1.0 - s / store.capacity_mm) - s / store.drying_s;
-    let (mut t, mut s) = (history[0].0, 0.0);
-    let dt = 0.25;
-    while t < t_s - 1e-9 {
-        let h = dt.min(t_s - t);
-        let k1 = f(t, s);
-        let k2 = f(t + 0.5 * h, s + 0.5 * h * k1);
-        let k3 = f(t + 0.5 * h, s + 0.5 * h * k2);
-        let k4 = f(t + h, s + h * k3);
-        s += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        t += h;
+    let mut s = 0.0;
+    for (i, &(start, rate_mm_per_h)) in history.iter().enumerate() {
+        let end = history.get(i + 1).map_or(t_s, |next| next.0.min(t_s));
+        let p = rate_mm_per_h / 3600.0;
+        let f = |s: f64| p * (1.0 - s / store.capacity_mm) - s / store.drying_s;
+        let mut t = start;
+        while t < end {
+            let h = 0.25f64.min(end - t);
+            let k1 = f(s);
+            let k2 = f(s + 0.5 * h * k1);
+            let k3 = f(s + 0.5 * h * k2);
+            let k4 = f(s + h * k3);
+            s += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+            t += h;
+        }
     }
     s
 }
@@ -112,7 +110,7 @@ fn store_by_steps(store: &SurfaceStore, history: &[(f64, f64)], t_s: f64) -> f64
 #[test]
 fn the_store_follows_its_equation_through_a_rate_history() {
     let store = SurfaceStore::default();
-    // Drizzle, a downpour, a dry spell (segment starts on the quarter-second grid).
+    // Drizzle, a downpour, a dry spell.
     let segments = vec![(-1200.0, 1.0), (-300.0, 40.0), (60.0, 0.0)];
     let history = RainHistory::new(segments.clone()).expect("history");
     for t in [-1000.0, -300.0, -100.0, 0.0, 60.0, 600.0, 3000.0] {
@@ -160,7 +158,8 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
     let horizon: GroundMode = "horizon=0.6".parse().expect("mode");
     assert!(ground(GroundMode::None, 10.0).wetting(10.0).is_none());
     assert!(ground(horizon, 0.0).wetting(0.0).is_none());
-    assert!(ground(horizon, 10.0).wetting(0.0).is_some());
+    assert!(ground(horizon, 10.0).wetting(0.0).is_none());
+    assert!(ground(horizon, 10.0).wetting(1.0).is_some());
     assert!(ground(horizon, 0.0).wetting(10.0).is_some());
 }
 

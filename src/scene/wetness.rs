@@ -156,11 +156,12 @@ pub fn internal_reflectance(cos_w: f64) -> f64 {
 }
 
 /// The cosine-weighted hemispherical mean ∫ R(μ) 2μ dμ of `reflectance` over μ ∈ [0, 1], with a
-/// panel edge at `kink` (where the integrand is not smooth).
+/// panel edge at `kink` (where the integrand is not smooth; past the critical angle it rises
+/// like a square root, hence the many panels).
 fn diffuse_mean(reflectance: impl Fn(f64) -> f64, kink: f64) -> f64 {
-    composite_gauss(0.0, kink, 32, 8)
+    composite_gauss(0.0, kink, 256, 8)
         .into_iter()
-        .chain(composite_gauss(kink, 1.0, 32, 8))
+        .chain(composite_gauss(kink, 1.0, 256, 8))
         .map(|(mu, w)| w * 2.0 * mu * reflectance(mu))
         .sum()
 }

@@ -167,7 +167,7 @@ pub struct LookArgs {
     /// The ground the rain lands on: none, horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
-    /// Minutes it has rained before the clip starts: how wet a given ground already is (0: dry at the start; it wets during the clip, and dries while --rain is 0).
+    /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
     #[arg(long, value_name = "MIN")]
     pub pre_rain: Option<f64>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
