@@ -50,14 +50,14 @@ fn water_reflectance(n: f32, cos_i: f32) -> f32 {
     return 0.5 * (rs * rs + rp * rp);
 }
 
-// The environment's radiance from direction dir.
+// The environment's radiance from direction dir (written out term by term: a loop indexing
+// the arrays at run time is several times slower on CPU adapters).
 fn sh_radiance(env: array<vec4<f32>, 16>, dir: vec3<f32>) -> vec3<f32> {
     let y = sh_basis16(dir);
-    var c = vec3<f32>(0.0);
-    for (var i = 0u; i < 16u; i++) {
-        c += env[i].rgb * y[i];
-    }
-    return c;
+    return env[0].rgb * y[0] + env[1].rgb * y[1] + env[2].rgb * y[2] + env[3].rgb * y[3]
+        + env[4].rgb * y[4] + env[5].rgb * y[5] + env[6].rgb * y[6] + env[7].rgb * y[7]
+        + env[8].rgb * y[8] + env[9].rgb * y[9] + env[10].rgb * y[10] + env[11].rgb * y[11]
+        + env[12].rgb * y[12] + env[13].rgb * y[13] + env[14].rgb * y[14] + env[15].rgb * y[15];
 }
 
 // Irradiance on the level ground: the clamped cosine about +z convolved with the environment

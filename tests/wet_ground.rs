@@ -448,3 +448,39 @@ fn without_a_ground_the_frame_is_bit_identical() {
         ))
     );
 }
+
+/// Cost of the wet ground per 1280×720 frame (no drops, so only the ground differs): wall time
+/// per frame through the compositor with and without it, and the stage's GPU time.
+/// `cargo test --release --test wet_ground -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn report_cost_per_frame_at_720p() {
+    let Some(ctx) = gpu() else { return };
+    let camera = Camera::new(1280, 720, 1.05, 1.6, f64::to_radians(-5.0), 0.0);
+    // The stage's cost depends on the canvas only, not on the chroma layout.
+    let frame = picture(1280, 720, None);
+    let frames = 30;
+    println!("| 720p | ms/frame (wall) | wet_ground GPU ms/frame |");
+    println!("|---|---|---|");
+    for (name, wetting) in [
+        ("dry (no ground)", None),
+        ("wet ground", Some(drying())),
+        ("dry (no ground)", None),
+        ("wet ground", Some(drying())),
+    ] {
+        let s = setup(&camera, 0, wetting);
+        let p = lit(&s, 10.0, &SKY, 0.9);
+        let mut comp =
+            Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("compositor");
+        comp.render_one(&frame, &p).expect("warm-up");
+        let start = std::time::Instant::now();
+        let before = comp.gpu_times().wet_ground_s;
+        for _ in 0..frames {
+            comp.submit(&frame, &p).expect("submit");
+        }
+        comp.flush().expect("flush");
+        let wall_ms = 1e3 * start.elapsed().as_secs_f64() / frames as f64;
+        let gpu_ms = 1e3 * (comp.gpu_times().wet_ground_s - before) / frames as f64;
+        println!("| {name} | {wall_ms:.2} | {gpu_ms:.2} |");
+    }
+}
