@@ -138,7 +138,7 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
         assert!(w > last && w < 1.0, "{pre} min: {w}");
         last = w;
     }
-    // Ten minutes of 10 mm/h: within a few per cent of the steady state
+    // Thirty minutes of 10 mm/h: at the steady state
     // P/(P + C/τ) = 10/(10 + 0.5 mm / 0.5 h) = 10/11.
     assert!((last - 10.0 / 11.0).abs() < 1e-3, "{last}");
     assert!(wet(1.0, 10.0).wetness_at(0.0) < wet(10.0, 10.0).wetness_at(0.0));
