@@ -1,8 +1,8 @@
 //! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
 //! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_streaks`,
 //! `rgb_to_yuv` luma then chroma; each an object in [`super::stages`]) → copy into a readback
-//! ring. The compositor owns the shared buffers,
-//! the order and the ring; each stage's timestamp slot is its place in the order.
+//! ring. The compositor owns the shared buffers, the order and the ring; each stage's timestamp
+//! slot is its place in the order.
 //!
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display

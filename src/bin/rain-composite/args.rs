@@ -544,6 +544,7 @@ mod tests {
         (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
+        c.ground.pre_rain_min = 25.0;
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {
