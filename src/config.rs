@@ -123,16 +123,39 @@ pub struct RenderConfig {
 }
 
 /// The ground under the rain (see [`crate::scene::ground`]).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GroundConfig {
     /// `none` (the default: the render is as without a ground), `horizon=ROW[,roll=DEG]` or
     /// `plane=nx,ny,nz,d`. A given ground fixes the camera's tilt and roll (and, for `plane=`,
     /// its height), and streaks end where their drops land on it.
     pub mode: crate::scene::GroundMode,
+    /// Minutes it has rained (at the clip's rate) before the clip starts: how wet a given
+    /// ground already is (0: dry at the start; see [`crate::scene::wetness`]).
+    pub pre_rain_min: f64,
+}
+
+impl Default for GroundConfig {
+    fn default() -> Self {
+        GroundConfig {
+            mode: crate::scene::GroundMode::default(),
+            pre_rain_min: 10.0,
+        }
+    }
 }
 
 impl GroundConfig {
+    /// How a given ground wets under rain of `rate_mm_per_h` (constant through the clip, and
+    /// for `pre_rain_min` before it); `None` without a ground or without rain.
+    pub fn wetting(&self, rate_mm_per_h: f64) -> Option<crate::scene::wetness::Wetting> {
+        use crate::scene::wetness::{RainHistory, SurfaceStore, Wetting};
+        let wetting = Wetting {
+            store: SurfaceStore::default(),
+            history: RainHistory::constant(rate_mm_per_h, 60.0 * self.pre_rain_min),
+        };
+        (self.is_given() && wetting.ever_wet()).then_some(wetting)
+    }
+
     /// Whether a ground is given: streaks end where their drops land.
     pub fn is_given(&self) -> bool {
         !matches!(
@@ -218,6 +241,7 @@ impl RenderConfig {
             ("--light-smoothing", l.smoothing_s.to_string()),
             ("--scene-depth", r.scene_depth_m.to_string()),
             ("--ground", self.ground.mode.to_string()),
+            ("--pre-rain", self.ground.pre_rain_min.to_string()),
         ]
         .into_iter()
         .chain(
@@ -438,6 +462,12 @@ impl RenderConfig {
             light.validate()?;
         }
         self.validate_ground()?;
+        check(
+            "--pre-rain",
+            self.ground.pre_rain_min,
+            (0.0..=100_000.0).contains(&self.ground.pre_rain_min),
+            "minutes in [0, 100000]",
+        )?;
         if let Some(g) = l.highlight_gain {
             check(
                 "--highlight-gain",

@@ -122,7 +122,9 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         info.rotation_deg,
         (info.format.width, info.format.height),
     )?;
-    Ok(setup.with_ground(config.ground.is_given()))
+    Ok(setup
+        .with_ground(config.ground.is_given())
+        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h)))
 }
 
 /// Seconds since the start of the stream at `frame`.
@@ -392,7 +394,7 @@ struct LightFeed {
 
 impl LightFeed {
     fn new(info: &VideoInfo, render: &RenderConfig, rain: &RainSetup) -> Result<LightFeed> {
-        let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0;
+        let needed = rain.drop_count() > 0 || rain.haze_alpha > 0.0 || rain.wetting.is_some();
         let estimator = if needed {
             Some(LightEstimator::new(
                 &camera_for(info, render)?,

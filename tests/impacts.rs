@@ -404,11 +404,10 @@ fn rendered_rain_stays_above_the_ground_in_the_picture() {
     };
     let tilt = format!("--tilt={tilt_deg}");
     let (w, h, dry) = preview("dry.png", &[&tilt, "--opacity", "0"]);
-    let landed = preview(
-        "ground.png",
-        &["--opacity", "20", "--ground", &format!("horizon={row}")],
-    )
-    .2;
+    let ground = format!("horizon={row}");
+    let landed = preview("ground.png", &["--opacity", "20", "--ground", &ground]).2;
+    // The given ground also wets: the rain is what differs from the same ground without it.
+    let dry_ground = preview("dry_ground.png", &["--opacity", "0", "--ground", &ground]).2;
     let through = preview("through.png", &[&tilt, "--opacity", "20"]).2;
     // Pixels whose ray meets the ground nearer (in camera depth) than 90 % of the near clip.
     let r_cam = camera.world_from_camera.transpose();
@@ -418,15 +417,15 @@ fn rendered_rain_stays_above_the_ground_in_the_picture() {
         ray.z < 0.0 && (r_cam * (ray * (camera.position_m.z / -ray.z))).z < 0.9 * near_clip_m
     };
     let region = (0..(w * h) as usize).filter(|&i| ground_only(i)).count();
-    let changed = |frame: &[u16]| {
+    let changed = |frame: &[u16], base: &[u16]| {
         (0..(w * h) as usize)
-            .filter(|&i| ground_only(i) && frame[i].abs_diff(dry[i]) > 64)
+            .filter(|&i| ground_only(i) && frame[i].abs_diff(base[i]) > 64)
             .count()
     };
     let rain_anywhere = (0..(w * h) as usize)
-        .filter(|&i| landed[i].abs_diff(dry[i]) > 64)
+        .filter(|&i| landed[i].abs_diff(dry_ground[i]) > 64)
         .count();
-    let (with, without) = (changed(&landed), changed(&through));
+    let (with, without) = (changed(&landed, &dry_ground), changed(&through, &dry));
     eprintln!(
         "{region} pixels see only ground nearer than the drops; rain changes {with} of them with \
          the ground, {without} without; {rain_anywhere} pixels changed in all"

@@ -3,7 +3,9 @@
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
-use rain_composite::gpu::types::{Column, DirectLight, FrameParams, LightList, RainParams, Streak};
+use rain_composite::gpu::types::{
+    Column, DirectLight, FrameParams, LightList, RainParams, Streak, WetParams,
+};
 
 fn module(stage: Stage) -> naga::Module {
     let src = stage.source();
@@ -47,6 +49,16 @@ macro_rules! assert_twin {
         let rust: Vec<(String, u32)> = vec![$((stringify!($field).to_string(), std::mem::offset_of!($ty, $field) as u32)),*];
         assert_eq!(fields, rust, "fields of {}", stringify!($ty));
     }};
+}
+
+#[test]
+fn wet_params_twin_matches_wgsl_layout() {
+    let m = module(Stage::WetGround);
+    assert_twin!(
+        m,
+        WetParams,
+        [wetness, water_index, diffuse_external, diffuse_internal]
+    );
 }
 
 #[test]

@@ -105,3 +105,11 @@ struct LightList {
     _pad: vec2<u32>,
     lights: array<DirectLight, MAX_LIGHTS>,
 }
+
+// The wet ground's look for one frame (src/scene/wetness.rs; stage wet_ground).
+struct WetParams {
+    wetness: f32,           // share of the ground under a water film, [0, 1]
+    water_index: f32,       // refractive index of the film
+    diffuse_external: f32,  // the film's reflectance for diffuse light from the air
+    diffuse_internal: f32,  // and for diffuse light inside it (total internal reflection included)
+}

@@ -1,17 +1,18 @@
 //! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
-//! `rain_simulate` once per drop, `rain_streaks`, `rgb_to_yuv` luma then chroma; each an object
-//! in [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers,
-//! the order and the ring; each stage's timestamp slot is its place in the order.
+//! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_streaks`,
+//! `rgb_to_yuv` luma then chroma; each an object in [`super::stages`]) → copy into a readback
+//! ring. The compositor owns the shared buffers, the order and the ring; each stage's timestamp
+//! slot is its place in the order.
 //!
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
 //! rotation is applied to the streaks' vertices, not to the pixels, so a frame without rain
 //! comes back bit for bit). For the rain as a layer ([`Layer`]) the canvas starts transparent
 //! (the haze alone) instead of the frame, the same stages draw over it, and `rgba_out` packs
-//! R'G'B'A in place of `rgb_to_yuv` (the layer over black keeps `rgb_to_yuv`). `submit` records one frame and returns the frame submitted
-//! `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame it just
-//! submitted, so upload, GPU work and readback of consecutive frames overlap. `flush` drains
-//! the ring at the end.
+//! R'G'B'A in place of `rgb_to_yuv` (the layer over black keeps `rgb_to_yuv`). `submit` records one frame and returns the frame
+//! submitted `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame
+//! it just submitted, so upload, GPU work and readback of consecutive frames overlap. `flush`
+//! drains the ring at the end.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -23,7 +24,8 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
-    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, rgba_out::RgbaOut, yuv_to_rgb::YuvToRgb,
+    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, rgba_out::RgbaOut, wet_ground::WetGround,
+    yuv_to_rgb::YuvToRgb,
 };
 use super::types::{FrameParams, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
@@ -47,6 +49,8 @@ pub struct GpuStageTimes {
     pub rgb_to_yuv_s: f64,
     /// Canvas → packed R'G'B'A (the rain as a layer).
     pub rgba_out_s: f64,
+    /// The wet ground (zero without one).
+    pub wet_ground_s: f64,
 }
 
 impl GpuStageTimes {
@@ -58,6 +62,7 @@ impl GpuStageTimes {
             "rain_streaks" => &mut self.rain_streaks_s,
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
             "rgba_out" => &mut self.rgba_out_s,
+            "wet_ground" => &mut self.wet_ground_s,
             _ => return,
         };
         *field += seconds;
@@ -197,7 +202,8 @@ impl Compositor {
             format: super::stages::rain_streaks::CANVAS_FORMAT,
             usage: wgpu::TextureUsages::STORAGE_BINDING
                 | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::RENDER_ATTACHMENT,
+                | wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
         let out_words = if rgba {
@@ -242,7 +248,10 @@ impl Compositor {
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),
         };
-        // The frame, in order.
+        // The frame, in order. The wet ground changes the picture's own colours, per channel
+        // and by the picture's albedo: no single α over the frame can carry that, so a layer
+        // leaves it out.
+        let wetting = rain.wetting.as_ref().filter(|_| layer.is_none());
         let start = match layer {
             None => YuvToRgb::new(device, &resources),
             Some(_) => YuvToRgb::layer(device, &resources),
@@ -253,6 +262,7 @@ impl Compositor {
         };
         let stages: Vec<Box<dyn FrameStage>> = vec![
             Box::new(start),
+            Box::new(WetGround::new(device, &resources, wetting)),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainStreaks::new(device, &resources)),
             out,
@@ -384,6 +394,7 @@ impl Compositor {
         });
         for (slot, stage) in self.stages.iter().enumerate() {
             if stage.runs() {
+                stage.prepare(queue, rain);
                 let timestamps = self.timestamps.as_ref().map(|(set, _)| TimestampSlot {
                     set,
                     slot: slot as u32,

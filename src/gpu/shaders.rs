@@ -25,6 +25,8 @@ pub enum Stage {
     RainProbe,
     /// Canvas → packed 16-bit R'G'B'A (the rain as a layer).
     RgbaOut,
+    /// The ground below the horizon wetted on the canvas.
+    WetGround,
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
@@ -111,13 +113,14 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 6] = [
+    pub const ALL: [Stage; 7] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
         Stage::RainStreaks,
         Stage::RgbToYuv,
         Stage::RainProbe,
         Stage::RgbaOut,
+        Stage::WetGround,
     ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
@@ -129,6 +132,7 @@ impl Stage {
             Stage::RgbToYuv => "rgb_to_yuv",
             Stage::RainProbe => "rain_probe",
             Stage::RgbaOut => "rgba_out",
+            Stage::WetGround => "wet_ground",
         }
     }
 
@@ -141,6 +145,7 @@ impl Stage {
             Stage::RgbToYuv => include_str!("../../shaders/rgb_to_yuv.wgsl"),
             Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
             Stage::RgbaOut => include_str!("../../shaders/rgba_out.wgsl"),
+            Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),
         }
     }
 

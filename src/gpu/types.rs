@@ -228,3 +228,27 @@ impl LightList {
         list
     }
 }
+
+/// WGSL `WetParams`: the wet ground's look for one frame (see [`crate::scene::wetness`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct WetParams {
+    /// Share of the ground under a water film, [0, 1].
+    pub wetness: f32,
+    pub water_index: f32,
+    pub diffuse_external: f32,
+    pub diffuse_internal: f32,
+}
+
+impl WetParams {
+    /// The uniforms for wetness `wetness` of a film with `optics`.
+    pub fn new(wetness: f64, optics: &crate::scene::wetness::FilmOptics) -> WetParams {
+        WetParams {
+            wetness: wetness as f32,
+            water_index: optics.index as f32,
+            diffuse_external: optics.diffuse_external as f32,
+            diffuse_internal: optics.diffuse_internal as f32,
+        }
+    }
+}

@@ -37,6 +37,8 @@ pub struct RainSetup {
     pub wind: Wind,
     /// Opacity of the rain between the farthest drawn drop and the scene (0 without haze).
     pub haze_alpha: f64,
+    /// How the ground wets, where a ground is given and rain has fallen on it.
+    pub wetting: Option<crate::scene::wetness::Wetting>,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -196,6 +198,7 @@ pub fn build(
         model,
         wind,
         haze_alpha,
+        wetting: None,
     })
 }
 
@@ -253,6 +256,12 @@ impl RainSetup {
     /// stands on (a ground is given); false leaves the render as without a ground.
     pub fn with_ground(mut self, ground: bool) -> RainSetup {
         self.params.ground_clip = ground as u32;
+        self
+    }
+
+    /// The ground z = 0 wets as `wetting` says (`None`: a dry ground, or none).
+    pub fn with_wetting(mut self, wetting: Option<crate::scene::wetness::Wetting>) -> RainSetup {
+        self.wetting = wetting.filter(|w| w.ever_wet());
         self
     }
 

@@ -8,6 +8,7 @@ pub mod depth;
 pub mod ground;
 pub mod ground_inspect;
 pub mod horizon;
+pub mod wetness;
 
 pub use camera::Camera;
 pub use depth::DepthMap;

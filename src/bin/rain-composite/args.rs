@@ -167,6 +167,9 @@ pub struct LookArgs {
     /// The ground the rain lands on: none, horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
+    /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
+    #[arg(long, value_name = "MIN")]
+    pub pre_rain: Option<f64>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
     #[arg(
         long = "light",
@@ -500,6 +503,7 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     }
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
+    set!(look.pre_rain => c.ground.pre_rain_min);
     set!(look.focus => cam.focus_m);
     set!(look.f_number => cam.f_number);
     set!(look.sensor_width => cam.sensor_width_mm);
@@ -574,6 +578,7 @@ mod tests {
         (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
+        c.ground.pre_rain_min = 25.0;
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {

@@ -5,4 +5,5 @@ pub mod rain_simulate;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
 pub mod rgba_out;
+pub mod wet_ground;
 pub mod yuv_to_rgb;

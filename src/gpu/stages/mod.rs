@@ -10,11 +10,12 @@ pub mod rain_simulate;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
 pub mod rgba_out;
+pub mod wet_ground;
 pub mod yuv_to_rgb;
 
 use super::lights::DirectLightBuffers;
 use super::shaders::Stage;
-use super::types::FrameParams;
+use super::types::{FrameParams, RainParams};
 
 /// Workgroup side of the per-pixel stages (`PIXEL_WORKGROUP` in the WGSL).
 pub const PIXEL_WORKGROUP: u32 = 16;
@@ -80,6 +81,9 @@ pub trait FrameStage {
     fn runs(&self) -> bool {
         true
     }
+    /// Writes the stage's own uniforms for the frame of `rain`, before its pass is recorded
+    /// (most stages read `RainParams` alone and have none).
+    fn prepare(&self, _queue: &wgpu::Queue, _rain: &RainParams) {}
     /// Records the stage's pass, timed in `timestamps` when given.
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>);
 }

@@ -1,0 +1,79 @@
+// Stage wet_ground: the ground wets (docs/method.md §2.2; CPU twin src/gpu/cpu/wet_ground.rs).
+// Only pixels whose view ray meets the ground z = 0 in front of the camera change (d.z < 0):
+// nothing at or above the horizon is written. The canvas already carries the haze
+// (C = L·T + S), so the scene radiance L is taken back out, wetted, and the change veiled again:
+// C' = C + w·T·((k − 1)·L + R(μ)·L_env(mirrored ray)), with k Lekner & Dorf's darkening of a
+// film over a surface of albedo a = π·L / E (E the irradiance the frame's environment SH sends
+// onto the level ground) and R the exact unpolarised Fresnel reflectance of water. The mirror
+// image comes from four SH bands: a blurred sky, as on a rough wet road, not a sharp mirror.
+// Includes: common/types.wgsl, common/sh.wgsl.
+
+@group(0) @binding(0) var<uniform> rain: RainParams;
+@group(0) @binding(1) var<uniform> wet: WetParams;
+@group(0) @binding(2) var dry: texture_2d<f32>;
+@group(0) @binding(3) var canvas: texture_storage_2d<rgba16float, write>;
+
+const PI: f32 = 3.14159265358979;
+
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(dry);
+    if id.x >= size.x || id.y >= size.y { return; }
+    let ray = view_ray(id.xy);
+    let d = normalize(ray);
+    if d.z >= 0.0 || rain.camera_pos_m.z <= 0.0 { return; }
+    let c = textureLoad(dry, id.xy, 0).rgb;
+    let t = rain.haze.w;
+    var in_scatter = vec3<f32>(0.0);
+    if t < 1.0 {
+        in_scatter = (1.0 - t) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
+    }
+    let scene = max(c - in_scatter, vec3<f32>(0.0)) / max(t, 1e-6);
+    let e = irradiance_up(rain.env_sh);
+    let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
+    let cos_view = -d.z;
+    let n = wet.water_index;
+    let r = water_reflectance(n, cos_view);
+    let k = (1.0 - r) * (1.0 - wet.diffuse_external) / (n * n * (1.0 - albedo * wet.diffuse_internal));
+    let sky = max(sh_radiance(rain.env_sh, vec3<f32>(d.x, d.y, -d.z)), vec3<f32>(0.0));
+    let change = (k - 1.0) * scene + r * sky;
+    textureStore(canvas, id.xy, vec4<f32>(c + wet.wetness * t * change, 1.0));
+}
+
+// Unpolarised Fresnel reflectance of a surface of index n seen from the air at incidence
+// cosine cos_i (finite at grazing, where it reaches 1).
+fn water_reflectance(n: f32, cos_i: f32) -> f32 {
+    let ci = clamp(cos_i, 0.0, 1.0);
+    let ct = sqrt(max(1.0 - (1.0 - ci * ci) / (n * n), 0.0));
+    let rs = (ci - n * ct) / (ci + n * ct);
+    let rp = (n * ci - ct) / (n * ci + ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// The environment's radiance from direction dir (written out term by term: a loop indexing
+// the arrays at run time is several times slower on CPU adapters).
+fn sh_radiance(env: array<vec4<f32>, 16>, dir: vec3<f32>) -> vec3<f32> {
+    let y = sh_basis16(dir);
+    return env[0].rgb * y[0] + env[1].rgb * y[1] + env[2].rgb * y[2] + env[3].rgb * y[3]
+        + env[4].rgb * y[4] + env[5].rgb * y[5] + env[6].rgb * y[6] + env[7].rgb * y[7]
+        + env[8].rgb * y[8] + env[9].rgb * y[9] + env[10].rgb * y[10] + env[11].rgb * y[11]
+        + env[12].rgb * y[12] + env[13].rgb * y[13] + env[14].rgb * y[14] + env[15].rgb * y[15];
+}
+
+// Irradiance on the level ground: the clamped cosine about +z convolved with the environment
+// (Ramamoorthi & Hanrahan 2001: Â₀ = π, Â₁ = 2π/3, Â₂ = π/4, Â₃ = 0), where only the m = 0
+// functions are non-zero: Y₀₀ = 0.28209, Y₁₀(+z) = 0.48860, Y₂₀(+z) = 0.63078.
+fn irradiance_up(env: array<vec4<f32>, 16>) -> vec3<f32> {
+    return PI * 0.28209479177387814 * env[0].rgb
+        + (2.0 * PI / 3.0) * 0.4886025119029199 * env[2].rgb
+        + (PI / 4.0) * 0.6307831305050401 * env[6].rgb;
+}
+
+// World direction of the ray through the centre of coded pixel p (as in yuv_to_rgb).
+fn view_ray(p: vec2<u32>) -> vec3<f32> {
+    let m = rain.coded_from_display;
+    let c = vec2<f32>(p) + vec2<f32>(0.5) - rain.coded_offset_px;
+    let q = vec2<f32>(m.x * c.x + m.y * c.y, m.z * c.x + m.w * c.y);
+    let d = (q - rain.principal_px) / rain.focal_px;
+    return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
+}
