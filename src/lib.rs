@@ -46,6 +46,7 @@
 #![cfg_attr(not(test), warn(clippy::unwrap_used))]
 
 pub mod config;
+pub mod drops;
 pub mod error;
 pub mod fluid;
 pub mod gpu;
