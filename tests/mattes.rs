@@ -431,3 +431,77 @@ fn the_garg_nayar_reader_picks_the_nearest_file_that_exists() {
     assert!(db.point(0.0, 30.0, 50.0, 0).is_err());
     assert!(GargNayarDb::open(&root.path().join("env_light_database"), 4).is_err());
 }
+
+#[test]
+fn the_command_line_generates_a_database_and_draws_its_contact_sheet() {
+    let bin = env!("CARGO_BIN_EXE_rain-composite");
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("db");
+    let run = |args: &[&str]| std::process::Command::new(bin).args(args).output().unwrap();
+    let small = [
+        "--sizes",
+        "4",
+        "--views",
+        "60",
+        "--phases",
+        "1",
+        "--exposures",
+        "1/500",
+        "--pixels-per-diameter",
+        "4",
+        "--samples",
+        "1",
+    ];
+    let out = run(&[
+        &["drops", "generate", "-o", db.to_str().unwrap()][..],
+        &small[..],
+    ]
+    .concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let index = database::load_index(&db).unwrap();
+    assert_eq!(index.mattes.len(), 1 + DatabaseSpec::default().lights.len());
+    assert!((index.spec.exposures_s[0] - 0.002).abs() < 1e-15);
+    for m in &index.mattes {
+        let matte = database::read_matte(&db, m).unwrap();
+        assert!(
+            (matte.iter().sum::<f64>() / m.sum_px2 - 1.0).abs() < 1e-3,
+            "{}",
+            m.file
+        );
+    }
+    let sheet = dir.path().join("sheet.png");
+    let out = run(&[
+        "inspect",
+        "drops",
+        "--mattes",
+        sheet.to_str().unwrap(),
+        "--streak-db",
+        db.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(image::open(&sheet).is_ok());
+    // A mistake is one error line and nothing written.
+    let bad = dir.path().join("bad");
+    let out = run(&[
+        "drops",
+        "generate",
+        "-o",
+        bad.to_str().unwrap(),
+        "--views",
+        "90",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.trim().lines().count() == 1 && stderr.contains("--views"),
+        "{stderr}"
+    );
+    assert!(!bad.exists());
+}

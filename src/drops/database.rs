@@ -249,14 +249,20 @@ pub fn generate(
     dir: &Path,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Index> {
-    if spec.phases == 0
-        || spec.sizes_mm.is_empty()
+    if spec.phases == 0 {
+        return Err(Error::Parameter {
+            name: "--phases",
+            value: "0".into(),
+            expected: "at least 1".into(),
+        });
+    }
+    if spec.sizes_mm.is_empty()
         || spec.exposures_s.is_empty()
         || spec.view_elevations_deg.is_empty()
     {
         return Err(Error::Parameter {
-            name: "--sizes/--exposures/--views/--phases",
-            value: "(empty)".into(),
+            name: "--sizes/--exposures/--views",
+            value: "(none)".into(),
             expected: "at least one value of each".into(),
         });
     }

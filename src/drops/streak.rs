@@ -104,7 +104,8 @@ impl StreakSetup {
         if !(self.diameter_m.is_finite() && (0.1e-3..=6e-3).contains(&self.diameter_m)) {
             return Err(bad(
                 "--sizes",
-                self.diameter_m * 1e3,
+                // Back to the millimetres the user typed (µm precision).
+                (self.diameter_m * 1e6).round() / 1e3,
                 "drop diameters in [0.1, 6] mm",
             ));
         }
