@@ -164,6 +164,7 @@ fn an_oscillating_drop_leaves_a_ripple_whose_period_is_fall_speed_over_the_mode_
         let plateau = &rows[edge..rows.len() - edge];
         let expected_px = streak.fall_speed_mps / f2 / s.pixel_m;
         let measured_px = 1.0 / dominant_frequency(plateau);
+        println!("D = {d_mm} mm: ripple period {measured_px:.2} px, V/f₂ = {expected_px:.2} px");
         assert!(
             (measured_px / expected_px - 1.0).abs() < 0.03,
             "D = {d_mm} mm: period {measured_px:.2} px, expected {expected_px:.2}"
@@ -228,6 +229,7 @@ fn uniform_light_energy_per_order_agrees_with_the_rtf() {
         let streak = s.render(&[]).unwrap();
         let radiance = streak.env.iter().sum::<f64>() / streak.coverage.iter().sum::<f64>();
         let expected: f64 = eps[..orders].iter().sum();
+        println!("orders ≤ {orders}: traced {radiance:.5}, RTF {expected:.5}");
         assert!(
             (radiance / expected - 1.0).abs() < 5e-3,
             "orders ≤ {orders}: {radiance} vs {expected}"
@@ -284,7 +286,7 @@ fn a_point_light_matte_averages_to_the_rtf_phase_function_at_its_scattering_angl
     // view ray, so the drop's mean radiance per unit irradiance is F(60°) seen through the
     // light's lobe. The tracer and the RTF's binned impact-parameter integral share only the
     // Fresnel formula.
-    let mut s = setup(0.5, 1.0 / 2000.0);
+    let mut s = setup(0.5, 1.0 / 8000.0);
     s.pixel_m = 0.5e-3 / 24.0;
     s.samples = 3;
     s.light_width_deg = 6.0;
@@ -295,6 +297,7 @@ fn a_point_light_matte_averages_to_the_rtf_phase_function_at_its_scattering_angl
     let streak = s.render(&[light]).unwrap();
     let mean = streak.lights[0].iter().sum::<f64>() / streak.coverage.iter().sum::<f64>();
     let f = smoothed_rtf(60f64.to_radians(), 6f64.to_radians());
+    println!("point light at 60°: mean {mean:.5} sr⁻¹, smoothed F(60°) {f:.5}");
     assert!(
         (mean / f - 1.0).abs() < 0.03,
         "mean {mean} sr⁻¹ vs smoothed F(60°) = {f}"
