@@ -508,3 +508,39 @@ fn the_command_line_generates_a_database_and_draws_its_contact_sheet() {
     );
     assert!(!bad.exists());
 }
+
+#[test]
+fn a_renderer_picks_the_nearest_matte_and_mirrors_lights_on_the_left() {
+    let index = database::load_index(&Path::new(env!("CARGO_MANIFEST_DIR")).join("drops")).unwrap();
+    let light = |elevation_deg, azimuth_deg| {
+        Some(LightAngles {
+            elevation_deg,
+            azimuth_deg,
+        })
+    };
+    // 1.6 mm is nearer 2 than 1; 1/50 s nearest 1/60; 40° nearer 30 than 60; phase 0.95 wraps
+    // to 0; a light at (30°, 100°) is nearest (45°, 90°) of the grid.
+    let (m, mirror) = index
+        .pick(1.6, 1.0 / 50.0, 40.0, 0.95, light(30.0, 100.0))
+        .unwrap();
+    assert_eq!(
+        (m.diameter_mm, m.view_elevation_deg, m.phase, mirror),
+        (2.0, 30.0, 0.0, false)
+    );
+    assert_eq!(m.light, light(45.0, 90.0));
+    // The same light on the other side (azimuth 260° = −100°) is its mirror image.
+    let (m2, mirror) = index
+        .pick(1.6, 1.0 / 50.0, 40.0, 0.95, light(30.0, 260.0))
+        .unwrap();
+    assert_eq!((m2.file.as_str(), mirror), (m.file.as_str(), true));
+    let (env, _) = index.pick(3.5, 0.01, 5.0, 0.3, None).unwrap();
+    assert_eq!(
+        (
+            env.diameter_mm,
+            env.view_elevation_deg,
+            env.phase,
+            env.light
+        ),
+        (4.0, 0.0, 0.25, None)
+    );
+}

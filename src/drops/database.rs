@@ -124,6 +124,68 @@ pub struct Index {
     pub mattes: Vec<MatteEntry>,
 }
 
+impl Index {
+    /// The matte a renderer would draw for a drop of `diameter_mm`, exposure `exposure_s`, seen
+    /// from elevation `view_deg`, at oscillation `phase` (fraction of the (2,0) period), lit by
+    /// the uniform environment (`light = None`) or a light at (elevation, azimuth) degrees:
+    /// the nearest size, exposure, view and phase of the grid, then the nearest light
+    /// direction. Lights at azimuths beyond 180° use the mirror image, so the second value says
+    /// whether to flip the matte left–right.
+    pub fn pick(
+        &self,
+        diameter_mm: f64,
+        exposure_s: f64,
+        view_deg: f64,
+        phase: f64,
+        light: Option<LightAngles>,
+    ) -> Option<(&MatteEntry, bool)> {
+        let nearest = |values: &[f64], x: f64| {
+            values
+                .iter()
+                .copied()
+                .min_by(|a, b| (a - x).abs().total_cmp(&(b - x).abs()))
+        };
+        let d = nearest(&self.spec.sizes_mm, diameter_mm)?;
+        // Exposures compare by ratio (1/50 is nearer 1/60 than 1/30 is).
+        let t = self.spec.exposures_s.iter().copied().min_by(|a, b| {
+            (a / exposure_s)
+                .ln()
+                .abs()
+                .total_cmp(&(b / exposure_s).ln().abs())
+        })?;
+        let v = nearest(&self.spec.view_elevations_deg, view_deg)?;
+        let phases = self.spec.phases.max(1) as f64;
+        let p = (phase.rem_euclid(1.0) * phases).round().rem_euclid(phases) / phases;
+        let (light, mirror) = match light {
+            None => (None, false),
+            Some(l) => {
+                let az = l.azimuth_deg.rem_euclid(360.0);
+                let mirror = az > 180.0;
+                let want = LightAngles {
+                    elevation_deg: l.elevation_deg,
+                    azimuth_deg: if mirror { 360.0 - az } else { az },
+                }
+                .direction();
+                let best =
+                    self.spec.lights.iter().copied().max_by(|a, b| {
+                        a.direction().dot(want).total_cmp(&b.direction().dot(want))
+                    })?;
+                (Some(best), mirror)
+            }
+        };
+        self.mattes
+            .iter()
+            .find(|m| {
+                m.diameter_mm == d
+                    && m.exposure_s == t
+                    && m.view_elevation_deg == v
+                    && m.phase == p
+                    && m.light == light
+            })
+            .map(|m| (m, mirror))
+    }
+}
+
 /// One streak's setup from the grid.
 pub fn setup(
     spec: &DatabaseSpec,

@@ -41,9 +41,9 @@ impl Amplitudes {
     pub const NONE: Amplitudes = Amplitudes { a20: 0.0, a31: 0.0 };
 
     /// The amplitudes the generator uses by default: A₂₀ = 0.025 D/mm (capped at 0.1),
-    /// A₃₁ = A₂₀/2. A₂₀ = 0.05 swings the axis ratio of a 2 mm drop by ±0.075, the size of the
-    /// oscillations Beard & Kubesh report for drops that have fallen far; Garg & Nayar's own
-    /// fitted values could not be read, so this is a model choice, not their fit.
+    /// A₃₁ = A₂₀/2, growing with size (larger drops oscillate more). A₂₀ = 0.05 swings the axis
+    /// ratio of a 2 mm drop by ±0.075. Their fitted values could not be read, so these are a
+    /// model choice, neither their fit nor a measurement.
     pub fn for_diameter_mm(d_mm: f64) -> Amplitudes {
         let a20 = (0.025 * d_mm).min(0.1);
         Amplitudes {
