@@ -236,7 +236,7 @@ fn uniform_light_energy_per_order_agrees_with_the_rtf() {
         );
     }
     // An oscillating drop, summed over phases, keeps the sphere's energy per order to within
-    // the few per cent its changing curvature moves between orders.
+    // the per cent or so its changing curvature moves between orders.
     let mut total = [0.0; 2];
     for k in 0..4 {
         let mut s = setup(2.0, 1.0 / 2000.0);
@@ -248,8 +248,13 @@ fn uniform_light_energy_per_order_agrees_with_the_rtf() {
         total[0] += streak.env.iter().sum::<f64>();
         total[1] += streak.coverage.iter().sum::<f64>();
     }
+    println!(
+        "oscillating 2 mm, 4 phases, order 1: {:.5} vs ε₁ {:.5}",
+        total[0] / total[1],
+        eps[0]
+    );
     assert!(
-        (total[0] / total[1] / eps[0] - 1.0).abs() < 0.05,
+        (total[0] / total[1] / eps[0] - 1.0).abs() < 0.02,
         "{} vs {}",
         total[0] / total[1],
         eps[0]
