@@ -37,6 +37,8 @@
 //! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT, light
 //!   recovered from clipped frames and compact light sources.
 //! - [`fluid`]: SPH surface flow and the carpet free surface.
+//! - [`drops`]: streak mattes: the generator of our Garg & Nayar-style database (`drops/`) and
+//!   a reader of the original's layout (not used by the render yet).
 //! - [`pipeline`]: one render job, from input to output, and single-frame preview.
 //! - [`inspect`]: the `inspect` reports (JSON, plots), one function per subcommand.
 //! - [`config`]: the settings, each default written once (the CLI and README read them).
@@ -46,6 +48,7 @@
 #![cfg_attr(not(test), warn(clippy::unwrap_used))]
 
 pub mod config;
+pub mod drops;
 pub mod error;
 pub mod fluid;
 pub mod gpu;

@@ -203,15 +203,15 @@ fn checked_mapper(image: &LinearImage, camera: &Camera, bands: usize) -> Result<
     EnvMapper::new(camera, bands)
 }
 
-/// An RGB canvas with additive drawing.
-struct Canvas {
+/// An RGB canvas with additive drawing (the plots here and the streak contact sheet).
+pub(crate) struct Canvas {
     w: usize,
     h: usize,
     px: Vec<[f32; 3]>,
 }
 
 impl Canvas {
-    fn new(w: usize, h: usize, bg: [f32; 3]) -> Canvas {
+    pub(crate) fn new(w: usize, h: usize, bg: [f32; 3]) -> Canvas {
         Canvas {
             w,
             h,
@@ -219,7 +219,7 @@ impl Canvas {
         }
     }
 
-    fn add(&mut self, x: f64, y: f64, c: [f32; 3]) {
+    pub(crate) fn add(&mut self, x: f64, y: f64, c: [f32; 3]) {
         if x >= 0.0 && y >= 0.0 && (x as usize) < self.w && (y as usize) < self.h {
             let p = &mut self.px[y as usize * self.w + x as usize];
             (0..3).for_each(|k| p[k] = (p[k] + c[k]).min(1.0));
@@ -238,7 +238,7 @@ impl Canvas {
     }
 
     /// Digits, '.', '-' in a 3×5 bitmap font, `scale` pixels per dot.
-    fn text(&mut self, x: f64, y: f64, s: &str, c: [f32; 3], scale: usize) {
+    pub(crate) fn text(&mut self, x: f64, y: f64, s: &str, c: [f32; 3], scale: usize) {
         const GLYPHS: [(char, [u8; 5]); 13] = [
             ('0', [7, 5, 5, 5, 7]),
             ('1', [2, 6, 2, 2, 7]),
@@ -273,7 +273,7 @@ impl Canvas {
         }
     }
 
-    fn save(&self, path: &Path, srgb: bool) -> Result<()> {
+    pub(crate) fn save(&self, path: &Path, srgb: bool) -> Result<()> {
         let enc = |v: f32| {
             let v = if srgb {
                 linear_to_srgb(v)

@@ -11,6 +11,7 @@ use rain_composite::gpu::AdapterRequest;
 use rain_composite::video::{AlphaMode, AudioMode, EncodeOptions, Layer, VideoCodec};
 
 use crate::bench::BenchArgs;
+use crate::drops::DropsCommand;
 use crate::inspect::InspectCommand;
 
 /// Adds physically based rain to video.
@@ -43,6 +44,9 @@ pub enum Command {
     /// Print the models behind the rain as JSON (drop sampling, ...).
     #[command(subcommand)]
     Inspect(InspectCommand),
+    /// Streak mattes: generate the database of ray-traced oscillating drops.
+    #[command(subcommand)]
+    Drops(DropsCommand),
     /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
     #[command(allow_negative_numbers = true)]
     Bench(BenchArgs),

@@ -139,6 +139,12 @@ pub enum InspectCommand {
         /// Print JSON (the only format).
         #[arg(long)]
         json: bool,
+        /// Instead of the plan, draw a labelled contact sheet of the streak mattes to this PNG.
+        #[arg(long, value_name = "PNG")]
+        mattes: Option<PathBuf>,
+        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's.
+        #[arg(long, value_name = "PATH", default_value = "drops")]
+        streak_db: PathBuf,
         #[command(flatten)]
         look: Box<LookArgs>,
     },
@@ -242,8 +248,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             time,
             fps,
             look,
+            mattes,
+            streak_db,
             ..
         } => {
+            if let Some(sheet) = mattes {
+                let report = rain_composite::drops::sheet::contact_sheet(streak_db, sheet)?;
+                return out(&serde_json::to_string_pretty(&report)?);
+            }
             let config = render_config(look)?;
             let size_px = size
                 .split_once('x')

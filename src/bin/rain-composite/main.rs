@@ -19,6 +19,7 @@ use args::{adapter, encode_options, parse_time_s, render_config};
 
 mod args;
 mod bench;
+mod drops;
 mod inspect;
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -178,6 +179,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Some(Command::Inspect(i)) => inspect::run(i),
+        Some(Command::Drops(d)) => drops::run(d),
         Some(Command::Bench(b)) => bench::run_command(b),
         Some(Command::Adapters { json }) => {
             let adapters = list_adapters();
