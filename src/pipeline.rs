@@ -17,6 +17,7 @@ use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
 use crate::scene::Camera;
+use crate::scene::depth::DepthSource;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
 use crate::{Error, Result};
 
@@ -122,7 +123,43 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         info.rotation_deg,
         (info.format.width, info.format.height),
     )?;
-    Ok(setup.with_ground(config.ground.is_given()))
+    Ok(setup
+        .with_ground(config.ground.is_given())
+        .with_scene_depth(config.ground.depth.is_some()))
+}
+
+/// The scene's depth of a job (`--depth`), opened and checked before any frame is decoded: a
+/// directory or video with fewer maps than the clip has frames is refused here.
+fn depth_for(config: &RenderConfig, info: &VideoInfo) -> Result<Option<DepthSource>> {
+    let Some(path) = &config.ground.depth else {
+        return Ok(None);
+    };
+    let depth = DepthSource::open(path, config.ground.depth_scale)?;
+    if let (Some(maps), Some(frames)) = (depth.frame_count(), info.frame_count) {
+        if maps < frames {
+            return Err(Error::Parameter {
+                name: "--depth",
+                value: path.display().to_string(),
+                expected: format!("a depth map per frame: {maps} maps for {frames} frames"),
+            });
+        }
+    }
+    Ok(Some(depth))
+}
+
+/// Sets the depth of frame `index` on `compositor`: a still once, when `first`, a map per frame
+/// otherwise.
+fn feed_depth(
+    depth: &mut Option<DepthSource>,
+    compositor: &mut Compositor,
+    index: u64,
+    first: bool,
+) -> Result<()> {
+    match depth {
+        Some(DepthSource::Still(map)) if first => compositor.set_scene_depth(map),
+        Some(DepthSource::Still(_)) | None => Ok(()),
+        Some(d) => compositor.set_scene_depth(d.at(index)?.as_ref()),
+    }
 }
 
 /// Seconds since the start of the stream at `frame`.
@@ -166,6 +203,7 @@ pub fn render(
     let started = Instant::now();
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
+    let mut depth = depth_for(&job.render, &info)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
     let rain = rain_for(&info, &job.render, &ctx)?;
@@ -230,6 +268,7 @@ pub fn render(
 
     let mut stages = StageTimes::default();
     let mut written = 0u64;
+    let mut submitted = 0u64;
     let gpu_result = (|| -> Result<()> {
         let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
             out_tx
@@ -253,6 +292,8 @@ pub fn render(
                     let (params, lights) =
                         lighting.params(&rain, &frame, frame_time_s(&info, &frame));
                     compositor.set_lights(&lights);
+                    feed_depth(&mut depth, &mut compositor, frame.index, submitted == 0)?;
+                    submitted += 1;
                     let done = compositor.submit(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
@@ -344,6 +385,7 @@ pub fn preview(
     };
     let mut source = Source::open(input)?;
     let info = source.info().clone();
+    let mut depth = depth_for(render, &info)?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
@@ -372,6 +414,7 @@ pub fn preview(
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
     lighting.upload_table(&mut compositor);
     compositor.set_lights(&lights);
+    feed_depth(&mut depth, &mut compositor, target.index, true)?;
     let out = compositor.render_one(&target, &params)?;
     check()?;
     Ok((out, info))

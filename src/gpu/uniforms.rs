@@ -37,6 +37,9 @@ pub struct RainSetup {
     pub wind: Wind,
     /// Opacity of the rain between the farthest drawn drop and the scene (0 without haze).
     pub haze_alpha: f64,
+    /// Whether drops are hidden behind the scene's depth map (set per frame with
+    /// `Compositor::set_scene_depth`); false leaves the render as without one.
+    pub scene_depth: bool,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -196,6 +199,7 @@ pub fn build(
         model,
         wind,
         haze_alpha,
+        scene_depth: false,
     })
 }
 
@@ -253,6 +257,13 @@ impl RainSetup {
     /// stands on (a ground is given); false leaves the render as without a ground.
     pub fn with_ground(mut self, ground: bool) -> RainSetup {
         self.params.ground_clip = ground as u32;
+        self
+    }
+
+    /// With `depth` true, the compositor holds a depth map of the displayed picture and hides
+    /// drops behind the scene (`Compositor::set_scene_depth`).
+    pub fn with_scene_depth(mut self, depth: bool) -> RainSetup {
+        self.scene_depth = depth;
         self
     }
 
