@@ -267,17 +267,12 @@ impl RenderConfig {
         };
         match mode {
             GroundMode::None => Ok(()),
-            GroundMode::Auto => Err(bad(
-                "none, horizon=ROW[,roll=DEG] or plane=nx,ny,nz,d for a render: the estimate \
-                 from the frames is not used by the render yet (`rain-composite inspect ground` \
-                 prints the horizon to pass as horizon=ROW,roll=DEG)",
-            )),
-            GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
+            GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
                 let c = &self.camera;
                 if c.tilt_deg != 0.0 || c.roll_deg != 0.0 {
                     return Err(bad(
-                        "no --tilt or --roll besides it: --ground horizon=/plane= sets the \
-                         camera's tilt and roll",
+                        "no --tilt or --roll besides it: --ground auto/horizon=/plane= sets \
+                         the camera's tilt and roll",
                     ));
                 }
                 Ok(())

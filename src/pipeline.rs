@@ -201,15 +201,16 @@ pub fn render(
     job.encode.validate()?;
     crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
     let started = Instant::now();
+    let config = crate::scene::ground_auto::resolve(&job.render, &job.input)?;
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
-    let mut depth = depth_for(&job.render, &info)?;
+    let mut depth = depth_for(&config, &info)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &job.render, &ctx)?;
+    let rain = rain_for(&info, &config, &ctx)?;
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
-    let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
+    let mut lighting = LightFeed::new(&info, &config, &rain)?;
     lighting.upload_table(&mut compositor);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
@@ -376,6 +377,7 @@ pub fn preview(
     cancel: &AtomicBool,
 ) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
+    let render = &crate::scene::ground_auto::resolve(render, input)?;
     let check = || {
         if cancel.load(Ordering::Relaxed) {
             Err(Error::Interrupted)

@@ -164,7 +164,7 @@ pub struct LookArgs {
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
-    /// The ground the rain lands on: none, horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
+    /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
     /// The scene's depth, drops behind it hidden: a 16-bit greyscale PNG in millimetres (camera z) for the whole clip, a directory of them (one per frame, in name order) or a 16-bit greyscale video; resampled to the picture; 0 = unknown.
@@ -630,15 +630,14 @@ mod tests {
                 .tilt_deg,
             -3.0
         );
-        // `auto` is not a render option yet.
+        // `auto` estimates the pose: not with --tilt.
         let cli = parsed(&["rain-composite", "in.mp4", "--ground", "auto"]);
+        assert!(render_config(&cli.render.look).is_ok());
+        let cli = parsed(&["rain-composite", "in.mp4", "--ground", "auto", "--tilt=4"]);
         let e = render_config(&cli.render.look)
-            .expect_err("auto")
+            .expect_err("auto with tilt")
             .to_string();
-        assert!(
-            e.contains("--ground") && e.contains("inspect ground"),
-            "{e}"
-        );
+        assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
     }
 
     /// The encoder flags' defaults are the library's.
