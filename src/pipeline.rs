@@ -201,10 +201,10 @@ pub fn render(
     job.encode.validate()?;
     crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
     let started = Instant::now();
-    let config = crate::scene::ground_auto::resolve(&job.render, &job.input)?;
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
-    let mut depth = depth_for(&config, &info)?;
+    let mut depth = depth_for(&job.render, &info)?;
+    let config = crate::scene::ground_auto::resolve(&job.render, &job.input)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
     let rain = rain_for(&info, &config, &ctx)?;
@@ -377,7 +377,6 @@ pub fn preview(
     cancel: &AtomicBool,
 ) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
-    let render = &crate::scene::ground_auto::resolve(render, input)?;
     let check = || {
         if cancel.load(Ordering::Relaxed) {
             Err(Error::Interrupted)
@@ -388,6 +387,7 @@ pub fn preview(
     let mut source = Source::open(input)?;
     let info = source.info().clone();
     let mut depth = depth_for(render, &info)?;
+    let render = &crate::scene::ground_auto::resolve(render, input)?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
