@@ -171,21 +171,33 @@ pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
             "ground: a cut at {cut:.2} s; the pose of the first shot is used for the whole clip"
         );
     }
-    out.ground.mode = match e.horizon_row {
-        Some(row) if e.confidence >= horizon::MIN_CONFIDENCE => {
+    // A horizon too far off the picture to pass as `horizon=` (a long lens tilted steeply)
+    // falls back like an unsure one.
+    let found = e
+        .horizon_row
+        .map(|row| GroundMode::Horizon {
+            row,
+            roll_deg: e.roll_deg,
+        })
+        .filter(|m| e.confidence >= horizon::MIN_CONFIDENCE && m.validate().is_ok());
+    out.ground.mode = match found {
+        Some(mode) => {
             log::info!(
-                "ground: auto over {} frames: horizon={row:.4},roll={:.2} (tilt {:.2}°, confidence {:.2})",
+                "ground: auto over {} frames: {mode} (tilt {:.2}°, confidence {:.2})",
                 g.frames,
-                e.roll_deg,
                 e.tilt_deg,
                 e.confidence
             );
-            GroundMode::Horizon {
-                row,
-                roll_deg: e.roll_deg,
-            }
+            mode
         }
-        _ => {
+        None if e.confidence >= horizon::MIN_CONFIDENCE => {
+            log::warn!(
+                "ground: the horizon found (tilt {:.1}°) is too far off the picture: no ground",
+                e.tilt_deg
+            );
+            GroundMode::None
+        }
+        None => {
             log::warn!(
                 "ground: confidence {:.2} is below {}: no ground (too few straight edges agree \
                  on a horizon, or the picture reads two ways)",
@@ -195,6 +207,5 @@ pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
             GroundMode::None
         }
     };
-    out.ground.mode.validate()?;
     Ok(out)
 }
