@@ -43,13 +43,14 @@ fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(rain.camera_from_world_0.xyz, d), dot(rain.camera_from_world_1.xyz, d), dot(rain.camera_from_world_2.xyz, d));
 }
 
-// Drop radiance at camera-space point `p_cam`: environment (PRT) plus compact lights.
+// Drop radiance at camera-space point `p_cam`: environment (PRT) plus compact lights; w: the
+// point's depth (camera z, m), which rain_streaks compares with the scene's depth map.
 fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
     // World offset from the camera: world_from_camera · p, the rows of camera_from_world.
     let offset = rain.camera_from_world_0.xyz * p_cam.x + rain.camera_from_world_1.xyz * p_cam.y + rain.camera_from_world_2.xyz * p_cam.z;
     let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
         + direct_light(offset, offset);
-    return vec4<f32>(max(c, vec3<f32>(0.0)), 0.0);
+    return vec4<f32>(max(c, vec3<f32>(0.0)), p_cam.z);
 }
 
 fn streak_of(id: u32) -> Streak {

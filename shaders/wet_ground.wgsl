@@ -1,4 +1,4 @@
-// Stage wet_ground: the ground wets (docs/method.md §2.2; CPU twin src/gpu/cpu/wet_ground.rs).
+// Stage wet_ground: the ground wets (docs/method.md §2.3; CPU twin src/gpu/cpu/wet_ground.rs).
 // Only pixels whose view ray meets the ground z = 0 in front of the camera change (d.z < 0):
 // nothing at or above the horizon is written. The canvas already carries the haze
 // (C = L·T + S), so the scene radiance L is taken back out, wetted, and the change veiled again:

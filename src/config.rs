@@ -122,8 +122,8 @@ pub struct RenderConfig {
     pub ground: GroundConfig,
 }
 
-/// The ground under the rain (see [`crate::scene::ground`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// The ground under the rain (see [`crate::scene::ground`]) and the scene's depth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GroundConfig {
     /// `none` (the default: the render is as without a ground), `horizon=ROW[,roll=DEG]` or
@@ -133,13 +133,22 @@ pub struct GroundConfig {
     /// Minutes it has rained (at the clip's rate) before the clip starts: how wet a given
     /// ground already is (0: dry at the start; see [`crate::scene::wetness`]).
     pub pre_rain_min: f64,
+    /// The scene's depth (camera z), drops behind it hidden: a 16-bit greyscale PNG in
+    /// millimetres for the whole clip, a directory of them (one per frame, in name order) or a
+    /// 16-bit greyscale video (see [`crate::scene::depth`]). None: no occlusion.
+    pub depth: Option<std::path::PathBuf>,
+    /// Factor on the depth file's values, which are millimetres times this: 1 for a metric map,
+    /// the right factor for a relative one.
+    pub depth_scale: f64,
 }
 
 impl Default for GroundConfig {
-    fn default() -> Self {
+    fn default() -> GroundConfig {
         GroundConfig {
-            mode: crate::scene::GroundMode::default(),
+            mode: crate::scene::GroundMode::None,
             pre_rain_min: 10.0,
+            depth: None,
+            depth_scale: 1.0,
         }
     }
 }
@@ -212,7 +221,7 @@ impl RenderConfig {
 impl RenderConfig {
     /// Each flag that sets a value of this configuration, with the value as a user would type
     /// it (`("--wind", "3,-1")`); `--highlight-gain` only when set (its default is the
-    /// recovery's estimate), `--hdr-input` never (a switch, off unless given). Of
+    /// recovery's estimate) and `--depth` (no default), `--hdr-input` never (a switch, off unless given). Of
     /// [`RenderConfig::default`], these are the defaults the help shows and the README's
     /// options table lists (a test checks both), so each default is written once, in the
     /// `Default` impls.
@@ -242,11 +251,18 @@ impl RenderConfig {
             ("--scene-depth", r.scene_depth_m.to_string()),
             ("--ground", self.ground.mode.to_string()),
             ("--pre-rain", self.ground.pre_rain_min.to_string()),
+            ("--depth-scale", self.ground.depth_scale.to_string()),
         ]
         .into_iter()
         .chain(
             l.highlight_gain
                 .map(|g| ("--highlight-gain", g.to_string())),
+        )
+        .chain(
+            self.ground
+                .depth
+                .as_ref()
+                .map(|d| ("--depth", d.display().to_string())),
         )
         .collect()
     }
@@ -259,6 +275,7 @@ impl RenderConfig {
         use crate::scene::GroundMode;
         let mode = self.ground.mode;
         mode.validate()?;
+        crate::scene::depth::check_scale(self.ground.depth_scale)?;
         let bad = |expected: &str| Error::Parameter {
             name: "--ground",
             value: mode.to_string(),
@@ -266,17 +283,12 @@ impl RenderConfig {
         };
         match mode {
             GroundMode::None => Ok(()),
-            GroundMode::Auto => Err(bad(
-                "none, horizon=ROW[,roll=DEG] or plane=nx,ny,nz,d for a render: the estimate \
-                 from the frames is not used by the render yet (`rain-composite inspect ground` \
-                 prints the horizon to pass as horizon=ROW,roll=DEG)",
-            )),
-            GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
+            GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
                 let c = &self.camera;
                 if c.tilt_deg != 0.0 || c.roll_deg != 0.0 {
                     return Err(bad(
-                        "no --tilt or --roll besides it: --ground horizon=/plane= sets the \
-                         camera's tilt and roll",
+                        "no --tilt or --roll besides it: --ground auto/horizon=/plane= sets \
+                         the camera's tilt and roll",
                     ));
                 }
                 Ok(())

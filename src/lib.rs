@@ -32,8 +32,8 @@
 //!   (`gpu::cpu`), the uniforms builder, the compositor and its readback.
 //! - [`rain`]: CPU rain physics only: sizes, fall speeds, wind, the planned volume and the
 //!   stateless drop (the CPU twin of the GPU one).
-//! - [`scene`]: the pinhole camera; the ground plane, its estimate from the frames and depth maps
-//!   (reported by `inspect ground`, not used by the render yet).
+//! - [`scene`]: the pinhole camera; the ground plane, its estimate from the frames (`--ground
+//!   auto`, `inspect ground`) and depth maps (`--depth`).
 //! - [`lighting`]: spherical harmonics, the raindrop radiance-transfer function, PRT, light
 //!   recovered from clipped frames and compact light sources.
 //! - [`fluid`]: SPH surface flow and the carpet free surface.

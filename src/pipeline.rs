@@ -17,6 +17,7 @@ use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
 use crate::scene::Camera;
+use crate::scene::depth::DepthSource;
 use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
 use crate::{Error, Result};
 
@@ -124,7 +125,42 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
     )?;
     Ok(setup
         .with_ground(config.ground.is_given())
-        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h)))
+        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h))
+        .with_scene_depth(config.ground.depth.is_some()))
+}
+
+/// The scene's depth of a job (`--depth`), opened and checked before any frame is decoded: a
+/// directory or video with fewer maps than the clip has frames is refused here.
+fn depth_for(config: &RenderConfig, info: &VideoInfo) -> Result<Option<DepthSource>> {
+    let Some(path) = &config.ground.depth else {
+        return Ok(None);
+    };
+    let depth = DepthSource::open(path, config.ground.depth_scale)?;
+    if let (Some(maps), Some(frames)) = (depth.frame_count(), info.frame_count) {
+        if maps < frames {
+            return Err(Error::Parameter {
+                name: "--depth",
+                value: path.display().to_string(),
+                expected: format!("a depth map per frame: {maps} maps for {frames} frames"),
+            });
+        }
+    }
+    Ok(Some(depth))
+}
+
+/// Sets the depth of frame `index` on `compositor`: a still once, when `first`, a map per frame
+/// otherwise.
+fn feed_depth(
+    depth: &mut Option<DepthSource>,
+    compositor: &mut Compositor,
+    index: u64,
+    first: bool,
+) -> Result<()> {
+    match depth {
+        Some(DepthSource::Still(map)) if first => compositor.set_scene_depth(map),
+        Some(DepthSource::Still(_)) | None => Ok(()),
+        Some(d) => compositor.set_scene_depth(d.at(index)?.as_ref()),
+    }
 }
 
 /// Seconds since the start of the stream at `frame`.
@@ -168,9 +204,11 @@ pub fn render(
     let started = Instant::now();
     let source = Source::open(&job.input)?;
     let info = source.info().clone();
+    let mut depth = depth_for(&job.render, &info)?;
+    let config = crate::scene::ground_auto::resolve(&job.render, &job.input)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &job.render, &ctx)?;
+    let rain = rain_for(&info, &config, &ctx)?;
     log::info!("{}", rain.summary());
     let mut compositor = Compositor::with_layer(
         ctx.clone(),
@@ -179,7 +217,7 @@ pub fn render(
         &rain,
         job.encode.layer,
     )?;
-    let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
+    let mut lighting = LightFeed::new(&info, &config, &rain)?;
     lighting.upload_table(&mut compositor);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
@@ -238,6 +276,7 @@ pub fn render(
 
     let mut stages = StageTimes::default();
     let mut written = 0u64;
+    let mut submitted = 0u64;
     let gpu_result = (|| -> Result<()> {
         let mut send = |f: Rendered, written: &mut u64| -> Result<()> {
             out_tx
@@ -261,6 +300,8 @@ pub fn render(
                     let (params, lights) =
                         lighting.params(&rain, &frame, frame_time_s(&info, &frame));
                     compositor.set_lights(&lights);
+                    feed_depth(&mut depth, &mut compositor, frame.index, submitted == 0)?;
+                    submitted += 1;
                     let done = compositor.submit_rendered(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
@@ -352,6 +393,8 @@ pub fn preview(
     };
     let mut source = Source::open(input)?;
     let info = source.info().clone();
+    let mut depth = depth_for(render, &info)?;
+    let render = &crate::scene::ground_auto::resolve(render, input)?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
@@ -380,6 +423,7 @@ pub fn preview(
     let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
     lighting.upload_table(&mut compositor);
     compositor.set_lights(&lights);
+    feed_depth(&mut depth, &mut compositor, target.index, true)?;
     let out = compositor.render_one(&target, &params)?;
     check()?;
     Ok((out, info))

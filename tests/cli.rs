@@ -431,17 +431,37 @@ fn preview_is_the_frame_the_full_render_writes() {
         2.0,
         &["-c:v", "libx264", "-g", "10", "-pix_fmt", "yuv420p"],
     );
-    let full = p(&dir, "full.mkv");
-    let look = ["--rain", "30", "--opacity", "10", "--seed", "3", "--cpu"];
+    // A depth map of another size than the picture: a near box in its middle.
+    let depth = p(&dir, "depth.png");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(40, 30, |x, y| {
+        image::Luma([if (10..30).contains(&x) && (8..22).contains(&y) {
+            1500
+        } else {
+            0
+        }])
+    })
+    .save(&depth)
+    .expect("png");
+    let plain = vec!["--rain", "30", "--opacity", "10", "--seed", "3", "--cpu"];
+    let mut grounded = plain.clone();
+    grounded.extend(["--ground", "auto", "--depth", s(&depth)]);
+    check_preview_against_render(&dir, &input, "plain", &plain);
+    check_preview_against_render(&dir, &input, "grounded", &grounded);
+}
+
+/// Frames 30 (`--at 1.2s`) and 17 (`--frame 17`) previewed with `look` equal those frames of
+/// the full render with `look`.
+fn check_preview_against_render(dir: &TempDir, input: &Path, tag: &str, look: &[&str]) {
+    let full = p(dir, &format!("{tag}-full.mkv"));
     ok(bin()
-        .args([s(&input), "-o", s(&full), "--codec", "ffv1"])
+        .args([s(input), "-o", s(&full), "--codec", "ffv1"])
         .args(look));
     for (flag, value, index) in [("--at", "1.2s", 30), ("--frame", "17", 17)] {
-        let preview = p(&dir, &format!("preview-{index}.png"));
+        let preview = p(dir, &format!("{tag}-preview-{index}.png"));
         ok(bin()
             .args([
                 "preview",
-                s(&input),
+                s(input),
                 flag,
                 value,
                 "-o",
@@ -451,7 +471,7 @@ fn preview_is_the_frame_the_full_render_writes() {
             ])
             .args(look));
         // The full render's frame through the same still conversion (no rain added).
-        let from_full = p(&dir, &format!("full-{index}.png"));
+        let from_full = p(dir, &format!("{tag}-full-{index}.png"));
         ok(bin().args([
             "preview",
             s(&full),
@@ -471,7 +491,7 @@ fn preview_is_the_frame_the_full_render_writes() {
         );
         assert!(
             a == b,
-            "{flag} {value}: preview differs from frame {index} of the render"
+            "{look:?} {flag} {value}: preview differs from frame {index} of the render"
         );
     }
 }

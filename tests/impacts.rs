@@ -441,7 +441,7 @@ fn rendered_rain_stays_above_the_ground_in_the_picture() {
 /// A given ground is the level world ground z = 0 seen by the render's camera: `horizon=ROW`
 /// puts the horizon of z = 0 at ROW with the roll asked for, `plane=n,d` makes z = 0 the plane
 /// n·X + d = 0 of the camera's frame at height d/|n|; and a configuration giving the pose twice
-/// is refused naming both.
+/// (`auto` included) is refused naming both.
 #[test]
 fn the_given_ground_is_the_level_world_ground() {
     let level = rain_composite::scene::GroundPlane::LEVEL;
@@ -460,13 +460,13 @@ fn the_given_ground_is_the_level_world_ground() {
     c.camera.tilt_deg = 5.0;
     let e = c.validate().expect_err("pose twice").to_string();
     assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
-    let e = RenderConfig::from_json(r#"{"ground": {"mode": "auto"}}"#)
+    // `auto` estimates the pose too.
+    let auto = RenderConfig::from_json(r#"{"ground": {"mode": "auto"}}"#).expect("parses");
+    auto.validate().expect("auto");
+    let e = RenderConfig::from_json(r#"{"ground": {"mode": "auto"}, "camera": {"roll_deg": 2}}"#)
         .expect("parses")
         .validate()
-        .expect_err("auto")
+        .expect_err("auto with a roll")
         .to_string();
-    assert!(
-        e.contains("--ground") && e.contains("inspect ground"),
-        "{e}"
-    );
+    assert!(e.contains("--ground") && e.contains("--roll"), "{e}");
 }

@@ -154,7 +154,11 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
         assert!((stops.wetness_at(t) - expected).abs() < 1e-12);
     }
     // Without a ground, or without any rain, nothing wets.
-    let ground = |mode: GroundMode, pre_rain_min| GroundConfig { mode, pre_rain_min };
+    let ground = |mode: GroundMode, pre_rain_min| GroundConfig {
+        mode,
+        pre_rain_min,
+        ..GroundConfig::default()
+    };
     let horizon: GroundMode = "horizon=0.6".parse().expect("mode");
     assert!(ground(GroundMode::None, 10.0).wetting(10.0).is_none());
     assert!(ground(horizon, 0.0).wetting(0.0).is_none());
@@ -427,6 +431,7 @@ fn without_a_ground_the_frame_is_bit_identical() {
     let none = GroundConfig {
         mode: GroundMode::None,
         pre_rain_min: 30.0,
+        ..GroundConfig::default()
     };
     let rain = RainConfig::default();
     let plain =

@@ -88,7 +88,7 @@ struct Streak {
     r_eff_px: f32,          // drawn radius (sub-pixel drops widened, defocus included)
     alpha_scale: f32,       // coverage multiplier
     _pad: f32,
-    radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb)
+    radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb); w: the drop's depth there (camera z, m)
     radiance1: vec4<f32>,   // and at the end of the path
 }
 

@@ -109,6 +109,9 @@ pub struct Compositor {
     rain_buffer: wgpu::Buffer,
     rain_drops: u32,
     direct_lights: DirectLightBuffers,
+    /// The scene's depth per displayed pixel (see `set_scene_depth`).
+    scene_depth: wgpu::Buffer,
+    display_size: (u32, u32),
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
     /// The frame's stages in order; a stage's index is its timestamp slot.
@@ -227,6 +230,22 @@ impl Compositor {
         });
         let direct_lights = DirectLightBuffers::new(device);
         direct_lights.upload_lights(&ctx.queue, &LightList::new(&[]));
+        let (dw, dh) = (
+            rain.params.display_size_px[0] as u32,
+            rain.params.display_size_px[1] as u32,
+        );
+        let depth_len = if rain.scene_depth {
+            dw as u64 * dh as u64
+        } else {
+            1
+        };
+        // Zeros: unknown depth, nothing hidden until a map is set.
+        let scene_depth = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("scene_depth"),
+            size: 4 * depth_len.max(1),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -247,6 +266,7 @@ impl Compositor {
             drop_count: rain.params.drop_count,
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),
+            scene_depth: scene_depth.clone(),
         };
         // The frame, in order. The wet ground changes the picture's own colours, per channel
         // and by the picture's albedo: no single α over the frame can carry that, so a layer
@@ -304,6 +324,8 @@ impl Compositor {
             rain_buffer,
             rain_drops: rain.params.drop_count,
             direct_lights,
+            scene_depth,
+            display_size: (dw, dh),
             out_buffer,
             staging,
             stages,
@@ -334,6 +356,28 @@ impl Compositor {
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
         self.direct_lights.upload_lights(&self.ctx.queue, lights);
+    }
+
+    /// Sets the scene's depth for the frames submitted from now on: drops behind it are hidden.
+    /// `depth` is resampled to the displayed picture where its size differs; its holes hide
+    /// nothing. Needs a rain built `with_scene_depth(true)`.
+    pub fn set_scene_depth(&mut self, depth: &crate::scene::DepthMap) -> Result<()> {
+        let (w, h) = self.display_size;
+        if self.scene_depth.size() < 4 * w as u64 * h as u64 {
+            return Err(Error::Gpu(
+                "a depth map for a rain built without one (RainSetup::with_scene_depth)".into(),
+            ));
+        }
+        let map = depth.resampled(w as usize, h as usize);
+        let metres: Vec<f32> = map
+            .depth_m
+            .iter()
+            .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
+            .collect();
+        self.ctx
+            .queue
+            .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
+        Ok(())
     }
 
     /// Records and submits `frame` with the rain of `rain` (see `RainSetup::params_at`).

@@ -163,7 +163,9 @@ pub struct Streak {
     pub r_eff_px: f32,
     pub alpha_scale: f32,
     pub _pad: f32,
+    /// rgb: the drop's radiance seen at `q0_px`; w: its depth there (camera z), metres.
     pub radiance0: [f32; 4],
+    /// The same at the end of the path.
     pub radiance1: [f32; 4],
 }
 

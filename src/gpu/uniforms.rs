@@ -39,6 +39,9 @@ pub struct RainSetup {
     pub haze_alpha: f64,
     /// How the ground wets, where a ground is given and rain has fallen on it.
     pub wetting: Option<crate::scene::wetness::Wetting>,
+    /// Whether drops are hidden behind the scene's depth map (set per frame with
+    /// `Compositor::set_scene_depth`); false leaves the render as without one.
+    pub scene_depth: bool,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -199,6 +202,7 @@ pub fn build(
         wind,
         haze_alpha,
         wetting: None,
+        scene_depth: false,
     })
 }
 
@@ -262,6 +266,13 @@ impl RainSetup {
     /// The ground z = 0 wets as `wetting` says (`None`: a dry ground, or none).
     pub fn with_wetting(mut self, wetting: Option<crate::scene::wetness::Wetting>) -> RainSetup {
         self.wetting = wetting.filter(|w| w.ever_wet());
+        self
+    }
+
+    /// With `depth` true, the compositor holds a depth map of the displayed picture and hides
+    /// drops behind the scene (`Compositor::set_scene_depth`).
+    pub fn with_scene_depth(mut self, depth: bool) -> RainSetup {
+        self.scene_depth = depth;
         self
     }
 

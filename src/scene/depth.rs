@@ -6,9 +6,12 @@
 //! never "at the camera". Resampling to the video's size is bilinear over the known neighbours
 //! only, so a hole neither spreads nor drags its neighbours toward zero.
 //!
-//! Only read and validated for now: the render does not use depth yet.
+//! The render reads depth through a [`DepthSource`]: one map for the whole clip, a directory of
+//! PNGs (one per frame, in name order), or a 16-bit greyscale video whose codes are millimetres
+//! (frame i of the clip takes frame i of the depth video). Drops behind the scene are hidden
+//! (`shaders/rain_streaks.wgsl`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::{Error, Result};
 
@@ -159,4 +162,129 @@ pub fn check_scale(depth_scale: f64) -> Result<()> {
             expected: "a factor in (0, 1000000] on the file's millimetres".into(),
         })
     }
+}
+
+/// Where a render's depth comes from, read in the clip's frame order.
+pub enum DepthSource {
+    /// One map for the whole clip.
+    Still(DepthMap),
+    /// One PNG per frame, in name order.
+    Frames {
+        /// The maps' paths.
+        paths: Vec<PathBuf>,
+        /// `--depth-scale`.
+        scale: f64,
+    },
+    /// A greyscale video, its codes millimetres at 16 bits.
+    Video {
+        /// The decoder.
+        source: Box<crate::video::Source>,
+        /// The index of the frame `next_frame` returns.
+        next: u64,
+        /// `--depth-scale`.
+        scale: f64,
+    },
+}
+
+impl std::fmt::Debug for DepthSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DepthSource::Still(m) => write!(f, "one {}x{} depth map", m.width, m.height),
+            DepthSource::Frames { paths, .. } => write!(f, "{} depth maps", paths.len()),
+            DepthSource::Video { .. } => write!(f, "a depth video"),
+        }
+    }
+}
+
+impl DepthSource {
+    /// Opens `path` (a PNG, a directory of PNGs or a video) with `--depth-scale` `scale`, checking
+    /// what can be checked before the render starts: the scale, that the file or the first of
+    /// the directory's maps reads as a greyscale depth map, that a video opens.
+    pub fn open(path: &Path, scale: f64) -> Result<DepthSource> {
+        check_scale(scale)?;
+        let fail = |reason: String| Error::InputOpen {
+            path: path.display().to_string(),
+            reason,
+        };
+        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+        if meta.is_dir() {
+            let mut paths: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|e| fail(e.to_string()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
+                .collect();
+            paths.sort();
+            let Some(first) = paths.first() else {
+                return Err(fail("a directory of depth maps holds no .png file".into()));
+            };
+            DepthMap::load_png(first, scale)?;
+            return Ok(DepthSource::Frames { paths, scale });
+        }
+        let is_png = path
+            .extension()
+            .is_some_and(|x| x.eq_ignore_ascii_case("png"));
+        if is_png {
+            return Ok(DepthSource::Still(DepthMap::load_png(path, scale)?));
+        }
+        let source = crate::video::Source::open(&path.display().to_string())?;
+        Ok(DepthSource::Video {
+            source: Box::new(source),
+            next: 0,
+            scale,
+        })
+    }
+
+    /// Maps known ahead: 1 for a still, one per PNG, the video's count where known.
+    pub fn frame_count(&self) -> Option<u64> {
+        match self {
+            DepthSource::Still(_) => None,
+            DepthSource::Frames { paths, .. } => Some(paths.len() as u64),
+            DepthSource::Video { source, .. } => source.info().frame_count,
+        }
+    }
+
+    /// The depth of the clip's frame `index` (a still serves every frame). Reading in order is
+    /// cheapest; a video seeks otherwise.
+    pub fn at(&mut self, index: u64) -> Result<std::borrow::Cow<'_, DepthMap>> {
+        use std::borrow::Cow;
+        let missing = |count: u64| {
+            Error::OutOfRange(format!(
+                "--depth has {count} depth maps, the clip has a frame {index} (counting from 0)"
+            ))
+        };
+        match self {
+            DepthSource::Still(m) => Ok(Cow::Borrowed(m)),
+            DepthSource::Frames { paths, scale } => {
+                let path = paths
+                    .get(index as usize)
+                    .ok_or_else(|| missing(paths.len() as u64))?;
+                Ok(Cow::Owned(DepthMap::load_png(path, *scale)?))
+            }
+            DepthSource::Video {
+                source,
+                next,
+                scale,
+            } => {
+                let frame = if index == *next {
+                    source.next_frame()?.ok_or_else(|| missing(index))?
+                } else {
+                    source.frame_at_index(index)?
+                };
+                *next = index + 1;
+                Ok(Cow::Owned(depth_of_frame(&frame, *scale)?))
+            }
+        }
+    }
+}
+
+/// The depth in a decoded greyscale frame: its luma code, as a fraction of the full 16-bit
+/// range, is millimetres (times `scale`).
+fn depth_of_frame(frame: &crate::video::YuvFrame, scale: f64) -> Result<DepthMap> {
+    let r = frame.color.range_scale();
+    let (w, h) = (frame.format.width, frame.format.height);
+    let values: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| ((frame.sample(0, x, y) as f64 - r.y_offset) / r.y_scale * 65535.0) as f32)
+        .collect();
+    DepthMap::from_values(w as usize, h as usize, &values, scale / 1000.0)
 }

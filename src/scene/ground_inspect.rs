@@ -79,6 +79,7 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
         "tilt_deg": e.tilt_deg,
         "roll_deg": e.roll_deg,
         "confidence": e.confidence,
+        "ambiguity": e.ambiguity,
         "evidence": {
             "segments": e.segments,
             "vertical_inliers": e.vertical_inliers,

@@ -284,6 +284,10 @@ pub struct HorizonEstimate {
     pub horizon_row: Option<f64>,
     /// In [0, 1]; see the module doc.
     pub confidence: f64,
+    /// The score of the best other reading (at least [`DISTINCT_READING_DEG`] away) over the
+    /// chosen one's, priors included: near 1, the picture reads two ways and the choice is a
+    /// guess (the confidence falls by [`ambiguity_factor`]).
+    pub ambiguity: f64,
     /// Evidence: segments found.
     pub segments: usize,
     /// Evidence: segments through the vertical vanishing point.
@@ -549,14 +553,18 @@ fn estimate_with(
         }
         best
     };
-    let mut best = (f64::MIN, 0.0, 0.0);
-    for s in starts {
-        let mut b = refine(s, 3.0, 0.5, 1.0, &mut hist);
-        b.0 *= prior(b.1, b.2);
-        if b.0 > best.0 {
-            best = b;
-        }
-    }
+    let readings: Vec<(f64, f64, f64)> = starts
+        .into_iter()
+        .map(|s| {
+            let b = refine(s, 3.0, 0.5, 1.0, &mut hist);
+            (b.0 * prior(b.1, b.2), b.1, b.2)
+        })
+        .collect();
+    let best = readings
+        .iter()
+        .copied()
+        .fold((f64::MIN, 0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+    let ambiguity = ambiguity(&readings, best);
     let (_, t, r) = refine((best.1, best.2), 0.6, 0.1, 0.4, &mut hist);
     let fin = eval(t, r, 0.4, &mut hist);
     let up_cam = crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
@@ -571,13 +579,46 @@ fn estimate_with(
         confidence: if edges.is_empty() {
             0.0
         } else {
-            support.clamp(0.0, 1.0)
+            support.clamp(0.0, 1.0) * ambiguity_factor(ambiguity)
         },
+        ambiguity,
         segments: edges.len(),
         vertical_inliers: fin.vertical,
         horizontal_inliers: fin.horizontal,
         horizon_inliers: fin.horizon,
     }
+}
+
+/// Readings whose up directions differ by more than this are distinct, degrees (the Manhattan
+/// alternative of a reading lies tens of degrees away; refinement noise within a few).
+pub const DISTINCT_READING_DEG: f64 = 10.0;
+
+/// Score ratio of the best distinct alternative reading at and beyond which the estimate has no
+/// confidence left; below [`AMBIGUITY_CLEAR`] it keeps all of it.
+pub const AMBIGUITY_TIE: f64 = 0.9;
+
+/// Score ratio below which the alternative is clearly worse (no loss of confidence).
+pub const AMBIGUITY_CLEAR: f64 = 0.6;
+
+/// The best distinct reading's score over `best`'s, 0 when there is none.
+fn ambiguity(readings: &[(f64, f64, f64)], best: (f64, f64, f64)) -> f64 {
+    let up =
+        |t: f64, r: f64| crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
+    let n = up(best.1, best.2);
+    let cos_min = DISTINCT_READING_DEG.to_radians().cos();
+    readings
+        .iter()
+        .filter(|(_, t, r)| up(*t, *r).dot(n) < cos_min)
+        .map(|(s, _, _)| s / best.0)
+        .fold(0.0, f64::max)
+        .clamp(0.0, 1.0)
+}
+
+/// The share of the confidence an estimate keeps at `ambiguity`: 1 below [`AMBIGUITY_CLEAR`],
+/// 0 from [`AMBIGUITY_TIE`] on, smoothstep between.
+pub fn ambiguity_factor(ambiguity: f64) -> f64 {
+    let x = ((AMBIGUITY_TIE - ambiguity) / (AMBIGUITY_TIE - AMBIGUITY_CLEAR)).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
 }
 
 /// Weight of the texture prior: the support is scaled by `1 − w/2 + w g`, `g` the fraction of

@@ -1,5 +1,5 @@
 //! Wet ground: how much water the ground's surface holds as rain falls and stops, and what a
-//! water film does to the ground's look (docs/method.md §2.2).
+//! water film does to the ground's look (docs/method.md §2.3).
 //!
 //! The store is a linear reservoir, dS/dt = P·(1 − S/C) − S/τ: rain P fills the pores and
 //! the film, the fraction S/C already full sheds what falls on it, and the water evaporates

@@ -168,12 +168,18 @@ pub struct LookArgs {
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
-    /// The ground the rain lands on: none, horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
+    /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
     /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
     #[arg(long, value_name = "MIN")]
     pub pre_rain: Option<f64>,
+    /// The scene's depth, drops behind it hidden: a 16-bit greyscale PNG in millimetres (camera z) for the whole clip, a directory of them (one per frame, in name order) or a 16-bit greyscale video; resampled to the picture; 0 = unknown.
+    #[arg(long, value_name = "PATH")]
+    pub depth: Option<std::path::PathBuf>,
+    /// Factor on the depth file's values (1: millimetres; the right factor makes a relative depth map millimetres).
+    #[arg(long)]
+    pub depth_scale: Option<f64>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
     #[arg(
         long = "light",
@@ -457,6 +463,12 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
             .lights
             .push(rain_composite::lighting::UserLight::parse(text)?);
     }
+    if let Some(d) = &look.depth {
+        c.ground.depth = Some(d.clone());
+    }
+    if let Some(k) = look.depth_scale {
+        c.ground.depth_scale = k;
+    }
     if let Some(g) = &look.ground {
         c.ground.mode = g.parse()?;
         if c.ground.is_given() {
@@ -583,6 +595,7 @@ mod tests {
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
         c.ground.pre_rain_min = 25.0;
+        (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {
@@ -598,6 +611,7 @@ mod tests {
             );
         }
         assert!(values.iter().any(|(f, _)| *f == "--highlight-gain"));
+        assert!(values.iter().any(|(f, _)| *f == "--depth"));
         c.light.hdr_input = true;
         let mut args = vec![
             "rain-composite".to_string(),
@@ -659,15 +673,14 @@ mod tests {
                 .tilt_deg,
             -3.0
         );
-        // `auto` is not a render option yet.
+        // `auto` estimates the pose: not with --tilt.
         let cli = parsed(&["rain-composite", "in.mp4", "--ground", "auto"]);
+        assert!(render_config(&cli.render.look).is_ok());
+        let cli = parsed(&["rain-composite", "in.mp4", "--ground", "auto", "--tilt=4"]);
         let e = render_config(&cli.render.look)
-            .expect_err("auto")
+            .expect_err("auto with tilt")
             .to_string();
-        assert!(
-            e.contains("--ground") && e.contains("inspect ground"),
-            "{e}"
-        );
+        assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
     }
 
     /// The encoder flags' defaults are the library's.

@@ -1,7 +1,7 @@
 //! The CPU twin of the `wet_ground` stage: on every pixel whose view ray meets the ground
 //! z = 0 in front of the camera, the scene radiance under the haze is darkened by the water
 //! film (Lekner & Dorf, [`FilmOptics::darkening`]) and gains the film's Fresnel reflection of the
-//! environment in the mirrored direction, both weighted by the wetness (docs/method.md §2.2).
+//! environment in the mirrored direction, both weighted by the wetness (docs/method.md §2.3).
 
 use std::f64::consts::PI;
 

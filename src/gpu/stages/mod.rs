@@ -38,6 +38,9 @@ pub struct FrameResources {
     pub streaks: wgpu::Buffer,
     /// Drops per frame.
     pub drop_count: u32,
+    /// The scene's depth per displayed pixel, metres (0 = unknown), for `rain_streaks`; one
+    /// element when the job has no depth map.
+    pub scene_depth: wgpu::Buffer,
     /// The direct light term's inputs.
     pub lights: DirectLightBuffers,
     /// The packed output planes (`rgb_to_yuv` → readback), or the packed layer (`rgba_out`).

@@ -1,6 +1,6 @@
 //! Stage `rain_streaks`: the streaks rasterised onto the canvas, one quad per drop in drop
-//! order, premultiplied (`shaders/rain_streaks.wgsl`; CPU twin
-//! [`crate::gpu::cpu::rain_streaks`]).
+//! order, premultiplied, hidden behind the scene where a depth map is given
+//! (`shaders/rain_streaks.wgsl`; CPU twin [`crate::gpu::cpu::rain_streaks`]).
 
 use super::{FrameResources, FrameStage, TimestampSlot};
 use crate::gpu::bind::{bind_group, buffer};
@@ -50,7 +50,11 @@ impl RainStreaks {
             device,
             Stage::RainStreaks.name(),
             &pipeline.get_bind_group_layout(0),
-            &[buffer(&r.rain_params), buffer(&r.streaks)],
+            &[
+                buffer(&r.rain_params),
+                buffer(&r.streaks),
+                buffer(&r.scene_depth),
+            ],
         );
         RainStreaks {
             pipeline,

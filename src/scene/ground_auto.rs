@@ -1,0 +1,211 @@
+//! `--ground auto` in the render: one camera pose for the clip, from a pre-pass over its first
+//! shot, before the rain is built.
+//!
+//! The rain volume is built once, for one camera pose (`pipeline::rain_for`), and a drop's
+//! state is a pure function of (seed, drop, t): so the pose cannot follow the estimate frame by
+//! frame without moving every drop. Instead the render, and the preview the same way, read the
+//! clip's first [`PREPASS_S`] seconds up to the first cut (the cut detector of
+//! [`horizon::GroundTracker`]), estimate the horizon on at most [`PREPASS_FRAMES`] frames evenly
+//! spread over them, and combine the readings robustly: the confidence-weighted median of tilt
+//! and of roll (one frame misread — a passing truck, a Manhattan flip — does not move it). The
+//! combined confidence is the readings' mean confidence times the share of their weight within
+//! [`AGREE_DEG`] of the median: frames that disagree lower it. Below
+//! [`horizon::MIN_CONFIDENCE`] the render falls back to no ground, with one warning. The
+//! result depends on the clip alone, never on the frame previewed, so preview equals render.
+
+use glam::DVec3;
+
+use crate::config::RenderConfig;
+use crate::scene::Camera;
+use crate::scene::ground::{GroundMode, horizon_row_of_up, up_from_tilt_roll};
+use crate::scene::horizon::{self, CUT_THRESHOLD, HorizonEstimate, Luma};
+use crate::video::Source;
+use crate::{Error, Result};
+
+/// Seconds of the clip's start the pre-pass reads.
+pub const PREPASS_S: f64 = 2.0;
+
+/// Most frames the pre-pass estimates (spread evenly over what it reads).
+pub const PREPASS_FRAMES: usize = 24;
+
+/// Readings within this angle of the median's up direction agree with it, degrees.
+pub const AGREE_DEG: f64 = 2.0;
+
+/// The ground of a clip, as the pre-pass found it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClipGround {
+    /// The combined estimate (its confidence as in the module doc).
+    pub estimate: HorizonEstimate,
+    /// Frames estimated.
+    pub frames: usize,
+    /// Time of the first cut, seconds, where the pre-pass stopped at one.
+    pub cut_s: Option<f64>,
+}
+
+/// The confidence-weighted median of `values` (`(value, weight)`), `None` without weight.
+pub fn weighted_median(values: &[(f64, f64)]) -> Option<f64> {
+    let mut v: Vec<(f64, f64)> = values
+        .iter()
+        .copied()
+        .filter(|&(x, w)| x.is_finite() && w > 0.0)
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = v.iter().map(|p| p.1).sum();
+    let mut acc = 0.0;
+    for &(x, w) in &v {
+        acc += w;
+        if acc >= 0.5 * total {
+            return Some(x);
+        }
+    }
+    None
+}
+
+/// Combines per-frame readings through `camera` (see the module doc); `None` without any, no
+/// confidence where none has any.
+pub fn combine(readings: &[HorizonEstimate], camera: &Camera) -> Option<HorizonEstimate> {
+    let first = readings.first()?;
+    let median = |value: fn(&HorizonEstimate) -> f64| {
+        weighted_median(
+            &readings
+                .iter()
+                .map(|e| (value(e), e.confidence))
+                .collect::<Vec<_>>(),
+        )
+    };
+    let (Some(tilt), Some(roll)) = (median(|e| e.tilt_deg), median(|e| e.roll_deg)) else {
+        return Some(HorizonEstimate {
+            confidence: 0.0,
+            ..*first
+        });
+    };
+    let up_cam: DVec3 = up_from_tilt_roll(tilt.to_radians(), roll.to_radians());
+    let cos_agree = AGREE_DEG.to_radians().cos();
+    let (mut agree, mut weight) = (0.0, 0.0);
+    for e in readings {
+        weight += e.confidence;
+        if e.up_cam.dot(up_cam) >= cos_agree {
+            agree += e.confidence;
+        }
+    }
+    Some(HorizonEstimate {
+        up_cam,
+        tilt_deg: tilt,
+        roll_deg: roll,
+        horizon_row: horizon_row_of_up(up_cam, camera),
+        confidence: weight / readings.len() as f64 * (agree / weight),
+        ambiguity: readings.iter().map(|e| e.ambiguity).fold(0.0, f64::max),
+        ..*first
+    })
+}
+
+/// The pre-pass over `input` with `config`'s lens (its tilt and roll are what is estimated).
+pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
+    if input == "-" {
+        return Err(Error::Parameter {
+            name: "--ground",
+            value: "auto".into(),
+            expected: "a file input: auto reads the start of the clip before the render \
+                       (give horizon=ROW,roll=DEG for a stream on stdin)"
+                .into(),
+        });
+    }
+    let mut source = Source::open(input)?;
+    let info = source.info().clone();
+    let rot = info.rotation_deg;
+    let (w, h) = crate::video::frame::display_size(rot, info.format.width, info.format.height);
+    let c = &config.camera;
+    let cam = Camera::new(w, h, c.fov_deg.to_radians(), c.height_m, 0.0, 0.0);
+    let fps = match info.nominal_fps() {
+        (n, d) if n > 0 && d > 0 => n as f64 / d as f64,
+        _ => 25.0,
+    };
+    let window = ((PREPASS_S * fps).round() as usize).max(1);
+    let every = window.div_ceil(PREPASS_FRAMES).max(1);
+    let mut readings = Vec::new();
+    let mut prev: Option<[f32; 144]> = None;
+    let mut cut_s = None;
+    for i in 0..window {
+        let Some(frame) = source.next_frame()? else {
+            break;
+        };
+        let luma = Luma::from_frame(&frame, rot, horizon::WORK_WIDTH);
+        let thumb = luma.thumbnail();
+        if let Some(p) = prev {
+            let change = p
+                .iter()
+                .zip(&thumb)
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f32>()
+                / 144.0;
+            if change > CUT_THRESHOLD {
+                cut_s = Some(crate::pipeline::frame_time_s(&info, &frame));
+                break;
+            }
+        }
+        prev = Some(thumb);
+        if i % every == 0 {
+            readings.push(horizon::estimate(&luma, &cam));
+        }
+    }
+    let estimate = combine(&readings, &cam)
+        .ok_or_else(|| Error::CorruptInput("--ground auto: no frame could be decoded".into()))?;
+    Ok(ClipGround {
+        estimate,
+        frames: readings.len(),
+        cut_s,
+    })
+}
+
+/// `config` with `auto` resolved on `input`: the estimated horizon, or no ground (with one
+/// warning) where the confidence is below [`horizon::MIN_CONFIDENCE`]. Other modes are kept.
+pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
+    let mut out = config.clone();
+    if config.ground.mode != GroundMode::Auto {
+        return Ok(out);
+    }
+    let g = estimate_clip(input, config)?;
+    let e = &g.estimate;
+    if let Some(cut) = g.cut_s {
+        log::warn!(
+            "ground: a cut at {cut:.2} s; the pose of the first shot is used for the whole clip"
+        );
+    }
+    // A horizon too far off the picture to pass as `horizon=` (a long lens tilted steeply)
+    // falls back like an unsure one.
+    let found = e
+        .horizon_row
+        .map(|row| GroundMode::Horizon {
+            row,
+            roll_deg: e.roll_deg,
+        })
+        .filter(|m| e.confidence >= horizon::MIN_CONFIDENCE && m.validate().is_ok());
+    out.ground.mode = match found {
+        Some(mode) => {
+            log::info!(
+                "ground: auto over {} frames: {mode} (tilt {:.2}°, confidence {:.2})",
+                g.frames,
+                e.tilt_deg,
+                e.confidence
+            );
+            mode
+        }
+        None if e.confidence >= horizon::MIN_CONFIDENCE => {
+            log::warn!(
+                "ground: the horizon found (tilt {:.1}°) is too far off the picture: no ground",
+                e.tilt_deg
+            );
+            GroundMode::None
+        }
+        None => {
+            log::warn!(
+                "ground: confidence {:.2} is below {}: no ground (too few straight edges agree \
+                 on a horizon, or the picture reads two ways)",
+                e.confidence,
+                horizon::MIN_CONFIDENCE
+            );
+            GroundMode::None
+        }
+    };
+    Ok(out)
+}

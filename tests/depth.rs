@@ -1,0 +1,506 @@
+//! Depth-map occlusion: a near box in front of a far scene hides the rain behind it and not the
+//! rain in front of it, pixel for pixel; holes (zero, NaN) hide nothing; a map of another size
+//! is resampled; the GPU matches its CPU twin; depth maps are read from a PNG, a directory and
+//! a video; without a map nothing changes.
+//! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
+
+use std::path::Path;
+use std::process::Command;
+use std::sync::{Arc, OnceLock};
+
+use glam::{DVec2, DVec3};
+use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
+use rain_composite::gpu::probe::probe_streaks;
+use rain_composite::gpu::types::{LightList, RainParams};
+use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
+use rain_composite::lighting::prt::channel_optics;
+use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
+use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::scene::depth::DepthSource;
+use rain_composite::scene::{Camera, DepthMap};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
+use tempfile::TempDir;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+
+const W: u32 = 160;
+const H: u32 = 96;
+/// The near box's picture, [x0, x1) × [y0, y1), and its depth.
+const BOX: [u32; 4] = [48, 112, 24, 72];
+const BOX_M: f32 = 2.5;
+/// The scene around the box.
+const FAR_M: f32 = 100.0;
+
+fn gpu() -> Option<Arc<GpuContext>> {
+    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
+        Ok(c) => Some(Arc::new(c)),
+        Err(e) => {
+            assert!(
+                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
+                "no GPU adapter: {e}"
+            );
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    })
+    .clone()
+}
+
+fn format(rotation_deg: i32) -> FrameFormat {
+    let (w, h) = if rotation_deg.rem_euclid(180) == 90 {
+        (H, W)
+    } else {
+        (W, H)
+    };
+    FrameFormat {
+        width: w,
+        height: h,
+        chroma: Chroma::Cs444,
+        bit_depth: 8,
+    }
+}
+
+/// The luma code of [`picture`].
+const GREY: u16 = 90;
+
+/// A flat grey picture (coded orientation); the rain is lit by a brighter environment.
+fn picture(f: FrameFormat) -> YuvFrame {
+    let planes = std::array::from_fn(|i| Plane {
+        data: vec![if i == 0 { GREY as u8 } else { 128 }; (f.width * f.height) as usize],
+        stride: f.width as usize,
+    });
+    YuvFrame {
+        format: f,
+        color: ColorParams::bt709(8),
+        planes,
+        pts: 0,
+        index: 0,
+    }
+}
+
+/// Heavy rain of large drops between `near_m` and `far_m`, on a displayed `W`×`H` picture.
+fn rain(near_m: f64, far_m: f64, rotation_deg: i32) -> RainSetup {
+    let f = format(rotation_deg);
+    let camera = Camera::new(W, H, 1.0, 1.6, 0.05, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 80.0,
+        opacity: 15.0,
+        drop_scale: 2.0,
+        near_m,
+        far_m,
+        max_drops: 20_000,
+        // No haze: a pixel without drops keeps its code.
+        scene_depth_m: 0.0,
+        ..RainConfig::default()
+    };
+    uniforms::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        rotation_deg,
+        (f.width, f.height),
+    )
+    .expect("rain")
+    .with_scene_depth(true)
+}
+
+fn params(setup: &RainSetup) -> RainParams {
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [2.0, 2.0, 2.2];
+    setup.params_at(
+        0.7,
+        &FrameLight {
+            env,
+            lights: Vec::new(),
+        },
+        [[1.0, 0.4, 0.2, 0.1]; 3],
+    )
+}
+
+fn tables() -> [RtfTable; 3] {
+    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(256).expect("table"))
+}
+
+/// The luma codes of the frame rendered with `setup` behind `depth` (none: as without a map).
+fn render(ctx: &Arc<GpuContext>, setup: &RainSetup, depth: Option<&DepthMap>) -> Vec<u16> {
+    let f = format(0);
+    let mut comp = Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), setup).expect("gpu");
+    comp.set_transfer_table(&tables());
+    if let Some(d) = depth {
+        comp.set_scene_depth(d).expect("depth");
+    }
+    let out = comp
+        .render_one(&picture(f), &params(setup))
+        .expect("render");
+    (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .map(|(x, y)| out.sample(0, x, y))
+        .collect()
+}
+
+/// A `w`×`h` depth map of the scene: the box (its picture scaled to the map) at [`BOX_M`] in
+/// front of a scene at [`FAR_M`], with `hole` (map pixels) unknown: its left half 0, its right
+/// half NaN.
+fn box_map(w: usize, h: usize, hole: Option<[u32; 4]>) -> DepthMap {
+    let (sx, sy) = (w as f64 / W as f64, h as f64 / H as f64);
+    let b = [
+        (BOX[0] as f64 * sx) as usize,
+        (BOX[1] as f64 * sx) as usize,
+        (BOX[2] as f64 * sy) as usize,
+        (BOX[3] as f64 * sy) as usize,
+    ];
+    let mut v = vec![FAR_M; w * h];
+    for y in b[2]..b[3] {
+        for x in b[0]..b[1] {
+            v[y * w + x] = BOX_M;
+        }
+    }
+    if let Some([x0, x1, y0, y1]) = hole {
+        for y in y0 as usize..y1 as usize {
+            for x in x0..x1 {
+                v[y * w + x as usize] = if x < (x0 + x1) / 2 { 0.0 } else { f32::NAN };
+            }
+        }
+    }
+    DepthMap::from_values(w, h, &v, 1.0).expect("map")
+}
+
+fn inside(x: u32, y: u32, r: [u32; 4], margin: i64) -> bool {
+    let (x, y) = (x as i64, y as i64);
+    x >= r[0] as i64 + margin
+        && x < r[1] as i64 - margin
+        && y >= r[2] as i64 + margin
+        && y < r[3] as i64 - margin
+}
+
+/// Pixels where `a` and `b` differ, among those `keep` selects.
+fn differing(a: &[u16], b: &[u16], keep: impl Fn(u32, u32) -> bool) -> usize {
+    (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .filter(|&(x, y)| keep(x, y))
+        .filter(|&(x, y)| a[(y * W + x) as usize] != b[(y * W + x) as usize])
+        .count()
+}
+
+/// Rain 3.5–8 m away lies behind the box at 2.5 m (even at the picture's corners, where a
+/// drop's camera z is its distance × cos 35°): every pixel of the box is as without rain, every
+/// pixel around it as without the map. Rain 0.3–2 m away lies in front of it: the map changes
+/// nothing.
+#[test]
+fn a_near_box_hides_the_rain_behind_it_and_not_in_front() {
+    let Some(ctx) = gpu() else { return };
+    // Without haze, a frame without rain comes back unchanged.
+    let rainless = vec![GREY; (W * H) as usize];
+    let map = box_map(W as usize, H as usize, None);
+    let in_box = |x, y| inside(x, y, BOX, 0);
+
+    let behind = rain(3.5, 8.0, 0);
+    let plain = render(&ctx, &behind, None);
+    let occluded = render(&ctx, &behind, Some(&map));
+    let raining = differing(&plain, &rainless, in_box);
+    eprintln!("rain behind: {raining} box pixels wet without the map");
+    assert!(
+        raining > 200,
+        "the test needs rain behind the box: {raining}"
+    );
+    assert_eq!(
+        differing(&occluded, &rainless, in_box),
+        0,
+        "rain shows on the box"
+    );
+    assert_eq!(
+        differing(&occluded, &plain, |x, y| !in_box(x, y)),
+        0,
+        "the far scene hid rain in front of it"
+    );
+
+    let front = rain(0.3, 2.0, 0);
+    let plain = render(&ctx, &front, None);
+    let raining = differing(&plain, &rainless, in_box);
+    eprintln!("rain in front: {raining} box pixels wet");
+    assert!(
+        raining > 200,
+        "the test needs rain in front of the box: {raining}"
+    );
+    assert!(
+        plain == render(&ctx, &front, Some(&map)),
+        "rain in front was hidden"
+    );
+}
+
+/// Unknown depth (0 or NaN) hides nothing; a map of another size is resampled to the picture,
+/// so the box's interior still hides the rain behind it and the far scene hides nothing.
+#[test]
+fn holes_hide_nothing_and_a_map_of_another_size_is_resampled() {
+    let Some(ctx) = gpu() else { return };
+    let setup = rain(3.5, 8.0, 0);
+    let plain = render(&ctx, &setup, None);
+    let rainless = vec![GREY; (W * H) as usize];
+
+    let hole = [64, 96, 36, 60];
+    let holed = render(
+        &ctx,
+        &setup,
+        Some(&box_map(W as usize, H as usize, Some(hole))),
+    );
+    let in_hole = |x, y| inside(x, y, hole, 0);
+    let wet = differing(&plain, &rainless, in_hole);
+    assert!(wet > 50, "the test needs rain in the hole: {wet}");
+    assert_eq!(differing(&holed, &plain, in_hole), 0, "a hole hid rain");
+    let in_box_not_hole = |x, y| inside(x, y, BOX, 0) && !in_hole(x, y);
+    assert_eq!(differing(&holed, &rainless, in_box_not_hole), 0);
+
+    // A quarter-size map: bilinear resampling blends depths within 4 px of the box's edges.
+    for (w, h) in [
+        (W as usize / 4, H as usize / 4),
+        (2 * W as usize, 2 * H as usize),
+    ] {
+        let small = render(&ctx, &setup, Some(&box_map(w, h, None)));
+        assert_eq!(
+            differing(&small, &rainless, |x, y| inside(x, y, BOX, 4)),
+            0,
+            "{w}×{h}: rain shows on the box"
+        );
+        assert_eq!(
+            differing(&small, &plain, |x, y| !inside(x, y, BOX, -4)),
+            0,
+            "{w}×{h}: the far scene hid rain"
+        );
+    }
+}
+
+/// The GPU frame behind a depth ramp (1 m at the left to 8 m at the right, with a hole) against
+/// the CPU twins (`yuv_to_rgb` → `rain_streaks_occluded` of the GPU's own streaks →
+/// `rgb_to_yuv`), on a picture displayed turned 90° so the depth is looked up through the
+/// display rotation; and the map must have hidden part of the rain.
+#[test]
+fn occlusion_matches_the_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    let rotation = 90;
+    let setup = rain(0.3, 8.0, rotation);
+    let p = params(&setup);
+    let ramp: Vec<f32> = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            if (20..30).contains(&y) {
+                f32::NAN
+            } else {
+                1.0 + 7.0 * x as f32 / W as f32
+            }
+        })
+        .collect();
+    let map = DepthMap::from_values(W as usize, H as usize, &ramp, 1.0).expect("map");
+    let f = format(rotation);
+    let frame = picture(f);
+    let tables = tables();
+    let gpu_frame = |depth: Option<&DepthMap>| {
+        let mut comp =
+            Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), &setup).expect("gpu");
+        comp.set_transfer_table(&tables);
+        if let Some(d) = depth {
+            comp.set_scene_depth(d).expect("depth");
+        }
+        let out = comp.render_one(&frame, &p).expect("render");
+        (0..f.height)
+            .flat_map(|y| (0..f.width).map(move |x| (x, y)))
+            .map(|(x, y)| out.sample(0, x, y))
+            .collect::<Vec<u16>>()
+    };
+    let gpu = gpu_frame(Some(&map));
+    let streaks = probe_streaks(&ctx, &setup, &p, &LightList::new(&[]), &tables).expect("probe");
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+    rain_streaks::rain_streaks_occluded(&mut canvas, &p, &streaks, Some(&map));
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, f, &frame.color);
+    let worst = gpu
+        .iter()
+        .zip(&cpu[0])
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap_or(0);
+    let hidden = gpu
+        .iter()
+        .zip(gpu_frame(None))
+        .filter(|(a, b)| *a != b)
+        .count();
+    eprintln!("GPU vs twin: worst {worst} codes; {hidden} pixels changed by the map");
+    assert!(worst <= 1, "{worst} codes off");
+    assert!(
+        hidden > 100,
+        "the ramp hid too little rain to compare: {hidden}"
+    );
+}
+
+/// Along a projected segment 1/z is affine in the picture: the twin's drop depth at a point
+/// of the streak equals the depth of the 3-D point that projects there.
+#[test]
+fn drop_depth_along_a_streak_is_perspective_correct() {
+    let camera = Camera::new(W, H, 1.0, 1.6, 0.05, 0.0);
+    let to_px = |c: DVec3| DVec2::new(c.x, c.y) / c.z * 140.0;
+    let (a, b) = (DVec3::new(-0.4, -0.3, 0.8), DVec3::new(0.5, 0.9, 6.0));
+    let (qa, qb) = (to_px(a), to_px(b));
+    let len = (qb - qa).length();
+    for i in 0..=10 {
+        let s = i as f64 / 10.0;
+        let p = a.lerp(b, s);
+        let along = (to_px(p) - qa).length();
+        let got = rain_streaks::drop_depth_m(along, len, [a.z, b.z]);
+        assert!((got - p.z).abs() < 1e-9 * p.z, "s {s}: {got} vs {}", p.z);
+    }
+    let _ = camera;
+}
+
+/// The fade: unknown depth shows all, a drop 3 cm behind the surface nothing, 3 cm in front
+/// all, on the surface half.
+#[test]
+fn visibility_fades_over_a_few_centimetres() {
+    use rain_streaks::visibility;
+    assert_eq!(visibility(None, 50.0), 1.0);
+    assert_eq!(visibility(Some(4.0), 4.03), 0.0);
+    assert_eq!(visibility(Some(4.0), 3.97), 1.0);
+    assert!((visibility(Some(4.0), 4.0) - 0.5).abs() < 1e-12);
+    assert!(visibility(Some(4.0), 4.01) < visibility(Some(4.0), 3.99));
+}
+
+fn write_png(path: &Path, w: u32, h: u32, mm: impl Fn(u32, u32) -> u16) {
+    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
+        image::Luma([mm(x, y)])
+    });
+    img.save(path).expect("png");
+}
+
+/// A PNG serves every frame; a directory gives one map per frame in name order; a 16-bit grey
+/// video gives its codes as millimetres; `--depth-scale` multiplies them; a zero is a hole.
+#[test]
+fn depth_is_read_from_a_png_a_directory_and_a_video() {
+    let dir = TempDir::new().expect("tmp");
+    let mm = |i: u32| {
+        move |x: u32, y: u32| {
+            if x == 0 {
+                0
+            } else {
+                (1000 * (i + 1) + 7 * x + y) as u16
+            }
+        }
+    };
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).expect("dir");
+    // Names out of creation order: the order is by name.
+    for i in [2u32, 0, 1] {
+        write_png(&frames.join(format!("d{i:03}.png")), 16, 8, mm(i));
+    }
+    let check = |map: &DepthMap, i: u32, scale: f64| {
+        assert_eq!((map.width, map.height), (16, 8));
+        assert_eq!(map.at(0, 3), None, "zero is unknown");
+        let want = (1000 * (i + 1) + 7 * 5 + 3) as f64 * scale / 1000.0;
+        let got = map.at(5, 3).expect("known") as f64;
+        assert!((got - want).abs() < 1e-5 * want, "map {i}: {got} vs {want}");
+    };
+    let mut d = DepthSource::open(&frames, 2.0).expect("dir");
+    assert_eq!(d.frame_count(), Some(3));
+    for i in [0, 1, 2, 1] {
+        check(&d.at(i as u64).expect("map"), i, 2.0);
+    }
+    assert!(d.at(3).is_err(), "a frame beyond the maps");
+
+    let mut still = DepthSource::open(&frames.join("d001.png"), 1.0).expect("png");
+    for i in [0, 5, 99] {
+        check(&still.at(i).expect("map"), 1, 1.0);
+    }
+
+    let video = dir.path().join("depth.mkv");
+    fixtures::ffmpeg(&[
+        "-framerate",
+        "25",
+        "-i",
+        frames.join("d%03d.png").to_str().expect("utf-8"),
+        "-c:v",
+        "ffv1",
+        "-pix_fmt",
+        "gray16le",
+        video.to_str().expect("utf-8"),
+    ]);
+    let mut v = DepthSource::open(&video, 1.0).expect("video");
+    for i in [0, 1, 2, 0] {
+        check(&v.at(i as u64).expect("map"), i, 1.0);
+    }
+
+    assert!(DepthSource::open(&frames, 0.0).is_err(), "scale 0");
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).expect("dir");
+    assert!(DepthSource::open(&empty, 1.0).is_err(), "no maps");
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+}
+
+/// The command line: a missing depth map is one `error:` line and no output; a map that is
+/// all holes renders exactly as without `--depth`; a near wall hides rain.
+#[test]
+fn the_cli_takes_a_depth_map() {
+    let dir = TempDir::new().expect("tmp");
+    let input = dir.path().join("in.mkv");
+    fixtures::ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "nullsrc=s=160x96:r=25:d=0.08,format=yuv420p,geq=lum='if(lt(Y,30),235,40)':cb=128:cr=128",
+        "-c:v",
+        "ffv1",
+        input.to_str().expect("utf-8"),
+    ]);
+    let holes = dir.path().join("holes.png");
+    write_png(&holes, 40, 24, |_, _| 0);
+    let wall = dir.path().join("wall.png");
+    write_png(&wall, 160, 96, |_, _| 200);
+    let render = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let o = bin()
+            .arg(&input)
+            .arg("-o")
+            .arg(&out)
+            .args([
+                "--rain",
+                "60",
+                "--opacity",
+                "20",
+                "--drop-scale",
+                "3",
+                "--cpu",
+            ])
+            .args(["--codec", "ffv1"])
+            .args(extra)
+            .output()
+            .expect("spawn");
+        (o, out)
+    };
+    let (o, out) = render("missing.mkv", &["--depth", "nowhere.png"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert_eq!(
+        err.lines().filter(|l| l.starts_with("error:")).count(),
+        1,
+        "{err}"
+    );
+    assert!(err.contains("nowhere.png"), "{err}");
+    assert!(!out.exists(), "an output for a failed job");
+
+    let md5 = |o: std::process::Output, out: &Path| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        fixtures::framemd5(out, "0:v:0", true)
+    };
+    let (o, out) = render("plain.mkv", &[]);
+    let plain = md5(o, &out);
+    let (o, out) = render("holes.mkv", &["--depth", holes.to_str().expect("utf-8")]);
+    assert!(plain == md5(o, &out), "a map of holes changed the render");
+    // A wall 0.2 m from the lens, nearer than almost every drop.
+    let (o, out) = render("wall.mkv", &["--depth", wall.to_str().expect("utf-8")]);
+    assert!(plain != md5(o, &out), "a near wall hid nothing");
+}
