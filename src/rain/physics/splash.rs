@@ -178,7 +178,7 @@ mod tests {
     #[test]
     fn k_is_weber_times_ohnesorge_to_the_minus_0_4() {
         let (d, v) = (2.0, 6.49);
-        let (rho, sigma, mu) = (998.29, 0.0728, 1.002e-3);
+        let (rho, sigma, mu): (f64, f64, f64) = (998.29, 0.0728, 1.002e-3);
         let we = rho * d * 1e-3 * v * v / sigma;
         let oh = mu / (rho * sigma * d * 1e-3).sqrt();
         let k = we * oh.powf(-0.4);
