@@ -327,7 +327,29 @@ fn every_stage_matches_its_cpu_twin() {
                 // The splashes of the drops that land, the ground given (geometry and
                 // coverage; their light is the drops' own, checked above).
                 Stage::RainSplashes => {
-                    let setup = rain_for(&case, &heavy_rain()).with_ground(true);
+                    // Looking down 40° at the ground 1.6 m below, drops (and so splashes)
+                    // drawn 4× their size: the splashes of a tiny frame span pixels.
+                    let f = case.format;
+                    let (w, h) = rain_composite::video::frame::display_size(
+                        case.rotation_deg,
+                        f.width,
+                        f.height,
+                    );
+                    let rain = RainConfig {
+                        drop_scale: 4.0,
+                        max_drops: 50_000,
+                        ..heavy_rain()
+                    };
+                    let setup = uniforms::build(
+                        &Camera::new(w, h, 1.0, 1.6, -0.7, 0.0),
+                        &CameraConfig::default(),
+                        &rain,
+                        1.0 / 50.0,
+                        case.rotation_deg,
+                        (f.width, f.height),
+                    )
+                    .expect("rain")
+                    .with_ground(true);
                     let t = 1.3;
                     let params = lit(&setup, t);
                     let (ids, gpu) =
