@@ -106,6 +106,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let id = columns[landing[lo].x].first_drop + (g - landing[lo].y);
     if rain.ground_clip == 0u || id >= rain.drop_count { return; }
     let ph = drop_phase(id);
+    if ph.rate <= 0.0 { return; }
     let w = ph.x - floor(ph.x);
     let half = 0.5 * rain.exposure_s;
     // Seconds since its latest impact before the exposure closes (< 0: later in the exposure).
