@@ -20,6 +20,19 @@ const EXPOSURE_S: f64 = 0.02;
 /// A camera 1.6 m above the street looking down (the horizon 10 % from the top, 90° lens) in
 /// `rate_mm_per_h` of rain, drops drawn `drop_scale` times their size, with or without a ground.
 fn setup(w: u32, h: u32, rate_mm_per_h: f64, drop_scale: f64, ground: bool) -> RainSetup {
+    setup_in_wind(w, h, rate_mm_per_h, drop_scale, ground, [0.0; 2], 0.0)
+}
+
+/// [`setup`] in a mean wind `wind_mps` with gusts of RMS `gust_mps`.
+fn setup_in_wind(
+    w: u32,
+    h: u32,
+    rate_mm_per_h: f64,
+    drop_scale: f64,
+    ground: bool,
+    wind_mps: [f64; 2],
+    gust_mps: f64,
+) -> RainSetup {
     let mut c = RenderConfig::default();
     c.ground.mode = "horizon=0.1".parse().expect("mode");
     c.camera.fov_deg = 90.0;
@@ -31,6 +44,8 @@ fn setup(w: u32, h: u32, rate_mm_per_h: f64, drop_scale: f64, ground: bool) -> R
         far_m: 6.0,
         max_drops: 400_000,
         drop_scale,
+        wind_mps,
+        gust_mps,
         ..RainConfig::default()
     };
     uniforms::build(
@@ -181,15 +196,16 @@ fn the_gpu_draws_the_splashes_its_twin_draws() {
         "{} landing drops without a ground",
         ids.len()
     );
-    let s = setup(160, 90, 25.0, 3.0, true);
+    let still = setup(160, 90, 25.0, 3.0, true);
+    let gusty = setup_in_wind(160, 90, 25.0, 3.0, true, [2.0, 1.0], 2.0);
     let (mut compared, mut borderline, mut worst_px) = (0, 0, 0.0f64);
-    for t in [0.8, 3.37] {
+    for (s, t) in [(&still, 0.8), (&still, 3.37), (&gusty, 2.2)] {
         let p = s.motion_at(t);
-        let (ids, gpu) = probe_splashes(&ctx, &s, &p, &none, &tables).expect("probe");
+        let (ids, gpu) = probe_splashes(&ctx, s, &p, &none, &tables).expect("probe");
         assert!(ids.len() > 1000, "{} landing drops", ids.len());
         for (g, &id) in ids.iter().enumerate() {
             let slots = &gpu[g * SPLASH_SLOTS as usize..(g + 1) * SPLASH_SLOTS as usize];
-            let (_, cpu) = splash_streaks(&s, &p, id as u64, t);
+            let (_, cpu) = splash_streaks(s, &p, id as u64, t);
             for (slot, gs) in slots.iter().enumerate() {
                 let c = cpu.iter().find(|c| c.slot as usize == slot);
                 match c {
@@ -245,5 +261,50 @@ fn without_a_ground_nothing_splashes() {
     let p = s.motion_at(2.0);
     for id in 0..s.volume.simulated {
         assert!(splash_streaks(&s, &p, id, 2.0).1.is_empty());
+    }
+}
+
+/// The stage places a splash from the drop's drift at the frame's time: exactly the impact in
+/// steady wind; in gusts near it (the drift rate of the frame's time standing for the last
+/// fraction of a second).
+#[test]
+fn splashes_are_placed_at_the_impacts() {
+    use rain_composite::gpu::cpu::rain_splashes::placed_from_frame;
+    use rain_composite::rain::volume::latest_impact;
+    for (wind, gust, bound_m) in [([2.0, 1.0], 0.0, 1e-5), ([2.0, 1.0], 2.0, 0.1)] {
+        let s = setup_in_wind(160, 90, 25.0, 3.0, true, wind, gust);
+        let (mut n, mut worst, mut sum) = (0, 0.0f64, 0.0);
+        for t in [1.1, 6.4] {
+            let p = s.motion_at(t);
+            for id in 0..s.volume.simulated {
+                let Some(hit) = latest_impact(&s.volume, &s.model, &s.wind, p.seed, id, t) else {
+                    continue;
+                };
+                if t - hit.time_s > 0.5 {
+                    continue;
+                }
+                let placed = placed_from_frame(&s, &p, hit, t);
+                let off = (placed.position_m - hit.position_m).length();
+                // A drift across a cell's edge wraps: measure modulo the cell.
+                let cell = s.volume.grid.cell_size_m;
+                let d = placed.position_m - hit.position_m;
+                let off = off.min(
+                    glam::DVec2::new(
+                        d.x - (d.x / cell.x).round() * cell.x,
+                        d.y - (d.y / cell.y).round() * cell.y,
+                    )
+                    .length(),
+                );
+                n += 1;
+                worst = worst.max(off);
+                sum += off;
+            }
+        }
+        eprintln!(
+            "gusts {gust} m/s: {n} splashes younger than 0.5 s, placed {:.1e} m from their \
+             impacts on average, {worst:.1e} m at worst",
+            sum / n as f64
+        );
+        assert!(n > 1000 && worst < bound_m, "{n} {worst}");
     }
 }

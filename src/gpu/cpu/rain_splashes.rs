@@ -4,7 +4,8 @@
 //! ([`crate::rain::physics::splash`]). `tests/splashes.rs` holds the GPU to it.
 //!
 //! ## How it works
-//! The drop's latest impact before the exposure closes, if it splashed (K above the threshold),
+//! The drop's latest impact before the exposure closes, placed as the stage places it
+//! ([`placed_from_frame`]), if it splashed (K above the threshold),
 //! draws its crown (slot 0) while the crown stands and each of its drawn droplets (slots 1…)
 //! while it flies: the chord of the part of its arc inside the exposure, its alpha scaled by
 //! that part of the exposure and by the real droplets it stands for. The crown is the drop's own
@@ -16,9 +17,11 @@ use glam::{DVec2, DVec3};
 use super::rain_simulate::{MIN_PEAK_ALPHA, MIN_RADIUS_PX, StreakShape};
 use crate::gpu::types::RainParams;
 use crate::gpu::uniforms::RainSetup;
+use crate::rain::physics::G_MPS2;
 use crate::rain::physics::splash::{
     CROWN_S, SPLASH_STREAM, crown_height_m, crown_radius_m, droplet, splash_size,
 };
+use crate::rain::volume::drop::{SPEED_BITS, SplitTime, drift_cells, lateral_fractions};
 use crate::rain::volume::{Impact, cycle_uniform, latest_impact};
 
 /// One streak of a splash.
@@ -123,6 +126,7 @@ pub fn splash_streaks(
     let Some(hit) = latest_impact(&setup.volume, &setup.model, &setup.wind, p.seed, id, b) else {
         return (None, Vec::new());
     };
+    let hit = placed_from_frame(setup, p, hit, t_s);
     let mut out = Vec::new();
     let (d_mm, v) = (hit.diameter_mm, hit.normal_speed_mps());
     let Some(size) = splash_size(d_mm, v) else {
@@ -177,4 +181,26 @@ pub fn splash_streaks(
         );
     }
     (Some(hit), out)
+}
+
+/// `hit` placed as the stage places it: the drop's drift at the frame's time `t_s` moved back
+/// (or on) at the frame's drift rate to the impact, in the impact's pass. Exact in steady wind;
+/// with gusts it stands for the exact point ([`latest_impact`]) over the fraction of a second
+/// a splash lives.
+pub fn placed_from_frame(setup: &RainSetup, p: &RainParams, hit: Impact, t_s: f64) -> Impact {
+    let (volume, wind) = (&setup.volume, &setup.wind);
+    let grid = &volume.grid;
+    let Some(ci) = grid.column_of(hit.id) else {
+        return hit;
+    };
+    let vt = hit.normal_speed_mps();
+    let speed_q = (vt * (1u32 << SPEED_BITS) as f64).round() as u32;
+    let t = SplitTime::new(t_s);
+    let vh = wind.drop_velocity_mps(t.seconds(), vt / G_MPS2);
+    let cells_per_s = (vh + grid.slope * vt) / grid.cell_size_m.max(DVec2::splat(1e-6));
+    let drift = drift_cells(volume, wind, speed_q, t) - cells_per_s * (t_s - hit.time_s);
+    let uv = lateral_fractions(p.seed, hit.id as u32, drift, hit.pass);
+    let mut position_m = grid.point_m(&grid.columns[ci], [uv[0], uv[1], 0.0]);
+    position_m.z = 0.0;
+    Impact { position_m, ..hit }
 }

@@ -15,8 +15,8 @@ use glam::DVec3;
 
 use super::RainVolume;
 use super::drop::{
-    FALL_RATE_BITS, SPEED_BITS, SplitTime, drop_bits, drop_uniform, fall_rate_q, inv_height_q,
-    lateral_fractions,
+    FALL_RATE_BITS, SPEED_BITS, SplitTime, drift_cells, drop_bits, drop_uniform, fall_rate_q,
+    inv_height_q, lateral_fractions,
 };
 use crate::rain::physics::{G_MPS2, RainModel};
 use crate::rain::wind::Wind;
@@ -86,7 +86,7 @@ fn impact(
     let pass = c as u32;
     let t = SplitTime::new(time_s);
     let id32 = id as u32;
-    let uv = lateral_fractions(volume, wind, seed, id32, speed_q, t, pass);
+    let uv = lateral_fractions(seed, id32, drift_cells(volume, wind, speed_q, t), pass);
     let col = &volume.grid.columns[ci];
     let mut position_m = volume.grid.point_m(col, [uv[0], uv[1], 0.0]);
     position_m.z = 0.0;
