@@ -6,8 +6,10 @@
 use std::sync::{Arc, OnceLock};
 
 use rain_composite::config::{CameraConfig, RainConfig};
-use rain_composite::gpu::cpu::{rain_simulate, rain_streaks, rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::probe::{probe_drops, probe_streaks};
+use rain_composite::gpu::cpu::{
+    rain_simulate, rain_splashes, rain_streaks, rgb_to_yuv, yuv_to_rgb,
+};
+use rain_composite::gpu::probe::{probe_drops, probe_splashes, probe_streaks};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
@@ -327,6 +329,58 @@ fn every_stage_matches_its_cpu_twin() {
                 // Needs a ground and a wetting: tests/wet_ground.rs holds it to its twin.
                 Stage::WetGround => {}
                 // Rasterisation and premultiplied blending of the streaks.
+                // The splashes of the drops that land, the ground given (geometry and
+                // coverage; their light is the drops' own, checked above).
+                Stage::RainSplashes => {
+                    // Looking down 40° at the ground 1.6 m below, drops (and so splashes)
+                    // drawn 4× their size: the splashes of a tiny frame span pixels.
+                    let f = case.format;
+                    let (w, h) = rain_composite::video::frame::display_size(
+                        case.rotation_deg,
+                        f.width,
+                        f.height,
+                    );
+                    let rain = RainConfig {
+                        drop_scale: 4.0,
+                        max_drops: 50_000,
+                        ..heavy_rain()
+                    };
+                    let setup = uniforms::build(
+                        &Camera::new(w, h, 1.0, 1.6, -0.7, 0.0),
+                        &CameraConfig::default(),
+                        &rain,
+                        1.0 / 50.0,
+                        case.rotation_deg,
+                        (f.width, f.height),
+                    )
+                    .expect("rain")
+                    .with_ground(true);
+                    let t = 1.3;
+                    let params = lit(&setup, t);
+                    let (ids, gpu) =
+                        probe_splashes(&ctx, &setup, &params, &LightList::new(&[]), &tables())
+                            .expect("splashes");
+                    let slots = rain_composite::rain::physics::splash::SPLASH_SLOTS as usize;
+                    let mut drawn = 0;
+                    for (g, &id) in ids.iter().enumerate() {
+                        let (_, cpu) = rain_splashes::splash_streaks(&setup, &params, id as u64, t);
+                        for c in cpu {
+                            let s = &gpu[g * slots + c.slot as usize];
+                            // At a cut (a pixel wide, the faintest drawn) f32 may fall either side.
+                            if s.len_px < 0.0 {
+                                continue;
+                            }
+                            drawn += 1;
+                            let q0 = glam::DVec2::new(s.q0_px[0] as f64, s.q0_px[1] as f64);
+                            let off = (q0 - c.shape.q0_px).length();
+                            assert!(off < 0.05, "{what}: drop {id} slot {}: {off} px", c.slot);
+                        }
+                    }
+                    eprintln!(
+                        "{what}: {drawn} splash streaks of {} landing drops",
+                        ids.len()
+                    );
+                }
                 Stage::RainStreaks => {
                     let setup = rain_for(&case, &heavy_rain());
                     let params = lit(&setup, 2.1);

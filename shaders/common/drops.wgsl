@@ -85,7 +85,21 @@ fn column_of(id: u32) -> u32 {
     return lo;
 }
 
-fn drop_state(id: u32) -> DropState {
+// A drop's fall and drift at the frame's time, before its position is wrapped into its column
+// (drop_state; the splashes find the drop's impacts from it).
+struct DropPhase {
+    col: Column,
+    d_mm: f32,
+    speed_q: u32,
+    vt: f32,
+    vh: vec2<f32>,
+    x: f32,           // height in column heights, unwrapped: w = x − floor(x)
+    pass_index: u32,  // the pass through the column, ⌊x⌋ − passes of the whole seconds
+    rate: f32,        // column heights per second
+    duv: vec2<f32>,   // drift in cells, before the pass's own offset
+}
+
+fn drop_phase(id: u32) -> DropPhase {
     let col = columns[column_of(id)];
     let seed = rain.seed;
     let d_mm = diameter_from_unit(drop_uniform(seed, id, 3u));
@@ -123,12 +137,24 @@ fn drop_state(id: u32) -> DropState {
     let drift_whole = vec2<f32>(vec2<u32>(drift.x * rain.time_whole_s, drift.y * rain.time_whole_s) & vec2<u32>(mask)) * unit;
     let drift_rate = f32(speed_q) * vec2<f32>(rain.drift_q) * unit;
     let duv = drift_whole + drift_rate * frac_s + rain.mean_travel_cells + gust / rain.cell_size_m;
-    let u = fract(drop_uniform(seed, id, 0u) + fract(duv.x) + cycle_uniform(seed, id, k, 4u));
-    let v = fract(drop_uniform(seed, id, 1u) + fract(duv.y) + cycle_uniform(seed, id, k, 5u));
-    let w = x - c;
-    let uv = col.cell_min_m + rain.cell_size_m * vec2<f32>(u, v);
+    return DropPhase(col, d_mm, speed_q, vt, vh, x, k, rate, duv);
+}
+
+// The fractions (u, v) of its cell where a drop with drift `duv` (cells) is in pass `pass_index`.
+fn lateral_fractions(id: u32, duv: vec2<f32>, pass_index: u32) -> vec2<f32> {
+    let seed = rain.seed;
+    let u = fract(drop_uniform(seed, id, 0u) + fract(duv.x) + cycle_uniform(seed, id, pass_index, 4u));
+    let v = fract(drop_uniform(seed, id, 1u) + fract(duv.y) + cycle_uniform(seed, id, pass_index, 5u));
+    return vec2<f32>(u, v);
+}
+
+fn drop_state(id: u32) -> DropState {
+    let ph = drop_phase(id);
+    let col = ph.col;
+    let w = ph.x - floor(ph.x);
+    let uv = col.cell_min_m + rain.cell_size_m * lateral_fractions(id, ph.duv, ph.pass_index);
     let z = col.z_lo_m + w * col.height_m;
     let pos = vec3<f32>(uv + rain.column_slope * z, z);
-    let drawn_mm = d_mm * rain.diameter_scale;
-    return DropState(pos, vec3<f32>(vh, -vt), drawn_mm, drawn_mm * streak_width_factor(d_mm));
+    let drawn_mm = ph.d_mm * rain.diameter_scale;
+    return DropState(pos, vec3<f32>(ph.vh, -ph.vt), drawn_mm, drawn_mm * streak_width_factor(ph.d_mm));
 }

@@ -1,8 +1,8 @@
 //! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
-//! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_streaks`,
-//! `rgb_to_yuv` luma then chroma; each an object in [`super::stages`]) → copy into a readback
-//! ring. The compositor owns the shared buffers, the order and the ring; each stage's timestamp
-//! slot is its place in the order.
+//! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_splashes`
+//! with a ground, `rain_streaks`, `rgb_to_yuv` luma then chroma; each an object in
+//! [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers, the
+//! order and the ring; each stage's timestamp slot is its place in the order.
 //!
 //! ## How it works
 //! The canvas is linear RGB in `Rgba16Float`, in the coded orientation of the video (display
@@ -24,8 +24,8 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
-    rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv, rgba_out::RgbaOut, wet_ground::WetGround,
-    yuv_to_rgb::YuvToRgb,
+    rain_splashes::RainSplashes, rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv,
+    rgba_out::RgbaOut, wet_ground::WetGround, yuv_to_rgb::YuvToRgb,
 };
 use super::types::{FrameParams, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
@@ -45,6 +45,8 @@ pub struct GpuStageTimes {
     pub rain_streaks_s: f64,
     /// Drop states, projection and light, once per drop.
     pub rain_simulate_s: f64,
+    /// Splashes of the landing drops (with a ground): their streaks and their draw.
+    pub rain_splashes_s: f64,
     /// Canvas → packed YUV planes.
     pub rgb_to_yuv_s: f64,
     /// Canvas → packed R'G'B'A (the rain as a layer).
@@ -59,6 +61,7 @@ impl GpuStageTimes {
         let field = match name {
             "yuv_to_rgb" => &mut self.yuv_to_rgb_s,
             "rain_simulate" => &mut self.rain_simulate_s,
+            "rain_splashes" => &mut self.rain_splashes_s,
             "rain_streaks" => &mut self.rain_streaks_s,
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
             "rgba_out" => &mut self.rgba_out_s,
@@ -284,6 +287,7 @@ impl Compositor {
             Box::new(start),
             Box::new(WetGround::new(device, &resources, wetting)),
             Box::new(RainSimulate::new(device, &resources)),
+            Box::new(RainSplashes::new(device, &resources, rain)),
             Box::new(RainStreaks::new(device, &resources)),
             out,
         ];

@@ -212,3 +212,40 @@ fn run_and_read(
     read.unmap();
     Ok(bytes)
 }
+
+/// The splash streaks `rain_splashes` writes under the uniforms `params` for the landing drops
+/// of `setup` (with its ground), lit also by `lights` through `tables`: the landing drops' ids
+/// and `SPLASH_SLOTS` streaks per drop.
+pub fn probe_splashes(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    params: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> Result<(Vec<u32>, Vec<Streak>)> {
+    use super::stages::rain_splashes::SplashSimulate;
+    let device = &ctx.device;
+    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_params"),
+        contents: bytemuck::bytes_of(params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_columns"),
+        contents: bytemuck::cast_slice(&setup.columns),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let direct = DirectLightBuffers::new(device);
+    direct.upload_table(&ctx.queue, tables);
+    direct.upload_lights(&ctx.queue, lights);
+    let stage = SplashSimulate::new(device, &uniform, &columns, &direct, setup);
+    let size = stage.splashes.size();
+    let bytes = run_and_read(
+        ctx,
+        |encoder| stage.record(encoder, None),
+        &stage.splashes,
+        size,
+    )?;
+    let streaks = bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes);
+    Ok((stage.drop_ids, streaks))
+}

@@ -21,6 +21,8 @@ pub enum Stage {
     RainStreaks,
     /// Canvas → packed planes.
     RgbToYuv,
+    /// Landing drops → their splashes' streaks for the frame.
+    RainSplashes,
     /// Drop states written to a buffer (the GPU side of the CPU-twin test and `inspect`).
     RainProbe,
     /// Canvas → packed 16-bit R'G'B'A (the rain as a layer).
@@ -75,7 +77,32 @@ pub fn constants() -> String {
     ]
     .iter()
     .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
+    .chain(splash_constants())
     .collect()
+}
+
+/// The splash model's constants (`rain::physics::splash`), for `rain_splashes`.
+fn splash_constants() -> impl Iterator<Item = String> {
+    use crate::rain::physics::splash as s;
+    let u = [
+        ("SPLASH_SLOTS", s::SPLASH_SLOTS),
+        ("SPLASH_MAX_DROPLETS", s::MAX_DROPLETS),
+        ("SPLASH_STREAM", s::SPLASH_STREAM),
+    ]
+    .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"));
+    let f = [
+        ("SPLASH_K_COEFFICIENT", s::splash_k_coefficient()),
+        ("SPLASH_THRESHOLD_K", s::SPLASH_THRESHOLD_K),
+        ("SPLASH_CROWN_S", s::CROWN_S),
+        ("SPLASH_EJECTED_FRACTION_MAX", s::EJECTED_FRACTION_MAX),
+        ("SPLASH_DROPLET_RATIO", s::DROPLET_RATIO),
+        ("SPLASH_SPEED_MIN", s::LAUNCH_SPEED[0]),
+        ("SPLASH_SPEED_MAX", s::LAUNCH_SPEED[1]),
+        ("SPLASH_ELEVATION_MIN_DEG", s::LAUNCH_ELEVATION_DEG[0]),
+        ("SPLASH_ELEVATION_MAX_DEG", s::LAUNCH_ELEVATION_DEG[1]),
+    ]
+    .map(|(name, v)| format!("const {name}: f32 = {:?};\n", v as f32));
+    u.into_iter().chain(f)
 }
 
 /// The shared modules named by the `// Includes:` header of `body` (a comma-separated list that
@@ -113,9 +140,10 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 8] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
+        Stage::RainSplashes,
         Stage::RainStreaks,
         Stage::RgbToYuv,
         Stage::RainProbe,
@@ -130,6 +158,7 @@ impl Stage {
             Stage::RainSimulate => "rain_simulate",
             Stage::RainStreaks => "rain_streaks",
             Stage::RgbToYuv => "rgb_to_yuv",
+            Stage::RainSplashes => "rain_splashes",
             Stage::RainProbe => "rain_probe",
             Stage::RgbaOut => "rgba_out",
             Stage::WetGround => "wet_ground",
@@ -143,6 +172,7 @@ impl Stage {
             Stage::RainSimulate => include_str!("../../shaders/rain_simulate.wgsl"),
             Stage::RainStreaks => include_str!("../../shaders/rain_streaks.wgsl"),
             Stage::RgbToYuv => include_str!("../../shaders/rgb_to_yuv.wgsl"),
+            Stage::RainSplashes => include_str!("../../shaders/rain_splashes.wgsl"),
             Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
             Stage::RgbaOut => include_str!("../../shaders/rgba_out.wgsl"),
             Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),

@@ -132,7 +132,7 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                 per_frame(|s| s.decode_s),
                 per_frame(|s| s.submit_s),
                 per_frame(|s| s.gpu.yuv_to_rgb_s),
-                per_frame(|s| s.gpu.rain_simulate_s + s.gpu.rain_streaks_s),
+                per_frame(|s| s.gpu.rain_simulate_s + s.gpu.rain_splashes_s + s.gpu.rain_streaks_s),
                 per_frame(|s| s.gpu.rgb_to_yuv_s),
                 per_frame(|s| s.readback_s),
                 per_frame(|s| s.encode_s),

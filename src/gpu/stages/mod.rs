@@ -7,6 +7,7 @@
 
 pub mod rain_probe;
 pub mod rain_simulate;
+pub mod rain_splashes;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
 pub mod rgba_out;

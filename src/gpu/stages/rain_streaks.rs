@@ -20,6 +20,16 @@ pub struct RainStreaks {
 impl RainStreaks {
     /// Builds the pipeline and binds `r`.
     pub fn new(device: &wgpu::Device, r: &FrameResources) -> RainStreaks {
+        RainStreaks::with_streaks(device, r, &r.streaks, r.drop_count)
+    }
+
+    /// The rasteriser over `count` streaks of another buffer (the splashes').
+    pub fn with_streaks(
+        device: &wgpu::Device,
+        r: &FrameResources,
+        streaks: &wgpu::Buffer,
+        count: u32,
+    ) -> RainStreaks {
         let module = Stage::RainStreaks.module(device);
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(Stage::RainStreaks.name()),
@@ -52,7 +62,7 @@ impl RainStreaks {
             &pipeline.get_bind_group_layout(0),
             &[
                 buffer(&r.rain_params),
-                buffer(&r.streaks),
+                buffer(streaks),
                 buffer(&r.scene_depth),
             ],
         );
@@ -60,7 +70,7 @@ impl RainStreaks {
             pipeline,
             bind,
             canvas: r.canvas.clone(),
-            drops: r.drop_count,
+            drops: count,
         }
     }
 }
@@ -75,6 +85,17 @@ impl FrameStage for RainStreaks {
     }
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
+        self.draw(encoder, timestamps.map(TimestampSlot::render));
+    }
+}
+
+impl RainStreaks {
+    /// Records the draw, with `timestamp_writes` when given.
+    pub fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(self.name()),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -87,7 +108,7 @@ impl FrameStage for RainStreaks {
                 },
             })],
             depth_stencil_attachment: None,
-            timestamp_writes: timestamps.map(TimestampSlot::render),
+            timestamp_writes,
             occlusion_query_set: None,
             multiview_mask: None,
         });

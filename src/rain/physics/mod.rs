@@ -17,6 +17,7 @@ mod dsd;
 mod fall;
 mod optics;
 mod shape;
+pub mod splash;
 
 pub use dsd::*;
 pub use fall::*;

@@ -256,17 +256,8 @@ pub fn sample_drop(
     let x = u(2) - whole_frac - rate_q as f64 / (1u32 << FALL_RATE_BITS) as f64 * t.frac_s;
     let c = x.floor();
     let k = (c as i64 as i32 as u32).wrapping_sub(passes);
-    // Drift in cells: the columns' shear as the drop falls, the mean wind, the gusts.
-    let travel = mean_travel_cells(wind, grid, t);
-    let gust =
-        wind.gust_displacement_m(t.seconds(), tau) / grid.cell_size_m.max(DVec2::splat(1e-6));
-    let du = drift_phase(speed_q, motion.drift_q[0], t) + travel.x + gust.x;
-    let dv = drift_phase(speed_q, motion.drift_q[1], t) + travel.y + gust.y;
-    let uvw = [
-        (u(0) + du.rem_euclid(1.0) + cycle_uniform(seed, id32, k, 4)).rem_euclid(1.0),
-        (u(1) + dv.rem_euclid(1.0) + cycle_uniform(seed, id32, k, 5)).rem_euclid(1.0),
-        x - c,
-    ];
+    let [u_frac, v_frac] = lateral_fractions(seed, id32, drift_cells(volume, wind, speed_q, t), k);
+    let uvw = [u_frac, v_frac, x - c];
     let drawn = d * motion.diameter_scale;
     Some(SampledDrop {
         id,
@@ -277,6 +268,36 @@ pub fn sample_drop(
         velocity_mps: DVec3::new(vh.x, vh.y, -vt),
         position_m: grid.point_m(col, uvw),
     })
+}
+
+/// The drift (cells, only its fraction matters) of a drop falling at `speed_q` at `t`: the
+/// columns' shear as it falls, the mean wind and the gusts.
+pub fn drift_cells(volume: &RainVolume, wind: &Wind, speed_q: u32, t: SplitTime) -> DVec2 {
+    let grid = &volume.grid;
+    let drift_q = volume.motion.drift_q;
+    let tau = speed_q as f64 / (1u32 << SPEED_BITS) as f64 / G_MPS2;
+    let travel = mean_travel_cells(wind, grid, t);
+    let gust =
+        wind.gust_displacement_m(t.seconds(), tau) / grid.cell_size_m.max(DVec2::splat(1e-6));
+    DVec2::new(
+        drift_phase(speed_q, drift_q[0], t) + travel.x + gust.x,
+        drift_phase(speed_q, drift_q[1], t) + travel.y + gust.y,
+    )
+}
+
+/// Where across its cell drop `id32` is after drifting `drift` cells, in its pass `pass`: the
+/// fractions (u, v) of the cell; each pass adds its own lateral offset (streams 4, 5).
+pub fn lateral_fractions(seed: u32, id32: u32, drift: DVec2, pass: u32) -> [f64; 2] {
+    [
+        (drop_uniform(seed, id32, 0)
+            + drift.x.rem_euclid(1.0)
+            + cycle_uniform(seed, id32, pass, 4))
+        .rem_euclid(1.0),
+        (drop_uniform(seed, id32, 1)
+            + drift.y.rem_euclid(1.0)
+            + cycle_uniform(seed, id32, pass, 5))
+        .rem_euclid(1.0),
+    ]
 }
 
 /// The mean wind's travel at `t` in cells of `grid`, modulo one cell (computed in `f64`: what

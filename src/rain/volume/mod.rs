@@ -49,6 +49,7 @@
 pub mod columns;
 pub mod drop;
 pub mod geometry;
+pub mod impacts;
 pub mod inspect;
 
 pub use columns::{Column, ColumnGrid, columns};
@@ -57,6 +58,7 @@ pub use drop::{
     inv_height_q, mean_travel_cells, pcg_hash, sample_drop,
 };
 pub use geometry::view_volume_m3;
+pub use impacts::{Impact, impacts_between, landing_columns, latest_impact};
 pub use inspect::inspect_drops;
 
 use glam::{DVec2, DVec3};
