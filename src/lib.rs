@@ -52,6 +52,7 @@ pub mod gpu;
 pub mod inspect;
 pub mod lighting;
 pub mod pipeline;
+pub mod preset;
 pub mod rain;
 pub mod rng;
 pub mod scene;

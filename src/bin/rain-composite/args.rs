@@ -8,6 +8,7 @@ use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
 use rain_composite::gpu::AdapterRequest;
+use rain_composite::preset;
 use rain_composite::video::{AudioMode, EncodeOptions, VideoCodec};
 
 use crate::bench::BenchArgs;
@@ -46,6 +47,8 @@ pub enum Command {
     /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
     #[command(allow_negative_numbers = true)]
     Bench(BenchArgs),
+    /// Print the effective configuration as JSON (`--print`), or list the presets (`--list`).
+    Config(ConfigArgs),
     /// List the GPU adapters, best first.
     Adapters {
         /// Print JSON.
@@ -90,9 +93,12 @@ pub struct RenderArgs {
 /// [`parse`]).
 #[derive(Args, Debug, Clone)]
 pub struct LookArgs {
-    /// JSON file of settings (see samples/presets/); flags given here override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
+    /// A preset by name (`rain-composite config --list`) or a JSON file of settings; --set and flags given here override it.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub config: Option<String>,
+    /// Override one setting of the configuration, e.g. rain.rate_mm_per_h=25 or rain.wind_mps=[3,0] (repeatable; keys as `config --print` shows them); flags given here override it.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
     /// Rain rate in mm/h, or drizzle (0.3) | light (1) | moderate (5) | heavy (20) | violent (75); 0 turns rain off.
     #[arg(long, value_name = "MM_PER_H")]
     pub rain: Option<String>,
@@ -228,6 +234,19 @@ pub struct PreviewArgs {
     pub look: LookArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
+}
+
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct ConfigArgs {
+    /// Print the configuration the same --config, --set and flags give a render, as JSON that --config FILE reads back.
+    #[arg(long, conflicts_with = "list", required_unless_present = "list")]
+    pub print: bool,
+    /// List the presets, one line each.
+    #[arg(long)]
+    pub list: bool,
+    #[command(flatten)]
+    pub look: LookArgs,
 }
 
 #[derive(Args, Debug)]
@@ -402,12 +421,29 @@ pub fn parse_time_s(s: &str) -> anyhow::Result<f64> {
     Ok(t)
 }
 
-/// The render settings: the `--config` file (or the defaults), then each flag given.
+/// The render settings, lowest precedence first: the defaults, the `--config` preset or file,
+/// each `--set`, then each flag given.
 pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
-    let mut c = match &look.config {
-        Some(path) => RenderConfig::from_json_file(path)?,
+    let base = match &look.config {
+        Some(arg) => preset::load(arg)?,
         None => RenderConfig::default(),
     };
+    let build = |sets: &[String]| -> anyhow::Result<RenderConfig> {
+        let mut c = preset::with_overrides(&base, sets)?;
+        apply_flags(look, &mut c)?;
+        Ok(c)
+    };
+    let c = build(&look.sets)?;
+    preset::validate_layered(&c, &look.sets, |skip| {
+        let mut kept = look.sets.clone();
+        kept.remove(skip);
+        build(&kept).ok()
+    })?;
+    Ok(c)
+}
+
+/// Sets each value of `c` that a flag gives.
+fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     if let Some(r) = &look.rain {
         c.rain.rate_mm_per_h = parse_rain(r)?;
     }
@@ -483,8 +519,7 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.tilt => cam.tilt_deg);
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
-    c.validate()?;
-    Ok(c)
+    Ok(())
 }
 
 /// Which GPU adapter the flags ask for.
