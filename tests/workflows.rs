@@ -128,3 +128,37 @@ fn bad_overrides_are_refused_by_name() {
         );
     }
 }
+
+/// The shipped manual page is the one the CLI definition generates today.
+#[test]
+fn the_manual_page_is_up_to_date() {
+    let out = ok(bin().arg("man"));
+    let shipped = include_str!("../docs/rain-composite.1");
+    assert!(
+        String::from_utf8_lossy(&out.stdout) == shipped,
+        "docs/rain-composite.1 is out of date: run `cargo run --release -- man > docs/rain-composite.1`"
+    );
+}
+
+/// Each shell's completion script offers the flags, and bash's is valid bash.
+#[test]
+fn completions_offer_the_flags() {
+    for shell in ["bash", "zsh", "fish"] {
+        let out = ok(bin().args(["completions", shell]));
+        let script = String::from_utf8(out.stdout).expect("utf-8");
+        for flag in ["config", "set", "rain", "wind"] {
+            assert!(script.contains(flag), "{shell} lacks --{flag}");
+        }
+        if shell == "bash" {
+            let check = Command::new("bash")
+                .args(["-n", "-c", &script])
+                .output()
+                .expect("bash");
+            assert!(
+                check.status.success(),
+                "{}",
+                String::from_utf8_lossy(&check.stderr)
+            );
+        }
+    }
+}

@@ -2,8 +2,6 @@
 //! of values that live in the library are read from it (`RenderConfig::default`,
 //! `EncodeOptions::default`), never repeated here.
 
-use std::path::PathBuf;
-
 use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
@@ -49,6 +47,14 @@ pub enum Command {
     Bench(BenchArgs),
     /// Print the effective configuration as JSON (`--print`), or list the presets (`--list`).
     Config(ConfigArgs),
+    /// Print a shell completion script (bash: `source <(rain-composite completions bash)`).
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff), generated from these options: `rain-composite man > rain-composite.1`.
+    Man,
     /// List the GPU adapters, best first.
     Adapters {
         /// Print JSON.
@@ -354,9 +360,13 @@ impl From<AudioMode> for AudioArg {
 /// Parses the command line (exiting with clap's message on an error), with each rain and
 /// camera flag's help ending in its default from [`RenderConfig::flag_values`].
 pub fn parse() -> Cli {
-    let command = with_look_defaults(Cli::command(), &RenderConfig::default().flag_values());
-    let matches = command.get_matches();
+    let matches = command().get_matches();
     Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
+/// The command line's definition as the help, the completions and the manual page show it.
+pub fn command() -> clap::Command {
+    with_look_defaults(Cli::command(), &RenderConfig::default().flag_values())
 }
 
 /// Appends `[default: …]` to the help of each [`LookArgs`] flag in `command` and its

@@ -190,6 +190,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Inspect(i)) => inspect::run(i),
         Some(Command::Config(c)) => run_config(c),
+        Some(Command::Completions { shell }) => {
+            let mut command = args::command();
+            let mut script = Vec::new();
+            clap_complete::generate(*shell, &mut command, "rain-composite", &mut script);
+            out(String::from_utf8_lossy(&script).trim_end())
+        }
+        Some(Command::Man) => {
+            let mut page = Vec::new();
+            clap_mangen::Man::new(args::command()).render(&mut page)?;
+            out(String::from_utf8_lossy(&page).trim_end())
+        }
         Some(Command::Bench(b)) => bench::run_command(b),
         Some(Command::Adapters { json }) => {
             let adapters = list_adapters();
