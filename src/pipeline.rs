@@ -130,6 +130,111 @@ pub fn frame_time_s(info: &VideoInfo, frame: &YuvFrame) -> f64 {
     (frame.pts - info.start_pts) as f64 * info.time_base.0 as f64 / info.time_base.1 as f64
 }
 
+/// Which frames of the shot a job renders. A chunk holds exactly the frames, and the packets
+/// of the copied streams (audio), that a full render writes between its bounds, with the same
+/// timestamps, so chunks joined with `ffmpeg -f concat -c copy` are the full render.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum FrameRange {
+    /// The whole shot.
+    #[default]
+    All,
+    /// Frames whose zero-based index (presentation order) is in `[start, end)`; no end: to
+    /// the last frame.
+    Indices {
+        /// First frame rendered.
+        start: u64,
+        /// First frame not rendered.
+        end: Option<u64>,
+    },
+    /// Frames whose time (seconds from the first frame) is in `[from_s, to_s)`.
+    Times {
+        /// Earliest time rendered.
+        from_s: f64,
+        /// First time not rendered.
+        to_s: Option<f64>,
+    },
+}
+
+impl std::fmt::Display for FrameRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let end = |e: Option<String>| e.unwrap_or_default();
+        match *self {
+            FrameRange::All => write!(f, "all frames"),
+            FrameRange::Indices { start, end: e } => {
+                write!(f, "frames {start}..{}", end(e.map(|e| e.to_string())))
+            }
+            FrameRange::Times { from_s, to_s } => {
+                write!(
+                    f,
+                    "times {from_s} s..{} s",
+                    end(to_s.map(|t| t.to_string()))
+                )
+            }
+        }
+    }
+}
+
+impl FrameRange {
+    /// Where a frame of index `index` shown at `t_s` lies: before the range, in it, or after.
+    fn place(&self, index: u64, t_s: f64) -> std::cmp::Ordering {
+        use std::cmp::Ordering::*;
+        let (start, end) = match *self {
+            FrameRange::All => return Equal,
+            FrameRange::Indices { start, end } => (index < start, end.is_some_and(|e| index >= e)),
+            FrameRange::Times { from_s, to_s } => (t_s < from_s, to_s.is_some_and(|e| t_s >= e)),
+        };
+        match (start, end) {
+            (true, _) => Less,
+            (false, true) => Greater,
+            _ => Equal,
+        }
+    }
+
+    /// About when the range starts, seconds from the first frame (where to start decoding).
+    fn start_s(&self, info: &VideoInfo) -> f64 {
+        match *self {
+            FrameRange::All => 0.0,
+            FrameRange::Indices { start, .. } => {
+                let (num, den) = info.nominal_fps();
+                start as f64 * den as f64 / num.max(1) as f64
+            }
+            FrameRange::Times { from_s, .. } => from_s,
+        }
+    }
+
+    /// Rejects an empty or reversed range.
+    pub fn validate(&self) -> Result<()> {
+        let empty = match *self {
+            FrameRange::All => false,
+            FrameRange::Indices { start, end } => end.is_some_and(|e| e <= start),
+            FrameRange::Times { from_s, to_s } => {
+                !(from_s.is_finite() && from_s >= 0.0)
+                    || to_s.is_some_and(|e| !e.is_finite() || e <= from_s)
+            }
+        };
+        if empty {
+            return Err(Error::Parameter {
+                name: "--frames/--from/--to",
+                value: self.to_string(),
+                expected: "a range that starts at or after 0 and ends after it starts".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// How far apart in time a container may store the packets of its streams (audio against
+/// video), seconds. A chunk decodes this much before its first frame and reads this much past
+/// its last, so every audio packet inside its bounds is seen.
+const INTERLEAVE_SLACK_S: f64 = 2.0;
+
+/// Whether the packet time `a` (pts, time base) is before `b`, exactly.
+fn earlier((pa, (na, da)): (i64, (i32, i32)), (pb, (nb, db)): (i64, (i32, i32))) -> bool {
+    // pa·na/da < pb·nb/db with positive denominators, in integers.
+    let wide = |x: i64, y: i32, z: i32| i128::from(x) * i128::from(y) * i128::from(z);
+    wide(pa, na, db) < wide(pb, nb, da)
+}
+
 /// A full render: `input` → rain → `output`.
 #[derive(Debug, Clone)]
 pub struct Job {
@@ -143,6 +248,8 @@ pub struct Job {
     pub encode: EncodeOptions,
     /// Which adapter.
     pub adapter: AdapterRequest,
+    /// Which frames (a chunk of the shot, or all of it).
+    pub frames: FrameRange,
 }
 
 enum ToEncode {
@@ -162,9 +269,10 @@ pub fn render(
 ) -> Result<Summary> {
     job.render.validate()?;
     job.encode.validate()?;
+    job.frames.validate()?;
     crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
     let started = Instant::now();
-    let source = Source::open(&job.input)?;
+    let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let ctx = Arc::new(GpuContext::new(&job.adapter)?);
@@ -173,6 +281,15 @@ pub fn render(
     let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
     let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
     lighting.upload_table(&mut compositor);
+    // A chunk starts decoding where the frames that light its first frame begin (as a preview
+    // does), less the interleaving slack for the audio; a pipe is read from the start.
+    let warm_from_s =
+        job.frames.start_s(&info) - lighting.window_secs().unwrap_or(0.0) - INTERLEAVE_SLACK_S;
+    let mut first = None;
+    if warm_from_s > 0.0 && source.is_seekable() {
+        first = Some(SourceItem::Frame(source.seek_to_time(warm_from_s)?));
+    }
+    let mut chunk = ChunkCut::new(job.frames, &info);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
     let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
@@ -185,7 +302,10 @@ pub fn render(
             let mut spent = Duration::ZERO;
             loop {
                 let t = Instant::now();
-                let item = source.next_item();
+                let item = match first.take() {
+                    Some(f) => Ok(Some(f)),
+                    None => source.next_item(),
+                };
                 spent += t.elapsed();
                 let end = !matches!(item, Ok(Some(_)));
                 let item = match item {
@@ -243,15 +363,36 @@ pub fn render(
             });
             Ok(())
         };
+        let send_packets = |packets: Vec<crate::video::CopiedPacket>| -> Result<()> {
+            for p in packets {
+                out_tx
+                    .send(ToEncode::Packet(p))
+                    .map_err(|_| Error::EncoderStopped)?;
+            }
+            Ok(())
+        };
         for item in &in_rx {
             if cancel.load(Ordering::Relaxed) {
                 return Err(Error::Interrupted);
             }
             match item? {
                 SourceItem::Frame(frame) => {
+                    let t_s = frame_time_s(&info, &frame);
+                    match chunk.frame(&frame, t_s) {
+                        Cut::Before => {
+                            // Lights the frames of the chunk (temporal smoothing).
+                            lighting.params(&rain, &frame, t_s);
+                            continue;
+                        }
+                        Cut::Done => break,
+                        Cut::After(packets) => {
+                            send_packets(packets)?;
+                            continue;
+                        }
+                        Cut::In(packets) => send_packets(packets)?,
+                    }
                     let t = Instant::now();
-                    let (params, lights) =
-                        lighting.params(&rain, &frame, frame_time_s(&info, &frame));
+                    let (params, lights) = lighting.params(&rain, &frame, t_s);
                     compositor.set_lights(&lights);
                     let done = compositor.submit(&frame, &params)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
@@ -260,12 +401,22 @@ pub fn render(
                     }
                 }
                 SourceItem::Packet(p) => {
+                    let Some(p) = chunk.packet(p) else {
+                        continue;
+                    };
                     if out_tx.send(ToEncode::Packet(p)).is_err() {
                         break;
                     }
                 }
             }
         }
+        if !chunk.started {
+            return Err(Error::OutOfRange(format!(
+                "no frame of '{}' lies in {}",
+                job.input, job.frames
+            )));
+        }
+        send_packets(chunk.finish())?;
         let t = Instant::now();
         let rest = compositor.flush()?;
         stages.readback_s += t.elapsed().as_secs_f64();
@@ -312,6 +463,140 @@ pub fn render(
         drops: compositor.drop_count(),
         adapter: ctx.summary().name,
     })
+}
+
+/// What to do with a frame, for [`ChunkCut`].
+enum Cut {
+    /// Before the chunk: feed the light only.
+    Before,
+    /// In the chunk: render it, after writing these held packets.
+    In(Vec<crate::video::CopiedPacket>),
+    /// After the chunk, while packets of its time may still come: skip it, writing these
+    /// held packets.
+    After(Vec<crate::video::CopiedPacket>),
+    /// Far enough past the chunk: stop reading.
+    Done,
+}
+
+/// Cuts a job's frames and copied packets to its [`FrameRange`]. The bounds are the
+/// timestamps of the chunk's first frame and of the first frame after it (none at the ends of
+/// the shot); a packet belongs to the chunk whose bounds hold its pts, so chunks split the
+/// audio exactly where they split the video, every packet going to one chunk. Packets arrive
+/// before the frames of their time are decoded, so a packet is held until a frame at or after
+/// it settles which side of a bound it lies on.
+struct ChunkCut {
+    range: FrameRange,
+    video_tb: (i32, i32),
+    /// Packets whose side of a bound is not known yet, in demux order.
+    held: Vec<crate::video::CopiedPacket>,
+    /// Whether the chunk's first frame was seen.
+    started: bool,
+    lower: Option<i64>,
+    /// The latest frame of the chunk: a packet before it is before the upper bound.
+    latest: Option<i64>,
+    upper: Option<(i64, f64)>,
+}
+
+impl ChunkCut {
+    fn new(range: FrameRange, info: &VideoInfo) -> ChunkCut {
+        ChunkCut {
+            range,
+            video_tb: info.time_base,
+            held: Vec::new(),
+            started: false,
+            lower: None,
+            latest: None,
+            upper: None,
+        }
+    }
+
+    /// What to do with `frame`, shown at `t_s`; [`Cut::In`] carries the held packets it settles.
+    fn frame(&mut self, frame: &YuvFrame, t_s: f64) -> Cut {
+        use std::cmp::Ordering::*;
+        match self.range.place(frame.index, t_s) {
+            Less => Cut::Before,
+            Equal => {
+                if !self.started {
+                    self.started = true;
+                    self.lower = (frame.index > 0).then_some(frame.pts);
+                }
+                self.latest = Some(frame.pts);
+                Cut::In(self.release())
+            }
+            Greater => {
+                if self.upper.is_none() {
+                    self.upper = Some((frame.pts, t_s));
+                    let settled = self.release();
+                    self.held.clear();
+                    return Cut::After(settled);
+                }
+                match self.upper {
+                    Some((_, upper_s)) if t_s >= upper_s + INTERLEAVE_SLACK_S => Cut::Done,
+                    _ => Cut::After(Vec::new()),
+                }
+            }
+        }
+    }
+
+    /// The packet, when it is known to belong to the chunk; held while that is open.
+    fn packet(&mut self, p: crate::video::CopiedPacket) -> Option<crate::video::CopiedPacket> {
+        if self.range == FrameRange::All {
+            return Some(p);
+        }
+        match self.side(&p) {
+            Some(true) => Some(p),
+            Some(false) => None,
+            None => {
+                self.held.push(p);
+                None
+            }
+        }
+    }
+
+    /// The held packets of the shot's end (no frame after the chunk came).
+    fn finish(&mut self) -> Vec<crate::video::CopiedPacket> {
+        let held = std::mem::take(&mut self.held);
+        match self.started {
+            true => held
+                .into_iter()
+                .filter(|p| self.side(p) != Some(false))
+                .collect(),
+            false => Vec::new(),
+        }
+    }
+
+    /// The held packets now known to belong to the chunk (those known not to are dropped).
+    fn release(&mut self) -> Vec<crate::video::CopiedPacket> {
+        let held = std::mem::take(&mut self.held);
+        let mut out = Vec::new();
+        for p in held {
+            match self.side(&p) {
+                Some(true) => out.push(p),
+                Some(false) => {}
+                None => self.held.push(p),
+            }
+        }
+        out
+    }
+
+    /// Whether `p` lies within the bounds; `None` while that is not known yet.
+    fn side(&self, p: &crate::video::CopiedPacket) -> Option<bool> {
+        if !self.started {
+            return None;
+        }
+        let Some(pts) = p.packet.pts() else {
+            return Some(self.upper.is_none());
+        };
+        let at = (pts, (p.time_base.numerator(), p.time_base.denominator()));
+        if self.lower.is_some_and(|l| earlier(at, (l, self.video_tb))) {
+            return Some(false);
+        }
+        match (self.upper, self.latest) {
+            (Some((u, _)), _) => Some(earlier(at, (u, self.video_tb))),
+            (None, Some(l)) if earlier(at, (l, self.video_tb)) => Some(true),
+            _ => None,
+        }
+    }
 }
 
 /// Which frame to preview.

@@ -6,6 +6,7 @@ use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
 use rain_composite::gpu::AdapterRequest;
+use rain_composite::pipeline::FrameRange;
 use rain_composite::preset;
 use rain_composite::video::{AudioMode, EncodeOptions, VideoCodec};
 
@@ -92,6 +93,15 @@ pub struct RenderArgs {
     /// Progress report on stderr.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     pub progress: ProgressMode,
+    /// Render only these frames (zero-based): A..B is A up to but not including B, A..=B includes B, A.. runs to the end. Chunks joined with `ffmpeg -f concat` equal the whole render.
+    #[arg(long, value_name = "A..B", conflicts_with_all = ["from", "to"])]
+    pub frames: Option<String>,
+    /// Render only the frames shown at or after this time (seconds, 2.5s, 1500ms, 00:01:02.5).
+    #[arg(long, value_name = "TIME")]
+    pub from: Option<String>,
+    /// Render only the frames shown before this time.
+    #[arg(long, value_name = "TIME")]
+    pub to: Option<String>,
 }
 
 /// The rain and camera: every value is optional, so that only the flags given override the
@@ -530,6 +540,37 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
     Ok(())
+}
+
+/// The frames `--frames` or `--from`/`--to` ask for.
+pub fn frame_range(r: &RenderArgs) -> anyhow::Result<FrameRange> {
+    if let Some(text) = &r.frames {
+        let bad = || {
+            anyhow::anyhow!(
+                "invalid --frames '{text}': expected A..B (B excluded), A..=B (B included) or A.."
+            )
+        };
+        let (a, b) = text.split_once("..").ok_or_else(bad)?;
+        let start: u64 = a.trim().parse().map_err(|_| bad())?;
+        let end = match b.strip_prefix('=') {
+            Some(b) => Some(b.trim().parse::<u64>().map_err(|_| bad())? + 1),
+            None if b.trim().is_empty() => None,
+            None => Some(b.trim().parse().map_err(|_| bad())?),
+        };
+        return Ok(FrameRange::Indices { start, end });
+    }
+    if r.from.is_none() && r.to.is_none() {
+        return Ok(FrameRange::All);
+    }
+    Ok(FrameRange::Times {
+        from_s: r
+            .from
+            .as_deref()
+            .map(parse_time_s)
+            .transpose()?
+            .unwrap_or(0.0),
+        to_s: r.to.as_deref().map(parse_time_s).transpose()?,
+    })
 }
 
 /// Which GPU adapter the flags ask for.

@@ -67,6 +67,7 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         render,
         encode,
         adapter: adapter(&args.gpu),
+        frames: args::frame_range(args)?,
     };
     let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(0);
