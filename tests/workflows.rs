@@ -227,3 +227,55 @@ fn chunks_join_into_the_single_render() {
         assert!(e.contains("error:") && !none.exists(), "{e}");
     }
 }
+
+/// The Python with Dask that `.ci/install-deps` sets up (or `RAIN_COMPOSITE_FARM_PYTHON`).
+fn farm_python() -> String {
+    let python = std::env::var("RAIN_COMPOSITE_FARM_PYTHON").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/target/farm-venv/bin/python").to_string()
+    });
+    assert!(
+        Path::new(&python).exists(),
+        "{python} is missing: run .ci/install-deps (it installs Dask into target/farm-venv)"
+    );
+    python
+}
+
+/// The Dask job on a local single-node cluster (two worker processes, four chunks) writes the
+/// single render, packet for packet, with a preset passed through to every chunk.
+#[test]
+fn the_dask_job_renders_the_single_render() {
+    let dir = TempDir::new().expect("tempdir");
+    let input = fixtures::clip_with_audio(
+        dir.path(),
+        "in.mp4",
+        3.0,
+        &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
+        &["-c:a", "aac", "-shortest"],
+    );
+    let whole = dir.path().join("whole.mkv");
+    ok(bin()
+        .args([s(&input), "-o", s(&whole), "--codec", "ffv1"])
+        .args(["--config", "steady"]));
+    let farmed = dir.path().join("farmed.mkv");
+    let job = concat!(env!("CARGO_MANIFEST_DIR"), "/tools/farm/dask_render.py");
+    ok(Command::new(farm_python())
+        .args([
+            job,
+            s(&input),
+            s(&farmed),
+            "--chunk-frames",
+            "20",
+            "--workers",
+            "2",
+        ])
+        .args(["--binary", env!("CARGO_BIN_EXE_rain-composite")])
+        .args(["--work-dir", s(dir.path()), "--", "--config", "steady"])
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir()));
+    for map in ["0:v", "0:a"] {
+        assert_eq!(
+            packet_md5(&whole, map),
+            packet_md5(&farmed, map),
+            "{map} differs"
+        );
+    }
+}
