@@ -59,3 +59,4 @@ pub mod scene;
 pub mod video;
 
 pub use error::{Error, Result};
+pub use pipeline::RainCompositor;

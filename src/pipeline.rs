@@ -275,16 +275,10 @@ pub fn render(
     let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
     let sink = Sink::create(&job.output, &info, &job.encode)?;
-    let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &job.render, &ctx)?;
-    log::info!("{}", rain.summary());
-    let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
-    let mut lighting = LightFeed::new(&info, &job.render, &rain)?;
-    lighting.upload_table(&mut compositor);
+    let mut rain = RainCompositor::new(&job.render, &info, &job.adapter)?;
     // A chunk starts decoding where the frames that light its first frame begin (as a preview
     // does), less the interleaving slack for the audio; a pipe is read from the start.
-    let warm_from_s =
-        job.frames.start_s(&info) - lighting.window_secs().unwrap_or(0.0) - INTERLEAVE_SLACK_S;
+    let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
     let mut first = None;
     if warm_from_s > 0.0 && source.is_seekable() {
         first = Some(SourceItem::Frame(source.seek_to_time(warm_from_s)?));
@@ -381,7 +375,7 @@ pub fn render(
                     match chunk.frame(&frame, t_s) {
                         Cut::Before => {
                             // Lights the frames of the chunk (temporal smoothing).
-                            lighting.params(&rain, &frame, t_s);
+                            rain.observe(&frame, t_s);
                             continue;
                         }
                         Cut::Done => break,
@@ -392,9 +386,7 @@ pub fn render(
                         Cut::In(packets) => send_packets(packets)?,
                     }
                     let t = Instant::now();
-                    let (params, lights) = lighting.params(&rain, &frame, t_s);
-                    compositor.set_lights(&lights);
-                    let done = compositor.submit(&frame, &params)?;
+                    let done = rain.submit(&frame, t_s)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
                         send(done, &mut written)?;
@@ -418,7 +410,7 @@ pub fn render(
         }
         send_packets(chunk.finish())?;
         let t = Instant::now();
-        let rest = compositor.flush()?;
+        let rest = rain.flush()?;
         stages.readback_s += t.elapsed().as_secs_f64();
         for f in rest {
             send(f, &mut written)?;
@@ -453,15 +445,15 @@ pub fn render(
     let (frames, encode_time) = encoder
         .join()
         .map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
-    stages.gpu = compositor.gpu_times();
+    stages.gpu = rain.gpu_times();
     stages.decode_s = decode_time.as_secs_f64();
     stages.encode_s = encode_time.as_secs_f64();
     Ok(Summary {
         frames,
         elapsed_s: started.elapsed().as_secs_f64(),
         stages,
-        drops: compositor.drop_count(),
-        adapter: ctx.summary().name,
+        drops: rain.drop_count(),
+        adapter: rain.adapter().to_string(),
     })
 }
 
@@ -633,19 +625,17 @@ pub fn preview(
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
     };
-    let ctx = Arc::new(GpuContext::new(adapter)?);
-    let rain = rain_for(&info, render, &ctx)?;
-    log::info!("{}", rain.summary());
-    let mut lighting = LightFeed::new(&info, render, &rain)?;
+    let mut rain = RainCompositor::new(render, &info, adapter)?;
     let t_target = frame_time_s(&info, &target);
-    if let Some(window) = lighting.window_secs() {
+    let window = rain.light_window_s();
+    if window > 0.0 {
         let from = (t_target - window).max(0.0);
         let mut frame = source.seek_to_time(from)?;
         while frame.pts < target.pts {
             check()?;
             let t = frame_time_s(&info, &frame);
             if t > t_target - window {
-                lighting.params(&rain, &frame, t);
+                rain.observe(&frame, t);
             }
             frame = source
                 .next_frame()?
@@ -653,13 +643,110 @@ pub fn preview(
         }
     }
     check()?;
-    let (params, lights) = lighting.params(&rain, &target, t_target);
-    let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
-    lighting.upload_table(&mut compositor);
-    compositor.set_lights(&lights);
-    let out = compositor.render_one(&target, &params)?;
+    let out = rain.render(&target, t_target)?;
     check()?;
     Ok((out, info))
+}
+
+/// Rain added to a shot's frames one at a time: the library API for embedding the compositor in
+/// an editor or another pipeline, and what [`render`] and [`preview`] run on.
+///
+/// Frames go in shown order with their time in seconds from the shot's first frame (see
+/// [`frame_time_s`]): the rain at a frame is a pure function of that time, and the light of a
+/// frame is smoothed over the frames shortly before it, so to start mid-shot, first
+/// [`observe`](Self::observe) the frames of [`light_window_s`](Self::light_window_s) before it.
+///
+/// ```
+/// # fn main() -> rain_composite::Result<()> {
+/// use rain_composite::{RainCompositor, config::RenderConfig, gpu::AdapterRequest};
+/// use rain_composite::{pipeline::frame_time_s, video::Source};
+///
+/// let mut source = Source::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/city.mp4"))?;
+/// let info = source.info().clone();
+/// let mut config = RenderConfig::default();
+/// config.rain.rate_mm_per_h = 30.0;
+/// let mut rain = RainCompositor::new(&config, &info, &AdapterRequest::default())?;
+/// let frame = source.next_frame()?.expect("a first frame");
+/// let wet = rain.render(&frame, frame_time_s(&info, &frame))?;
+/// assert_eq!((wet.format, wet.pts), (frame.format, frame.pts));
+/// assert_ne!(wet.planes[0].data, frame.planes[0].data, "rain changes the picture");
+/// # Ok(())
+/// # }
+/// ```
+pub struct RainCompositor {
+    rain: RainSetup,
+    compositor: Compositor,
+    lighting: LightFeed,
+    adapter: String,
+}
+
+impl RainCompositor {
+    /// The compositor for a shot described by `info` (from [`Source::info`]), on the adapter
+    /// `adapter` asks for; `config` is validated.
+    pub fn new(
+        config: &RenderConfig,
+        info: &VideoInfo,
+        adapter: &AdapterRequest,
+    ) -> Result<RainCompositor> {
+        config.validate()?;
+        let ctx = Arc::new(GpuContext::new(adapter)?);
+        let rain = rain_for(info, config, &ctx)?;
+        log::info!("{}", rain.summary());
+        let mut compositor = Compositor::new(ctx.clone(), info.format, &info.color, &rain)?;
+        let lighting = LightFeed::new(info, config, &rain)?;
+        lighting.upload_table(&mut compositor);
+        Ok(RainCompositor {
+            rain,
+            compositor,
+            lighting,
+            adapter: ctx.summary().name,
+        })
+    }
+
+    /// How far back, seconds, earlier frames change the light of a frame (0 without light).
+    pub fn light_window_s(&self) -> f64 {
+        self.lighting.window_secs().unwrap_or(0.0)
+    }
+
+    /// Takes the light of a frame shown at `t_s` into account without rendering it.
+    pub fn observe(&mut self, frame: &YuvFrame, t_s: f64) {
+        self.lighting.params(&self.rain, frame, t_s);
+    }
+
+    /// The frame shown at `t_s` with rain, waiting for the GPU.
+    pub fn render(&mut self, frame: &YuvFrame, t_s: f64) -> Result<YuvFrame> {
+        let (params, lights) = self.lighting.params(&self.rain, frame, t_s);
+        self.compositor.set_lights(&lights);
+        self.compositor.render_one(frame, &params)
+    }
+
+    /// Pipelined [`render`](Self::render): queues the frame and returns an earlier one when it
+    /// is done (up to three are in flight); [`flush`](Self::flush) returns the rest.
+    pub fn submit(&mut self, frame: &YuvFrame, t_s: f64) -> Result<Option<YuvFrame>> {
+        let (params, lights) = self.lighting.params(&self.rain, frame, t_s);
+        self.compositor.set_lights(&lights);
+        self.compositor.submit(frame, &params)
+    }
+
+    /// The frames still in flight, in order.
+    pub fn flush(&mut self) -> Result<Vec<YuvFrame>> {
+        self.compositor.flush()
+    }
+
+    /// Drops drawn per frame.
+    pub fn drop_count(&self) -> u32 {
+        self.compositor.drop_count()
+    }
+
+    /// GPU time per stage so far.
+    pub fn gpu_times(&self) -> crate::gpu::GpuStageTimes {
+        self.compositor.gpu_times()
+    }
+
+    /// The adapter's name.
+    pub fn adapter(&self) -> &str {
+        &self.adapter
+    }
 }
 
 /// Feeds each frame's light to the GPU: from a [`LightEstimator`] where anything shows light,
