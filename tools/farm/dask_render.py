@@ -18,7 +18,9 @@ installs from PyPI and runs a real scheduler and workers on one machine for test
 import argparse
 import contextlib
 import json
+import logging
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -82,18 +84,22 @@ def main():
         if args.scheduler:
             client = stack.enter_context(Client(args.scheduler))
         else:
+            # Task failures reach us through gather(); the cluster's own log would add only
+            # the heartbeat errors its workers print when it shuts down under load.
             cluster = stack.enter_context(LocalCluster(
                 n_workers=args.workers, threads_per_worker=1, processes=True,
-                dashboard_address=None))
+                dashboard_address=None, silence_logs=logging.CRITICAL))
             client = stack.enter_context(Client(cluster))
         n = len(ranges)
         futures = client.map(render_chunk, [args.binary] * n, [source] * n, ranges, outputs,
                              [options] * n, retries=args.retries, pure=False)
-        done = client.gather(futures)
-    join.join(done, args.output, os.path.join(work, "chunks.ffconcat"))
-    for path in done + [os.path.join(work, "chunks.ffconcat")]:
-        os.remove(path)
-    os.rmdir(work)
+        try:
+            done = client.gather(futures)
+            join.join(done, args.output, os.path.join(work, "chunks.ffconcat"))
+        except (RuntimeError, subprocess.CalledProcessError) as e:
+            sys.exit("error: %s" % e)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
     print("%s: %d chunks of %d frames joined" % (args.output, len(ranges), args.chunk_frames))
 
 
