@@ -344,6 +344,17 @@ pub fn render(
 
     let mut stages = StageTimes::default();
     let mut written = 0u64;
+    let frames_total = match job.frames {
+        FrameRange::All => info.frame_count,
+        FrameRange::Indices { start, end } => {
+            let last = match (end, info.frame_count) {
+                (Some(e), Some(n)) => Some(e.min(n)),
+                (e, n) => e.or(n),
+            };
+            last.map(|l| l.saturating_sub(start))
+        }
+        FrameRange::Times { .. } => None,
+    };
     let gpu_result = (|| -> Result<()> {
         let mut send = |f: YuvFrame, written: &mut u64| -> Result<()> {
             out_tx
@@ -352,7 +363,7 @@ pub fn render(
             *written += 1;
             progress(Progress {
                 frames_done: *written,
-                frames_total: info.frame_count,
+                frames_total,
                 elapsed_s: started.elapsed().as_secs_f64(),
             });
             Ok(())
@@ -802,5 +813,65 @@ impl LightFeed {
             },
         };
         rain.frame_uniforms(t_s, &light, self.drop_zonal)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Times in different time bases compare exactly: equal instants are not earlier either
+    /// way, and one tick apart is.
+    #[test]
+    fn packet_times_compare_exactly_across_time_bases() {
+        for k in [1i64, 7, 3_600, 86_399] {
+            let audio = (48_000 * k, (1, 48_000));
+            let video = (12_800 * k, (1, 12_800));
+            assert!(!earlier(audio, video) && !earlier(video, audio), "{k} s");
+            assert!(
+                earlier((48_000 * k - 1, (1, 48_000)), video),
+                "{k} s less a tick"
+            );
+            assert!(
+                earlier(video, (48_000 * k + 1, (1, 48_000))),
+                "{k} s and a tick"
+            );
+        }
+        // NTSC: frame 30 000 at 1001/30000 s is exactly 1001 s.
+        assert!(!earlier(
+            (30_000, (1001, 30_000)),
+            (1001 * 90_000, (1, 90_000))
+        ));
+    }
+
+    /// A range places a frame by index or by time, half-open, the end left open when absent.
+    #[test]
+    fn ranges_are_half_open() {
+        use std::cmp::Ordering::*;
+        let by_index = FrameRange::Indices {
+            start: 10,
+            end: Some(20),
+        };
+        let places: Vec<_> = [9, 10, 19, 20].map(|i| by_index.place(i, 0.0)).into();
+        assert_eq!(places, [Less, Equal, Equal, Greater]);
+        let by_time = FrameRange::Times {
+            from_s: 1.0,
+            to_s: None,
+        };
+        assert_eq!(by_time.place(0, 0.96), Less);
+        assert_eq!(by_time.place(0, 1.0), Equal);
+        assert_eq!(by_time.place(0, 1e6), Equal);
+        for empty in [
+            FrameRange::Indices {
+                start: 5,
+                end: Some(5),
+            },
+            FrameRange::Times {
+                from_s: 2.0,
+                to_s: Some(1.0),
+            },
+        ] {
+            assert!(empty.validate().is_err(), "{empty}");
+        }
     }
 }

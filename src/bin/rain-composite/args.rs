@@ -713,6 +713,32 @@ mod tests {
         );
     }
 
+    /// `--frames` reads half-open, inclusive and open-ended ranges; `--from`/`--to` times.
+    #[test]
+    fn frame_ranges_parse() {
+        let range = |args: &[&str]| {
+            let mut all = vec!["rain-composite", "in.mp4"];
+            all.extend_from_slice(args);
+            frame_range(&parsed(&all).render)
+        };
+        let idx = |start, end| FrameRange::Indices { start, end };
+        assert_eq!(range(&["--frames", "3..8"]).ok(), Some(idx(3, Some(8))));
+        assert_eq!(range(&["--frames", "3..=8"]).ok(), Some(idx(3, Some(9))));
+        assert_eq!(range(&["--frames", "3.."]).ok(), Some(idx(3, None)));
+        assert_eq!(range(&[]).ok(), Some(FrameRange::All));
+        assert_eq!(
+            range(&["--from", "1.5s", "--to", "00:00:04"]).ok(),
+            Some(FrameRange::Times {
+                from_s: 1.5,
+                to_s: Some(4.0)
+            })
+        );
+        for bad in ["3", "a..b", "..4", "3..=x"] {
+            let e = range(&["--frames", bad]).expect_err(bad).to_string();
+            assert!(e.contains("--frames") && e.contains(bad), "{e}");
+        }
+    }
+
     /// The encoder flags' defaults are the library's.
     #[test]
     fn encode_defaults_are_the_library_defaults() {
