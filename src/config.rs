@@ -212,9 +212,23 @@ impl RenderConfig {
         Self::from_json(&text).map_err(|e| fail(e.to_string()))
     }
 
-    /// Parses a JSON configuration (any field may be left out; unknown keys are errors).
+    /// Parses a JSON configuration (any field may be left out; unknown keys are errors). A
+    /// top-level `description` string, which presets carry for `config --list`, is not a
+    /// setting and is skipped.
     pub fn from_json(text: &str) -> std::result::Result<RenderConfig, serde_json::Error> {
-        serde_json::from_str(text)
+        let error = match serde_json::from_str(text) {
+            Ok(config) => return Ok(config),
+            Err(e) => e,
+        };
+        // Read straight first, so that errors keep their line and column.
+        let mut tree: serde_json::Value = serde_json::from_str(text)?;
+        match tree.as_object_mut() {
+            Some(fields) if fields.get("description").is_some_and(|d| d.is_string()) => {
+                fields.remove("description");
+                serde_json::from_value(tree)
+            }
+            _ => Err(error),
+        }
     }
 }
 

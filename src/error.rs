@@ -58,6 +58,14 @@ pub enum Error {
         /// What is wrong, with the line and column for a parse error.
         reason: String,
     },
+    /// A `--set key.path=value` names no setting, has the wrong type or is out of range.
+    #[error("invalid --set {assignment}: {reason}")]
+    Override {
+        /// The override as the user gave it.
+        assignment: String,
+        /// What is wrong, with the keys or range allowed.
+        reason: String,
+    },
     /// The input uses a pixel format, codec or feature we cannot handle.
     #[error("unsupported: {0}")]
     Unsupported(String),

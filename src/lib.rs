@@ -55,9 +55,11 @@ pub mod gpu;
 pub mod inspect;
 pub mod lighting;
 pub mod pipeline;
+pub mod preset;
 pub mod rain;
 pub mod rng;
 pub mod scene;
 pub mod video;
 
 pub use error::{Error, Result};
+pub use pipeline::RainCompositor;

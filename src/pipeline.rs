@@ -18,7 +18,7 @@ use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
 use crate::scene::Camera;
 use crate::scene::depth::DepthSource;
-use crate::video::{EncodeOptions, Sink, Source, SourceItem, VideoInfo, YuvFrame};
+use crate::video::{EncodeOptions, Layer, Sink, Source, SourceItem, VideoInfo, YuvFrame};
 use crate::{Error, Result};
 
 /// Frames or packets buffered between two threads.
@@ -168,6 +168,111 @@ pub fn frame_time_s(info: &VideoInfo, frame: &YuvFrame) -> f64 {
     (frame.pts - info.start_pts) as f64 * info.time_base.0 as f64 / info.time_base.1 as f64
 }
 
+/// Which frames of the shot a job renders. A chunk holds exactly the frames, and the packets
+/// of the copied streams (audio), that a full render writes between its bounds, with the same
+/// timestamps, so chunks joined with `ffmpeg -f concat -c copy` are the full render.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum FrameRange {
+    /// The whole shot.
+    #[default]
+    All,
+    /// Frames whose zero-based index (presentation order) is in `[start, end)`; no end: to
+    /// the last frame.
+    Indices {
+        /// First frame rendered.
+        start: u64,
+        /// First frame not rendered.
+        end: Option<u64>,
+    },
+    /// Frames whose time (seconds from the first frame) is in `[from_s, to_s)`.
+    Times {
+        /// Earliest time rendered.
+        from_s: f64,
+        /// First time not rendered.
+        to_s: Option<f64>,
+    },
+}
+
+impl std::fmt::Display for FrameRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let end = |e: Option<String>| e.unwrap_or_default();
+        match *self {
+            FrameRange::All => write!(f, "all frames"),
+            FrameRange::Indices { start, end: e } => {
+                write!(f, "frames {start}..{}", end(e.map(|e| e.to_string())))
+            }
+            FrameRange::Times { from_s, to_s } => {
+                write!(
+                    f,
+                    "times {from_s} s..{} s",
+                    end(to_s.map(|t| t.to_string()))
+                )
+            }
+        }
+    }
+}
+
+impl FrameRange {
+    /// Where a frame of index `index` shown at `t_s` lies: before the range, in it, or after.
+    fn place(&self, index: u64, t_s: f64) -> std::cmp::Ordering {
+        use std::cmp::Ordering::*;
+        let (start, end) = match *self {
+            FrameRange::All => return Equal,
+            FrameRange::Indices { start, end } => (index < start, end.is_some_and(|e| index >= e)),
+            FrameRange::Times { from_s, to_s } => (t_s < from_s, to_s.is_some_and(|e| t_s >= e)),
+        };
+        match (start, end) {
+            (true, _) => Less,
+            (false, true) => Greater,
+            _ => Equal,
+        }
+    }
+
+    /// About when the range starts, seconds from the first frame (where to start decoding).
+    fn start_s(&self, info: &VideoInfo) -> f64 {
+        match *self {
+            FrameRange::All => 0.0,
+            FrameRange::Indices { start, .. } => {
+                let (num, den) = info.nominal_fps();
+                start as f64 * den as f64 / num.max(1) as f64
+            }
+            FrameRange::Times { from_s, .. } => from_s,
+        }
+    }
+
+    /// Rejects an empty or reversed range.
+    pub fn validate(&self) -> Result<()> {
+        let empty = match *self {
+            FrameRange::All => false,
+            FrameRange::Indices { start, end } => end.is_some_and(|e| e <= start),
+            FrameRange::Times { from_s, to_s } => {
+                !(from_s.is_finite() && from_s >= 0.0)
+                    || to_s.is_some_and(|e| !e.is_finite() || e <= from_s)
+            }
+        };
+        if empty {
+            return Err(Error::Parameter {
+                name: "--frames/--from/--to",
+                value: self.to_string(),
+                expected: "a range that starts at or after 0 and ends after it starts".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// How far apart in time a container may store the packets of its streams (audio against
+/// video), seconds. A chunk decodes this much before its first frame and reads this much past
+/// its last, so every audio packet inside its bounds is seen.
+const INTERLEAVE_SLACK_S: f64 = 2.0;
+
+/// Whether the packet time `a` (pts, time base) is before `b`, exactly.
+fn earlier((pa, (na, da)): (i64, (i32, i32)), (pb, (nb, db)): (i64, (i32, i32))) -> bool {
+    // pa·na/da < pb·nb/db with positive denominators, in integers.
+    let wide = |x: i64, y: i32, z: i32| i128::from(x) * i128::from(y) * i128::from(z);
+    wide(pa, na, db) < wide(pb, nb, da)
+}
+
 /// A full render: `input` → rain → `output`.
 #[derive(Debug, Clone)]
 pub struct Job {
@@ -181,6 +286,8 @@ pub struct Job {
     pub encode: EncodeOptions,
     /// Which adapter.
     pub adapter: AdapterRequest,
+    /// Which frames (a chunk of the shot, or all of it).
+    pub frames: FrameRange,
 }
 
 enum ToEncode {
@@ -200,25 +307,27 @@ pub fn render(
 ) -> Result<Summary> {
     job.render.validate()?;
     job.encode.validate()?;
+    job.frames.validate()?;
     crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
     let started = Instant::now();
-    let source = Source::open(&job.input)?;
+    let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
-    let mut depth = depth_for(&job.render, &info)?;
+    let depth = depth_for(&job.render, &info)?;
     let config = crate::scene::ground_auto::resolve(&job.render, &job.input)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
-    let ctx = Arc::new(GpuContext::new(&job.adapter)?);
-    let rain = rain_for(&info, &config, &ctx)?;
-    log::info!("{}", rain.summary());
-    let mut compositor = Compositor::with_layer(
-        ctx.clone(),
-        info.format,
-        &info.color,
-        &rain,
-        job.encode.layer,
-    )?;
-    let mut lighting = LightFeed::new(&info, &config, &rain)?;
-    lighting.upload_table(&mut compositor);
+    let rain = RainCompositor::with_layer(&config, &info, &job.adapter, job.encode.layer)?;
+    let mut rain = match depth {
+        Some(d) => rain.with_depth(d),
+        None => rain,
+    };
+    // A chunk starts decoding where the frames that light its first frame begin (as a preview
+    // does), less the interleaving slack for the audio; a pipe is read from the start.
+    let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
+    let mut first = None;
+    if warm_from_s > 0.0 && source.is_seekable() {
+        first = Some(SourceItem::Frame(source.seek_to_time(warm_from_s)?));
+    }
+    let mut chunk = ChunkCut::new(job.frames, &info);
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
     let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
@@ -231,7 +340,10 @@ pub fn render(
             let mut spent = Duration::ZERO;
             loop {
                 let t = Instant::now();
-                let item = source.next_item();
+                let item = match first.take() {
+                    Some(f) => Ok(Some(f)),
+                    None => source.next_item(),
+                };
                 spent += t.elapsed();
                 let end = !matches!(item, Ok(Some(_)));
                 let item = match item {
@@ -276,7 +388,17 @@ pub fn render(
 
     let mut stages = StageTimes::default();
     let mut written = 0u64;
-    let mut submitted = 0u64;
+    let frames_total = match job.frames {
+        FrameRange::All => info.frame_count,
+        FrameRange::Indices { start, end } => {
+            let last = match (end, info.frame_count) {
+                (Some(e), Some(n)) => Some(e.min(n)),
+                (e, n) => e.or(n),
+            };
+            last.map(|l| l.saturating_sub(start))
+        }
+        FrameRange::Times { .. } => None,
+    };
     let gpu_result = (|| -> Result<()> {
         let mut send = |f: Rendered, written: &mut u64| -> Result<()> {
             out_tx
@@ -285,9 +407,17 @@ pub fn render(
             *written += 1;
             progress(Progress {
                 frames_done: *written,
-                frames_total: info.frame_count,
+                frames_total,
                 elapsed_s: started.elapsed().as_secs_f64(),
             });
+            Ok(())
+        };
+        let send_packets = |packets: Vec<crate::video::CopiedPacket>| -> Result<()> {
+            for p in packets {
+                out_tx
+                    .send(ToEncode::Packet(p))
+                    .map_err(|_| Error::EncoderStopped)?;
+            }
             Ok(())
         };
         for item in &in_rx {
@@ -296,27 +426,46 @@ pub fn render(
             }
             match item? {
                 SourceItem::Frame(frame) => {
+                    let t_s = frame_time_s(&info, &frame);
+                    match chunk.frame(&frame, t_s) {
+                        Cut::Before => {
+                            // Lights the frames of the chunk (temporal smoothing).
+                            rain.observe(&frame, t_s);
+                            continue;
+                        }
+                        Cut::Done => break,
+                        Cut::After(packets) => {
+                            send_packets(packets)?;
+                            continue;
+                        }
+                        Cut::In(packets) => send_packets(packets)?,
+                    }
                     let t = Instant::now();
-                    let (params, lights) =
-                        lighting.params(&rain, &frame, frame_time_s(&info, &frame));
-                    compositor.set_lights(&lights);
-                    feed_depth(&mut depth, &mut compositor, frame.index, submitted == 0)?;
-                    submitted += 1;
-                    let done = compositor.submit_rendered(&frame, &params)?;
+                    let done = rain.submit(&frame, t_s)?;
                     stages.submit_s += t.elapsed().as_secs_f64();
                     if let Some(done) = done {
                         send(done, &mut written)?;
                     }
                 }
                 SourceItem::Packet(p) => {
+                    let Some(p) = chunk.packet(p) else {
+                        continue;
+                    };
                     if out_tx.send(ToEncode::Packet(p)).is_err() {
                         break;
                     }
                 }
             }
         }
+        if !chunk.started {
+            return Err(Error::OutOfRange(format!(
+                "no frame of '{}' lies in {}",
+                job.input, job.frames
+            )));
+        }
+        send_packets(chunk.finish())?;
         let t = Instant::now();
-        let rest = compositor.flush_rendered()?;
+        let rest = rain.flush()?;
         stages.readback_s += t.elapsed().as_secs_f64();
         for f in rest {
             send(f, &mut written)?;
@@ -351,16 +500,150 @@ pub fn render(
     let (frames, encode_time) = encoder
         .join()
         .map_err(|_| Error::Gpu("the encode thread panicked".into()))??;
-    stages.gpu = compositor.gpu_times();
+    stages.gpu = rain.gpu_times();
     stages.decode_s = decode_time.as_secs_f64();
     stages.encode_s = encode_time.as_secs_f64();
     Ok(Summary {
         frames,
         elapsed_s: started.elapsed().as_secs_f64(),
         stages,
-        drops: compositor.drop_count(),
-        adapter: ctx.summary().name,
+        drops: rain.drop_count(),
+        adapter: rain.adapter().to_string(),
     })
+}
+
+/// What to do with a frame, for [`ChunkCut`].
+enum Cut {
+    /// Before the chunk: feed the light only.
+    Before,
+    /// In the chunk: render it, after writing these held packets.
+    In(Vec<crate::video::CopiedPacket>),
+    /// After the chunk, while packets of its time may still come: skip it, writing these
+    /// held packets.
+    After(Vec<crate::video::CopiedPacket>),
+    /// Far enough past the chunk: stop reading.
+    Done,
+}
+
+/// Cuts a job's frames and copied packets to its [`FrameRange`]. The bounds are the
+/// timestamps of the chunk's first frame and of the first frame after it (none at the ends of
+/// the shot); a packet belongs to the chunk whose bounds hold its pts, so chunks split the
+/// audio exactly where they split the video, every packet going to one chunk. Packets arrive
+/// before the frames of their time are decoded, so a packet is held until a frame at or after
+/// it settles which side of a bound it lies on.
+struct ChunkCut {
+    range: FrameRange,
+    video_tb: (i32, i32),
+    /// Packets whose side of a bound is not known yet, in demux order.
+    held: Vec<crate::video::CopiedPacket>,
+    /// Whether the chunk's first frame was seen.
+    started: bool,
+    lower: Option<i64>,
+    /// The latest frame of the chunk: a packet before it is before the upper bound.
+    latest: Option<i64>,
+    upper: Option<(i64, f64)>,
+}
+
+impl ChunkCut {
+    fn new(range: FrameRange, info: &VideoInfo) -> ChunkCut {
+        ChunkCut {
+            range,
+            video_tb: info.time_base,
+            held: Vec::new(),
+            started: false,
+            lower: None,
+            latest: None,
+            upper: None,
+        }
+    }
+
+    /// What to do with `frame`, shown at `t_s`; [`Cut::In`] carries the held packets it settles.
+    fn frame(&mut self, frame: &YuvFrame, t_s: f64) -> Cut {
+        use std::cmp::Ordering::*;
+        match self.range.place(frame.index, t_s) {
+            Less => Cut::Before,
+            Equal => {
+                if !self.started {
+                    self.started = true;
+                    self.lower = (frame.index > 0).then_some(frame.pts);
+                }
+                self.latest = Some(frame.pts);
+                Cut::In(self.release())
+            }
+            Greater => {
+                if self.upper.is_none() {
+                    self.upper = Some((frame.pts, t_s));
+                    let settled = self.release();
+                    self.held.clear();
+                    return Cut::After(settled);
+                }
+                match self.upper {
+                    Some((_, upper_s)) if t_s >= upper_s + INTERLEAVE_SLACK_S => Cut::Done,
+                    _ => Cut::After(Vec::new()),
+                }
+            }
+        }
+    }
+
+    /// The packet, when it is known to belong to the chunk; held while that is open.
+    fn packet(&mut self, p: crate::video::CopiedPacket) -> Option<crate::video::CopiedPacket> {
+        if self.range == FrameRange::All {
+            return Some(p);
+        }
+        match self.side(&p) {
+            Some(true) => Some(p),
+            Some(false) => None,
+            None => {
+                self.held.push(p);
+                None
+            }
+        }
+    }
+
+    /// The held packets of the shot's end (no frame after the chunk came).
+    fn finish(&mut self) -> Vec<crate::video::CopiedPacket> {
+        let held = std::mem::take(&mut self.held);
+        match self.started {
+            true => held
+                .into_iter()
+                .filter(|p| self.side(p) != Some(false))
+                .collect(),
+            false => Vec::new(),
+        }
+    }
+
+    /// The held packets now known to belong to the chunk (those known not to are dropped).
+    fn release(&mut self) -> Vec<crate::video::CopiedPacket> {
+        let held = std::mem::take(&mut self.held);
+        let mut out = Vec::new();
+        for p in held {
+            match self.side(&p) {
+                Some(true) => out.push(p),
+                Some(false) => {}
+                None => self.held.push(p),
+            }
+        }
+        out
+    }
+
+    /// Whether `p` lies within the bounds; `None` while that is not known yet.
+    fn side(&self, p: &crate::video::CopiedPacket) -> Option<bool> {
+        if !self.started {
+            return None;
+        }
+        let Some(pts) = p.packet.pts() else {
+            return Some(self.upper.is_none());
+        };
+        let at = (pts, (p.time_base.numerator(), p.time_base.denominator()));
+        if self.lower.is_some_and(|l| earlier(at, (l, self.video_tb))) {
+            return Some(false);
+        }
+        match (self.upper, self.latest) {
+            (Some((u, _)), _) => Some(earlier(at, (u, self.video_tb))),
+            (None, Some(l)) if earlier(at, (l, self.video_tb)) => Some(true),
+            _ => None,
+        }
+    }
 }
 
 /// Which frame to preview.
@@ -393,25 +676,26 @@ pub fn preview(
     };
     let mut source = Source::open(input)?;
     let info = source.info().clone();
-    let mut depth = depth_for(render, &info)?;
+    let depth = depth_for(render, &info)?;
     let render = &crate::scene::ground_auto::resolve(render, input)?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,
     };
-    let ctx = Arc::new(GpuContext::new(adapter)?);
-    let rain = rain_for(&info, render, &ctx)?;
-    log::info!("{}", rain.summary());
-    let mut lighting = LightFeed::new(&info, render, &rain)?;
+    let mut rain = RainCompositor::new(render, &info, adapter)?;
+    if let Some(d) = depth {
+        rain = rain.with_depth(d);
+    }
     let t_target = frame_time_s(&info, &target);
-    if let Some(window) = lighting.window_secs() {
+    let window = rain.light_window_s();
+    if window > 0.0 {
         let from = (t_target - window).max(0.0);
         let mut frame = source.seek_to_time(from)?;
         while frame.pts < target.pts {
             check()?;
             let t = frame_time_s(&info, &frame);
             if t > t_target - window {
-                lighting.params(&rain, &frame, t);
+                rain.observe(&frame, t);
             }
             frame = source
                 .next_frame()?
@@ -419,14 +703,146 @@ pub fn preview(
         }
     }
     check()?;
-    let (params, lights) = lighting.params(&rain, &target, t_target);
-    let mut compositor = Compositor::new(ctx, info.format, &info.color, &rain)?;
-    lighting.upload_table(&mut compositor);
-    compositor.set_lights(&lights);
-    feed_depth(&mut depth, &mut compositor, target.index, true)?;
-    let out = compositor.render_one(&target, &params)?;
+    let out = rain.render(&target, t_target)?;
     check()?;
     Ok((out, info))
+}
+
+/// Rain added to a shot's frames one at a time: the library API for embedding the compositor in
+/// an editor or another pipeline, and what [`render`] and [`preview`] run on.
+///
+/// Frames go in shown order with their time in seconds from the shot's first frame (see
+/// [`frame_time_s`]): the rain at a frame is a pure function of that time, and the light of a
+/// frame is smoothed over the frames shortly before it, so to start mid-shot, first
+/// [`observe`](Self::observe) the frames of [`light_window_s`](Self::light_window_s) before it.
+///
+/// ```
+/// # fn main() -> rain_composite::Result<()> {
+/// use rain_composite::{RainCompositor, config::RenderConfig, gpu::AdapterRequest};
+/// use rain_composite::{pipeline::frame_time_s, video::Source};
+///
+/// let mut source = Source::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/city.mp4"))?;
+/// let info = source.info().clone();
+/// let mut config = RenderConfig::default();
+/// config.rain.rate_mm_per_h = 30.0;
+/// let mut rain = RainCompositor::new(&config, &info, &AdapterRequest::default())?;
+/// let frame = source.next_frame()?.expect("a first frame");
+/// let wet = rain.render(&frame, frame_time_s(&info, &frame))?;
+/// assert_eq!((wet.format, wet.pts), (frame.format, frame.pts));
+/// assert_ne!(wet.planes[0].data, frame.planes[0].data, "rain changes the picture");
+/// # Ok(())
+/// # }
+/// ```
+pub struct RainCompositor {
+    rain: RainSetup,
+    compositor: Compositor,
+    lighting: LightFeed,
+    depth: Option<DepthSource>,
+    depth_fed: bool,
+    adapter: String,
+}
+
+impl RainCompositor {
+    /// The compositor for a shot described by `info` (from [`Source::info`]), on the adapter
+    /// `adapter` asks for; `config` is validated.
+    pub fn new(
+        config: &RenderConfig,
+        info: &VideoInfo,
+        adapter: &AdapterRequest,
+    ) -> Result<RainCompositor> {
+        RainCompositor::with_layer(config, info, adapter, None)
+    }
+
+    /// As [`new`](Self::new), writing the rain as `layer` (with alpha, over black, or the
+    /// matte; see [`Layer`]) when given: frames then come back from
+    /// [`submit`](Self::submit) and [`flush`](Self::flush) as [`Rendered::Layer`].
+    pub fn with_layer(
+        config: &RenderConfig,
+        info: &VideoInfo,
+        adapter: &AdapterRequest,
+        layer: Option<Layer>,
+    ) -> Result<RainCompositor> {
+        config.validate()?;
+        let ctx = Arc::new(GpuContext::new(adapter)?);
+        let rain = rain_for(info, config, &ctx)?;
+        log::info!("{}", rain.summary());
+        let mut compositor =
+            Compositor::with_layer(ctx.clone(), info.format, &info.color, &rain, layer)?;
+        let lighting = LightFeed::new(info, config, &rain)?;
+        lighting.upload_table(&mut compositor);
+        Ok(RainCompositor {
+            rain,
+            compositor,
+            lighting,
+            depth: None,
+            depth_fed: false,
+            adapter: ctx.summary().name,
+        })
+    }
+
+    /// Hides the drops behind the scene's depth (`--depth`; opened by the caller, as a render
+    /// does before decoding): a still for every frame, or a map per frame index.
+    pub fn with_depth(mut self, depth: DepthSource) -> RainCompositor {
+        self.depth = Some(depth);
+        self
+    }
+
+    /// The uniforms, lights and depth of the frame shown at `t_s`, set on the compositor.
+    fn prepare(&mut self, frame: &YuvFrame, t_s: f64) -> Result<RainParams> {
+        let (params, lights) = self.lighting.params(&self.rain, frame, t_s);
+        self.compositor.set_lights(&lights);
+        feed_depth(
+            &mut self.depth,
+            &mut self.compositor,
+            frame.index,
+            !self.depth_fed,
+        )?;
+        self.depth_fed = true;
+        Ok(params)
+    }
+
+    /// How far back, seconds, earlier frames change the light of a frame (0 without light).
+    pub fn light_window_s(&self) -> f64 {
+        self.lighting.window_secs().unwrap_or(0.0)
+    }
+
+    /// Takes the light of a frame shown at `t_s` into account without rendering it.
+    pub fn observe(&mut self, frame: &YuvFrame, t_s: f64) {
+        self.lighting.params(&self.rain, frame, t_s);
+    }
+
+    /// The frame shown at `t_s` with rain, waiting for the GPU.
+    pub fn render(&mut self, frame: &YuvFrame, t_s: f64) -> Result<YuvFrame> {
+        let params = self.prepare(frame, t_s)?;
+        self.compositor.render_one(frame, &params)
+    }
+
+    /// Pipelined [`render`](Self::render): queues the frame and returns an earlier one when it
+    /// is done (up to three are in flight); [`flush`](Self::flush) returns the rest.
+    pub fn submit(&mut self, frame: &YuvFrame, t_s: f64) -> Result<Option<Rendered>> {
+        let params = self.prepare(frame, t_s)?;
+        self.compositor.submit_rendered(frame, &params)
+    }
+
+    /// The frames still in flight, in order.
+    pub fn flush(&mut self) -> Result<Vec<Rendered>> {
+        self.compositor.flush_rendered()
+    }
+
+    /// Drops drawn per frame.
+    pub fn drop_count(&self) -> u32 {
+        self.compositor.drop_count()
+    }
+
+    /// GPU time per stage so far.
+    pub fn gpu_times(&self) -> crate::gpu::GpuStageTimes {
+        self.compositor.gpu_times()
+    }
+
+    /// The adapter's name.
+    pub fn adapter(&self) -> &str {
+        &self.adapter
+    }
 }
 
 /// Feeds each frame's light to the GPU: from a [`LightEstimator`] where anything shows light,
@@ -482,5 +898,65 @@ impl LightFeed {
             },
         };
         rain.frame_uniforms(t_s, &light, self.drop_zonal)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Times in different time bases compare exactly: equal instants are not earlier either
+    /// way, and one tick apart is.
+    #[test]
+    fn packet_times_compare_exactly_across_time_bases() {
+        for k in [1i64, 7, 3_600, 86_399] {
+            let audio = (48_000 * k, (1, 48_000));
+            let video = (12_800 * k, (1, 12_800));
+            assert!(!earlier(audio, video) && !earlier(video, audio), "{k} s");
+            assert!(
+                earlier((48_000 * k - 1, (1, 48_000)), video),
+                "{k} s less a tick"
+            );
+            assert!(
+                earlier(video, (48_000 * k + 1, (1, 48_000))),
+                "{k} s and a tick"
+            );
+        }
+        // NTSC: frame 30 000 at 1001/30000 s is exactly 1001 s.
+        assert!(!earlier(
+            (30_000, (1001, 30_000)),
+            (1001 * 90_000, (1, 90_000))
+        ));
+    }
+
+    /// A range places a frame by index or by time, half-open, the end left open when absent.
+    #[test]
+    fn ranges_are_half_open() {
+        use std::cmp::Ordering::*;
+        let by_index = FrameRange::Indices {
+            start: 10,
+            end: Some(20),
+        };
+        let places: Vec<_> = [9, 10, 19, 20].map(|i| by_index.place(i, 0.0)).into();
+        assert_eq!(places, [Less, Equal, Equal, Greater]);
+        let by_time = FrameRange::Times {
+            from_s: 1.0,
+            to_s: None,
+        };
+        assert_eq!(by_time.place(0, 0.96), Less);
+        assert_eq!(by_time.place(0, 1.0), Equal);
+        assert_eq!(by_time.place(0, 1e6), Equal);
+        for empty in [
+            FrameRange::Indices {
+                start: 5,
+                end: Some(5),
+            },
+            FrameRange::Times {
+                from_s: 2.0,
+                to_s: Some(1.0),
+            },
+        ] {
+            assert!(empty.validate().is_err(), "{empty}");
+        }
     }
 }

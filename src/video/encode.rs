@@ -832,6 +832,11 @@ fn open_video(
             // Version 3: slices (multi-threaded) and per-slice CRCs.
             dict.set("level", "3");
             dict.set("slicecrc", "1");
+            // Every frame a keyframe: the range coder's contexts otherwise carry over from
+            // frame to frame, so a chunk starting mid-GOP would code the same pictures into
+            // other bytes. Intra-only, a chunk is the whole render's packets byte for byte (and
+            // any frame can be cut, as archival FFV1 is written).
+            dict.set("g", "1");
         }
     }
     let name = if y4m { Y4M } else { encoder_name };

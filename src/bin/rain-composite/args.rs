@@ -2,12 +2,12 @@
 //! of values that live in the library are read from it (`RenderConfig::default`,
 //! `EncodeOptions::default`), never repeated here.
 
-use std::path::PathBuf;
-
 use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
 use rain_composite::gpu::AdapterRequest;
+use rain_composite::pipeline::FrameRange;
+use rain_composite::preset;
 use rain_composite::video::{AlphaMode, AudioMode, EncodeOptions, Layer, VideoCodec};
 
 use crate::bench::BenchArgs;
@@ -50,6 +50,16 @@ pub enum Command {
     /// Time a full render against a plain ffmpeg transcode of the same clip (needs the ffmpeg CLI).
     #[command(allow_negative_numbers = true)]
     Bench(BenchArgs),
+    /// Print the effective configuration as JSON (`--print`), or list the presets (`--list`).
+    Config(ConfigArgs),
+    /// Print a shell completion script (bash: `source <(rain-composite completions bash)`).
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff), generated from these options: `rain-composite man > rain-composite.1`.
+    Man,
     /// List the GPU adapters, best first.
     Adapters {
         /// Print JSON.
@@ -87,6 +97,15 @@ pub struct RenderArgs {
     /// Progress report on stderr.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     pub progress: ProgressMode,
+    /// Render only these frames (zero-based): A..B is A up to but not including B, A..=B includes B, A.. runs to the end. Chunks joined with `ffmpeg -f concat` equal the whole render.
+    #[arg(long, value_name = "A..B", conflicts_with_all = ["from", "to"])]
+    pub frames: Option<String>,
+    /// Render only the frames shown at or after this time (seconds, 2.5s, 1500ms, 00:01:02.5).
+    #[arg(long, value_name = "TIME")]
+    pub from: Option<String>,
+    /// Render only the frames shown before this time.
+    #[arg(long, value_name = "TIME")]
+    pub to: Option<String>,
 }
 
 /// The rain and camera: every value is optional, so that only the flags given override the
@@ -94,9 +113,12 @@ pub struct RenderArgs {
 /// [`parse`]).
 #[derive(Args, Debug, Clone)]
 pub struct LookArgs {
-    /// JSON file of settings (see samples/presets/); flags given here override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
+    /// A preset by name (`rain-composite config --list`) or a JSON file of settings; --set and flags given here override it.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub config: Option<String>,
+    /// Override one setting of the configuration, e.g. rain.rate_mm_per_h=25 or rain.wind_mps=[3,0] (repeatable; keys as `config --print` shows them); flags given here override it.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
     /// Rain rate in mm/h, or drizzle (0.3) | light (1) | moderate (5) | heavy (20) | violent (75); 0 turns rain off.
     #[arg(long, value_name = "MM_PER_H")]
     pub rain: Option<String>,
@@ -269,6 +291,19 @@ pub struct PreviewArgs {
 }
 
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct ConfigArgs {
+    /// Print the configuration the same --config, --set and flags give a render, as JSON that --config FILE reads back.
+    #[arg(long, conflicts_with = "list", required_unless_present = "list")]
+    pub print: bool,
+    /// List the presets, one line each.
+    #[arg(long)]
+    pub list: bool,
+    #[command(flatten)]
+    pub look: LookArgs,
+}
+
+#[derive(Args, Debug)]
 pub struct ProbeArgs {
     /// Input video.
     pub input: String,
@@ -373,9 +408,13 @@ impl From<AudioMode> for AudioArg {
 /// Parses the command line (exiting with clap's message on an error), with each rain and
 /// camera flag's help ending in its default from [`RenderConfig::flag_values`].
 pub fn parse() -> Cli {
-    let command = with_look_defaults(Cli::command(), &RenderConfig::default().flag_values());
-    let matches = command.get_matches();
+    let matches = command().get_matches();
     Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
+/// The command line's definition as the help, the completions and the manual page show it.
+pub fn command() -> clap::Command {
+    with_look_defaults(Cli::command(), &RenderConfig::default().flag_values())
 }
 
 /// Appends `[default: …]` to the help of each [`LookArgs`] flag in `command` and its
@@ -440,12 +479,29 @@ pub fn parse_time_s(s: &str) -> anyhow::Result<f64> {
     Ok(t)
 }
 
-/// The render settings: the `--config` file (or the defaults), then each flag given.
+/// The render settings, lowest precedence first: the defaults, the `--config` preset or file,
+/// each `--set`, then each flag given.
 pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
-    let mut c = match &look.config {
-        Some(path) => RenderConfig::from_json_file(path)?,
+    let base = match &look.config {
+        Some(arg) => preset::load(arg)?,
         None => RenderConfig::default(),
     };
+    let build = |sets: &[String]| -> anyhow::Result<RenderConfig> {
+        let mut c = preset::with_overrides(&base, sets)?;
+        apply_flags(look, &mut c)?;
+        Ok(c)
+    };
+    let c = build(&look.sets)?;
+    preset::validate_layered(&c, &look.sets, |skip| {
+        let mut kept = look.sets.clone();
+        kept.remove(skip);
+        build(&kept).ok()
+    })?;
+    Ok(c)
+}
+
+/// Sets each value of `c` that a flag gives.
+fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     if let Some(r) = &look.rain {
         c.rain.rate_mm_per_h = parse_rain(r)?;
     }
@@ -528,8 +584,38 @@ pub fn render_config(look: &LookArgs) -> anyhow::Result<RenderConfig> {
     set!(look.tilt => cam.tilt_deg);
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
-    c.validate()?;
-    Ok(c)
+    Ok(())
+}
+
+/// The frames `--frames` or `--from`/`--to` ask for.
+pub fn frame_range(r: &RenderArgs) -> anyhow::Result<FrameRange> {
+    if let Some(text) = &r.frames {
+        let bad = || {
+            anyhow::anyhow!(
+                "invalid --frames '{text}': expected A..B (B excluded), A..=B (B included) or A.."
+            )
+        };
+        let (a, b) = text.split_once("..").ok_or_else(bad)?;
+        let start: u64 = a.trim().parse().map_err(|_| bad())?;
+        let end = match b.strip_prefix('=') {
+            Some(b) => Some(b.trim().parse::<u64>().map_err(|_| bad())? + 1),
+            None if b.trim().is_empty() => None,
+            None => Some(b.trim().parse().map_err(|_| bad())?),
+        };
+        return Ok(FrameRange::Indices { start, end });
+    }
+    if r.from.is_none() && r.to.is_none() {
+        return Ok(FrameRange::All);
+    }
+    Ok(FrameRange::Times {
+        from_s: r
+            .from
+            .as_deref()
+            .map(parse_time_s)
+            .transpose()?
+            .unwrap_or(0.0),
+        to_s: r.to.as_deref().map(parse_time_s).transpose()?,
+    })
 }
 
 /// Which GPU adapter the flags ask for.
@@ -681,6 +767,32 @@ mod tests {
             .expect_err("auto with tilt")
             .to_string();
         assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
+    }
+
+    /// `--frames` reads half-open, inclusive and open-ended ranges; `--from`/`--to` times.
+    #[test]
+    fn frame_ranges_parse() {
+        let range = |args: &[&str]| {
+            let mut all = vec!["rain-composite", "in.mp4"];
+            all.extend_from_slice(args);
+            frame_range(&parsed(&all).render)
+        };
+        let idx = |start, end| FrameRange::Indices { start, end };
+        assert_eq!(range(&["--frames", "3..8"]).ok(), Some(idx(3, Some(8))));
+        assert_eq!(range(&["--frames", "3..=8"]).ok(), Some(idx(3, Some(9))));
+        assert_eq!(range(&["--frames", "3.."]).ok(), Some(idx(3, None)));
+        assert_eq!(range(&[]).ok(), Some(FrameRange::All));
+        assert_eq!(
+            range(&["--from", "1.5s", "--to", "00:00:04"]).ok(),
+            Some(FrameRange::Times {
+                from_s: 1.5,
+                to_s: Some(4.0)
+            })
+        );
+        for bad in ["3", "a..b", "..4", "3..=x"] {
+            let e = range(&["--frames", bad]).expect_err(bad).to_string();
+            assert!(e.contains("--frames") && e.contains(bad), "{e}");
+        }
     }
 
     /// The encoder flags' defaults are the library's.

@@ -39,6 +39,7 @@ pub fn run_command(b: &BenchArgs) -> anyhow::Result<()> {
         render: render_config(&b.look)?,
         encode: encode_options(&b.encode, true),
         adapter: adapter(&b.gpu),
+        frames: Default::default(),
     };
     run(&job, &b.input, &b.heights, b.runs as usize)
 }

@@ -14,7 +14,7 @@ use rain_composite::gpu::list_adapters;
 use rain_composite::pipeline::{self, FrameSelector, Job, Progress};
 use rain_composite::video;
 
-use args::{Bits, Cli, Command, PreviewArgs, ProgressMode, RenderArgs};
+use args::{Bits, Cli, Command, ConfigArgs, PreviewArgs, ProgressMode, RenderArgs};
 use args::{adapter, encode_options, parse_time_s, render_config};
 
 mod args;
@@ -68,6 +68,7 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         render,
         encode,
         adapter: adapter(&args.gpu),
+        frames: args::frame_range(args)?,
     };
     let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(0);
@@ -156,6 +157,17 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `config --print`: the effective configuration; `config --list`: the presets.
+fn run_config(args: &ConfigArgs) -> anyhow::Result<()> {
+    if args.list {
+        for p in rain_composite::preset::PRESETS {
+            out(&format!("{:<14}{}", p.name, p.description()))?;
+        }
+        return Ok(());
+    }
+    out(&serde_json::to_string_pretty(&render_config(&args.look)?)?)
+}
+
 /// One line (or block) on stdout. A closed pipe (`| head`) ends the output quietly.
 pub(crate) fn out(text: &str) -> anyhow::Result<()> {
     use std::io::Write;
@@ -180,6 +192,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Inspect(i)) => inspect::run(i),
         Some(Command::Drops(d)) => drops::run(d),
+        Some(Command::Config(c)) => run_config(c),
+        Some(Command::Completions { shell }) => {
+            let mut command = args::command();
+            let mut script = Vec::new();
+            clap_complete::generate(*shell, &mut command, "rain-composite", &mut script);
+            out(String::from_utf8_lossy(&script).trim_end())
+        }
+        Some(Command::Man) => {
+            let mut page = Vec::new();
+            clap_mangen::Man::new(args::command()).render(&mut page)?;
+            out(String::from_utf8_lossy(&page).trim_end())
+        }
         Some(Command::Bench(b)) => bench::run_command(b),
         Some(Command::Adapters { json }) => {
             let adapters = list_adapters();
