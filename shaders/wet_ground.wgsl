@@ -37,7 +37,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = (1.0 - r) * (1.0 - wet.diffuse_external) / (n * n * (1.0 - albedo * wet.diffuse_internal));
     let sky = max(sh_radiance(rain.env_sh, vec3<f32>(d.x, d.y, -d.z)), vec3<f32>(0.0));
     let change = (k - 1.0) * scene + r * sky;
-    textureStore(canvas, id.xy, vec4<f32>(c + wet.wetness * t * change, 1.0));
+    let wetness = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m);
+    textureStore(canvas, id.xy, vec4<f32>(c + wetness * t * change, 1.0));
+}
+
+// 1 on ground nearer than half the reach, 0 beyond it: a ray that meets the plane farther than
+// the filmed scene has met the scene first (a facade, the far shore), not the ground.
+fn reach_fade(distance_m: f32, reach_m: f32) -> f32 {
+    if reach_m <= 0.0 { return 1.0; }
+    return 1.0 - smoothstep(0.5 * reach_m, reach_m, distance_m);
 }
 
 // Unpolarised Fresnel reflectance of a surface of index n seen from the air at incidence

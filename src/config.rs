@@ -156,11 +156,16 @@ impl Default for GroundConfig {
 impl GroundConfig {
     /// How a given ground wets under rain of `rate_mm_per_h` (constant through the clip, and
     /// for `pre_rain_min` before it); `None` without a ground or without rain.
-    pub fn wetting(&self, rate_mm_per_h: f64) -> Option<crate::scene::wetness::Wetting> {
+    pub fn wetting(
+        &self,
+        rate_mm_per_h: f64,
+        reach_m: f64,
+    ) -> Option<crate::scene::wetness::Wetting> {
         use crate::scene::wetness::{RainHistory, SurfaceStore, Wetting};
         let wetting = Wetting {
             store: SurfaceStore::default(),
             history: RainHistory::constant(rate_mm_per_h, 60.0 * self.pre_rain_min),
+            reach_m,
         };
         (self.is_given() && wetting.ever_wet()).then_some(wetting)
     }

@@ -125,7 +125,11 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
     )?;
     Ok(setup
         .with_ground(config.ground.is_given())
-        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h))
+        .with_wetting(
+            config
+                .ground
+                .wetting(config.rain.rate_mm_per_h, config.rain.scene_depth_m),
+        )
         .with_scene_depth(config.ground.depth.is_some()))
 }
 

@@ -57,7 +57,16 @@ fn wet_params_twin_matches_wgsl_layout() {
     assert_twin!(
         m,
         WetParams,
-        [wetness, water_index, diffuse_external, diffuse_internal]
+        [
+            wetness,
+            water_index,
+            diffuse_external,
+            diffuse_internal,
+            reach_m,
+            _pad0,
+            _pad1,
+            _pad2
+        ]
     );
 }
 

@@ -130,6 +130,7 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
     let wet = |rate: f64, pre_min: f64| Wetting {
         store: SurfaceStore::default(),
         history: RainHistory::constant(rate, 60.0 * pre_min),
+        reach_m: 0.0,
     };
     assert_eq!(wet(10.0, 0.0).wetness_at(0.0), 0.0);
     let mut last = 0.0;
@@ -146,6 +147,7 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
     let stops = Wetting {
         store: SurfaceStore::default(),
         history: RainHistory::new(vec![(-600.0, 10.0), (0.0, 0.0)]).expect("history"),
+        reach_m: 0.0,
     };
     let w0 = stops.wetness_at(0.0);
     let tau = SurfaceStore::default().drying_s;
@@ -160,11 +162,11 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
         ..GroundConfig::default()
     };
     let horizon: GroundMode = "horizon=0.6".parse().expect("mode");
-    assert!(ground(GroundMode::None, 10.0).wetting(10.0).is_none());
-    assert!(ground(horizon, 0.0).wetting(0.0).is_none());
-    assert!(ground(horizon, 10.0).wetting(0.0).is_none());
-    assert!(ground(horizon, 10.0).wetting(1.0).is_some());
-    assert!(ground(horizon, 0.0).wetting(10.0).is_some());
+    assert!(ground(GroundMode::None, 10.0).wetting(10.0, 50.0).is_none());
+    assert!(ground(horizon, 0.0).wetting(0.0, 50.0).is_none());
+    assert!(ground(horizon, 10.0).wetting(0.0, 50.0).is_none());
+    assert!(ground(horizon, 10.0).wetting(1.0, 50.0).is_some());
+    assert!(ground(horizon, 0.0).wetting(10.0, 50.0).is_some());
 }
 
 /// A 4:4:4 10-bit BT.709 picture: a texture, or one grey (`flat`).
@@ -231,6 +233,7 @@ fn drying() -> Wetting {
     Wetting {
         store: SurfaceStore::default(),
         history: RainHistory::new(vec![(-600.0, 10.0), (0.0, 0.0)]).expect("history"),
+        reach_m: 0.0,
     }
 }
 
@@ -289,7 +292,13 @@ fn the_stage_matches_its_cpu_twin() {
             f64::to_radians(tilt_deg),
             f64::to_radians(roll_deg),
         );
-        let s = setup(&camera, rotation, Some(drying()));
+        // A ground reaching 30 m: the fade (from 15 m) is held to the twin too.
+        let reach_m = 30.0;
+        let wetting = Wetting {
+            reach_m,
+            ..drying()
+        };
+        let s = setup(&camera, rotation, Some(wetting));
         let p = lit(&s, 120.0, &SKY, 0.9);
         let frame = picture(
             s.params.coded_size_px[0] as u32,
@@ -303,7 +312,7 @@ fn the_stage_matches_its_cpu_twin() {
             &mut canvas,
             frame.format.width,
             &p,
-            &WetParams::new(wetness, &FilmOptics::water()),
+            &WetParams::new(wetness, &FilmOptics::water(), reach_m),
         );
         let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color);
         let dry = codes(&render(&ctx, &frame, &setup(&camera, rotation, None), &p));
@@ -369,8 +378,18 @@ fn nothing_changes_at_or_above_the_horizon() {
 #[test]
 fn a_grey_ground_darkens_as_the_closed_form_says() {
     let Some(ctx) = gpu() else { return };
+    // The ground unbounded, then reaching 8 m: the wetting fades out from 4 to 8 m.
+    for reach_m in [0.0, 8.0] {
+        grey_ground_closed_form(&ctx, reach_m);
+    }
+}
+
+fn grey_ground_closed_form(ctx: &std::sync::Arc<GpuContext>, reach_m: f64) {
     let camera = Camera::new(40, 60, 1.2, 1.6, f64::to_radians(-20.0), 0.0);
-    let wetting = drying();
+    let wetting = Wetting {
+        reach_m,
+        ..drying()
+    };
     let t = 300.0;
     let s = setup(&camera, 0, Some(wetting.clone()));
     // A uniform sky of radiance 2: irradiance 2π on the ground, and the mirror image is 2.
@@ -379,7 +398,7 @@ fn a_grey_ground_darkens_as_the_closed_form_says() {
     let c0 = (sky / y00) as f32;
     let p = lit(&s, t, &[(0, [c0, c0, c0])], 1.0);
     let frame = picture(40, 60, Some(400));
-    let gpu = codes(&render(&ctx, &frame, &s, &p));
+    let gpu = codes(&render(ctx, &frame, &s, &p));
     let dry = frame.color.code_to_linear([400.0, 512.0, 512.0])[1];
     let albedo = std::f64::consts::PI * dry / (std::f64::consts::PI * sky);
     let w = wetting.wetness_at(t);
@@ -403,6 +422,17 @@ fn a_grey_ground_darkens_as_the_closed_form_says() {
             let v = if d.z < 0.0 {
                 let r = fresnel_angles((-d.z).acos());
                 let k = (1.0 - r) * (1.0 - r_ext) / (n2 * (1.0 - albedo * r_int));
+                // The camera is 1.6 m up: the ray meets the ground 1.6/cos(view) away.
+                let distance_m = 1.6 / (-d.z / d.length());
+                let fade = if reach_m <= 0.0 || distance_m <= 0.5 * reach_m {
+                    1.0
+                } else if distance_m >= reach_m {
+                    0.0
+                } else {
+                    let x = 2.0 * distance_m / reach_m - 1.0;
+                    1.0 - x * x * (3.0 - 2.0 * x)
+                };
+                let w = w * fade;
                 ratios.push(1.0 + w * (k - 1.0));
                 dry * (1.0 + w * (k - 1.0)) + w * r * sky
             } else {
@@ -419,9 +449,16 @@ fn a_grey_ground_darkens_as_the_closed_form_says() {
     let (lo, hi) = ratios
         .iter()
         .fold((f64::MAX, f64::MIN), |(lo, hi), &r| (lo.min(r), hi.max(r)));
-    eprintln!("albedo {albedo:.3}, w {w:.3}: diffuse ratio {lo:.3}..{hi:.3}, worst {worst} codes");
+    eprintln!(
+        "reach {reach_m} m: albedo {albedo:.3}, w {w:.3}: diffuse ratio {lo:.3}..{hi:.3}, worst {worst} codes"
+    );
     assert!(worst <= 2, "{worst} codes off");
-    assert!(hi < 0.8, "the wet ground is darker: {hi}");
+    assert!(lo < 0.8, "the near wet ground is darker: {lo}");
+    if reach_m > 0.0 {
+        assert!(hi > 0.999, "beyond the reach the ground stays dry: {hi}");
+    } else {
+        assert!(hi < 0.8, "the wet ground is darker: {hi}");
+    }
 }
 
 #[test]
@@ -439,7 +476,7 @@ fn without_a_ground_the_frame_is_bit_identical() {
     let with_none = plain
         .clone()
         .with_ground(none.is_given())
-        .with_wetting(none.wetting(rain.rate_mm_per_h));
+        .with_wetting(none.wetting(rain.rate_mm_per_h, rain.scene_depth_m));
     assert!(with_none.wetting.is_none());
     let frame = picture(32, 24, None);
     let p = lit(&plain, 1.0, &SKY, 0.95);

@@ -112,4 +112,8 @@ struct WetParams {
     water_index: f32,       // refractive index of the film
     diffuse_external: f32,  // the film's reflectance for diffuse light from the air
     diffuse_internal: f32,  // and for diffuse light inside it (total internal reflection included)
+    reach_m: f32,           // how far the ground reaches: wetness fades from reach/2 to reach (0: no limit)
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
 }

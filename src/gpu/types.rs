@@ -241,16 +241,30 @@ pub struct WetParams {
     pub water_index: f32,
     pub diffuse_external: f32,
     pub diffuse_internal: f32,
+    /// How far the ground reaches, m: wetness fades out from half this distance to it (0: no
+    /// limit). See [`crate::scene::wetness::Wetting::reach_m`].
+    pub reach_m: f32,
+    pub _pad0: f32,
+    pub _pad1: f32,
+    pub _pad2: f32,
 }
 
 impl WetParams {
-    /// The uniforms for wetness `wetness` of a film with `optics`.
-    pub fn new(wetness: f64, optics: &crate::scene::wetness::FilmOptics) -> WetParams {
+    /// The uniforms for wetness `wetness` of a film with `optics`, on ground reaching `reach_m`.
+    pub fn new(
+        wetness: f64,
+        optics: &crate::scene::wetness::FilmOptics,
+        reach_m: f64,
+    ) -> WetParams {
         WetParams {
             wetness: wetness as f32,
             water_index: optics.index as f32,
             diffuse_external: optics.diffuse_external as f32,
             diffuse_internal: optics.diffuse_internal as f32,
+            reach_m: reach_m as f32,
+            _pad0: 0.0,
+            _pad1: 0.0,
+            _pad2: 0.0,
         }
     }
 }

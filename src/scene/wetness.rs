@@ -118,6 +118,21 @@ pub struct Wetting {
     pub store: SurfaceStore,
     /// The rain.
     pub history: RainHistory,
+    /// How far the ground reaches, m (0: no limit): the filmed scene's distance. A view ray
+    /// that meets the plane farther away has met the scene first (a facade, the far shore),
+    /// so the wetting fades out between half this distance and it ([`reach_fade`]) rather
+    /// than paint a sheen of the sky up to the horizon.
+    pub reach_m: f64,
+}
+
+/// Share of the wetting kept on ground `distance_m` away when the ground reaches `reach_m`:
+/// 1 nearer than half the reach, 0 beyond it, smoothstep between (no limit when `reach_m` ≤ 0).
+pub fn reach_fade(distance_m: f64, reach_m: f64) -> f64 {
+    if reach_m <= 0.0 {
+        return 1.0;
+    }
+    let x = ((distance_m - 0.5 * reach_m) / (0.5 * reach_m)).clamp(0.0, 1.0);
+    1.0 - x * x * (3.0 - 2.0 * x)
 }
 
 impl Wetting {

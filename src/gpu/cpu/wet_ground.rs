@@ -11,7 +11,7 @@ use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{RainParams, WetParams};
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::lighting::sh::{band_of, eval_basis};
-use crate::scene::wetness::{FilmOptics, reflectance};
+use crate::scene::wetness::{FilmOptics, reach_fade, reflectance};
 
 /// The environment of `p` as f64 coefficients.
 fn environment(p: &RainParams) -> Vec<[f64; 3]> {
@@ -75,6 +75,7 @@ pub fn wet_ground(canvas: &mut [[f64; 3]], width: u32, p: &RainParams, wet: &Wet
             [0.0; 3]
         };
         let cos_view = -d.z;
+        let distance_m = p.camera_pos_m[2] as f64 / cos_view;
         let r = reflectance(optics.index, cos_view);
         let sky = radiance(&env, DVec3::new(d.x, d.y, -d.z));
         for k in 0..3 {
@@ -86,7 +87,7 @@ pub fn wet_ground(canvas: &mut [[f64; 3]], width: u32, p: &RainParams, wet: &Wet
                 0.0
             };
             let change = (optics.darkening(albedo, cos_view) - 1.0) * scene + r * sky[k].max(0.0);
-            pixel[k] += w * transmittance * change;
+            pixel[k] += w * reach_fade(distance_m, wet.reach_m as f64) * transmittance * change;
         }
     }
 }

@@ -84,7 +84,11 @@ impl FrameStage for WetGround {
     fn prepare(&self, queue: &wgpu::Queue, rain: &RainParams) {
         if let Some(job) = &self.job {
             let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
-            let params = WetParams::new(job.wetting.wetness_at(t_s), &job.optics);
+            let params = WetParams::new(
+                job.wetting.wetness_at(t_s),
+                &job.optics,
+                job.wetting.reach_m,
+            );
             queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&params));
         }
     }
