@@ -21,7 +21,7 @@
 // transfer table (lights.wgsl), seen from the end's position; the ray changes by a few degrees
 // at most along a streak.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl,
-// common/lights.wgsl.
+// common/camera.wgsl, common/lights.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
@@ -33,25 +33,6 @@ const MIN_RADIUS_PX: f32 = 0.7;
 const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 // Largest drawn radius, as a fraction of the picture height (near-field drops).
 const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
-
-fn hidden() -> Streak {
-    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
-}
-
-fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
-    let d = p_world - rain.camera_pos_m.xyz;
-    return vec3<f32>(dot(rain.camera_from_world_0.xyz, d), dot(rain.camera_from_world_1.xyz, d), dot(rain.camera_from_world_2.xyz, d));
-}
-
-// Drop radiance at camera-space point `p_cam`: environment (PRT) plus compact lights; w: the
-// point's depth (camera z, m), which rain_streaks compares with the scene's depth map.
-fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
-    // World offset from the camera: world_from_camera · p, the rows of camera_from_world.
-    let offset = rain.camera_from_world_0.xyz * p_cam.x + rain.camera_from_world_1.xyz * p_cam.y + rain.camera_from_world_2.xyz * p_cam.z;
-    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
-        + direct_light(offset, offset);
-    return vec4<f32>(max(c, vec3<f32>(0.0)), p_cam.z);
-}
 
 fn streak_of(id: u32) -> Streak {
     let drop = drop_state(id);
@@ -99,7 +80,7 @@ fn streak_of(id: u32) -> Streak {
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(c0), radiance_at(c1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, drop_radiance(c0), drop_radiance(c1));
 }
 
 @compute @workgroup_size(SIMULATE_WORKGROUP)

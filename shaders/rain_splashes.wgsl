@@ -15,7 +15,7 @@
 // Lit exactly like the drops: PRT of the environment with the drop's zonal RTF plus the compact
 // lights.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl,
-// common/lights.wgsl.
+// common/camera.wgsl, common/lights.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
@@ -28,24 +28,6 @@
 const MIN_RADIUS_PX: f32 = 0.7;
 const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 const PI: f32 = 3.14159265;
-
-fn hidden() -> Streak {
-    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
-}
-
-fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
-    let d = p_world - rain.camera_pos_m.xyz;
-    return vec3<f32>(dot(rain.camera_from_world_0.xyz, d), dot(rain.camera_from_world_1.xyz, d), dot(rain.camera_from_world_2.xyz, d));
-}
-
-// Radiance at camera-space point `p_cam`, as the drops' (rain_simulate); w: its depth (camera z,
-// m), for the depth map's occlusion in rain_streaks.
-fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
-    let offset = rain.camera_from_world_0.xyz * p_cam.x + rain.camera_from_world_1.xyz * p_cam.y + rain.camera_from_world_2.xyz * p_cam.z;
-    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
-        + direct_light(offset, offset);
-    return vec4<f32>(max(c, vec3<f32>(0.0)), p_cam.z);
-}
 
 // The streak of water `width_m` wide moving from w0 to w1 (world) while in view for `exposed` of
 // the exposure, its coverage times `weight`.
@@ -78,7 +60,7 @@ fn segment_streak(w0: vec3<f32>, w1: vec3<f32>, exposed: f32, width_m: f32, weig
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(c0), radiance_at(c1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, drop_radiance(c0), drop_radiance(c1));
 }
 
 fn crown_radius_m(d_m: f32, speed_mps: f32, tau_s: f32) -> f32 {

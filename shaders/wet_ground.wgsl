@@ -6,7 +6,7 @@
 // film over a surface of albedo a = π·L / E (E the irradiance the frame's environment SH sends
 // onto the level ground) and R the exact unpolarised Fresnel reflectance of water. The mirror
 // image comes from four SH bands: a blurred sky, as on a rough wet road, not a sharp mirror.
-// Includes: common/types.wgsl, common/sh.wgsl.
+// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> wet: WetParams;
@@ -75,13 +75,4 @@ fn irradiance_up(env: array<vec4<f32>, 16>) -> vec3<f32> {
     return PI * 0.28209479177387814 * env[0].rgb
         + (2.0 * PI / 3.0) * 0.4886025119029199 * env[2].rgb
         + (PI / 4.0) * 0.6307831305050401 * env[6].rgb;
-}
-
-// World direction of the ray through the centre of coded pixel p (as in yuv_to_rgb).
-fn view_ray(p: vec2<u32>) -> vec3<f32> {
-    let m = rain.coded_from_display;
-    let c = vec2<f32>(p) + vec2<f32>(0.5) - rain.coded_offset_px;
-    let q = vec2<f32>(m.x * c.x + m.y * c.y, m.z * c.x + m.w * c.y);
-    let d = (q - rain.principal_px) / rain.focal_px;
-    return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
 }

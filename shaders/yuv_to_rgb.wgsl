@@ -6,7 +6,7 @@
 // The in-scatter along a pixel's ray is what a drop on that ray shows (the PRT colour of the
 // frame's environment, compact lights left to the drawn drops) times the haze's opacity, so the
 // veil follows the light of the scene across the picture.
-// Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl.
+// Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
 @group(0) @binding(1) var plane_y: texture_2d<u32>;
@@ -45,14 +45,4 @@ fn layer(@builtin(global_invocation_id) id: vec3<u32>) {
 fn in_scatter(p: vec2<u32>) -> vec3<f32> {
     if rain.haze.w >= 1.0 { return vec3<f32>(0.0); }
     return (1.0 - rain.haze.w) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(p)), vec3<f32>(0.0));
-}
-
-// World direction of the ray through the centre of coded pixel `p`: back to display pixels
-// (the display rotation is orthogonal, so its inverse is its transpose), then the pinhole.
-fn view_ray(p: vec2<u32>) -> vec3<f32> {
-    let m = rain.coded_from_display;
-    let c = vec2<f32>(p) + vec2<f32>(0.5) - rain.coded_offset_px;
-    let q = vec2<f32>(m.x * c.x + m.y * c.y, m.z * c.x + m.w * c.y);
-    let d = (q - rain.principal_px) / rain.focal_px;
-    return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
 }

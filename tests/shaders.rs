@@ -189,6 +189,7 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
             "common/rng.wgsl",
             "common/drops.wgsl",
             "common/sh.wgsl",
+            "common/camera.wgsl",
             "common/lights.wgsl"
         ]
     );

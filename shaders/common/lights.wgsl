@@ -47,3 +47,18 @@ fn direct_light(view: vec3<f32>, drop_from_camera_m: vec3<f32>) -> vec3<f32> {
     }
     return c;
 }
+
+// Drop radiance at camera-space point `p_cam` (a drop's or a splash droplet's): the environment
+// through the drop's transfer function (PRT, sh.wgsl) plus the compact lights; w: the point's
+// depth (camera z, m), which rain_streaks compares with the scene's depth map.
+fn drop_radiance(p_cam: vec3<f32>) -> vec4<f32> {
+    let offset = world_offset(p_cam);
+    let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
+        + direct_light(offset, offset);
+    return vec4<f32>(max(c, vec3<f32>(0.0)), p_cam.z);
+}
+
+// A streak that is not drawn (rain_streaks skips len_px < 0).
+fn hidden() -> Streak {
+    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+}

@@ -32,7 +32,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 6] = [
+const COMMON: [(&str, &str); 7] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -48,6 +48,10 @@ const COMMON: [(&str, &str); 6] = [
     (
         "common/drops.wgsl",
         include_str!("../../shaders/common/drops.wgsl"),
+    ),
+    (
+        "common/camera.wgsl",
+        include_str!("../../shaders/common/camera.wgsl"),
     ),
     (
         "common/sh.wgsl",

@@ -88,18 +88,8 @@ pub fn streak_of(
     vel_mps: DVec3,
     width_mm: f64,
 ) -> Option<StreakShape> {
-    let v3 = |a: &[f32]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
     let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
-    let cam = v3(&p.camera_pos_m);
-    let rows = [
-        v3(&p.camera_from_world_0),
-        v3(&p.camera_from_world_1),
-        v3(&p.camera_from_world_2),
-    ];
-    let to_camera = |w: DVec3| {
-        let d = w - cam;
-        DVec3::new(rows[0].dot(d), rows[1].dot(d), rows[2].dot(d))
-    };
+    let to_camera = |w: DVec3| super::to_camera(p, w);
     let half = vel_mps * (0.5 * p.exposure_s as f64);
     let (w0, mut w1) = (pos_m - half, pos_m + half);
     let mut exposed = 1.0;
