@@ -6,7 +6,7 @@
 
 use std::path::Path;
 use std::process::Command;
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
 use rain_composite::config::{CameraConfig, RainConfig};
@@ -14,7 +14,7 @@ use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::probe::probe_streaks;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
+use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
@@ -22,6 +22,10 @@ use rain_composite::scene::depth::DepthSource;
 use rain_composite::scene::{Camera, DepthMap};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
 use tempfile::TempDir;
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
@@ -33,22 +37,6 @@ const BOX: [u32; 4] = [48, 112, 24, 72];
 const BOX_M: f32 = 2.5;
 /// The scene around the box.
 const FAR_M: f32 = 100.0;
-
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(Arc::new(c)),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    })
-    .clone()
-}
 
 fn format(rotation_deg: i32) -> FrameFormat {
     let (w, h) = if rotation_deg.rem_euclid(180) == 90 {

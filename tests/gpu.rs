@@ -1,34 +1,22 @@
 //! GPU stages against their CPU twins, on whatever adapter the machine has (lavapipe in CI).
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` (CI does) to turn a missing adapter into a failure.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::types::RainParams;
 use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
-use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext, probe::probe_drops};
+use rain_composite::gpu::{Compositor, GpuContext, probe::probe_drops};
 use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
 use rain_composite::rain::physics::streak_width_factor;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
 
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(Arc::new(c)),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    })
-    .clone()
-}
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 /// A deterministic picture of scattered code values. `chroma_spread` in (0, 1] narrows chroma
 /// around neutral: at 1 many pixels are far out of the RGB gamut (fine for SDR transfers, whose

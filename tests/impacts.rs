@@ -11,12 +11,15 @@ use rain_composite::gpu::cpu::rain_simulate::{self, StreakShape};
 use rain_composite::gpu::probe::{probe_drops, probe_streaks};
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use tempfile::TempDir;
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
@@ -165,20 +168,6 @@ fn no_streak_reaches_below_the_ground() {
     assert_eq!(below_with, 0);
     assert!(below_without > 10, "{below_without}");
     assert!(landed > 10, "{landed}");
-}
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
 }
 
 fn close(a: f64, b: f64) -> bool {

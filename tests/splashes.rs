@@ -8,12 +8,15 @@ use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
 use rain_composite::gpu::probe::probe_splashes;
 use rain_composite::gpu::types::LightList;
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
 use rain_composite::rain::physics::splash::{SPLASH_SLOTS, splash_number, splashes};
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
 use rain_composite::rain::volume::{impacts_between, landing_columns, sample_drop};
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 const EXPOSURE_S: f64 = 0.02;
 
@@ -164,20 +167,6 @@ fn only_drops_above_the_splashing_threshold_splash() {
     }
     eprintln!("{below} impacts below the threshold, {drawn} splash streaks above it");
     assert!(below > 1000 && drawn > 100, "{below} {drawn}");
-}
-
-fn gpu() -> Option<GpuContext> {
-    match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(c),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
 }
 
 /// The GPU stage draws the splashes its CPU twin draws: the same streaks in the same slots,

@@ -3,7 +3,7 @@
 //! long clips: a drop ten hours in is placed as precisely as one ten seconds in.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::{
@@ -13,7 +13,7 @@ use rain_composite::gpu::probe::{probe_drops, probe_splashes, probe_streaks};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
+use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
@@ -21,21 +21,9 @@ use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
 
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(Arc::new(c)),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    })
-    .clone()
-}
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 /// One frame case: a picture format, its colour, and a display rotation.
 struct Case {

@@ -4,14 +4,14 @@
 //! dry render above the horizon (bit for bit) for tilted, rolled and rotated cameras.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, GroundConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, wet_ground, yuv_to_rgb};
 use rain_composite::gpu::types::{RainParams, WetParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
+use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::wetness::{
     FilmOptics, RainHistory, SurfaceStore, WATER_INDEX, Wetting, water_reflectance,
@@ -19,21 +19,9 @@ use rain_composite::scene::wetness::{
 use rain_composite::scene::{Camera, GroundMode};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
 
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(Arc::new(c)),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    })
-    .clone()
-}
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 /// Fresnel's unpolarised reflectance in angle form, air → water (independent of the cosine
 /// form the crate uses).
