@@ -7,7 +7,7 @@
 // depth centred on the surface; where the depth is unknown nothing hides it (the ground, when
 // one is given, already ends each streak where its drop lands). Without a depth map the buffer
 // holds one element and the alpha is multiplied by exactly 1.
-// Includes: common/types.wgsl.
+// Includes: common/types.wgsl, common/depth.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> streaks: array<Streak>;
@@ -80,18 +80,6 @@ fn drop_depth_m(along: f32, len: f32, depth_m: vec2<f32>) -> f32 {
 fn visibility(scene_m: f32, drop_m: f32) -> f32 {
     if scene_m <= 0.0 { return 1.0; }
     return smoothstep(-0.5 * OCCLUSION_SOFTNESS_M, 0.5 * OCCLUSION_SOFTNESS_M, scene_m - drop_m);
-}
-
-// The scene's depth at the fragment's displayed pixel, display = mᵀ (coded − offset); 0 (unknown)
-// without a map.
-fn scene_depth_m(coded_px: vec2<f32>) -> f32 {
-    let size = vec2<u32>(rain.display_size_px);
-    if arrayLength(&scene_depth) < size.x * size.y { return 0.0; }
-    let d = coded_px - rain.coded_offset_px;
-    let m = rain.coded_from_display;
-    let p = vec2<f32>(m.x * d.x + m.y * d.y, m.z * d.x + m.w * d.y);
-    let px = min(vec2<u32>(max(floor(p), vec2<f32>(0.0))), size - 1u);
-    return scene_depth[px.y * size.x + px.x];
 }
 
 @fragment

@@ -6,12 +6,15 @@
 // film over a surface of albedo a = π·L / E (E the irradiance the frame's environment SH sends
 // onto the level ground) and R the exact unpolarised Fresnel reflectance of water. The mirror
 // image comes from four SH bands: a blurred sky, as on a rough wet road, not a sharp mirror.
-// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl.
+// With a depth map, a pixel whose scene is nearer than the ground along its ray (a car, a wall)
+// shows something standing on the ground, not the ground: it stays dry.
+// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl, common/depth.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> wet: WetParams;
 @group(0) @binding(2) var dry: texture_2d<f32>;
 @group(0) @binding(3) var canvas: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(4) var<storage, read> scene_depth: array<f32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -37,7 +40,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = (1.0 - r) * (1.0 - wet.diffuse_external) / (n * n * (1.0 - albedo * wet.diffuse_internal));
     let sky = max(sh_radiance(rain.env_sh, vec3<f32>(d.x, d.y, -d.z)), vec3<f32>(0.0));
     let change = (k - 1.0) * scene + r * sky;
-    let wetness = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m);
+    // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
+    let ground_z_m = rain.camera_pos_m.z / -ray.z;
+    let shown = ground_shown(scene_depth_m(vec2<f32>(id.xy) + vec2<f32>(0.5)), ground_z_m);
+    let wetness = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown;
     textureStore(canvas, id.xy, vec4<f32>(c + wetness * t * change, 1.0));
 }
 
@@ -46,6 +52,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 fn reach_fade(distance_m: f32, reach_m: f32) -> f32 {
     if reach_m <= 0.0 { return 1.0; }
     return 1.0 - smoothstep(0.5 * reach_m, reach_m, distance_m);
+}
+
+// How much the pixel shows the ground at camera depth `ground_m`, given the scene's depth there
+// (0: unknown, taken for ground): none where the scene is nearer than 80 % of the ground's
+// depth, all from 90 % (depth maps are rarely better than that).
+fn ground_shown(scene_m: f32, ground_m: f32) -> f32 {
+    if scene_m <= 0.0 { return 1.0; }
+    return smoothstep(0.8 * ground_m, 0.9 * ground_m, scene_m);
 }
 
 // Unpolarised Fresnel reflectance of a surface of index n seen from the air at incidence

@@ -193,7 +193,10 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
             "common/lights.wgsl"
         ]
     );
-    assert_eq!(includes(Stage::RainStreaks.body()), ["common/types.wgsl"]);
+    assert_eq!(
+        includes(Stage::RainStreaks.body()),
+        ["common/types.wgsl", "common/depth.wgsl"]
+    );
     assert!(simulate.starts_with(&constants()));
     assert_eq!(simulate.matches("fn pcg_hash").count(), 1);
     // Sizes are defined once, in Rust: no WGSL file repeats them as literals.

@@ -16,7 +16,7 @@ use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::wetness::{
     FilmOptics, RainHistory, SurfaceStore, WATER_INDEX, Wetting, water_reflectance,
 };
-use rain_composite::scene::{Camera, GroundMode};
+use rain_composite::scene::{Camera, DepthMap, GroundMode};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
 
 #[path = "common/gpu.rs"]
@@ -301,6 +301,7 @@ fn the_stage_matches_its_cpu_twin() {
             frame.format.width,
             &p,
             &WetParams::new(wetness, &FilmOptics::water(), reach_m),
+            None,
         );
         let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color);
         let dry = codes(&render(&ctx, &frame, &setup(&camera, rotation, None), &p));
@@ -513,4 +514,67 @@ fn report_cost_per_frame_at_720p() {
         let gpu_ms = 1e3 * (comp.gpu_times().wet_ground_s - before) / frames as f64;
         println!("| {name} | {wall_ms:.2} | {gpu_ms:.2} |");
     }
+}
+
+/// With a depth map, what stands on the ground (here a box 1 m from the lens, nearer than any
+/// ground the camera sees) stays dry; a hole in the map (0) and a far reading count as ground,
+/// exactly as without a map; the stage and its twin agree with the map.
+#[test]
+fn what_stands_on_the_ground_stays_dry_with_a_depth_map() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (48u32, 32u32);
+    let camera = Camera::new(w, h, 1.0, 1.6, f64::to_radians(-15.0), 0.0);
+    // Columns 0–15: a box at 1 m; 16–31: unknown; 32–47: 1 km.
+    let column_m = |x: u32| match x {
+        0..16 => 1.0,
+        16..32 => 0.0,
+        _ => 1000.0,
+    };
+    let values: Vec<f32> = (0..w * h).map(|i| column_m(i % w)).collect();
+    let map = DepthMap::from_values(w as usize, h as usize, &values, 1.0).expect("map");
+    let plain = setup(&camera, 0, Some(drying()));
+    let with_map = plain.clone().with_scene_depth(true);
+    let p = lit(&plain, 120.0, &SKY, 1.0);
+    let frame = picture(w, h, None);
+    let render_with = |s: &RainSetup, depth: Option<&DepthMap>| {
+        let mut comp =
+            Compositor::new(ctx.clone(), frame.format, &frame.color, s).expect("compositor");
+        if let Some(d) = depth {
+            comp.set_scene_depth(d).expect("depth");
+        }
+        codes(&comp.render_one(&frame, &p).expect("render"))
+    };
+    let dry = codes(&render(&ctx, &frame, &setup(&camera, 0, None), &p));
+    let unmasked = render_with(&plain, None);
+    let masked = render_with(&with_map, Some(&map));
+    let (mut box_wet, mut ground_changed, mut off_mask) = (0, 0, 0);
+    for (i, ((m, u), d)) in masked[0].iter().zip(&unmasked[0]).zip(&dry[0]).enumerate() {
+        let x = i as u32 % w;
+        if x < 16 {
+            box_wet += (m != d) as usize;
+        } else {
+            off_mask += (m != u) as usize;
+            ground_changed += (m != d) as usize;
+        }
+    }
+    eprintln!("box pixels wetted {box_wet}, ground changed {ground_changed}, off {off_mask}");
+    assert_eq!(box_wet, 0, "the box stays dry");
+    assert_eq!(off_mask, 0, "holes and far readings wet as without a map");
+    assert!(ground_changed > 200, "{ground_changed}");
+    // The twin, with the same map.
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+    let wetness = drying().wetness_at(120.0);
+    wet_ground::wet_ground(
+        &mut canvas,
+        w,
+        &p,
+        &WetParams::new(wetness, &FilmOptics::water(), 0.0),
+        Some(&map),
+    );
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color);
+    let worst = (0..3)
+        .flat_map(|k| masked[k].iter().zip(&cpu[k]).map(|(a, b)| a.abs_diff(*b)))
+        .max()
+        .unwrap_or(0);
+    assert!(worst <= 2, "{worst} codes off");
 }

@@ -32,7 +32,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 7] = [
+const COMMON: [(&str, &str); 8] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -52,6 +52,10 @@ const COMMON: [(&str, &str); 7] = [
     (
         "common/camera.wgsl",
         include_str!("../../shaders/common/camera.wgsl"),
+    ),
+    (
+        "common/depth.wgsl",
+        include_str!("../../shaders/common/depth.wgsl"),
     ),
     (
         "common/sh.wgsl",

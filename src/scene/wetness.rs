@@ -125,6 +125,18 @@ pub struct Wetting {
     pub reach_m: f64,
 }
 
+/// How much a pixel shows the ground at camera depth `ground_m` when the depth map says
+/// `scene_m` there (`None`: unknown, taken for ground): nothing where the scene is nearer than
+/// 80 % of the ground's depth (a car, a wall standing on it), all from 90 % (depth maps are
+/// rarely better than 10 %), smoothstep between.
+pub fn ground_shown(scene_m: Option<f64>, ground_m: f64) -> f64 {
+    let Some(s) = scene_m.filter(|s| *s > 0.0) else {
+        return 1.0;
+    };
+    let x = ((s - 0.8 * ground_m) / (0.1 * ground_m)).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
 /// Share of the wetting kept on ground `distance_m` away when the ground reaches `reach_m`:
 /// 1 nearer than half the reach, 0 beyond it, smoothstep between (no limit when `reach_m` ≤ 0).
 pub fn reach_fade(distance_m: f64, reach_m: f64) -> f64 {

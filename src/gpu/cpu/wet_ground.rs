@@ -11,7 +11,7 @@ use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{RainParams, WetParams};
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::lighting::sh::{band_of, eval_basis};
-use crate::scene::wetness::{FilmOptics, reach_fade, reflectance};
+use crate::scene::wetness::{FilmOptics, ground_shown, reach_fade, reflectance};
 
 /// The environment of `p` as f64 coefficients.
 fn environment(p: &RainParams) -> Vec<[f64; 3]> {
@@ -46,7 +46,16 @@ pub fn irradiance(env: &[[f64; 3]], normal: DVec3) -> [f64; 3] {
 
 /// Wets the ground on `canvas` (linear RGB, coded orientation, row-major, `width` wide) under
 /// the uniforms `p` and `wet`.
-pub fn wet_ground(canvas: &mut [[f64; 3]], width: u32, p: &RainParams, wet: &WetParams) {
+///
+/// With `depth` (metres of camera z per displayed pixel, `NaN` unknown), a pixel whose scene is
+/// nearer than the ground along its ray stays dry ([`ground_shown`]).
+pub fn wet_ground(
+    canvas: &mut [[f64; 3]],
+    width: u32,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+) {
     let env = environment(p);
     let drop = RtfSh {
         bands: 4,
@@ -76,6 +85,17 @@ pub fn wet_ground(canvas: &mut [[f64; 3]], width: u32, p: &RainParams, wet: &Wet
         };
         let cos_view = -d.z;
         let distance_m = p.camera_pos_m[2] as f64 / cos_view;
+        // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
+        let ground_z_m = p.camera_pos_m[2] as f64 / -ray.z;
+        let scene_m = depth.and_then(|map| {
+            let shown = display_pixel(p, x, y);
+            map.at(
+                (shown.0.max(0.0) as usize).min(map.width - 1),
+                (shown.1.max(0.0) as usize).min(map.height - 1),
+            )
+            .map(f64::from)
+        });
+        let shown = ground_shown(scene_m, ground_z_m);
         let r = reflectance(optics.index, cos_view);
         let sky = radiance(&env, DVec3::new(d.x, d.y, -d.z));
         for k in 0..3 {
@@ -87,7 +107,17 @@ pub fn wet_ground(canvas: &mut [[f64; 3]], width: u32, p: &RainParams, wet: &Wet
                 0.0
             };
             let change = (optics.darkening(albedo, cos_view) - 1.0) * scene + r * sky[k].max(0.0);
-            pixel[k] += w * reach_fade(distance_m, wet.reach_m as f64) * transmittance * change;
+            pixel[k] +=
+                w * reach_fade(distance_m, wet.reach_m as f64) * shown * transmittance * change;
         }
     }
+}
+
+/// The displayed position (px) of the centre of coded pixel (x, y): display = mᵀ (coded −
+/// offset), the rotation being orthogonal.
+fn display_pixel(p: &RainParams, x: u32, y: u32) -> (f64, f64) {
+    let m = p.coded_from_display.map(f64::from);
+    let dx = x as f64 + 0.5 - p.coded_offset_px[0] as f64;
+    let dy = y as f64 + 0.5 - p.coded_offset_px[1] as f64;
+    (m[0] * dx + m[1] * dy, m[2] * dx + m[3] * dy)
 }

@@ -56,6 +56,7 @@ impl WetGround {
                     buffer(&params),
                     view(&dry.create_view(&Default::default())),
                     view(&r.canvas),
+                    buffer(&r.scene_depth),
                 ],
             );
             Wet {
