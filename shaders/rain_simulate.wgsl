@@ -35,7 +35,7 @@ const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
 
 fn hidden() -> Streak {
-    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0u, vec4<f32>(0.0), vec4<f32>(0.0));
 }
 
 fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
@@ -50,6 +50,16 @@ fn radiance_at(p_cam: vec3<f32>) -> vec4<f32> {
     let c = prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], offset)
         + direct_light(offset, offset);
     return vec4<f32>(max(c, vec3<f32>(0.0)), 0.0);
+}
+
+// What picks a drop's streak matte: its diameter and the camera's elevation over the plane
+// normal to its fall (asin |view · fall|, 0 = seen side-on), for `view_cam` (camera axes, any
+// length) the ray to the streak's middle.
+fn drop_info(drop: DropState, view_cam: vec3<f32>) -> u32 {
+    let view = rain.camera_from_world_0.xyz * view_cam.x + rain.camera_from_world_1.xyz * view_cam.y + rain.camera_from_world_2.xyz * view_cam.z;
+    let fall = drop.vel_mps / max(length(drop.vel_mps), 1e-6);
+    let elevation_deg = degrees(asin(min(abs(dot(normalize(view), fall)), 1.0)));
+    return pack2x16unorm(vec2<f32>(drop.diameter_mm / 10.0, elevation_deg / 90.0));
 }
 
 fn streak_of(id: u32) -> Streak {
@@ -98,7 +108,7 @@ fn streak_of(id: u32) -> Streak {
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, radiance_at(c0), radiance_at(c1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, drop_info(drop, c0 + c1), radiance_at(c0), radiance_at(c1));
 }
 
 @compute @workgroup_size(SIMULATE_WORKGROUP)

@@ -2,7 +2,10 @@
 // per drop in drop order (so blending is deterministic), premultiplied; the pipeline blends
 // src + dst·(1 − αsrc). The fragment evaluates exactly the fraction of the exposure during which
 // the drop's disc covers the pixel.
-// Includes: common/types.wgsl.
+// With --streaks mattes (vs_mattes, fs_mattes) the colour is spread along the streak by the
+// drop's environment matte (src/drops/atlas.rs): its size and view bins from `drop_info`, its
+// oscillation phase random per drop and fixed in time. The alpha stays the coverage above.
+// Includes: common/types.wgsl, common/rng.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> streaks: array<Streak>;
@@ -15,15 +18,33 @@ struct VsOut {
     @location(1) @interpolate(flat) shape: vec3<f32>,
     // Drop radiance for the view ray here, linear RGB.
     @location(2) radiance: vec3<f32>,
+    // The streak's matte layer (mattes only).
+    @location(3) @interpolate(flat) layer: u32,
 }
+
+@group(0) @binding(2) var<uniform> mattes: MatteParams;
+// MATTE_WIDTH × MATTE_HEIGHT normalised texels per layer (MatteAtlas::texels).
+@group(0) @binding(3) var<storage, read> matte_texels: array<f32>;
+
+// Half a matte layer's width in drop radii (HALF_WIDTH_RADII in src/drops/atlas.rs).
+const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
+// The random stream of a drop's oscillation phase (streams 0–5 place and size it).
+const MATTE_PHASE_STREAM: u32 = 6u;
+const MATTE_PI: f32 = 3.14159265358979;
 
 const AA_MARGIN_PX: f32 = 0.5;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
+    return quad(vertex, id, 0.0);
+}
+
+// Corner `vertex` of the quad of streak `id`, at least `half_width_radii` drop radii wide on
+// each side.
+fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 0u);
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -32,7 +53,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     )[vertex];
     let ext = s.r_eff_px + AA_MARGIN_PX;
     let along = mix(-ext, s.len_px + ext, corner.x);
-    let across = corner.y * ext;
+    let across = corner.y * max(ext, half_width_radii * s.r_eff_px);
     let nrm = vec2<f32>(-s.dir.y, s.dir.x);
     let p_display = s.q0_px + s.dir * along + nrm * across;
     let m = rain.coded_from_display;
@@ -41,7 +62,49 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     let clip = vec2<f32>(2.0 * p_coded.x / rain.coded_size_px.x - 1.0, 1.0 - 2.0 * p_coded.y / rain.coded_size_px.y);
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
-    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance);
+    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance, 0u);
+}
+
+// The index of the bin of `values` (the first `count`) nearest to `x`.
+fn nearest_bin(values: array<vec4<f32>, 2>, count: u32, x: f32) -> u32 {
+    var best = 0u;
+    for (var k = 1u; k < count; k++) {
+        if abs(values[k / 4u][k % 4u] - x) < abs(values[best / 4u][best % 4u] - x) { best = k; }
+    }
+    return best;
+}
+
+@vertex
+fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
+    var out = quad(vertex, id, MATTE_HALF_WIDTH_RADII);
+    let info = unpack2x16unorm(streaks[id].drop_info);
+    let size = nearest_bin(mattes.sizes_mm, mattes.counts.x, info.x * 10.0);
+    let view = nearest_bin(mattes.views_deg, mattes.counts.y, info.y * 90.0);
+    let phases = mattes.counts.z;
+    let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
+    out.layer = (size * mattes.counts.y + view) * phases + phase;
+    return out;
+}
+
+// The matte texel (i, j) of `layer`, zero outside the layer.
+fn matte_texel(layer: u32, i: i32, j: i32) -> f32 {
+    if i < 0 || j < 0 || i >= i32(MATTE_WIDTH) || j >= i32(MATTE_HEIGHT) { return 0.0; }
+    return matte_texels[(layer * MATTE_HEIGHT + u32(j)) * MATTE_WIDTH + u32(i)];
+}
+
+// N of `layer` at (u along the footprint, w across in radii), bilinear between texel centres
+// (twin of MatteAtlas::sample).
+fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
+    let x = (w / MATTE_HALF_WIDTH_RADII + 1.0) * 0.5 * f32(MATTE_WIDTH) - 0.5;
+    let y = u * f32(MATTE_HEIGHT) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let t = vec2<f32>(x - x0, y - y0);
+    let i = i32(x0);
+    let j = i32(y0);
+    let top = mix(matte_texel(layer, i, j), matte_texel(layer, i + 1, j), t.x);
+    let bottom = mix(matte_texel(layer, i, j + 1), matte_texel(layer, i + 1, j + 1), t.x);
+    return mix(top, bottom, t.y);
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -62,4 +125,18 @@ fn fs_main(v: VsOut) -> @location(0) vec4<f32> {
     let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0);
     if a <= 0.0 { discard; }
     return vec4<f32>(v.radiance * a, a);
+}
+
+// The streak's light spread by its matte: N integrates to 1 over the footprint (len + 2r) × 2r
+// in (u, w) units, the capsule's coverage to πr², so radiance × alpha_scale × N × πr/(len + 2r)
+// holds the capsule's light, moved along the streak.
+@fragment
+fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
+    let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0);
+    let r = v.shape.y;
+    let footprint = v.shape.x + 2.0 * r;
+    // The oscillating drop reaches a little beyond the mean disc: light without coverage.
+    let n = matte_at(v.layer, (v.local_px.x + r) / footprint, v.local_px.y / r);
+    if a <= 0.0 && n <= 0.0 { discard; }
+    return vec4<f32>(v.radiance * (v.shape.z * n * MATTE_PI * r / footprint), a);
 }

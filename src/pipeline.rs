@@ -87,6 +87,9 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> Result<f64> {
     crate::rain::physics::exposure_s(config.camera.shutter_deg, fps)
 }
 
+/// The streak database shipped with the program.
+pub const DEFAULT_STREAK_DB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/drops");
+
 /// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
 /// limit is lowered to it, with a warning naming the limit (the plan then shrinks the far
 /// distance and weights drops exactly as for any other budget).
@@ -122,9 +125,18 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         info.rotation_deg,
         (info.format.width, info.format.height),
     )?;
+    let mattes = match config.rain.streaks {
+        crate::config::StreakStyle::Simple => None,
+        crate::config::StreakStyle::Mattes => {
+            let dir = config.streak_db.as_deref().unwrap_or(DEFAULT_STREAK_DB);
+            let atlas = crate::drops::MatteAtlas::load(std::path::Path::new(dir), exposure)?;
+            Some(std::sync::Arc::new(atlas))
+        }
+    };
     Ok(setup
         .with_ground(config.ground.is_given())
-        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h)))
+        .with_wetting(config.ground.wetting(config.rain.rate_mm_per_h))
+        .with_mattes(mattes))
 }
 
 /// Seconds since the start of the stream at `frame`.

@@ -4,7 +4,7 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{
-    Column, DirectLight, FrameParams, LightList, RainParams, Streak, WetParams,
+    Column, DirectLight, FrameParams, LightList, MatteParams, RainParams, Streak, WetParams,
 };
 
 fn module(stage: Stage) -> naga::Module {
@@ -132,12 +132,17 @@ fn rust_twins_match_wgsl_layouts() {
             len_px,
             r_eff_px,
             alpha_scale,
-            _pad,
+            drop_info,
             radiance0,
             radiance1
         ]
     );
     assert_twin!(m, DirectLight, [direction_distance, strength]);
+    assert_twin!(
+        module(Stage::RainStreaks),
+        MatteParams,
+        [counts, sizes_mm, views_deg]
+    );
     assert_twin!(m, LightList, [count, table_bins, _pad, lights]);
     let m = module(Stage::YuvToRgb);
     assert_twin!(
@@ -183,7 +188,10 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
             "common/lights.wgsl"
         ]
     );
-    assert_eq!(includes(Stage::RainStreaks.body()), ["common/types.wgsl"]);
+    assert_eq!(
+        includes(Stage::RainStreaks.body()),
+        ["common/types.wgsl", "common/rng.wgsl"]
+    );
     assert!(simulate.starts_with(&constants()));
     assert_eq!(simulate.matches("fn pcg_hash").count(), 1);
     // Sizes are defined once, in Rust: no WGSL file repeats them as literals.

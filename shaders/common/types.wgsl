@@ -87,7 +87,7 @@ struct Streak {
     len_px: f32,            // path length; < 0: not drawn
     r_eff_px: f32,          // drawn radius (sub-pixel drops widened, defocus included)
     alpha_scale: f32,       // coverage multiplier
-    _pad: f32,
+    drop_info: u32,         // pack2x16unorm(diameter mm / 10, view elevation / 90°): the matte bins
     radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb)
     radiance1: vec4<f32>,   // and at the end of the path
 }
@@ -112,4 +112,11 @@ struct WetParams {
     water_index: f32,       // refractive index of the film
     diffuse_external: f32,  // the film's reflectance for diffuse light from the air
     diffuse_internal: f32,  // and for diffuse light inside it (total internal reflection included)
+}
+
+// The streak mattes' bins (src/drops/atlas.rs, MatteAtlas; stage rain_streaks, --streaks mattes).
+struct MatteParams {
+    counts: vec4<u32>,              // size bins, view bins, phases, 0
+    sizes_mm: array<vec4<f32>, 2>,  // bin diameters, mm (MAX_MATTE_BINS = 8)
+    views_deg: array<vec4<f32>, 2>, // bin camera elevations, degrees
 }

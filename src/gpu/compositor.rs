@@ -264,7 +264,7 @@ impl Compositor {
             Box::new(start),
             Box::new(WetGround::new(device, &resources, wetting)),
             Box::new(RainSimulate::new(device, &resources)),
-            Box::new(RainStreaks::new(device, &resources)),
+            Box::new(RainStreaks::new(device, &resources, rain.mattes.as_deref())),
             out,
         ];
         let timed = stages.len() as u64;

@@ -162,7 +162,8 @@ pub struct Streak {
     pub len_px: f32,
     pub r_eff_px: f32,
     pub alpha_scale: f32,
-    pub _pad: f32,
+    /// pack2x16unorm(diameter mm / 10, view elevation / 90°): what picks the streak's matte.
+    pub drop_info: u32,
     pub radiance0: [f32; 4],
     pub radiance1: [f32; 4],
 }
@@ -249,6 +250,40 @@ impl WetParams {
             water_index: optics.index as f32,
             diffuse_external: optics.diffuse_external as f32,
             diffuse_internal: optics.diffuse_internal as f32,
+        }
+    }
+}
+
+/// WGSL `MatteParams`: the bins of the streak mattes ([`crate::drops::MatteAtlas`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct MatteParams {
+    /// Size bins, view bins, phases, 0.
+    pub counts: [u32; 4],
+    pub sizes_mm: [[f32; 4]; 2],
+    pub views_deg: [[f32; 4]; 2],
+}
+
+impl MatteParams {
+    /// The bins of `atlas` (at most [`crate::drops::atlas::MAX_MATTE_BINS`] of each).
+    pub fn new(atlas: &crate::drops::MatteAtlas) -> MatteParams {
+        let pack = |values: &[f64]| {
+            let mut out = [[0.0f32; 4]; 2];
+            for (k, v) in values.iter().enumerate().take(8) {
+                out[k / 4][k % 4] = *v as f32;
+            }
+            out
+        };
+        MatteParams {
+            counts: [
+                atlas.sizes_mm.len() as u32,
+                atlas.views_deg.len() as u32,
+                atlas.phases as u32,
+                0,
+            ],
+            sizes_mm: pack(&atlas.sizes_mm),
+            views_deg: pack(&atlas.views_deg),
         }
     }
 }

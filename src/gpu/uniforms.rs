@@ -39,6 +39,8 @@ pub struct RainSetup {
     pub haze_alpha: f64,
     /// How the ground wets, where a ground is given and rain has fallen on it.
     pub wetting: Option<crate::scene::wetness::Wetting>,
+    /// The streak mattes (`--streaks mattes`); `None` draws the capsule.
+    pub mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -199,6 +201,7 @@ pub fn build(
         wind,
         haze_alpha,
         wetting: None,
+        mattes: None,
     })
 }
 
@@ -256,6 +259,12 @@ impl RainSetup {
     /// stands on (a ground is given); false leaves the render as without a ground.
     pub fn with_ground(mut self, ground: bool) -> RainSetup {
         self.params.ground_clip = ground as u32;
+        self
+    }
+
+    /// Streaks drawn with `mattes` (`None`: the capsule).
+    pub fn with_mattes(mut self, mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>) -> RainSetup {
+        self.mattes = mattes;
         self
     }
 

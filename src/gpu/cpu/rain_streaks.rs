@@ -1,12 +1,41 @@
 //! The CPU twin of the `rain_streaks` stage: each streak's quad rasterised over the canvas in
 //! drop order, the exact time-averaged coverage of [`coverage`] at each pixel centre, the
 //! radiance interpolated along the quad as the vertex stage does, blended premultiplied
-//! (src + dst·(1 − α)).
+//! (src + dst·(1 − α)). With streak mattes, the colour is spread by the drop's matte as the
+//! stage's `fs_mattes` does; the alpha is unchanged.
+
+use std::f64::consts::PI;
 
 use glam::DVec2;
 
 pub use super::rain_simulate::coverage;
+use crate::drops::MatteAtlas;
+use crate::drops::atlas::HALF_WIDTH_RADII;
 use crate::gpu::types::{RainParams, Streak};
+use crate::rain::volume::drop_uniform;
+
+/// The random stream of a drop's oscillation phase (`MATTE_PHASE_STREAM` in the WGSL).
+pub const MATTE_PHASE_STREAM: u32 = 6;
+
+/// The matte layer of drop `id` with `drop_info` (the stage's `vs_mattes`): the nearest size
+/// and view bins, and a phase random per drop and fixed in time.
+pub fn matte_layer(atlas: &MatteAtlas, seed: u32, id: u32, drop_info: u32) -> usize {
+    let unorm = |bits: u32| (bits & 0xffff) as f64 / 65535.0;
+    let nearest = |values: &[f64], x: f64| {
+        (1..values.len()).fold(0, |best, k| {
+            if ((values[k] as f32) - x as f32).abs() < ((values[best] as f32) - x as f32).abs() {
+                k
+            } else {
+                best
+            }
+        })
+    };
+    let size = nearest(&atlas.sizes_mm, unorm(drop_info) * 10.0);
+    let view = nearest(&atlas.views_deg, unorm(drop_info >> 16) * 90.0);
+    let phases = atlas.phases;
+    let phase = ((drop_uniform(seed, id, MATTE_PHASE_STREAM) * phases as f64) as usize).min(phases - 1);
+    (size * atlas.views_deg.len() + view) * phases + phase
+}
 
 /// Half a pixel of margin around each quad (`AA_MARGIN_PX` in the WGSL).
 pub const AA_MARGIN_PX: f64 = 0.5;
@@ -14,6 +43,16 @@ pub const AA_MARGIN_PX: f64 = 0.5;
 /// Blends `streaks` over `canvas` (linear RGB, row-major, the coded picture of
 /// `p.coded_size_px`), with `p`'s display rotation.
 pub fn rain_streaks(canvas: &mut [[f64; 3]], p: &RainParams, streaks: &[Streak]) {
+    rain_streaks_with(canvas, p, streaks, None)
+}
+
+/// [`rain_streaks`], the colours spread by `mattes` where given.
+pub fn rain_streaks_with(
+    canvas: &mut [[f64; 3]],
+    p: &RainParams,
+    streaks: &[Streak],
+    mattes: Option<&MatteAtlas>,
+) {
     let (w, h) = (p.coded_size_px[0] as u32, p.coded_size_px[1] as u32);
     let m = p.coded_from_display.map(|v| v as f64);
     let off = DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
@@ -22,28 +61,44 @@ pub fn rain_streaks(canvas: &mut [[f64; 3]], p: &RainParams, streaks: &[Streak])
         let d = c - off;
         DVec2::new(m[0] * d.x + m[1] * d.y, m[2] * d.x + m[3] * d.y)
     };
-    for s in streaks.iter().filter(|s| s.len_px >= 0.0) {
+    for (id, s) in streaks.iter().enumerate().filter(|(_, s)| s.len_px >= 0.0) {
+        let layer = mattes.map(|m| (m, matte_layer(m, p.seed, id as u32, s.drop_info)));
         let q0 = DVec2::new(s.q0_px[0] as f64, s.q0_px[1] as f64);
         let dir = DVec2::new(s.dir[0] as f64, s.dir[1] as f64);
         let (len, r) = (s.len_px as f64, s.r_eff_px as f64);
         let ext = r + AA_MARGIN_PX;
+        // The matte's width (the stage's `quad` in `vs_mattes`).
+        let across_ext = match mattes {
+            None => ext,
+            Some(_) => ext.max(HALF_WIDTH_RADII * r),
+        };
         for y in 0..h {
             for x in 0..w {
                 let d = to_display(DVec2::new(x as f64 + 0.5, y as f64 + 0.5)) - q0;
                 let along = d.dot(dir);
                 let across = d.x * -dir.y + d.y * dir.x;
-                if along < -ext || along > len + ext || across.abs() > ext {
+                if along < -ext || along > len + ext || across.abs() > across_ext {
                     continue;
                 }
                 let a = (coverage(along, across, len, r) * s.alpha_scale as f64).clamp(0.0, 1.0);
-                if a <= 0.0 {
+                let t = (along + ext) / (len + 2.0 * ext);
+                // The premultiplied weight of the colour: the alpha, or the matte's spread of
+                // the same light (∫∫ N du dw = 1 over the footprint, πr² the capsule's coverage).
+                let weight = match layer {
+                    None => a,
+                    Some((atlas, l)) => {
+                        let footprint = len + 2.0 * r;
+                        let n = atlas.sample(l, (along + r) / footprint, across / r);
+                        s.alpha_scale as f64 * n * PI * r / footprint
+                    }
+                };
+                if a <= 0.0 && weight <= 0.0 {
                     continue;
                 }
-                let t = (along + ext) / (len + 2.0 * ext);
                 let px = &mut canvas[(y * w + x) as usize];
                 for (k, c) in px.iter_mut().enumerate() {
                     let rad = s.radiance0[k] as f64 * (1.0 - t) + s.radiance1[k] as f64 * t;
-                    *c = rad * a + *c * (1.0 - a);
+                    *c = rad * weight + *c * (1.0 - a);
                 }
             }
         }

@@ -1,10 +1,15 @@
 //! Stage `rain_streaks`: the streaks rasterised onto the canvas, one quad per drop in drop
 //! order, premultiplied (`shaders/rain_streaks.wgsl`; CPU twin
-//! [`crate::gpu::cpu::rain_streaks`]).
+//! [`crate::gpu::cpu::rain_streaks`]). With streak mattes, a second pair of entry points
+//! spreads each streak's colour by its matte; without, the pipeline is the capsule's alone.
+
+use wgpu::util::DeviceExt;
 
 use super::{FrameResources, FrameStage, TimestampSlot};
+use crate::drops::MatteAtlas;
 use crate::gpu::bind::{bind_group, buffer};
 use crate::gpu::shaders::Stage;
+use crate::gpu::types::MatteParams;
 
 /// The canvas format the streaks blend into.
 pub const CANVAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -18,15 +23,23 @@ pub struct RainStreaks {
 }
 
 impl RainStreaks {
-    /// Builds the pipeline and binds `r`.
-    pub fn new(device: &wgpu::Device, r: &FrameResources) -> RainStreaks {
+    /// Builds the pipeline and binds `r`; with `mattes`, uploads them and draws with them.
+    pub fn new(
+        device: &wgpu::Device,
+        r: &FrameResources,
+        mattes: Option<&MatteAtlas>,
+    ) -> RainStreaks {
         let module = Stage::RainStreaks.module(device);
+        let (vs, fs) = match mattes {
+            None => ("vs_main", "fs_main"),
+            Some(_) => ("vs_mattes", "fs_mattes"),
+        };
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(Stage::RainStreaks.name()),
             layout: None,
             vertex: wgpu::VertexState {
                 module: &module,
-                entry_point: Some("vs_main"),
+                entry_point: Some(vs),
                 compilation_options: Default::default(),
                 buffers: &[],
             },
@@ -35,7 +48,7 @@ impl RainStreaks {
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
-                entry_point: Some("fs_main"),
+                entry_point: Some(fs),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: CANVAS_FORMAT,
@@ -46,12 +59,38 @@ impl RainStreaks {
             multiview_mask: None,
             cache: None,
         });
-        let bind = bind_group(
-            device,
-            Stage::RainStreaks.name(),
-            &pipeline.get_bind_group_layout(0),
-            &[buffer(&r.rain_params), buffer(&r.streaks)],
-        );
+        let layout = pipeline.get_bind_group_layout(0);
+        let bind = match mattes {
+            None => bind_group(
+                device,
+                Stage::RainStreaks.name(),
+                &layout,
+                &[buffer(&r.rain_params), buffer(&r.streaks)],
+            ),
+            Some(atlas) => {
+                let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("matte_params"),
+                    contents: bytemuck::bytes_of(&MatteParams::new(atlas)),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("matte_texels"),
+                    contents: bytemuck::cast_slice(&atlas.texels),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                bind_group(
+                    device,
+                    Stage::RainStreaks.name(),
+                    &layout,
+                    &[
+                        buffer(&r.rain_params),
+                        buffer(&r.streaks),
+                        buffer(&params),
+                        buffer(&texels),
+                    ],
+                )
+            }
+        };
         RainStreaks {
             pipeline,
             bind,
