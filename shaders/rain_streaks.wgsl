@@ -4,7 +4,9 @@
 // the drop's disc covers the pixel.
 // With --streaks mattes (vs_mattes, fs_mattes) the colour is spread along the streak by the
 // drop's environment matte (src/drops/atlas.rs): its size and view bins from `drop_info`, its
-// oscillation phase random per drop and fixed in time. The alpha stays the coverage above.
+// oscillation phase random per drop and fixed in time; and the drop's glint (its brightest
+// compact light, from rain_simulate's main_mattes) by that light's point-light matte. The alpha
+// stays the coverage above.
 // Includes: common/types.wgsl, common/rng.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
@@ -20,17 +22,23 @@ struct VsOut {
     @location(2) radiance: vec3<f32>,
     // The streak's matte layer (mattes only).
     @location(3) @interpolate(flat) layer: u32,
+    // The glint's matte layer (MATTE_NONE: no glint) and colour (rgb; w: −1 where the matte is
+    // the mirror image).
+    @location(4) @interpolate(flat) glint_layer: u32,
+    @location(5) @interpolate(flat) glint: vec4<f32>,
 }
 
 @group(0) @binding(2) var<uniform> mattes: MatteParams;
 // MATTE_WIDTH × MATTE_HEIGHT normalised texels per layer (MatteAtlas::texels).
 @group(0) @binding(3) var<storage, read> matte_texels: array<f32>;
+@group(0) @binding(4) var<storage, read> glints: array<Glint>;
 
 // Half a matte layer's width in drop radii (HALF_WIDTH_RADII in src/drops/atlas.rs).
 const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
 // The random stream of a drop's oscillation phase (streams 0–5 place and size it).
 const MATTE_PHASE_STREAM: u32 = 6u;
 const MATTE_PI: f32 = 3.14159265358979;
+const MATTE_NONE: u32 = 0xffffffffu;
 
 const AA_MARGIN_PX: f32 = 0.5;
 
@@ -44,7 +52,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 0u);
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 0u, MATTE_NONE, vec4<f32>(0.0));
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -62,7 +70,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let clip = vec2<f32>(2.0 * p_coded.x / rain.coded_size_px.x - 1.0, 1.0 - 2.0 * p_coded.y / rain.coded_size_px.y);
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
-    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance, 0u);
+    return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance, 0u, MATTE_NONE, vec4<f32>(0.0));
 }
 
 // The index of the bin of `values` (the first `count`) nearest to `x`.
@@ -83,6 +91,19 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
     out.layer = (size * mattes.counts.y + view) * phases + phase;
+    let g = glints[id];
+    if mattes.light_count.x > 0u && any(g.colour.rgb > vec3<f32>(0.0)) {
+        // Lights left of the view use the mirror image of those to its right.
+        var dir = g.light_dir.xyz;
+        let mirror = dir.x < 0.0;
+        dir.x = abs(dir.x);
+        var light = 0u;
+        for (var k = 1u; k < mattes.light_count.x; k++) {
+            if dot(mattes.lights[k].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = k; }
+        }
+        out.glint_layer = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
+        out.glint = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
+    }
     return out;
 }
 
@@ -136,7 +157,14 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let r = v.shape.y;
     let footprint = v.shape.x + 2.0 * r;
     // The oscillating drop reaches a little beyond the mean disc: light without coverage.
-    let n = matte_at(v.layer, (v.local_px.x + r) / footprint, v.local_px.y / r);
-    if a <= 0.0 && n <= 0.0 { discard; }
-    return vec4<f32>(v.radiance * (v.shape.z * n * MATTE_PI * r / footprint), a);
+    // The matte's (u, w): w grows to the image right of a streak falling down the picture,
+    // −local_px.y.
+    let u = (v.local_px.x + r) / footprint;
+    let w = -v.local_px.y / r;
+    var light = v.radiance * matte_at(v.layer, u, w);
+    if v.glint_layer != MATTE_NONE {
+        light += v.glint.rgb * matte_at(v.glint_layer, u, v.glint.w * w);
+    }
+    if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
+    return vec4<f32>(light * (v.shape.z * MATTE_PI * r / footprint), a);
 }

@@ -8,10 +8,10 @@ use std::sync::{Arc, OnceLock};
 
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig, StreakStyle};
 use rain_composite::drops::MatteAtlas;
-use rain_composite::gpu::cpu::rain_streaks::{matte_layer, rain_streaks_with};
+use rain_composite::gpu::cpu::rain_streaks::{matte_layers, rain_streaks_with};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::probe::probe_streaks;
-use rain_composite::gpu::types::{LightList, RainParams, Streak};
+use rain_composite::gpu::types::{Glint, LightList, RainParams, Streak};
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
@@ -104,26 +104,37 @@ fn a_matte_moves_a_streaks_light_without_changing_its_total() {
                     s[0].q0_px[1] += (3 * k % offsets) as f32 / offsets as f32;
                     simple = vec![[0.0; 3]; (w * h) as usize];
                     matte = simple.clone();
-                    rain_streaks_with(&mut simple, &p, &s, None);
-                    rain_streaks_with(&mut matte, &p, &s, Some(&atlas));
+                    rain_streaks_with(&mut simple, &p, &s, None, &[]);
+                    rain_streaks_with(&mut matte, &p, &s, Some(&atlas), &[]);
                     let total = |c: &[[f64; 3]]| c.iter().map(|px| px[1]).sum::<f64>();
                     a += total(&simple) / offsets as f64;
                     b += total(&matte) / offsets as f64;
                 }
                 let coverage = std::f64::consts::PI * (r * r) as f64 * 0.2;
                 let what = format!("{d} mm, view {view}°, {len}×{r} px");
-                eprintln!("{what}: capsule / πr²α {:.4}, matte / capsule {:.4}", a / coverage, b / a);
-                assert!((a / coverage - 1.0).abs() < 0.02, "{what}: capsule {a} vs πr²α {coverage}");
-                assert!((b / a - 1.0).abs() < 0.01, "{what}: matte {b} vs capsule {a}");
+                eprintln!(
+                    "{what}: capsule / πr²α {:.4}, matte / capsule {:.4}",
+                    a / coverage,
+                    b / a
+                );
+                assert!(
+                    (a / coverage - 1.0).abs() < 0.02,
+                    "{what}: capsule {a} vs πr²α {coverage}"
+                );
+                assert!(
+                    (b / a - 1.0).abs() < 0.01,
+                    "{what}: matte {b} vs capsule {a}"
+                );
                 if len > 100.0 {
                     // Row sums along the streak's middle: the capsule's are flat.
                     let rows = |c: &[[f64; 3]]| -> Vec<f64> {
-                        (20..120).map(|y| (0..w).map(|x| c[(y * w + x) as usize][1]).sum()).collect()
+                        (20..120)
+                            .map(|y| (0..w).map(|x| c[(y * w + x) as usize][1]).sum())
+                            .collect()
                     };
                     let spread = |v: &[f64]| {
                         let mean = v.iter().sum::<f64>() / v.len() as f64;
-                        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64)
-                            .sqrt()
+                        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
                             / mean
                     };
                     let (flat, rippled) = (spread(&rows(&simple)), spread(&rows(&matte)));
@@ -136,14 +147,120 @@ fn a_matte_moves_a_streaks_light_without_changing_its_total() {
     }
 }
 
+/// Brightness along the middle of a vertical streak: the sum of each row over the streak.
+fn row_profile(canvas: &[[f64; 3]], w: u32, rows: std::ops::Range<u32>) -> Vec<f64> {
+    rows.map(|y| (0..w).map(|x| canvas[(y * w + x) as usize][1]).sum())
+        .collect()
+}
+
+/// Standard deviation over mean.
+fn ripple(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt() / mean
+}
+
+/// The lag (of `lags`) at which the mean-removed profile best matches itself.
+fn period(v: &[f64], lags: std::ops::Range<usize>) -> usize {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let d: Vec<f64> = v.iter().map(|x| x - mean).collect();
+    let corr = |lag: usize| {
+        let n = d.len() - lag;
+        (0..n).map(|i| d[i] * d[i + lag]).sum::<f64>() / n as f64
+    };
+    lags.max_by(|&a, &b| corr(a).total_cmp(&corr(b))).unwrap_or(0)
+}
+
+/// A streak lit by a lamp beside it is a string of beads at the drop's oscillation period
+/// (fall speed over the (2,0) frequency, here len / (f·T) px); its glint keeps the light the
+/// lamp gave the capsule; and a lamp on the other side gives the mirror image.
+#[test]
+fn a_lamp_beside_a_streak_strings_it_with_beads() {
+    let atlas = atlas();
+    let (w, h) = (24u32, 230u32);
+    let p = plain_params(w, h, 11);
+    let (d_mm, len) = (1.0, 200.0f32);
+    let mut s = streak(12.0, len, 3.0, drop_info(d_mm, 0.0));
+    s.radiance0 = [0.05; 4];
+    s.radiance1 = [0.05; 4];
+    // A lamp level with the drop, to the image right of it, 5° towards the camera.
+    let lamp = |x: f32| Glint {
+        colour: [2.0, 2.0, 2.0, 0.0],
+        light_dir: [x * 85f32.to_radians().sin(), -(85f32.to_radians().cos()), 0.0, 0.0],
+    };
+    let draw_at = |s: Streak, glint: Option<Glint>| {
+        let mut canvas = vec![[0.0; 3]; (w * h) as usize];
+        let glints: Vec<Glint> = glint.into_iter().collect();
+        rain_streaks_with(&mut canvas, &p, &[s], Some(&atlas), &glints);
+        canvas
+    };
+    let draw = |glint: Option<Glint>| draw_at(s, glint);
+    let (right, left, none) = (draw(Some(lamp(1.0))), draw(Some(lamp(-1.0))), draw(None));
+    let total = |c: &[[f64; 3]]| c.iter().map(|px| px[1]).sum::<f64>();
+    // The capsule of the same drop would hold (0.05 + 2)·πr²·α; averaged over sub-pixel
+    // positions the pixel sums are the integrals.
+    let capsule = 2.05 * std::f64::consts::PI * 9.0 * 0.2;
+    let offsets = 8;
+    let held = (0..offsets)
+        .map(|k| {
+            let mut moved = s;
+            moved.q0_px[0] += k as f32 / offsets as f32;
+            moved.q0_px[1] += (3 * k % offsets) as f32 / offsets as f32;
+            total(&draw_at(moved, Some(lamp(1.0))))
+        })
+        .sum::<f64>()
+        / offsets as f64;
+    eprintln!("lamp: total {:.4} of the capsule's", held / capsule);
+    assert!((held / capsule - 1.0).abs() < 0.03);
+    let rows = 30..190;
+    let (lit, dim) = (row_profile(&right, w, rows.clone()), row_profile(&none, w, rows));
+    eprintln!("ripple: {:.3} lit, {:.3} without the lamp", ripple(&lit), ripple(&dim));
+    assert!(ripple(&lit) > 5.0 * ripple(&dim), "beads");
+    let f20_hz = atlas_frequency_hz(d_mm);
+    let expected = len as f64 / (f20_hz / 60.0);
+    let found = period(&lit, 8..80);
+    eprintln!("bead period {found} px, (2,0) period {expected:.1} px");
+    assert!(
+        (found as f64 / expected - 1.0).abs() < 0.15 || (2.0 * found as f64 / expected - 1.0).abs() < 0.15,
+        "period {found} px vs {expected:.1} px"
+    );
+    // Mirror: column x of one is column 23 − x of the other: compare the weight centres.
+    let centre = |c: &[[f64; 3]]| {
+        let (mut m, mut t) = (0.0, 0.0);
+        for (i, px) in c.iter().enumerate() {
+            m += px[1] * ((i as u32 % w) as f64 + 0.5);
+            t += px[1];
+        }
+        m / t
+    };
+    eprintln!("centres: {:.3} right, {:.3} left", centre(&right), centre(&left));
+    assert!(centre(&right) > 12.05 && centre(&left) < 11.95);
+    assert!((centre(&right) + centre(&left) - 24.0).abs() < 1e-6);
+}
+
+/// The (2,0) Rayleigh frequency the database lists for a drop of `d_mm`.
+fn atlas_frequency_hz(d_mm: f64) -> f64 {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("drops");
+    let index = rain_composite::drops::database::load_index(&dir).expect("index");
+    index
+        .mattes
+        .iter()
+        .find(|m| m.diameter_mm == d_mm)
+        .map(|m| m.mode_frequencies_hz[0])
+        .expect("size")
+}
+
 /// The phase is random per drop (all phases turn up), fixed by seed and drop id, and the size
 /// and view pick the nearest bins.
 #[test]
 fn each_drop_keeps_its_matte() {
     let atlas = atlas();
     let info = drop_info(2.1, 25.0);
-    let layers: Vec<usize> = (0..400).map(|id| matte_layer(&atlas, 3, id, info)).collect();
-    let again: Vec<usize> = (0..400).map(|id| matte_layer(&atlas, 3, id, info)).collect();
+    let layers: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 3, id, info, None).0)
+        .collect();
+    let again: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 3, id, info, None).0)
+        .collect();
     assert_eq!(layers, again);
     let (size, view) = (1, 1); // 2 mm, 30°
     let first = (size * atlas.views_deg.len() + view) * atlas.phases;
@@ -151,8 +268,16 @@ fn each_drop_keeps_its_matte() {
         let n = layers.iter().filter(|&&l| l == first + k).count();
         assert!(n > 400 / atlas.phases / 2, "phase {k}: {n} of 400 drops");
     }
-    assert_eq!(layers.iter().filter(|&&l| l < first || l >= first + atlas.phases).count(), 0);
-    let other_seed: Vec<usize> = (0..400).map(|id| matte_layer(&atlas, 4, id, info)).collect();
+    assert_eq!(
+        layers
+            .iter()
+            .filter(|&&l| l < first || l >= first + atlas.phases)
+            .count(),
+        0
+    );
+    let other_seed: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 4, id, info, None).0)
+        .collect();
     assert_ne!(layers, other_seed);
 }
 
@@ -228,12 +353,12 @@ fn mattes_on_the_gpu_match_the_cpu_twin() {
     let simple = setup_for(format);
     let matted = setup_for(format).with_mattes(Some(atlas()));
     let params = lit(&matted);
-    let streaks = probe_streaks(&ctx, &matted, &params, &LightList::new(&[]), &tables)
-        .expect("streaks");
+    let streaks =
+        probe_streaks(&ctx, &matted, &params, &LightList::new(&[]), &tables).expect("streaks");
     let drawn = streaks.iter().filter(|s| s.len_px >= 0.0).count();
     assert!(drawn > 20, "{drawn} streaks");
     let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
-    rain_streaks_with(&mut canvas, &params, &streaks, Some(&atlas()));
+    rain_streaks_with(&mut canvas, &params, &streaks, Some(&atlas()), &[]);
     let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
     let gpu = render(&matted);
     let (mut worst, mut off, mut n) = (0u16, 0usize, 0usize);

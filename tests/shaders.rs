@@ -4,7 +4,7 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{
-    Column, DirectLight, FrameParams, LightList, MatteParams, RainParams, Streak, WetParams,
+    Column, DirectLight, FrameParams, Glint, LightList, MatteParams, RainParams, Streak, WetParams,
 };
 
 fn module(stage: Stage) -> naga::Module {
@@ -141,8 +141,9 @@ fn rust_twins_match_wgsl_layouts() {
     assert_twin!(
         module(Stage::RainStreaks),
         MatteParams,
-        [counts, sizes_mm, views_deg]
+        [counts, sizes_mm, views_deg, lights, light_count]
     );
+    assert_twin!(module(Stage::RainSimulate), Glint, [colour, light_dir]);
     assert_twin!(m, LightList, [count, table_bins, _pad, lights]);
     let m = module(Stage::YuvToRgb);
     assert_twin!(

@@ -114,9 +114,17 @@ struct WetParams {
     diffuse_internal: f32,  // and for diffuse light inside it (total internal reflection included)
 }
 
+// The brightest compact light of a drop, drawn with its point-light matte (--streaks mattes).
+struct Glint {
+    colour: vec4<f32>,      // rgb: its radiance on the drop, L·Ω·F(θ) (taken out of the Streak's); 0: none
+    light_dir: vec4<f32>,   // xyz: drop → light in the streak's frame: x image right, y away from the camera, z against the fall
+}
+
 // The streak mattes' bins (src/drops/atlas.rs, MatteAtlas; stage rain_streaks, --streaks mattes).
 struct MatteParams {
     counts: vec4<u32>,              // size bins, view bins, phases, 0
     sizes_mm: array<vec4<f32>, 2>,  // bin diameters, mm (MAX_MATTE_BINS = 8)
     views_deg: array<vec4<f32>, 2>, // bin camera elevations, degrees
+    lights: array<vec4<f32>, MAX_MATTE_LIGHTS>, // xyz: the point-light mattes' directions, the Glint frame
+    light_count: vec4<u32>,         // x: point-light directions (0: none), y: first light layer
 }

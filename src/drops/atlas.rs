@@ -6,6 +6,9 @@
 //! [−[`HALF_WIDTH_RADII`], +] drop radii across. Each layer is scaled so that ∫∫ N du dv = 1:
 //! the renderer spreads the streak's Garg–Nayar coverage (πr² px² per unit alpha) by N, so a
 //! matte moves light along the streak without changing how much the streak holds.
+//!
+//! After the environment layers come the point-light layers (size bin × view bin × light
+//! direction × phase), for the glint of each drop's brightest compact light.
 
 use std::path::Path;
 
@@ -21,6 +24,8 @@ pub const ATLAS_HEIGHT: usize = 256;
 pub const HALF_WIDTH_RADII: f64 = 1.5;
 /// Most size and view bins the stage takes (`MatteParams` in the WGSL).
 pub const MAX_MATTE_BINS: usize = 8;
+/// Most point-light directions the stage takes (`MAX_MATTE_LIGHTS` in the WGSL).
+pub const MAX_MATTE_LIGHTS: usize = 16;
 
 /// The mattes of a render, uploaded once per job.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,6 +36,10 @@ pub struct MatteAtlas {
     pub views_deg: Vec<f64>,
     /// Oscillation phases per (size, view).
     pub phases: usize,
+    /// Directions (unit, drop → light) of the point-light mattes, in the frame of
+    /// [`super::LightAngles::direction`]: x image right, y away from the camera, z up; empty
+    /// where the database has none.
+    pub lights: Vec<glam::DVec3>,
     /// `ATLAS_WIDTH × ATLAS_HEIGHT` texels per layer, row-major, layer
     /// `(size · views + view) · phases + phase`.
     pub texels: Vec<f32>,
@@ -97,40 +106,52 @@ impl MatteAtlas {
             )));
         }
         let phases = spec.phases.max(1);
+        let lights: Vec<_> = spec.lights.iter().take(MAX_MATTE_LIGHTS).copied().collect();
         let mut texels = Vec::new();
+        // The environment layers, then the point-light layers.
+        let mut picks = Vec::new();
         for &d in &sizes_mm {
             for &v in &views_deg {
-                for k in 0..phases {
-                    let phase = k as f64 / phases as f64;
-                    let (entry, _) =
-                        index.pick(d, exposure_s, v, phase, None).ok_or_else(|| {
-                            Error::InputOpen {
-                                path: dir.display().to_string(),
-                                reason: format!("no matte for {d} mm, view {v}°, phase {k}"),
-                            }
-                        })?;
-                    let m = read_matte(dir, entry)?;
-                    // The footprint: the disc's tail at shutter open to its head at close.
-                    let radius_px = 0.5 * entry.diameter_mm / entry.pixel_mm;
-                    let first_row = entry.start_row - radius_px;
-                    let rows = entry.travel_px + 2.0 * radius_px;
-                    let mid = 0.5 * entry.width as f64;
-                    texels.extend(layer(|u, v| {
-                        bilinear(
-                            |k| m[k],
-                            entry.width,
-                            entry.height,
-                            mid + v * radius_px,
-                            first_row + u * rows,
-                        )
-                    })?);
+                picks.extend((0..phases).map(|k| (d, v, k, None)));
+            }
+        }
+        for &d in &sizes_mm {
+            for &v in &views_deg {
+                for l in &lights {
+                    picks.extend((0..phases).map(|k| (d, v, k, Some(*l))));
                 }
             }
+        }
+        for (d, v, k, light) in picks {
+            let phase = k as f64 / phases as f64;
+            let (entry, _) =
+                index
+                    .pick(d, exposure_s, v, phase, light)
+                    .ok_or_else(|| Error::InputOpen {
+                        path: dir.display().to_string(),
+                        reason: format!("no matte for {d} mm, view {v}°, phase {k}"),
+                    })?;
+            let m = read_matte(dir, entry)?;
+            // The footprint: the disc's tail at shutter open to its head at close.
+            let radius_px = 0.5 * entry.diameter_mm / entry.pixel_mm;
+            let first_row = entry.start_row - radius_px;
+            let rows = entry.travel_px + 2.0 * radius_px;
+            let mid = 0.5 * entry.width as f64;
+            texels.extend(layer(|u, v| {
+                bilinear(
+                    |k| m[k],
+                    entry.width,
+                    entry.height,
+                    mid + v * radius_px,
+                    first_row + u * rows,
+                )
+            })?);
         }
         Ok(MatteAtlas {
             sizes_mm,
             views_deg,
             phases,
+            lights: lights.iter().map(|l| l.direction()).collect(),
             texels,
         })
     }
@@ -152,8 +173,14 @@ impl MatteAtlas {
             sizes_mm: vec![1.6],
             views_deg: garg_nayar::VIEW_ELEVATIONS_DEG.map(f64::from).to_vec(),
             phases: garg_nayar::OSCILLATIONS,
+            lights: Vec::new(),
             texels,
         })
+    }
+
+    /// The first point-light layer.
+    pub fn light_layer0(&self) -> usize {
+        self.sizes_mm.len() * self.views_deg.len() * self.phases
     }
 
     /// Layers in the atlas.

@@ -136,7 +136,8 @@ impl SimulateProbe {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let stage = RainSimulate::with_buffers(device, &uniform, &columns, &out, &direct, capacity);
+        let stage =
+            RainSimulate::with_buffers(device, &uniform, &columns, &out, &direct, None, capacity);
         SimulateProbe {
             stage,
             uniform,

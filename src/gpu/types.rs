@@ -263,6 +263,21 @@ pub struct MatteParams {
     pub counts: [u32; 4],
     pub sizes_mm: [[f32; 4]; 2],
     pub views_deg: [[f32; 4]; 2],
+    /// xyz: the point-light mattes' directions.
+    pub lights: [[f32; 4]; crate::drops::atlas::MAX_MATTE_LIGHTS],
+    /// Point-light directions, the first point-light layer, 0, 0.
+    pub light_count: [u32; 4],
+}
+
+/// WGSL `Glint`: a drop's brightest compact light, drawn with its point-light matte.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct Glint {
+    /// rgb: the light's radiance on the drop, taken out of the streak's colour.
+    pub colour: [f32; 4],
+    /// xyz: drop → light: x image right, y away from the camera, z against the fall.
+    pub light_dir: [f32; 4],
 }
 
 impl MatteParams {
@@ -284,6 +299,13 @@ impl MatteParams {
             ],
             sizes_mm: pack(&atlas.sizes_mm),
             views_deg: pack(&atlas.views_deg),
+            lights: std::array::from_fn(|k| {
+                atlas
+                    .lights
+                    .get(k)
+                    .map_or([0.0; 4], |d| [d.x as f32, d.y as f32, d.z as f32, 0.0])
+            }),
+            light_count: [atlas.lights.len() as u32, atlas.light_layer0() as u32, 0, 0],
         }
     }
 }

@@ -263,7 +263,10 @@ impl RainSetup {
     }
 
     /// Streaks drawn with `mattes` (`None`: the capsule).
-    pub fn with_mattes(mut self, mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>) -> RainSetup {
+    pub fn with_mattes(
+        mut self,
+        mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
+    ) -> RainSetup {
         self.mattes = mattes;
         self
     }

@@ -6,20 +6,27 @@
 
 use std::f64::consts::PI;
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 pub use super::rain_simulate::coverage;
 use crate::drops::MatteAtlas;
 use crate::drops::atlas::HALF_WIDTH_RADII;
-use crate::gpu::types::{RainParams, Streak};
+use crate::gpu::types::{Glint, RainParams, Streak};
 use crate::rain::volume::drop_uniform;
 
 /// The random stream of a drop's oscillation phase (`MATTE_PHASE_STREAM` in the WGSL).
 pub const MATTE_PHASE_STREAM: u32 = 6;
 
-/// The matte layer of drop `id` with `drop_info` (the stage's `vs_mattes`): the nearest size
-/// and view bins, and a phase random per drop and fixed in time.
-pub fn matte_layer(atlas: &MatteAtlas, seed: u32, id: u32, drop_info: u32) -> usize {
+/// The matte layers of drop `id` with `drop_info` and `glint` (the stage's `vs_mattes`): the
+/// nearest size and view bins and a phase random per drop and fixed in time; for a glint, the
+/// point-light matte of the nearest direction, and whether it is the mirror image.
+pub fn matte_layers(
+    atlas: &MatteAtlas,
+    seed: u32,
+    id: u32,
+    drop_info: u32,
+    glint: Option<&Glint>,
+) -> (usize, Option<(usize, bool)>) {
     let unorm = |bits: u32| (bits & 0xffff) as f64 / 65535.0;
     let nearest = |values: &[f64], x: f64| {
         (1..values.len()).fold(0, |best, k| {
@@ -33,8 +40,26 @@ pub fn matte_layer(atlas: &MatteAtlas, seed: u32, id: u32, drop_info: u32) -> us
     let size = nearest(&atlas.sizes_mm, unorm(drop_info) * 10.0);
     let view = nearest(&atlas.views_deg, unorm(drop_info >> 16) * 90.0);
     let phases = atlas.phases;
-    let phase = ((drop_uniform(seed, id, MATTE_PHASE_STREAM) * phases as f64) as usize).min(phases - 1);
-    (size * atlas.views_deg.len() + view) * phases + phase
+    let phase =
+        ((drop_uniform(seed, id, MATTE_PHASE_STREAM) * phases as f64) as usize).min(phases - 1);
+    let bin = size * atlas.views_deg.len() + view;
+    let glint_layer = glint
+        .filter(|g| !atlas.lights.is_empty() && g.colour[..3].iter().any(|&c| c > 0.0))
+        .map(|g| {
+            let [x, y, z, _] = g.light_dir.map(f64::from);
+            let mirror = x < 0.0;
+            let d = DVec3::new(x.abs(), y, z);
+            let light = (1..atlas.lights.len()).fold(0, |best, k| {
+                if atlas.lights[k].dot(d) > atlas.lights[best].dot(d) {
+                    k
+                } else {
+                    best
+                }
+            });
+            let layer = atlas.light_layer0() + (bin * atlas.lights.len() + light) * phases + phase;
+            (layer, mirror)
+        });
+    (bin * phases + phase, glint_layer)
 }
 
 /// Half a pixel of margin around each quad (`AA_MARGIN_PX` in the WGSL).
@@ -43,15 +68,17 @@ pub const AA_MARGIN_PX: f64 = 0.5;
 /// Blends `streaks` over `canvas` (linear RGB, row-major, the coded picture of
 /// `p.coded_size_px`), with `p`'s display rotation.
 pub fn rain_streaks(canvas: &mut [[f64; 3]], p: &RainParams, streaks: &[Streak]) {
-    rain_streaks_with(canvas, p, streaks, None)
+    rain_streaks_with(canvas, p, streaks, None, &[])
 }
 
-/// [`rain_streaks`], the colours spread by `mattes` where given.
+/// [`rain_streaks`], the colours spread by `mattes` where given, with each drop's glint
+/// (`rain_simulate`'s `main_mattes`; `glints` may be empty: none).
 pub fn rain_streaks_with(
     canvas: &mut [[f64; 3]],
     p: &RainParams,
     streaks: &[Streak],
     mattes: Option<&MatteAtlas>,
+    glints: &[Glint],
 ) {
     let (w, h) = (p.coded_size_px[0] as u32, p.coded_size_px[1] as u32);
     let m = p.coded_from_display.map(|v| v as f64);
@@ -62,7 +89,12 @@ pub fn rain_streaks_with(
         DVec2::new(m[0] * d.x + m[1] * d.y, m[2] * d.x + m[3] * d.y)
     };
     for (id, s) in streaks.iter().enumerate().filter(|(_, s)| s.len_px >= 0.0) {
-        let layer = mattes.map(|m| (m, matte_layer(m, p.seed, id as u32, s.drop_info)));
+        let layers = mattes.map(|m| {
+            (
+                m,
+                matte_layers(m, p.seed, id as u32, s.drop_info, glints.get(id)),
+            )
+        });
         let q0 = DVec2::new(s.q0_px[0] as f64, s.q0_px[1] as f64);
         let dir = DVec2::new(s.dir[0] as f64, s.dir[1] as f64);
         let (len, r) = (s.len_px as f64, s.r_eff_px as f64);
@@ -82,23 +114,33 @@ pub fn rain_streaks_with(
                 }
                 let a = (coverage(along, across, len, r) * s.alpha_scale as f64).clamp(0.0, 1.0);
                 let t = (along + ext) / (len + 2.0 * ext);
-                // The premultiplied weight of the colour: the alpha, or the matte's spread of
-                // the same light (∫∫ N du dw = 1 over the footprint, πr² the capsule's coverage).
-                let weight = match layer {
-                    None => a,
-                    Some((atlas, l)) => {
+                let rad: [f64; 3] = std::array::from_fn(|k| {
+                    s.radiance0[k] as f64 * (1.0 - t) + s.radiance1[k] as f64 * t
+                });
+                // The premultiplied colour: radiance × alpha, or the mattes' spread of the same
+                // light (∫∫ N du dw = 1 over the footprint, πr² the capsule's coverage).
+                let light: [f64; 3] = match layers {
+                    None => rad.map(|c| c * a),
+                    Some((atlas, (env, glint))) => {
                         let footprint = len + 2.0 * r;
-                        let n = atlas.sample(l, (along + r) / footprint, across / r);
-                        s.alpha_scale as f64 * n * PI * r / footprint
+                        let spread = s.alpha_scale as f64 * PI * r / footprint;
+                        let (u, w) = ((along + r) / footprint, -across / r);
+                        let n = atlas.sample(env, u, w);
+                        std::array::from_fn(|k| {
+                            let g = glint.map_or(0.0, |(l, mirror)| {
+                                let w = if mirror { -w } else { w };
+                                glints[id].colour[k] as f64 * atlas.sample(l, u, w)
+                            });
+                            (rad[k] * n + g) * spread
+                        })
                     }
                 };
-                if a <= 0.0 && weight <= 0.0 {
+                if a <= 0.0 && light.iter().all(|&c| c <= 0.0) {
                     continue;
                 }
                 let px = &mut canvas[(y * w + x) as usize];
-                for (k, c) in px.iter_mut().enumerate() {
-                    let rad = s.radiance0[k] as f64 * (1.0 - t) + s.radiance1[k] as f64 * t;
-                    *c = rad * weight + *c * (1.0 - a);
+                for (c, l) in px.iter_mut().zip(light) {
+                    *c = l + *c * (1.0 - a);
                 }
             }
         }

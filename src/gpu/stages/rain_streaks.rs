@@ -9,7 +9,9 @@ use super::{FrameResources, FrameStage, TimestampSlot};
 use crate::drops::MatteAtlas;
 use crate::gpu::bind::{bind_group, buffer};
 use crate::gpu::shaders::Stage;
-use crate::gpu::types::MatteParams;
+use bytemuck::Zeroable;
+
+use crate::gpu::types::{Glint, MatteParams};
 
 /// The canvas format the streaks blend into.
 pub const CANVAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -73,6 +75,12 @@ impl RainStreaks {
                     contents: bytemuck::bytes_of(&MatteParams::new(atlas)),
                     usage: wgpu::BufferUsages::UNIFORM,
                 });
+                // Without point-light mattes no streak has a glint: one zero glint for all.
+                let placeholder = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("no_glints"),
+                    contents: bytemuck::bytes_of(&Glint::zeroed()),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
                 let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("matte_texels"),
                     contents: bytemuck::cast_slice(&atlas.texels),
@@ -87,6 +95,7 @@ impl RainStreaks {
                         buffer(&r.streaks),
                         buffer(&params),
                         buffer(&texels),
+                        buffer(r.glints.as_ref().unwrap_or(&placeholder)),
                     ],
                 )
             }
