@@ -10,7 +10,7 @@ use rain_composite::config::{CameraConfig, RainConfig, RenderConfig, StreakStyle
 use rain_composite::drops::MatteAtlas;
 use rain_composite::gpu::cpu::rain_streaks::{matte_layers, rain_streaks_with};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::probe::probe_streaks;
+use rain_composite::gpu::probe::{probe_streaks, probe_streaks_and_glints};
 use rain_composite::gpu::types::{Glint, LightList, RainParams, Streak};
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
@@ -167,7 +167,8 @@ fn period(v: &[f64], lags: std::ops::Range<usize>) -> usize {
         let n = d.len() - lag;
         (0..n).map(|i| d[i] * d[i + lag]).sum::<f64>() / n as f64
     };
-    lags.max_by(|&a, &b| corr(a).total_cmp(&corr(b))).unwrap_or(0)
+    lags.max_by(|&a, &b| corr(a).total_cmp(&corr(b)))
+        .unwrap_or(0)
 }
 
 /// A streak lit by a lamp beside it is a string of beads at the drop's oscillation period
@@ -185,7 +186,12 @@ fn a_lamp_beside_a_streak_strings_it_with_beads() {
     // A lamp level with the drop, to the image right of it, 5° towards the camera.
     let lamp = |x: f32| Glint {
         colour: [2.0, 2.0, 2.0, 0.0],
-        light_dir: [x * 85f32.to_radians().sin(), -(85f32.to_radians().cos()), 0.0, 0.0],
+        light_dir: [
+            x * 85f32.to_radians().sin(),
+            -(85f32.to_radians().cos()),
+            0.0,
+            0.0,
+        ],
     };
     let draw_at = |s: Streak, glint: Option<Glint>| {
         let mut canvas = vec![[0.0; 3]; (w * h) as usize];
@@ -212,15 +218,23 @@ fn a_lamp_beside_a_streak_strings_it_with_beads() {
     eprintln!("lamp: total {:.4} of the capsule's", held / capsule);
     assert!((held / capsule - 1.0).abs() < 0.03);
     let rows = 30..190;
-    let (lit, dim) = (row_profile(&right, w, rows.clone()), row_profile(&none, w, rows));
-    eprintln!("ripple: {:.3} lit, {:.3} without the lamp", ripple(&lit), ripple(&dim));
+    let (lit, dim) = (
+        row_profile(&right, w, rows.clone()),
+        row_profile(&none, w, rows),
+    );
+    eprintln!(
+        "ripple: {:.3} lit, {:.3} without the lamp",
+        ripple(&lit),
+        ripple(&dim)
+    );
     assert!(ripple(&lit) > 5.0 * ripple(&dim), "beads");
     let f20_hz = atlas_frequency_hz(d_mm);
     let expected = len as f64 / (f20_hz / 60.0);
     let found = period(&lit, 8..80);
     eprintln!("bead period {found} px, (2,0) period {expected:.1} px");
     assert!(
-        (found as f64 / expected - 1.0).abs() < 0.15 || (2.0 * found as f64 / expected - 1.0).abs() < 0.15,
+        (found as f64 / expected - 1.0).abs() < 0.15
+            || (2.0 * found as f64 / expected - 1.0).abs() < 0.15,
         "period {found} px vs {expected:.1} px"
     );
     // Mirror: column x of one is column 23 − x of the other: compare the weight centres.
@@ -232,7 +246,11 @@ fn a_lamp_beside_a_streak_strings_it_with_beads() {
         }
         m / t
     };
-    eprintln!("centres: {:.3} right, {:.3} left", centre(&right), centre(&left));
+    eprintln!(
+        "centres: {:.3} right, {:.3} left",
+        centre(&right),
+        centre(&left)
+    );
     assert!(centre(&right) > 12.05 && centre(&left) < 11.95);
     assert!((centre(&right) + centre(&left) - 24.0).abs() < 1e-6);
 }
@@ -374,4 +392,107 @@ fn mattes_on_the_gpu_match_the_cpu_twin() {
     assert!(worst <= 8, "{worst} codes off");
     assert!((off as f64) < 0.02 * n as f64, "{off} of {n} samples off");
     assert_ne!(render(&simple), gpu, "the mattes show");
+}
+
+/// A lamp in shot: the GPU's glints and their mattes match the CPU twin, and the glints are
+/// the streaks' light near the lamp (within 15°: beaded, as the twin test shows a glint
+/// makes them) and a small share of it far from the lamp (smooth).
+#[test]
+fn a_lamp_in_shot_glints_in_the_streaks_near_it() {
+    let Some(ctx) = gpu() else { return };
+    let format = FrameFormat {
+        width: 96,
+        height: 64,
+        chroma: Chroma::Cs444,
+        bit_depth: 10,
+    };
+    let color = ColorParams::bt709(10);
+    let frame = YuvFrame::filled(format, color, [150, 512, 512]);
+    let tables = tables();
+    let setup = setup_for(format).with_mattes(Some(atlas()));
+    let params = lit(&setup);
+    // The lamp: in front of the camera, a little right of and above the centre.
+    let row = |k: usize| match k {
+        0 => params.camera_from_world_0,
+        1 => params.camera_from_world_1,
+        _ => params.camera_from_world_2,
+    };
+    let cam = [0.15f32, -0.1, 1.0];
+    let mut world = [0.0f32; 3];
+    for (k, c) in cam.iter().enumerate() {
+        for (i, w) in world.iter_mut().enumerate() {
+            *w += row(k)[i] * c;
+        }
+    }
+    let n = world.iter().map(|v| v * v).sum::<f32>().sqrt();
+    let mut lights = LightList::new(&[]);
+    lights.count = 1;
+    // A street lamp 2 m away, among the drops.
+    lights.lights[0].direction_distance = [world[0] / n, world[1] / n, world[2] / n, 2.0];
+    lights.lights[0].strength = [3.0, 2.5, 2.0, 0.05];
+    let lamp_px = [
+        params.principal_px[0] + params.focal_px * cam[0],
+        params.principal_px[1] + params.focal_px * cam[1],
+    ];
+    let (streaks, glints) =
+        probe_streaks_and_glints(&ctx, &setup, &params, &lights, &tables).expect("probe");
+    let (mut near, mut far) = (Vec::new(), Vec::new());
+    for (s, g) in streaks.iter().zip(&glints).filter(|(s, _)| s.len_px >= 0.0) {
+        let mid = [
+            s.q0_px[0] + s.dir[0] * s.len_px / 2.0,
+            s.q0_px[1] + s.dir[1] * s.len_px / 2.0,
+        ];
+        let off = ((mid[0] - lamp_px[0]).powi(2) + (mid[1] - lamp_px[1]).powi(2)).sqrt();
+        let angle_deg = (off / params.focal_px).atan().to_degrees();
+        let glint: f32 = g.colour[..3].iter().sum();
+        let smooth: f32 = (0..3)
+            .map(|k| 0.5 * (s.radiance0[k] + s.radiance1[k]))
+            .sum();
+        let share = glint / (glint + smooth).max(1e-12);
+        if angle_deg < 15.0 {
+            near.push(share);
+        } else if angle_deg > 30.0 {
+            far.push(share);
+        }
+    }
+    let median = |v: &mut Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    assert!(
+        near.len() > 10 && far.len() > 10,
+        "{} near, {} far",
+        near.len(),
+        far.len()
+    );
+    let (near_share, far_share) = (median(&mut near), median(&mut far));
+    eprintln!(
+        "glint share of the light: {near_share:.3} within 15° of the lamp ({} streaks), {far_share:.3} beyond 30° ({})",
+        near.len(),
+        far.len()
+    );
+    assert!(
+        near_share > 0.5,
+        "near the lamp the glint is most of the light"
+    );
+    assert!(far_share < 0.5 * near_share, "far from it, less");
+
+    // The frame: GPU against the twin with the same glints.
+    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+    comp.set_transfer_table(&tables);
+    comp.set_lights(&lights);
+    let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    rain_streaks_with(&mut canvas, &params, &streaks, Some(&atlas()), &glints);
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
+    let (mut worst, mut off, mut total) = (0u16, 0usize, 0usize);
+    for (g, c) in gpu.iter().zip(&cpu) {
+        for (a, b) in g.iter().zip(c) {
+            worst = worst.max(a.abs_diff(*b));
+            off += (a.abs_diff(*b) > 2) as usize;
+            total += 1;
+        }
+    }
+    eprintln!("with a lamp: worst {worst} codes, {off} of {total} samples > 2 codes");
+    assert!(worst <= 8 && (off as f64) < 0.02 * total as f64);
 }

@@ -41,7 +41,11 @@ impl RainSimulate {
         drops: u32,
     ) -> RainSimulate {
         // With glints, the brightest light of each drop leaves the streak's colour for them.
-        let entry = if glints.is_some() { "main_mattes" } else { "main" };
+        let entry = if glints.is_some() {
+            "main_mattes"
+        } else {
+            "main"
+        };
         let pipeline = super::compute_pipeline(device, Stage::RainSimulate, entry);
         let mut buffers = vec![
             buffer(rain_params),
