@@ -88,8 +88,13 @@ impl MatteAtlas {
     pub fn load(dir: &Path, exposure_s: f64) -> Result<MatteAtlas> {
         if dir.join("index.json").is_file() {
             Self::from_index(dir, &load_index(dir)?, exposure_s)
-        } else {
+        } else if dir.join("env_light_database").is_dir() {
             Self::from_garg_nayar(dir)
+        } else {
+            Err(Error::InputOpen {
+                path: dir.display().to_string(),
+                reason: "not a streak database (no index.json, no env_light_database/)".into(),
+            })
         }
     }
 
