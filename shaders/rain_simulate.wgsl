@@ -28,11 +28,23 @@
 @group(0) @binding(2) var<storage, read_write> streaks: array<Streak>;
 @group(0) @binding(3) var<uniform> lights: LightList;
 @group(0) @binding(4) var<storage, read> rtf_table: array<vec4<f32>>;
+// main_mattes only.
+@group(0) @binding(5) var<storage, read_write> glints: array<Glint>;
 
 const MIN_RADIUS_PX: f32 = 0.7;
 const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 // Largest drawn radius, as a fraction of the picture height (near-field drops).
 const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
+
+// What picks a drop's streak matte: its diameter and the camera's elevation over the plane
+// normal to its fall (asin |view · fall|, 0 = seen side-on), for `view_cam` (camera axes, any
+// length) the ray to the streak's middle.
+fn drop_info(drop: DropState, view_cam: vec3<f32>) -> u32 {
+    let view = rain.camera_from_world_0.xyz * view_cam.x + rain.camera_from_world_1.xyz * view_cam.y + rain.camera_from_world_2.xyz * view_cam.z;
+    let fall = drop.vel_mps / max(length(drop.vel_mps), 1e-6);
+    let elevation_deg = degrees(asin(min(abs(dot(normalize(view), fall)), 1.0)));
+    return pack2x16unorm(vec2<f32>(drop.diameter_mm / 10.0, elevation_deg / 90.0));
+}
 
 fn streak_of(id: u32) -> Streak {
     let drop = drop_state(id);
@@ -80,11 +92,42 @@ fn streak_of(id: u32) -> Streak {
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, drop_radiance(c0), drop_radiance(c1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, drop_info(drop, c0 + c1), drop_radiance(c0), drop_radiance(c1));
 }
 
 @compute @workgroup_size(SIMULATE_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
     streaks[id.x] = streak_of(id.x);
+}
+
+// With point-light mattes (--streaks mattes): the drop's brightest compact light, at its
+// mid-exposure position, is taken out of the streak's smooth colour and written as a glint for
+// rain_streaks to draw with that light's matte, its direction in the matte's frame.
+@compute @workgroup_size(SIMULATE_WORKGROUP)
+fn main_mattes(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= rain.drop_count { return; }
+    var s = streak_of(id.x);
+    var glint = Glint(vec4<f32>(0.0), vec4<f32>(0.0));
+    if s.len_px >= 0.0 && lights.count > 0u {
+        let drop = drop_state(id.x);
+        let offset = drop.pos_m - rain.camera_pos_m.xyz;
+        let v = normalize(offset);
+        var best = LightTerm(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0));
+        for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
+            let t = light_term(lights.lights[i], v, offset);
+            if dot(t.colour, vec3<f32>(1.0)) > dot(best.colour, vec3<f32>(1.0)) { best = t; }
+        }
+        // The matte's frame: z against the fall, y the view's horizontal part, x = y × z.
+        let up = -drop.vel_mps / max(length(drop.vel_mps), 1e-6);
+        var away = v - up * dot(v, up);
+        away = select(vec3<f32>(0.0, 1.0, 0.0), normalize(away), length(away) > 1e-6);
+        let right = cross(away, up);
+        let c = min(best.colour, 0.5 * (s.radiance0.rgb + s.radiance1.rgb));
+        s.radiance0 = vec4<f32>(max(s.radiance0.rgb - c, vec3<f32>(0.0)), 0.0);
+        s.radiance1 = vec4<f32>(max(s.radiance1.rgb - c, vec3<f32>(0.0)), 0.0);
+        glint = Glint(vec4<f32>(c, 0.0), vec4<f32>(dot(best.omega, right), dot(best.omega, away), dot(best.omega, up), 0.0));
+    }
+    streaks[id.x] = s;
+    glints[id.x] = glint;
 }

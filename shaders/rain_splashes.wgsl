@@ -60,7 +60,7 @@ fn segment_streak(w0: vec3<f32>, w1: vec3<f32>, exposed: f32, width_m: f32, weig
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
         return hidden();
     }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0.0, drop_radiance(c0), drop_radiance(c1));
+    return Streak(q0, dir, len, r_eff, alpha_scale, 0u, drop_radiance(c0), drop_radiance(c1));
 }
 
 fn crown_radius_m(d_m: f32, speed_mps: f32, tau_s: f32) -> f32 {

@@ -7,7 +7,12 @@
 // depth centred on the surface; where the depth is unknown nothing hides it (the ground, when
 // one is given, already ends each streak where its drop lands). Without a depth map the buffer
 // holds one element and the alpha is multiplied by exactly 1.
-// Includes: common/types.wgsl, common/depth.wgsl.
+// With --streaks mattes (vs_mattes, fs_mattes) the colour is spread along the streak by the
+// drop's environment matte (src/drops/atlas.rs): its size and view bins from `drop_info`, its
+// oscillation phase random per drop and fixed in time; and the drop's glint (its brightest
+// compact light, from rain_simulate's main_mattes) by that light's point-light matte. The alpha
+// stays the coverage above.
+// Includes: common/types.wgsl, common/rng.wgsl, common/depth.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> streaks: array<Streak>;
@@ -23,7 +28,25 @@ struct VsOut {
     @location(2) radiance: vec3<f32>,
     // The drop's depth (camera z, m) at the start and end of its path.
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
+    // The streak's matte layer (mattes only).
+    @location(4) @interpolate(flat) layer: u32,
+    // The glint's matte layer (MATTE_NONE: no glint) and colour (rgb; w: −1 where the matte is
+    // the mirror image).
+    @location(5) @interpolate(flat) glint_layer: u32,
+    @location(6) @interpolate(flat) glint: vec4<f32>,
 }
+
+@group(0) @binding(3) var<uniform> mattes: MatteParams;
+// MATTE_WIDTH × MATTE_HEIGHT normalised texels per layer (MatteAtlas::texels).
+@group(0) @binding(4) var<storage, read> matte_texels: array<f32>;
+@group(0) @binding(5) var<storage, read> glints: array<Glint>;
+
+// Half a matte layer's width in drop radii (HALF_WIDTH_RADII in src/drops/atlas.rs).
+const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
+// The random stream of a drop's oscillation phase (streams 0–5 place and size it).
+const MATTE_PHASE_STREAM: u32 = 6u;
+const MATTE_PI: f32 = 3.14159265358979;
+const MATTE_NONE: u32 = 0xffffffffu;
 
 const AA_MARGIN_PX: f32 = 0.5;
 // Depth over which a drop passing behind the scene fades out, m: a few centimetres, so depth
@@ -32,9 +55,15 @@ const OCCLUSION_SOFTNESS_M: f32 = 0.05;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
+    return quad(vertex, id, 0.0);
+}
+
+// Corner `vertex` of the quad of streak `id`, at least `half_width_radii` drop radii wide on
+// each side.
+fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0));
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, MATTE_NONE, vec4<f32>(0.0));
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -43,7 +72,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     )[vertex];
     let ext = s.r_eff_px + AA_MARGIN_PX;
     let along = mix(-ext, s.len_px + ext, corner.x);
-    let across = corner.y * ext;
+    let across = corner.y * max(ext, half_width_radii * s.r_eff_px);
     let nrm = vec2<f32>(-s.dir.y, s.dir.x);
     let p_display = s.q0_px + s.dir * along + nrm * across;
     let m = rain.coded_from_display;
@@ -53,7 +82,62 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w));
+        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, MATTE_NONE, vec4<f32>(0.0));
+}
+
+// The index of the bin of `values` (the first `count`) nearest to `x`.
+fn nearest_bin(values: array<vec4<f32>, 2>, count: u32, x: f32) -> u32 {
+    var best = 0u;
+    for (var k = 1u; k < count; k++) {
+        if abs(values[k / 4u][k % 4u] - x) < abs(values[best / 4u][best % 4u] - x) { best = k; }
+    }
+    return best;
+}
+
+@vertex
+fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
+    var out = quad(vertex, id, MATTE_HALF_WIDTH_RADII);
+    let info = unpack2x16unorm(streaks[id].drop_info);
+    let size = nearest_bin(mattes.sizes_mm, mattes.counts.x, info.x * 10.0);
+    let view = nearest_bin(mattes.views_deg, mattes.counts.y, info.y * 90.0);
+    let phases = mattes.counts.z;
+    let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
+    out.layer = (size * mattes.counts.y + view) * phases + phase;
+    let g = glints[id];
+    if mattes.light_count.x > 0u && any(g.colour.rgb > vec3<f32>(0.0)) {
+        // Lights left of the view use the mirror image of those to its right.
+        var dir = g.light_dir.xyz;
+        let mirror = dir.x < 0.0;
+        dir.x = abs(dir.x);
+        var light = 0u;
+        for (var k = 1u; k < mattes.light_count.x; k++) {
+            if dot(mattes.lights[k].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = k; }
+        }
+        out.glint_layer = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
+        out.glint = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
+    }
+    return out;
+}
+
+// The matte texel (i, j) of `layer`, zero outside the layer.
+fn matte_texel(layer: u32, i: i32, j: i32) -> f32 {
+    if i < 0 || j < 0 || i >= i32(MATTE_WIDTH) || j >= i32(MATTE_HEIGHT) { return 0.0; }
+    return matte_texels[(layer * MATTE_HEIGHT + u32(j)) * MATTE_WIDTH + u32(i)];
+}
+
+// N of `layer` at (u along the footprint, w across in radii), bilinear between texel centres
+// (twin of MatteAtlas::sample).
+fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
+    let x = (w / MATTE_HALF_WIDTH_RADII + 1.0) * 0.5 * f32(MATTE_WIDTH) - 0.5;
+    let y = u * f32(MATTE_HEIGHT) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let t = vec2<f32>(x - x0, y - y0);
+    let i = i32(x0);
+    let j = i32(y0);
+    let top = mix(matte_texel(layer, i, j), matte_texel(layer, i + 1, j), t.x);
+    let bottom = mix(matte_texel(layer, i, j + 1), matte_texel(layer, i + 1, j + 1), t.x);
+    return mix(top, bottom, t.y);
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -89,4 +173,26 @@ fn fs_main(v: VsOut) -> @location(0) vec4<f32> {
         * visibility(scene_depth_m(v.clip.xy), drop_m);
     if a <= 0.0 { discard; }
     return vec4<f32>(v.radiance * a, a);
+}
+
+// The streak's light spread by its matte: N integrates to 1 over the footprint (len + 2r) × 2r
+// in (u, w) units, the capsule's coverage to πr², so radiance × alpha_scale × N × πr/(len + 2r)
+// holds the capsule's light, moved along the streak.
+@fragment
+fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
+    let shown = visibility(scene_depth_m(v.clip.xy), drop_depth_m(v.local_px.x, v.shape.x, v.depth_m));
+    let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0) * shown;
+    let r = v.shape.y;
+    let footprint = v.shape.x + 2.0 * r;
+    // The oscillating drop reaches a little beyond the mean disc: light without coverage.
+    // The matte's (u, w): w grows to the image right of a streak falling down the picture,
+    // −local_px.y.
+    let u = (v.local_px.x + r) / footprint;
+    let w = -v.local_px.y / r;
+    var light = v.radiance * matte_at(v.layer, u, w);
+    if v.glint_layer != MATTE_NONE {
+        light += v.glint.rgb * matte_at(v.glint_layer, u, v.glint.w * w);
+    }
+    if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
+    return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
 }

@@ -87,6 +87,30 @@ pub struct RainConfig {
     pub scene_depth_m: f64,
     /// Most drops simulated per frame; beyond it drops are weighted (see `rain::volume`).
     pub max_drops: u32,
+    /// How a streak is drawn: the smooth capsule, or spread by its drop's matte.
+    pub streaks: StreakStyle,
+}
+
+/// How a streak's light is laid along it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StreakStyle {
+    /// A disc swept over the exposure, its colour interpolated between the ends.
+    #[default]
+    Simple,
+    /// The same coverage, its light spread by the drop's environment matte (`drops/`): the
+    /// ripple of an oscillating drop.
+    Mattes,
+}
+
+impl StreakStyle {
+    /// The name `--streaks` and the configuration take.
+    pub fn name(self) -> &'static str {
+        match self {
+            StreakStyle::Simple => "simple",
+            StreakStyle::Mattes => "mattes",
+        }
+    }
 }
 
 impl Default for RainConfig {
@@ -104,6 +128,7 @@ impl Default for RainConfig {
             far_m: 200.0,
             scene_depth_m: 50.0,
             max_drops: 300_000,
+            streaks: StreakStyle::Simple,
         }
     }
 }
@@ -120,6 +145,9 @@ pub struct RenderConfig {
     pub light: crate::lighting::LightConfig,
     /// The ground the rain lands on.
     pub ground: GroundConfig,
+    /// The streak database for `rain.streaks = "mattes"`: ours (`index.json`) or a copy of
+    /// Garg & Nayar's; `None`: the `drops/` shipped with the program.
+    pub streak_db: Option<String>,
 }
 
 /// The ground under the rain (see [`crate::scene::ground`]) and the scene's depth.
@@ -253,6 +281,7 @@ impl RenderConfig {
             ("--wind", format!("{},{}", r.wind_mps[0], r.wind_mps[1])),
             ("--opacity", r.opacity.to_string()),
             ("--seed", r.seed.to_string()),
+            ("--streaks", r.streaks.name().to_string()),
             ("--fov", c.fov_deg.to_string()),
             ("--camera-height", c.height_m.to_string()),
             ("--tilt", c.tilt_deg.to_string()),

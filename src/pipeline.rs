@@ -88,6 +88,9 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> Result<f64> {
     crate::rain::physics::exposure_s(config.camera.shutter_deg, fps)
 }
 
+/// The streak database shipped with the program.
+pub const DEFAULT_STREAK_DB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/drops");
+
 /// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
 /// limit is lowered to it, with a warning naming the limit (the plan then shrinks the far
 /// distance and weights drops exactly as for any other budget).
@@ -123,6 +126,14 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         info.rotation_deg,
         (info.format.width, info.format.height),
     )?;
+    let mattes = match config.rain.streaks {
+        crate::config::StreakStyle::Simple => None,
+        crate::config::StreakStyle::Mattes => {
+            let dir = config.streak_db.as_deref().unwrap_or(DEFAULT_STREAK_DB);
+            let atlas = crate::drops::MatteAtlas::load(std::path::Path::new(dir), exposure)?;
+            Some(std::sync::Arc::new(atlas))
+        }
+    };
     Ok(setup
         .with_ground(config.ground.is_given())
         .with_wetting(
@@ -130,7 +141,8 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
                 .ground
                 .wetting(config.rain.rate_mm_per_h, config.rain.scene_depth_m),
         )
-        .with_scene_depth(config.ground.depth.is_some()))
+        .with_scene_depth(config.ground.depth.is_some())
+        .with_mattes(mattes))
 }
 
 /// The scene's depth of a job (`--depth`), opened and checked before any frame is decoded: a

@@ -4,7 +4,7 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{
-    Column, DirectLight, FrameParams, LightList, RainParams, Streak, WetParams,
+    Column, DirectLight, FrameParams, Glint, LightList, MatteParams, RainParams, Streak, WetParams,
 };
 
 fn module(stage: Stage) -> naga::Module {
@@ -141,12 +141,18 @@ fn rust_twins_match_wgsl_layouts() {
             len_px,
             r_eff_px,
             alpha_scale,
-            _pad,
+            drop_info,
             radiance0,
             radiance1
         ]
     );
     assert_twin!(m, DirectLight, [direction_distance, strength]);
+    assert_twin!(
+        module(Stage::RainStreaks),
+        MatteParams,
+        [counts, sizes_mm, views_deg, lights, light_count]
+    );
+    assert_twin!(module(Stage::RainSimulate), Glint, [colour, light_dir]);
     assert_twin!(m, LightList, [count, table_bins, _pad, lights]);
     let m = module(Stage::YuvToRgb);
     assert_twin!(
@@ -195,7 +201,7 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
     );
     assert_eq!(
         includes(Stage::RainStreaks.body()),
-        ["common/types.wgsl", "common/depth.wgsl"]
+        ["common/types.wgsl", "common/rng.wgsl", "common/depth.wgsl"]
     );
     assert!(simulate.starts_with(&constants()));
     assert_eq!(simulate.matches("fn pcg_hash").count(), 1);

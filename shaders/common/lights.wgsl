@@ -24,26 +24,36 @@ fn rtf_at(theta: f32) -> vec3<f32> {
     return mix(rtf_table[m].rgb, rtf_table[m + 1u].rgb, u - f32(m));
 }
 
+// One light's share of direct_light, and ω (unit, drop → light, world).
+struct LightTerm {
+    colour: vec3<f32>,
+    omega: vec3<f32>,
+}
+
+// The radiance light `l` gives a drop at `drop_from_camera_m` seen along unit `v`.
+fn light_term(l: DirectLight, v: vec3<f32>, drop_from_camera_m: vec3<f32>) -> LightTerm {
+    var omega = l.direction_distance.xyz;
+    var scale = 1.0;
+    let d = l.direction_distance.w;
+    if d > 0.0 {
+        let to_light = omega * d - drop_from_camera_m;
+        let r = length(to_light);
+        if r > 0.0 { omega = to_light / r; }
+        let q = d / max(r, l.strength.w);
+        scale = q * q;
+    }
+    // atan2(|ω×v|, ω·v): accurate near 0 and π, unlike acos.
+    let theta = atan2(length(cross(omega, v)), dot(omega, v));
+    return LightTerm(l.strength.rgb * scale * rtf_at(theta), omega);
+}
+
 // Radiance the compact lights give a drop at `drop_from_camera_m` (world axes, metres from the
 // camera) seen along `view` (eye → drop, any length).
 fn direct_light(view: vec3<f32>, drop_from_camera_m: vec3<f32>) -> vec3<f32> {
     let v = normalize(view);
     var c = vec3<f32>(0.0);
     for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
-        let l = lights.lights[i];
-        var omega = l.direction_distance.xyz;
-        var scale = 1.0;
-        let d = l.direction_distance.w;
-        if d > 0.0 {
-            let to_light = omega * d - drop_from_camera_m;
-            let r = length(to_light);
-            if r > 0.0 { omega = to_light / r; }
-            let q = d / max(r, l.strength.w);
-            scale = q * q;
-        }
-        // atan2(|ω×v|, ω·v): accurate near 0 and π, unlike acos.
-        let theta = atan2(length(cross(omega, v)), dot(omega, v));
-        c += l.strength.rgb * scale * rtf_at(theta);
+        c += light_term(lights.lights[i], v, drop_from_camera_m).colour;
     }
     return c;
 }
@@ -60,5 +70,5 @@ fn drop_radiance(p_cam: vec3<f32>) -> vec4<f32> {
 
 // A streak that is not drawn (rain_streaks skips len_px < 0).
 fn hidden() -> Streak {
-    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0u, vec4<f32>(0.0), vec4<f32>(0.0));
 }

@@ -87,7 +87,7 @@ struct Streak {
     len_px: f32,            // path length; < 0: not drawn
     r_eff_px: f32,          // drawn radius (sub-pixel drops widened, defocus included)
     alpha_scale: f32,       // coverage multiplier
-    _pad: f32,
+    drop_info: u32,         // pack2x16unorm(diameter mm / 10, view elevation / 90°): the matte bins
     radiance0: vec4<f32>,   // drop radiance seen at q0 (rgb); w: the drop's depth there (camera z, m)
     radiance1: vec4<f32>,   // and at the end of the path
 }
@@ -116,4 +116,19 @@ struct WetParams {
     _pad0: f32,
     _pad1: f32,
     _pad2: f32,
+}
+
+// The brightest compact light of a drop, drawn with its point-light matte (--streaks mattes).
+struct Glint {
+    colour: vec4<f32>,      // rgb: its radiance on the drop, L·Ω·F(θ) (taken out of the Streak's); 0: none
+    light_dir: vec4<f32>,   // xyz: drop → light in the streak's frame: x image right, y away from the camera, z against the fall
+}
+
+// The streak mattes' bins (src/drops/atlas.rs, MatteAtlas; stage rain_streaks, --streaks mattes).
+struct MatteParams {
+    counts: vec4<u32>,              // size bins, view bins, phases, 0
+    sizes_mm: array<vec4<f32>, 2>,  // bin diameters, mm (MAX_MATTE_BINS = 8)
+    views_deg: array<vec4<f32>, 2>, // bin camera elevations, degrees
+    lights: array<vec4<f32>, MAX_MATTE_LIGHTS>, // xyz: the point-light mattes' directions, the Glint frame
+    light_count: vec4<u32>,         // x: point-light directions (0: none), y: first light layer
 }

@@ -10,6 +10,7 @@
 //! - [`garg_nayar`]: picks files from a user's copy of the original database.
 //! - [`sheet`]: a labelled contact sheet of either.
 
+pub mod atlas;
 pub mod database;
 pub mod garg_nayar;
 pub mod shape;
@@ -17,6 +18,7 @@ pub mod sheet;
 pub mod streak;
 pub mod trace;
 
+pub use atlas::MatteAtlas;
 pub use database::{DatabaseSpec, Index, MatteEntry};
 pub use shape::{Amplitudes, OscillatingDrop};
 pub use streak::{LightAngles, Streak, StreakSetup};

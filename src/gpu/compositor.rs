@@ -266,6 +266,19 @@ impl Compositor {
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
             }),
+            glints: rain
+                .mattes
+                .as_ref()
+                .filter(|m| !m.lights.is_empty())
+                .map(|_| {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("glints"),
+                        size: std::mem::size_of::<super::types::Glint>() as u64
+                            * rain.params.drop_count.max(1) as u64,
+                        usage: wgpu::BufferUsages::STORAGE,
+                        mapped_at_creation: false,
+                    })
+                }),
             drop_count: rain.params.drop_count,
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),
@@ -288,7 +301,7 @@ impl Compositor {
             Box::new(WetGround::new(device, &resources, wetting)),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainSplashes::new(device, &resources, rain)),
-            Box::new(RainStreaks::new(device, &resources)),
+            Box::new(RainStreaks::new(device, &resources, rain.mattes.as_deref())),
             out,
         ];
         let timed = stages.len() as u64;

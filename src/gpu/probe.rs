@@ -9,7 +9,7 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::rain_probe::{BYTES_PER_DROP, RainProbe};
 use super::stages::rain_simulate::RainSimulate;
-use super::types::{LightList, RainParams, Streak};
+use super::types::{Glint, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
 use crate::lighting::RtfTable;
 use crate::{Error, Result};
@@ -98,6 +98,72 @@ pub fn probe_streaks(
     SimulateProbe::new(ctx, setup, params.drop_count, tables).run(ctx, params, lights)
 }
 
+/// Each drop's streak and glint from `rain_simulate`'s `main_mattes` (the brightest compact
+/// light taken out of the streak for its point-light matte), for `params.drop_count` drops.
+pub fn probe_streaks_and_glints(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    params: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> Result<(Vec<Streak>, Vec<Glint>)> {
+    let device = &ctx.device;
+    let drops = params.drop_count.max(1);
+    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_params"),
+        contents: bytemuck::bytes_of(params),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rain_columns"),
+        contents: bytemuck::cast_slice(&setup.columns),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let direct = DirectLightBuffers::new(device);
+    direct.upload_table(&ctx.queue, tables);
+    direct.upload_lights(&ctx.queue, lights);
+    let out = |label, size: usize| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: drops as u64 * size as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    };
+    let streaks = out("rain_streaks", std::mem::size_of::<Streak>());
+    let glints = out("glints", std::mem::size_of::<Glint>());
+    let stage = RainSimulate::with_buffers(
+        device,
+        &uniform,
+        &columns,
+        &streaks,
+        &direct,
+        Some(&glints),
+        drops,
+    );
+    let read = |buffer: &wgpu::Buffer, size: usize| {
+        run_and_read(
+            ctx,
+            |encoder| stage.record_drops(encoder, None, drops),
+            buffer,
+            drops as u64 * size as u64,
+        )
+    };
+    let s = read(&streaks, std::mem::size_of::<Streak>())?;
+    let g = read(&glints, std::mem::size_of::<Glint>())?;
+    let n = params.drop_count as usize;
+    Ok((
+        bytemuck::pod_collect_to_vec::<u8, Streak>(&s)
+            .into_iter()
+            .take(n)
+            .collect(),
+        bytemuck::pod_collect_to_vec::<u8, Glint>(&g)
+            .into_iter()
+            .take(n)
+            .collect(),
+    ))
+}
+
 /// The `rain_simulate` stage set up once for repeated runs (tests and timing).
 pub struct SimulateProbe {
     stage: RainSimulate,
@@ -136,7 +202,8 @@ impl SimulateProbe {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let stage = RainSimulate::with_buffers(device, &uniform, &columns, &out, &direct, capacity);
+        let stage =
+            RainSimulate::with_buffers(device, &uniform, &columns, &out, &direct, None, capacity);
         SimulateProbe {
             stage,
             uniform,

@@ -82,6 +82,12 @@ pub fn constants() -> String {
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+        ("MATTE_WIDTH", crate::drops::atlas::ATLAS_WIDTH as u32),
+        ("MATTE_HEIGHT", crate::drops::atlas::ATLAS_HEIGHT as u32),
+        (
+            "MAX_MATTE_LIGHTS",
+            crate::drops::atlas::MAX_MATTE_LIGHTS as u32,
+        ),
     ]
     .iter()
     .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))

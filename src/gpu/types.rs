@@ -162,7 +162,8 @@ pub struct Streak {
     pub len_px: f32,
     pub r_eff_px: f32,
     pub alpha_scale: f32,
-    pub _pad: f32,
+    /// pack2x16unorm(diameter mm / 10, view elevation / 90°): what picks the streak's matte.
+    pub drop_info: u32,
     /// rgb: the drop's radiance seen at `q0_px`; w: its depth there (camera z), metres.
     pub radiance0: [f32; 4],
     /// The same at the end of the path.
@@ -265,6 +266,62 @@ impl WetParams {
             _pad0: 0.0,
             _pad1: 0.0,
             _pad2: 0.0,
+        }
+    }
+}
+
+/// WGSL `MatteParams`: the bins of the streak mattes ([`crate::drops::MatteAtlas`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct MatteParams {
+    /// Size bins, view bins, phases, 0.
+    pub counts: [u32; 4],
+    pub sizes_mm: [[f32; 4]; 2],
+    pub views_deg: [[f32; 4]; 2],
+    /// xyz: the point-light mattes' directions.
+    pub lights: [[f32; 4]; crate::drops::atlas::MAX_MATTE_LIGHTS],
+    /// Point-light directions, the first point-light layer, 0, 0.
+    pub light_count: [u32; 4],
+}
+
+/// WGSL `Glint`: a drop's brightest compact light, drawn with its point-light matte.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct Glint {
+    /// rgb: the light's radiance on the drop, taken out of the streak's colour.
+    pub colour: [f32; 4],
+    /// xyz: drop → light: x image right, y away from the camera, z against the fall.
+    pub light_dir: [f32; 4],
+}
+
+impl MatteParams {
+    /// The bins of `atlas` (at most [`crate::drops::atlas::MAX_MATTE_BINS`] of each).
+    pub fn new(atlas: &crate::drops::MatteAtlas) -> MatteParams {
+        let pack = |values: &[f64]| {
+            let mut out = [[0.0f32; 4]; 2];
+            for (k, v) in values.iter().enumerate().take(8) {
+                out[k / 4][k % 4] = *v as f32;
+            }
+            out
+        };
+        MatteParams {
+            counts: [
+                atlas.sizes_mm.len() as u32,
+                atlas.views_deg.len() as u32,
+                atlas.phases as u32,
+                0,
+            ],
+            sizes_mm: pack(&atlas.sizes_mm),
+            views_deg: pack(&atlas.views_deg),
+            lights: std::array::from_fn(|k| {
+                atlas
+                    .lights
+                    .get(k)
+                    .map_or([0.0; 4], |d| [d.x as f32, d.y as f32, d.z as f32, 0.0])
+            }),
+            light_count: [atlas.lights.len() as u32, atlas.light_layer0() as u32, 0, 0],
         }
     }
 }

@@ -42,6 +42,8 @@ pub struct RainSetup {
     /// Whether drops are hidden behind the scene's depth map (set per frame with
     /// `Compositor::set_scene_depth`); false leaves the render as without one.
     pub scene_depth: bool,
+    /// The streak mattes (`--streaks mattes`); `None` draws the capsule.
+    pub mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -203,6 +205,7 @@ pub fn build(
         haze_alpha,
         wetting: None,
         scene_depth: false,
+        mattes: None,
     })
 }
 
@@ -260,6 +263,15 @@ impl RainSetup {
     /// stands on (a ground is given); false leaves the render as without a ground.
     pub fn with_ground(mut self, ground: bool) -> RainSetup {
         self.params.ground_clip = ground as u32;
+        self
+    }
+
+    /// Streaks drawn with `mattes` (`None`: the capsule).
+    pub fn with_mattes(
+        mut self,
+        mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
+    ) -> RainSetup {
+        self.mattes = mattes;
         self
     }
 

@@ -137,6 +137,12 @@ pub struct LookArgs {
     /// Random seed: the same seed gives the same rain.
     #[arg(long)]
     pub seed: Option<u32>,
+    /// How streaks are drawn: simple (a smooth capsule) or mattes (the same coverage, the light spread along it by an oscillating drop's matte from --streak-db).
+    #[arg(long, value_name = "STYLE", value_parser = ["simple", "mattes"])]
+    pub streaks: Option<String>,
+    /// The streak database for --streaks mattes: a folder made by `drops generate` (index.json) or a copy of Garg & Nayar's database; default: the drops/ shipped with the program.
+    #[arg(long, value_name = "PATH")]
+    pub streak_db: Option<String>,
     /// Horizontal field of view of the picture, degrees.
     #[arg(long)]
     pub fov: Option<f64>,
@@ -566,6 +572,12 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.far => r.far_m);
     set!(look.max_drops => r.max_drops);
     set!(look.gust => r.gust_mps);
+    if let Some(style) = &look.streaks {
+        r.streaks = match style.as_str() {
+            "mattes" => rain_composite::config::StreakStyle::Mattes,
+            _ => rain_composite::config::StreakStyle::Simple,
+        };
+    }
     set!(look.light_smoothing => c.light.smoothing_s);
     if look.highlight_gain.is_some() {
         c.light.highlight_gain = look.highlight_gain;
@@ -584,6 +596,9 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.tilt => cam.tilt_deg);
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
+    if look.streak_db.is_some() {
+        c.streak_db = look.streak_db.clone();
+    }
     Ok(())
 }
 
@@ -679,6 +694,7 @@ mod tests {
         (r.wind_mps, r.gust_mps, r.altitude_m) = ([2.5, -1.5], 1.5, 350.0);
         (r.opacity, r.seed, r.near_m, r.far_m) = (0.5, 17, 0.45, 120.0);
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
+        r.streaks = rain_composite::config::StreakStyle::Mattes;
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
         c.ground.pre_rain_min = 25.0;
         (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);

@@ -37,6 +37,9 @@ pub struct FrameResources {
     pub columns: wgpu::Buffer,
     /// One `Streak` per drop (`rain_simulate` → `rain_streaks`).
     pub streaks: wgpu::Buffer,
+    /// One `Glint` per drop where the streak mattes have point lights (`rain_simulate`'s
+    /// `main_mattes` → `rain_streaks`); `None` otherwise.
+    pub glints: Option<wgpu::Buffer>,
     /// Drops per frame.
     pub drop_count: u32,
     /// The scene's depth per displayed pixel, metres (0 = unknown), for `rain_streaks`; one

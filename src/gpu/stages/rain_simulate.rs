@@ -25,6 +25,7 @@ impl RainSimulate {
             &r.columns,
             &r.streaks,
             &r.lights,
+            r.glints.as_ref(),
             r.drop_count,
         )
     }
@@ -36,20 +37,29 @@ impl RainSimulate {
         columns: &wgpu::Buffer,
         streaks: &wgpu::Buffer,
         lights: &DirectLightBuffers,
+        glints: Option<&wgpu::Buffer>,
         drops: u32,
     ) -> RainSimulate {
-        let pipeline = super::compute_pipeline(device, Stage::RainSimulate, "main");
+        // With glints, the brightest light of each drop leaves the streak's colour for them.
+        let entry = if glints.is_some() {
+            "main_mattes"
+        } else {
+            "main"
+        };
+        let pipeline = super::compute_pipeline(device, Stage::RainSimulate, entry);
+        let mut buffers = vec![
+            buffer(rain_params),
+            buffer(columns),
+            buffer(streaks),
+            buffer(&lights.list),
+            buffer(&lights.table),
+        ];
+        buffers.extend(glints.map(buffer));
         let bind = bind_group(
             device,
             Stage::RainSimulate.name(),
             &pipeline.get_bind_group_layout(0),
-            &[
-                buffer(rain_params),
-                buffer(columns),
-                buffer(streaks),
-                buffer(&lights.list),
-                buffer(&lights.table),
-            ],
+            &buffers,
         );
         RainSimulate {
             pipeline,

@@ -145,6 +145,7 @@ impl RainSplashes {
             r,
             &simulate.splashes,
             simulate.drops() * SPLASH_SLOTS,
+            None,
         );
         RainSplashes { simulate, draw }
     }

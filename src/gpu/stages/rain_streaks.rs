@@ -1,10 +1,18 @@
 //! Stage `rain_streaks`: the streaks rasterised onto the canvas, one quad per drop in drop
 //! order, premultiplied, hidden behind the scene where a depth map is given
-//! (`shaders/rain_streaks.wgsl`; CPU twin [`crate::gpu::cpu::rain_streaks`]).
+//! (`shaders/rain_streaks.wgsl`; CPU twin [`crate::gpu::cpu::rain_streaks`]). With streak
+//! mattes, a second pair of entry points spreads each streak's colour by its matte; without,
+//! the pipeline is the capsule's alone.
+
+use wgpu::util::DeviceExt;
 
 use super::{FrameResources, FrameStage, TimestampSlot};
+use crate::drops::MatteAtlas;
 use crate::gpu::bind::{bind_group, buffer};
 use crate::gpu::shaders::Stage;
+use bytemuck::Zeroable;
+
+use crate::gpu::types::{Glint, MatteParams};
 
 /// The canvas format the streaks blend into.
 pub const CANVAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -18,25 +26,35 @@ pub struct RainStreaks {
 }
 
 impl RainStreaks {
-    /// Builds the pipeline and binds `r`.
-    pub fn new(device: &wgpu::Device, r: &FrameResources) -> RainStreaks {
-        RainStreaks::with_streaks(device, r, &r.streaks, r.drop_count)
+    /// Builds the pipeline and binds `r`; with `mattes`, uploads them and draws with them.
+    pub fn new(
+        device: &wgpu::Device,
+        r: &FrameResources,
+        mattes: Option<&MatteAtlas>,
+    ) -> RainStreaks {
+        RainStreaks::with_streaks(device, r, &r.streaks, r.drop_count, mattes)
     }
 
-    /// The rasteriser over `count` streaks of another buffer (the splashes').
+    /// The rasteriser over `count` streaks of another buffer (the splashes', drawn as capsules
+    /// with `mattes` None).
     pub fn with_streaks(
         device: &wgpu::Device,
         r: &FrameResources,
         streaks: &wgpu::Buffer,
         count: u32,
+        mattes: Option<&MatteAtlas>,
     ) -> RainStreaks {
         let module = Stage::RainStreaks.module(device);
+        let (vs, fs) = match mattes {
+            None => ("vs_main", "fs_main"),
+            Some(_) => ("vs_mattes", "fs_mattes"),
+        };
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(Stage::RainStreaks.name()),
             layout: None,
             vertex: wgpu::VertexState {
                 module: &module,
-                entry_point: Some("vs_main"),
+                entry_point: Some(vs),
                 compilation_options: Default::default(),
                 buffers: &[],
             },
@@ -45,7 +63,7 @@ impl RainStreaks {
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
-                entry_point: Some("fs_main"),
+                entry_point: Some(fs),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: CANVAS_FORMAT,
@@ -56,16 +74,50 @@ impl RainStreaks {
             multiview_mask: None,
             cache: None,
         });
-        let bind = bind_group(
-            device,
-            Stage::RainStreaks.name(),
-            &pipeline.get_bind_group_layout(0),
-            &[
-                buffer(&r.rain_params),
-                buffer(streaks),
-                buffer(&r.scene_depth),
-            ],
-        );
+        let layout = pipeline.get_bind_group_layout(0);
+        let bind = match mattes {
+            None => bind_group(
+                device,
+                Stage::RainStreaks.name(),
+                &layout,
+                &[
+                    buffer(&r.rain_params),
+                    buffer(streaks),
+                    buffer(&r.scene_depth),
+                ],
+            ),
+            Some(atlas) => {
+                let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("matte_params"),
+                    contents: bytemuck::bytes_of(&MatteParams::new(atlas)),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                // Without point-light mattes no streak has a glint: one zero glint for all.
+                let placeholder = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("no_glints"),
+                    contents: bytemuck::bytes_of(&Glint::zeroed()),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("matte_texels"),
+                    contents: bytemuck::cast_slice(&atlas.texels),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                bind_group(
+                    device,
+                    Stage::RainStreaks.name(),
+                    &layout,
+                    &[
+                        buffer(&r.rain_params),
+                        buffer(streaks),
+                        buffer(&r.scene_depth),
+                        buffer(&params),
+                        buffer(&texels),
+                        buffer(r.glints.as_ref().unwrap_or(&placeholder)),
+                    ],
+                )
+            }
+        };
         RainStreaks {
             pipeline,
             bind,

@@ -1,0 +1,505 @@
+//! Streaks drawn with the mattes (`--streaks mattes`): the default stays the capsule, a matte
+//! moves a streak's light along it without changing how much there is, and the GPU stage
+//! matches its CPU twin. Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a
+//! failure.
+
+use std::path::Path;
+use std::sync::{Arc, OnceLock};
+
+use rain_composite::config::{CameraConfig, RainConfig, RenderConfig, StreakStyle};
+use rain_composite::drops::MatteAtlas;
+use rain_composite::gpu::cpu::rain_streaks::{matte_layers, rain_streaks_with};
+use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
+use rain_composite::gpu::probe::{probe_streaks, probe_streaks_and_glints};
+use rain_composite::gpu::types::{Glint, LightList, RainParams, Streak};
+use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
+use rain_composite::lighting::prt::channel_optics;
+use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
+use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::scene::Camera;
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+
+fn gpu() -> Option<Arc<GpuContext>> {
+    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
+        Ok(c) => Some(Arc::new(c)),
+        Err(e) => {
+            assert!(
+                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
+                "no GPU adapter: {e}"
+            );
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    })
+    .clone()
+}
+
+/// The shipped database's mattes at 1/60 s.
+fn atlas() -> Arc<MatteAtlas> {
+    static ATLAS: OnceLock<Arc<MatteAtlas>> = OnceLock::new();
+    ATLAS
+        .get_or_init(|| {
+            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("drops");
+            Arc::new(MatteAtlas::load(&dir, 1.0 / 60.0).expect("drops/"))
+        })
+        .clone()
+}
+
+/// pack2x16unorm of (diameter mm / 10, view elevation / 90°), as `rain_simulate` writes it.
+fn drop_info(diameter_mm: f64, view_deg: f64) -> u32 {
+    let q = |x: f64| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
+    q(diameter_mm / 10.0) | (q(view_deg / 90.0) << 16)
+}
+
+/// A vertical streak from (x, 8) `len_px` long, of radius `r_px`, radiance 1.
+fn streak(x: f32, len_px: f32, r_px: f32, info: u32) -> Streak {
+    Streak {
+        q0_px: [x, 8.0],
+        dir: [0.0, 1.0],
+        len_px,
+        r_eff_px: r_px,
+        alpha_scale: 0.2,
+        drop_info: info,
+        radiance0: [1.0; 4],
+        radiance1: [1.0; 4],
+    }
+}
+
+fn plain_params(w: u32, h: u32, seed: u32) -> RainParams {
+    let mut p: RainParams = bytemuck::Zeroable::zeroed();
+    p.coded_size_px = [w as f32, h as f32];
+    p.coded_from_display = [1.0, 0.0, 0.0, 1.0];
+    p.seed = seed;
+    p
+}
+
+#[test]
+fn the_capsule_is_the_default() {
+    let c = RenderConfig::default();
+    assert_eq!(c.rain.streaks, StreakStyle::Simple);
+    assert_eq!(c.streak_db, None);
+}
+
+/// Over a black canvas, each streak's summed colour with its matte equals the capsule's
+/// (πr²·α, the Garg–Nayar coverage) within a few per cent, for every size and view bin; and
+/// the matte does move the light: the brightness along the streak is not the capsule's flat
+/// profile.
+#[test]
+fn a_matte_moves_a_streaks_light_without_changing_its_total() {
+    let atlas = atlas();
+    let (w, h) = (24u32, 140u32);
+    let p = plain_params(w, h, 7);
+    for &d in &atlas.sizes_mm {
+        for &view in &atlas.views_deg {
+            for (len, r) in [(120.0f32, 2.5f32), (60.0, 1.2), (8.0, 3.0)] {
+                // Averaged over sub-pixel positions the pixel sums of either are the integrals.
+                let offsets = 8;
+                let (mut a, mut b) = (0.0, 0.0);
+                let (mut simple, mut matte) = (Vec::new(), Vec::new());
+                for k in 0..offsets {
+                    let f = k as f32 / offsets as f32;
+                    let mut s = [streak(12.0 + f, len, r, drop_info(d, view))];
+                    s[0].q0_px[1] += (3 * k % offsets) as f32 / offsets as f32;
+                    simple = vec![[0.0; 3]; (w * h) as usize];
+                    matte = simple.clone();
+                    rain_streaks_with(&mut simple, &p, &s, None, &[], None);
+                    rain_streaks_with(&mut matte, &p, &s, Some(&atlas), &[], None);
+                    let total = |c: &[[f64; 3]]| c.iter().map(|px| px[1]).sum::<f64>();
+                    a += total(&simple) / offsets as f64;
+                    b += total(&matte) / offsets as f64;
+                }
+                let coverage = std::f64::consts::PI * (r * r) as f64 * 0.2;
+                let what = format!("{d} mm, view {view}°, {len}×{r} px");
+                eprintln!(
+                    "{what}: capsule / πr²α {:.4}, matte / capsule {:.4}",
+                    a / coverage,
+                    b / a
+                );
+                assert!(
+                    (a / coverage - 1.0).abs() < 0.02,
+                    "{what}: capsule {a} vs πr²α {coverage}"
+                );
+                assert!(
+                    (b / a - 1.0).abs() < 0.01,
+                    "{what}: matte {b} vs capsule {a}"
+                );
+                if len > 100.0 {
+                    // Row sums along the streak's middle: the capsule's are flat.
+                    let rows = |c: &[[f64; 3]]| -> Vec<f64> {
+                        (20..120)
+                            .map(|y| (0..w).map(|x| c[(y * w + x) as usize][1]).sum())
+                            .collect()
+                    };
+                    let spread = |v: &[f64]| {
+                        let mean = v.iter().sum::<f64>() / v.len() as f64;
+                        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+                            / mean
+                    };
+                    let (flat, rippled) = (spread(&rows(&simple)), spread(&rows(&matte)));
+                    eprintln!("{what}: rows vary by {flat:.4} (capsule), {rippled:.4} (matte)");
+                    assert!(flat < 0.001, "{what}: capsule rows vary by {flat}");
+                    assert!(rippled > 0.005, "{what}: matte rows vary by {rippled}");
+                }
+            }
+        }
+    }
+}
+
+/// Brightness along the middle of a vertical streak: the sum of each row over the streak.
+fn row_profile(canvas: &[[f64; 3]], w: u32, rows: std::ops::Range<u32>) -> Vec<f64> {
+    rows.map(|y| (0..w).map(|x| canvas[(y * w + x) as usize][1]).sum())
+        .collect()
+}
+
+/// Standard deviation over mean.
+fn ripple(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt() / mean
+}
+
+/// The lag (of `lags`) at which the mean-removed profile best matches itself.
+fn period(v: &[f64], lags: std::ops::Range<usize>) -> usize {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let d: Vec<f64> = v.iter().map(|x| x - mean).collect();
+    let corr = |lag: usize| {
+        let n = d.len() - lag;
+        (0..n).map(|i| d[i] * d[i + lag]).sum::<f64>() / n as f64
+    };
+    lags.max_by(|&a, &b| corr(a).total_cmp(&corr(b)))
+        .unwrap_or(0)
+}
+
+/// A streak lit by a lamp beside it is a string of beads at the drop's oscillation period
+/// (fall speed over the (2,0) frequency, here len / (f·T) px); its glint keeps the light the
+/// lamp gave the capsule; and a lamp on the other side gives the mirror image.
+#[test]
+fn a_lamp_beside_a_streak_strings_it_with_beads() {
+    let atlas = atlas();
+    let (w, h) = (24u32, 230u32);
+    let p = plain_params(w, h, 11);
+    let (d_mm, len) = (1.0, 200.0f32);
+    let mut s = streak(12.0, len, 3.0, drop_info(d_mm, 0.0));
+    s.radiance0 = [0.05; 4];
+    s.radiance1 = [0.05; 4];
+    // A lamp level with the drop, to the image right of it, 5° towards the camera.
+    let lamp = |x: f32| Glint {
+        colour: [2.0, 2.0, 2.0, 0.0],
+        light_dir: [
+            x * 85f32.to_radians().sin(),
+            -(85f32.to_radians().cos()),
+            0.0,
+            0.0,
+        ],
+    };
+    let draw_at = |s: Streak, glint: Option<Glint>| {
+        let mut canvas = vec![[0.0; 3]; (w * h) as usize];
+        let glints: Vec<Glint> = glint.into_iter().collect();
+        rain_streaks_with(&mut canvas, &p, &[s], Some(&atlas), &glints, None);
+        canvas
+    };
+    let draw = |glint: Option<Glint>| draw_at(s, glint);
+    let (right, left, none) = (draw(Some(lamp(1.0))), draw(Some(lamp(-1.0))), draw(None));
+    let total = |c: &[[f64; 3]]| c.iter().map(|px| px[1]).sum::<f64>();
+    // The capsule of the same drop would hold (0.05 + 2)·πr²·α; averaged over sub-pixel
+    // positions the pixel sums are the integrals.
+    let capsule = 2.05 * std::f64::consts::PI * 9.0 * 0.2;
+    let offsets = 8;
+    let held = (0..offsets)
+        .map(|k| {
+            let mut moved = s;
+            moved.q0_px[0] += k as f32 / offsets as f32;
+            moved.q0_px[1] += (3 * k % offsets) as f32 / offsets as f32;
+            total(&draw_at(moved, Some(lamp(1.0))))
+        })
+        .sum::<f64>()
+        / offsets as f64;
+    eprintln!("lamp: total {:.4} of the capsule's", held / capsule);
+    assert!((held / capsule - 1.0).abs() < 0.03);
+    let rows = 30..190;
+    let (lit, dim) = (
+        row_profile(&right, w, rows.clone()),
+        row_profile(&none, w, rows),
+    );
+    eprintln!(
+        "ripple: {:.3} lit, {:.3} without the lamp",
+        ripple(&lit),
+        ripple(&dim)
+    );
+    assert!(ripple(&lit) > 5.0 * ripple(&dim), "beads");
+    let f20_hz = atlas_frequency_hz(d_mm);
+    let expected = len as f64 / (f20_hz / 60.0);
+    let found = period(&lit, 8..80);
+    eprintln!("bead period {found} px, (2,0) period {expected:.1} px");
+    assert!(
+        (found as f64 / expected - 1.0).abs() < 0.15
+            || (2.0 * found as f64 / expected - 1.0).abs() < 0.15,
+        "period {found} px vs {expected:.1} px"
+    );
+    // Mirror: column x of one is column 23 − x of the other: compare the weight centres.
+    let centre = |c: &[[f64; 3]]| {
+        let (mut m, mut t) = (0.0, 0.0);
+        for (i, px) in c.iter().enumerate() {
+            m += px[1] * ((i as u32 % w) as f64 + 0.5);
+            t += px[1];
+        }
+        m / t
+    };
+    eprintln!(
+        "centres: {:.3} right, {:.3} left",
+        centre(&right),
+        centre(&left)
+    );
+    assert!(centre(&right) > 12.05 && centre(&left) < 11.95);
+    assert!((centre(&right) + centre(&left) - 24.0).abs() < 1e-6);
+}
+
+/// The (2,0) Rayleigh frequency the database lists for a drop of `d_mm`.
+fn atlas_frequency_hz(d_mm: f64) -> f64 {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("drops");
+    let index = rain_composite::drops::database::load_index(&dir).expect("index");
+    index
+        .mattes
+        .iter()
+        .find(|m| m.diameter_mm == d_mm)
+        .map(|m| m.mode_frequencies_hz[0])
+        .expect("size")
+}
+
+/// The phase is random per drop (all phases turn up), fixed by seed and drop id, and the size
+/// and view pick the nearest bins.
+#[test]
+fn each_drop_keeps_its_matte() {
+    let atlas = atlas();
+    let info = drop_info(2.1, 25.0);
+    let layers: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 3, id, info, None).0)
+        .collect();
+    let again: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 3, id, info, None).0)
+        .collect();
+    assert_eq!(layers, again);
+    let (size, view) = (1, 1); // 2 mm, 30°
+    let first = (size * atlas.views_deg.len() + view) * atlas.phases;
+    for k in 0..atlas.phases {
+        let n = layers.iter().filter(|&&l| l == first + k).count();
+        assert!(n > 400 / atlas.phases / 2, "phase {k}: {n} of 400 drops");
+    }
+    assert_eq!(
+        layers
+            .iter()
+            .filter(|&&l| l < first || l >= first + atlas.phases)
+            .count(),
+        0
+    );
+    let other_seed: Vec<usize> = (0..400)
+        .map(|id| matte_layers(&atlas, 4, id, info, None).0)
+        .collect();
+    assert_ne!(layers, other_seed);
+}
+
+fn tables() -> [RtfTable; 3] {
+    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(256).expect("table"))
+}
+
+fn setup_for(format: FrameFormat) -> RainSetup {
+    let camera = Camera::new(format.width, format.height, 1.0, 1.6, 0.05, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 60.0,
+        opacity: 4.0,
+        near_m: 0.3,
+        far_m: 5.0,
+        max_drops: 3000,
+        ..RainConfig::default()
+    };
+    uniforms::build(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        0,
+        (format.width, format.height),
+    )
+    .expect("rain")
+}
+
+fn lit(setup: &RainSetup) -> RainParams {
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.9, 1.0, 1.3];
+    env.coeffs[2] = [0.3, 0.3, 0.4];
+    setup.params_at(
+        1.7,
+        &FrameLight {
+            env,
+            lights: Vec::new(),
+        },
+        [[1.0, 0.4, 0.2, 0.1]; 3],
+    )
+}
+
+fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
+    std::array::from_fn(|i| {
+        let (w, h) = frame.format.plane_size(i);
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| frame.sample(i, x, y))
+            .collect()
+    })
+}
+
+/// The GPU's `fs_mattes` against the CPU twin, on the GPU's own streaks.
+#[test]
+fn mattes_on_the_gpu_match_the_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    let format = FrameFormat {
+        width: 64,
+        height: 48,
+        chroma: Chroma::Cs444,
+        bit_depth: 10,
+    };
+    let color = ColorParams::bt709(10);
+    let frame = YuvFrame::filled(format, color, [200, 512, 512]);
+    let tables = tables();
+    let render = |setup: &RainSetup| {
+        let mut comp = Compositor::new(ctx.clone(), format, &color, setup).expect("compositor");
+        comp.set_transfer_table(&tables);
+        codes(&comp.render_one(&frame, &lit(setup)).expect("render"))
+    };
+    let simple = setup_for(format);
+    let matted = setup_for(format).with_mattes(Some(atlas()));
+    let params = lit(&matted);
+    let streaks =
+        probe_streaks(&ctx, &matted, &params, &LightList::new(&[]), &tables).expect("streaks");
+    let drawn = streaks.iter().filter(|s| s.len_px >= 0.0).count();
+    assert!(drawn > 20, "{drawn} streaks");
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    rain_streaks_with(&mut canvas, &params, &streaks, Some(&atlas()), &[], None);
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
+    let gpu = render(&matted);
+    let (mut worst, mut off, mut n) = (0u16, 0usize, 0usize);
+    for (g, c) in gpu.iter().zip(&cpu) {
+        for (a, b) in g.iter().zip(c) {
+            worst = worst.max(a.abs_diff(*b));
+            off += (a.abs_diff(*b) > 2) as usize;
+            n += 1;
+        }
+    }
+    eprintln!("{drawn} streaks, worst {worst} codes, {off} of {n} samples > 2 codes");
+    // f16 canvas and per-draw blending on the GPU against f64 on the CPU (10-bit codes).
+    assert!(worst <= 8, "{worst} codes off");
+    assert!((off as f64) < 0.02 * n as f64, "{off} of {n} samples off");
+    assert_ne!(render(&simple), gpu, "the mattes show");
+}
+
+/// A lamp in shot: the GPU's glints and their mattes match the CPU twin, and the glints are
+/// the streaks' light near the lamp (within 15°: beaded, as the twin test shows a glint
+/// makes them) and a small share of it far from the lamp (smooth).
+#[test]
+fn a_lamp_in_shot_glints_in_the_streaks_near_it() {
+    let Some(ctx) = gpu() else { return };
+    let format = FrameFormat {
+        width: 96,
+        height: 64,
+        chroma: Chroma::Cs444,
+        bit_depth: 10,
+    };
+    let color = ColorParams::bt709(10);
+    let frame = YuvFrame::filled(format, color, [150, 512, 512]);
+    let tables = tables();
+    let setup = setup_for(format).with_mattes(Some(atlas()));
+    let params = lit(&setup);
+    // The lamp: in front of the camera, a little right of and above the centre.
+    let row = |k: usize| match k {
+        0 => params.camera_from_world_0,
+        1 => params.camera_from_world_1,
+        _ => params.camera_from_world_2,
+    };
+    let cam = [0.15f32, -0.1, 1.0];
+    let mut world = [0.0f32; 3];
+    for (k, c) in cam.iter().enumerate() {
+        for (i, w) in world.iter_mut().enumerate() {
+            *w += row(k)[i] * c;
+        }
+    }
+    let n = world.iter().map(|v| v * v).sum::<f32>().sqrt();
+    let mut lights = LightList::new(&[]);
+    lights.count = 1;
+    // A street lamp 2 m away, among the drops.
+    lights.lights[0].direction_distance = [world[0] / n, world[1] / n, world[2] / n, 2.0];
+    lights.lights[0].strength = [3.0, 2.5, 2.0, 0.05];
+    let lamp_px = [
+        params.principal_px[0] + params.focal_px * cam[0],
+        params.principal_px[1] + params.focal_px * cam[1],
+    ];
+    let (streaks, glints) =
+        probe_streaks_and_glints(&ctx, &setup, &params, &lights, &tables).expect("probe");
+    let (mut near, mut far) = (Vec::new(), Vec::new());
+    for (s, g) in streaks.iter().zip(&glints).filter(|(s, _)| s.len_px >= 0.0) {
+        let mid = [
+            s.q0_px[0] + s.dir[0] * s.len_px / 2.0,
+            s.q0_px[1] + s.dir[1] * s.len_px / 2.0,
+        ];
+        let off = ((mid[0] - lamp_px[0]).powi(2) + (mid[1] - lamp_px[1]).powi(2)).sqrt();
+        let angle_deg = (off / params.focal_px).atan().to_degrees();
+        let glint: f32 = g.colour[..3].iter().sum();
+        let smooth: f32 = (0..3)
+            .map(|k| 0.5 * (s.radiance0[k] + s.radiance1[k]))
+            .sum();
+        let share = glint / (glint + smooth).max(1e-12);
+        if angle_deg < 15.0 {
+            near.push(share);
+        } else if angle_deg > 30.0 {
+            far.push(share);
+        }
+    }
+    let median = |v: &mut Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    assert!(
+        near.len() > 10 && far.len() > 10,
+        "{} near, {} far",
+        near.len(),
+        far.len()
+    );
+    let (near_share, far_share) = (median(&mut near), median(&mut far));
+    eprintln!(
+        "glint share of the light: {near_share:.3} within 15° of the lamp ({} streaks), {far_share:.3} beyond 30° ({})",
+        near.len(),
+        far.len()
+    );
+    assert!(
+        near_share > 0.5,
+        "near the lamp the glint is most of the light"
+    );
+    assert!(far_share < 0.5 * near_share, "far from it, less");
+
+    // The frame: GPU against the twin with the same glints.
+    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+    comp.set_transfer_table(&tables);
+    comp.set_lights(&lights);
+    let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    rain_streaks_with(
+        &mut canvas,
+        &params,
+        &streaks,
+        Some(&atlas()),
+        &glints,
+        None,
+    );
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
+    let (mut worst, mut off, mut total) = (0u16, 0usize, 0usize);
+    for (g, c) in gpu.iter().zip(&cpu) {
+        for (a, b) in g.iter().zip(c) {
+            worst = worst.max(a.abs_diff(*b));
+            off += (a.abs_diff(*b) > 2) as usize;
+            total += 1;
+        }
+    }
+    eprintln!("with a lamp: worst {worst} codes, {off} of {total} samples > 2 codes");
+    assert!(worst <= 8 && (off as f64) < 0.02 * total as f64);
+}
