@@ -124,8 +124,8 @@ fn main_mattes(@builtin(global_invocation_id) id: vec3<u32>) {
         away = select(vec3<f32>(0.0, 1.0, 0.0), normalize(away), length(away) > 1e-6);
         let right = cross(away, up);
         let c = min(best.colour, 0.5 * (s.radiance0.rgb + s.radiance1.rgb));
-        s.radiance0 = vec4<f32>(max(s.radiance0.rgb - c, vec3<f32>(0.0)), 0.0);
-        s.radiance1 = vec4<f32>(max(s.radiance1.rgb - c, vec3<f32>(0.0)), 0.0);
+        s.radiance0 = vec4<f32>(max(s.radiance0.rgb - c, vec3<f32>(0.0)), s.radiance0.w);
+        s.radiance1 = vec4<f32>(max(s.radiance1.rgb - c, vec3<f32>(0.0)), s.radiance1.w);
         glint = Glint(vec4<f32>(c, 0.0), vec4<f32>(dot(best.omega, right), dot(best.omega, away), dot(best.omega, up), 0.0));
     }
     streaks[id.x] = s;
