@@ -8,33 +8,21 @@ use std::sync::{Arc, OnceLock};
 
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig, StreakStyle};
 use rain_composite::drops::MatteAtlas;
+use rain_composite::gpu::Compositor;
 use rain_composite::gpu::cpu::rain_streaks::{matte_layers, rain_streaks_with};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::probe::{probe_streaks, probe_streaks_and_glints};
 use rain_composite::gpu::types::{Glint, LightList, RainParams, Streak};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{AdapterRequest, Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
-fn gpu() -> Option<Arc<GpuContext>> {
-    static CTX: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    CTX.get_or_init(|| match GpuContext::new(&AdapterRequest::default()) {
-        Ok(c) => Some(Arc::new(c)),
-        Err(e) => {
-            assert!(
-                std::env::var_os("RAIN_COMPOSITE_REQUIRE_GPU").is_none(),
-                "no GPU adapter: {e}"
-            );
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    })
-    .clone()
-}
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
 
 /// The shipped database's mattes at 1/60 s.
 fn atlas() -> Arc<MatteAtlas> {
