@@ -88,8 +88,23 @@ pub fn exposure_s(info: &VideoInfo, config: &RenderConfig) -> Result<f64> {
     crate::rain::physics::exposure_s(config.camera.shutter_deg, fps)
 }
 
-/// The streak database shipped with the program.
+/// The streak database of the source tree the program was built from.
 pub const DEFAULT_STREAK_DB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/drops");
+
+/// Where `--streaks mattes` finds its database without `--streak-db`: beside an installed
+/// program (`../share/rain-composite/drops` or `drops/` next to the executable), else the source
+/// tree it was built from. `None` when none holds an `index.json`.
+pub fn default_streak_db() -> Option<std::path::PathBuf> {
+    let exe_dir = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent().map(std::path::Path::to_path_buf));
+    let installed = exe_dir
+        .into_iter()
+        .flat_map(|d| [d.join("../share/rain-composite/drops"), d.join("drops")]);
+    installed
+        .chain(std::iter::once(std::path::PathBuf::from(DEFAULT_STREAK_DB)))
+        .find(|d| d.join("index.json").is_file())
+}
 
 /// The rain of a shot, within what `ctx`'s device can hold: a drop budget above the device's
 /// limit is lowered to it, with a warning naming the limit (the plan then shrinks the far
@@ -129,8 +144,18 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
     let mattes = match config.rain.streaks {
         crate::config::StreakStyle::Simple => None,
         crate::config::StreakStyle::Mattes => {
-            let dir = config.streak_db.as_deref().unwrap_or(DEFAULT_STREAK_DB);
-            let atlas = crate::drops::MatteAtlas::load(std::path::Path::new(dir), exposure)?;
+            let dir = match &config.streak_db {
+                Some(dir) => std::path::PathBuf::from(dir),
+                None => default_streak_db().ok_or_else(|| Error::Parameter {
+                    name: "--streaks",
+                    value: "mattes".into(),
+                    expected: "a streak database, and none is installed beside the program \
+                               (../share/rain-composite/drops, or drops/ next to it): pass \
+                               --streak-db DIR (made by `rain-composite drops generate`)"
+                        .into(),
+                })?,
+            };
+            let atlas = crate::drops::MatteAtlas::load(&dir, exposure)?;
             Some(std::sync::Arc::new(atlas))
         }
     };
