@@ -434,16 +434,7 @@ fn bin() -> Command {
 #[test]
 fn the_cli_takes_a_depth_map() {
     let dir = TempDir::new().expect("tmp");
-    let input = dir.path().join("in.mkv");
-    fixtures::ffmpeg(&[
-        "-f",
-        "lavfi",
-        "-i",
-        "nullsrc=s=160x96:r=25:d=0.08,format=yuv420p,geq=lum='if(lt(Y,30),235,40)':cb=128:cr=128",
-        "-c:v",
-        "ffv1",
-        input.to_str().expect("utf-8"),
-    ]);
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (160, 96), 30, 0.08);
     let holes = dir.path().join("holes.png");
     write_png(&holes, 40, 24, |_, _| 0);
     let wall = dir.path().join("wall.png");

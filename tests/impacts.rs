@@ -259,16 +259,7 @@ fn s(p: &Path) -> &str {
 #[test]
 fn without_a_ground_the_render_is_unchanged_byte_for_byte() {
     let dir = TempDir::new().expect("tmp");
-    let input = dir.path().join("in.mkv");
-    fixtures::ffmpeg(&[
-        "-f",
-        "lavfi",
-        "-i",
-        "nullsrc=s=320x180:r=25:d=0.12,format=yuv420p,geq=lum='if(lt(Y,45),235,40)':cb=128:cr=128",
-        "-c:v",
-        "ffv1",
-        s(&input),
-    ]);
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (320, 180), 45, 0.12);
     let config = dir.path().join("none.json");
     std::fs::write(&config, r#"{"ground": {"mode": "none"}}"#).expect("write");
     let render = |name: &str, extra: &[&str]| {
@@ -333,16 +324,7 @@ fn green16(path: &Path) -> (u32, u32, Vec<u16>) {
 #[test]
 fn rendered_rain_stays_above_the_ground_in_the_picture() {
     let dir = TempDir::new().expect("tmp");
-    let input = dir.path().join("in.mkv");
-    fixtures::ffmpeg(&[
-        "-f",
-        "lavfi",
-        "-i",
-        "nullsrc=s=320x180:r=25:d=0.12,format=yuv420p,geq=lum='if(lt(Y,45),235,40)':cb=128:cr=128",
-        "-c:v",
-        "ffv1",
-        s(&input),
-    ]);
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (320, 180), 45, 0.12);
     let tilt_deg = -30.0;
     let mut config = RenderConfig::default();
     (config.camera.fov_deg, config.camera.tilt_deg) = (90.0, tilt_deg);

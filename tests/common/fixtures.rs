@@ -242,3 +242,28 @@ pub fn files_in(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+/// A lossless (FFV1) clip `name` in `dir`, `w`×`h` at 25 fps for `secs`: a bright sky above row
+/// `sky_rows`, a dark ground below — a picture where rain shows and a ground is easy to place.
+pub fn sky_over_ground(
+    dir: &Path,
+    name: &str,
+    (w, h): (u32, u32),
+    sky_rows: u32,
+    secs: f64,
+) -> PathBuf {
+    let path = dir.join(name);
+    let src = format!(
+        "nullsrc=s={w}x{h}:r=25:d={secs},format=yuv420p,geq=lum='if(lt(Y,{sky_rows}),235,40)':cb=128:cr=128"
+    );
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        &src,
+        "-c:v",
+        "ffv1",
+        path.to_str().unwrap(),
+    ]);
+    path
+}
