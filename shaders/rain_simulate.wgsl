@@ -21,7 +21,7 @@
 // transfer table (lights.wgsl), seen from the end's position; the ray changes by a few degrees
 // at most along a streak.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl,
-// common/camera.wgsl, common/lights.wgsl.
+// common/camera.wgsl, common/lights.wgsl, common/streak.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
@@ -31,8 +31,6 @@
 // main_mattes only.
 @group(0) @binding(5) var<storage, read_write> glints: array<Glint>;
 
-const MIN_RADIUS_PX: f32 = 0.7;
-const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 // Largest drawn radius, as a fraction of the picture height (near-field drops).
 const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
 
@@ -60,39 +58,11 @@ fn streak_of(id: u32) -> Streak {
         exposed = w0.z / (w0.z - w1.z);
         w1 = mix(w0, w1, exposed);
     }
-    var c0 = to_camera(w0);
-    var c1 = to_camera(w1);
-    let near = rain.near_clip_m;
-    if c0.z < near && c1.z < near { return hidden(); }
-    // Clip the segment to the near plane.
-    if c0.z < near { c0 = mix(c0, c1, (near - c0.z) / (c1.z - c0.z)); }
-    if c1.z < near { c1 = mix(c1, c0, (near - c1.z) / (c0.z - c1.z)); }
-    let f = rain.focal_px;
-    let q0 = rain.principal_px + f * c0.xy / c0.z;
-    let q1 = rain.principal_px + f * c1.xy / c1.z;
-    let z = min(c0.z, c1.z);
-    let r = 0.5e-3 * drop.width_mm * f / z;
-    // Defocus: the thin lens spreads the drop over its circle of confusion (Garg & Nayar,
-    // "When does a camera see rain?"); coverage is conserved, so alpha falls as r²/r_eff².
-    let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);
-    // Near the lens the blur disc can fill the view: cap the drawn radius (coverage is kept by
-    // the alpha below, the cost by the cap).
-    let r_eff = min(max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX), NEAR_FIELD_MAX_RADIUS * rain.display_size_px.y);
-    let seg = q1 - q0;
-    let len = length(seg);
-    var dir = vec2<f32>(0.0, 1.0);
-    if len > 1e-4 { dir = seg / len; }
-    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight * exposed;
-    // Peak coverage on the streak's axis: the disc's chord over the path length.
-    let peak = alpha_scale * min(1.0, 2.0 * r_eff / max(len, 1e-3));
-    if peak < MIN_PEAK_ALPHA { return hidden(); }
-    let ext = r_eff + 1.0;
-    let lo = min(q0, q1) - vec2<f32>(ext);
-    let hi = max(q0, q1) + vec2<f32>(ext);
-    if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
-        return hidden();
-    }
-    return Streak(q0, dir, len, r_eff, alpha_scale, drop_info(drop, c0 + c1), drop_radiance(c0), drop_radiance(c1));
+    // Near the lens the blur disc can fill the view: the drawn radius is capped (coverage is
+    // kept by the alpha, the cost by the cap).
+    var s = segment_streak(w0, w1, exposed, 0.5e-3 * drop.width_mm, 1.0, NEAR_FIELD_MAX_RADIUS * rain.display_size_px.y, 0.0);
+    if s.len_px >= 0.0 { s.drop_info = drop_info(drop, to_camera(drop.pos_m)); }
+    return s;
 }
 
 @compute @workgroup_size(SIMULATE_WORKGROUP)

@@ -15,7 +15,7 @@
 // Lit exactly like the drops: PRT of the environment with the drop's zonal RTF plus the compact
 // lights.
 // Includes: common/types.wgsl, common/rng.wgsl, common/drops.wgsl, common/sh.wgsl,
-// common/camera.wgsl, common/lights.wgsl.
+// common/camera.wgsl, common/lights.wgsl, common/streak.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> columns: array<Column>;
@@ -25,43 +25,7 @@
 @group(0) @binding(4) var<uniform> lights: LightList;
 @group(0) @binding(5) var<storage, read> rtf_table: array<vec4<f32>>;
 
-const MIN_RADIUS_PX: f32 = 0.7;
-const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
 const PI: f32 = 3.14159265;
-
-// The streak of water `width_m` wide moving from w0 to w1 (world) while in view for `exposed` of
-// the exposure, its coverage times `weight`.
-fn segment_streak(w0: vec3<f32>, w1: vec3<f32>, exposed: f32, width_m: f32, weight: f32) -> Streak {
-    var c0 = to_camera(w0);
-    var c1 = to_camera(w1);
-    let near = rain.near_clip_m;
-    if c0.z < near && c1.z < near { return hidden(); }
-    if c0.z < near { c0 = mix(c0, c1, (near - c0.z) / (c1.z - c0.z)); }
-    if c1.z < near { c1 = mix(c1, c0, (near - c1.z) / (c0.z - c1.z)); }
-    let f = rain.focal_px;
-    let z = min(c0.z, c1.z);
-    let r = 0.5 * width_m * f / z;
-    // Below a pixel at this distance: the picture cannot show it.
-    if 2.0 * r < 1.0 { return hidden(); }
-    let q0 = rain.principal_px + f * c0.xy / c0.z;
-    let q1 = rain.principal_px + f * c1.xy / c1.z;
-    let blur_radius = 0.5 * rain.lens_blur_k_px_m * abs(rain.inv_focus_per_m - 1.0 / z);
-    let r_eff = max(sqrt(r * r + blur_radius * blur_radius), MIN_RADIUS_PX);
-    let seg = q1 - q0;
-    let len = length(seg);
-    var dir = vec2<f32>(0.0, 1.0);
-    if len > 1e-4 { dir = seg / len; }
-    let alpha_scale = (r * r) / (r_eff * r_eff) * rain.opacity * rain.drop_weight * exposed * weight;
-    let peak = alpha_scale * min(1.0, 2.0 * r_eff / max(len, 1e-3));
-    if peak < MIN_PEAK_ALPHA { return hidden(); }
-    let ext = r_eff + 1.0;
-    let lo = min(q0, q1) - vec2<f32>(ext);
-    let hi = max(q0, q1) + vec2<f32>(ext);
-    if hi.x < 0.0 || hi.y < 0.0 || lo.x > rain.display_size_px.x || lo.y > rain.display_size_px.y {
-        return hidden();
-    }
-    return Streak(q0, dir, len, r_eff, alpha_scale, 0u, drop_radiance(c0), drop_radiance(c1));
-}
 
 fn crown_radius_m(d_m: f32, speed_mps: f32, tau_s: f32) -> f32 {
     return sqrt(0.25 * d_m * d_m + d_m * speed_mps * max(tau_s, 0.0));
@@ -126,7 +90,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let r = crown_radius_m(d_m, v, tau);
         let h = crown_height_m(d_m, v, tau);
         let cover = PI * 0.25 * d_m * d_m / (2.0 * r * h + PI * r * r);
-        splashes[base] = segment_streak(hit, hit + vec3<f32>(0.0, 0.0, h), (c_hi - c_lo) / rain.exposure_s, 2.0 * r * scale, cover);
+        splashes[base] = segment_streak(hit, hit + vec3<f32>(0.0, 0.0, h), (c_hi - c_lo) / rain.exposure_s, r * scale, cover, 3.0e38, 1.0);
     }
     // Secondary droplets.
     let ratio = SPLASH_THRESHOLD_K / k;
@@ -156,6 +120,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let g_half = vec3<f32>(0.0, 0.0, 0.5 * rain.gravity_mps2);
         let w0 = hit + p0 + vel * s0 - g_half * (s0 * s0);
         let w1 = hit + p0 + vel * s1 - g_half * (s1 * s1);
-        splashes[base + 1u + j] = segment_streak(w0, w1, (t_hi - t_lo) / rain.exposure_s, droplet_m * scale, weight);
+        splashes[base + 1u + j] = segment_streak(w0, w1, (t_hi - t_lo) / rain.exposure_s, 0.5 * droplet_m * scale, weight, 3.0e38, 1.0);
     }
 }

@@ -196,7 +196,8 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
             "common/drops.wgsl",
             "common/sh.wgsl",
             "common/camera.wgsl",
-            "common/lights.wgsl"
+            "common/lights.wgsl",
+            "common/streak.wgsl"
         ]
     );
     assert_eq!(

@@ -67,8 +67,3 @@ fn drop_radiance(p_cam: vec3<f32>) -> vec4<f32> {
         + direct_light(offset, offset);
     return vec4<f32>(max(c, vec3<f32>(0.0)), p_cam.z);
 }
-
-// A streak that is not drawn (rain_streaks skips len_px < 0).
-fn hidden() -> Streak {
-    return Streak(vec2<f32>(0.0), vec2<f32>(0.0, 1.0), -1.0, 0.0, 0.0, 0u, vec4<f32>(0.0), vec4<f32>(0.0));
-}

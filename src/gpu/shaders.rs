@@ -32,7 +32,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 8] = [
+const COMMON: [(&str, &str); 9] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -56,6 +56,10 @@ const COMMON: [(&str, &str); 8] = [
     (
         "common/depth.wgsl",
         include_str!("../../shaders/common/depth.wgsl"),
+    ),
+    (
+        "common/streak.wgsl",
+        include_str!("../../shaders/common/streak.wgsl"),
     ),
     (
         "common/sh.wgsl",
