@@ -88,8 +88,6 @@ pub fn streak_of(
     vel_mps: DVec3,
     width_mm: f64,
 ) -> Option<StreakShape> {
-    let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
-    let to_camera = |w: DVec3| super::to_camera(p, w);
     let half = vel_mps * (0.5 * p.exposure_s as f64);
     let (w0, mut w1) = (pos_m - half, pos_m + half);
     let mut exposed = 1.0;
@@ -100,7 +98,37 @@ pub fn streak_of(
         exposed = w0.z / (w0.z - w1.z);
         w1 = w0.lerp(w1, exposed);
     }
-    let (mut c0, mut c1) = (to_camera(w0), to_camera(w1));
+    let max_radius_px = NEAR_FIELD_MAX_RADIUS * p.display_size_px[1] as f64;
+    segment_streak(
+        p,
+        w0,
+        w1,
+        exposed,
+        0.5e-3 * width_mm,
+        1.0,
+        max_radius_px,
+        0.0,
+    )
+}
+
+/// The streak of water of radius `radius_m` moving from `w0` to `w1` (world) while in view for
+/// `exposed` of the exposure, its coverage times `weight`, drawn no wider than `max_radius_px`
+/// (the WGSL's `segment_streak`, common/streak.wgsl); `None` where the GPU hides it: behind the
+/// near plane, thinner than `min_width_px` before widening, fainter than [`MIN_PEAK_ALPHA`], off
+/// the picture. For the drops and the splash droplets alike.
+#[allow(clippy::too_many_arguments)]
+pub fn segment_streak(
+    p: &RainParams,
+    w0: DVec3,
+    w1: DVec3,
+    exposed: f64,
+    radius_m: f64,
+    weight: f64,
+    max_radius_px: f64,
+    min_width_px: f64,
+) -> Option<StreakShape> {
+    let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
+    let (mut c0, mut c1) = (super::to_camera(p, w0), super::to_camera(p, w1));
     let near = p.near_clip_m as f64;
     if c0.z < near && c1.z < near {
         return None;
@@ -112,21 +140,24 @@ pub fn streak_of(
         c1 = c1.lerp(c0, (near - c1.z) / (c0.z - c1.z));
     }
     let f = p.focal_px as f64;
+    let z = c0.z.min(c1.z);
+    let r = radius_m * f / z;
+    if 2.0 * r < min_width_px {
+        return None;
+    }
     let principal = v2(p.principal_px);
     let q0 = principal + f * DVec2::new(c0.x, c0.y) / c0.z;
     let q1 = principal + f * DVec2::new(c1.x, c1.y) / c1.z;
-    let z = c0.z.min(c1.z);
-    let r = 0.5e-3 * width_mm * f / z;
     let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
-    let size = v2(p.display_size_px);
     let r_eff = (r * r + blur * blur)
         .sqrt()
         .max(MIN_RADIUS_PX)
-        .min(NEAR_FIELD_MAX_RADIUS * size.y);
+        .min(max_radius_px);
     let seg = q1 - q0;
     let len = seg.length();
     let dir = if len > 1e-4 { seg / len } else { DVec2::Y };
-    let alpha_scale = r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64 * exposed;
+    let alpha_scale =
+        r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64 * exposed * weight;
     let shape = StreakShape {
         q0_px: q0,
         dir,
@@ -140,6 +171,7 @@ pub fn streak_of(
     if shape.peak_alpha() < MIN_PEAK_ALPHA {
         return None;
     }
+    let size = v2(p.display_size_px);
     let ext = r_eff + 1.0;
     let lo = q0.min(q1) - DVec2::splat(ext);
     let hi = q0.max(q1) + DVec2::splat(ext);

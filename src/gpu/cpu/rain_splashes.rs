@@ -14,7 +14,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::rain_simulate::{MIN_PEAK_ALPHA, MIN_RADIUS_PX, StreakShape};
+use super::rain_simulate::StreakShape;
 use crate::gpu::types::RainParams;
 use crate::gpu::uniforms::RainSetup;
 use crate::rain::physics::G_MPS2;
@@ -37,8 +37,8 @@ pub struct SplashStreak {
 
 /// The streak of water `width_m` wide moving from `w0` to `w1` (world) while in view for
 /// `exposed` of the exposure, its coverage times `weight`; `None` where the GPU hides it
-/// (behind the near plane, thinner than a pixel, fainter than [`MIN_PEAK_ALPHA`], off the
-/// picture).
+/// (behind the near plane, thinner than a pixel, fainter than the visibility threshold, off
+/// the picture). Splashes are never capped in width.
 pub fn segment_streak(
     p: &RainParams,
     w0: DVec3,
@@ -47,56 +47,7 @@ pub fn segment_streak(
     width_m: f64,
     weight: f64,
 ) -> Option<StreakShape> {
-    let v2 = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
-    let to_camera = |w: DVec3| super::to_camera(p, w);
-    let (mut c0, mut c1) = (to_camera(w0), to_camera(w1));
-    let near = p.near_clip_m as f64;
-    if c0.z < near && c1.z < near {
-        return None;
-    }
-    if c0.z < near {
-        c0 = c0.lerp(c1, (near - c0.z) / (c1.z - c0.z));
-    }
-    if c1.z < near {
-        c1 = c1.lerp(c0, (near - c1.z) / (c0.z - c1.z));
-    }
-    let f = p.focal_px as f64;
-    let z = c0.z.min(c1.z);
-    let r = 0.5 * width_m * f / z;
-    if 2.0 * r < 1.0 {
-        return None;
-    }
-    let principal = v2(p.principal_px);
-    let q0 = principal + f * DVec2::new(c0.x, c0.y) / c0.z;
-    let q1 = principal + f * DVec2::new(c1.x, c1.y) / c1.z;
-    let blur = 0.5 * p.lens_blur_k_px_m as f64 * (p.inv_focus_per_m as f64 - 1.0 / z).abs();
-    let r_eff = (r * r + blur * blur).sqrt().max(MIN_RADIUS_PX);
-    let seg = q1 - q0;
-    let len = seg.length();
-    let dir = if len > 1e-4 { seg / len } else { DVec2::Y };
-    let alpha_scale =
-        r * r / (r_eff * r_eff) * p.opacity as f64 * p.drop_weight as f64 * exposed * weight;
-    let shape = StreakShape {
-        q0_px: q0,
-        dir,
-        len_px: len,
-        r_eff_px: r_eff,
-        r_px: r,
-        alpha_scale,
-        ends_camera_m: [c0, c1],
-        exposed_fraction: exposed,
-    };
-    if shape.peak_alpha() < MIN_PEAK_ALPHA {
-        return None;
-    }
-    let size = v2(p.display_size_px);
-    let ext = r_eff + 1.0;
-    let lo = q0.min(q1) - DVec2::splat(ext);
-    let hi = q0.max(q1) + DVec2::splat(ext);
-    if hi.x < 0.0 || hi.y < 0.0 || lo.x > size.x || lo.y > size.y {
-        return None;
-    }
-    Some(shape)
+    super::rain_simulate::segment_streak(p, w0, w1, exposed, 0.5 * width_m, weight, f64::MAX, 1.0)
 }
 
 /// Drop `id`'s latest impact before the exposure around `t_s` closes, and the streaks its
