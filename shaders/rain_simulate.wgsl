@@ -46,6 +46,7 @@ fn drop_info(drop: DropState, view_cam: vec3<f32>) -> u32 {
 
 fn streak_of(id: u32) -> Streak {
     let drop = drop_state(id);
+    if !drop.falls { return hidden(); }
     let half = drop.vel_mps * (0.5 * rain.exposure_s);
     let w0 = drop.pos_m - half;
     var w1 = drop.pos_m + half;

@@ -63,8 +63,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         since = -w / ph.rate;
         pass_index = ph.pass_index;
     }
-    // An impact before the clip's start did not happen.
+    // An impact before the clip's start did not happen; nor one of a pass a keyed rate leaves
+    // out (born one column height before it landed).
     if f32(rain.time_whole_s) + rain.time_frac_s < since { return; }
+    if !falls(id, pass_index, since + 1.0 / ph.rate, ph.d_mm) { return; }
     let d_m = ph.d_mm * 1e-3;
     let v = ph.vt;
     let k = SPLASH_K_COEFFICIENT * pow(d_m, 1.2) * v * v;

@@ -148,6 +148,11 @@ pub struct RenderConfig {
     /// The streak database for `rain.streaks = "mattes"`: ours (`index.json`) or a copy of
     /// Garg & Nayar's; `None`: the `drops/` shipped with the program.
     pub streak_db: Option<String>,
+    /// The settings that change over the shot (`[time_s, value]` keys in the JSON, see
+    /// [`crate::keyframes`]); the fields above hold their values at t = 0. Serialise with
+    /// [`RenderConfig::to_value`], which writes the keys back.
+    #[serde(skip)]
+    pub keyframes: crate::keyframes::Keyframes,
 }
 
 /// The ground under the rain (see [`crate::scene::ground`]) and the scene's depth.
@@ -183,16 +188,23 @@ impl Default for GroundConfig {
 
 impl GroundConfig {
     /// How a given ground wets under rain of `rate_mm_per_h` (constant through the clip, and
-    /// for `pre_rain_min` before it); `None` without a ground or without rain.
+    /// for `pre_rain_min` before it) or, where it is keyed, of `keys` (the first key's rate
+    /// before the clip); `None` without a ground or without rain.
     pub fn wetting(
         &self,
+        keys: Option<&crate::keyframes::Curve<f64>>,
         rate_mm_per_h: f64,
         reach_m: f64,
     ) -> Option<crate::scene::wetness::Wetting> {
         use crate::scene::wetness::{RainHistory, SurfaceStore, Wetting};
+        let pre_rain_s = 60.0 * self.pre_rain_min;
+        let history = match keys {
+            Some(k) => RainHistory::keyed(k, pre_rain_s),
+            None => RainHistory::constant(rate_mm_per_h, pre_rain_s),
+        };
         let wetting = Wetting {
             store: SurfaceStore::default(),
-            history: RainHistory::constant(rate_mm_per_h, 60.0 * self.pre_rain_min),
+            history,
             reach_m,
         };
         (self.is_given() && wetting.ever_wet()).then_some(wetting)
@@ -249,19 +261,49 @@ impl RenderConfig {
     /// top-level `description` string, which presets carry for `config --list`, is not a
     /// setting and is skipped.
     pub fn from_json(text: &str) -> std::result::Result<RenderConfig, serde_json::Error> {
-        let error = match serde_json::from_str(text) {
+        // Read straight first, so that errors keep their line and column where no setting is
+        // keyed.
+        let straight = match serde_json::from_str(text) {
             Ok(config) => return Ok(config),
             Err(e) => e,
         };
-        // Read straight first, so that errors keep their line and column.
-        let mut tree: serde_json::Value = serde_json::from_str(text)?;
-        match tree.as_object_mut() {
-            Some(fields) if fields.get("description").is_some_and(|d| d.is_string()) => {
-                fields.remove("description");
-                serde_json::from_value(tree)
-            }
-            _ => Err(error),
+        let tree: serde_json::Value = serde_json::from_str(text)?;
+        let keyed =
+            crate::keyframes::Keyframes::take(&mut tree.clone()).map_or(true, |k| !k.is_empty());
+        RenderConfig::from_value(tree).map_err(|e| if keyed { e } else { straight })
+    }
+
+    /// [`RenderConfig::from_json`] of a parsed tree: keyed settings (`[[time_s, value], ...]`)
+    /// are taken into [`RenderConfig::keyframes`].
+    pub fn from_value(
+        mut tree: serde_json::Value,
+    ) -> std::result::Result<RenderConfig, serde_json::Error> {
+        use serde::de::Error as _;
+        if let Some(fields) = tree.as_object_mut()
+            && fields.get("description").is_some_and(|d| d.is_string())
+        {
+            fields.remove("description");
         }
+        let keyframes =
+            crate::keyframes::Keyframes::take(&mut tree).map_err(serde_json::Error::custom)?;
+        let mut config: RenderConfig = serde_json::from_value(tree)?;
+        config.keyframes = keyframes;
+        Ok(config)
+    }
+
+    /// The configuration as JSON, keyed settings as their keys: what `config --print` shows and
+    /// [`RenderConfig::from_value`] reads back.
+    pub fn to_value(&self) -> serde_json::Value {
+        let mut tree = serde_json::to_value(self).unwrap_or_default();
+        self.keyframes.put(&mut tree);
+        tree
+    }
+
+    /// The configuration at `t_s`: every keyed setting at its value then.
+    pub fn at(&self, t_s: f64) -> RenderConfig {
+        let mut c = self.clone();
+        self.keyframes.apply_at(&mut c, t_s);
+        c
     }
 }
 
@@ -379,8 +421,46 @@ pub(crate) fn check(name: &'static str, value: f64, ok: bool, expected: &str) ->
 }
 
 impl RenderConfig {
-    /// Rejects values outside their physical or practical range, naming the flag.
+    /// Rejects values outside their physical or practical range, naming the flag; keyed
+    /// settings are checked at every key.
     pub fn validate(&self) -> Result<()> {
+        self.validate_at_keys()?;
+        self.validate_values()
+    }
+
+    /// Each key's value in range, the error naming the key's time; an aperture keyed to 0
+    /// (pinhole) is refused, since blur between a pinhole and a lens is not an interpolation.
+    fn validate_at_keys(&self) -> Result<()> {
+        if let Some(k) = &self.keyframes.f_number
+            && k.keys().iter().any(|&(_, n)| n == 0.0)
+        {
+            return Err(Error::Parameter {
+                name: "camera.f_number",
+                value: "a key of 0".into(),
+                expected: "keys from 0.5 to 64 (a pinhole cannot be keyed)".into(),
+            });
+        }
+        for t in self.keyframes.times_s() {
+            let mut at = self.at(t);
+            at.keyframes = Default::default();
+            at.validate_values().map_err(|e| match e {
+                Error::Parameter {
+                    name,
+                    value,
+                    expected,
+                } => Error::Parameter {
+                    name,
+                    value: format!("{value} (keyed, at {t} s)"),
+                    expected,
+                },
+                e => e,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// [`RenderConfig::validate`] of the values at t = 0.
+    fn validate_values(&self) -> Result<()> {
         let c = &self.camera;
         let r = &self.rain;
         check(

@@ -92,7 +92,15 @@ pub fn drops(
     let cam = &config.camera;
     let camera = cam.camera(w, h);
     let exposure = physics::exposure_s(cam.shutter_deg, fps)?;
-    let setup = emitter::build(&camera, cam, &config.rain, exposure, 0, size_px)?;
+    let setup = emitter::build_keyed(
+        &camera,
+        cam,
+        &config.rain,
+        &config.keyframes,
+        exposure,
+        0,
+        size_px,
+    )?;
     let params = emitter::plan_params(cam, &config.rain, exposure)?;
     volume::inspect_drops(
         &camera,

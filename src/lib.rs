@@ -53,6 +53,7 @@ pub mod error;
 pub mod fluid;
 pub mod gpu;
 pub mod inspect;
+pub mod keyframes;
 pub mod lighting;
 pub mod pipeline;
 pub mod preset;

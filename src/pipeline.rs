@@ -133,10 +133,11 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
         );
         rain.max_drops = cap;
     }
-    let setup = emitter::build(
+    let setup = emitter::build_keyed(
         &camera_for(info, config)?,
         &config.camera,
         &rain,
+        &config.keyframes,
         exposure,
         info.rotation_deg,
         (info.format.width, info.format.height),
@@ -161,11 +162,11 @@ pub fn rain_for(info: &VideoInfo, config: &RenderConfig, ctx: &GpuContext) -> Re
     };
     Ok(setup
         .with_ground(config.ground.is_given())
-        .with_wetting(
-            config
-                .ground
-                .wetting(config.rain.rate_mm_per_h, config.rain.scene_depth_m),
-        )
+        .with_wetting(config.ground.wetting(
+            config.keyframes.rate_mm_per_h.as_ref(),
+            config.rain.rate_mm_per_h,
+            config.rain.scene_depth_m,
+        ))
         .with_scene_depth(config.ground.depth.is_some())
         .with_mattes(mattes))
 }

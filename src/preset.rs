@@ -38,6 +38,7 @@ pub const PRESETS: &[Preset] = &[
     preset!("downpour"),
     preset!("drizzle"),
     preset!("night-street"),
+    preset!("passing-shower"),
     preset!("steady"),
     preset!("storm"),
     preset!("windy-storm"),
@@ -94,7 +95,7 @@ pub fn load(arg: &str) -> Result<RenderConfig> {
 /// addressed by index (`light.lights.0.radiance_rgb`). Ranges are left to
 /// [`RenderConfig::validate`] (see [`validate_layered`]).
 pub fn with_overrides(config: &RenderConfig, sets: &[String]) -> Result<RenderConfig> {
-    let mut tree = serde_json::to_value(config).map_err(|e| bad_set("", e.to_string()))?;
+    let mut tree = config.to_value();
     for set in sets {
         apply(&mut tree, set)?;
         // Deserialising after each one names the override whose value has the wrong type.
@@ -205,7 +206,7 @@ pub fn validate_layered(
 
 impl RenderConfig {
     fn deserialize_value(tree: Value) -> std::result::Result<RenderConfig, serde_json::Error> {
-        serde_json::from_value(tree)
+        RenderConfig::from_value(tree)
     }
 }
 

@@ -445,8 +445,21 @@ fn preview_is_the_frame_the_full_render_writes() {
     let plain = vec!["--rain", "30", "--opacity", "10", "--seed", "3", "--cpu"];
     let mut grounded = plain.clone();
     grounded.extend(["--ground", "auto", "--depth", s(&depth)]);
+    let mut keyed = plain.clone();
+    keyed.extend([
+        "--ground",
+        "horizon=0.6",
+        "--set",
+        "rain.rate_mm_per_h=[[0,0],[1,60],[1.5,5]]",
+        "--set",
+        "rain.wind_mps=[[0,[0,0]],[1,[8,0]]]",
+        "--set",
+        "camera.focus_m=[[0,1],[2,10]]",
+    ]);
+    keyed.retain(|a| *a != "--rain" && *a != "30");
     check_preview_against_render(&dir, &input, "plain", &plain);
     check_preview_against_render(&dir, &input, "grounded", &grounded);
+    check_preview_against_render(&dir, &input, "keyed", &keyed);
 }
 
 /// Frames 30 (`--at 1.2s`) and 17 (`--frame 17`) previewed with `look` equal those frames of

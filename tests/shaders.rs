@@ -115,6 +115,13 @@ fn rust_twins_match_wgsl_layouts() {
             drift_q,
             ground_clip,
             _pad,
+            wind_slope_mps2,
+            wind_start_mps,
+            wind_kink_count,
+            rate_key_count,
+            _pad_keys,
+            wind_kinks,
+            rate_keys,
             speed_q,
         ]
     );

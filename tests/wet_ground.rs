@@ -150,11 +150,15 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
         ..GroundConfig::default()
     };
     let horizon: GroundMode = "horizon=0.6".parse().expect("mode");
-    assert!(ground(GroundMode::None, 10.0).wetting(10.0, 50.0).is_none());
-    assert!(ground(horizon, 0.0).wetting(0.0, 50.0).is_none());
-    assert!(ground(horizon, 10.0).wetting(0.0, 50.0).is_none());
-    assert!(ground(horizon, 10.0).wetting(1.0, 50.0).is_some());
-    assert!(ground(horizon, 0.0).wetting(10.0, 50.0).is_some());
+    assert!(
+        ground(GroundMode::None, 10.0)
+            .wetting(None, 10.0, 50.0)
+            .is_none()
+    );
+    assert!(ground(horizon, 0.0).wetting(None, 0.0, 50.0).is_none());
+    assert!(ground(horizon, 10.0).wetting(None, 0.0, 50.0).is_none());
+    assert!(ground(horizon, 10.0).wetting(None, 1.0, 50.0).is_some());
+    assert!(ground(horizon, 0.0).wetting(None, 10.0, 50.0).is_some());
 }
 
 /// A 4:4:4 10-bit BT.709 picture: a texture, or one grey (`flat`).
@@ -465,7 +469,7 @@ fn without_a_ground_the_frame_is_bit_identical() {
     let with_none = plain
         .clone()
         .with_ground(none.is_given())
-        .with_wetting(none.wetting(rain.rate_mm_per_h, rain.scene_depth_m));
+        .with_wetting(none.wetting(None, rain.rate_mm_per_h, rain.scene_depth_m));
     assert!(with_none.wetting.is_none());
     let frame = picture(32, 24, None);
     let p = lit(&plain, 1.0, &SKY, 0.95);

@@ -57,6 +57,7 @@ fn every_preset_renders() {
         "windy-storm",
         "night-street",
         "backlit",
+        "passing-shower",
     ] {
         assert!(names.iter().any(|n| n == promised), "{promised}: {names:?}");
     }
@@ -105,6 +106,56 @@ fn config_print_round_trips_with_precedence() {
     let file = dir.path().join("effective.json");
     std::fs::write(&file, &text).expect("write");
     assert_eq!(print(&["--config", s(&file)]), text);
+}
+
+/// Keyframes given with `--set` show in `config --print` as keys, read back unchanged through
+/// `--config FILE`; a setting that cannot change over a shot is refused in one line naming it.
+#[test]
+fn keyed_settings_print_and_read_back() {
+    let dir = TempDir::new().expect("tempdir");
+    let print = |args: &[&str]| {
+        let out = ok(bin().args(["config", "--print"]).args(args));
+        String::from_utf8(out.stdout).expect("utf-8")
+    };
+    let text = print(&[
+        "--set",
+        "rain.rate_mm_per_h=[[0,0],[4,30]]",
+        "--set",
+        "rain.wind_mps=[[1,[0,0]],[3,[6,-1]]]",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    assert_eq!(
+        v["rain"]["rate_mm_per_h"],
+        serde_json::json!([[0.0, 0.0], [4.0, 30.0]])
+    );
+    assert_eq!(
+        v["rain"]["wind_mps"][1],
+        serde_json::json!([3.0, [6.0, -1.0]])
+    );
+    let file = dir.path().join("keyed.json");
+    std::fs::write(&file, &text).expect("write");
+    assert_eq!(print(&["--config", s(&file)]), text);
+    // A flag replaces the keys with its constant.
+    let flat = print(&["--config", s(&file), "--rain", "7"]);
+    let v: serde_json::Value = serde_json::from_str(&flat).expect("json");
+    assert_eq!(v["rain"]["rate_mm_per_h"], 7.0);
+    for (set, says) in [
+        (
+            "rain.drop_scale=[[0,1],[2,2]]",
+            "rain.drop_scale cannot change over a shot",
+        ),
+        (
+            "rain.rate_mm_per_h=[[2,0],[1,30]]",
+            "times in increasing order",
+        ),
+        ("rain.rate_mm_per_h=[[0,0],[4,900]]", "(keyed, at 4 s)"),
+    ] {
+        let e = fails(bin().args(["config", "--print", "--set", set]));
+        assert!(
+            e.starts_with("error: ") && e.contains(says) && e.lines().count() == 1,
+            "{set}: {e}"
+        );
+    }
 }
 
 /// Unknown keys, wrong types and out-of-range values are refused naming the key and value,
@@ -197,10 +248,12 @@ fn chunks_join_into_the_single_render() {
         &["-c:v", "libx264", "-pix_fmt", "yuv420p"],
         &["-c:a", "aac", "-shortest"],
     );
+    // With the rain keyed to start and grow, which chunks must follow as the whole does.
     let render = |name: &str, range: &[&str]| {
         let out = dir.path().join(name);
         ok(bin()
             .args([s(&input), "-o", s(&out), "--codec", "ffv1"])
+            .args(["--set", "rain.rate_mm_per_h=[[0.5,0],[4,40]]"])
             .args(range));
         out
     };

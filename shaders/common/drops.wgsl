@@ -9,6 +9,8 @@
 // modulo 1 on each axis. Wrapping preserves volume, so the column stays uniformly filled; each
 // time the drop wraps through the bottom it is reborn with a new lateral offset.
 //
+// A keyed rate thins the drops per pass (falls); a keyed wind adds each drop's lag (wind_lag).
+//
 // Needs, declared by the stage that includes it:
 //   var<uniform> rain: RainParams;  var<storage, read> columns: array<Column>;
 
@@ -17,6 +19,52 @@ struct DropState {
     vel_mps: vec3<f32>,
     diameter_mm: f32,   // drawn equivalent diameter (× diameter_scale)
     width_mm: f32,      // drawn horizontal diameter: the streak's width
+    falls: bool,        // false: a keyed rate leaves this pass of the drop out (not drawn)
+}
+
+// The keyed rate, mm/h, `s` seconds from the frame's time: linear between keys, held outside
+// (keyframes::Curve::at).
+fn rate_at(s: f32) -> f32 {
+    let n = rain.rate_key_count;
+    if s <= rain.rate_keys[0].x { return rain.rate_keys[0].y; }
+    for (var i = 1u; i < n; i++) {
+        let k1 = rain.rate_keys[i];
+        if s < k1.x {
+            let k0 = rain.rate_keys[i - 1u];
+            return mix(k0.y, k1.y, (s - k0.x) / (k1.x - k0.x));
+        }
+    }
+    return rain.rate_keys[n - 1u].y;
+}
+
+// Whether drop `id` falls in its pass `pass_index`, born `age_s` ago at its column's top: with
+// a keyed rate the columns hold the peak rate's drops, and a pass falls with probability
+// N(D; R)/N(D; R_peak) = exp(−(Λ(R) − Λ_peak) D) of the rate at its birth (Marshall–Palmer),
+// decided once per pass (rain::volume::drop::falls).
+fn falls(id: u32, pass_index: u32, age_s: f32, d_mm: f32) -> bool {
+    if rain.rate_key_count == 0u { return true; }
+    let r = rate_at(-age_s);
+    if r <= 0.0 { return false; }
+    let excess = max(MP_LAMBDA_COEFF * pow(r, -MP_LAMBDA_EXPONENT) - rain.lambda_per_mm, 0.0);
+    return cycle_uniform(rain.seed, id, pass_index, RATE_STREAM) < exp(-excess * d_mm);
+}
+
+// How far a drop with time constant `tau` lags a keyed mean wind: velocity and displacement to
+// add to the mean wind's (exact for piecewise-linear wind, rain::wind::Wind::mean_lag).
+struct WindLag {
+    vel_mps: vec2<f32>,
+    disp_m: vec2<f32>,
+}
+
+fn wind_lag(tau: f32) -> WindLag {
+    var lag = WindLag(-tau * rain.wind_slope_mps2, -tau * (rain.wind_mean_mps - rain.wind_start_mps));
+    for (var j = 0u; j < rain.wind_kink_count; j++) {
+        let k = rain.wind_kinks[j];
+        let e = exp(-k.x / tau);
+        lag.vel_mps += k.yz * (tau * e);
+        lag.disp_m += k.yz * (tau * tau * (1.0 - e));
+    }
+    return lag;
 }
 
 // Horizontal over equivalent diameter, r^(−1/3), of an oblate drop with Beard & Chuang's (1987)
@@ -119,6 +167,11 @@ fn drop_phase(id: u32) -> DropPhase {
         let s0 = (p.w - wt * p.z) / den;
         gust += a.xy * ((s1 - s0) / a.z);
     }
+    if rain.wind_kink_count > 0u {
+        let lag = wind_lag(wt_per_omega);
+        vh += lag.vel_mps;
+        gust += lag.disp_m;
+    }
     let frac_s = rain.time_frac_s;
     // Fall, in column heights: w = w0 − rate·t, the whole seconds in exact integers.
     let rate_q = fall_rate_q(speed_q, col.inv_height_q);
@@ -156,5 +209,6 @@ fn drop_state(id: u32) -> DropState {
     let z = col.z_lo_m + w * col.height_m;
     let pos = vec3<f32>(uv + rain.column_slope * z, z);
     let drawn_mm = ph.d_mm * rain.diameter_scale;
-    return DropState(pos, vec3<f32>(ph.vh, -ph.vt), drawn_mm, drawn_mm * streak_width_factor(ph.d_mm));
+    let born = falls(id, ph.pass_index, (1.0 - w) / ph.rate, ph.d_mm);
+    return DropState(pos, vec3<f32>(ph.vh, -ph.vt), drawn_mm, drawn_mm * streak_width_factor(ph.d_mm), born);
 }

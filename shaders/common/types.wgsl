@@ -65,6 +65,13 @@ struct RainParams {
     drift_q: vec2<i32>,              // the columns' drift per metre fallen, 2^-DRIFT_BITS cells/m
     ground_clip: u32,                // 1: streaks end where drops land on the ground z = 0
     _pad: u32,
+    wind_slope_mps2: vec2<f32>,      // keyed wind: the mean wind's slope now (0 when steady)
+    wind_start_mps: vec2<f32>,       // keyed wind: the mean wind at t = 0
+    wind_kink_count: u32,            // entries of wind_kinks
+    rate_key_count: u32,             // entries of rate_keys; 0: the rate is constant, every drop falls
+    _pad_keys: vec2<u32>,
+    wind_kinks: array<vec4<f32>, MAX_KEYS>,  // the slope's changes so far: t − t_j (s), Δb_j (m/s²)
+    rate_keys: array<vec4<f32>, MAX_KEYS>,   // the keyed rate: t_k − t (s), rate (mm/h)
     speed_q: array<vec4<u32>, SPEED_TABLE_LEN / 4u>,  // fall speed at size quantile i/(N−1), 2^-SPEED_BITS m/s
 }
 

@@ -21,7 +21,7 @@ pub struct GpuDrop {
     pub pos_m: Vec3,
     /// Velocity, m/s.
     pub vel_mps: Vec3,
-    /// Drawn diameter, mm.
+    /// Drawn diameter, mm; −1 for a drop a keyed rate leaves out of its current pass.
     pub diameter_mm: f32,
     /// Drawn horizontal diameter (the streak's width), mm.
     pub width_mm: f32,

@@ -96,7 +96,24 @@ pub fn constants() -> String {
     .iter()
     .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
     .chain(splash_constants())
+    .chain(keyframe_constants())
     .collect()
+}
+
+/// What a keyed rate and wind need on the GPU (`keyframes`, `rain::volume::drop::falls`).
+fn keyframe_constants() -> impl Iterator<Item = String> {
+    use crate::rain::physics as dsd;
+    let u = [
+        ("MAX_KEYS", crate::keyframes::MAX_KEYS as u32),
+        ("RATE_STREAM", crate::rain::volume::RATE_STREAM),
+    ]
+    .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"));
+    let f = [
+        ("MP_LAMBDA_COEFF", dsd::MP_LAMBDA_COEFF),
+        ("MP_LAMBDA_EXPONENT", dsd::MP_LAMBDA_EXPONENT),
+    ]
+    .map(|(name, v)| format!("const {name}: f32 = {:?};\n", v as f32));
+    u.into_iter().chain(f)
 }
 
 /// The splash model's constants (`rain::physics::splash`), for `rain_splashes`.

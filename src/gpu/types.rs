@@ -4,6 +4,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::keyframes::MAX_KEYS;
 use crate::video::{ColorParams, FrameFormat};
 
 /// WGSL `FrameParams`: a frame's layout and colour interpretation.
@@ -133,6 +134,18 @@ pub struct RainParams {
     /// without a ground.
     pub ground_clip: u32,
     pub _pad: u32,
+    /// Keyed wind: the mean wind's slope at the frame's time, m/s².
+    pub wind_slope_mps2: [f32; 2],
+    /// Keyed wind: the mean wind at t = 0, m/s.
+    pub wind_start_mps: [f32; 2],
+    pub wind_kink_count: u32,
+    /// 0: the rate is constant and every drop falls.
+    pub rate_key_count: u32,
+    pub _pad_keys: [u32; 2],
+    /// The mean wind's slope changes up to the frame: (t − t_j s, Δb_j m/s², unused).
+    pub wind_kinks: [[f32; 4]; MAX_KEYS],
+    /// The keyed rate: (t_k − t s, rate mm/h, unused, unused).
+    pub rate_keys: [[f32; 4]; MAX_KEYS],
     /// Fall speed by size quantile, 2⁻¹⁰ m/s (`rain::volume::DropMotion`).
     pub speed_q: [u32; SPEED_TABLE_LEN],
 }

@@ -14,6 +14,7 @@ use glam::DVec2;
 use super::types::{Column, GUSTS, LightList, RainParams};
 use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
+use crate::keyframes::{Keyframes, MAX_KEYS};
 use crate::lighting::FrameLight;
 use crate::rain::physics::{DsdShape, G_MPS2, RainModel, RainRate, ThinLens, haze_alpha};
 use crate::rain::volume::drop::inv_height_q;
@@ -44,6 +45,13 @@ pub struct RainSetup {
     pub scene_depth: bool,
     /// The streak mattes (`--streaks mattes`); `None` draws the capsule.
     pub mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
+    /// The settings that change over the shot, read per frame (the rate's and the wind's
+    /// curves also live in `model` and `wind`, which the drops follow).
+    pub keys: Keyframes,
+    /// What a keyed focus or aperture needs per frame: the camera and its lens settings.
+    lens_camera: (Camera, CameraConfig),
+    /// Distance of the filmed scene, m (the haze ends there).
+    scene_depth_m: f64,
 }
 
 /// Maps display pixels to coded pixels for a display rotation of `rotation_deg`, in `f32` for
@@ -131,12 +139,7 @@ pub fn build(
             0.0,
         ];
     }
-    let lens_blur_k_px_m = lens.map_or(0.0, |l| {
-        // Diameter of the circle of confusion = k·|1/focus − 1/z|: read k off the lens at
-        // half the focus distance.
-        let z = 0.5 * l.focus_m;
-        (l.coc_diameter_px(camera, z) / (1.0 / l.focus_m - 1.0 / z).abs()) as f32
-    });
+    let (lens_blur_k_px_m, inv_focus_per_m) = lens_uniforms(camera, lens);
     let f = camera.focal_px();
     let r = camera.world_from_camera.transpose();
     let row = |k: usize| {
@@ -183,11 +186,18 @@ pub fn build(
         lambda_per_mm: model.dsd.lambda_per_mm() as f32,
         diameter_scale: volume.motion.diameter_scale as f32,
         lens_blur_k_px_m,
-        inv_focus_per_m: lens.map_or(0.0, |l| (1.0 / l.focus_m) as f32),
+        inv_focus_per_m,
         gravity_mps2: G_MPS2 as f32,
         drift_q: volume.motion.drift_q,
         ground_clip: 0,
         _pad: 0,
+        wind_slope_mps2: [0.0; 2],
+        wind_start_mps: [wind.mean_mps.x as f32, wind.mean_mps.y as f32],
+        wind_kink_count: 0,
+        rate_key_count: 0,
+        _pad_keys: [0; 2],
+        wind_kinks: [[0.0; 4]; MAX_KEYS],
+        rate_keys: [[0.0; 4]; MAX_KEYS],
         speed_q: volume.motion.speed_q,
     };
     // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
@@ -206,7 +216,100 @@ pub fn build(
         wetting: None,
         scene_depth: false,
         mattes: None,
+        keys: Keyframes::default(),
+        lens_camera: (*camera, *camera_config),
+        scene_depth_m: rain.scene_depth_m,
     })
+}
+
+/// The defocus uniforms of `lens` (`None`: a pinhole): k of the circle of confusion's diameter
+/// k·|1/focus − 1/z| px, and 1/focus.
+fn lens_uniforms(camera: &Camera, lens: Option<ThinLens>) -> (f32, f32) {
+    lens.map_or((0.0, 0.0), |l| {
+        // Read k off the lens at half the focus distance.
+        let z = 0.5 * l.focus_m;
+        (
+            (l.coc_diameter_px(camera, z) / (1.0 / l.focus_m - 1.0 / z).abs()) as f32,
+            (1.0 / l.focus_m) as f32,
+        )
+    })
+}
+
+/// [`build`] for a configuration whose settings may change over the shot (`keys`): the rain
+/// is planned for the peak rate, and for the focus and aperture (at any key) that see rain
+/// farthest, so every frame's drops are among the planned ones; the drops then follow the
+/// keyed rate and wind, and each frame reads its opacity and lens ([`RainSetup::motion_at`]).
+pub fn build_keyed(
+    camera: &Camera,
+    camera_config: &CameraConfig,
+    rain: &RainConfig,
+    keys: &Keyframes,
+    exposure_s: f64,
+    rotation_deg: i32,
+    coded_size_px: (u32, u32),
+) -> Result<RainSetup> {
+    if keys.is_empty() {
+        return build(
+            camera,
+            camera_config,
+            rain,
+            exposure_s,
+            rotation_deg,
+            coded_size_px,
+        );
+    }
+    let mut planned = None;
+    for t in keys.times_s() {
+        let mut at = crate::config::RenderConfig {
+            camera: *camera_config,
+            rain: *rain,
+            ..Default::default()
+        };
+        keys.apply_at(&mut at, t);
+        at.rain.rate_mm_per_h = keys
+            .rate_mm_per_h
+            .as_ref()
+            .map_or(rain.rate_mm_per_h, |k| k.max());
+        if let Some(w) = &keys.wind_mps {
+            // The columns lean with the wind the drops see on average over the keys.
+            let k = w.keys();
+            at.rain.wind_mps = (k.iter().map(|k| k.1).sum::<DVec2>() / k.len() as f64).to_array();
+        }
+        let setup = build(
+            camera,
+            &at.camera,
+            &at.rain,
+            exposure_s,
+            rotation_deg,
+            coded_size_px,
+        )?;
+        if planned
+            .as_ref()
+            .is_none_or(|p: &RainSetup| setup.volume.far_m > p.volume.far_m)
+        {
+            planned = Some(setup);
+        }
+    }
+    let Some(mut setup) = planned else {
+        return build(
+            camera,
+            camera_config,
+            rain,
+            exposure_s,
+            rotation_deg,
+            coded_size_px,
+        );
+    };
+    if let Some(k) = &keys.rate_mm_per_h {
+        setup.model = setup.model.with_rate_keys(k);
+    }
+    if let Some(k) = &keys.wind_mps {
+        setup.wind = setup.wind.clone().with_mean_keys(k);
+        let w0 = setup.wind.mean_at(0.0);
+        setup.params.wind_start_mps = [w0.x as f32, w0.y as f32];
+    }
+    setup.keys = keys.clone();
+    Ok(setup)
 }
 
 impl RainSetup {
@@ -217,7 +320,7 @@ impl RainSetup {
         p.env_sh = light.env.to_gpu_array();
         p.drop_zonal = drop_zonal;
         // The far drops of the haze scatter the same light as the drawn ones.
-        p.haze = [0.0, 0.0, 0.0, 1.0 - self.haze_alpha as f32];
+        p.haze = [0.0, 0.0, 0.0, 1.0 - self.haze_at(t_s) as f32];
         p
     }
 
@@ -247,6 +350,7 @@ impl RainSetup {
         let travel = mean_travel_cells(&self.wind, &self.volume.grid, t);
         p.mean_travel_cells = [travel.x as f32, travel.y as f32];
         let t_s = t.seconds();
+        self.keyed_at(&mut p, t_s);
         for (ph, g) in p.gust_phase.iter_mut().zip(&self.wind.gusts) {
             let x = g.omega_radps * t_s + g.phase_rad;
             *ph = [
@@ -257,6 +361,57 @@ impl RainSetup {
             ];
         }
         p
+    }
+
+    /// The haze's opacity at `t_s`: [`RainSetup::haze_alpha`] (the peak's) scaled to the keyed
+    /// rate then.
+    pub fn haze_at(&self, t_s: f64) -> f64 {
+        match &self.model.rate_keys {
+            Some(k) if self.haze_alpha > 0.0 => RainRate::from_mm_per_h(k.at(t_s))
+                .map_or(0.0, |r| {
+                    haze_alpha(r, self.volume.far_m, self.scene_depth_m)
+                }),
+            _ => self.haze_alpha,
+        }
+    }
+
+    /// The keyed settings' fields of `p` at `t_s`: the mean wind, its slope and its changes so
+    /// far; the rate's keys relative to now (f32 stays exact in the drops' ages however long
+    /// the clip); opacity and lens.
+    fn keyed_at(&self, p: &mut RainParams, t_s: f64) {
+        let f2 = |v: DVec2| [v.x as f32, v.y as f32];
+        if self.wind.mean_keys.is_some() {
+            p.wind_mean_mps = f2(self.wind.mean_at(t_s));
+            p.wind_slope_mps2 = f2(self.wind.mean_slope_at(t_s));
+            let kinks = self.wind.mean_kinks_before(t_s);
+            p.wind_kink_count = kinks.len() as u32;
+            for (slot, (dt, db)) in p.wind_kinks.iter_mut().zip(kinks) {
+                *slot = [dt as f32, db.x as f32, db.y as f32, 0.0];
+            }
+        }
+        if let Some(k) = &self.model.rate_keys {
+            p.rate_key_count = k.keys().len() as u32;
+            for (slot, &(tk, r)) in p.rate_keys.iter_mut().zip(k.keys()) {
+                *slot = [(tk - t_s) as f32, r as f32, 0.0, 0.0];
+            }
+        }
+        if let Some(k) = &self.keys.opacity {
+            p.opacity = k.at(t_s) as f32;
+        }
+        if self.keys.focus_m.is_some() || self.keys.f_number.is_some() {
+            let (camera, mut lens) = self.lens_camera;
+            if let Some(k) = &self.keys.focus_m {
+                lens.focus_m = k.at(t_s);
+            }
+            if let Some(k) = &self.keys.f_number {
+                lens.f_number = k.at(t_s);
+            }
+            // Validated: keyed values are in range, so the lens exists.
+            let thin = (lens.f_number > 0.0)
+                .then(|| ThinLens::new(lens.sensor_width_mm, lens.f_number, lens.focus_m).ok())
+                .flatten();
+            (p.lens_blur_k_px_m, p.inv_focus_per_m) = lens_uniforms(&camera, thin);
+        }
     }
 
     /// With `ground` true, streaks end where their drops land on the ground z = 0 the volume

@@ -23,12 +23,17 @@
 //! layer, Panofsky & Dutton 1984). Vertical gusts are left out: drops keep their terminal
 //! velocity.
 //!
+//! A keyed mean wind (`rain.wind_mps` as `[time_s, [x, y]]` keys, linear between them) is also
+//! followed in closed form, each drop with its own lag ([`Wind::mean_lag`]); the gusts keep the
+//! axis of the mean the rain is planned with.
+//!
 //! GPU port: the component parameters are a flat `[ax, ay, ω, φ]` array (one `vec4` each, see
 //! [`Wind::component_params`]). Per frame, the CPU can pass cos/sin of (ω_k t + φ_k) in `f64`;
 //! per drop, g_k cos(x − θ_k) = (cos x + ωτ sin x)/(1 + (ωτ)²) needs no `atan` and no branch.
 
 use glam::DVec2;
 
+use crate::keyframes::Curve;
 use crate::rng::SplitMix64;
 
 use crate::{Error, Result};
@@ -56,10 +61,13 @@ pub struct GustComponent {
 /// The wind: a mean horizontal vector plus gusts.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wind {
-    /// Mean wind (world x, y), m/s.
+    /// Mean wind (world x, y), m/s: the gusts' axis and the rain columns' shear; the mean itself
+    /// where it is not keyed.
     pub mean_mps: DVec2,
     /// Gust components (empty for steady wind).
     pub gusts: Vec<GustComponent>,
+    /// The mean wind over the shot, where it changes ([`Wind::with_mean_keys`]).
+    pub mean_keys: Option<Curve<DVec2>>,
 }
 
 impl Wind {
@@ -68,6 +76,7 @@ impl Wind {
         Wind {
             mean_mps: DVec2::ZERO,
             gusts: Vec::new(),
+            mean_keys: None,
         }
     }
 
@@ -97,6 +106,7 @@ impl Wind {
             return Ok(Wind {
                 mean_mps,
                 gusts: Vec::new(),
+                mean_keys: None,
             });
         }
         let along = mean_mps.try_normalize().unwrap_or(DVec2::X);
@@ -121,12 +131,75 @@ impl Wind {
                 });
             }
         }
-        Ok(Wind { mean_mps, gusts })
+        Ok(Wind {
+            mean_mps,
+            gusts,
+            mean_keys: None,
+        })
+    }
+
+    /// This wind with its mean changing over the shot as `keys` say (linear between keys); the
+    /// gusts keep their axis and spectrum. A constant curve leaves the wind as it is.
+    pub fn with_mean_keys(mut self, keys: &Curve<DVec2>) -> Wind {
+        self.mean_keys = (!keys.is_constant()).then(|| keys.clone());
+        if self.mean_keys.is_none() {
+            self.mean_mps = keys.at(0.0);
+        }
+        self
+    }
+
+    /// The mean wind at `t_s`, m/s.
+    pub fn mean_at(&self, t_s: f64) -> DVec2 {
+        self.mean_keys.as_ref().map_or(self.mean_mps, |k| k.at(t_s))
+    }
+
+    /// The mean wind's slope at `t_s`, m/s².
+    pub fn mean_slope_at(&self, t_s: f64) -> DVec2 {
+        self.mean_keys
+            .as_ref()
+            .map_or(DVec2::ZERO, |k| k.slope_at(t_s))
+    }
+
+    /// The mean wind's travel ∫₀ᵗ W̄ dt, m (what air moving with it has travelled).
+    pub fn mean_travel_m(&self, t_s: f64) -> DVec2 {
+        self.mean_keys
+            .as_ref()
+            .map_or(self.mean_mps * t_s, |k| k.integral(t_s))
+    }
+
+    /// The slope changes of the mean wind at or before `t_s`: `(t_s − t_j, Δb_j)`.
+    pub fn mean_kinks_before(&self, t_s: f64) -> Vec<(f64, DVec2)> {
+        self.mean_keys.as_ref().map_or(Vec::new(), |k| {
+            k.kinks()
+                .into_iter()
+                .filter(|&(t, _)| t <= t_s)
+                .map(|(t, d)| (t_s - t, d))
+                .collect()
+        })
+    }
+
+    /// How far a drop with time constant `tau_s` lags behind the changing mean wind: (velocity
+    /// m/s, displacement m) to add to the mean wind's own. For a piecewise-linear W̄ with slope
+    /// b(t) and slope changes Δb_j at t_j, τ v' + v = W̄ solves exactly to
+    /// v = W̄ − τ b + τ Σ Δb_j e^{−(t−t_j)/τ}, whose integral from the (steady) start is
+    /// ∫W̄ − τ (W̄(t) − W̄(0)) + τ² Σ Δb_j (1 − e^{−(t−t_j)/τ}). Zero for a steady mean.
+    pub fn mean_lag(&self, t_s: f64, tau_s: f64) -> (DVec2, DVec2) {
+        if self.mean_keys.is_none() || tau_s <= 0.0 {
+            return (DVec2::ZERO, DVec2::ZERO);
+        }
+        let (mut v, mut x) = (-tau_s * self.mean_slope_at(t_s), DVec2::ZERO);
+        x -= tau_s * (self.mean_at(t_s) - self.mean_at(0.0));
+        for (dt, db) in self.mean_kinks_before(t_s) {
+            let e = (-dt / tau_s).exp();
+            v += db * (tau_s * e);
+            x += db * (tau_s * tau_s * (1.0 - e));
+        }
+        (v, x)
     }
 
     /// Air velocity at time `t_s`, m/s.
     pub fn wind_velocity_mps(&self, t_s: f64) -> DVec2 {
-        self.gusts.iter().fold(self.mean_mps, |acc, g| {
+        self.gusts.iter().fold(self.mean_at(t_s), |acc, g| {
             acc + g.amplitude_mps * (g.omega_radps * t_s + g.phase_rad).cos()
         })
     }
@@ -139,7 +212,8 @@ impl Wind {
     /// Steady-state horizontal velocity, m/s, at `t_s` of a drop whose velocity relaxes to the
     /// wind with time constant `tau_s` (τ = 0 follows the air exactly).
     pub fn drop_velocity_mps(&self, t_s: f64, tau_s: f64) -> DVec2 {
-        self.gusts.iter().fold(self.mean_mps, |acc, g| {
+        let mean = self.mean_at(t_s) + self.mean_lag(t_s, tau_s).0;
+        self.gusts.iter().fold(mean, |acc, g| {
             let x = g.omega_radps * t_s + g.phase_rad;
             let wt = g.omega_radps * tau_s.max(0.0);
             // g_k cos(x − θ_k) with g_k = 1/√(1+wt²), θ_k = atan(wt).
@@ -150,7 +224,7 @@ impl Wind {
     /// Displacement ∫₀ᵗ v dt, m, of a drop in steady state with time constant `tau_s`:
     /// W̄ t + Σ a_k g_k [sin(ω_k t + φ_k − θ_k) − sin(φ_k − θ_k)]/ω_k.
     pub fn drop_displacement_m(&self, t_s: f64, tau_s: f64) -> DVec2 {
-        self.mean_mps * t_s + self.gust_displacement_m(t_s, tau_s)
+        self.mean_travel_m(t_s) + self.mean_lag(t_s, tau_s).1 + self.gust_displacement_m(t_s, tau_s)
     }
 
     /// The gusts' share of [`Wind::drop_displacement_m`] (bounded: it does not grow with t).

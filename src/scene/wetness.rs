@@ -92,6 +92,36 @@ impl RainHistory {
         }
     }
 
+    /// Rain at the keyed rate `keys` through the clip, and at its first key's rate since
+    /// `pre_rain_s` before the clip's start. Between keys the rate is linear: it is taken in
+    /// steps of at most [`KEYED_STEP_S`], each at its mean (the midpoint's) rate, so every
+    /// step lands the right amount of water.
+    pub fn keyed(keys: &crate::keyframes::Curve<f64>, pre_rain_s: f64) -> RainHistory {
+        let k = keys.keys();
+        let mut segments = vec![(-pre_rain_s.max(0.0), k[0].1)];
+        for w in k.windows(2) {
+            let (t0, t1) = (w[0].0, w[1].0);
+            let steps = ((t1 - t0) / KEYED_STEP_S).ceil().max(1.0) as usize;
+            let dt = (t1 - t0) / steps as f64;
+            for i in 0..steps {
+                let start = t0 + i as f64 * dt;
+                segments.push((start, keys.at(start + 0.5 * dt)));
+            }
+        }
+        let last = k[k.len() - 1];
+        segments.push((last.0, last.1));
+        // A key at t = −pre_rain (no pre-rain) repeats a start time: the later one holds. A
+        // segment at the rate before it adds nothing.
+        segments.dedup_by(|b, a| {
+            if b.0 <= a.0 {
+                *a = *b;
+                return true;
+            }
+            b.1 == a.1
+        });
+        RainHistory { segments }
+    }
+
     /// Whether any rain falls at all (otherwise the ground stays dry).
     pub fn any_rain(&self) -> bool {
         self.segments.iter().any(|&(_, r)| r > 0.0)
@@ -110,6 +140,9 @@ impl RainHistory {
         water_mm
     }
 }
+
+/// Longest step of a keyed rate's history, s (wetting changes over minutes).
+pub const KEYED_STEP_S: f64 = 0.25;
 
 /// How wet the ground is over a job: its store and the rain it has had.
 #[derive(Debug, Clone, PartialEq)]

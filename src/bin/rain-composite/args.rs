@@ -555,6 +555,23 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
             }
         }
     }
+    // A flag's constant replaces the keys of its setting.
+    let k = &mut c.keyframes;
+    if look.rain.is_some() {
+        k.rate_mm_per_h = None;
+    }
+    if look.wind.is_some() {
+        k.wind_mps = None;
+    }
+    if look.opacity.is_some() {
+        k.opacity = None;
+    }
+    if look.focus.is_some() {
+        k.focus_m = None;
+    }
+    if look.f_number.is_some() {
+        k.f_number = None;
+    }
     let r = &mut c.rain;
     let cam = &mut c.camera;
     macro_rules! set {

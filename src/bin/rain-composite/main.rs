@@ -161,11 +161,13 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
 fn run_config(args: &ConfigArgs) -> anyhow::Result<()> {
     if args.list {
         for p in rain_composite::preset::PRESETS {
-            out(&format!("{:<14}{}", p.name, p.description()))?;
+            out(&format!("{:<14} {}", p.name, p.description()))?;
         }
         return Ok(());
     }
-    out(&serde_json::to_string_pretty(&render_config(&args.look)?)?)
+    out(&serde_json::to_string_pretty(
+        &render_config(&args.look)?.to_value(),
+    )?)
 }
 
 /// One line (or block) on stdout. A closed pipe (`| head`) ends the output quietly.

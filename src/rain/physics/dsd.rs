@@ -26,9 +26,14 @@ const OFF_RATE_MM_PER_H: f64 = 1.0e-3;
 /// Intervals of the tabulated CDF of the gamma distribution.
 const CDF_INTERVALS: usize = 2048;
 
+/// Marshall & Palmer's slope coefficient, mm⁻¹ (Λ = 4.1 R^−0.21).
+pub const MP_LAMBDA_COEFF: f64 = 4.1;
+/// Marshall & Palmer's slope exponent (Λ = 4.1 R^−0.21).
+pub const MP_LAMBDA_EXPONENT: f64 = 0.21;
+
 /// Marshall & Palmer slope Λ = 4.1 R^−0.21, mm⁻¹ (R in mm/h, R > 0).
 pub fn mp_lambda_per_mm(rate_mm_per_h: f64) -> f64 {
-    4.1 * rate_mm_per_h.powf(-0.21)
+    MP_LAMBDA_COEFF * rate_mm_per_h.powf(-MP_LAMBDA_EXPONENT)
 }
 
 /// The shape of the drop-size distribution.

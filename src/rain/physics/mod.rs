@@ -195,15 +195,38 @@ pub struct RainModel {
     pub dsd: DropSizeDistribution,
     /// Terminal velocities at the scene's altitude.
     pub fall: FallSpeed,
+    /// The rate over the shot where it changes (`None`: `rate` throughout). `rate` and `dsd`
+    /// are then the peak's, and each drop falls or not as [`RainModel::keeps`] says.
+    pub rate_keys: Option<crate::keyframes::Curve<f64>>,
 }
 
 impl RainModel {
+    /// This rain with its rate changing as `keys` say; `self` must be the rain of the keys'
+    /// peak rate (the rate the emitter plans for).
+    pub fn with_rate_keys(mut self, keys: &crate::keyframes::Curve<f64>) -> RainModel {
+        self.rate_keys = (!keys.is_constant()).then(|| keys.clone());
+        self
+    }
+
+    /// The probability that a drop of diameter `d_mm` drawn from this (peak) rain belongs to
+    /// the rain of `rate_mm_per_h`. Marshall–Palmer keeps N₀ and steepens Λ = 4.1 R^−0.21 as
+    /// the rate falls, so N(D; R)/N(D; R_peak) = e^{−(Λ(R) − Λ_peak) D} ≤ 1: thinning the peak's
+    /// drops by it leaves exactly the Marshall–Palmer drops of R, sizes included (0 at R = 0).
+    pub fn keeps(&self, rate_mm_per_h: f64, d_mm: f64) -> f64 {
+        if rate_mm_per_h <= 0.0 {
+            return 0.0;
+        }
+        let excess = dsd::mp_lambda_per_mm(rate_mm_per_h) - self.dsd.lambda_per_mm();
+        (-excess.max(0.0) * d_mm).exp()
+    }
+
     /// Rain of `rate` with drop sizes of `shape` (default truncation) at `altitude_m`.
     pub fn new(rate: RainRate, shape: DsdShape, altitude_m: f64) -> Result<RainModel> {
         Ok(RainModel {
             rate,
             dsd: DropSizeDistribution::new(rate, shape)?,
             fall: FallSpeed::at_altitude(altitude_m)?,
+            rate_keys: None,
         })
     }
 
@@ -213,6 +236,7 @@ impl RainModel {
             rate,
             dsd: DropSizeDistribution::marshall_palmer(rate),
             fall: FallSpeed::sea_level(),
+            rate_keys: None,
         }
     }
 }

@@ -212,6 +212,10 @@ pub struct SampledDrop {
     pub velocity_mps: DVec3,
     /// Position (world), m.
     pub position_m: DVec3,
+    /// Its pass through its column (a new one at each rebirth; counts down, modulo 2³²).
+    pub pass: u32,
+    /// When this pass began at the column's top, s.
+    pub born_s: f64,
 }
 
 /// Uniform in [0, 1) for drop `id`, stream `stream`, in the `cycle`-th pass of the drop
@@ -224,7 +228,7 @@ pub fn cycle_uniform(seed: u32, id: u32, cycle: u32, stream: u32) -> f64 {
 }
 
 /// The plain CPU reference of the stateless emitter (`shaders/common/drops.wgsl`): drop `id`
-/// at time `t_s`. Diameter by inverse CDF of stream 3; vertical velocity the fall speed of
+/// at time `t_s` (`None` outside the columns, or where a keyed rate leaves this pass out). Diameter by inverse CDF of stream 3; vertical velocity the fall speed of
 /// its size quantile ([`DropMotion::fall_speed_q`]); horizontal velocity the wind's
 /// steady-state response with τ = v_t/g; position the column point of streams 0–2 moved by
 /// the fall and the drift (fixed-point phases, see the module notes) and the wind, wrapped
@@ -256,6 +260,11 @@ pub fn sample_drop(
     let x = u(2) - whole_frac - rate_q as f64 / (1u32 << FALL_RATE_BITS) as f64 * t.frac_s;
     let c = x.floor();
     let k = (c as i64 as i32 as u32).wrapping_sub(passes);
+    let rate = rate_q as f64 / (1u32 << FALL_RATE_BITS) as f64;
+    let born_s = t.seconds() - (1.0 - (x - c)) / rate;
+    if !falls(model, seed, id32, k, born_s, d) {
+        return None;
+    }
     let [u_frac, v_frac] = lateral_fractions(seed, id32, drift_cells(volume, wind, speed_q, t), k);
     let uvw = [u_frac, v_frac, x - c];
     let drawn = d * motion.diameter_scale;
@@ -267,18 +276,36 @@ pub fn sample_drop(
         width_mm: drawn * streak_width_factor(d),
         velocity_mps: DVec3::new(vh.x, vh.y, -vt),
         position_m: grid.point_m(col, uvw),
+        pass: k,
+        born_s,
     })
 }
 
+/// Random stream of the decision whether a drop falls in a pass (keyed rate).
+pub const RATE_STREAM: u32 = 6;
+
+/// Whether drop `id32` falls in its pass `pass` through its column, born (at the column's
+/// top, outside the view) at `birth_s`. With a keyed rate the emitter holds the peak rate's
+/// drops, and each pass falls with the probability [`RainModel::keeps`] of the rate at its
+/// birth: decided once per pass, so a drop never appears or vanishes mid-air, and stateless,
+/// so preview, chunks and render agree.
+pub fn falls(model: &RainModel, seed: u32, id32: u32, pass: u32, birth_s: f64, d_mm: f64) -> bool {
+    let Some(keys) = &model.rate_keys else {
+        return true;
+    };
+    cycle_uniform(seed, id32, pass, RATE_STREAM) < model.keeps(keys.at(birth_s), d_mm)
+}
+
 /// The drift (cells, only its fraction matters) of a drop falling at `speed_q` at `t`: the
-/// columns' shear as it falls, the mean wind and the gusts.
+/// columns' shear as it falls, the mean wind (with the drop's lag where it changes) and the
+/// gusts.
 pub fn drift_cells(volume: &RainVolume, wind: &Wind, speed_q: u32, t: SplitTime) -> DVec2 {
     let grid = &volume.grid;
     let drift_q = volume.motion.drift_q;
     let tau = speed_q as f64 / (1u32 << SPEED_BITS) as f64 / G_MPS2;
     let travel = mean_travel_cells(wind, grid, t);
-    let gust =
-        wind.gust_displacement_m(t.seconds(), tau) / grid.cell_size_m.max(DVec2::splat(1e-6));
+    let gust = (wind.gust_displacement_m(t.seconds(), tau) + wind.mean_lag(t.seconds(), tau).1)
+        / grid.cell_size_m.max(DVec2::splat(1e-6));
     DVec2::new(
         drift_phase(speed_q, drift_q[0], t) + travel.x + gust.x,
         drift_phase(speed_q, drift_q[1], t) + travel.y + gust.y,
@@ -303,6 +330,6 @@ pub fn lateral_fractions(seed: u32, id32: u32, drift: DVec2, pass: u32) -> [f64;
 /// The mean wind's travel at `t` in cells of `grid`, modulo one cell (computed in `f64`: what
 /// the GPU receives per frame).
 pub fn mean_travel_cells(wind: &Wind, grid: &ColumnGrid, t: SplitTime) -> DVec2 {
-    let cells = wind.mean_mps * t.seconds() / grid.cell_size_m.max(DVec2::splat(1e-6));
+    let cells = wind.mean_travel_m(t.seconds()) / grid.cell_size_m.max(DVec2::splat(1e-6));
     DVec2::new(cells.x.rem_euclid(1.0), cells.y.rem_euclid(1.0))
 }

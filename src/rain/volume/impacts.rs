@@ -16,7 +16,7 @@ use glam::DVec3;
 use super::RainVolume;
 use super::drop::{
     FALL_RATE_BITS, SPEED_BITS, SplitTime, drift_cells, drop_bits, drop_uniform, fall_rate_q,
-    inv_height_q, lateral_fractions,
+    falls, inv_height_q, lateral_fractions,
 };
 use crate::rain::physics::{G_MPS2, RainModel};
 use crate::rain::wind::Wind;
@@ -104,6 +104,24 @@ fn impact(
     }
 }
 
+/// Whether the pass of drop `id` (in column `ci`) that ends when its height fraction crosses
+/// `c` falls at all ([`falls`]): it was born one column height before.
+fn pass_falls(
+    volume: &RainVolume,
+    model: &RainModel,
+    seed: u32,
+    ci: usize,
+    id: u64,
+    c: i64,
+) -> bool {
+    let (u2, rate, _) = fall(volume, seed, ci, id);
+    let birth_s = (u2 - c as f64 - 1.0) / rate;
+    let d_mm = model
+        .dsd
+        .diameter_from_uniform_mm(drop_uniform(seed, id as u32, 3));
+    falls(model, seed, id as u32, c as u32, birth_s, d_mm)
+}
+
 /// Every impact on the ground in (t0_s, t1_s], 0 ≤ t0_s, in drop order then time order.
 pub fn impacts_between(
     volume: &RainVolume,
@@ -125,7 +143,9 @@ pub fn impacts_between(
             let lo = (u2 - rate * t1_s).ceil() as i64;
             let hi = (u2 - rate * t0_s.max(0.0)).ceil() as i64;
             for c in (lo..hi).rev() {
-                out.push(impact(volume, model, wind, seed, ci, id, c));
+                if pass_falls(volume, model, seed, ci, id, c) {
+                    out.push(impact(volume, model, wind, seed, ci, id, c));
+                }
             }
         }
     }
@@ -152,5 +172,5 @@ pub fn latest_impact(
     }
     let c = (u2 - rate * t_s).ceil() as i64;
     let hit = impact(volume, model, wind, seed, ci, id, c);
-    (hit.time_s >= 0.0).then_some(hit)
+    (hit.time_s >= 0.0 && pass_falls(volume, model, seed, ci, id, c)).then_some(hit)
 }

@@ -54,8 +54,8 @@ pub mod inspect;
 
 pub use columns::{Column, ColumnGrid, columns};
 pub use drop::{
-    DropMotion, SampledDrop, SplitTime, cycle_uniform, drop_bits, drop_uniform, fall_rate_q,
-    inv_height_q, mean_travel_cells, pcg_hash, sample_drop,
+    DropMotion, RATE_STREAM, SampledDrop, SplitTime, cycle_uniform, drop_bits, drop_uniform,
+    fall_rate_q, falls, inv_height_q, mean_travel_cells, pcg_hash, sample_drop,
 };
 pub use geometry::view_volume_m3;
 pub use impacts::{Impact, impacts_between, landing_columns, latest_impact};
