@@ -1,37 +1,48 @@
 // Stage wet_ground: the ground wets (docs/method.md §2.3; CPU twin src/gpu/cpu/wet_ground.rs).
 // Only pixels whose view ray meets the ground z = 0 in front of the camera change (d.z < 0):
-// nothing at or above the horizon is written. The canvas already carries the haze
-// (C = L·T + S), so the scene radiance L is taken back out, wetted, and the change veiled again:
-// C' = C + w·T·((k − 1)·L + R(μ)·L_env(mirrored ray)), with k Lekner & Dorf's darkening of a
-// film over a surface of albedo a = π·L / E (E the irradiance the frame's environment SH sends
-// onto the level ground) and R the exact unpolarised Fresnel reflectance of water. The mirror
-// image comes from four SH bands: a blurred sky, as on a rough wet road, not a sharp mirror.
-// With a depth map, a pixel whose scene is nearer than the ground along its ray (a car, a wall)
-// shows something standing on the ground, not the ground: it stays dry.
-// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl, common/depth.wgsl.
+// nothing at or above the horizon is written. The scene radiance L is the frame's own, decoded
+// from the planes (common/plate.wgsl); yuv_to_rgb veiled it with the haze (C = L·T + S), so
+// the wet ground is C' = L·T + S + w·T·((k − 1)·L + R(μ)·L_env(mirrored ray)) = L·M + A, with k
+// Lekner & Dorf's darkening of a film over a surface of albedo a = π·L / E (E the irradiance
+// the frame's environment SH sends onto the level ground) and R the exact unpolarised Fresnel
+// reflectance of water. The mirror image comes from four SH bands: a blurred sky, as on a rough
+// wet road, not a sharp mirror. With a depth map, a pixel whose scene is nearer than the ground
+// along its ray (a car, a wall) shows something standing on the ground, not the ground: it
+// stays dry.
+// For the rain as a layer (entry point `layer`) the same C' is written as a premultiplied
+// colour and alpha laid over the original frame: with α = 1 − min(M) over the channels, the
+// colour L·(M − min(M)) + A ≥ 0 gives back L·M + A over L exactly. The darkening is per channel
+// (the ground's albedo tints it), so the layer is exact over the frame it was made from.
+// Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
+// common/depth.wgsl, common/plate.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> wet: WetParams;
-@group(0) @binding(2) var dry: texture_2d<f32>;
-@group(0) @binding(3) var canvas: texture_storage_2d<rgba16float, write>;
-@group(0) @binding(4) var<storage, read> scene_depth: array<f32>;
+@group(0) @binding(2) var<uniform> frame: FrameParams;
+@group(0) @binding(3) var plane_y: texture_2d<u32>;
+@group(0) @binding(4) var plane_cb: texture_2d<u32>;
+@group(0) @binding(5) var plane_cr: texture_2d<u32>;
+@group(0) @binding(6) var canvas: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(7) var<storage, read> scene_depth: array<f32>;
 
 const PI: f32 = 3.14159265358979;
 
-@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(dry);
-    if id.x >= size.x || id.y >= size.y { return; }
-    let ray = view_ray(id.xy);
+// The wet ground at pixel `p` as L·M + A: the frame's linear colour L, the factor M on it and
+// the light A added (the haze's and the film's reflection); `ground` false where the pixel's
+// ray does not meet the ground (nothing to write).
+struct Wet {
+    ground: bool,
+    l: vec3<f32>,
+    m: vec3<f32>,
+    a: vec3<f32>,
+}
+
+fn wet_at(p: vec2<u32>) -> Wet {
+    let ray = view_ray(p);
     let d = normalize(ray);
-    if d.z >= 0.0 || rain.camera_pos_m.z <= 0.0 { return; }
-    let c = textureLoad(dry, id.xy, 0).rgb;
+    if d.z >= 0.0 || rain.camera_pos_m.z <= 0.0 { return Wet(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)); }
+    let scene = plate_linear(p);
     let t = rain.haze.w;
-    var in_scatter = vec3<f32>(0.0);
-    if t < 1.0 {
-        in_scatter = (1.0 - t) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
-    }
-    let scene = max(c - in_scatter, vec3<f32>(0.0)) / max(t, 1e-6);
     let e = irradiance_up(rain.env_sh);
     let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
     let cos_view = -d.z;
@@ -39,12 +50,28 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let r = water_reflectance(n, cos_view);
     let k = (1.0 - r) * (1.0 - wet.diffuse_external) / (n * n * (1.0 - albedo * wet.diffuse_internal));
     let sky = max(sh_radiance(rain.env_sh, vec3<f32>(d.x, d.y, -d.z)), vec3<f32>(0.0));
-    let change = (k - 1.0) * scene + r * sky;
     // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
     let ground_z_m = rain.camera_pos_m.z / -ray.z;
-    let shown = ground_shown(scene_depth_m(vec2<f32>(id.xy) + vec2<f32>(0.5)), ground_z_m);
-    let wetness = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown;
-    textureStore(canvas, id.xy, vec4<f32>(c + wetness * t * change, 1.0));
+    let shown = ground_shown(scene_depth_m(vec2<f32>(p) + vec2<f32>(0.5)), ground_z_m);
+    let w = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown;
+    return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p) + w * t * r * sky);
+}
+
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.width || id.y >= frame.height { return; }
+    let g = wet_at(id.xy);
+    if !g.ground { return; }
+    textureStore(canvas, id.xy, vec4<f32>(g.l * g.m + g.a, 1.0));
+}
+
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn layer(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.width || id.y >= frame.height { return; }
+    let g = wet_at(id.xy);
+    if !g.ground { return; }
+    let kept = clamp(min(g.m.x, min(g.m.y, g.m.z)), 0.0, 1.0);
+    textureStore(canvas, id.xy, vec4<f32>(g.l * (g.m - kept) + g.a, 1.0 - kept));
 }
 
 // 1 on ground nearer than half the reach, 0 beyond it: a ray that meets the plane farther than

@@ -195,21 +195,24 @@ fn covered_fraction(layer: &[u16]) -> f64 {
     layer.chunks_exact(4).filter(|p| p[3] > 655).count() as f64 / n as f64
 }
 
-fn round_trip(pix_fmt: &str) {
+/// Renders `pix_fmt` with `look` normally and as layers; each layer over the original must be
+/// the normal render. Returns the premultiplied layers.
+fn round_trip(pix_fmt: &str, look: &[&str]) -> Vec<Vec<u16>> {
     let dir = TempDir::new().unwrap();
     let input = source(dir.path(), pix_fmt);
+    let with = |args: &[&'static str]| -> Vec<&str> { args.iter().chain(look).copied().collect() };
     let normal = dir.path().join("normal.mkv");
-    render_ok(&input, &normal, &["--codec", "ffv1"]);
+    render_ok(&input, &normal, &with(&["--codec", "ffv1"]));
     let premult_mkv = dir.path().join("premult.mkv");
-    render_ok(&input, &premult_mkv, &["--layer-only"]);
+    render_ok(&input, &premult_mkv, &with(&["--layer-only"]));
     let straight_png = dir.path().join("straight_%05d.png");
     render_ok(
         &input,
         &straight_png,
-        &["--layer-only=alpha", "--alpha", "straight"],
+        &with(&["--layer-only=alpha", "--alpha", "straight"]),
     );
     let premult_png = dir.path().join("premult_%05d.png");
-    render_ok(&input, &premult_png, &["--layer-only"]);
+    render_ok(&input, &premult_png, &with(&["--layer-only"]));
 
     let originals = frames(&input);
     let rendered = frames(&normal);
@@ -259,16 +262,40 @@ fn round_trip(pix_fmt: &str) {
     }
     // The PNG (read by `image`) and the FFV1 layer (read by FFmpeg) hold the same samples.
     assert_eq!(layers[0].1, layers[1].1);
+    layers.into_iter().next().map(|l| l.1).unwrap_or_default()
 }
 
 #[test]
 fn layer_over_the_original_is_the_render_8_bit() {
-    round_trip("yuv420p");
+    round_trip("yuv420p", &[]);
 }
 
 #[test]
 fn layer_over_the_original_is_the_render_10_bit() {
-    round_trip("yuv422p10le");
+    round_trip("yuv422p10le", &[]);
+}
+
+/// A wet ground is in the layer: its darkening as alpha, its tint and sheen as colour, and the
+/// layer over the original is still the render, 8- and 10-bit.
+#[test]
+fn the_layer_carries_the_wet_ground() {
+    let ground = ["--ground", "horizon=0.3", "--pre-rain", "30"];
+    for pix_fmt in ["yuv420p", "yuv422p10le"] {
+        let layers = round_trip(pix_fmt, &ground);
+        // 96×64: rows from 0.3 of the height down show the ground; all of it is wet.
+        let (w, top) = (96usize, 24usize);
+        for layer in &layers {
+            let wet = layer[4 * w * top..]
+                .chunks(4)
+                .filter(|px| px[3] > 1000)
+                .count();
+            let ground_px = layer.len() / 4 - w * top;
+            assert!(
+                wet * 10 > ground_px * 9,
+                "{pix_fmt}: {wet} of {ground_px} wet"
+            );
+        }
+    }
 }
 
 #[test]

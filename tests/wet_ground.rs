@@ -302,7 +302,7 @@ fn the_stage_matches_its_cpu_twin() {
         let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
         wet_ground::wet_ground(
             &mut canvas,
-            frame.format.width,
+            &frame,
             &p,
             &WetParams::new(wetness, &FilmOptics::water(), reach_m),
             None,
@@ -570,7 +570,7 @@ fn what_stands_on_the_ground_stays_dry_with_a_depth_map() {
     let wetness = drying().wetness_at(120.0);
     wet_ground::wet_ground(
         &mut canvas,
-        w,
+        &frame,
         &p,
         &WetParams::new(wetness, &FilmOptics::water(), 0.0),
         Some(&map),
@@ -581,4 +581,36 @@ fn what_stands_on_the_ground_stays_dry_with_a_depth_map() {
         .max()
         .unwrap_or(0);
     assert!(worst <= 2, "{worst} codes off");
+}
+
+/// The wet ground as a layer: α in [0, 1], colour ≥ 0, and the layer over the dry plate is the
+/// wet picture (the twin's decomposition; `tests/layers.rs` checks the GPU's end to end).
+#[test]
+fn the_wet_ground_as_a_layer_over_the_plate_is_the_wet_picture() {
+    let camera = Camera::new(48, 32, 1.0, 1.6, f64::to_radians(-10.0), 0.2);
+    let s = setup(&camera, 0, Some(drying()));
+    let p = lit(&s, 120.0, &SKY, 0.9);
+    let frame = picture(48, 32, None);
+    let wet = WetParams::new(drying().wetness_at(120.0), &FilmOptics::water(), 0.0);
+    let mut picture = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+    wet_ground::wet_ground(&mut picture, &frame, &p, &wet, None);
+    let mut clear = p;
+    clear.haze[3] = 1.0;
+    let plate = yuv_to_rgb::yuv_to_rgb(&frame, &clear);
+    let mut layer: Vec<[f64; 4]> = vec![[0.0; 4]; plate.len()];
+    wet_ground::wet_ground_layer(&mut layer, &frame, &p, &wet, None);
+    let mut wet_px = 0;
+    for ((l, plate), want) in layer.iter().zip(&plate).zip(&picture) {
+        if l[3] == 0.0 {
+            continue;
+        }
+        assert!((0.0..=1.0).contains(&l[3]), "alpha {}", l[3]);
+        for k in 0..3 {
+            assert!(l[k] >= 0.0, "colour {l:?}");
+            let over = l[k] + plate[k] * (1.0 - l[3]);
+            assert!((over - want[k]).abs() < 1e-12, "{over} vs {}", want[k]);
+        }
+        wet_px += usize::from(l[3] > 0.05);
+    }
+    assert!(wet_px > 300, "{wet_px} wet pixels");
 }

@@ -284,10 +284,12 @@ impl Compositor {
             out_words: out_buffer.clone(),
             scene_depth: scene_depth.clone(),
         };
-        // The frame, in order. The wet ground changes the picture's own colours, per channel
-        // and by the picture's albedo: no single α over the frame can carry that, so a layer
-        // leaves it out.
-        let wetting = rain.wetting.as_ref().filter(|_| layer.is_none());
+        // The frame, in order. A layer carries the wet ground as colour and alpha over the
+        // frame it was made from; the matte is the rain's coverage alone.
+        let wetting = rain
+            .wetting
+            .as_ref()
+            .filter(|_| layer != Some(Layer::Matte));
         let start = match layer {
             None => YuvToRgb::new(device, &resources),
             Some(_) => YuvToRgb::layer(device, &resources),
@@ -298,7 +300,7 @@ impl Compositor {
         };
         let stages: Vec<Box<dyn FrameStage>> = vec![
             Box::new(start),
-            Box::new(WetGround::new(device, &resources, wetting)),
+            Box::new(WetGround::new(device, &resources, wetting, layer.is_some())),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainSplashes::new(device, &resources, rain)),
             Box::new(RainStreaks::new(device, &resources, rain.mattes.as_deref())),

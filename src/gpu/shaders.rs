@@ -32,7 +32,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 9] = [
+const COMMON: [(&str, &str); 10] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -68,6 +68,10 @@ const COMMON: [(&str, &str); 9] = [
     (
         "common/lights.wgsl",
         include_str!("../../shaders/common/lights.wgsl"),
+    ),
+    (
+        "common/plate.wgsl",
+        include_str!("../../shaders/common/plate.wgsl"),
     ),
 ];
 

@@ -12,6 +12,7 @@ use crate::gpu::types::{RainParams, WetParams};
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::lighting::sh::{band_of, eval_basis};
 use crate::scene::wetness::{FilmOptics, ground_shown, reach_fade, reflectance};
+use crate::video::YuvFrame;
 
 /// The environment of `p` as f64 coefficients.
 fn environment(p: &RainParams) -> Vec<[f64; 3]> {
@@ -44,18 +45,24 @@ pub fn irradiance(env: &[[f64; 3]], normal: DVec3) -> [f64; 3] {
     })
 }
 
-/// Wets the ground on `canvas` (linear RGB, coded orientation, row-major, `width` wide) under
-/// the uniforms `p` and `wet`.
+/// The wet ground of `frame` at each coded pixel (row-major) under the uniforms `p` and `wet`,
+/// as (L, M, A): the frame's linear colour L, the factor M on it and the light A added (the
+/// haze's in-scatter and the film's reflection), so the wet picture is L·M + A; `None` where the
+/// pixel's ray does not meet the ground.
 ///
 /// With `depth` (metres of camera z per displayed pixel, `NaN` unknown), a pixel whose scene is
 /// nearer than the ground along its ray stays dry ([`ground_shown`]).
-pub fn wet_ground(
-    canvas: &mut [[f64; 3]],
-    width: u32,
+pub fn wet_terms(
+    frame: &YuvFrame,
     p: &RainParams,
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
-) {
+) -> Vec<Option<[[f64; 3]; 3]>> {
+    // The plate: the frame decoded without the haze.
+    let mut clear = *p;
+    clear.haze[3] = 1.0;
+    let plate = super::yuv_to_rgb::yuv_to_rgb(frame, &clear);
+    let width = frame.format.width;
     let env = environment(p);
     let drop = RtfSh {
         bands: 4,
@@ -68,47 +75,91 @@ pub fn wet_ground(
         diffuse_external: wet.diffuse_external as f64,
         diffuse_internal: wet.diffuse_internal as f64,
     };
-    let w = wet.wetness as f64;
     let transmittance = p.haze[3] as f64;
     let e_up = irradiance(&env, DVec3::Z);
-    for (i, pixel) in canvas.iter_mut().enumerate() {
-        let (x, y) = (i as u32 % width, i as u32 / width);
-        let ray = view_ray(p, x, y);
-        let d = ray.normalize();
-        if d.z >= 0.0 || p.camera_pos_m[2] <= 0.0 {
-            continue;
-        }
-        let in_scatter = if transmittance < 1.0 {
-            prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
-        } else {
-            [0.0; 3]
-        };
-        let cos_view = -d.z;
-        let distance_m = p.camera_pos_m[2] as f64 / cos_view;
-        // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
-        let ground_z_m = p.camera_pos_m[2] as f64 / -ray.z;
-        let scene_m = depth.and_then(|map| {
-            let shown = display_pixel(p, x, y);
-            map.at(
-                (shown.0.max(0.0) as usize).min(map.width - 1),
-                (shown.1.max(0.0) as usize).min(map.height - 1),
-            )
-            .map(f64::from)
-        });
-        let shown = ground_shown(scene_m, ground_z_m);
-        let r = reflectance(optics.index, cos_view);
-        let sky = radiance(&env, DVec3::new(d.x, d.y, -d.z));
-        for k in 0..3 {
-            let scene = (pixel[k] - in_scatter[k]).max(0.0) / transmittance.max(1e-6);
-            // The pixel is the dry albedo times the light: a = π L / E.
-            let albedo = if e_up[k] > 0.0 {
-                (PI * scene / e_up[k]).clamp(0.0, 1.0)
+    plate
+        .iter()
+        .enumerate()
+        .map(|(i, &scene)| {
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            let ray = view_ray(p, x, y);
+            let d = ray.normalize();
+            if d.z >= 0.0 || p.camera_pos_m[2] <= 0.0 {
+                return None;
+            }
+            let in_scatter = if transmittance < 1.0 {
+                prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
             } else {
-                0.0
+                [0.0; 3]
             };
-            let change = (optics.darkening(albedo, cos_view) - 1.0) * scene + r * sky[k].max(0.0);
-            pixel[k] +=
-                w * reach_fade(distance_m, wet.reach_m as f64) * shown * transmittance * change;
+            let cos_view = -d.z;
+            let distance_m = p.camera_pos_m[2] as f64 / cos_view;
+            // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
+            let ground_z_m = p.camera_pos_m[2] as f64 / -ray.z;
+            let scene_m = depth.and_then(|map| {
+                let shown = display_pixel(p, x, y);
+                map.at(
+                    (shown.0.max(0.0) as usize).min(map.width - 1),
+                    (shown.1.max(0.0) as usize).min(map.height - 1),
+                )
+                .map(f64::from)
+            });
+            let w = wet.wetness as f64
+                * reach_fade(distance_m, wet.reach_m as f64)
+                * ground_shown(scene_m, ground_z_m);
+            let r = reflectance(optics.index, cos_view);
+            let sky = radiance(&env, DVec3::new(d.x, d.y, -d.z));
+            let (mut m, mut a) = ([0.0; 3], [0.0; 3]);
+            for k in 0..3 {
+                // The pixel is the dry albedo times the light: a = π L / E.
+                let albedo = if e_up[k] > 0.0 {
+                    (PI * scene[k] / e_up[k]).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let darkening = optics.darkening(albedo, cos_view);
+                m[k] = transmittance * (1.0 + w * (darkening - 1.0));
+                a[k] = in_scatter[k] + w * transmittance * r * sky[k].max(0.0);
+            }
+            Some([scene, m, a])
+        })
+        .collect()
+}
+
+/// Wets the ground on `canvas` (the linear picture of `frame` with its haze, coded
+/// orientation, row-major): L·M + A where the ground shows ([`wet_terms`]).
+pub fn wet_ground(
+    canvas: &mut [[f64; 3]],
+    frame: &YuvFrame,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+) {
+    for (pixel, terms) in canvas.iter_mut().zip(wet_terms(frame, p, wet, depth)) {
+        if let Some([l, m, a]) = terms {
+            *pixel = std::array::from_fn(|k| l[k] * m[k] + a[k]);
+        }
+    }
+}
+
+/// The wet ground on a layer (premultiplied linear RGBA, starting as the haze alone): over
+/// the frame it gives back L·M + A exactly, with α = 1 − min(M) and colour L·(M − min M) + A.
+pub fn wet_ground_layer(
+    layer: &mut [[f64; 4]],
+    frame: &YuvFrame,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+) {
+    for (pixel, terms) in layer.iter_mut().zip(wet_terms(frame, p, wet, depth)) {
+        if let Some([l, m, a]) = terms {
+            let kept = m[0].min(m[1]).min(m[2]).clamp(0.0, 1.0);
+            *pixel = [
+                l[0] * (m[0] - kept) + a[0],
+                l[1] * (m[1] - kept) + a[1],
+                l[2] * (m[2] - kept) + a[2],
+                1.0 - kept,
+            ];
         }
     }
 }

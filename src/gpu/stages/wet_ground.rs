@@ -1,7 +1,8 @@
 //! Stage `wet_ground`: the ground below the horizon darkens and gains a sheen as it wets
-//! (`shaders/wet_ground.wgsl`; CPU twin [`crate::gpu::cpu::wet_ground`]). The canvas is copied
-//! first, so the pass reads the dry picture and writes the wet one; pixels it does not touch
-//! (the horizon and above) keep their value bit for bit.
+//! (`shaders/wet_ground.wgsl`; CPU twin [`crate::gpu::cpu::wet_ground`]). It reads the dry
+//! scene from the decoded planes and writes the wet ground on the canvas (or, for the rain as
+//! a layer, its premultiplied colour and alpha); pixels it does not touch (the horizon and
+//! above) keep their value bit for bit.
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::gpu::bind::{bind_group, buffer, view};
@@ -19,34 +20,29 @@ struct Wet {
     pipeline: wgpu::ComputePipeline,
     bind: wgpu::BindGroup,
     params: wgpu::Buffer,
-    canvas: wgpu::Texture,
-    dry: wgpu::Texture,
+    size: (u32, u32),
     wetting: Wetting,
     optics: FilmOptics,
 }
 
 impl WetGround {
     /// Builds the pipeline and binds `r` for a ground wetting as `wetting`; nothing without one.
-    pub fn new(device: &wgpu::Device, r: &FrameResources, wetting: Option<&Wetting>) -> WetGround {
+    /// With `layer`, the wet ground is written as the layer's premultiplied colour and alpha.
+    pub fn new(
+        device: &wgpu::Device,
+        r: &FrameResources,
+        wetting: Option<&Wetting>,
+        layer: bool,
+    ) -> WetGround {
         let job = wetting.filter(|w| w.ever_wet()).map(|wetting| {
-            let canvas = r.canvas.texture().clone();
-            let dry = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("dry_canvas"),
-                size: canvas.size(),
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: canvas.format(),
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            });
             let params = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("wet_params"),
                 size: std::mem::size_of::<WetParams>() as u64,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let pipeline = super::compute_pipeline(device, Stage::WetGround, "main");
+            let entry = if layer { "layer" } else { "main" };
+            let pipeline = super::compute_pipeline(device, Stage::WetGround, entry);
             let bind = bind_group(
                 device,
                 Stage::WetGround.name(),
@@ -54,7 +50,10 @@ impl WetGround {
                 &[
                     buffer(&r.rain_params),
                     buffer(&params),
-                    view(&dry.create_view(&Default::default())),
+                    buffer(&r.frame_params),
+                    view(&r.planes[0]),
+                    view(&r.planes[1]),
+                    view(&r.planes[2]),
                     view(&r.canvas),
                     buffer(&r.scene_depth),
                 ],
@@ -63,8 +62,7 @@ impl WetGround {
                 pipeline,
                 bind,
                 params,
-                canvas,
-                dry,
+                size: (r.frame.width, r.frame.height),
                 wetting: wetting.clone(),
                 optics: FilmOptics::water(),
             }
@@ -96,21 +94,15 @@ impl FrameStage for WetGround {
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
         let Some(job) = &self.job else { return };
-        encoder.copy_texture_to_texture(
-            job.canvas.as_image_copy(),
-            job.dry.as_image_copy(),
-            job.canvas.size(),
-        );
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.name()),
             timestamp_writes: timestamps.map(TimestampSlot::compute),
         });
         pass.set_pipeline(&job.pipeline);
         pass.set_bind_group(0, &job.bind, &[]);
-        let size = job.canvas.size();
         pass.dispatch_workgroups(
-            workgroups(size.width, PIXEL_WORKGROUP),
-            workgroups(size.height, PIXEL_WORKGROUP),
+            workgroups(job.size.0, PIXEL_WORKGROUP),
+            workgroups(job.size.1, PIXEL_WORKGROUP),
             1,
         );
     }
