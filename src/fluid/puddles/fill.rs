@@ -167,7 +167,11 @@ pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
     }
     let capacity: Vec<f64> = members
         .iter()
-        .map(|m| m.iter().map(|&v| (filled[v] as f64 - h[v] as f64) * area_m2).sum())
+        .map(|m| {
+            m.iter()
+                .map(|&v| (filled[v] as f64 - h[v] as f64) * area_m2)
+                .sum()
+        })
         .collect();
 
     // 3. Routing, givers before receivers.
@@ -248,7 +252,11 @@ mod tests {
         let rain = 0.001 * area * 41.0 * 41.0;
         // The rain on the edge vertices leaves; everything else drains into the bowl.
         let edge = 0.001 * area * (4.0 * 40.0);
-        assert!((f.run_off_m3 - edge).abs() < 1e-12, "{} vs {edge}", f.run_off_m3);
+        assert!(
+            (f.run_off_m3 - edge).abs() < 1e-12,
+            "{} vs {edge}",
+            f.run_off_m3
+        );
         assert!((f.held_m3 + f.run_off_m3 - rain).abs() < 1e-9 * rain);
         let rain = rain - edge;
         let held = |level: f64| -> f64 {
@@ -263,7 +271,11 @@ mod tests {
             if held(mid) < rain { lo = mid } else { hi = mid }
         }
         let centre = 20 * 41 + 20;
-        assert!((f.depth_m[centre] as f64 - lo).abs() < 1e-6, "{} vs {lo}", f.depth_m[centre]);
+        assert!(
+            (f.depth_m[centre] as f64 - lo).abs() < 1e-6,
+            "{} vs {lo}",
+            f.depth_m[centre]
+        );
         // A flood: the bowl's rim (its lowest edge vertex, k·1²) caps the level.
         let f = fill_depressions(&t, 1.0);
         assert!((f.depth_m[centre] as f64 - 0.5).abs() < 1e-6);

@@ -120,7 +120,9 @@ pub fn micro_relief(
             let y = origin_m.y as f64 + (v / nx) as f64 * spacing;
             octaves
                 .iter()
-                .map(|&(k, lambda, amplitude)| amplitude * value_noise(seed, k, x / lambda, y / lambda))
+                .map(|&(k, lambda, amplitude)| {
+                    amplitude * value_noise(seed, k, x / lambda, y / lambda)
+                })
                 .sum()
         })
         .collect();
@@ -163,12 +165,25 @@ mod tests {
     fn relief_has_the_asked_spread_and_is_seeded() {
         let a = micro_relief(64, 48, Vec2::new(-1.0, 2.0), 0.02, 0.004, 3);
         let mean = a.iter().map(|&z| z as f64).sum::<f64>() / a.len() as f64;
-        let sd = (a.iter().map(|&z| (z as f64 - mean).powi(2)).sum::<f64>() / a.len() as f64)
-            .sqrt();
-        assert!(mean.abs() < 1e-6 && (sd - 0.004).abs() < 1e-6, "{mean} {sd}");
-        assert_eq!(a, micro_relief(64, 48, Vec2::new(-1.0, 2.0), 0.02, 0.004, 3));
-        assert_ne!(a, micro_relief(64, 48, Vec2::new(-1.0, 2.0), 0.02, 0.004, 4));
-        assert!(micro_relief(8, 8, Vec2::ZERO, 0.02, 0.0, 3).iter().all(|&z| z == 0.0));
+        let sd =
+            (a.iter().map(|&z| (z as f64 - mean).powi(2)).sum::<f64>() / a.len() as f64).sqrt();
+        assert!(
+            mean.abs() < 1e-6 && (sd - 0.004).abs() < 1e-6,
+            "{mean} {sd}"
+        );
+        assert_eq!(
+            a,
+            micro_relief(64, 48, Vec2::new(-1.0, 2.0), 0.02, 0.004, 3)
+        );
+        assert_ne!(
+            a,
+            micro_relief(64, 48, Vec2::new(-1.0, 2.0), 0.02, 0.004, 4)
+        );
+        assert!(
+            micro_relief(8, 8, Vec2::ZERO, 0.02, 0.0, 3)
+                .iter()
+                .all(|&z| z == 0.0)
+        );
     }
 
     #[test]
@@ -178,10 +193,27 @@ mod tests {
         let cam = Camera::new(160, 90, 60f64.to_radians(), 1.6, -10f64.to_radians(), 0.0);
         let f = ground_footprint(&cam, 20.0).expect("ground in view");
         let near = 1.6 / (10f64.to_radians() + 0.5 * cam.fov_y_rad()).tan();
-        let forward = |p: DVec2| p.dot((cam.world_from_camera * glam::DVec3::Z).truncate().normalize());
-        let corners = [f.min_m, f.max_m, DVec2::new(f.min_m.x, f.max_m.y), DVec2::new(f.max_m.x, f.min_m.y)];
-        let nearest = corners.iter().map(|&c| forward(c)).fold(f64::INFINITY, f64::min);
-        let farthest = corners.iter().map(|&c| forward(c)).fold(f64::NEG_INFINITY, f64::max);
+        let forward = |p: DVec2| {
+            p.dot(
+                (cam.world_from_camera * glam::DVec3::Z)
+                    .truncate()
+                    .normalize(),
+            )
+        };
+        let corners = [
+            f.min_m,
+            f.max_m,
+            DVec2::new(f.min_m.x, f.max_m.y),
+            DVec2::new(f.max_m.x, f.min_m.y),
+        ];
+        let nearest = corners
+            .iter()
+            .map(|&c| forward(c))
+            .fold(f64::INFINITY, f64::min);
+        let farthest = corners
+            .iter()
+            .map(|&c| forward(c))
+            .fold(f64::NEG_INFINITY, f64::max);
         assert!((nearest - near).abs() < 0.05, "{nearest} vs {near}");
         assert!(farthest <= 20.0 + 1e-9 && farthest > 19.0, "{farthest}");
         let up = Camera::new(160, 90, 60f64.to_radians(), 1.6, 40f64.to_radians(), 0.0);

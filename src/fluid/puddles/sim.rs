@@ -153,8 +153,12 @@ impl PuddleSim {
         let duration_s = 60.0 * g.pre_rain_min;
         let rain_m = config.rain.rate_mm_per_h * 1e-3 * duration_s / 3600.0;
         let infiltration_mps = s.infiltration_mm_per_h * 1e-3 / 3600.0;
-        let (film, evaporated, infiltrated, to_run) =
-            pre_rain_split(&SurfaceStore::default(), rain_m, duration_s, infiltration_mps);
+        let (film, evaporated, infiltrated, to_run) = pre_rain_split(
+            &SurfaceStore::default(),
+            rain_m,
+            duration_s,
+            infiltration_mps,
+        );
         let filled = fill_depressions(&terrain, to_run);
 
         // Particles: the configured spacing unless the cap asks for a coarser one.
@@ -173,8 +177,7 @@ impl PuddleSim {
         flow_settings.precipitation_cell_m = spacing.max(cell);
         let mut flow = SurfaceFlow::new(terrain, flow_settings)?;
         let leftover = place_particles(&mut flow, &filled, nx, cell, origin, spacing)?;
-        flow.carpet
-            .update(flow.sph.particles().positions_m(), 0.0);
+        flow.carpet.update(flow.sph.particles().positions_m(), 0.0);
 
         let particle_volume_m3 = (spacing as f64).powi(3);
         let initial_particles = flow.sph.ledger().inserted;
@@ -347,7 +350,8 @@ fn place_particles(
         let ground = flow.sph.boundaries().ground_m(xy.x, xy.y);
         for m in 0..k as usize {
             let z = ground + (m as f32 + 0.5) * spacing;
-            flow.sph.add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
+            flow.sph
+                .add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
         }
     }
     Ok(carry)
