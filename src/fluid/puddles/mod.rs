@@ -12,10 +12,12 @@
 //! ```
 //!
 //! Modules: [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
-//! [`ledger`] (the water balance), [`sim`] ([`PuddleSim`], the loop).
+//! [`ledger`] (the water balance), [`sim`] ([`PuddleSim`], the loop), [`report`]
+//! (`inspect puddles`).
 pub mod fill;
 pub mod ledger;
 pub mod relief;
+pub mod report;
 pub mod sim;
 
 pub use fill::{FilledWater, fill_depressions};
