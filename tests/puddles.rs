@@ -8,6 +8,10 @@ use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
 use rain_composite::rain::volume::Impact;
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
+use std::process::Command;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
 
 const FPS: f64 = 25.0;
 
@@ -283,4 +287,60 @@ fn without_a_ground_no_fluid_is_built() {
     config.ground.mode = "none".parse().expect("mode");
     let sim = PuddleSim::new(&config, &camera, None, FPS, &small()).expect("valid");
     assert!(sim.is_none());
+}
+
+#[test]
+fn inspect_puddles_reports_the_water_and_its_ledger_and_nothing_without_a_ground() {
+    let dir = tempfile::TempDir::new().expect("temp dir");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (160, 96), 30, 0.12);
+    let plot = dir.path().join("depth.png");
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let out = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+            .args([
+                "inspect",
+                "puddles",
+                input.to_str().expect("path"),
+                "--at",
+                "0",
+            ])
+            .args(extra)
+            .output()
+            .expect("runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("json")
+    };
+    let none = run(&["--ground", "none"]);
+    assert_eq!(none["simulated"], false);
+    let v = run(&[
+        "--ground",
+        "horizon=0.3",
+        "--plot",
+        plot.to_str().expect("path"),
+    ]);
+    assert_eq!(v["simulated"], true);
+    let l = &v["ledger"];
+    let volume = v["water_volume_m3"].as_f64().expect("volume");
+    let per = l["particle_volume_m3"].as_f64().expect("particle volume");
+    assert_eq!(v["particles"], l["particles_present"]);
+    assert!((volume / (v["particles"].as_f64().expect("count") * per) - 1.0).abs() < 1e-9);
+    assert!(v["puddle_area_m2"].as_f64().expect("area") > 0.0);
+    assert!(plot.is_file());
+    // A user mistake is one error line and a failure.
+    let out = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+        .args([
+            "inspect",
+            "puddles",
+            input.to_str().expect("path"),
+            "--relief",
+            "-1",
+        ])
+        .args(["--ground", "horizon=0.3"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--relief"));
 }

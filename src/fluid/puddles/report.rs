@@ -43,7 +43,10 @@ pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>
         Some(path) => {
             let mut maps = crate::scene::depth::DepthSource::open(path, config.ground.depth_scale)?;
             let map = maps.at(0)?;
-            Some(map.resampled(camera.width_px as usize, camera.height_px as usize).depth_m)
+            Some(
+                map.resampled(camera.width_px as usize, camera.height_px as usize)
+                    .depth_m,
+            )
         }
         None => None,
     };
