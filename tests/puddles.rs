@@ -151,6 +151,40 @@ fn the_ledger_balances_in_cubic_metres_before_the_clip_and_to_the_particle_durin
 }
 
 #[test]
+fn the_particle_cap_holds_through_the_rain() {
+    let (config, camera) = street(10.0, 10.0, 0.004);
+    let capped = PuddleSettings {
+        max_particles: 300,
+        ..small()
+    };
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &capped)
+        .expect("valid")
+        .expect("ground in view");
+    assert_eq!(sim.particle_cap(), (300, true));
+    assert!(sim.particle_spacing_m() > small().particle_spacing_m);
+    let mut rng = SplitMix64(11);
+    for frame in 1..=3 {
+        let t = frame as f64 / FPS;
+        let f = sim.footprint();
+        let hits = impacts_over(20_000, f.min_m, f.max_m, t, &mut rng);
+        sim.advance_to(t, &hits).expect("step");
+        let l = sim.ledger();
+        assert!(l.particles_present <= 300, "{l:?}");
+        let s = sim.flow().precipitation.scale() as u64;
+        let counted: u64 = sim
+            .flow()
+            .precipitation
+            .counters()
+            .iter()
+            .map(|&c| c as u64)
+            .sum();
+        assert_eq!(l.rain_drops, s * l.rain_particles + counted);
+        assert_eq!(l.rain_drops + l.rain_drops_over_cap, frame * 20_000);
+    }
+    assert!(sim.ledger().rain_drops_over_cap > 0);
+}
+
+#[test]
 fn a_bowl_gathers_its_water_at_the_lowest_point_under_a_flat_surface() {
     // A paraboloid hollow z = k r² − D (r < R) 2 m ahead, seen in a depth map; no relief.
     let (centre, radius, depth) = (DVec2::new(0.0, 2.0), 0.5, 0.1);

@@ -41,7 +41,11 @@ pub struct WaterLedger {
     pub initial_particles: u64,
     /// Raindrops that landed on the simulated ground during the clip.
     pub rain_drops: u64,
-    /// Their physical volume, m³ (each S of them make one particle, 5.31).
+    /// Raindrops that landed while the particles were at the cap: they wet the ground, add no
+    /// water.
+    pub rain_drops_over_cap: u64,
+    /// Physical volume of the drops counted in `rain_drops`, m³ (each S of them make one
+    /// particle, 5.31).
     pub rain_drop_volume_m3: f64,
     /// Particles born from the rain during the clip.
     pub rain_particles: u64,

@@ -193,6 +193,7 @@ impl PuddleSim {
             particle_volume_m3,
             initial_particles,
             rain_drops: 0,
+            rain_drops_over_cap: 0,
             rain_drop_volume_m3: 0.0,
             rain_particles: 0,
             particles: flow.sph.ledger(),
@@ -221,9 +222,20 @@ impl PuddleSim {
     /// Feeds `impacts` (drops landing since the last call) to the precipitation counters and
     /// runs the solver in whole steps of m frames up to `t_s`; returns the solver steps taken.
     pub fn advance_to(&mut self, t_s: f64, impacts: &[Impact]) -> Result<usize> {
+        let mut room = self
+            .max_particles
+            .saturating_sub(self.flow.sph.particles().len() + self.flow.precipitation.queued());
         for hit in impacts {
             let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
-            if self.flow.add_hit_at(x, y) {
+            let inside = self.footprint_contains(x, y);
+            if inside && room == 0 {
+                // At the cap: the drop wets the ground but adds no water (counted).
+                self.flow.carpet.add_hit(x, y);
+                self.ledger.rain_drops_over_cap += 1;
+            } else if inside {
+                let queued = self.flow.precipitation.queued();
+                self.flow.add_hit_at(x, y);
+                room = room.saturating_sub(self.flow.precipitation.queued() - queued);
                 self.ledger.rain_drops += 1;
                 let r = 0.5e-3 * hit.diameter_mm;
                 self.ledger.rain_drop_volume_m3 += 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
@@ -255,6 +267,15 @@ impl PuddleSim {
             steps += self.advance_to(t1, &hits)?;
         }
         Ok(steps)
+    }
+
+    /// Whether (x, y) falls on the precipitation grid.
+    fn footprint_contains(&self, x_m: f32, y_m: f32) -> bool {
+        let (nx, ny) = self.flow.precipitation.dims();
+        let b = &self.flow.sph.boundaries().domain;
+        let cell = self.flow.carpet.settings().cell_m;
+        let g = (Vec2::new(x_m, y_m) - b.min_m.truncate()) / cell;
+        g.x >= 0.0 && g.y >= 0.0 && g.x < nx as f32 && g.y < ny as f32
     }
 
     /// Simulated time, s.
@@ -297,7 +318,9 @@ impl PuddleSim {
         l
     }
 
-    /// The particle cap, and whether it made the spacing coarser than asked.
+    /// The particle cap (the initial puddles and, through the clip, all particles: drops that
+    /// would pass it wet the ground but add no water), and whether it made the initial
+    /// spacing coarser than asked.
     pub fn particle_cap(&self) -> (usize, bool) {
         (self.max_particles, self.capped)
     }
