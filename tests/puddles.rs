@@ -102,14 +102,26 @@ fn the_ledger_balances_in_cubic_metres_before_the_clip_and_to_the_particle_durin
     let parts = l.film_m3 + l.evaporated_m3 + l.infiltrated_m3 + l.run_off_m3 + l.puddles_m3;
     assert!((parts / l.pre_rain_m3 - 1.0).abs() < 1e-9, "{l:?}");
     assert!(l.puddles_m3 > 0.0 && l.run_off_m3 > 0.0, "{l:?}");
-    // The puddles as particles, less than one particle left over.
-    let as_particles = l.initial_particles as f64 * l.particle_volume_m3 + l.below_one_particle_m3;
+    // The puddles the picture shows as particles, less than one particle left over; the rest
+    // of the footprint (the bounding box of the ground in view) is counted, not simulated.
+    let as_particles = l.initial_particles as f64 * l.particle_volume_m3
+        + l.below_one_particle_m3
+        + l.unsimulated_m3;
     assert!((as_particles / l.puddles_m3 - 1.0).abs() < 1e-6, "{l:?}");
     assert!((0.0..l.particle_volume_m3).contains(&l.below_one_particle_m3));
+    assert!(l.unsimulated_m3 > 0.0, "{l:?}");
     assert_eq!(
         l.initial_particles as usize,
         sim.flow().sph.particles().len()
     );
+    let (w, h) = (camera.width_px as f64, camera.height_px as f64);
+    for p in sim.flow().sph.particles().positions_m() {
+        let q = camera.project_world(p.as_dvec3()).expect("in front");
+        assert!(
+            (-5.0..w + 5.0).contains(&q.x) && (-5.0..h + 5.0).contains(&q.y),
+            "{q}"
+        );
+    }
     // During it: rain in drops, out through the edges and into the ground, in particles.
     let mut rng = SplitMix64(7);
     for frame in 1..=6 {

@@ -7,7 +7,8 @@
 //! ∫₀ᵀ S/τ dt = S∞·(T − (1 − e^{−kT})/k); what the store shed soaks into the road at the
 //! infiltration rate; the rest runs over the relief, filling its depressions
 //! ([`super::fill`]) or running off the edges. The water in the depressions becomes particles
-//! of one volume each; less than one particle's worth is left over. During the clip every
+//! of one volume each where the picture shows them (the rest is counted, not simulated); less
+//! than one particle's worth is left over. During the clip every
 //! particle is counted by the solver's ledger ([`crate::fluid::MassLedger`]): the initial
 //! ones, one per S raindrops landed (5.31), out through the edges, soaked in.
 
@@ -35,6 +36,9 @@ pub struct WaterLedger {
     pub puddles_m3: f64,
     /// Of the puddles, what is less than one particle and not simulated, m³.
     pub below_one_particle_m3: f64,
+    /// Of the puddles, what is not simulated, m³: outside the picture (or, rarely, beyond the
+    /// particle cap).
+    pub unsimulated_m3: f64,
     /// Volume of one particle, m³.
     pub particle_volume_m3: f64,
     /// Particles placed in the puddles at the start.

@@ -9,9 +9,10 @@
 //! a lattice, column by column, so the solver starts near rest: each column of the particle
 //! spacing gets ⌊(its water + carry)/V⌋ particles stacked from the relief up, the remainder
 //! carried to the next column (error diffusion, so the total is exact to less than one
-//! particle). The spacing is the configured one unless the water would need more particles
-//! than `max_particles`; then it grows to (water / cap)^⅓ and [`PuddleSim::particle_cap`] says
-//! so. [`PuddleSim::advance_to`] feeds impacts to the precipitation counters (5.29–5.31) and
+//! particle). Only the columns the picture shows get particles (the footprint is the
+//! bounding box of a wedge): the water of the others is counted, not simulated. The spacing is
+//! the configured one unless the water would need more particles than `max_particles`; then
+//! it grows to (water / cap)^⅓ and [`PuddleSim::particle_cap`] says so. [`PuddleSim::advance_to`] feeds impacts to the precipitation counters (5.29–5.31) and
 //! runs [`SurfaceFlow`] in steps of m frame durations; a seek fast-forwards from t = 0
 //! ([`PuddleSim::advance_with_rain`]), since the fluid has memory.
 
@@ -161,11 +162,29 @@ impl PuddleSim {
         );
         let filled = fill_depressions(&terrain, to_run);
 
-        // Particles: the configured spacing unless the cap asks for a coarser one.
-        let needed = filled.held_m3 / (s.particle_spacing_m as f64).powi(3);
+        // Particles, where the picture shows the ground: the configured spacing unless the cap
+        // asks for a coarser one (with 2 % to spare for the columns' edges).
+        let in_view = |x: f32, y: f32, z: f32| {
+            let p = glam::DVec3::new(x as f64, y as f64, z as f64);
+            let ahead = (p - camera.position_m).truncate().length() <= s.max_distance_m;
+            let (w, h) = (camera.width_px as f64, camera.height_px as f64);
+            ahead
+                && camera
+                    .project_world(p)
+                    .is_some_and(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= w && q.y <= h)
+        };
+        let shown_m3: f64 = (0..nx * ny)
+            .filter(|&v| filled.depth_m[v] > 0.0)
+            .filter(|&v| {
+                let p = origin + Vec2::new((v % nx) as f32, (v / nx) as f32) * cell;
+                in_view(p.x, p.y, terrain.heights_m()[v])
+            })
+            .map(|v| filled.depth_m[v] as f64 * (cell as f64).powi(2))
+            .sum();
+        let needed = shown_m3 / (s.particle_spacing_m as f64).powi(3);
         let capped = needed > s.max_particles as f64;
         let spacing = if capped {
-            ((filled.held_m3 / s.max_particles as f64).cbrt() * 1.0001) as f32
+            ((1.02 * shown_m3 / s.max_particles as f64).cbrt()) as f32
         } else {
             s.particle_spacing_m
         };
@@ -176,7 +195,14 @@ impl PuddleSim {
         flow_settings.carpet_cell_m = spacing.max(cell);
         flow_settings.precipitation_cell_m = spacing.max(cell);
         let mut flow = SurfaceFlow::new(terrain, flow_settings)?;
-        let leftover = place_particles(&mut flow, &filled, nx, cell, origin, spacing)?;
+        let (leftover, outside_view) = place_particles(
+            &mut flow,
+            &filled,
+            (nx, cell, origin),
+            spacing,
+            s.max_particles,
+            in_view,
+        )?;
         flow.carpet.update(flow.sph.particles().positions_m(), 0.0);
 
         let particle_volume_m3 = (spacing as f64).powi(3);
@@ -190,6 +216,7 @@ impl PuddleSim {
             run_off_m3: filled.run_off_m3,
             puddles_m3: filled.held_m3,
             below_one_particle_m3: leftover,
+            unsimulated_m3: outside_view,
             particle_volume_m3,
             initial_particles,
             rain_drops: 0,
@@ -337,15 +364,18 @@ impl PuddleSim {
 }
 
 /// Turns the filled water into particles on a lattice of `spacing` columns (see the module
-/// docs); returns the water left over, less than one particle, m³.
+/// docs), only in the columns `in_view(x, y, ground)` says the picture shows and at most
+/// `max_particles`; returns the water left over (less than one particle) and the water not
+/// simulated (outside the picture or beyond the cap), m³. `grid`: the fill's vertices along x,
+/// their spacing and origin.
 fn place_particles(
     flow: &mut SurfaceFlow,
     filled: &FilledWater,
-    nx: usize,
-    cell: f32,
-    origin: Vec2,
+    (nx, cell, origin): (usize, f32, Vec2),
     spacing: f32,
-) -> Result<f64> {
+    max_particles: usize,
+    in_view: impl Fn(f32, f32, f32) -> bool,
+) -> Result<(f64, f64)> {
     let b = flow.sph.boundaries();
     let (lo, hi) = (b.domain.min_m.truncate(), b.domain.max_m.truncate());
     let cols = ((hi - lo) / spacing).floor().max(Vec2::ONE);
@@ -364,18 +394,30 @@ fn place_particles(
         }
     }
     let volume = (spacing as f64).powi(3);
-    let mut carry = 0.0;
+    let (mut carry, mut outside) = (0.0, 0.0);
     for (c, &w) in water.iter().enumerate() {
-        carry += w;
-        let k = (carry / volume).floor();
-        carry -= k * volume;
+        if w == 0.0 {
+            continue;
+        }
         let xy = lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
         let ground = flow.sph.boundaries().ground_m(xy.x, xy.y);
+        let room = max_particles.saturating_sub(flow.sph.particles().len()) as f64;
+        if !in_view(xy.x, xy.y, ground) || room == 0.0 {
+            outside += w;
+            continue;
+        }
+        carry += w;
+        let k = (carry / volume).floor().min(room);
+        carry -= k * volume;
+        if k == room {
+            outside += carry;
+            carry = 0.0;
+        }
         for m in 0..k as usize {
             let z = ground + (m as f32 + 0.5) * spacing;
             flow.sph
                 .add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
         }
     }
-    Ok(carry)
+    Ok((carry, outside))
 }
