@@ -443,3 +443,37 @@ fn inspect_puddles_reports_the_water_and_its_ledger_and_nothing_without_a_ground
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--relief"));
 }
+
+/// Cost of the puddles at the default reach for a 720p street view (10 mm/h, 10 min of
+/// pre-rain), per particle cap: `cargo test --release --test puddles report_speed --
+/// --ignored --nocapture`.
+#[test]
+#[ignore]
+fn report_speed() {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.3".parse().expect("mode");
+    let camera = config.camera(1280, 720).expect("camera");
+    println!("| cap | particles | spacing mm | build s | steps/frame | s/frame |");
+    println!("|---|---|---|---|---|---|");
+    for cap in [10_000, 30_000, 100_000] {
+        let settings = PuddleSettings {
+            max_particles: cap,
+            ..PuddleSettings::default()
+        };
+        let t = std::time::Instant::now();
+        let mut sim = PuddleSim::new(&config, &camera, None, FPS, &settings)
+            .expect("valid")
+            .expect("ground in view");
+        let build_s = t.elapsed().as_secs_f64();
+        let frames = 3;
+        let t = std::time::Instant::now();
+        sim.advance_to(frames as f64 / FPS, &[]).expect("steps");
+        let per_frame = t.elapsed().as_secs_f64() / frames as f64;
+        println!(
+            "| {cap} | {} | {:.1} | {build_s:.2} | {:.0} | {per_frame:.2} |",
+            sim.ledger().particles_present,
+            1e3 * sim.particle_spacing_m(),
+            sim.steps() as f64 / frames as f64,
+        );
+    }
+}

@@ -61,14 +61,15 @@ pub struct PuddleSettings {
 
 impl Default for PuddleSettings {
     /// 20 m of ground (farther, a puddle is a few pixels and costs as many particles as a
-    /// near one), 2 cm relief cells, 1 cm particles, at most 100 000 of them, every frame.
+    /// near one), 2 cm relief cells, 1 cm particles, at most 30 000 of them (about 1 s a frame
+    /// on two cores; 100 000 cost 5), every frame.
     fn default() -> PuddleSettings {
         PuddleSettings {
             max_distance_m: 20.0,
             relief_cell_m: 0.02,
             max_vertices: 1 << 22,
             particle_spacing_m: 0.01,
-            max_particles: 100_000,
+            max_particles: 30_000,
             step_every_frames: 1,
             infiltration_mm_per_h: DEFAULT_INFILTRATION_MM_PER_H,
             precipitation_scale: 4,
