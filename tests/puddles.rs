@@ -315,6 +315,42 @@ fn a_bowl_gathers_its_water_at_the_lowest_point_under_a_flat_surface() {
 }
 
 #[test]
+fn a_depth_map_with_holes_still_holds_the_bowl() {
+    // The bowl of the test above, seen through a depth map with a block of the ground beside
+    // it unknown: the hole is filled from its neighbours (level ground) and the water still
+    // gathers at the bowl's bottom.
+    let (centre, radius, depth) = (DVec2::new(0.0, 2.0), 0.5, 0.1);
+    let k = depth / (radius * radius);
+    let (config, camera) = street(5.0, 20.0, 0.0);
+    let bowl = |x: f64, y: f64| (k * (DVec2::new(x, y) - centre).length_squared() - depth).min(0.0);
+    let mut depth_px = depth_map(&camera, bowl);
+    let w = camera.width_px as usize;
+    let mut unknown = 0;
+    for (i, d) in depth_px.iter_mut().enumerate() {
+        if (20..110).contains(&(i % w)) && (60..200).contains(&(i / w)) {
+            *d = 0.0;
+            unknown += 1;
+        }
+    }
+    assert!(unknown * 8 >= depth_px.len(), "{unknown} unknown pixels");
+    let sim = PuddleSim::new(&config, &camera, Some(&depth_px), FPS, &small())
+        .expect("valid")
+        .expect("ground in view");
+    let init = sim.initial_depth();
+    let (deepest_k, deepest) = init
+        .values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+    let at = init.origin_m
+        + (Vec2::new((deepest_k % init.nx) as f32, (deepest_k / init.nx) as f32) + 0.5)
+            * init.cell_m;
+    assert!(deepest > 0.01, "{deepest}");
+    assert!((at.as_dvec2() - centre).length() < 0.1, "deepest at {at}");
+    assert!(sim.ledger().initial_particles > 0);
+}
+
+#[test]
 fn water_on_a_tilted_plane_with_relief_runs_down_the_slope() {
     // The ground falls 5 % towards the camera (−y), with 3 mm of relief, dry at the start; a
     // burst of rain on a square metre in the middle, then 0.4 s of flow.
