@@ -173,6 +173,11 @@ pub struct GroundConfig {
     /// Factor on the depth file's values, which are millimetres times this: 1 for a metric map,
     /// the right factor for a relative one.
     pub depth_scale: f64,
+    /// Standard deviation of the fractal micro-relief the puddle simulation adds over the
+    /// ground, m (0: none); the ground's image is not displaced (see [`crate::fluid::puddles`]).
+    pub relief_m: f64,
+    /// Seed of the micro-relief: the same seed gives the same puddles.
+    pub relief_seed: u32,
 }
 
 impl Default for GroundConfig {
@@ -182,6 +187,8 @@ impl Default for GroundConfig {
             pre_rain_min: 10.0,
             depth: None,
             depth_scale: 1.0,
+            relief_m: 0.004,
+            relief_seed: 1,
         }
     }
 }
@@ -342,6 +349,8 @@ impl RenderConfig {
             ("--ground", self.ground.mode.to_string()),
             ("--pre-rain", self.ground.pre_rain_min.to_string()),
             ("--depth-scale", self.ground.depth_scale.to_string()),
+            ("--relief", self.ground.relief_m.to_string()),
+            ("--relief-seed", self.ground.relief_seed.to_string()),
         ]
         .into_iter()
         .chain(
@@ -366,6 +375,12 @@ impl RenderConfig {
         let mode = self.ground.mode;
         mode.validate()?;
         crate::scene::depth::check_scale(self.ground.depth_scale)?;
+        check(
+            "--relief",
+            self.ground.relief_m,
+            (0.0..=0.1).contains(&self.ground.relief_m),
+            "metres in [0, 0.1] (a micro-relief of millimetres to centimetres)",
+        )?;
         let bad = |expected: &str| Error::Parameter {
             name: "--ground",
             value: mode.to_string(),

@@ -119,3 +119,14 @@ pub fn drops(
 pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
     crate::scene::ground_inspect::report(input, at_s, camera, plot)
 }
+
+/// `inspect puddles`: the water a render of `input` under `config` has on its ground at
+/// `at_s` (fast-forwarded from the start), its ledger, and with `plot` the water-depth map.
+pub fn puddles(
+    config: &RenderConfig,
+    input: &str,
+    at_s: f64,
+    plot: Option<&Path>,
+) -> Result<Value> {
+    crate::fluid::puddles::report::report(config, input, at_s, plot)
+}

@@ -24,7 +24,7 @@
 //! [`particles`] (SoA storage), [`boundary`] (box and terrain: mirror ghosts and collisions),
 //! [`terrain`] (height fields), [`settings`] (parameters), [`sph`] (the solver), [`sources`]
 //! (precipitation, emitters, mass ledger), [`carpet`] (free surface and wetness), [`flow`]
-//! (the rain-fed chain), [`scenes`] (validation).
+//! (the rain-fed chain), [`scenes`] (validation), [`puddles`] (the water on a shot's ground).
 //!
 //! Units are SI throughout and z is up, as in the rest of the crate.
 pub mod boundary;
@@ -34,6 +34,7 @@ pub mod flow;
 pub mod grid;
 pub mod kernels;
 pub mod particles;
+pub mod puddles;
 pub mod scenes;
 pub mod settings;
 pub mod sources;

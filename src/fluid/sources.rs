@@ -183,7 +183,9 @@ impl PrecipitationGrid {
     }
 
     /// Releases the queued particles into `out`, each `clearance_m` above `surface_m(x, y)`
-    /// (terrain or water height, m), with velocity `velocity_mps`.
+    /// (terrain or water height, m), with velocity `velocity_mps`. They come out in cell order,
+    /// so what a step releases does not depend on the order its drops were reported in (a seek
+    /// that reports a step's drops at once matches a render that reports them frame by frame).
     pub fn drain(
         &mut self,
         surface_m: impl Fn(f32, f32) -> f32,
@@ -191,6 +193,7 @@ impl PrecipitationGrid {
         velocity_mps: Vec3,
         out: &mut Vec<NewParticle>,
     ) {
+        self.queued.sort_unstable();
         for &cell in &self.queued {
             let c = cell as usize;
             let birth = self.births[c];

@@ -208,6 +208,12 @@ pub struct LookArgs {
     /// Factor on the depth file's values (1: millimetres; the right factor makes a relative depth map millimetres).
     #[arg(long)]
     pub depth_scale: Option<f64>,
+    /// Standard deviation of the seeded fractal micro-relief the puddle simulation lays over the ground, metres (0: none); the ground's image is not displaced.
+    #[arg(long, value_name = "M")]
+    pub relief: Option<f64>,
+    /// Seed of the micro-relief: the same seed gives the same puddles.
+    #[arg(long, value_name = "N")]
+    pub relief_seed: Option<u32>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
     #[arg(
         long = "light",
@@ -605,6 +611,8 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
     set!(look.pre_rain => c.ground.pre_rain_min);
+    set!(look.relief => c.ground.relief_m);
+    set!(look.relief_seed => c.ground.relief_seed);
     set!(look.focus => cam.focus_m);
     set!(look.f_number => cam.f_number);
     set!(look.sensor_width => cam.sensor_width_mm);
@@ -715,6 +723,7 @@ mod tests {
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
         c.ground.pre_rain_min = 25.0;
         (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);
+        (c.ground.relief_m, c.ground.relief_seed) = (0.01, 7);
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {

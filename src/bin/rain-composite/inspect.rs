@@ -148,6 +148,25 @@ pub enum InspectCommand {
         #[command(flatten)]
         look: Box<LookArgs>,
     },
+    /// The water on the ground at a time of a clip, as a render with the same options
+    /// simulates it (fast-forwarded from the start): water_volume_m3, puddle_area_m2, particle
+    /// count and cap, the mass ledger, the time the fast-forward took.
+    #[command(allow_negative_numbers = true)]
+    Puddles {
+        /// Input video.
+        video: String,
+        /// Time: seconds, or with a unit (2.5s, 1500ms, 00:01:02.5).
+        #[arg(long, default_value = "0")]
+        at: String,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also draw the water-depth map seen from above (far side up) to this PNG.
+        #[arg(long, value_name = "PNG")]
+        plot: Option<PathBuf>,
+        #[command(flatten)]
+        look: Box<LookArgs>,
+    },
 }
 
 /// `--fov` of the image reports: the range the render accepts.
@@ -265,6 +284,17 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                     format!("invalid --size '{size}': expected WxH, e.g. 1920x1080")
                 })?;
             inspect::drops(&config, size_px, *count, *time, *fps)?
+        }
+        InspectCommand::Puddles {
+            video,
+            at,
+            plot,
+            look,
+            ..
+        } => {
+            let config = render_config(look)?;
+            let at_s = crate::args::parse_time_s(at)?;
+            inspect::puddles(&config, video, at_s, plot.as_deref())?
         }
     };
     out(&serde_json::to_string_pretty(&report)?)

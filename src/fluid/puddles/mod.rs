@@ -1,0 +1,26 @@
+//! Puddles: the water on a shot's ground — the relief it stands on, the rain that fell before
+//! the clip filled into it, and the SPH surface flow that carries it through the clip
+//! (docs/method.md, "Puddles: the water").
+//!
+//! ```text
+//!  camera + ground ──► relief (footprint up to a distance, plane or depth map + fractal
+//!                      micro-relief)
+//!  --pre-rain × rate ─► ledger (film, evaporation, infiltration) ─► fill (priority-flood,
+//!                      volume conserved) ─► particles on a lattice in the depressions
+//!  impacts per frame ─► SurfaceFlow (precipitation counters 5.29–5.31, SPH, carpet)
+//!                      ─► water_depth(): Field2 on z = 0 for the shading
+//! ```
+//!
+//! Modules: [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
+//! [`ledger`] (the water balance), [`sim`] ([`PuddleSim`], the loop), [`report`]
+//! (`inspect puddles`).
+pub mod fill;
+pub mod ledger;
+pub mod relief;
+pub mod report;
+pub mod sim;
+
+pub use fill::{FilledWater, fill_depressions};
+pub use ledger::WaterLedger;
+pub use relief::{Footprint, ground_footprint, micro_relief};
+pub use sim::{PuddleSettings, PuddleSim};

@@ -1,0 +1,515 @@
+//! Puddles, the water side: the pre-rain water filled into the shot's relief and carried by
+//! the SPH surface flow — its ledger to the particle, a bowl's pool level and flat, water
+//! running down a slope, puddles staying when the rain stops, nothing built without a ground.
+
+use glam::{DVec2, DVec3, Vec2};
+use rain_composite::config::RenderConfig;
+use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
+use rain_composite::rain::volume::{Impact, impacts_between};
+use rain_composite::rng::SplitMix64;
+use rain_composite::scene::Camera;
+use std::process::Command;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+
+const FPS: f64 = 25.0;
+
+/// A camera looking down the street (the horizon 10 % from the top, a 90° lens, 1.6 m up) over
+/// `rain_mm_per_h` of rain that has fallen for `pre_rain_min`, with `relief_m` of micro-relief.
+fn street(rain_mm_per_h: f64, pre_rain_min: f64, relief_m: f64) -> (RenderConfig, Camera) {
+    let mut c = RenderConfig::default();
+    c.ground.mode = "horizon=0.1".parse().expect("mode");
+    c.camera.fov_deg = 90.0;
+    c.rain.rate_mm_per_h = rain_mm_per_h;
+    c.ground.pre_rain_min = pre_rain_min;
+    c.ground.relief_m = relief_m;
+    let camera = c.camera(320, 240).expect("camera");
+    (c, camera)
+}
+
+/// Small enough for a test: 3 m of ground, 1.5 cm particles.
+fn small() -> PuddleSettings {
+    PuddleSettings {
+        max_distance_m: 3.0,
+        particle_spacing_m: 0.015,
+        max_particles: 20_000,
+        ..PuddleSettings::default()
+    }
+}
+
+/// The camera-space depth of every pixel of `camera` looking at the ground z = `ground(x, y)`
+/// (≤ 0, flat 0 where the ray first meets z = 0 outside any hollow), found by bisection
+/// along each ray: the independent picture a depth map would give.
+fn depth_map(camera: &Camera, ground: impl Fn(f64, f64) -> f64) -> Vec<f32> {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    let eye = camera.position_m;
+    let mut depth = vec![0.0f32; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let ray = camera.ray_world(DVec2::new(u as f64 + 0.5, v as f64 + 0.5));
+            if ray.z > -1e-3 {
+                continue;
+            }
+            let above = |t: f64| {
+                let p = eye + ray * t;
+                p.z - ground(p.x, p.y)
+            };
+            let (mut lo, mut hi) = (0.0, (eye.z + 1.0) / -ray.z);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if above(mid) > 0.0 { lo = mid } else { hi = mid }
+            }
+            depth[v * w + u] = camera.camera_from_world_point(eye + ray * lo).z as f32;
+        }
+    }
+    depth
+}
+
+/// `n` drops of 2 mm landing at `t_s` uniformly over the rectangle `min_m..max_m` of the ground.
+fn impacts_over(
+    n: usize,
+    min_m: DVec2,
+    max_m: DVec2,
+    t_s: f64,
+    rng: &mut SplitMix64,
+) -> Vec<Impact> {
+    (0..n)
+        .map(|k| {
+            let p = min_m + DVec2::new(rng.next_f64(), rng.next_f64()) * (max_m - min_m);
+            Impact {
+                id: k as u64,
+                pass: 0,
+                time_s: t_s,
+                position_m: DVec3::new(p.x, p.y, 0.0),
+                diameter_mm: 2.0,
+                velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn the_ledger_balances_in_cubic_metres_before_the_clip_and_to_the_particle_during_it() {
+    let (config, camera) = street(10.0, 10.0, 0.004);
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &small())
+        .expect("valid")
+        .expect("ground in view");
+    let l = sim.ledger();
+    // Before the clip: every cubic metre of the pre-rain is somewhere.
+    let rain_m3 = 10e-3 / 6.0 * l.area_m2;
+    assert!((l.pre_rain_m3 / rain_m3 - 1.0).abs() < 1e-12);
+    let parts = l.film_m3 + l.evaporated_m3 + l.infiltrated_m3 + l.run_off_m3 + l.puddles_m3;
+    assert!((parts / l.pre_rain_m3 - 1.0).abs() < 1e-9, "{l:?}");
+    assert!(l.puddles_m3 > 0.0 && l.run_off_m3 > 0.0, "{l:?}");
+    // The puddles the picture shows as particles, less than one particle left over; the rest
+    // of the footprint (the bounding box of the ground in view) is counted, not simulated.
+    let as_particles = l.initial_particles as f64 * l.particle_volume_m3
+        + l.below_one_particle_m3
+        + l.unsimulated_m3;
+    assert!((as_particles / l.puddles_m3 - 1.0).abs() < 1e-6, "{l:?}");
+    assert!((0.0..l.particle_volume_m3).contains(&l.below_one_particle_m3));
+    assert!(l.unsimulated_m3 > 0.0, "{l:?}");
+    assert_eq!(
+        l.initial_particles as usize,
+        sim.flow().sph.particles().len()
+    );
+    let (w, h) = (camera.width_px as f64, camera.height_px as f64);
+    for p in sim.flow().sph.particles().positions_m() {
+        let q = camera.project_world(p.as_dvec3()).expect("in front");
+        assert!(
+            (-5.0..w + 5.0).contains(&q.x) && (-5.0..h + 5.0).contains(&q.y),
+            "{q}"
+        );
+    }
+    // During it: rain in drops, out through the edges and into the ground, in particles.
+    let mut rng = SplitMix64(7);
+    for frame in 1..=6 {
+        let t = frame as f64 / FPS;
+        let f = sim.footprint();
+        let hits = impacts_over(3000, f.min_m, f.max_m, t, &mut rng);
+        sim.advance_to(t, &hits).expect("step");
+        let l = sim.ledger();
+        let p = l.particles;
+        assert_eq!(l.particles_present, sim.flow().sph.particles().len() as u64);
+        assert_eq!(
+            p.inserted - p.outflow - p.soaked - p.discarded,
+            l.particles_present
+        );
+        assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
+        // Every drop that landed is in a counter or, S of them at a time, in a particle (5.31).
+        let s = sim.flow().precipitation.scale() as u64;
+        let counted: u64 = sim
+            .flow()
+            .precipitation
+            .counters()
+            .iter()
+            .map(|&c| c as u64)
+            .sum();
+        assert_eq!(
+            l.rain_drops,
+            s * l.rain_particles + counted,
+            "frame {frame}"
+        );
+    }
+    let l = sim.ledger();
+    assert_eq!(
+        l.rain_drops,
+        6 * 3000,
+        "every impact fell on the simulated ground"
+    );
+    assert_eq!(l.particles.discarded, 0);
+    assert!(l.rain_particles > 0);
+}
+
+#[test]
+fn the_particle_cap_holds_through_the_rain() {
+    let (config, camera) = street(10.0, 10.0, 0.004);
+    let capped = PuddleSettings {
+        max_particles: 300,
+        ..small()
+    };
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &capped)
+        .expect("valid")
+        .expect("ground in view");
+    assert_eq!(sim.particle_cap(), (300, true));
+    assert!(sim.particle_spacing_m() > small().particle_spacing_m);
+    let mut rng = SplitMix64(11);
+    for frame in 1..=3 {
+        let t = frame as f64 / FPS;
+        let f = sim.footprint();
+        let hits = impacts_over(20_000, f.min_m, f.max_m, t, &mut rng);
+        sim.advance_to(t, &hits).expect("step");
+        let l = sim.ledger();
+        assert!(l.particles_present <= 300, "{l:?}");
+        let s = sim.flow().precipitation.scale() as u64;
+        let counted: u64 = sim
+            .flow()
+            .precipitation
+            .counters()
+            .iter()
+            .map(|&c| c as u64)
+            .sum();
+        assert_eq!(l.rain_drops, s * l.rain_particles + counted);
+        assert_eq!(l.rain_drops + l.rain_drops_over_cap, frame * 20_000);
+    }
+    assert!(sim.ledger().rain_drops_over_cap > 0);
+}
+
+#[test]
+fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
+    // Heavy rain drawn large close to a camera looking down, so drawn drops land on the
+    // simulated ground (at this picture size, drops of the natural size are drawn only nearer
+    // than the ground).
+    let (mut config, camera) = street(60.0, 10.0, 0.004);
+    let r = &mut config.rain;
+    (r.far_m, r.max_drops, r.drop_scale) = (6.0, 100_000, 3.0);
+    let rain = rain_composite::gpu::uniforms::build(
+        &camera,
+        &config.camera,
+        &config.rain,
+        0.02,
+        0,
+        (camera.width_px, camera.height_px),
+    )
+    .expect("rain");
+    let every_other = PuddleSettings {
+        step_every_frames: 2,
+        ..small()
+    };
+    let build = || {
+        PuddleSim::new(&config, &camera, None, FPS, &every_other)
+            .expect("valid")
+            .expect("ground in view")
+    };
+    let (mut render, mut seek) = (build(), build());
+    let seed = config.rain.seed;
+    for frame in 1..=6 {
+        let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
+        let hits = impacts_between(&rain.volume, &rain.model, &rain.wind, seed, t0, t1);
+        let steps = render.advance_to(t1, &hits).expect("frame");
+        assert_eq!(
+            steps == 0,
+            frame % 2 == 1,
+            "the solver runs every other frame"
+        );
+    }
+    seek.advance_with_rain(&rain.volume, &rain.model, &rain.wind, seed, 6.0 / FPS)
+        .expect("fast-forward");
+    assert!(render.ledger().rain_drops > 0, "{:?}", render.ledger());
+    // The same drops, summed in another order: their volume agrees to rounding.
+    let (a, mut b) = (render.ledger(), seek.ledger());
+    assert!((a.rain_drop_volume_m3 / b.rain_drop_volume_m3 - 1.0).abs() < 1e-12);
+    b.rain_drop_volume_m3 = a.rain_drop_volume_m3;
+    assert_eq!(a, b);
+    assert_eq!(
+        render.flow().sph.state_digest(),
+        seek.flow().sph.state_digest()
+    );
+    assert_eq!(render.water_depth(), seek.water_depth());
+}
+
+#[test]
+fn a_bowl_gathers_its_water_at_the_lowest_point_under_a_flat_surface() {
+    // A paraboloid hollow z = k r² − D (r < R) 2 m ahead, seen in a depth map; no relief.
+    let (centre, radius, depth) = (DVec2::new(0.0, 2.0), 0.5, 0.1);
+    let k = depth / (radius * radius);
+    let (config, camera) = street(5.0, 20.0, 0.0);
+    let bowl = |x: f64, y: f64| (k * (DVec2::new(x, y) - centre).length_squared() - depth).min(0.0);
+    let depth_px = depth_map(&camera, bowl);
+    let fine = PuddleSettings {
+        particle_spacing_m: 0.01,
+        relief_cell_m: 0.01,
+        ..small()
+    };
+    let mut sim = PuddleSim::new(&config, &camera, Some(&depth_px), FPS, &fine)
+        .expect("valid")
+        .expect("ground in view");
+    // The fill: a paraboloid holding V stands √(2kV/π) deep at its bottom.
+    let init = sim.initial_depth();
+    let held = sim.ledger().puddles_m3;
+    let pool = (2.0 * k * held / std::f64::consts::PI).sqrt();
+    let (deepest_k, deepest) = init
+        .values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+    let at = |f: &rain_composite::fluid::Field2, i: usize| {
+        f.origin_m + (Vec2::new((i % f.nx) as f32, (i / f.nx) as f32) + 0.5) * f.cell_m
+    };
+    assert!(
+        (deepest as f64 / pool - 1.0).abs() < 0.1,
+        "{deepest} vs {pool}"
+    );
+    assert!((at(init, deepest_k).as_dvec2() - centre).length() < 0.05);
+    // Through the solver for 0.8 s: the water stays in the hollow, its surface flat to half a
+    // particle spacing (the carpet's tolerance) over the pool's inner half radius.
+    sim.advance_to(0.8, &[]).expect("steps");
+    let dx = sim.particle_spacing_m() as f64;
+    let water = sim.water_depth();
+    let surface = sim.flow().carpet.surface_height();
+    let inner: Vec<usize> = (0..water.values.len())
+        .filter(|&i| (at(&water, i).as_dvec2() - centre).length() < 0.5 * (pool / k).sqrt())
+        .collect();
+    assert!(
+        inner.len() > 20,
+        "{} carpet cells in the inner pool",
+        inner.len()
+    );
+    let (lo, hi) = inner
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
+            (lo.min(surface.values[i]), hi.max(surface.values[i]))
+        });
+    assert!(
+        ((hi - lo) as f64) < 0.5 * dx,
+        "surface range {} vs spacing {dx}",
+        hi - lo
+    );
+    let (wk, _) = water
+        .values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+    assert!((at(&water, wk).as_dvec2() - centre).length() < 0.5 * (pool / k).sqrt());
+}
+
+#[test]
+fn a_depth_map_with_holes_still_holds_the_bowl() {
+    // The bowl of the test above, seen through a depth map with a block of the ground beside
+    // it unknown: the hole is filled from its neighbours (level ground) and the water still
+    // gathers at the bowl's bottom.
+    let (centre, radius, depth) = (DVec2::new(0.0, 2.0), 0.5, 0.1);
+    let k = depth / (radius * radius);
+    let (config, camera) = street(5.0, 20.0, 0.0);
+    let bowl = |x: f64, y: f64| (k * (DVec2::new(x, y) - centre).length_squared() - depth).min(0.0);
+    let mut depth_px = depth_map(&camera, bowl);
+    let w = camera.width_px as usize;
+    let mut unknown = 0;
+    for (i, d) in depth_px.iter_mut().enumerate() {
+        if (20..110).contains(&(i % w)) && (60..200).contains(&(i / w)) {
+            *d = 0.0;
+            unknown += 1;
+        }
+    }
+    assert!(unknown * 8 >= depth_px.len(), "{unknown} unknown pixels");
+    let sim = PuddleSim::new(&config, &camera, Some(&depth_px), FPS, &small())
+        .expect("valid")
+        .expect("ground in view");
+    let init = sim.initial_depth();
+    let (deepest_k, deepest) = init
+        .values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+    let at = init.origin_m
+        + (Vec2::new((deepest_k % init.nx) as f32, (deepest_k / init.nx) as f32) + 0.5)
+            * init.cell_m;
+    assert!(deepest > 0.01, "{deepest}");
+    assert!((at.as_dvec2() - centre).length() < 0.1, "deepest at {at}");
+    assert!(sim.ledger().initial_particles > 0);
+}
+
+#[test]
+fn water_on_a_tilted_plane_with_relief_runs_down_the_slope() {
+    // The ground falls 5 % towards the camera (−y), with 3 mm of relief, dry at the start; a
+    // burst of rain on a square metre in the middle, then 0.4 s of flow.
+    let (config, camera) = street(10.0, 0.0, 0.003);
+    let depth_px = depth_map(&camera, |_, y| 0.05 * (y - 3.5));
+    let mut sim = PuddleSim::new(&config, &camera, Some(&depth_px), FPS, &small())
+        .expect("valid")
+        .expect("ground in view");
+    assert_eq!(sim.ledger().initial_particles, 0);
+    let (lo, hi) = (DVec2::new(-0.5, 1.5), DVec2::new(0.5, 2.5));
+    let hits = impacts_over(20_000, lo, hi, 1.0 / FPS, &mut SplitMix64(3));
+    sim.advance_to(1.0 / FPS, &hits).expect("step");
+    let start: std::collections::HashMap<u64, f32> = {
+        let p = sim.flow().sph.particles();
+        p.ids()
+            .iter()
+            .zip(p.positions_m())
+            .map(|(&id, x)| (id, x.y))
+            .collect()
+    };
+    assert!(start.len() > 1000, "{} particles", start.len());
+    sim.advance_to(0.4, &[]).expect("steps");
+    let p = sim.flow().sph.particles();
+    let moved: Vec<f64> = p
+        .ids()
+        .iter()
+        .zip(p.positions_m())
+        .filter_map(|(id, x)| start.get(id).map(|y0| (x.y - y0) as f64))
+        .collect();
+    assert!(moved.len() * 2 > start.len());
+    let mean = moved.iter().sum::<f64>() / moved.len() as f64;
+    // Down-slope by more than the lattice's own settling could move it.
+    assert!(
+        mean < -0.5 * sim.particle_spacing_m() as f64,
+        "centre of mass moved {mean} m"
+    );
+}
+
+#[test]
+fn when_the_rain_stops_the_puddles_stay() {
+    let (config, camera) = street(10.0, 30.0, 0.006);
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &small())
+        .expect("valid")
+        .expect("ground in view");
+    let wet = |sim: &PuddleSim| {
+        sim.water_depth()
+            .values
+            .iter()
+            .filter(|&&d| d > 0.0)
+            .count()
+    };
+    let (wet0, n0) = (wet(&sim), sim.ledger().particles_present);
+    assert!(n0 > 100);
+    sim.advance_to(0.4, &[]).expect("steps");
+    let l = sim.ledger();
+    // No rain: nothing new; the puddles sit in their hollows, so next to nothing leaves.
+    assert_eq!(l.rain_particles, 0);
+    assert!(l.particles.outflow * 100 <= n0, "{l:?}");
+    assert!(
+        wet(&sim) * 10 >= wet0 * 9,
+        "{} wet cells of {wet0}",
+        wet(&sim)
+    );
+}
+
+#[test]
+fn without_a_ground_no_fluid_is_built() {
+    let (mut config, camera) = street(10.0, 10.0, 0.004);
+    config.ground.mode = "none".parse().expect("mode");
+    let sim = PuddleSim::new(&config, &camera, None, FPS, &small()).expect("valid");
+    assert!(sim.is_none());
+}
+
+#[test]
+fn inspect_puddles_reports_the_water_and_its_ledger_and_nothing_without_a_ground() {
+    let dir = tempfile::TempDir::new().expect("temp dir");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (160, 96), 30, 0.12);
+    let plot = dir.path().join("depth.png");
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let out = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+            .args([
+                "inspect",
+                "puddles",
+                input.to_str().expect("path"),
+                "--at",
+                "0",
+            ])
+            .args(extra)
+            .output()
+            .expect("runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("json")
+    };
+    let none = run(&["--ground", "none"]);
+    assert_eq!(none["simulated"], false);
+    let v = run(&[
+        "--ground",
+        "horizon=0.3",
+        "--plot",
+        plot.to_str().expect("path"),
+    ]);
+    assert_eq!(v["simulated"], true);
+    let l = &v["ledger"];
+    let volume = v["water_volume_m3"].as_f64().expect("volume");
+    let per = l["particle_volume_m3"].as_f64().expect("particle volume");
+    assert_eq!(v["particles"], l["particles_present"]);
+    assert!((volume / (v["particles"].as_f64().expect("count") * per) - 1.0).abs() < 1e-9);
+    assert!(v["puddle_area_m2"].as_f64().expect("area") > 0.0);
+    assert!(plot.is_file());
+    // A user mistake is one error line and a failure.
+    let out = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+        .args([
+            "inspect",
+            "puddles",
+            input.to_str().expect("path"),
+            "--relief",
+            "-1",
+        ])
+        .args(["--ground", "horizon=0.3"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--relief"));
+}
+
+/// Cost of the puddles at the default reach for a 720p street view (10 mm/h, 10 min of
+/// pre-rain), per particle cap: `cargo test --release --test puddles report_speed --
+/// --ignored --nocapture`.
+#[test]
+#[ignore]
+fn report_speed() {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.3".parse().expect("mode");
+    let camera = config.camera(1280, 720).expect("camera");
+    println!("| cap | particles | spacing mm | build s | steps/frame | s/frame |");
+    println!("|---|---|---|---|---|---|");
+    for cap in [10_000, 30_000, 100_000] {
+        let settings = PuddleSettings {
+            max_particles: cap,
+            ..PuddleSettings::default()
+        };
+        let t = std::time::Instant::now();
+        let mut sim = PuddleSim::new(&config, &camera, None, FPS, &settings)
+            .expect("valid")
+            .expect("ground in view");
+        let build_s = t.elapsed().as_secs_f64();
+        let frames = 3;
+        let t = std::time::Instant::now();
+        sim.advance_to(frames as f64 / FPS, &[]).expect("steps");
+        let per_frame = t.elapsed().as_secs_f64() / frames as f64;
+        println!(
+            "| {cap} | {} | {:.1} | {build_s:.2} | {:.0} | {per_frame:.2} |",
+            sim.ledger().particles_present,
+            1e3 * sim.particle_spacing_m(),
+            sim.steps() as f64 / frames as f64,
+        );
+    }
+}
