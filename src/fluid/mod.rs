@@ -34,6 +34,7 @@ pub mod flow;
 pub mod grid;
 pub mod kernels;
 pub mod particles;
+pub mod ripples;
 pub mod scenes;
 pub mod settings;
 pub mod sources;

@@ -29,10 +29,12 @@ pub enum Stage {
     RgbaOut,
     /// The ground below the horizon wetted on the canvas.
     WetGround,
+    /// Puddles on the ground: water, ripples and the frame mirrored in them.
+    Puddles,
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 9] = [
+const COMMON: [(&str, &str); 10] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -68,6 +70,10 @@ const COMMON: [(&str, &str); 9] = [
     (
         "common/lights.wgsl",
         include_str!("../../shaders/common/lights.wgsl"),
+    ),
+    (
+        "common/water.wgsl",
+        include_str!("../../shaders/common/water.wgsl"),
     ),
 ];
 
@@ -158,7 +164,7 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 9] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
         Stage::RainSplashes,
@@ -167,6 +173,7 @@ impl Stage {
         Stage::RainProbe,
         Stage::RgbaOut,
         Stage::WetGround,
+        Stage::Puddles,
     ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
@@ -180,6 +187,7 @@ impl Stage {
             Stage::RainProbe => "rain_probe",
             Stage::RgbaOut => "rgba_out",
             Stage::WetGround => "wet_ground",
+            Stage::Puddles => "puddles",
         }
     }
 
@@ -194,6 +202,7 @@ impl Stage {
             Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
             Stage::RgbaOut => include_str!("../../shaders/rgba_out.wgsl"),
             Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),
+            Stage::Puddles => include_str!("../../shaders/puddles.wgsl"),
         }
     }
 
