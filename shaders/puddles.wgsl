@@ -24,11 +24,12 @@
 
 // The reflection fades from the frame to the environment over this many pixels at its border.
 const EDGE_PX: f32 = 8.0;
-// The screen-space march: steps geometric in distance from MARCH_NEAR_M to MARCH_FAR_M along
-// the mirrored ray, then halvings of the step that crossed behind the scene.
-const MARCH_STEPS: u32 = 24u;
-const MARCH_NEAR_M: f32 = 0.05;
-const MARCH_FAR_M: f32 = 200.0;
+// The screen-space march along the mirrored ray's image: a step every MARCH_STRIDE_PX, at most
+// MARCH_MAX_STEPS, up to MARCH_FARTHEST of the way to the vanishing point, then halvings of the
+// step that passed behind the scene.
+const MARCH_STRIDE_PX: f32 = 1.5;
+const MARCH_MAX_STEPS: u32 = 128u;
+const MARCH_FARTHEST: f32 = 0.999;
 const MARCH_HALVINGS: u32 = 6u;
 // A ray counts as behind the scene's surface only to this fraction of its depth (no farther:
 // it passed behind a thin object).
@@ -116,7 +117,7 @@ fn project(q: vec3<f32>) -> vec2<f32> {
 fn reflected(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let env = environment(p, dir);
     // Without a hit: the picture towards the direction itself (its vanishing point).
-    var q = vec3<f32>(dot(rain.camera_from_world_0.xyz, dir), dot(rain.camera_from_world_1.xyz, dir), dot(rain.camera_from_world_2.xyz, dir));
+    var q = camera_dir(dir);
     let hit = march(p, dir);
     if hit.w > 0.0 {
         q = hit.xyz;
@@ -131,29 +132,45 @@ fn reflected(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
 }
 
 // Where the mirrored ray from `p` along `dir` first passes behind the filmed scene (camera
-// space, w = 1), or w = 0: no depth map, or nothing met in the frame.
+// space, w = 1), or w = 0: no depth map, or nothing met in the frame. The ray's image runs from
+// p's pixel to its vanishing point; it is walked in even steps along that image (a point at
+// share λ of the way lies at distance s = λ·z_p / ((1 − λ)·dir_z) along the ray, dir_z its
+// camera depth per metre), so no step skips an object's edge by more than MARCH_STRIDE_PX.
 fn march(p: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
     let size = vec2<u32>(rain.display_size_px);
     if arrayLength(&scene_depth) < size.x * size.y { return vec4<f32>(0.0); }
-    let ratio = pow(MARCH_FAR_M / MARCH_NEAR_M, 1.0 / f32(MARCH_STEPS - 1u));
-    var s_before = 0.0;
-    var s = MARCH_NEAR_M;
-    for (var i = 0u; i < MARCH_STEPS; i++) {
-        let q = to_camera(p + s * dir);
-        if q.z <= rain.near_clip_m || !in_frame(project(q)) { return vec4<f32>(0.0); }
+    let q_p = to_camera(p);
+    let q_dir = camera_dir(dir);
+    if q_dir.z <= 1e-6 { return vec4<f32>(0.0); }
+    let image_px = length(project(q_dir) - project(q_p));
+    let steps = u32(clamp(ceil(image_px / MARCH_STRIDE_PX), 1.0, f32(MARCH_MAX_STEPS)));
+    var before = 0.0;
+    for (var i = 1u; i <= steps; i++) {
+        let share = MARCH_FARTHEST * f32(i) / f32(steps);
+        let q = q_p + march_distance(q_p.z, q_dir.z, share) * q_dir;
+        if !in_frame(project(q)) { return vec4<f32>(0.0); }
         if behind(q) {
-            var lo = s_before;
-            var hi = s;
+            var lo = before;
+            var hi = share;
             for (var j = 0u; j < MARCH_HALVINGS; j++) {
                 let mid = 0.5 * (lo + hi);
-                if behind(to_camera(p + mid * dir)) { hi = mid; } else { lo = mid; }
+                if behind(q_p + march_distance(q_p.z, q_dir.z, mid) * q_dir) { hi = mid; } else { lo = mid; }
             }
-            return vec4<f32>(to_camera(p + hi * dir), 1.0);
+            return vec4<f32>(q_p + march_distance(q_p.z, q_dir.z, hi) * q_dir, 1.0);
         }
-        s_before = s;
-        s *= ratio;
+        before = share;
     }
     return vec4<f32>(0.0);
+}
+
+// Distance along the ray at share `share` of its image (see march).
+fn march_distance(z_p: f32, dir_z: f32, share: f32) -> f32 {
+    return share * z_p / ((1.0 - share) * dir_z);
+}
+
+// World direction `dir` in the camera's frame.
+fn camera_dir(dir: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(rain.camera_from_world_0.xyz, dir), dot(rain.camera_from_world_1.xyz, dir), dot(rain.camera_from_world_2.xyz, dir));
 }
 
 fn in_frame(at: vec2<f32>) -> bool {
@@ -161,11 +178,17 @@ fn in_frame(at: vec2<f32>) -> bool {
     return all(at >= vec2<f32>(0.0)) && all(at < size);
 }
 
-// Whether camera-space point `q` lies behind the scene's surface at its pixel (but not far).
+// Whether camera-space point `q` lies behind the scene's surface at its pixel (but not far),
+// where that surface stands on the ground: nearer than the ground plane along the pixel's ray
+// (the 90 % of ground_shown), or above the horizon. The mirrored ray runs above the plane, so
+// the plane itself is never met (its depths, quantised per pixel, would otherwise be).
 fn behind(q: vec3<f32>) -> bool {
     if q.z <= 0.0 { return false; }
-    let z = scene_depth_m(project(q));
-    return z > 0.0 && q.z >= z && q.z <= z * (1.0 + MARCH_THICKNESS);
+    let at = project(q);
+    let z = scene_depth_m(at);
+    if z <= 0.0 || q.z < z || q.z > z * (1.0 + MARCH_THICKNESS) { return false; }
+    let ray = view_ray(vec2<u32>(max(floor(at), vec2<f32>(0.0))));
+    return ray.z >= 0.0 || z < 0.9 * rain.camera_pos_m.z / -ray.z;
 }
 
 // The frame at coded position `at` (px), bilinear between pixel centres, clamped at the border.

@@ -17,13 +17,12 @@ use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
 
 /// The reflection fades from the frame to the environment over this many pixels at its border.
 pub const EDGE_PX: f64 = 8.0;
-/// The march along the mirrored ray: steps geometric in distance over [near, far] (m), then
-/// halvings of the step that passed behind the scene.
-pub const MARCH_STEPS: usize = 24;
-/// Nearest step of the march, m.
-pub const MARCH_NEAR_M: f64 = 0.05;
-/// Farthest step of the march, m.
-pub const MARCH_FAR_M: f64 = 200.0;
+/// The march along the mirrored ray's image: a step every this many pixels.
+pub const MARCH_STRIDE_PX: f64 = 1.5;
+/// Most steps of the march.
+pub const MARCH_MAX_STEPS: usize = 128;
+/// The march ends this share of the way to the ray's vanishing point.
+pub const MARCH_FARTHEST: f64 = 0.999;
 /// Halvings of the step that passed behind the scene.
 pub const MARCH_HALVINGS: usize = 6;
 /// A point counts as behind the scene only to this fraction of the scene's depth beyond it.
@@ -205,34 +204,52 @@ impl Mirror<'_> {
     /// the scene of the depth map, if any within the frame.
     fn march(&self, ground: DVec3, dir: DVec3) -> Option<DVec3> {
         let map = self.depth?;
+        // Behind the scene at its pixel, not far, where the scene stands on the ground: nearer
+        // than the plane along the pixel's ray (the 90 % of `ground_shown`), or above the
+        // horizon. The mirrored ray runs above the plane and never meets it.
         let behind = |s: f64| {
             let q = to_camera(self.p, ground + s * dir);
-            q.z > 0.0
-                && scene_depth(self.p, map, project(self.p, q))
-                    .is_some_and(|z| q.z >= z && q.z <= z * (1.0 + MARCH_THICKNESS))
+            if q.z <= 0.0 {
+                return false;
+            }
+            let at = project(self.p, q);
+            let Some(z) = scene_depth(self.p, map, at) else {
+                return false;
+            };
+            let ray = view_ray(self.p, at.x.max(0.0) as u32, at.y.max(0.0) as u32);
+            let standing = ray.z >= 0.0 || z < 0.9 * self.p.camera_pos_m[2] as f64 / -ray.z;
+            standing && q.z >= z && q.z <= z * (1.0 + MARCH_THICKNESS)
         };
-        let ratio = (MARCH_FAR_M / MARCH_NEAR_M).powf(1.0 / (MARCH_STEPS - 1) as f64);
+        // Even steps along the ray's image, from the ground's pixel to the vanishing point:
+        // share λ of the way lies at distance s = λ z_p / ((1 − λ) dir_z) along the ray.
+        let q_p = to_camera(self.p, ground);
+        let q_dir = to_camera(self.p, v3(&self.p.camera_pos_m) + dir);
+        if q_dir.z <= 1e-6 {
+            return None;
+        }
+        let distance = |share: f64| share * q_p.z / ((1.0 - share) * q_dir.z);
+        let image_px = project(self.p, q_dir).distance(project(self.p, q_p));
+        let steps = ((image_px / MARCH_STRIDE_PX).ceil() as usize).clamp(1, MARCH_MAX_STEPS);
         let mut before = 0.0;
-        let mut s = MARCH_NEAR_M;
-        for _ in 0..MARCH_STEPS {
-            let q = to_camera(self.p, ground + s * dir);
-            if q.z <= self.p.near_clip_m as f64 || self.frame.inside(project(self.p, q)) <= 0.0 {
+        for i in 1..=steps {
+            let share = MARCH_FARTHEST * i as f64 / steps as f64;
+            let s = distance(share);
+            if self.frame.inside(project(self.p, to_camera(self.p, ground + s * dir))) <= 0.0 {
                 return None;
             }
             if behind(s) {
-                let (mut lo, mut hi) = (before, s);
+                let (mut lo, mut hi) = (before, share);
                 for _ in 0..MARCH_HALVINGS {
                     let mid = 0.5 * (lo + hi);
-                    if behind(mid) {
+                    if behind(distance(mid)) {
                         hi = mid;
                     } else {
                         lo = mid;
                     }
                 }
-                return Some(to_camera(self.p, ground + hi * dir));
+                return Some(to_camera(self.p, ground + distance(hi) * dir));
             }
-            before = s;
-            s *= ratio;
+            before = share;
         }
         None
     }
