@@ -27,19 +27,59 @@ const EDGE_PX: f32 = 8.0;
 // The screen-space march along the mirrored ray's image: a step every MARCH_STRIDE_PX, at most
 // MARCH_MAX_STEPS, up to MARCH_FARTHEST of the way to the vanishing point, then halvings of the
 // step that passed behind the scene.
-const MARCH_STRIDE_PX: f32 = 1.5;
-const MARCH_MAX_STEPS: u32 = 128u;
+const MARCH_STRIDE_PX: f32 = 2.0;
+const MARCH_MAX_STEPS: u32 = 64u;
 const MARCH_FARTHEST: f32 = 0.999;
 const MARCH_HALVINGS: u32 = 6u;
 // A ray counts as behind the scene's surface only to this fraction of its depth (no farther:
 // it passed behind a thin object).
 const MARCH_THICKNESS: f32 = 0.25;
 
+// The rings that can reach the workgroup's pixels, one bit per ring in ring order (so every
+// pixel sums them in the same order whichever thread found them).
+var<workgroup> tile_rings: array<atomic<u32>, RING_WORDS>;
+
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) thread: u32) {
+    cull_rings(tile.xy, thread);
+    shade(id.xy);
+}
+
+// Marks in tile_rings the rings whose annulus R ± 4s meets the ground under the workgroup's
+// pixel centres (the bounding box of its four corner pixels' ground points; every ring where a
+// corner pixel looks at or above the horizon).
+fn cull_rings(tile: vec2<u32>, thread: u32) {
+    if thread < RING_WORDS { atomicStore(&tile_rings[thread], 0u); }
+    workgroupBarrier();
+    let h = rain.camera_pos_m.z;
+    let last = min(tile * PIXEL_WORKGROUP + vec2<u32>(PIXEL_WORKGROUP - 1u), textureDimensions(frame) - vec2<u32>(1u));
+    var bounded = h > 0.0;
+    var lo = vec2<f32>(3.4e38);
+    var hi = vec2<f32>(-3.4e38);
+    for (var k = 0u; k < 4u; k++) {
+        let corner = select(tile * PIXEL_WORKGROUP, last, vec2<bool>((k & 1u) == 1u, (k & 2u) == 2u));
+        let ray = view_ray(corner);
+        if ray.z >= 0.0 { bounded = false; }
+        let g = rain.camera_pos_m.xy + (h / -ray.z) * ray.xy;
+        lo = min(lo, g);
+        hi = max(hi, g);
+    }
+    for (var i = thread; i < puddle.ring_count; i += PIXEL_WORKGROUP * PIXEL_WORKGROUP) {
+        let ring = ripples[i];
+        let nearest = distance(clamp(ring.centre_m, lo, hi), ring.centre_m);
+        let farthest = length(max(abs(lo - ring.centre_m), abs(hi - ring.centre_m)));
+        let reach = 4.0 * ring.width_m;
+        if !bounded || (nearest <= ring.radius_m + reach && farthest >= ring.radius_m - reach) {
+            atomicOr(&tile_rings[i / 32u], 1u << (i % 32u));
+        }
+    }
+    workgroupBarrier();
+}
+
+fn shade(id: vec2<u32>) {
     let size = textureDimensions(frame);
     if id.x >= size.x || id.y >= size.y { return; }
-    let ray = view_ray(id.xy);
+    let ray = view_ray(id);
     let d = normalize(ray);
     let h = rain.camera_pos_m.z;
     if d.z >= 0.0 || h <= 0.0 { return; }
@@ -48,8 +88,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = rain.camera_pos_m + ground_z_m * ray;
     let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
     if cover <= 0.0 { return; }
-    let shown = ground_shown(scene_depth_m(vec2<f32>(id.xy) + vec2<f32>(0.5)), ground_z_m);
-    let c = textureLoad(frame, id.xy, 0).rgb;
+    let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
+    let c = textureLoad(frame, id, 0).rgb;
     let t = rain.haze.w;
     var in_scatter = vec3<f32>(0.0);
     if t < 1.0 {
@@ -66,7 +106,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let mirrored = d + 2.0 * cos_i * normal;
     let r = water_reflectance(n_w, cos_i);
     let change = (k - 1.0) * scene + r * reflected(p, mirrored);
-    textureStore(canvas, id.xy, vec4<f32>(c + cover * shown * t * change, 1.0));
+    textureStore(canvas, id, vec4<f32>(c + cover * shown * t * change, 1.0));
 }
 
 // Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
@@ -88,20 +128,26 @@ fn water_depth(xy: vec2<f32>) -> f32 {
     return sum;
 }
 
-// The gradient of the water's height at `xy`: every ring's radial slope dη/dr along r̂.
+// The gradient of the water's height at `xy`: the radial slope dη/dr along r̂ of every ring
+// the workgroup kept.
 fn ripple_slope(xy: vec2<f32>) -> vec2<f32> {
     var g = vec2<f32>(0.0);
-    for (var i = 0u; i < puddle.ring_count; i++) {
-        let ring = ripples[i];
-        let off = xy - ring.centre_m;
-        let r = length(off);
-        let u = r - ring.radius_m;
-        if abs(u) > 4.0 * ring.width_m || r < 1e-6 { continue; }
-        let s2 = ring.width_m * ring.width_m;
-        let envelope = exp(-0.5 * u * u / s2);
-        let carrier = ring.wavenumber * r - ring.phase;
-        let dr = ring.amplitude_m * envelope * (-u / s2 * cos(carrier) - ring.wavenumber * sin(carrier));
-        g += dr * off / r;
+    for (var word = 0u; word < RING_WORDS; word++) {
+        var bits = atomicLoad(&tile_rings[word]);
+        while bits != 0u {
+            let i = 32u * word + firstTrailingBit(bits);
+            bits &= bits - 1u;
+            let ring = ripples[i];
+            let off = xy - ring.centre_m;
+            let r = length(off);
+            let u = r - ring.radius_m;
+            if abs(u) > 4.0 * ring.width_m || r < 1e-6 { continue; }
+            let s2 = ring.width_m * ring.width_m;
+            let envelope = exp(-0.5 * u * u / s2);
+            let carrier = ring.wavenumber * r - ring.phase;
+            let dr = ring.amplitude_m * envelope * (-u / s2 * cos(carrier) - ring.wavenumber * sin(carrier));
+            g += dr * off / r;
+        }
     }
     return g;
 }

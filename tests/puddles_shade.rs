@@ -713,3 +713,87 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
     assert!((far.y - top_mirrored.y).abs() > 10.0, "the test tells depth apart");
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// Cost.
+
+/// The stage's cost at 720p: time per frame without water, with still water, with the newest
+/// 128 rings, and with the rings and a depth map (the march), on this adapter. Run with
+/// `cargo test --release --test puddles_shade -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn report_the_cost_at_720p() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (1280, 720);
+    let camera = Camera::new(w, h, 1.0, 1.6, f64::to_radians(-10.0), 0.0);
+    let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+    let frame = picture(
+        w,
+        h,
+        |x, y| if ray(x, y).z > 0.0 { 600 } else { (150 + (x * 7 + y * 3) % 200) as u16 },
+        grey,
+    );
+    // Half the ground under water: puddles 1 m across in a chequer to 40 m.
+    let (nx, ny) = (160, 160);
+    let water = Field2 {
+        nx,
+        ny,
+        origin_m: Vec2::new(-20.0, 0.0),
+        cell_m: 0.25,
+        values: (0..nx * ny)
+            .map(|k| if ((k % nx) / 4 + (k / nx) / 4) % 2 == 0 { 0.01 } else { 0.0 })
+            .collect(),
+    };
+    let impacts: Vec<Impact> = (0..400)
+        .map(|i| Impact {
+            id: i,
+            pass: 0,
+            time_s: 1.0 - i as f64 * 0.0035,
+            position_m: DVec3::new(
+                ((i * 37) % 100) as f64 * 0.1 - 5.0,
+                2.0 + ((i * 53) % 100) as f64 * 0.1,
+                0.0,
+            ),
+            diameter_mm: 2.0,
+            velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+        })
+        .collect();
+    let ground_depth: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let d = ray(x, y);
+            if d.z < 0.0 { (1.6 / -d.z * d.y) as f32 } else { f32::NAN }
+        })
+        .collect();
+    let map = DepthMap::from_values(w as usize, h as usize, &ground_depth, 1.0).expect("map");
+    let frames = 10;
+    eprintln!("| puddles at {w}×{h} | ms per frame | puddles stage, ms (GPU timestamps) |");
+    eprintln!("|---|---|---|");
+    for (label, with_water, rings, depth) in [
+        ("no water", false, false, false),
+        ("still water", true, false, false),
+        ("128 rings", true, true, false),
+        ("128 rings, depth map", true, true, true),
+    ] {
+        let s = setup(&camera, depth);
+        let p = lit(&s, 1.0, &uniform_sky(0.5), 1.0);
+        let mut comp =
+            Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("compositor");
+        if depth {
+            comp.set_scene_depth(&map).expect("depth");
+        }
+        if with_water {
+            comp.set_water(&water).expect("water");
+            comp.set_ripples(if rings { &impacts } else { &[] }).expect("rings");
+        }
+        comp.render_one(&frame, &p).expect("warm-up");
+        let before = comp.gpu_times().puddles_s;
+        let start = std::time::Instant::now();
+        for _ in 0..frames {
+            comp.render_one(&frame, &p).expect("render");
+        }
+        let per_frame_ms = start.elapsed().as_secs_f64() * 1e3 / frames as f64;
+        let stage_ms = (comp.gpu_times().puddles_s - before) * 1e3 / frames as f64;
+        eprintln!("| {label} | {per_frame_ms:.1} | {stage_ms:.1} |");
+    }
+}

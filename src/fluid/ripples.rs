@@ -1,9 +1,8 @@
 //! Ripples on standing water: each raindrop landing on a puddle starts a ring of
 //! capillary–gravity waves (docs/method.md, "Puddles: shading").
 //!
-//! Linear waves on deep water obey ω² = g k + (σ/ρ) k³ (the depth enters as tanh(k h), which is
-//! above 0.99 for the millimetre-to-centimetre waves of a drop once the water is 3 mm deep; it is
-//! left out). A ring is a narrow band of wavenumbers about the dominant k₀; by stationary phase
+//! Linear waves on deep water obey ω² = g k + (σ/ρ) k³ (the depth h enters as tanh(k h): for a
+//! 2 mm drop's 8 mm waves it is 0.98 at h = 3 mm and 0.999 from 5 mm, so it is left out). A ring is a narrow band of wavenumbers about the dominant k₀; by stationary phase
 //! its envelope travels at the group velocity c_g = dω/dk at k₀ while its crests run through it
 //! at the phase velocity ω/k, and it widens as the band disperses (ω″ ≠ 0). Each ring is thus
 //! one Gaussian wave packet in the distance r from the impact:

@@ -92,6 +92,10 @@ pub fn constants() -> String {
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+        (
+            "RING_WORDS",
+            crate::fluid::ripples::MAX_RINGS.div_ceil(32) as u32,
+        ),
         ("MATTE_WIDTH", crate::drops::atlas::ATLAS_WIDTH as u32),
         ("MATTE_HEIGHT", crate::drops::atlas::ATLAS_HEIGHT as u32),
         (

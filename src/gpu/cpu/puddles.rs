@@ -18,9 +18,9 @@ use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
 /// The reflection fades from the frame to the environment over this many pixels at its border.
 pub const EDGE_PX: f64 = 8.0;
 /// The march along the mirrored ray's image: a step every this many pixels.
-pub const MARCH_STRIDE_PX: f64 = 1.5;
+pub const MARCH_STRIDE_PX: f64 = 2.0;
 /// Most steps of the march.
-pub const MARCH_MAX_STEPS: usize = 128;
+pub const MARCH_MAX_STEPS: usize = 64;
 /// The march ends this share of the way to the ray's vanishing point.
 pub const MARCH_FARTHEST: f64 = 0.999;
 /// Halvings of the step that passed behind the scene.
