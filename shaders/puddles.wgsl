@@ -161,20 +161,20 @@ fn project(q: vec3<f32>) -> vec2<f32> {
 
 // The radiance the water at ground point `p` mirrors along unit direction `dir`.
 fn reflected(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let env = environment(p, dir);
     // Without a hit: the picture towards the direction itself (its vanishing point).
     var q = camera_dir(dir);
     let hit = march(p, dir);
     if hit.w > 0.0 {
         q = hit.xyz;
     }
-    if q.z <= 1e-6 { return env; }
+    if q.z <= 1e-6 { return environment(p, dir); }
     let at = project(q);
     let size = vec2<f32>(textureDimensions(frame));
     let inside = min(min(at.x, at.y), min(size.x - at.x, size.y - at.y));
     let w = smoothstep(0.0, EDGE_PX, inside);
-    if w <= 0.0 { return env; }
-    return mix(env, sample_frame(at), w);
+    if w <= 0.0 { return environment(p, dir); }
+    if w >= 1.0 { return sample_frame(at); }
+    return mix(environment(p, dir), sample_frame(at), w);
 }
 
 // Where the mirrored ray from `p` along `dir` first passes behind the filmed scene (camera

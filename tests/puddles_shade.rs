@@ -440,7 +440,11 @@ fn without_water_the_frame_is_untouched() {
         },
     ));
     assert_eq!(none, dry, "a dry map changes nothing");
-    assert_eq!(none, codes(&frame), "no water, no rain: the frame comes back");
+    assert_eq!(
+        none,
+        codes(&frame),
+        "no water, no rain: the frame comes back"
+    );
     // A map that does not add up is refused, and a layer takes no water.
     let mut comp = Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("comp");
     let broken = Field2 {
@@ -482,7 +486,12 @@ fn fresnel_render(ctx: &Arc<GpuContext>, camera: &Camera, frame_sky: u16) -> (u1
     let color = ColorParams::bt709(10);
     let sky = color.code_to_linear([frame_sky as f64, 512.0, 512.0])[1];
     let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
-    let frame = picture(w, h, |x, y| if ray(x, y).z > 0.0 { frame_sky } else { 64 }, grey);
+    let frame = picture(
+        w,
+        h,
+        |x, y| if ray(x, y).z > 0.0 { frame_sky } else { 64 },
+        grey,
+    );
     let s = setup(camera, false);
     let p = lit(&s, 0.0, &uniform_sky(sky), 1.0);
     let water = lake(0.05, 500.0);
@@ -603,7 +612,10 @@ fn a_bright_object_in_the_sky_shows_at_its_mirrored_position() {
                 at += excess * DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
             }
         }
-        assert!(sum > 100.0, "tilt {tilt_deg}°: no image in the water ({sum})");
+        assert!(
+            sum > 100.0,
+            "tilt {tilt_deg}°: no image in the water ({sum})"
+        );
         let found = at / sum;
         // Far away, the object's mirror image lies along its direction mirrored in the ground.
         let u = camera.ray_world(object);
@@ -701,7 +713,11 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
         .project_world(DVec3::new(pole_x, pole_y, -pole_h))
         .expect("in front");
     // At a distance (no depth) it would end at the mirror of its top's direction instead.
-    let u = camera.ray_world(camera.project_world(DVec3::new(pole_x, pole_y, pole_h)).expect("top"));
+    let u = camera.ray_world(
+        camera
+            .project_world(DVec3::new(pole_x, pole_y, pole_h))
+            .expect("top"),
+    );
     let far = camera
         .project_world(camera.position_m + DVec3::new(u.x, u.y, -u.z))
         .expect("in front");
@@ -710,9 +726,11 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
         top_mirrored.y, far.y
     );
     assert!((edge - top_mirrored.y).abs() < 2.0);
-    assert!((far.y - top_mirrored.y).abs() > 10.0, "the test tells depth apart");
+    assert!(
+        (far.y - top_mirrored.y).abs() > 10.0,
+        "the test tells depth apart"
+    );
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // Cost.
@@ -730,7 +748,13 @@ fn report_the_cost_at_720p() {
     let frame = picture(
         w,
         h,
-        |x, y| if ray(x, y).z > 0.0 { 600 } else { (150 + (x * 7 + y * 3) % 200) as u16 },
+        |x, y| {
+            if ray(x, y).z > 0.0 {
+                600
+            } else {
+                (150 + (x * 7 + y * 3) % 200) as u16
+            }
+        },
         grey,
     );
     // Half the ground under water: puddles 1 m across in a chequer to 40 m.
@@ -741,7 +765,13 @@ fn report_the_cost_at_720p() {
         origin_m: Vec2::new(-20.0, 0.0),
         cell_m: 0.25,
         values: (0..nx * ny)
-            .map(|k| if ((k % nx) / 4 + (k / nx) / 4) % 2 == 0 { 0.01 } else { 0.0 })
+            .map(|k| {
+                if ((k % nx) / 4 + (k / nx) / 4) % 2 == 0 {
+                    0.01
+                } else {
+                    0.0
+                }
+            })
             .collect(),
     };
     let impacts: Vec<Impact> = (0..400)
@@ -762,7 +792,11 @@ fn report_the_cost_at_720p() {
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
             let d = ray(x, y);
-            if d.z < 0.0 { (1.6 / -d.z * d.y) as f32 } else { f32::NAN }
+            if d.z < 0.0 {
+                (1.6 / -d.z * d.y) as f32
+            } else {
+                f32::NAN
+            }
         })
         .collect();
     let map = DepthMap::from_values(w as usize, h as usize, &ground_depth, 1.0).expect("map");
@@ -784,7 +818,8 @@ fn report_the_cost_at_720p() {
         }
         if with_water {
             comp.set_water(&water).expect("water");
-            comp.set_ripples(if rings { &impacts } else { &[] }).expect("rings");
+            comp.set_ripples(if rings { &impacts } else { &[] })
+                .expect("rings");
         }
         comp.render_one(&frame, &p).expect("warm-up");
         let before = comp.gpu_times().puddles_s;

@@ -170,7 +170,10 @@ mod tests {
             let fd = (angular_frequency(k + h) - angular_frequency(k - h)) / (2.0 * h);
             let fd2 = (group_velocity(k + h) - group_velocity(k - h)) / (2.0 * h);
             assert!((group_velocity(k) - fd).abs() < 1e-6 * fd.abs(), "{k}");
-            assert!((group_velocity_dispersion(k) - fd2).abs() < 1e-5 * fd2.abs(), "{k}");
+            assert!(
+                (group_velocity_dispersion(k) - fd2).abs() < 1e-5 * fd2.abs(),
+                "{k}"
+            );
         }
     }
 }

@@ -1,7 +1,7 @@
 //! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
-//! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_splashes`
-//! with a ground, `rain_streaks`, `rgb_to_yuv` luma then chroma; each an object in
-//! [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers, the
+//! `wet_ground` where a given ground is wet, `puddles` once water is set, `rain_simulate` once
+//! per drop, `rain_splashes` with a ground, `rain_streaks`, `rgb_to_yuv` luma then chroma;
+//! each an object in [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers, the
 //! order and the ring; each stage's timestamp slot is its place in the order.
 //!
 //! ## How it works

@@ -105,9 +105,8 @@ pub fn puddles(
         if cover <= 0.0 {
             continue;
         }
-        let scene_m = depth.and_then(|map| {
-            scene_depth(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
-        });
+        let scene_m =
+            depth.and_then(|map| scene_depth(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
         let shown = ground_shown(scene_m, ground_z_m);
         let in_scatter = if transmittance < 1.0 {
             prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
@@ -234,7 +233,11 @@ impl Mirror<'_> {
         for i in 1..=steps {
             let share = MARCH_FARTHEST * i as f64 / steps as f64;
             let s = distance(share);
-            if self.frame.inside(project(self.p, to_camera(self.p, ground + s * dir))) <= 0.0 {
+            if self
+                .frame
+                .inside(project(self.p, to_camera(self.p, ground + s * dir)))
+                <= 0.0
+            {
                 return None;
             }
             if behind(s) {
