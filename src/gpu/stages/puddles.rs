@@ -79,7 +79,7 @@ impl Puddles {
                 depth.values.len()
             )));
         }
-        if !(depth.cell_m > 0.0 && depth.cell_m.is_finite()) || !depth.origin_m.is_finite() {
+        if !(depth.cell_m > 0.0 && depth.cell_m.is_finite() && depth.origin_m.is_finite()) {
             return Err(Error::Unsupported(format!(
                 "a water map with cells of {} m at {}",
                 depth.cell_m, depth.origin_m
