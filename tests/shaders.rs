@@ -4,7 +4,8 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{
-    Column, DirectLight, FrameParams, Glint, LightList, MatteParams, RainParams, Streak, WetParams,
+    Column, DirectLight, FrameParams, Glint, LightList, MatteParams, PuddleParams, RainParams,
+    Ripple, Streak, WetParams,
 };
 
 fn module(stage: Stage) -> naga::Module {
@@ -66,6 +67,40 @@ fn wet_params_twin_matches_wgsl_layout() {
             _pad0,
             _pad1,
             _pad2
+        ]
+    );
+}
+
+#[test]
+fn puddle_twins_match_wgsl_layout() {
+    let m = module(Stage::Puddles);
+    assert_twin!(
+        m,
+        PuddleParams,
+        [
+            origin_m,
+            cell_m,
+            edge_depth_m,
+            cells,
+            ring_count,
+            _pad,
+            water_index,
+            diffuse_external,
+            diffuse_internal,
+            light_lobe
+        ]
+    );
+    assert_twin!(
+        m,
+        Ripple,
+        [
+            centre_m,
+            radius_m,
+            width_m,
+            amplitude_m,
+            wavenumber,
+            phase,
+            _pad
         ]
     );
 }

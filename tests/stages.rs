@@ -316,6 +316,8 @@ fn every_stage_matches_its_cpu_twin() {
                 }
                 // Needs a ground and a wetting: tests/wet_ground.rs holds it to its twin.
                 Stage::WetGround => {}
+                // Needs water on the ground: tests/puddles_shade.rs holds it to its twin.
+                Stage::Puddles => {}
                 // Rasterisation and premultiplied blending of the streaks.
                 // The splashes of the drops that land, the ground given (geometry and
                 // coverage; their light is the drops' own, checked above).

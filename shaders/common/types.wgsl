@@ -139,3 +139,29 @@ struct MatteParams {
     lights: array<vec4<f32>, MAX_MATTE_LIGHTS>, // xyz: the point-light mattes' directions, the Glint frame
     light_count: vec4<u32>,         // x: point-light directions (0: none), y: first light layer
 }
+
+// The puddles' water map and look for one frame (src/gpu/stages/puddles.rs; stage puddles).
+struct PuddleParams {
+    origin_m: vec2<f32>,    // corner of the water map's cell (0, 0) on the ground, world x, y
+    cell_m: f32,            // its cell edge
+    edge_depth_m: f32,      // water covers the ground smoothly from depth 0 to this
+    cells: vec2<u32>,       // cells along x, y (row-major, x fastest)
+    ring_count: u32,        // live entries of `ripples`
+    _pad: u32,
+    water_index: f32,
+    diffuse_external: f32,  // Lekner & Dorf's diffuse reflectances (see WetParams)
+    diffuse_internal: f32,
+    light_lobe: f32,        // concentration κ of a compact light's mirror image (rad⁻²)
+}
+
+// One ripple ring at the frame's time (src/fluid/ripples.rs, RingState): a Gaussian wave packet
+// in the distance r from its centre, η = a·exp(−(r − R)²/(2s²))·cos(k r − φ).
+struct Ripple {
+    centre_m: vec2<f32>,    // point of impact, world x, y
+    radius_m: f32,          // R: the envelope's peak
+    width_m: f32,           // s
+    amplitude_m: f32,       // a
+    wavenumber: f32,        // k, rad/m
+    phase: f32,             // φ = ω t modulo 2π
+    _pad: f32,
+}

@@ -35,6 +35,7 @@ pub mod grid;
 pub mod kernels;
 pub mod particles;
 pub mod puddles;
+pub mod ripples;
 pub mod scenes;
 pub mod settings;
 pub mod sources;

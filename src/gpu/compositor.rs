@@ -1,7 +1,7 @@
 //! One frame's GPU journey: upload planes → the stages in order (`yuv_to_rgb` with the haze,
-//! `wet_ground` where a given ground is wet, `rain_simulate` once per drop, `rain_splashes`
-//! with a ground, `rain_streaks`, `rgb_to_yuv` luma then chroma; each an object in
-//! [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers, the
+//! `wet_ground` where a given ground is wet, `puddles` once water is set, `rain_simulate` once
+//! per drop, `rain_splashes` with a ground, `rain_streaks`, `rgb_to_yuv` luma then chroma;
+//! each an object in [`super::stages`]) → copy into a readback ring. The compositor owns the shared buffers, the
 //! order and the ring; each stage's timestamp slot is its place in the order.
 //!
 //! ## How it works
@@ -23,7 +23,7 @@ use wgpu::util::DeviceExt;
 use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
-    FrameResources, FrameStage, TimestampSlot, rain_simulate::RainSimulate,
+    FrameResources, FrameStage, TimestampSlot, puddles::Puddles, rain_simulate::RainSimulate,
     rain_splashes::RainSplashes, rain_streaks::RainStreaks, rgb_to_yuv::RgbToYuv,
     rgba_out::RgbaOut, wet_ground::WetGround, yuv_to_rgb::YuvToRgb,
 };
@@ -53,6 +53,8 @@ pub struct GpuStageTimes {
     pub rgba_out_s: f64,
     /// The wet ground (zero without one).
     pub wet_ground_s: f64,
+    /// The puddles (zero without water).
+    pub puddles_s: f64,
 }
 
 impl GpuStageTimes {
@@ -66,6 +68,7 @@ impl GpuStageTimes {
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
             "rgba_out" => &mut self.rgba_out_s,
             "wet_ground" => &mut self.wet_ground_s,
+            "puddles" => &mut self.puddles_s,
             _ => return,
         };
         *field += seconds;
@@ -301,6 +304,7 @@ impl Compositor {
         let stages: Vec<Box<dyn FrameStage>> = vec![
             Box::new(start),
             Box::new(WetGround::new(device, &resources, wetting, layer.is_some())),
+            Box::new(Puddles::new(device, &resources, layer.is_none())),
             Box::new(RainSimulate::new(device, &resources)),
             Box::new(RainSplashes::new(device, &resources, rain)),
             Box::new(RainStreaks::new(device, &resources, rain.mattes.as_deref())),
@@ -396,6 +400,30 @@ impl Compositor {
         self.ctx
             .queue
             .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
+        Ok(())
+    }
+
+    /// The puddles stage.
+    fn puddles(&mut self) -> Result<&mut Puddles> {
+        self.stages
+            .iter_mut()
+            .find_map(|s| (s.as_mut() as &mut dyn std::any::Any).downcast_mut::<Puddles>())
+            .ok_or_else(|| Error::Gpu("no puddles stage".into()))
+    }
+
+    /// Sets the water depth on the ground (m per cell, world x, y on z = 0; see
+    /// `fluid::Carpet::water_depth`) for the frames submitted from now on: from the first call
+    /// the puddles stage is in the frame. Without it, frames are as without puddles, bit for bit.
+    pub fn set_water(&mut self, depth: &crate::fluid::Field2) -> Result<()> {
+        let queue = self.ctx.queue.clone();
+        self.puddles()?.set_water(&queue, depth)
+    }
+
+    /// Sets the drops that landed on water (`rain::volume::impacts`) whose ripple rings the
+    /// frames submitted from now on show: those alive at each frame's time, the newest
+    /// `fluid::ripples::MAX_RINGS`.
+    pub fn set_ripples(&mut self, impacts: &[crate::rain::volume::impacts::Impact]) -> Result<()> {
+        self.puddles()?.set_ripples(impacts);
         Ok(())
     }
 

@@ -29,10 +29,12 @@ pub enum Stage {
     RgbaOut,
     /// The ground below the horizon wetted on the canvas.
     WetGround,
+    /// Puddles on the ground: water, ripples and the frame mirrored in them.
+    Puddles,
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 10] = [
+const COMMON: [(&str, &str); 11] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -73,6 +75,10 @@ const COMMON: [(&str, &str); 10] = [
         "common/plate.wgsl",
         include_str!("../../shaders/common/plate.wgsl"),
     ),
+    (
+        "common/water.wgsl",
+        include_str!("../../shaders/common/water.wgsl"),
+    ),
 ];
 
 /// The `const` lines every stage starts with: sizes and workgroup sizes defined in Rust.
@@ -90,6 +96,10 @@ pub fn constants() -> String {
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+        (
+            "RING_WORDS",
+            crate::fluid::ripples::MAX_RINGS.div_ceil(32) as u32,
+        ),
         ("MATTE_WIDTH", crate::drops::atlas::ATLAS_WIDTH as u32),
         ("MATTE_HEIGHT", crate::drops::atlas::ATLAS_HEIGHT as u32),
         (
@@ -179,7 +189,7 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 9] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
         Stage::RainSplashes,
@@ -188,6 +198,7 @@ impl Stage {
         Stage::RainProbe,
         Stage::RgbaOut,
         Stage::WetGround,
+        Stage::Puddles,
     ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
@@ -201,6 +212,7 @@ impl Stage {
             Stage::RainProbe => "rain_probe",
             Stage::RgbaOut => "rgba_out",
             Stage::WetGround => "wet_ground",
+            Stage::Puddles => "puddles",
         }
     }
 
@@ -215,6 +227,7 @@ impl Stage {
             Stage::RainProbe => include_str!("../../shaders/rain_probe.wgsl"),
             Stage::RgbaOut => include_str!("../../shaders/rgba_out.wgsl"),
             Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),
+            Stage::Puddles => include_str!("../../shaders/puddles.wgsl"),
         }
     }
 

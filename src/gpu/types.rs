@@ -338,3 +338,56 @@ impl MatteParams {
         }
     }
 }
+
+/// WGSL `PuddleParams`: the puddles' water map and look for one frame (stage `puddles`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct PuddleParams {
+    /// Corner of the water map's cell (0, 0) on the ground, m.
+    pub origin_m: [f32; 2],
+    pub cell_m: f32,
+    /// Water covers the ground smoothly as its depth rises from 0 to this, m.
+    pub edge_depth_m: f32,
+    pub cells: [u32; 2],
+    /// Live entries of the ripple buffer.
+    pub ring_count: u32,
+    pub _pad: u32,
+    pub water_index: f32,
+    pub diffuse_external: f32,
+    pub diffuse_internal: f32,
+    /// Concentration κ of a compact light's mirror image (a von Mises–Fisher lobe), rad⁻².
+    pub light_lobe: f32,
+}
+
+/// WGSL `Ripple`: one ring at the frame's time ([`crate::fluid::ripples::RingState`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+#[allow(missing_docs)]
+pub struct Ripple {
+    pub centre_m: [f32; 2],
+    pub radius_m: f32,
+    pub width_m: f32,
+    pub amplitude_m: f32,
+    /// rad/m.
+    pub wavenumber: f32,
+    /// ω t modulo 2π, rad.
+    pub phase: f32,
+    pub _pad: f32,
+}
+
+impl Ripple {
+    /// The ring `ring` at time `t_s`, or `None` where it is not alive then.
+    pub fn new(ring: &crate::fluid::ripples::Ring, t_s: f64) -> Option<Ripple> {
+        let s = ring.at(t_s)?;
+        Some(Ripple {
+            centre_m: [ring.centre_m.x as f32, ring.centre_m.y as f32],
+            radius_m: s.radius_m as f32,
+            width_m: s.width_m as f32,
+            amplitude_m: s.amplitude_m as f32,
+            wavenumber: ring.wavenumber as f32,
+            phase: s.phase as f32,
+            _pad: 0.0,
+        })
+    }
+}

@@ -5,6 +5,7 @@
 //! Adding a stage: a WGSL file (declaring its `// Includes:`), its [`Stage`] name, a file here
 //! implementing [`FrameStage`], and one line in `Compositor::new`'s stage list.
 
+pub mod puddles;
 pub mod rain_probe;
 pub mod rain_simulate;
 pub mod rain_splashes;
@@ -80,8 +81,8 @@ impl<'a> TimestampSlot<'a> {
     }
 }
 
-/// One stage of a frame.
-pub trait FrameStage {
+/// One stage of a frame (`Any`, so the compositor can reach a stage's own setters).
+pub trait FrameStage: std::any::Any {
     /// The stage's name (its WGSL file, pipeline label and timing key).
     fn name(&self) -> &'static str;
     /// Whether the stage has work this job (a rain stage without drops has none).

@@ -1,0 +1,276 @@
+// Stage puddles: standing water on the ground, shaded into the picture (docs/method.md,
+// "Puddles: shading"; CPU twin src/gpu/cpu/puddles.rs). A pixel whose view ray meets the ground
+// z = 0 at P takes the water depth there from the map (bilinear; the water covers the ground
+// smoothly as the depth rises from 0 to edge_depth_m). The water's normal is the flat normal
+// tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
+// the ground under it darkened by Lekner & Dorf's k (as the wet ground), plus the exact
+// unpolarised Fresnel reflectance R of the rippled surface times the radiance L_r along the
+// mirrored ray. L_r is the frame itself where the mirrored ray's image lies in it: with a depth
+// map the ray is marched in screen space until it passes behind the filmed scene; without one
+// (or where it passes nothing) it is the picture towards its direction (content at a distance,
+// exact for the sky). Where the image leaves the frame L_r is the SH environment plus the
+// compact lights, blended over the last EDGE_PX pixels.
+// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl, common/depth.wgsl,
+// common/water.wgsl.
+
+@group(0) @binding(0) var<uniform> rain: RainParams;
+@group(0) @binding(1) var<uniform> puddle: PuddleParams;
+@group(0) @binding(2) var frame: texture_2d<f32>;
+@group(0) @binding(3) var canvas: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(4) var<storage, read> scene_depth: array<f32>;
+@group(0) @binding(5) var<storage, read> water_depth_m: array<f32>;
+@group(0) @binding(6) var<storage, read> ripples: array<Ripple>;
+@group(0) @binding(7) var<uniform> lights: LightList;
+
+// The reflection fades from the frame to the environment over this many pixels at its border.
+const EDGE_PX: f32 = 8.0;
+// The screen-space march along the mirrored ray's image: a step every MARCH_STRIDE_PX, at most
+// MARCH_MAX_STEPS, up to MARCH_FARTHEST of the way to the vanishing point, then halvings of the
+// step that passed behind the scene.
+const MARCH_STRIDE_PX: f32 = 2.0;
+const MARCH_MAX_STEPS: u32 = 64u;
+const MARCH_FARTHEST: f32 = 0.999;
+const MARCH_HALVINGS: u32 = 6u;
+// A ray counts as behind the scene's surface only to this fraction of its depth (no farther:
+// it passed behind a thin object).
+const MARCH_THICKNESS: f32 = 0.25;
+
+// The rings that can reach the workgroup's pixels, one bit per ring in ring order (so every
+// pixel sums them in the same order whichever thread found them).
+var<workgroup> tile_rings: array<atomic<u32>, RING_WORDS>;
+
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) thread: u32) {
+    cull_rings(tile.xy, thread);
+    shade(id.xy);
+}
+
+// Marks in tile_rings the rings whose annulus R ± 4s meets the ground under the workgroup's
+// pixel centres (the bounding box of its four corner pixels' ground points; every ring where a
+// corner pixel looks at or above the horizon).
+fn cull_rings(tile: vec2<u32>, thread: u32) {
+    if thread < RING_WORDS { atomicStore(&tile_rings[thread], 0u); }
+    workgroupBarrier();
+    let h = rain.camera_pos_m.z;
+    let last = min(tile * PIXEL_WORKGROUP + vec2<u32>(PIXEL_WORKGROUP - 1u), textureDimensions(frame) - vec2<u32>(1u));
+    var bounded = h > 0.0;
+    var lo = vec2<f32>(3.4e38);
+    var hi = vec2<f32>(-3.4e38);
+    for (var k = 0u; k < 4u; k++) {
+        let corner = select(tile * PIXEL_WORKGROUP, last, vec2<bool>((k & 1u) == 1u, (k & 2u) == 2u));
+        let ray = view_ray(corner);
+        if ray.z >= 0.0 { bounded = false; }
+        let g = rain.camera_pos_m.xy + (h / -ray.z) * ray.xy;
+        lo = min(lo, g);
+        hi = max(hi, g);
+    }
+    for (var i = thread; i < puddle.ring_count; i += PIXEL_WORKGROUP * PIXEL_WORKGROUP) {
+        let ring = ripples[i];
+        let nearest = distance(clamp(ring.centre_m, lo, hi), ring.centre_m);
+        let farthest = length(max(abs(lo - ring.centre_m), abs(hi - ring.centre_m)));
+        let reach = 4.0 * ring.width_m;
+        if !bounded || (nearest <= ring.radius_m + reach && farthest >= ring.radius_m - reach) {
+            atomicOr(&tile_rings[i / 32u], 1u << (i % 32u));
+        }
+    }
+    workgroupBarrier();
+}
+
+fn shade(id: vec2<u32>) {
+    let size = textureDimensions(frame);
+    if id.x >= size.x || id.y >= size.y { return; }
+    let ray = view_ray(id);
+    let d = normalize(ray);
+    let h = rain.camera_pos_m.z;
+    if d.z >= 0.0 || h <= 0.0 { return; }
+    // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
+    let ground_z_m = h / -ray.z;
+    let p = rain.camera_pos_m + ground_z_m * ray;
+    let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
+    if cover <= 0.0 { return; }
+    let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
+    let c = textureLoad(frame, id, 0).rgb;
+    let t = rain.haze.w;
+    var in_scatter = vec3<f32>(0.0);
+    if t < 1.0 {
+        in_scatter = (1.0 - t) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
+    }
+    let scene = max(c - in_scatter, vec3<f32>(0.0)) / max(t, 1e-6);
+    let e = irradiance_up(rain.env_sh);
+    let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
+    let n_w = puddle.water_index;
+    let k = (1.0 - water_reflectance(n_w, -d.z)) * (1.0 - puddle.diffuse_external) / (n_w * n_w * (1.0 - albedo * puddle.diffuse_internal));
+    let slope = ripple_slope(p.xy);
+    let normal = normalize(vec3<f32>(-slope, 1.0));
+    let cos_i = max(-dot(d, normal), 0.0);
+    let mirrored = d + 2.0 * cos_i * normal;
+    let r = water_reflectance(n_w, cos_i);
+    let change = (k - 1.0) * scene + r * reflected(p, mirrored);
+    textureStore(canvas, id, vec4<f32>(c + cover * shown * t * change, 1.0));
+}
+
+// Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
+fn water_depth(xy: vec2<f32>) -> f32 {
+    let n = vec2<i32>(puddle.cells);
+    let u = (xy - puddle.origin_m) / puddle.cell_m - vec2<f32>(0.5);
+    let i0 = vec2<i32>(floor(u));
+    let f = u - floor(u);
+    var sum = 0.0;
+    for (var j = 0; j < 2; j++) {
+        for (var i = 0; i < 2; i++) {
+            let c = i0 + vec2<i32>(i, j);
+            if all(c >= vec2<i32>(0)) && all(c < n) {
+                let w = select(1.0 - f.x, f.x, i == 1) * select(1.0 - f.y, f.y, j == 1);
+                sum += w * water_depth_m[c.y * n.x + c.x];
+            }
+        }
+    }
+    return sum;
+}
+
+// The gradient of the water's height at `xy`: the radial slope dη/dr along r̂ of every ring
+// the workgroup kept.
+fn ripple_slope(xy: vec2<f32>) -> vec2<f32> {
+    var g = vec2<f32>(0.0);
+    for (var word = 0u; word < RING_WORDS; word++) {
+        var bits = atomicLoad(&tile_rings[word]);
+        while bits != 0u {
+            let i = 32u * word + firstTrailingBit(bits);
+            bits &= bits - 1u;
+            let ring = ripples[i];
+            let off = xy - ring.centre_m;
+            let r = length(off);
+            let u = r - ring.radius_m;
+            if abs(u) > 4.0 * ring.width_m || r < 1e-6 { continue; }
+            let s2 = ring.width_m * ring.width_m;
+            let envelope = exp(-0.5 * u * u / s2);
+            let carrier = ring.wavenumber * r - ring.phase;
+            let dr = ring.amplitude_m * envelope * (-u / s2 * cos(carrier) - ring.wavenumber * sin(carrier));
+            g += dr * off / r;
+        }
+    }
+    return g;
+}
+
+// Coded pixel position (px, continuous) of camera-space point `q` (q.z > 0).
+fn project(q: vec3<f32>) -> vec2<f32> {
+    let s = rain.principal_px + rain.focal_px * q.xy / q.z;
+    let m = rain.coded_from_display;
+    return vec2<f32>(m.x * s.x + m.z * s.y, m.y * s.x + m.w * s.y) + rain.coded_offset_px;
+}
+
+// The radiance the water at ground point `p` mirrors along unit direction `dir`.
+fn reflected(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    // Without a hit: the picture towards the direction itself (its vanishing point).
+    var q = camera_dir(dir);
+    let hit = march(p, dir);
+    if hit.w > 0.0 {
+        q = hit.xyz;
+    }
+    if q.z <= 1e-6 { return environment(p, dir); }
+    let at = project(q);
+    let size = vec2<f32>(textureDimensions(frame));
+    let inside = min(min(at.x, at.y), min(size.x - at.x, size.y - at.y));
+    let w = smoothstep(0.0, EDGE_PX, inside);
+    if w <= 0.0 { return environment(p, dir); }
+    if w >= 1.0 { return sample_frame(at); }
+    return mix(environment(p, dir), sample_frame(at), w);
+}
+
+// Where the mirrored ray from `p` along `dir` first passes behind the filmed scene (camera
+// space, w = 1), or w = 0: no depth map, or nothing met in the frame. The ray's image runs from
+// p's pixel to its vanishing point; it is walked in even steps along that image (a point at
+// share λ of the way lies at distance s = λ·z_p / ((1 − λ)·dir_z) along the ray, dir_z its
+// camera depth per metre), so no step skips an object's edge by more than MARCH_STRIDE_PX.
+fn march(p: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
+    let size = vec2<u32>(rain.display_size_px);
+    if arrayLength(&scene_depth) < size.x * size.y { return vec4<f32>(0.0); }
+    let q_p = to_camera(p);
+    let q_dir = camera_dir(dir);
+    if q_dir.z <= 1e-6 { return vec4<f32>(0.0); }
+    let image_px = length(project(q_dir) - project(q_p));
+    let steps = u32(clamp(ceil(image_px / MARCH_STRIDE_PX), 1.0, f32(MARCH_MAX_STEPS)));
+    var before = 0.0;
+    for (var i = 1u; i <= steps; i++) {
+        let share = MARCH_FARTHEST * f32(i) / f32(steps);
+        let q = q_p + march_distance(q_p.z, q_dir.z, share) * q_dir;
+        if !in_frame(project(q)) { return vec4<f32>(0.0); }
+        if behind(q) {
+            var lo = before;
+            var hi = share;
+            for (var j = 0u; j < MARCH_HALVINGS; j++) {
+                let mid = 0.5 * (lo + hi);
+                if behind(q_p + march_distance(q_p.z, q_dir.z, mid) * q_dir) { hi = mid; } else { lo = mid; }
+            }
+            return vec4<f32>(q_p + march_distance(q_p.z, q_dir.z, hi) * q_dir, 1.0);
+        }
+        before = share;
+    }
+    return vec4<f32>(0.0);
+}
+
+// Distance along the ray at share `share` of its image (see march).
+fn march_distance(z_p: f32, dir_z: f32, share: f32) -> f32 {
+    return share * z_p / ((1.0 - share) * dir_z);
+}
+
+// World direction `dir` in the camera's frame.
+fn camera_dir(dir: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(rain.camera_from_world_0.xyz, dir), dot(rain.camera_from_world_1.xyz, dir), dot(rain.camera_from_world_2.xyz, dir));
+}
+
+fn in_frame(at: vec2<f32>) -> bool {
+    let size = vec2<f32>(textureDimensions(frame));
+    return all(at >= vec2<f32>(0.0)) && all(at < size);
+}
+
+// Whether camera-space point `q` lies behind the scene's surface at its pixel (but not far),
+// where that surface stands on the ground: nearer than the ground plane along the pixel's ray
+// (the 90 % of ground_shown), or above the horizon. The mirrored ray runs above the plane, so
+// the plane itself is never met (its depths, quantised per pixel, would otherwise be).
+fn behind(q: vec3<f32>) -> bool {
+    if q.z <= 0.0 { return false; }
+    let at = project(q);
+    let z = scene_depth_m(at);
+    if z <= 0.0 || q.z < z || q.z > z * (1.0 + MARCH_THICKNESS) { return false; }
+    let ray = view_ray(vec2<u32>(max(floor(at), vec2<f32>(0.0))));
+    return ray.z >= 0.0 || z < 0.9 * rain.camera_pos_m.z / -ray.z;
+}
+
+// The frame at coded position `at` (px), bilinear between pixel centres, clamped at the border.
+fn sample_frame(at: vec2<f32>) -> vec3<f32> {
+    let hi = vec2<i32>(textureDimensions(frame)) - vec2<i32>(1);
+    let u = at - vec2<f32>(0.5);
+    let i0 = vec2<i32>(floor(u));
+    let f = u - floor(u);
+    let a = textureLoad(frame, clamp(i0, vec2<i32>(0), hi), 0).rgb;
+    let b = textureLoad(frame, clamp(i0 + vec2<i32>(1, 0), vec2<i32>(0), hi), 0).rgb;
+    let c = textureLoad(frame, clamp(i0 + vec2<i32>(0, 1), vec2<i32>(0), hi), 0).rgb;
+    let e = textureLoad(frame, clamp(i0 + vec2<i32>(1, 1), vec2<i32>(0), hi), 0).rgb;
+    return mix(mix(a, b, f.x), mix(c, e, f.x), f.y);
+}
+
+// What lies along `dir` from ground point `p` outside the frame: the SH environment, and each
+// compact light as a normalised lobe about its direction from `p` (von Mises–Fisher of
+// concentration light_lobe: the water's roughness), radiance × solid angle spread over it.
+fn environment(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    var c = max(sh_radiance(rain.env_sh, dir), vec3<f32>(0.0));
+    let kappa = puddle.light_lobe;
+    let from_camera = p - rain.camera_pos_m;
+    for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
+        let l = lights.lights[i];
+        var omega = l.direction_distance.xyz;
+        var scale = 1.0;
+        let dist = l.direction_distance.w;
+        if dist > 0.0 {
+            let to_light = omega * dist - from_camera;
+            let r = length(to_light);
+            if r > 0.0 { omega = to_light / r; }
+            let q = dist / max(r, l.strength.w);
+            scale = q * q;
+        }
+        let lobe = kappa / (2.0 * PI) * exp(kappa * (dot(omega, dir) - 1.0));
+        c += l.strength.rgb * scale * lobe;
+    }
+    return c;
+}

@@ -1,0 +1,179 @@
+//! Ripples on standing water: each raindrop landing on a puddle starts a ring of
+//! capillary–gravity waves (docs/method.md, "Puddles: shading").
+//!
+//! Linear waves on deep water obey ω² = g k + (σ/ρ) k³ (the depth h enters as tanh(k h): for a
+//! 2 mm drop's 8 mm waves it is 0.98 at h = 3 mm and 0.999 from 5 mm, so it is left out). A ring is a narrow band of wavenumbers about the dominant k₀; by stationary phase
+//! its envelope travels at the group velocity c_g = dω/dk at k₀ while its crests run through it
+//! at the phase velocity ω/k, and it widens as the band disperses (ω″ ≠ 0). Each ring is thus
+//! one Gaussian wave packet in the distance r from the impact:
+//!
+//! η(r, t) = a(t) · exp(−(r − R(t))² / (2 s(t)²)) · cos(k₀ r − ω₀ t),
+//!
+//! with R(t) = R₀ + c_g t, s(t) = s₀ √(1 + (ω″ t / s₀²)²) (a Gaussian packet's spreading), and
+//! a(t) falling as the ring's energy a² · s · R is conserved but for viscous decay: energy of
+//! a wave of wavenumber k decays as e^(−4 ν k² t), its amplitude as e^(−2 ν k² t) (Lamb, §348).
+//! The surface's slope, not its height, is what the picture shows: [`RingState::slope`].
+
+use glam::DVec2;
+
+use crate::drops::shape::{WATER_DENSITY_KG_PER_M3, WATER_SURFACE_TENSION_N_PER_M};
+use crate::rain::physics::G_MPS2;
+use crate::rain::volume::impacts::Impact;
+
+/// Kinematic viscosity of water at 20 °C, m²/s.
+pub const WATER_KINEMATIC_VISCOSITY_M2_PER_S: f64 = 1.004e-6;
+
+/// The dominant wavelength of a drop's ring over the drop's diameter. Rain rings are
+/// capillary waves a few crater sizes long: 4 D (8 mm for a 2 mm drop) is a look choice.
+pub const WAVELENGTH_PER_DIAMETER: f64 = 4.0;
+
+/// The first crest's height over the drop's diameter (a look choice: 0.1 mm for a 2 mm drop,
+/// a slope k₀a ≈ 0.08).
+pub const AMPLITUDE_PER_DIAMETER: f64 = 0.05;
+
+/// How long a ring is drawn, s: by then viscosity and spreading have flattened a 2 mm drop's
+/// ring to a slope below 0.01.
+pub const RING_LIFE_S: f64 = 1.5;
+
+/// Most rings drawn in one frame: the newest are kept (the stage's cost grows with the count).
+pub const MAX_RINGS: usize = 128;
+
+/// The angular frequency ω (rad/s) of capillary–gravity waves of wavenumber `k` (rad/m) on
+/// deep water.
+pub fn angular_frequency(k: f64) -> f64 {
+    (G_MPS2 * k + tension_over_density() * k.powi(3)).sqrt()
+}
+
+/// The group velocity dω/dk (m/s) at wavenumber `k`: (g + 3 (σ/ρ) k²) / (2ω).
+pub fn group_velocity(k: f64) -> f64 {
+    (G_MPS2 + 3.0 * tension_over_density() * k * k) / (2.0 * angular_frequency(k))
+}
+
+/// d²ω/dk² (m²/s) at wavenumber `k`, from differentiating ω² twice: (3 (σ/ρ) k − c_g²) / ω.
+pub fn group_velocity_dispersion(k: f64) -> f64 {
+    let c_g = group_velocity(k);
+    (3.0 * tension_over_density() * k - c_g * c_g) / angular_frequency(k)
+}
+
+fn tension_over_density() -> f64 {
+    WATER_SURFACE_TENSION_N_PER_M / WATER_DENSITY_KG_PER_M3
+}
+
+/// One drop's ring: where and when it started, and its dominant wave.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ring {
+    /// Point of impact on the ground plane, m.
+    pub centre_m: DVec2,
+    /// Time of impact, s.
+    pub start_s: f64,
+    /// Dominant wavenumber k₀, rad/m.
+    pub wavenumber: f64,
+    /// Crest height a₀ at the start, m.
+    pub amplitude_m: f64,
+}
+
+/// A ring at one moment: the packet's parameters, for the surface at any distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RingState {
+    /// Distance of the envelope's peak from the centre, m.
+    pub radius_m: f64,
+    /// The envelope's standard deviation s(t), m.
+    pub width_m: f64,
+    /// Crest height at the envelope's peak, m.
+    pub amplitude_m: f64,
+    /// The carrier's phase ω₀ t modulo 2π, rad.
+    pub phase: f64,
+}
+
+impl Ring {
+    /// The ring a drop landing as `impact` starts.
+    pub fn from_impact(impact: &Impact) -> Ring {
+        let d_m = impact.diameter_mm * 1e-3;
+        Ring {
+            centre_m: impact.position_m.truncate(),
+            start_s: impact.time_s,
+            wavenumber: std::f64::consts::TAU / (WAVELENGTH_PER_DIAMETER * d_m),
+            amplitude_m: AMPLITUDE_PER_DIAMETER * d_m,
+        }
+    }
+
+    /// The packet at time `t_s`, or `None` before the impact and after [`RING_LIFE_S`].
+    pub fn at(&self, t_s: f64) -> Option<RingState> {
+        let age_s = t_s - self.start_s;
+        if !(0.0..RING_LIFE_S).contains(&age_s) {
+            return None;
+        }
+        let k = self.wavenumber;
+        // The packet starts one wavelength wide and one wavelength out (the crater's rim).
+        let s0 = std::f64::consts::TAU / k;
+        let r0 = s0;
+        let spread = group_velocity_dispersion(k) * age_s / (s0 * s0);
+        let width_m = s0 * (1.0 + spread * spread).sqrt();
+        let radius_m = r0 + group_velocity(k) * age_s;
+        // Energy a²·s·R conserved, amplitude damped by viscosity.
+        let decay = (-2.0 * WATER_KINEMATIC_VISCOSITY_M2_PER_S * k * k * age_s).exp();
+        let amplitude_m = self.amplitude_m * (s0 * r0 / (width_m * radius_m)).sqrt() * decay;
+        Some(RingState {
+            radius_m,
+            width_m,
+            amplitude_m,
+            phase: (angular_frequency(k) * age_s).rem_euclid(std::f64::consts::TAU),
+        })
+    }
+}
+
+impl RingState {
+    /// The surface height η at distance `r_m` from the centre, m (`k` the ring's wavenumber).
+    pub fn height(&self, k: f64, r_m: f64) -> f64 {
+        let u = r_m - self.radius_m;
+        let envelope = (-0.5 * u * u / (self.width_m * self.width_m)).exp();
+        self.amplitude_m * envelope * (k * r_m - self.phase).cos()
+    }
+
+    /// dη/dr at distance `r_m`: the envelope's slope and the carrier's.
+    pub fn slope(&self, k: f64, r_m: f64) -> f64 {
+        let u = r_m - self.radius_m;
+        let s2 = self.width_m * self.width_m;
+        let envelope = (-0.5 * u * u / s2).exp();
+        let carrier = k * r_m - self.phase;
+        self.amplitude_m * envelope * (-u / s2 * carrier.cos() - k * carrier.sin())
+    }
+}
+
+/// The rings of `rings` alive at `t_s`, at most [`MAX_RINGS`], newest first.
+pub fn live_rings(rings: &[Ring], t_s: f64) -> Vec<Ring> {
+    let mut rings: Vec<Ring> = rings
+        .iter()
+        .filter(|r| r.at(t_s).is_some())
+        .copied()
+        .collect();
+    rings.sort_by(|a, b| b.start_s.total_cmp(&a.start_s));
+    rings.truncate(MAX_RINGS);
+    rings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn capillary_and_gravity_waves_meet_at_the_slowest_phase_speed() {
+        // c_p = ω/k is least at k_m = √(ρg/σ), where it equals c_g (≈ 0.23 m/s, λ ≈ 1.7 cm).
+        let k_m = (G_MPS2 / tension_over_density()).sqrt();
+        let c_p = angular_frequency(k_m) / k_m;
+        assert!((c_p - group_velocity(k_m)).abs() < 1e-12);
+        assert!((c_p - 0.231).abs() < 0.002, "{c_p}");
+        assert!((std::f64::consts::TAU / k_m - 0.0172).abs() < 2e-4);
+        // dω/dk and d²ω/dk² against central differences.
+        for k in [50.0, 400.0, 2000.0] {
+            let h = 1e-3 * k;
+            let fd = (angular_frequency(k + h) - angular_frequency(k - h)) / (2.0 * h);
+            let fd2 = (group_velocity(k + h) - group_velocity(k - h)) / (2.0 * h);
+            assert!((group_velocity(k) - fd).abs() < 1e-6 * fd.abs(), "{k}");
+            assert!(
+                (group_velocity_dispersion(k) - fd2).abs() < 1e-5 * fd2.abs(),
+                "{k}"
+            );
+        }
+    }
+}

@@ -1,0 +1,356 @@
+//! The CPU twin of the `puddles` stage: where a pixel's view ray meets the ground on water, the
+//! ground under the water is darkened as by a film (Lekner & Dorf) and the rippled surface
+//! reflects, with the exact unpolarised Fresnel reflectance, what lies along the mirrored ray:
+//! the frame (marched against the depth map when there is one, else the picture towards the
+//! mirrored direction), or beyond the frame's border the environment and the compact lights
+//! (docs/method.md, "Puddles: shading").
+
+use glam::{DVec2, DVec3};
+
+use super::to_camera;
+use super::wet_ground::{irradiance, radiance};
+use super::yuv_to_rgb::view_ray;
+use crate::gpu::types::{LightList, MAX_LIGHTS, PuddleParams, RainParams, Ripple};
+use crate::lighting::prt::{RtfSh, prt_colour_f64};
+use crate::scene::DepthMap;
+use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
+
+/// The reflection fades from the frame to the environment over this many pixels at its border.
+pub const EDGE_PX: f64 = 8.0;
+/// The march along the mirrored ray's image: a step every this many pixels.
+pub const MARCH_STRIDE_PX: f64 = 2.0;
+/// Most steps of the march.
+pub const MARCH_MAX_STEPS: usize = 64;
+/// The march ends this share of the way to the ray's vanishing point.
+pub const MARCH_FARTHEST: f64 = 0.999;
+/// Halvings of the step that passed behind the scene.
+pub const MARCH_HALVINGS: usize = 6;
+/// A point counts as behind the scene only to this fraction of the scene's depth beyond it.
+pub const MARCH_THICKNESS: f64 = 0.25;
+
+/// What the water reflects and lies on, for one frame.
+pub struct Water<'a> {
+    /// Placement of the map, the water's optics, the ring count.
+    pub params: &'a PuddleParams,
+    /// Water depth per cell, m (row-major, x fastest).
+    pub depth_m: &'a [f32],
+    /// The rings at the frame's time (the first `params.ring_count`).
+    pub ripples: &'a [Ripple],
+    /// The compact lights.
+    pub lights: &'a LightList,
+}
+
+/// Puts the water on `canvas` (linear RGB, coded orientation, row-major, `width` wide) under
+/// the uniforms `p`. The reflection reads the canvas as it was before.
+///
+/// With `depth` (the scene's camera depth per displayed pixel), pixels whose scene stands
+/// nearer than the ground keep their value ([`ground_shown`]) and mirrored rays are marched
+/// against it.
+pub fn puddles(
+    canvas: &mut [[f64; 3]],
+    width: u32,
+    p: &RainParams,
+    water: &Water<'_>,
+    depth: Option<&DepthMap>,
+) {
+    let frame = Frame {
+        pixels: canvas.to_vec(),
+        width,
+        height: (canvas.len() / width as usize) as u32,
+    };
+    let env: Vec<[f64; 3]> = p
+        .env_sh
+        .iter()
+        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
+        .collect();
+    let drop = RtfSh {
+        bands: 4,
+        zonal: (0..4)
+            .map(|l| std::array::from_fn(|c| p.drop_zonal[c][l] as f64))
+            .collect(),
+    };
+    let w = water.params;
+    let optics = FilmOptics {
+        index: w.water_index as f64,
+        diffuse_external: w.diffuse_external as f64,
+        diffuse_internal: w.diffuse_internal as f64,
+    };
+    let transmittance = p.haze[3] as f64;
+    let e_up = irradiance(&env, DVec3::Z);
+    let camera = v3(&p.camera_pos_m);
+    let h = camera.z;
+    let mirror = Mirror {
+        p,
+        frame: &frame,
+        env: &env,
+        lights: water.lights,
+        lobe: w.light_lobe as f64,
+        depth,
+    };
+    for (i, pixel) in canvas.iter_mut().enumerate() {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        let ray = view_ray(p, x, y);
+        let d = ray.normalize();
+        if d.z >= 0.0 || h <= 0.0 {
+            continue;
+        }
+        // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
+        let ground_z_m = h / -ray.z;
+        let ground = camera + ground_z_m * ray;
+        let cover = smoothstep(
+            0.0,
+            w.edge_depth_m as f64,
+            water_depth(w, water.depth_m, ground.truncate()),
+        );
+        if cover <= 0.0 {
+            continue;
+        }
+        let scene_m =
+            depth.and_then(|map| scene_depth(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
+        let shown = ground_shown(scene_m, ground_z_m);
+        let in_scatter = if transmittance < 1.0 {
+            prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
+        } else {
+            [0.0; 3]
+        };
+        let slope = ripple_slope(&water.ripples[..w.ring_count as usize], ground.truncate());
+        let normal = DVec3::new(-slope.x, -slope.y, 1.0).normalize();
+        let cos_i = (-d.dot(normal)).max(0.0);
+        let mirrored = d + 2.0 * cos_i * normal;
+        let r = reflectance(optics.index, cos_i);
+        let reflected = mirror.radiance(ground, mirrored);
+        for k in 0..3 {
+            let scene = (pixel[k] - in_scatter[k]).max(0.0) / transmittance.max(1e-6);
+            let albedo = if e_up[k] > 0.0 {
+                (std::f64::consts::PI * scene / e_up[k]).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let change = (optics.darkening(albedo, -d.z) - 1.0) * scene + r * reflected[k];
+            pixel[k] += cover * shown * transmittance * change;
+        }
+    }
+}
+
+/// The canvas before the water, for the reflection.
+struct Frame {
+    pixels: Vec<[f64; 3]>,
+    width: u32,
+    height: u32,
+}
+
+impl Frame {
+    /// The picture at coded position `at` (px): bilinear between pixel centres, clamped at the
+    /// border.
+    fn sample(&self, at: DVec2) -> [f64; 3] {
+        let u = at - DVec2::splat(0.5);
+        let (x0, y0) = (u.x.floor(), u.y.floor());
+        let (fx, fy) = (u.x - x0, u.y - y0);
+        let texel = |x: f64, y: f64| {
+            let x = (x as i64).clamp(0, self.width as i64 - 1) as usize;
+            let y = (y as i64).clamp(0, self.height as i64 - 1) as usize;
+            self.pixels[y * self.width as usize + x]
+        };
+        let (a, b) = (texel(x0, y0), texel(x0 + 1.0, y0));
+        let (c, e) = (texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
+        std::array::from_fn(|k| {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (e[k] - c[k]) * fx;
+            top + (bottom - top) * fy
+        })
+    }
+
+    /// Distance (px) of `at` inside the frame's border (negative outside).
+    fn inside(&self, at: DVec2) -> f64 {
+        at.x.min(at.y)
+            .min(self.width as f64 - at.x)
+            .min(self.height as f64 - at.y)
+    }
+}
+
+/// What the water mirrors.
+struct Mirror<'a> {
+    p: &'a RainParams,
+    frame: &'a Frame,
+    env: &'a [[f64; 3]],
+    lights: &'a LightList,
+    lobe: f64,
+    depth: Option<&'a DepthMap>,
+}
+
+impl Mirror<'_> {
+    /// Radiance along unit direction `dir` from ground point `ground`.
+    fn radiance(&self, ground: DVec3, dir: DVec3) -> [f64; 3] {
+        let env = self.environment(ground, dir);
+        // Without a hit in the depth map: the picture towards the direction (its vanishing
+        // point), content at a distance.
+        let q = self
+            .march(ground, dir)
+            .unwrap_or_else(|| to_camera(self.p, v3(&self.p.camera_pos_m) + dir));
+        if q.z <= 1e-6 {
+            return env;
+        }
+        let at = project(self.p, q);
+        let w = smoothstep(0.0, EDGE_PX, self.frame.inside(at));
+        if w <= 0.0 {
+            return env;
+        }
+        let seen = self.frame.sample(at);
+        std::array::from_fn(|k| env[k] + (seen[k] - env[k]) * w)
+    }
+
+    /// The first point (camera space) where the ray from `ground` along `dir` passes behind
+    /// the scene of the depth map, if any within the frame.
+    fn march(&self, ground: DVec3, dir: DVec3) -> Option<DVec3> {
+        let map = self.depth?;
+        // Behind the scene at its pixel, not far, where the scene stands on the ground: nearer
+        // than the plane along the pixel's ray (the 90 % of `ground_shown`), or above the
+        // horizon. The mirrored ray runs above the plane and never meets it.
+        let behind = |s: f64| {
+            let q = to_camera(self.p, ground + s * dir);
+            if q.z <= 0.0 {
+                return false;
+            }
+            let at = project(self.p, q);
+            let Some(z) = scene_depth(self.p, map, at) else {
+                return false;
+            };
+            let ray = view_ray(self.p, at.x.max(0.0) as u32, at.y.max(0.0) as u32);
+            let standing = ray.z >= 0.0 || z < 0.9 * self.p.camera_pos_m[2] as f64 / -ray.z;
+            standing && q.z >= z && q.z <= z * (1.0 + MARCH_THICKNESS)
+        };
+        // Even steps along the ray's image, from the ground's pixel to the vanishing point:
+        // share λ of the way lies at distance s = λ z_p / ((1 − λ) dir_z) along the ray.
+        let q_p = to_camera(self.p, ground);
+        let q_dir = to_camera(self.p, v3(&self.p.camera_pos_m) + dir);
+        if q_dir.z <= 1e-6 {
+            return None;
+        }
+        let distance = |share: f64| share * q_p.z / ((1.0 - share) * q_dir.z);
+        let image_px = project(self.p, q_dir).distance(project(self.p, q_p));
+        let steps = ((image_px / MARCH_STRIDE_PX).ceil() as usize).clamp(1, MARCH_MAX_STEPS);
+        let mut before = 0.0;
+        for i in 1..=steps {
+            let share = MARCH_FARTHEST * i as f64 / steps as f64;
+            let s = distance(share);
+            if self
+                .frame
+                .inside(project(self.p, to_camera(self.p, ground + s * dir)))
+                <= 0.0
+            {
+                return None;
+            }
+            if behind(s) {
+                let (mut lo, mut hi) = (before, share);
+                for _ in 0..MARCH_HALVINGS {
+                    let mid = 0.5 * (lo + hi);
+                    if behind(distance(mid)) {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                return Some(to_camera(self.p, ground + distance(hi) * dir));
+            }
+            before = share;
+        }
+        None
+    }
+
+    /// Beyond the frame: the environment, and each compact light as a normalised von
+    /// Mises–Fisher lobe (concentration κ) about its direction from `ground`, carrying its
+    /// radiance × solid angle.
+    fn environment(&self, ground: DVec3, dir: DVec3) -> [f64; 3] {
+        let mut c = radiance(self.env, dir).map(|v| v.max(0.0));
+        let from_camera = ground - v3(&self.p.camera_pos_m);
+        let kappa = self.lobe;
+        for l in &self.lights.lights[..(self.lights.count as usize).min(MAX_LIGHTS)] {
+            let mut omega = v3(&l.direction_distance);
+            let mut scale = 1.0;
+            let dist = l.direction_distance[3] as f64;
+            if dist > 0.0 {
+                let to_light = omega * dist - from_camera;
+                let r = to_light.length();
+                if r > 0.0 {
+                    omega = to_light / r;
+                }
+                scale = (dist / r.max(l.strength[3] as f64)).powi(2);
+            }
+            let lobe = kappa / std::f64::consts::TAU * (kappa * (omega.dot(dir) - 1.0)).exp();
+            for (k, ck) in c.iter_mut().enumerate() {
+                *ck += l.strength[k] as f64 * scale * lobe;
+            }
+        }
+        c
+    }
+}
+
+/// Water depth (m) at ground point `xy`: bilinear between cell centres, 0 off the map.
+pub fn water_depth(params: &PuddleParams, depth_m: &[f32], xy: DVec2) -> f64 {
+    let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
+    let origin = DVec2::new(params.origin_m[0] as f64, params.origin_m[1] as f64);
+    let u = (xy - origin) / params.cell_m as f64 - DVec2::splat(0.5);
+    let (i0, j0) = (u.x.floor() as i64, u.y.floor() as i64);
+    let (fx, fy) = (u.x - u.x.floor(), u.y - u.y.floor());
+    let mut sum = 0.0;
+    for (j, wy) in [(j0, 1.0 - fy), (j0 + 1, fy)] {
+        for (i, wx) in [(i0, 1.0 - fx), (i0 + 1, fx)] {
+            if (0..nx).contains(&i) && (0..ny).contains(&j) {
+                sum += wx * wy * depth_m[(j * nx + i) as usize] as f64;
+            }
+        }
+    }
+    sum
+}
+
+/// The gradient of the water's height at `xy`: the sum of every ring's radial slope dη/dr
+/// ([`crate::fluid::ripples::RingState::slope`]) along r̂.
+pub fn ripple_slope(ripples: &[Ripple], xy: DVec2) -> DVec2 {
+    ripples
+        .iter()
+        .map(|ring| {
+            let off = xy - DVec2::new(ring.centre_m[0] as f64, ring.centre_m[1] as f64);
+            let r = off.length();
+            let state = crate::fluid::ripples::RingState {
+                radius_m: ring.radius_m as f64,
+                width_m: ring.width_m as f64,
+                amplitude_m: ring.amplitude_m as f64,
+                phase: ring.phase as f64,
+            };
+            if r < 1e-6 || (r - state.radius_m).abs() > 4.0 * state.width_m {
+                return DVec2::ZERO;
+            }
+            state.slope(ring.wavenumber as f64, r) * off / r
+        })
+        .sum()
+}
+
+/// Coded pixel position (px, continuous) of camera-space point `q` (q.z > 0): the pinhole,
+/// then display → coded (coded = m (display) + offset).
+pub fn project(p: &RainParams, q: DVec3) -> DVec2 {
+    let f = p.focal_px as f64;
+    let s = DVec2::new(p.principal_px[0] as f64, p.principal_px[1] as f64) + f * q.truncate() / q.z;
+    let m = p.coded_from_display.map(f64::from);
+    DVec2::new(m[0] * s.x + m[2] * s.y, m[1] * s.x + m[3] * s.y)
+        + DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64)
+}
+
+/// The scene's depth (m) at coded position `coded`, looked up at its displayed pixel; `None`
+/// where unknown.
+fn scene_depth(p: &RainParams, map: &DepthMap, coded: DVec2) -> Option<f64> {
+    let m = p.coded_from_display.map(f64::from);
+    let c = coded - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
+    let shown = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
+    let x = (shown.x.max(0.0) as usize).min(map.width - 1);
+    let y = (shown.y.max(0.0) as usize).min(map.height - 1);
+    map.at(x, y).map(f64::from).filter(|d| *d > 0.0)
+}
+
+fn smoothstep(lo: f64, hi: f64, x: f64) -> f64 {
+    let t = ((x - lo) / (hi - lo)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn v3(a: &[f32]) -> DVec3 {
+    DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}

@@ -1,0 +1,231 @@
+//! Stage `puddles`: standing water on the ground, with ripple rings and the frame mirrored in it
+//! (`shaders/puddles.wgsl`; CPU twin [`crate::gpu::cpu::puddles`]). The stage has work only once
+//! a water map is set ([`Puddles::set_water`]); until then it builds nothing and the frame is
+//! untouched. Like the wet ground it copies the canvas first and reads the copy, so the mirror
+//! image is the picture before any water, and pixels without water keep their value bit for bit.
+
+use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
+use crate::fluid::Field2;
+use crate::fluid::ripples::{MAX_RINGS, Ring, live_rings};
+use crate::gpu::bind::{bind_group, buffer, view};
+use crate::gpu::shaders::Stage;
+use crate::gpu::types::{PuddleParams, RainParams, Ripple};
+use crate::rain::volume::impacts::Impact;
+use crate::scene::wetness::FilmOptics;
+use crate::{Error, Result};
+
+/// Water covers the ground smoothly as its depth rises from 0 to this, m: a puddle's rim is a
+/// wet film a millimetre thick, not a cut.
+pub const EDGE_DEPTH_M: f64 = 1e-3;
+
+/// Concentration κ of a compact light's mirror image on the water, rad⁻²: a lobe of about 1.8°
+/// (1/√κ), the glitter of a surface that is never quite still.
+pub const LIGHT_LOBE: f64 = 1000.0;
+
+/// The stage: the shared resources it binds, and its own once water is set.
+pub struct Puddles {
+    device: wgpu::Device,
+    rain_params: wgpu::Buffer,
+    canvas: wgpu::Texture,
+    scene_depth: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    /// Whether frames are pictures: water changes the picture's own colours, per channel and
+    /// by the ground's albedo, which no single α over the frame can carry, so a layer has none.
+    picture: bool,
+    job: Option<Water>,
+    rings: Vec<Ring>,
+}
+
+/// What water on the ground needs.
+struct Water {
+    pipeline: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    frame: wgpu::Texture,
+    depth_m: wgpu::Buffer,
+    ripples: wgpu::Buffer,
+    /// The map's placement (origin, cell, cells) and the water's optics.
+    base: PuddleParams,
+}
+
+impl Puddles {
+    /// The stage for the frame resources `r` of pictures (`picture`) or layers, idle until
+    /// water is set.
+    pub fn new(device: &wgpu::Device, r: &FrameResources, picture: bool) -> Puddles {
+        Puddles {
+            device: device.clone(),
+            rain_params: r.rain_params.clone(),
+            canvas: r.canvas.texture().clone(),
+            scene_depth: r.scene_depth.clone(),
+            lights: r.lights.list.clone(),
+            picture,
+            job: None,
+            rings: Vec::new(),
+        }
+    }
+
+    /// Sets the water depth on the ground (m per cell of `depth`, world x, y on z = 0) for the
+    /// frames submitted from now on. Negative or non-finite depths count as dry.
+    pub fn set_water(&mut self, queue: &wgpu::Queue, depth: &Field2) -> Result<()> {
+        if !self.picture {
+            return Err(Error::Unsupported("puddles in a rain layer".into()));
+        }
+        let cells = depth.nx * depth.ny;
+        if cells == 0 || depth.values.len() != cells {
+            return Err(Error::Unsupported(format!(
+                "a water map of {}×{} cells with {} values",
+                depth.nx,
+                depth.ny,
+                depth.values.len()
+            )));
+        }
+        if !(depth.cell_m > 0.0 && depth.cell_m.is_finite() && depth.origin_m.is_finite()) {
+            return Err(Error::Unsupported(format!(
+                "a water map with cells of {} m at {}",
+                depth.cell_m, depth.origin_m
+            )));
+        }
+        let metres: Vec<f32> = depth
+            .values
+            .iter()
+            .map(|&d| if d.is_finite() { d.max(0.0) } else { 0.0 })
+            .collect();
+        let bytes = 4 * cells as u64;
+        if self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes) {
+            self.job = Some(self.build(bytes));
+        }
+        if let Some(job) = &mut self.job {
+            job.base.origin_m = depth.origin_m.to_array();
+            job.base.cell_m = depth.cell_m;
+            job.base.cells = [depth.nx as u32, depth.ny as u32];
+            queue.write_buffer(&job.depth_m, 0, bytemuck::cast_slice(&metres));
+        }
+        Ok(())
+    }
+
+    /// Sets the drops that landed on water, whose rings the frames submitted from now on show
+    /// (those alive at each frame's time, the newest [`MAX_RINGS`]).
+    pub fn set_ripples(&mut self, impacts: &[Impact]) {
+        self.rings = impacts.iter().map(Ring::from_impact).collect();
+    }
+
+    /// The pipeline and buffers, for a water map of `depth_bytes`.
+    fn build(&self, depth_bytes: u64) -> Water {
+        let device = &self.device;
+        let frame = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("puddles_frame"),
+            size: self.canvas.size(),
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.canvas.format(),
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let storage = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let depth_m = storage("water_depth", depth_bytes);
+        let ripples = storage(
+            "ripples",
+            (MAX_RINGS * std::mem::size_of::<Ripple>()) as u64,
+        );
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("puddle_params"),
+            size: std::mem::size_of::<PuddleParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let pipeline = super::compute_pipeline(device, Stage::Puddles, "main");
+        let canvas = self.canvas.create_view(&Default::default());
+        let bind = bind_group(
+            device,
+            Stage::Puddles.name(),
+            &pipeline.get_bind_group_layout(0),
+            &[
+                buffer(&self.rain_params),
+                buffer(&params),
+                view(&frame.create_view(&Default::default())),
+                view(&canvas),
+                buffer(&self.scene_depth),
+                buffer(&depth_m),
+                buffer(&ripples),
+                buffer(&self.lights),
+            ],
+        );
+        let optics = FilmOptics::water();
+        Water {
+            pipeline,
+            bind,
+            params,
+            frame,
+            depth_m,
+            ripples,
+            base: PuddleParams {
+                origin_m: [0.0; 2],
+                cell_m: 1.0,
+                edge_depth_m: EDGE_DEPTH_M as f32,
+                cells: [0; 2],
+                ring_count: 0,
+                _pad: 0,
+                water_index: optics.index as f32,
+                diffuse_external: optics.diffuse_external as f32,
+                diffuse_internal: optics.diffuse_internal as f32,
+                light_lobe: LIGHT_LOBE as f32,
+            },
+        }
+    }
+}
+
+impl FrameStage for Puddles {
+    fn name(&self) -> &'static str {
+        Stage::Puddles.name()
+    }
+
+    fn runs(&self) -> bool {
+        self.job.is_some()
+    }
+
+    fn prepare(&self, queue: &wgpu::Queue, rain: &RainParams) {
+        let Some(job) = &self.job else { return };
+        let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
+        let ripples: Vec<Ripple> = live_rings(&self.rings, t_s)
+            .iter()
+            .filter_map(|ring| Ripple::new(ring, t_s))
+            .collect();
+        if !ripples.is_empty() {
+            queue.write_buffer(&job.ripples, 0, bytemuck::cast_slice(&ripples));
+        }
+        let params = PuddleParams {
+            ring_count: ripples.len() as u32,
+            ..job.base
+        };
+        queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&params));
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
+        let Some(job) = &self.job else { return };
+        encoder.copy_texture_to_texture(
+            self.canvas.as_image_copy(),
+            job.frame.as_image_copy(),
+            self.canvas.size(),
+        );
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(self.name()),
+            timestamp_writes: timestamps.map(TimestampSlot::compute),
+        });
+        pass.set_pipeline(&job.pipeline);
+        pass.set_bind_group(0, &job.bind, &[]);
+        let size = self.canvas.size();
+        pass.dispatch_workgroups(
+            workgroups(size.width, PIXEL_WORKGROUP),
+            workgroups(size.height, PIXEL_WORKGROUP),
+            1,
+        );
+    }
+}

@@ -1,0 +1,855 @@
+//! Puddles in the picture: the ripple rings against the group velocity of capillary–gravity
+//! waves (and against a brute-force superposition of Bessel modes), the water's Fresnel
+//! reflectance at normal and grazing incidence against the angle form of Fresnel's equations,
+//! mirror images at the mirrored position of the object (at a distance, and standing on the
+//! ground with a depth map), and the GPU stage against its CPU twin.
+//! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
+
+use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
+
+use glam::{DVec2, DVec3, Vec2};
+use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::fluid::Field2;
+use rain_composite::fluid::ripples::{Ring, live_rings};
+use rain_composite::gpu::cpu::puddles::{self, Water};
+use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
+use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
+use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, Ripple};
+use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::{Compositor, GpuContext};
+use rain_composite::lighting::{EnvironmentSh, FrameLight, LightSource};
+use rain_composite::rain::volume::impacts::Impact;
+use rain_composite::scene::wetness::{FilmOptics, WATER_INDEX};
+use rain_composite::scene::{Camera, DepthMap};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
+
+// ---------------------------------------------------------------------------------------------
+// Ripples.
+
+const G: f64 = 9.80665;
+const SIGMA_OVER_RHO: f64 = 0.0728 / 1000.0;
+
+/// ω(k) of capillary–gravity waves on deep water, written here.
+fn omega(k: f64) -> f64 {
+    (G * k + SIGMA_OVER_RHO * k * k * k).sqrt()
+}
+
+/// dω/dk by a central difference.
+fn group_speed(k: f64) -> f64 {
+    let h = 1e-4 * k;
+    (omega(k + h) - omega(k - h)) / (2.0 * h)
+}
+
+/// J₀(x): Bessel's integral (1/π)∫₀^π cos(x sin θ) dθ by the midpoint rule where it converges
+/// fast, Hankel's asymptotic form (two terms) beyond.
+fn bessel_j0(x: f64) -> f64 {
+    if x < 30.0 {
+        let n = 128;
+        (0..n)
+            .map(|i| (x * ((i as f64 + 0.5) * PI / n as f64).sin()).cos())
+            .sum::<f64>()
+            / n as f64
+    } else {
+        let phase = x - PI / 4.0;
+        (2.0 / (PI * x)).sqrt() * (phase.cos() + phase.sin() / (8.0 * x))
+    }
+}
+
+/// The radius of a ring's energy, Σ η² r · r / Σ η² r, over r in (0, r_max).
+fn energy_radius(eta: impl Fn(f64) -> f64, r_max: f64) -> f64 {
+    let n = 3000;
+    let (mut num, mut den) = (0.0, 0.0);
+    for i in 0..n {
+        let r = (i as f64 + 0.5) * r_max / n as f64;
+        let e = eta(r).powi(2) * r;
+        num += e * r;
+        den += e;
+    }
+    num / den
+}
+
+#[test]
+fn a_ring_grows_at_the_group_velocity_of_its_dominant_wavelength() {
+    let impact = Impact {
+        id: 1,
+        pass: 0,
+        time_s: 0.0,
+        position_m: DVec3::ZERO,
+        diameter_mm: 2.0,
+        velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+    };
+    let ring = Ring::from_impact(&impact);
+    let k0 = ring.wavenumber;
+    let c_g = group_speed(k0);
+    let c_p = omega(k0) / k0;
+    let (t1, t2) = (0.2, 0.6);
+    // The model's surface.
+    let radius = |t: f64| {
+        let s = ring.at(t).expect("alive");
+        energy_radius(|r| s.height(k0, r), 0.6)
+    };
+    let model = (radius(t2) - radius(t1)) / (t2 - t1);
+    // The exact linear solution for a bump of the same spectrum: ∫ A(k) J₀(k r) cos(ω t) k dk,
+    // A Gaussian about k₀ as wide as the model's packet (1/s₀ = k₀/2π).
+    let dk = k0 / TAU;
+    let ks: Vec<f64> = (0..400)
+        .map(|i| k0 - 5.0 * dk + 10.0 * dk * (i as f64 + 0.5) / 400.0)
+        .collect();
+    let modes = |t: f64| {
+        energy_radius(
+            |r| {
+                ks.iter()
+                    .map(|&k| {
+                        let a = (-0.5 * ((k - k0) / dk).powi(2)).exp();
+                        a * bessel_j0(k * r) * (omega(k) * t).cos() * k
+                    })
+                    .sum()
+            },
+            0.6,
+        )
+    };
+    let exact = (modes(t2) - modes(t1)) / (t2 - t1);
+    eprintln!(
+        "k₀ = {k0:.0} rad/m: c_g = {c_g:.4}, c_p = {c_p:.4}; ring speed: model {model:.4}, Bessel modes {exact:.4} m/s"
+    );
+    assert!((model - c_g).abs() < 0.1 * c_g, "model {model} vs {c_g}");
+    assert!((exact - c_g).abs() < 0.1 * c_g, "modes {exact} vs {c_g}");
+    // The test tells the two speeds apart: a ring at the phase speed would fail it.
+    assert!((c_p - c_g).abs() > 0.2 * c_g);
+    // Viscosity and spreading flatten it: the crest height falls with time.
+    let heights: Vec<f64> = [0.1, 0.4, 0.8, 1.2]
+        .iter()
+        .map(|&t| ring.at(t).expect("alive").amplitude_m)
+        .collect();
+    assert!(heights.windows(2).all(|w| w[1] < w[0]), "{heights:?}");
+    assert!(ring.at(-0.01).is_none() && ring.at(10.0).is_none());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pictures, setups, renders.
+
+/// A 4:4:4 10-bit BT.709 picture whose luma is `luma(x, y)` and chroma `chroma(x, y)`.
+fn picture(
+    width: u32,
+    height: u32,
+    luma: impl Fn(u32, u32) -> u16,
+    chroma: impl Fn(u32, u32, usize) -> u16,
+) -> YuvFrame {
+    let format = FrameFormat {
+        width,
+        height,
+        chroma: Chroma::Cs444,
+        bit_depth: 10,
+    };
+    let planes = std::array::from_fn(|i| {
+        let stride = format.packed_stride(i);
+        let mut data = vec![0u8; stride * height as usize];
+        for y in 0..height {
+            for x in 0..width {
+                let v = if i == 0 { luma(x, y) } else { chroma(x, y, i) };
+                let at = y as usize * stride + x as usize * 2;
+                data[at..at + 2].copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        Plane { data, stride }
+    });
+    YuvFrame {
+        format,
+        color: ColorParams::bt709(10),
+        planes,
+        pts: 0,
+        index: 0,
+    }
+}
+
+fn grey(_: u32, _: u32, _: usize) -> u16 {
+    512
+}
+
+/// No rain drawn; the ground z = 0 under `camera`.
+fn setup(camera: &Camera, depth: bool) -> RainSetup {
+    turned(camera, depth, 0)
+}
+
+/// As [`setup`], the video stored turned by `rotation_deg` (coded ≠ displayed).
+fn turned(camera: &Camera, depth: bool, rotation_deg: i32) -> RainSetup {
+    let coded = if rotation_deg % 180 == 0 {
+        (camera.width_px, camera.height_px)
+    } else {
+        (camera.height_px, camera.width_px)
+    };
+    let rain = RainConfig {
+        rate_mm_per_h: 0.0,
+        ..RainConfig::default()
+    };
+    uniforms::build(
+        camera,
+        &CameraConfig::default(),
+        &rain,
+        0.01,
+        rotation_deg,
+        coded,
+    )
+    .expect("rain")
+    .with_ground(true)
+    .with_scene_depth(depth)
+}
+
+/// The uniforms at `t_s` under the environment `env` (coefficient, rgb), haze transmittance
+/// `haze`.
+fn lit(setup: &RainSetup, t_s: f64, env: &[(usize, [f32; 3])], haze: f32) -> RainParams {
+    let mut sh = EnvironmentSh::zeros(4);
+    for &(i, c) in env {
+        sh.coeffs[i] = c;
+    }
+    let mut p = setup.params_at(
+        t_s,
+        &FrameLight {
+            env: sh,
+            lights: Vec::new(),
+        },
+        [[1.0, 0.4, 0.2, 0.1]; 3],
+    );
+    p.haze = [0.0, 0.0, 0.0, haze];
+    p
+}
+
+/// A uniform sky of radiance `l`: its only coefficient.
+fn uniform_sky(l: f64) -> [(usize, [f32; 3]); 1] {
+    let c = (l * 2.0 * PI.sqrt()) as f32;
+    [(0, [c, c, c])]
+}
+
+/// Water `depth_m` deep everywhere within `half_m` of the camera's foot.
+fn lake(depth_m: f32, half_m: f32) -> Field2 {
+    let n = 64;
+    Field2 {
+        nx: n,
+        ny: n,
+        origin_m: Vec2::splat(-half_m),
+        cell_m: 2.0 * half_m / n as f32,
+        values: vec![depth_m; n * n],
+    }
+}
+
+/// Code values of every plane, row-major.
+fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
+    std::array::from_fn(|i| {
+        let (w, h) = frame.format.plane_size(i);
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| frame.sample(i, x, y))
+            .collect()
+    })
+}
+
+/// What a compositor is given besides the frame.
+#[derive(Default)]
+struct Inputs<'a> {
+    water: Option<&'a Field2>,
+    impacts: &'a [Impact],
+    lights: Option<&'a LightList>,
+    depth: Option<&'a DepthMap>,
+}
+
+fn render(
+    ctx: &Arc<GpuContext>,
+    frame: &YuvFrame,
+    setup: &RainSetup,
+    p: &RainParams,
+    inputs: &Inputs<'_>,
+) -> YuvFrame {
+    let mut comp =
+        Compositor::new(ctx.clone(), frame.format, &frame.color, setup).expect("compositor");
+    if let Some(lights) = inputs.lights {
+        comp.set_lights(lights);
+    }
+    if let Some(depth) = inputs.depth {
+        comp.set_scene_depth(depth).expect("depth");
+    }
+    if let Some(water) = inputs.water {
+        comp.set_water(water).expect("water");
+        comp.set_ripples(inputs.impacts).expect("ripples");
+    }
+    comp.render_one(frame, p).expect("render")
+}
+
+/// The stage's uniforms for `water` with `rings` rings (as `stages::puddles` fills them).
+fn puddle_params(water: &Field2, rings: usize) -> PuddleParams {
+    let optics = FilmOptics::water();
+    PuddleParams {
+        origin_m: water.origin_m.to_array(),
+        cell_m: water.cell_m,
+        edge_depth_m: EDGE_DEPTH_M as f32,
+        cells: [water.nx as u32, water.ny as u32],
+        ring_count: rings as u32,
+        _pad: 0,
+        water_index: optics.index as f32,
+        diffuse_external: optics.diffuse_external as f32,
+        diffuse_internal: optics.diffuse_internal as f32,
+        light_lobe: LIGHT_LOBE as f32,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// GPU against the CPU twin.
+
+#[test]
+fn the_stage_matches_its_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    // Stored as shown, and turned 90° (the reflection's projection goes back to coded pixels).
+    for rotation_deg in [0, 90] {
+        twin_case(&ctx, rotation_deg);
+    }
+}
+
+fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
+    let camera = Camera::new(
+        96,
+        64,
+        1.0,
+        1.6,
+        f64::to_radians(-8.0),
+        f64::to_radians(8.0),
+    );
+    let s = turned(&camera, false, rotation_deg);
+    let (w, h) = (
+        s.params.coded_size_px[0] as u32,
+        s.params.coded_size_px[1] as u32,
+    );
+    let t_s = 1.0;
+    let sky = [
+        (0, [1.6, 1.8, 2.2]),
+        (2, [0.5, 0.6, 0.8]),
+        (3, [0.3, 0.2, 0.1]),
+    ];
+    let p = lit(&s, t_s, &sky, 0.9);
+    let frame = picture(
+        w,
+        h,
+        |x, y| (100 + ((x * 37 + y * 91).wrapping_mul(2654435761) >> 7) % 700) as u16,
+        |x, y, i| (480 + ((x * 13 + y * 7 + i as u32 * 5) % 64)) as u16,
+    );
+    // Puddles and dry ground between them, with soft edges, 0.25 m cells.
+    let (nx, ny) = (48, 80);
+    let water = Field2 {
+        nx,
+        ny,
+        origin_m: Vec2::new(-6.0, 0.0),
+        cell_m: 0.25,
+        values: (0..nx * ny)
+            .map(|k| {
+                let (x, y) = ((k % nx) as f32 * 0.25 - 6.0, (k / nx) as f32 * 0.25);
+                (0.02 * x.sin() * (0.5 * y).cos() + 0.004).max(0.0)
+            })
+            .collect(),
+    };
+    let impact = |x: f64, y: f64, t: f64, d_mm: f64| Impact {
+        id: 0,
+        pass: 0,
+        time_s: t,
+        position_m: DVec3::new(x, y, 0.0),
+        diameter_mm: d_mm,
+        velocity_mps: DVec3::new(0.0, 0.0, -6.0),
+    };
+    let impacts = [
+        impact(0.3, 4.0, 0.7, 3.0),
+        impact(-0.8, 5.0, 0.5, 2.5),
+        impact(0.9, 3.2, 0.85, 2.0),
+        impact(0.0, 3.0, 0.1, 2.0),
+    ];
+    // A lamp above the water ahead: its mirror image leaves the frame at the top.
+    let (el, az) = (f64::to_radians(24.0), f64::to_radians(4.0));
+    let lamp = LightSource {
+        direction_world: DVec3::new(az.sin() * el.cos(), az.cos() * el.cos(), el.sin()),
+        solid_angle_sr: 2e-4,
+        radiance_rgb: [400.0, 300.0, 200.0],
+        distance_m: Some(30.0),
+    };
+    let lights = LightList::new(&[lamp]);
+    let gpu = codes(&render(
+        ctx,
+        &frame,
+        &s,
+        &p,
+        &Inputs {
+            water: Some(&water),
+            impacts: &impacts,
+            lights: Some(&lights),
+            ..Inputs::default()
+        },
+    ));
+    let dry = codes(&render(
+        ctx,
+        &frame,
+        &s,
+        &p,
+        &Inputs {
+            lights: Some(&lights),
+            ..Inputs::default()
+        },
+    ));
+    let frame_t = p.time_whole_s as f64 + p.time_frac_s as f64;
+    let rings = live_rings(
+        &impacts.iter().map(Ring::from_impact).collect::<Vec<_>>(),
+        frame_t,
+    );
+    let ripples: Vec<Ripple> = rings
+        .iter()
+        .filter_map(|r| Ripple::new(r, frame_t))
+        .collect();
+    let twin = |ripples: &[Ripple]| {
+        let params = puddle_params(&water, ripples.len());
+        let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+        puddles::puddles(
+            &mut canvas,
+            w,
+            &p,
+            &Water {
+                params: &params,
+                depth_m: &water.values,
+                ripples,
+                lights: &lights,
+            },
+            None,
+        );
+        rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color)
+    };
+    let cpu = twin(&ripples);
+    let flat = twin(&[]);
+    let (mut worst, mut changed, mut rippled) = (0, 0, 0);
+    for plane in 0..3 {
+        for i in 0..gpu[plane].len() {
+            worst = worst.max(gpu[plane][i].abs_diff(cpu[plane][i]));
+            changed += (gpu[plane][i] != dry[plane][i]) as usize;
+            rippled += (cpu[plane][i].abs_diff(flat[plane][i]) > 2) as usize;
+        }
+    }
+    eprintln!(
+        "turned {rotation_deg}°, {} rings: worst {worst} codes, {changed} samples changed, {rippled} moved by the rings",
+        ripples.len()
+    );
+    assert_eq!(ripples.len(), 4);
+    // f16 canvas on the GPU against f64 on the CPU.
+    assert!(worst <= 2, "{worst} codes off");
+    assert!(changed > 1000, "the water shows: {changed} samples changed");
+    assert!(rippled > 10, "the rings show: {rippled}");
+}
+
+#[test]
+fn without_water_the_frame_is_untouched() {
+    let Some(ctx) = gpu() else { return };
+    let camera = Camera::new(40, 30, 1.0, 1.6, f64::to_radians(-10.0), 0.0);
+    let s = setup(&camera, false);
+    let p = lit(&s, 0.0, &uniform_sky(1.0), 1.0);
+    let frame = picture(40, 30, |x, y| (200 + 11 * x + 7 * y) as u16, grey);
+    let none = codes(&render(&ctx, &frame, &s, &p, &Inputs::default()));
+    let dry_map = lake(0.0, 50.0);
+    let dry = codes(&render(
+        &ctx,
+        &frame,
+        &s,
+        &p,
+        &Inputs {
+            water: Some(&dry_map),
+            ..Inputs::default()
+        },
+    ));
+    assert_eq!(none, dry, "a dry map changes nothing");
+    assert_eq!(
+        none,
+        codes(&frame),
+        "no water, no rain: the frame comes back"
+    );
+    // A map that does not add up is refused, and a layer takes no water.
+    let mut comp = Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("comp");
+    let broken = Field2 {
+        values: vec![0.0; 5],
+        ..lake(0.0, 1.0)
+    };
+    assert!(comp.set_water(&broken).is_err());
+    let mut layer = Compositor::with_layer(
+        ctx.clone(),
+        frame.format,
+        &frame.color,
+        &s,
+        Some(rain_composite::video::Layer::OverBlack),
+    )
+    .expect("layer");
+    assert!(layer.set_water(&lake(0.01, 10.0)).is_err());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fresnel.
+
+/// Fresnel's unpolarised reflectance in angle form, air → water.
+fn fresnel_angles(theta_i: f64) -> f64 {
+    if theta_i < 1e-9 {
+        return ((WATER_INDEX - 1.0) / (WATER_INDEX + 1.0)).powi(2);
+    }
+    let theta_t = (theta_i.sin() / WATER_INDEX).asin();
+    let rs = (theta_i - theta_t).sin() / (theta_i + theta_t).sin();
+    let rp = (theta_i - theta_t).tan() / (theta_i + theta_t).tan();
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// Renders a black ground under still water mirroring radiance `sky` from every direction
+/// (the uniform environment, and the frame's sky where `frame_sky` is its code); returns the
+/// worst code error against R(θ)·sky per pixel and R at the pixel nearest normal and nearest
+/// grazing incidence (θ from the camera's own rays).
+fn fresnel_render(ctx: &Arc<GpuContext>, camera: &Camera, frame_sky: u16) -> (u16, f64, f64) {
+    let (w, h) = (camera.width_px, camera.height_px);
+    let color = ColorParams::bt709(10);
+    let sky = color.code_to_linear([frame_sky as f64, 512.0, 512.0])[1];
+    let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+    let frame = picture(
+        w,
+        h,
+        |x, y| if ray(x, y).z > 0.0 { frame_sky } else { 64 },
+        grey,
+    );
+    let s = setup(camera, false);
+    let p = lit(&s, 0.0, &uniform_sky(sky), 1.0);
+    let water = lake(0.05, 500.0);
+    let out = codes(&render(
+        ctx,
+        &frame,
+        &s,
+        &p,
+        &Inputs {
+            water: Some(&water),
+            ..Inputs::default()
+        },
+    ));
+    let (mut worst, mut normal, mut grazing) = (0, (0.0, 0.0), (1.0, 0.0));
+    for y in 0..h {
+        for x in 0..w {
+            let d = ray(x, y);
+            if d.z >= 0.0 {
+                continue;
+            }
+            let theta = (-d.z).acos();
+            let expected = color.linear_to_code([fresnel_angles(theta) * sky; 3])[0] as u16;
+            let got = out[0][(y * w + x) as usize];
+            worst = worst.max(got.abs_diff(expected));
+            let r = color.code_to_linear([got as f64, 512.0, 512.0])[1] / sky;
+            if -d.z > normal.0 {
+                normal = (-d.z, r);
+            }
+            if -d.z < grazing.0 {
+                grazing = (-d.z, r);
+            }
+        }
+    }
+    eprintln!(
+        "R at cos θ = {:.4}: {:.4}; at cos θ = {:.4}: {:.4}",
+        normal.0, normal.1, grazing.0, grazing.1
+    );
+    (worst, normal.1, grazing.1)
+}
+
+#[test]
+fn still_water_reflects_as_fresnel_says_head_on_and_at_grazing() {
+    let Some(ctx) = gpu() else { return };
+    // Straight down: every mirrored ray leaves the frame behind the camera, into the sky.
+    let down = Camera::new(32, 32, 0.5, 1.6, -PI / 2.0, 0.0);
+    let (worst, normal, _) = fresnel_render(&ctx, &down, 700);
+    let r0 = ((WATER_INDEX - 1.0) / (WATER_INDEX + 1.0)).powi(2);
+    assert!(worst <= 1, "{worst} codes off");
+    assert!((normal - r0).abs() < 0.05 * r0, "{normal} vs {r0}");
+    // Level: the rows just below the horizon mirror the sky rows just above it.
+    let level = Camera::new(64, 48, 1.0, 1.6, 0.0, 0.0);
+    let (worst, _, grazing) = fresnel_render(&ctx, &level, 700);
+    let theta = (0.5 / level.focal_px()).acos();
+    assert!(worst <= 2, "{worst} codes off");
+    assert!(
+        (grazing - fresnel_angles(theta)).abs() < 0.01,
+        "{grazing} at {:.2}°",
+        theta.to_degrees()
+    );
+    assert!(grazing > 0.95);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mirror images.
+
+/// Luma of `frame` at every pixel.
+fn luma(frame: &YuvFrame) -> Vec<f64> {
+    codes(frame)[0].iter().map(|&c| c as f64).collect()
+}
+
+#[test]
+fn a_bright_object_in_the_sky_shows_at_its_mirrored_position() {
+    let Some(ctx) = gpu() else { return };
+    for tilt_deg in [0.0, -6.0, 4.0] {
+        let camera = Camera::new(160, 120, 1.0, 1.6, f64::to_radians(tilt_deg), 0.0);
+        // The sky-over-ground shot: a sky above the horizon, a dark ground below; a bright
+        // 4 × 4 px object 20 px above the horizon.
+        let horizon_row =
+            camera.principal_px().y + camera.focal_px() * f64::to_radians(tilt_deg).tan();
+        let object = DVec2::new(100.0, (horizon_row - 20.0).round());
+        let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+        let shot = |with_object: bool| {
+            picture(
+                160,
+                120,
+                |x, y| {
+                    let (dx, dy) = (x as f64 + 0.5 - object.x, y as f64 + 0.5 - object.y);
+                    if with_object && dx.abs() < 2.0 && dy.abs() < 2.0 {
+                        940
+                    } else if ray(x, y).z > 0.0 {
+                        470
+                    } else {
+                        160
+                    }
+                },
+                grey,
+            )
+        };
+        let s = setup(&camera, false);
+        let p = lit(&s, 0.0, &uniform_sky(0.2), 1.0);
+        let water = lake(0.05, 400.0);
+        let inputs = Inputs {
+            water: Some(&water),
+            ..Inputs::default()
+        };
+        let with = luma(&render(&ctx, &shot(true), &s, &p, &inputs));
+        let without = luma(&render(&ctx, &shot(false), &s, &p, &inputs));
+        // The object's image in the water: the brightness it adds below the horizon.
+        let (mut sum, mut at) = (0.0, DVec2::ZERO);
+        for y in 0..120 {
+            for x in 0..160 {
+                if ray(x, y).z >= 0.0 {
+                    continue;
+                }
+                let i = (y * 160 + x) as usize;
+                let excess = (with[i] - without[i]).max(0.0);
+                sum += excess;
+                at += excess * DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+            }
+        }
+        assert!(
+            sum > 100.0,
+            "tilt {tilt_deg}°: no image in the water ({sum})"
+        );
+        let found = at / sum;
+        // Far away, the object's mirror image lies along its direction mirrored in the ground.
+        let u = camera.ray_world(object);
+        let mirrored = DVec3::new(u.x, u.y, -u.z);
+        let expected = camera
+            .project_world(camera.position_m + mirrored)
+            .expect("in front");
+        eprintln!("tilt {tilt_deg}°: image at {found:.2}, mirrored position {expected:.2}");
+        assert!(
+            found.distance(expected) < 2.0,
+            "tilt {tilt_deg}°: {found} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
+    let Some(ctx) = gpu() else { return };
+    let camera = Camera::new(160, 120, 1.0, 1.6, 0.0, 0.0);
+    // A pole 3 m tall and 0.4 m wide, 20 m ahead and 1 m to the right, facing the camera.
+    let (pole_x, pole_y, pole_w, pole_h) = (1.0, 20.0, 0.4, 3.0);
+    let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+    let on_pole = |x: u32, y: u32| {
+        let d = ray(x, y);
+        let hit = camera.position_m + d * (pole_y / d.y);
+        d.y > 0.0 && (hit.x - pole_x).abs() < 0.5 * pole_w && (0.0..pole_h).contains(&hit.z)
+    };
+    let shot = |with_pole: bool| {
+        picture(
+            160,
+            120,
+            |x, y| match (with_pole && on_pole(x, y), ray(x, y).z > 0.0) {
+                (true, _) => 940,
+                (false, true) => 470,
+                (false, false) => 160,
+            },
+            grey,
+        )
+    };
+    // The depth map: the pole, the ground (camera z of the plane), the sky unknown.
+    let depth = |with_pole: bool| {
+        let values: Vec<f32> = (0..120)
+            .flat_map(|y| (0..160).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let d = ray(x, y);
+                if with_pole && on_pole(x, y) {
+                    pole_y as f32
+                } else if d.z < 0.0 {
+                    // Camera z = world y for a level camera.
+                    (camera.position_m.z / -d.z * d.y) as f32
+                } else {
+                    f32::NAN
+                }
+            })
+            .collect();
+        DepthMap::from_values(160, 120, &values, 1.0).expect("map")
+    };
+    let s = setup(&camera, true);
+    let p = lit(&s, 0.0, &uniform_sky(0.2), 1.0);
+    let water = lake(0.05, 400.0);
+    let image = |with_pole: bool| {
+        let map = depth(with_pole);
+        luma(&render(
+            &ctx,
+            &shot(with_pole),
+            &s,
+            &p,
+            &Inputs {
+                water: Some(&water),
+                depth: Some(&map),
+                ..Inputs::default()
+            },
+        ))
+    };
+    let (with, without) = (image(true), image(false));
+    // The pole's column, down from its foot: its image ends where its top's mirror image lies.
+    let column = camera
+        .project_world(DVec3::new(pole_x, pole_y, 0.0))
+        .expect("in front");
+    let x = column.x as u32;
+    let excess: Vec<f64> = (0..120)
+        .map(|y| with[(y * 160 + x) as usize] - without[(y * 160 + x) as usize])
+        .collect();
+    let foot_row = column.y.ceil() as usize;
+    let peak = excess[foot_row..].iter().cloned().fold(0.0, f64::max);
+    assert!(peak > 20.0, "the pole shows in the water: {peak}");
+    // The last row below the foot whose excess is above half the peak, plus a half pixel: the
+    // edge of the image.
+    let last = (foot_row..120)
+        .rev()
+        .find(|&y| excess[y] > 0.5 * peak)
+        .expect("an image");
+    let edge = last as f64 + 1.0;
+    let top_mirrored = camera
+        .project_world(DVec3::new(pole_x, pole_y, -pole_h))
+        .expect("in front");
+    // At a distance (no depth) it would end at the mirror of its top's direction instead.
+    let u = camera.ray_world(
+        camera
+            .project_world(DVec3::new(pole_x, pole_y, pole_h))
+            .expect("top"),
+    );
+    let far = camera
+        .project_world(camera.position_m + DVec3::new(u.x, u.y, -u.z))
+        .expect("in front");
+    eprintln!(
+        "pole image ends at row {edge:.1}: mirror of its top at {:.2} (at a distance: {:.2})",
+        top_mirrored.y, far.y
+    );
+    assert!((edge - top_mirrored.y).abs() < 2.0);
+    assert!(
+        (far.y - top_mirrored.y).abs() > 10.0,
+        "the test tells depth apart"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cost.
+
+/// The stage's cost at 720p: time per frame without water, with still water, with the newest
+/// 128 rings, and with the rings and a depth map (the march), on this adapter. Run with
+/// `cargo test --release --test puddles_shade -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn report_the_cost_at_720p() {
+    let Some(ctx) = gpu() else { return };
+    let (w, h) = (1280, 720);
+    let camera = Camera::new(w, h, 1.0, 1.6, f64::to_radians(-10.0), 0.0);
+    let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+    let frame = picture(
+        w,
+        h,
+        |x, y| {
+            if ray(x, y).z > 0.0 {
+                600
+            } else {
+                (150 + (x * 7 + y * 3) % 200) as u16
+            }
+        },
+        grey,
+    );
+    // Half the ground under water: puddles 1 m across in a chequer to 40 m.
+    let (nx, ny) = (160, 160);
+    let water = Field2 {
+        nx,
+        ny,
+        origin_m: Vec2::new(-20.0, 0.0),
+        cell_m: 0.25,
+        values: (0..nx * ny)
+            .map(|k| {
+                if ((k % nx) / 4 + (k / nx) / 4) % 2 == 0 {
+                    0.01
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+    };
+    let impacts: Vec<Impact> = (0..400)
+        .map(|i| Impact {
+            id: i,
+            pass: 0,
+            time_s: 1.0 - i as f64 * 0.0035,
+            position_m: DVec3::new(
+                ((i * 37) % 100) as f64 * 0.1 - 5.0,
+                2.0 + ((i * 53) % 100) as f64 * 0.1,
+                0.0,
+            ),
+            diameter_mm: 2.0,
+            velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+        })
+        .collect();
+    let ground_depth: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let d = ray(x, y);
+            if d.z < 0.0 {
+                (1.6 / -d.z * d.y) as f32
+            } else {
+                f32::NAN
+            }
+        })
+        .collect();
+    let map = DepthMap::from_values(w as usize, h as usize, &ground_depth, 1.0).expect("map");
+    let frames = 10;
+    eprintln!("| puddles at {w}×{h} | ms per frame | puddles stage, ms (GPU timestamps) |");
+    eprintln!("|---|---|---|");
+    for (label, with_water, rings, depth) in [
+        ("no water", false, false, false),
+        ("still water", true, false, false),
+        ("128 rings", true, true, false),
+        ("128 rings, depth map", true, true, true),
+    ] {
+        let s = setup(&camera, depth);
+        let p = lit(&s, 1.0, &uniform_sky(0.5), 1.0);
+        let mut comp =
+            Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("compositor");
+        if depth {
+            comp.set_scene_depth(&map).expect("depth");
+        }
+        if with_water {
+            comp.set_water(&water).expect("water");
+            comp.set_ripples(if rings { &impacts } else { &[] })
+                .expect("rings");
+        }
+        comp.render_one(&frame, &p).expect("warm-up");
+        let before = comp.gpu_times().puddles_s;
+        let start = std::time::Instant::now();
+        for _ in 0..frames {
+            comp.render_one(&frame, &p).expect("render");
+        }
+        let per_frame_ms = start.elapsed().as_secs_f64() * 1e3 / frames as f64;
+        let stage_ms = (comp.gpu_times().puddles_s - before) * 1e3 / frames as f64;
+        eprintln!("| {label} | {per_frame_ms:.1} | {stage_ms:.1} |");
+    }
+}
