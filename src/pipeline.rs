@@ -781,6 +781,7 @@ pub struct RainCompositor {
     lighting: LightFeed,
     depth: Option<DepthSource>,
     depth_fed: bool,
+    puddles: PuddleFeed,
     adapter: String,
 }
 
@@ -812,12 +813,14 @@ impl RainCompositor {
             Compositor::with_layer(ctx.clone(), info.format, &info.color, &rain, layer)?;
         let lighting = LightFeed::new(info, config, &rain)?;
         lighting.upload_table(&mut compositor);
+        let puddles = PuddleFeed::new(info, config, layer)?;
         Ok(RainCompositor {
             rain,
             compositor,
             lighting,
             depth: None,
             depth_fed: false,
+            puddles,
             adapter: ctx.summary().name,
         })
     }
@@ -840,6 +843,13 @@ impl RainCompositor {
             !self.depth_fed,
         )?;
         self.depth_fed = true;
+        self.puddles.feed(
+            &self.rain,
+            &mut self.compositor,
+            &mut self.depth,
+            frame.index,
+            t_s,
+        )?;
         Ok(params)
     }
 
@@ -884,6 +894,104 @@ impl RainCompositor {
     /// The adapter's name.
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+}
+
+/// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
+/// the relief of that frame's depth map, if any) and brought to its time — from the clip's
+/// start, so a preview or a chunk sees the water a whole render shows there; then each frame
+/// hands it the drops that landed since the last one, and the compositor its water map and
+/// the impacts of the last ring life for the ripples.
+enum PuddleFeed {
+    /// No puddles.
+    Off,
+    /// Waiting for the first frame: the camera, the clip's frame rate and the configuration.
+    Pending(Box<(Camera, f64, RenderConfig)>),
+    /// Running: the simulation, the time the rain has been fed up to, the recent impacts.
+    On(Box<(crate::fluid::puddles::PuddleSim, f64, Vec<crate::rain::volume::Impact>)>),
+}
+
+impl PuddleFeed {
+    fn new(info: &VideoInfo, config: &RenderConfig, layer: Option<Layer>) -> Result<PuddleFeed> {
+        if !config.ground.puddles {
+            return Ok(PuddleFeed::Off);
+        }
+        if layer.is_some() {
+            return Err(Error::Parameter {
+                name: "--puddles",
+                value: "with --layer-only or --matte".into(),
+                expected: "a composite: puddles are not written into layers yet".into(),
+            });
+        }
+        let fps = crate::fluid::puddles::report::clip_fps(info);
+        Ok(PuddleFeed::Pending(Box::new((
+            camera_for(info, config)?,
+            fps,
+            config.clone(),
+        ))))
+    }
+
+    fn feed(
+        &mut self,
+        rain: &RainSetup,
+        compositor: &mut Compositor,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        t_s: f64,
+    ) -> Result<()> {
+        use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+        use crate::rain::volume::impacts_between;
+        let (volume, model, wind, seed) = (&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+        if let PuddleFeed::Pending(plan) = self {
+            let (camera, fps, config) = plan.as_ref();
+            let map = match depth {
+                Some(d) => Some(
+                    d.at(index)?
+                        .resampled(camera.width_px as usize, camera.height_px as usize)
+                        .depth_m
+                        .into_iter()
+                        .map(|z| if z.is_finite() { z } else { 0.0 })
+                        .collect::<Vec<f32>>(),
+                ),
+                None => None,
+            };
+            let started = Instant::now();
+            let settings = PuddleSettings::of(config);
+            let Some(mut sim) = PuddleSim::new(config, camera, map.as_deref(), *fps, &settings)?
+            else {
+                log::warn!("--puddles: the picture shows no ground within reach; no puddles");
+                *self = PuddleFeed::Off;
+                return Ok(());
+            };
+            if t_s > 0.0 {
+                sim.advance_with_rain(volume, model, wind, seed, t_s)?;
+            }
+            let (cap, capped) = sim.particle_cap();
+            log::info!(
+                "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s in {:.1} s",
+                sim.ledger().particles_present,
+                if capped { ", reached" } else { "" },
+                started.elapsed().as_secs_f64()
+            );
+            let life = crate::fluid::ripples::RING_LIFE_S;
+            let recent = impacts_between(volume, model, wind, seed, (t_s - life).max(0.0), t_s);
+            *self = PuddleFeed::On(Box::new((sim, t_s, recent)));
+        } else if let PuddleFeed::On(state) = self {
+            let (sim, fed_s, recent) = state.as_mut();
+            if t_s > *fed_s {
+                let hits = impacts_between(volume, model, wind, seed, *fed_s, t_s);
+                sim.advance_to(t_s, &hits)?;
+                recent.extend(hits);
+                recent.retain(|h| h.time_s > t_s - crate::fluid::ripples::RING_LIFE_S);
+                *fed_s = t_s;
+            }
+        }
+        if let PuddleFeed::On(state) = self {
+            let (sim, _, recent) = state.as_ref();
+            compositor.set_water(&sim.water_depth())?;
+            compositor.set_ripples(recent)?;
+        }
+        Ok(())
     }
 }
 

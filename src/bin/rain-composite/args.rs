@@ -214,6 +214,12 @@ pub struct LookArgs {
     /// Seed of the micro-relief: the same seed gives the same puddles.
     #[arg(long, value_name = "N")]
     pub relief_seed: Option<u32>,
+    /// Puddles on a given ground: the water already fallen (--pre-rain) and the clip's rain, simulated (SPH) and shaded in with ripples and reflections; about a second a frame on two cores.
+    #[arg(long)]
+    pub puddles: bool,
+    /// Most SPH particles the puddles hold: finer water, more cost.
+    #[arg(long, value_name = "N")]
+    pub puddle_particles: Option<u32>,
     /// A light the frame does not show (repeatable): degrees right and up of the view direction, linear radiance relative to the frame's white (a street lamp at night: 10³–10⁵), and optionally its distance in metres (irradiance then falls with the square of each drop's distance to it). Disc of 3° unless a config sets `angular_diameter_deg`.
     #[arg(
         long = "light",
@@ -613,6 +619,10 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.pre_rain => c.ground.pre_rain_min);
     set!(look.relief => c.ground.relief_m);
     set!(look.relief_seed => c.ground.relief_seed);
+    set!(look.puddle_particles => c.ground.puddle_particles);
+    if look.puddles {
+        c.ground.puddles = true;
+    }
     set!(look.focus => cam.focus_m);
     set!(look.f_number => cam.f_number);
     set!(look.sensor_width => cam.sensor_width_mm);

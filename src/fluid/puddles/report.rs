@@ -15,7 +15,7 @@ use crate::video::Source;
 use crate::{Error, Result};
 
 /// The clip's frame rate: the average, else the nominal, else 25 fps.
-fn clip_fps(info: &crate::video::VideoInfo) -> f64 {
+pub(crate) fn clip_fps(info: &crate::video::VideoInfo) -> f64 {
     [info.avg_frame_rate, info.frame_rate]
         .into_iter()
         .filter(|&(n, d)| n > 0 && d > 0)
@@ -50,7 +50,7 @@ pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>
         }
         None => None,
     };
-    let settings = PuddleSettings::default();
+    let settings = PuddleSettings::of(config);
     let built = Instant::now();
     let Some(mut sim) = PuddleSim::new(config, &camera, depth.as_deref(), fps, &settings)? else {
         return Ok(json!({
@@ -63,10 +63,11 @@ pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>
         }));
     };
     let build_s = built.elapsed().as_secs_f64();
-    let setup = crate::gpu::uniforms::build(
+    let setup = crate::gpu::uniforms::build_keyed(
         &camera,
         &config.camera,
         &config.rain,
+        &config.keyframes,
         exposure_s(&info, config)?,
         info.rotation_deg,
         (info.format.width, info.format.height),

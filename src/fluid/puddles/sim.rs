@@ -77,6 +77,16 @@ impl Default for PuddleSettings {
     }
 }
 
+impl PuddleSettings {
+    /// The defaults, with the particle cap of `config` (`--puddle-particles`).
+    pub fn of(config: &RenderConfig) -> PuddleSettings {
+        PuddleSettings {
+            max_particles: config.ground.puddle_particles as usize,
+            ..PuddleSettings::default()
+        }
+    }
+}
+
 /// The water on a shot's ground (see the module docs).
 #[derive(Debug, Clone)]
 pub struct PuddleSim {
