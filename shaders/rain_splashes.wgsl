@@ -125,3 +125,74 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         splashes[base + 1u + j] = segment_streak(w0, w1, (t_hi - t_lo) / rain.exposure_s, 0.5 * droplet_m * scale, weight, 3.0e38, 1.0);
     }
 }
+
+// The draw list: the streaks drawn (not hidden), in slot order, packed to the front of `drawn`
+// with their count in `draw_args`, so the rasteriser runs over them only (nearly every slot is
+// empty: a splash lives a tenth of a second of its drop's seconds-long fall). Three dispatches
+// after main: the drawn streaks per block of SIMULATE_WORKGROUP drops, the blocks' offsets (one
+// invocation, in block order), then each block's streaks copied to its offset in order. The
+// draw order, and so the blended canvas, is exactly that of drawing every slot.
+@group(0) @binding(6) var<storage, read_write> block_offsets: array<u32>;
+@group(0) @binding(7) var<storage, read_write> drawn: array<Streak>;
+// draw_indirect's arguments: vertex count, instance count, first vertex, first instance.
+@group(0) @binding(8) var<storage, read_write> draw_args: array<u32, 4>;
+
+var<workgroup> drawn_in_block: array<u32, SIMULATE_WORKGROUP>;
+
+// Streaks of the g-th landing drop that the rasteriser draws (rain_streaks skips len_px < 0).
+fn drawn_slots(g: u32) -> u32 {
+    var n = 0u;
+    if g < arrayLength(&splashes) / SPLASH_SLOTS {
+        for (var s = 0u; s < SPLASH_SLOTS; s++) {
+            if !(splashes[g * SPLASH_SLOTS + s].len_px < 0.0) { n++; }
+        }
+    }
+    return n;
+}
+
+@compute @workgroup_size(SIMULATE_WORKGROUP)
+fn count_drawn(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    drawn_in_block[lid.x] = drawn_slots(gid.x);
+    workgroupBarrier();
+    if lid.x == 0u {
+        var total = 0u;
+        for (var i = 0u; i < SIMULATE_WORKGROUP; i++) { total += drawn_in_block[i]; }
+        block_offsets[wid.x] = total;
+    }
+}
+
+@compute @workgroup_size(1)
+fn offset_blocks() {
+    var offset = 0u;
+    for (var b = 0u; b < arrayLength(&block_offsets); b++) {
+        let n = block_offsets[b];
+        block_offsets[b] = offset;
+        offset += n;
+    }
+    draw_args = array<u32, 4>(6u, offset, 0u, 0u);
+}
+
+@compute @workgroup_size(SIMULATE_WORKGROUP)
+fn pack_drawn(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    drawn_in_block[lid.x] = drawn_slots(gid.x);
+    workgroupBarrier();
+    var out = block_offsets[wid.x];
+    for (var i = 0u; i < lid.x; i++) { out += drawn_in_block[i]; }
+    let g = gid.x;
+    if g >= arrayLength(&splashes) / SPLASH_SLOTS { return; }
+    for (var s = 0u; s < SPLASH_SLOTS; s++) {
+        let streak = splashes[g * SPLASH_SLOTS + s];
+        if !(streak.len_px < 0.0) {
+            drawn[out] = streak;
+            out++;
+        }
+    }
+}

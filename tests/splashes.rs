@@ -1,11 +1,11 @@
 //! Splashes where drops land: the impacts are where the stateless drops meet the ground, as
 //! many per second and square metre as the Marshall–Palmer flux brings, only drops above the
-//! splashing threshold splash, the GPU stage draws what its CPU twin draws, and without a
-//! ground the stage has nothing to do.
+//! splashing threshold splash, the GPU stage draws what its CPU twin draws (its draw list holding
+//! exactly the drawn slots, in order), and without a ground the stage has nothing to do.
 
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
-use rain_composite::gpu::probe::probe_splashes;
+use rain_composite::gpu::probe::{probe_splash_draw_list, probe_splashes};
 use rain_composite::gpu::types::LightList;
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::lighting::prt::channel_optics;
@@ -240,6 +240,46 @@ fn the_gpu_draws_the_splashes_its_twin_draws() {
     );
     assert!(compared > 50, "{compared}");
     assert!(borderline * 50 < compared, "{borderline} of {compared}");
+}
+
+/// The draw list the stage packs for its indirect draw is its drawn slots (those the rasteriser
+/// does not skip), byte for byte and in slot order, and nothing else: drawing it blends exactly
+/// what drawing every slot blends. The packing works in blocks of drops, so a drop order broken
+/// at a block's edge, or a block counted twice or not at all, fails here.
+#[test]
+fn the_draw_list_is_the_drawn_slots_in_order() {
+    let Some(ctx) = gpu() else { return };
+    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(256).expect("table"));
+    let none = LightList::new(&[]);
+    let still = setup(160, 90, 25.0, 3.0, true);
+    let gusty = setup_in_wind(160, 90, 25.0, 3.0, true, [2.0, 1.0], 2.0);
+    for (s, t) in [(&still, 0.8), (&still, 3.37), (&gusty, 2.2)] {
+        let p = s.motion_at(t);
+        let (ids, slots) = probe_splashes(&ctx, s, &p, &none, &tables).expect("probe");
+        let list = probe_splash_draw_list(&ctx, s, &p, &none, &tables).expect("draw list");
+        // The rasteriser skips len_px < 0 only (a NaN would go through).
+        let expected: Vec<_> = slots
+            .iter()
+            .filter(|s| s.len_px >= 0.0 || s.len_px.is_nan())
+            .collect();
+        assert!(ids.len() > 1000 && !expected.is_empty());
+        assert_eq!(list.len(), expected.len(), "t {t}");
+        for (i, (a, b)) in list.iter().zip(&expected).enumerate() {
+            assert_eq!(
+                bytemuck::bytes_of(a),
+                bytemuck::bytes_of(*b),
+                "t {t}: streak {i}"
+            );
+        }
+        eprintln!(
+            "t {t}: {} of {} slots drawn ({} landing drops)",
+            list.len(),
+            slots.len(),
+            ids.len()
+        );
+    }
 }
 
 /// A camera given no ground: no drop lands, whatever the stage (the render is unchanged byte

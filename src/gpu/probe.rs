@@ -290,6 +290,49 @@ pub fn probe_splashes(
     lights: &LightList,
     tables: &[RtfTable; 3],
 ) -> Result<(Vec<u32>, Vec<Streak>)> {
+    let (stage, _inputs) = splash_stage(ctx, setup, params, lights, tables);
+    let size = stage.splashes.size();
+    let bytes = run_and_read(
+        ctx,
+        |encoder| stage.record(encoder, None),
+        &stage.splashes,
+        size,
+    )?;
+    let streaks = bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes);
+    Ok((stage.drop_ids, streaks))
+}
+
+/// The draw list `rain_splashes` packs from the slots [`probe_splashes`] reads: the streaks the
+/// rasteriser draws, in order, as many as the instance count of its indirect draw.
+pub fn probe_splash_draw_list(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    params: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> Result<Vec<Streak>> {
+    let (stage, _inputs) = splash_stage(ctx, setup, params, lights, tables);
+    let args = run_and_read(ctx, |e| stage.record(e, None), &stage.draw_args, 16)?;
+    let instances = u32::from_le_bytes([args[4], args[5], args[6], args[7]]) as u64;
+    if instances == 0 {
+        return Ok(Vec::new());
+    }
+    let size = instances * std::mem::size_of::<Streak>() as u64;
+    let bytes = run_and_read(ctx, |e| stage.record(e, None), &stage.drawn, size)?;
+    Ok(bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes))
+}
+
+/// The splash stage for `setup` under `params`, and the inputs it binds.
+fn splash_stage(
+    ctx: &GpuContext,
+    setup: &RainSetup,
+    params: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> (
+    super::stages::rain_splashes::SplashSimulate,
+    (wgpu::Buffer, wgpu::Buffer, DirectLightBuffers),
+) {
     use super::stages::rain_splashes::SplashSimulate;
     let device = &ctx.device;
     let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -306,13 +349,5 @@ pub fn probe_splashes(
     direct.upload_table(&ctx.queue, tables);
     direct.upload_lights(&ctx.queue, lights);
     let stage = SplashSimulate::new(device, &uniform, &columns, &direct, setup);
-    let size = stage.splashes.size();
-    let bytes = run_and_read(
-        ctx,
-        |encoder| stage.record(encoder, None),
-        &stage.splashes,
-        size,
-    )?;
-    let streaks = bytemuck::pod_collect_to_vec::<u8, Streak>(&bytes);
-    Ok((stage.drop_ids, streaks))
+    (stage, (uniform, columns, direct))
 }

@@ -139,7 +139,10 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                 per_frame(|s| s.encode_s),
                 1000.0 * a / frames.max(1) as f64,
             );
-            eprintln!("{h}p on {adapter}");
+            eprintln!(
+                "{h}p on {adapter}; of GPU rain, splashes {:.1} ms/frame",
+                per_frame(|s| s.gpu.rain_splashes_s)
+            );
         }
         Ok(())
     })();

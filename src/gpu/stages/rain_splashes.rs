@@ -3,6 +3,11 @@
 //! [`crate::gpu::cpu::rain_splashes`]), then those streaks rasterised onto the canvas by the
 //! `rain_streaks` pipeline, in drop order, before the drops' own streaks (splashes are on the
 //! ground, behind the rain falling in front of them). Without a ground it does not run.
+//!
+//! Nearly every slot is empty (a splash lives a tenth of a second of its drop's seconds-long
+//! fall), so the drawn streaks are first packed, in order, into a draw list whose length the
+//! GPU writes as the instance count of an indirect draw: the rasteriser runs over the splashes
+//! that show, not over every slot, and the canvas is the same bit for bit.
 
 use wgpu::util::DeviceExt;
 
@@ -36,12 +41,19 @@ pub fn landing_list(rain: &RainSetup, max_drops: u64) -> (Vec<[u32; 2]>, u32) {
     (list, total as u32)
 }
 
-/// The compute half: landing drops → their splashes' streaks, `SPLASH_SLOTS` per drop.
+/// The compute half: landing drops → their splashes' streaks, `SPLASH_SLOTS` per drop, then
+/// the draw list of those drawn.
 pub struct SplashSimulate {
     pipeline: wgpu::ComputePipeline,
     bind: wgpu::BindGroup,
+    /// The packing passes (`count_drawn`, `offset_blocks`, `pack_drawn`) and their bindings.
+    pack: [(wgpu::ComputePipeline, wgpu::BindGroup); 3],
     /// The splashes' streaks, drop after drop (slot 0 the crown, then the droplets).
     pub splashes: wgpu::Buffer,
+    /// The drawn streaks of `splashes`, in their order, packed to the front.
+    pub drawn: wgpu::Buffer,
+    /// `draw_indirect`'s arguments: 6 vertices, as many instances as `drawn` holds.
+    pub draw_args: wgpu::Buffer,
     /// The landing drops, in order (the g-th has its streaks at g·`SPLASH_SLOTS`).
     pub drop_ids: Vec<u32>,
 }
@@ -87,6 +99,51 @@ impl SplashSimulate {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let drawn = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splash_draw_list"),
+            size: splashes.size(),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let draw_args = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splash_draw_args"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let block_offsets = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splash_block_offsets"),
+            size: 4 * u64::from(workgroups(drops, WORKGROUP)),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        // Each packing pass binds only what it uses (its layout is derived from its entry).
+        let pack = [
+            ("count_drawn", vec![(3, &splashes), (6, &block_offsets)]),
+            ("offset_blocks", vec![(6, &block_offsets), (8, &draw_args)]),
+            (
+                "pack_drawn",
+                vec![(3, &splashes), (6, &block_offsets), (7, &drawn)],
+            ),
+        ]
+        .map(|(entry, buffers)| {
+            let pipeline = super::compute_pipeline(device, Stage::RainSplashes, entry);
+            let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+                .iter()
+                .map(|&(binding, b)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: buffer(b),
+                })
+                .collect();
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(entry),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            });
+            (pipeline, bind)
+        });
         let pipeline = super::compute_pipeline(device, Stage::RainSplashes, "main");
         let bind = bind_group(
             device,
@@ -104,7 +161,10 @@ impl SplashSimulate {
         SplashSimulate {
             pipeline,
             bind,
+            pack,
             splashes,
+            drawn,
+            draw_args,
             drop_ids,
         }
     }
@@ -114,7 +174,7 @@ impl SplashSimulate {
         self.drop_ids.len() as u32
     }
 
-    /// Records the compute pass.
+    /// Records the compute pass: the splashes, then their draw list.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -126,7 +186,14 @@ impl SplashSimulate {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind, &[]);
-        pass.dispatch_workgroups(workgroups(self.drops(), WORKGROUP), 1, 1);
+        let blocks = workgroups(self.drops(), WORKGROUP);
+        pass.dispatch_workgroups(blocks, 1, 1);
+        // Each dispatch sees the storage written by the one before.
+        for ((pipeline, bind), groups) in self.pack.iter().zip([blocks, 1, blocks]) {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+        }
     }
 }
 
@@ -143,7 +210,7 @@ impl RainSplashes {
         let draw = RainStreaks::with_streaks(
             device,
             r,
-            &simulate.splashes,
+            &simulate.drawn,
             simulate.drops() * SPLASH_SLOTS,
             None,
         );
@@ -170,13 +237,14 @@ impl FrameStage for RainSplashes {
                 end_of_pass_write_index: None,
             }),
         );
-        self.draw.draw(
+        self.draw.draw_indirect(
             encoder,
             timestamps.map(|t| wgpu::RenderPassTimestampWrites {
                 query_set: t.set,
                 beginning_of_pass_write_index: None,
                 end_of_pass_write_index: Some(2 * t.slot + 1),
             }),
+            &self.simulate.draw_args,
         );
     }
 }

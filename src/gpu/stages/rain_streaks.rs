@@ -148,6 +148,27 @@ impl RainStreaks {
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
+        self.begin(encoder, timestamp_writes)
+            .draw(0..6, 0..self.drops);
+    }
+
+    /// Records the draw of the first streaks, as many as the instance count in `args`
+    /// (`draw_indirect`'s arguments, written on the GPU).
+    pub fn draw_indirect(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+        args: &wgpu::Buffer,
+    ) {
+        self.begin(encoder, timestamp_writes).draw_indirect(args, 0);
+    }
+
+    /// The render pass onto the canvas, the pipeline and bindings set.
+    fn begin<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> wgpu::RenderPass<'e> {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(self.name()),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -166,6 +187,6 @@ impl RainStreaks {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind, &[]);
-        pass.draw(0..6, 0..self.drops);
+        pass
     }
 }
