@@ -462,6 +462,78 @@ fn preview_is_the_frame_the_full_render_writes() {
     check_preview_against_render(&dir, &input, "keyed", &keyed);
 }
 
+/// Puddles are stateful: a preview (and a chunk) fast-forwards the water from the clip's start,
+/// and shows the frame a whole render writes there; the water changes the ground; puddles need
+/// a given ground and a composite.
+#[test]
+fn puddles_preview_is_the_frame_the_full_render_writes() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    clip(
+        &input,
+        "160x120",
+        2.0,
+        &["-c:v", "libx264", "-g", "10", "-pix_fmt", "yuv420p"],
+    );
+    let dry = vec![
+        "--rain",
+        "30",
+        "--seed",
+        "3",
+        "--cpu",
+        "--ground",
+        "horizon=0.4",
+        "--pre-rain",
+        "240",
+    ];
+    let mut wet = dry.clone();
+    wet.extend([
+        "--puddles",
+        "--puddle-particles",
+        "1500",
+        "--relief",
+        "0.01",
+    ]);
+    check_preview_against_render(&dir, &input, "puddles", &wet);
+    let still = |look: &[&str], name: &str| {
+        let png = p(&dir, name);
+        ok(bin()
+            .args([
+                "preview",
+                s(&input),
+                "--at",
+                "1.2s",
+                "-o",
+                s(&png),
+                "--bits",
+                "16",
+            ])
+            .args(look));
+        std::fs::read(&png).expect("png")
+    };
+    assert_ne!(
+        still(&wet, "wet.png"),
+        still(&dry, "dry.png"),
+        "puddles show"
+    );
+    for (extra, says) in [
+        (vec!["--puddles"], "--puddles"),
+        (
+            vec!["--ground", "horizon=0.4", "--puddles", "--layer-only"],
+            "--puddles",
+        ),
+    ] {
+        let out = bin()
+            .args([s(&input), "-o", s(&p(&dir, "refused.mov"))])
+            .args(&extra)
+            .output()
+            .expect("run");
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && e.contains(says), "{extra:?}: {e}");
+        assert!(!p(&dir, "refused.mov").exists());
+    }
+}
+
 /// Frames 30 (`--at 1.2s`) and 17 (`--frame 17`) previewed with `look` equal those frames of
 /// the full render with `look`.
 fn check_preview_against_render(dir: &TempDir, input: &Path, tag: &str, look: &[&str]) {
