@@ -908,7 +908,13 @@ enum PuddleFeed {
     /// Waiting for the first frame: the camera, the clip's frame rate and the configuration.
     Pending(Box<(Camera, f64, RenderConfig)>),
     /// Running: the simulation, the time the rain has been fed up to, the recent impacts.
-    On(Box<(crate::fluid::puddles::PuddleSim, f64, Vec<crate::rain::volume::Impact>)>),
+    On(
+        Box<(
+            crate::fluid::puddles::PuddleSim,
+            f64,
+            Vec<crate::rain::volume::Impact>,
+        )>,
+    ),
 }
 
 impl PuddleFeed {
@@ -988,7 +994,7 @@ impl PuddleFeed {
         }
         if let PuddleFeed::On(state) = self {
             let (sim, _, recent) = state.as_ref();
-            compositor.set_water(&sim.water_depth())?;
+            compositor.set_water(&sim.shown_depth())?;
             compositor.set_ripples(recent)?;
         }
         Ok(())
