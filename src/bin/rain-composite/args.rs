@@ -734,6 +734,7 @@ mod tests {
         c.ground.pre_rain_min = 25.0;
         (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);
         (c.ground.relief_m, c.ground.relief_seed) = (0.01, 7);
+        c.ground.puddle_particles = 12_000;
         let values = c.flag_values();
         let defaults = RenderConfig::default().flag_values();
         for (flag, d) in &defaults {
