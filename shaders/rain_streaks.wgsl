@@ -9,9 +9,9 @@
 // holds one element and the alpha is multiplied by exactly 1.
 // With --streaks mattes (vs_mattes, fs_mattes) the colour is spread along the streak by the
 // drop's environment matte (src/drops/atlas.rs): its size and view bins from `drop_info`, its
-// oscillation phase random per drop and fixed in time; and the drop's glint (its brightest
-// compact light, from rain_simulate's main_mattes) by that light's point-light matte. The alpha
-// stays the coverage above.
+// oscillation phase random per drop and fixed in time; and each of the drop's glints (its
+// GLINTS_PER_DROP strongest compact lights, from rain_simulate's main_mattes) by that light's
+// point-light matte. The alpha stays the coverage above.
 // Includes: common/types.wgsl, common/rng.wgsl, common/depth.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
@@ -30,10 +30,12 @@ struct VsOut {
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
     // The streak's matte layer (mattes only).
     @location(4) @interpolate(flat) layer: u32,
-    // The glint's matte layer (MATTE_NONE: no glint) and colour (rgb; w: −1 where the matte is
-    // the mirror image).
-    @location(5) @interpolate(flat) glint_layer: u32,
-    @location(6) @interpolate(flat) glint: vec4<f32>,
+    // The glints' matte layers, strongest first (MATTE_NONE: no more glints), and whether
+    // each is the mirror image (−1) or not (1).
+    @location(5) @interpolate(flat) glint_layers: vec4<u32>,
+    @location(6) @interpolate(flat) glint_flip: vec4<f32>,
+    // The drop (its glints' colours are read where drawn).
+    @location(7) @interpolate(flat) id: u32,
 }
 
 @group(0) @binding(3) var<uniform> mattes: MatteParams;
@@ -63,7 +65,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, MATTE_NONE, vec4<f32>(0.0));
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(1.0), id);
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -82,7 +84,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, MATTE_NONE, vec4<f32>(0.0));
+        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(1.0), id);
 }
 
 // The index of the bin of `values` (the first `count`) nearest to `x`.
@@ -103,18 +105,20 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
     out.layer = (size * mattes.counts.y + view) * phases + phase;
-    let g = glints[id];
-    if mattes.light_count.x > 0u && any(g.colour.rgb > vec3<f32>(0.0)) {
+    for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
+        let g = glints[GLINTS_PER_DROP * id + k];
+        // Strongest first: the first without light ends them.
+        if all(g.colour.rgb <= vec3<f32>(0.0)) { break; }
         // Lights left of the view use the mirror image of those to its right.
         var dir = g.light_dir.xyz;
         let mirror = dir.x < 0.0;
         dir.x = abs(dir.x);
         var light = 0u;
-        for (var k = 1u; k < mattes.light_count.x; k++) {
-            if dot(mattes.lights[k].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = k; }
+        for (var j = 1u; j < mattes.light_count.x; j++) {
+            if dot(mattes.lights[j].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = j; }
         }
-        out.glint_layer = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
-        out.glint = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
+        out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
+        out.glint_flip[k] = select(1.0, -1.0, mirror);
     }
     return out;
 }
@@ -190,8 +194,9 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let u = (v.local_px.x + r) / footprint;
     let w = -v.local_px.y / r;
     var light = v.radiance * matte_at(v.layer, u, w);
-    if v.glint_layer != MATTE_NONE {
-        light += v.glint.rgb * matte_at(v.glint_layer, u, v.glint.w * w);
+    for (var k = 0u; k < GLINTS_PER_DROP; k++) {
+        if v.glint_layers[k] == MATTE_NONE { break; }
+        light += glints[GLINTS_PER_DROP * v.id + k].colour.rgb * matte_at(v.glint_layers[k], u, v.glint_flip[k] * w);
     }
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
