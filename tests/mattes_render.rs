@@ -569,7 +569,7 @@ fn light_list(lamps: &[DirectLight]) -> LightList {
 /// glints and the streaks it leaves match the twin `take_glints` applied to the plain
 /// streaks of `main`, drop by drop; and the light is moved exactly once: per channel the
 /// glints plus the mean of the streak's ends are the plain streak's mean (to f32 rounding),
-/// nothing negative.
+/// nothing negative. The frame drawn with them matches the twin's.
 #[test]
 fn glints_on_the_gpu_match_the_cpu_twin_and_move_the_light_once() {
     let Some(ctx) = gpu() else { return };
@@ -655,6 +655,27 @@ fn glints_on_the_gpu_match_the_cpu_twin_and_move_the_light_once() {
     // f32 on the GPU against f64 on the CPU.
     assert!(worst_twin < 1e-3, "GPU vs twin {worst_twin}");
     assert!(worst_once < 1e-5, "light not conserved: {worst_once}");
+
+    // The frame: every glint drawn with its matte, GPU against the twin.
+    let color = ColorParams::bt709(10);
+    let frame = YuvFrame::filled(format, color, [150, 512, 512]);
+    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
+    comp.set_transfer_table(&tables);
+    comp.set_lights(&lights);
+    let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
+    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    rain_streaks_with(&mut canvas, &params, &split, Some(&atlas()), &glints, None);
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
+    let (mut worst, mut off, mut total) = (0u16, 0usize, 0usize);
+    for (g, c) in gpu.iter().zip(&cpu) {
+        for (a, b) in g.iter().zip(c) {
+            worst = worst.max(a.abs_diff(*b));
+            off += (a.abs_diff(*b) > 2) as usize;
+            total += 1;
+        }
+    }
+    eprintln!("three lamps: worst {worst} codes, {off} of {total} samples > 2 codes");
+    assert!(worst <= 8 && (off as f64) < 0.02 * total as f64);
 }
 
 /// The light of `lamp` (the drop at `offset_m` from the camera seen along unit `v`) the glints
