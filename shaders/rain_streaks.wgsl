@@ -30,12 +30,14 @@ struct VsOut {
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
     // The streak's matte layer (mattes only).
     @location(4) @interpolate(flat) layer: u32,
-    // The glints' matte layers, strongest first (MATTE_NONE: no more glints), and whether
-    // each is the mirror image (−1) or not (1).
+    // The glints' matte layers, strongest first (MATTE_NONE: no more glints), and their
+    // colours (rgb; w: −1 where the matte is the mirror image, else 1). Up to four: varyings,
+    // not a storage read per fragment.
     @location(5) @interpolate(flat) glint_layers: vec4<u32>,
-    @location(6) @interpolate(flat) glint_flip: vec4<f32>,
-    // The drop (its glints' colours are read where drawn).
-    @location(7) @interpolate(flat) id: u32,
+    @location(6) @interpolate(flat) glint0: vec4<f32>,
+    @location(7) @interpolate(flat) glint1: vec4<f32>,
+    @location(8) @interpolate(flat) glint2: vec4<f32>,
+    @location(9) @interpolate(flat) glint3: vec4<f32>,
 }
 
 @group(0) @binding(3) var<uniform> mattes: MatteParams;
@@ -65,7 +67,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(1.0), id);
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -84,7 +86,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(1.0), id);
+        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
 }
 
 // The index of the bin of `values` (the first `count`) nearest to `x`.
@@ -105,6 +107,7 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
     out.layer = (size * mattes.counts.y + view) * phases + phase;
+    var colours: array<vec4<f32>, 4>;
     for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
         let g = glints[GLINTS_PER_DROP * id + k];
         // Strongest first: the first without light ends them.
@@ -118,8 +121,12 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
             if dot(mattes.lights[j].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = j; }
         }
         out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
-        out.glint_flip[k] = select(1.0, -1.0, mirror);
+        colours[k] = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
     }
+    out.glint0 = colours[0];
+    out.glint1 = colours[1];
+    out.glint2 = colours[2];
+    out.glint3 = colours[3];
     return out;
 }
 
@@ -194,9 +201,10 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let u = (v.local_px.x + r) / footprint;
     let w = -v.local_px.y / r;
     var light = v.radiance * matte_at(v.layer, u, w);
+    let glint = array<vec4<f32>, 4>(v.glint0, v.glint1, v.glint2, v.glint3);
     for (var k = 0u; k < GLINTS_PER_DROP; k++) {
         if v.glint_layers[k] == MATTE_NONE { break; }
-        light += glints[GLINTS_PER_DROP * v.id + k].colour.rgb * matte_at(v.glint_layers[k], u, v.glint_flip[k] * w);
+        light += glint[k].rgb * matte_at(v.glint_layers[k], u, glint[k].w * w);
     }
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);

@@ -46,14 +46,15 @@ pub fn matte_layers(
     let phase =
         ((drop_uniform(seed, id, MATTE_PHASE_STREAM) * phases as f64) as usize).min(phases - 1);
     let bin = size * atlas.views_deg.len() + view;
+    // No point-light mattes, no glints drawn.
+    let glints = if atlas.lights.is_empty() {
+        &[][..]
+    } else {
+        &glints[..glints.len().min(GLINTS_PER_DROP)]
+    };
     let lit = |g: &&Glint| g.colour[..3].iter().any(|&c| c > 0.0);
     let glint_layers = glints
         .iter()
-        .take(if atlas.lights.is_empty() {
-            0
-        } else {
-            GLINTS_PER_DROP
-        })
         .take_while(lit)
         .map(|g| {
             let [x, y, z, _] = g.light_dir.map(f64::from);
