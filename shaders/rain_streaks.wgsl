@@ -151,6 +151,13 @@ fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
     return mix(top, bottom, t.y);
 }
 
+// A glint's light at (u, w) of the footprint: `colour` (rgb; w: −1 for the mirror image) by
+// its point-light matte `layer`; nothing for MATTE_NONE (the same for the whole quad).
+fn glint_light(layer: u32, colour: vec4<f32>, u: f32, w: f32) -> vec3<f32> {
+    if layer == MATTE_NONE { return vec3<f32>(0.0); }
+    return colour.rgb * matte_at(layer, u, colour.w * w);
+}
+
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
 // along x, covers the point (along, across).
 fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
@@ -201,11 +208,9 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let u = (v.local_px.x + r) / footprint;
     let w = -v.local_px.y / r;
     var light = v.radiance * matte_at(v.layer, u, w);
-    let glint = array<vec4<f32>, 4>(v.glint0, v.glint1, v.glint2, v.glint3);
-    for (var k = 0u; k < GLINTS_PER_DROP; k++) {
-        if v.glint_layers[k] == MATTE_NONE { break; }
-        light += glint[k].rgb * matte_at(v.glint_layers[k], u, glint[k].w * w);
-    }
+    // Written out: an array indexed per fragment spills to memory on CPU adapters.
+    light += glint_light(v.glint_layers.x, v.glint0, u, w) + glint_light(v.glint_layers.y, v.glint1, u, w)
+        + glint_light(v.glint_layers.z, v.glint2, u, w) + glint_light(v.glint_layers.w, v.glint3, u, w);
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
 }
