@@ -30,14 +30,11 @@ struct VsOut {
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
     // The streak's matte layer (mattes only).
     @location(4) @interpolate(flat) layer: u32,
-    // The glints' matte layers, strongest first (MATTE_NONE: no more glints), and their
-    // colours (rgb; w: −1 where the matte is the mirror image, else 1). Up to four: varyings,
-    // not a storage read per fragment.
+    // The glints' matte layers, strongest first (MATTE_NONE: none), MATTE_MIRROR set where the
+    // matte is the mirror image; their colours are read where drawn. Few varyings: on CPU
+    // adapters each costs set-up per triangle, and the quads are many and small.
     @location(5) @interpolate(flat) glint_layers: vec4<u32>,
-    @location(6) @interpolate(flat) glint0: vec4<f32>,
-    @location(7) @interpolate(flat) glint1: vec4<f32>,
-    @location(8) @interpolate(flat) glint2: vec4<f32>,
-    @location(9) @interpolate(flat) glint3: vec4<f32>,
+    @location(6) @interpolate(flat) id: u32,
 }
 
 @group(0) @binding(3) var<uniform> mattes: MatteParams;
@@ -51,6 +48,8 @@ const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
 const MATTE_PHASE_STREAM: u32 = 6u;
 const MATTE_PI: f32 = 3.14159265358979;
 const MATTE_NONE: u32 = 0xffffffffu;
+// The bit of a glint's layer that marks its matte's mirror image.
+const MATTE_MIRROR: u32 = 0x80000000u;
 
 const AA_MARGIN_PX: f32 = 0.5;
 // Depth over which a drop passing behind the scene fades out, m: a few centimetres, so depth
@@ -67,7 +66,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), id);
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -86,7 +85,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), id);
 }
 
 // The index of the bin of `values` (the first `count`) nearest to `x`.
@@ -107,7 +106,6 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
     out.layer = (size * mattes.counts.y + view) * phases + phase;
-    var colours: array<vec4<f32>, 4>;
     for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
         let g = glints[GLINTS_PER_DROP * id + k];
         // Strongest first: the first without light ends them.
@@ -120,13 +118,9 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
         for (var j = 1u; j < mattes.light_count.x; j++) {
             if dot(mattes.lights[j].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = j; }
         }
-        out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
-        colours[k] = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
+        out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase
+            | select(0u, MATTE_MIRROR, mirror);
     }
-    out.glint0 = colours[0];
-    out.glint1 = colours[1];
-    out.glint2 = colours[2];
-    out.glint3 = colours[3];
     return out;
 }
 
@@ -151,11 +145,13 @@ fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
     return mix(top, bottom, t.y);
 }
 
-// A glint's light at (u, w) of the footprint: `colour` (rgb; w: −1 for the mirror image) by
-// its point-light matte `layer`; nothing for MATTE_NONE (the same for the whole quad).
-fn glint_light(layer: u32, colour: vec4<f32>, u: f32, w: f32) -> vec3<f32> {
-    if layer == MATTE_NONE { return vec3<f32>(0.0); }
-    return colour.rgb * matte_at(layer, u, colour.w * w);
+// The light of glint `index` at (u, w) of the footprint, drawn with its point-light matte
+// (`bits`: the layer, MATTE_MIRROR for the mirror image); nothing for MATTE_NONE (the same for
+// the whole quad).
+fn glint_light(bits: u32, index: u32, u: f32, w: f32) -> vec3<f32> {
+    if bits == MATTE_NONE { return vec3<f32>(0.0); }
+    let layer = bits & ~MATTE_MIRROR;
+    return glints[index].colour.rgb * matte_at(layer, u, select(w, -w, layer != bits));
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -208,9 +204,10 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let u = (v.local_px.x + r) / footprint;
     let w = -v.local_px.y / r;
     var light = v.radiance * matte_at(v.layer, u, w);
-    // Written out: an array indexed per fragment spills to memory on CPU adapters.
-    light += glint_light(v.glint_layers.x, v.glint0, u, w) + glint_light(v.glint_layers.y, v.glint1, u, w)
-        + glint_light(v.glint_layers.z, v.glint2, u, w) + glint_light(v.glint_layers.w, v.glint3, u, w);
+    // Written out: a vector indexed per fragment spills to memory on CPU adapters.
+    let first = GLINTS_PER_DROP * v.id;
+    light += glint_light(v.glint_layers.x, first, u, w) + glint_light(v.glint_layers.y, first + 1u, u, w)
+        + glint_light(v.glint_layers.z, first + 2u, u, w) + glint_light(v.glint_layers.w, first + 3u, u, w);
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
 }

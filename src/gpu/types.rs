@@ -287,9 +287,9 @@ pub struct MatteParams {
 
 /// Compact lights per drop drawn with their point-light mattes (`--streaks mattes`): the
 /// drop's strongest, `glints[GLINTS_PER_DROP · id + k]`; weaker ones stay in the smooth colour.
-/// With three or four lamps in shot the fifth carries a few per cent of a drop's direct light
-/// at most (docs/method.md §5.3). At most 4: `rain_streaks` passes a drop's matte layers in one
-/// `vec4<u32>`.
+/// With up to six lamps of similar strength the rest carry under half a per cent of the drops'
+/// direct light (docs/method.md §5.3). At most 4: `rain_streaks` passes a drop's glints as
+/// four varyings.
 pub const GLINTS_PER_DROP: usize = 4;
 const _: () = assert!(GLINTS_PER_DROP <= 4);
 
