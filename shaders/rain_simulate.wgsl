@@ -72,33 +72,59 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     streaks[id.x] = streak_of(id.x);
 }
 
-// With point-light mattes (--streaks mattes): the drop's brightest compact light, at its
-// mid-exposure position, is taken out of the streak's smooth colour and written as a glint for
-// rain_streaks to draw with that light's matte, its direction in the matte's frame.
+// With point-light mattes (--streaks mattes): the drop's GLINTS_PER_DROP strongest compact
+// lights (by the sum of their rgb), at its mid-exposure position, leave the streak's smooth
+// colour and are written as glints, strongest first (zero colour: none), for rain_streaks to
+// draw each with its light's matte, its direction in the matte's frame. Weaker lights stay in
+// the smooth colour. The lights were added to the colour at the streak's ends, the glints are
+// taken at its middle: where they would exceed the mean colour they are scaled down to it, so
+// the light is moved, never counted twice nor made negative.
 @compute @workgroup_size(SIMULATE_WORKGROUP)
 fn main_mattes(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= rain.drop_count { return; }
     var s = streak_of(id.x);
-    var glint = Glint(vec4<f32>(0.0), vec4<f32>(0.0));
+    var strongest: array<LightTerm, GLINTS_PER_DROP>;
+    var dirs: array<vec3<f32>, GLINTS_PER_DROP>;
+    // Per channel, the share of the glints' light the streak can give them.
+    var share = vec3<f32>(0.0);
     if s.len_px >= 0.0 && lights.count > 0u {
         let drop = drop_state(id.x);
         let offset = drop.pos_m - rain.camera_pos_m.xyz;
         let v = normalize(offset);
-        var best = LightTerm(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0));
         for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
-            let t = light_term(lights.lights[i], v, offset);
-            if dot(t.colour, vec3<f32>(1.0)) > dot(best.colour, vec3<f32>(1.0)) { best = t; }
+            // Insertion into the strongest so far; the weakest drops out.
+            var t = light_term(lights.lights[i], v, offset);
+            for (var k = 0u; k < GLINTS_PER_DROP; k++) {
+                if dot(t.colour, vec3<f32>(1.0)) > dot(strongest[k].colour, vec3<f32>(1.0)) {
+                    let weaker = strongest[k];
+                    strongest[k] = t;
+                    t = weaker;
+                }
+            }
         }
         // The matte's frame: z against the fall, y the view's horizontal part, x = y × z.
         let up = -drop.vel_mps / max(length(drop.vel_mps), 1e-6);
         var away = v - up * dot(v, up);
         away = select(vec3<f32>(0.0, 1.0, 0.0), normalize(away), length(away) > 1e-6);
         let right = cross(away, up);
-        let c = min(best.colour, 0.5 * (s.radiance0.rgb + s.radiance1.rgb));
-        s.radiance0 = vec4<f32>(max(s.radiance0.rgb - c, vec3<f32>(0.0)), s.radiance0.w);
-        s.radiance1 = vec4<f32>(max(s.radiance1.rgb - c, vec3<f32>(0.0)), s.radiance1.w);
-        glint = Glint(vec4<f32>(c, 0.0), vec4<f32>(dot(best.omega, right), dot(best.omega, away), dot(best.omega, up), 0.0));
+        var sum = vec3<f32>(0.0);
+        for (var k = 0u; k < GLINTS_PER_DROP; k++) {
+            sum += strongest[k].colour;
+            let w = strongest[k].omega;
+            dirs[k] = vec3<f32>(dot(w, right), dot(w, away), dot(w, up));
+        }
+        // Per channel, the glints hold at most the streak's mean colour; what they hold leaves
+        // the mean exactly: both ends lose it, or one end all it has and the other the rest.
+        let both = s.radiance0.rgb + s.radiance1.rgb;
+        let taken = min(sum, 0.5 * both);
+        let left = max(both - 2.0 * taken, vec3<f32>(0.0));
+        let end0 = clamp(s.radiance0.rgb - taken, vec3<f32>(0.0), left);
+        s.radiance0 = vec4<f32>(end0, s.radiance0.w);
+        s.radiance1 = vec4<f32>(left - end0, s.radiance1.w);
+        share = select(taken / max(sum, vec3<f32>(1e-30)), vec3<f32>(1.0), sum <= taken);
     }
     streaks[id.x] = s;
-    glints[id.x] = glint;
+    for (var k = 0u; k < GLINTS_PER_DROP; k++) {
+        glints[GLINTS_PER_DROP * id.x + k] = Glint(vec4<f32>(strongest[k].colour * share, 0.0), vec4<f32>(dirs[k], 0.0));
+    }
 }

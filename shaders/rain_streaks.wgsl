@@ -9,9 +9,9 @@
 // holds one element and the alpha is multiplied by exactly 1.
 // With --streaks mattes (vs_mattes, fs_mattes) the colour is spread along the streak by the
 // drop's environment matte (src/drops/atlas.rs): its size and view bins from `drop_info`, its
-// oscillation phase random per drop and fixed in time; and the drop's glint (its brightest
-// compact light, from rain_simulate's main_mattes) by that light's point-light matte. The alpha
-// stays the coverage above.
+// oscillation phase random per drop and fixed in time; and each of the drop's glints (its
+// GLINTS_PER_DROP strongest compact lights, from rain_simulate's main_mattes) by that light's
+// point-light matte. The alpha stays the coverage above.
 // Includes: common/types.wgsl, common/rng.wgsl, common/depth.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
@@ -30,10 +30,11 @@ struct VsOut {
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
     // The streak's matte layer (mattes only).
     @location(4) @interpolate(flat) layer: u32,
-    // The glint's matte layer (MATTE_NONE: no glint) and colour (rgb; w: −1 where the matte is
-    // the mirror image).
-    @location(5) @interpolate(flat) glint_layer: u32,
-    @location(6) @interpolate(flat) glint: vec4<f32>,
+    // The glints' matte layers, strongest first (MATTE_NONE: none), MATTE_MIRROR set where the
+    // matte is the mirror image; their colours are read where drawn. Few varyings: on CPU
+    // adapters each costs set-up per triangle, and the quads are many and small.
+    @location(5) @interpolate(flat) glint_layers: vec4<u32>,
+    @location(6) @interpolate(flat) id: u32,
 }
 
 @group(0) @binding(3) var<uniform> mattes: MatteParams;
@@ -47,6 +48,8 @@ const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
 const MATTE_PHASE_STREAM: u32 = 6u;
 const MATTE_PI: f32 = 3.14159265358979;
 const MATTE_NONE: u32 = 0xffffffffu;
+// The bit of a glint's layer that marks its matte's mirror image.
+const MATTE_MIRROR: u32 = 0x80000000u;
 
 const AA_MARGIN_PX: f32 = 0.5;
 // Depth over which a drop passing behind the scene fades out, m: a few centimetres, so depth
@@ -63,7 +66,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, MATTE_NONE, vec4<f32>(0.0));
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), id);
     }
     // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
     let corner = array<vec2<f32>, 6>(
@@ -82,7 +85,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, MATTE_NONE, vec4<f32>(0.0));
+        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), id);
 }
 
 // The index of the bin of `values` (the first `count`) nearest to `x`.
@@ -103,18 +106,20 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
     out.layer = (size * mattes.counts.y + view) * phases + phase;
-    let g = glints[id];
-    if mattes.light_count.x > 0u && any(g.colour.rgb > vec3<f32>(0.0)) {
+    for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
+        let g = glints[GLINTS_PER_DROP * id + k];
+        // Strongest first: the first without light ends them.
+        if all(g.colour.rgb <= vec3<f32>(0.0)) { break; }
         // Lights left of the view use the mirror image of those to its right.
         var dir = g.light_dir.xyz;
         let mirror = dir.x < 0.0;
         dir.x = abs(dir.x);
         var light = 0u;
-        for (var k = 1u; k < mattes.light_count.x; k++) {
-            if dot(mattes.lights[k].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = k; }
+        for (var j = 1u; j < mattes.light_count.x; j++) {
+            if dot(mattes.lights[j].xyz, dir) > dot(mattes.lights[light].xyz, dir) { light = j; }
         }
-        out.glint_layer = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase;
-        out.glint = vec4<f32>(g.colour.rgb, select(1.0, -1.0, mirror));
+        out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase
+            | select(0u, MATTE_MIRROR, mirror);
     }
     return out;
 }
@@ -138,6 +143,15 @@ fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
     let top = mix(matte_texel(layer, i, j), matte_texel(layer, i + 1, j), t.x);
     let bottom = mix(matte_texel(layer, i, j + 1), matte_texel(layer, i + 1, j + 1), t.x);
     return mix(top, bottom, t.y);
+}
+
+// The light of glint `index` at (u, w) of the footprint, drawn with its point-light matte
+// (`bits`: the layer, MATTE_MIRROR for the mirror image); nothing for MATTE_NONE (the same for
+// the whole quad).
+fn glint_light(bits: u32, index: u32, u: f32, w: f32) -> vec3<f32> {
+    if bits == MATTE_NONE { return vec3<f32>(0.0); }
+    let layer = bits & ~MATTE_MIRROR;
+    return glints[index].colour.rgb * matte_at(layer, u, select(w, -w, layer != bits));
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -190,9 +204,10 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let u = (v.local_px.x + r) / footprint;
     let w = -v.local_px.y / r;
     var light = v.radiance * matte_at(v.layer, u, w);
-    if v.glint_layer != MATTE_NONE {
-        light += v.glint.rgb * matte_at(v.glint_layer, u, v.glint.w * w);
-    }
+    // Written out: a vector indexed per fragment spills to memory on CPU adapters.
+    let first = GLINTS_PER_DROP * v.id;
+    light += glint_light(v.glint_layers.x, first, u, w) + glint_light(v.glint_layers.y, first + 1u, u, w)
+        + glint_light(v.glint_layers.z, first + 2u, u, w) + glint_light(v.glint_layers.w, first + 3u, u, w);
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
 }

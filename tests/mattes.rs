@@ -549,3 +549,111 @@ fn a_renderer_picks_the_nearest_matte_and_mirrors_lights_on_the_left() {
         (4.0, 0.0, 0.25, None)
     );
 }
+
+/// A copy of Garg & Nayar's database with its point-light part: the render's atlas takes
+/// point-light layers from it, each direction's from the nearest file that exists, scaled to
+/// the same unit integral as ours. Two light directions exist in every camera folder: one whose
+/// streak is lit only in its top quarter, one only in its bottom quarter.
+#[test]
+fn a_garg_nayar_copy_with_point_lights_gives_the_render_its_glints() {
+    use rain_composite::drops::MatteAtlas;
+    use rain_composite::drops::atlas::{
+        GARG_NAYAR_LIGHT_AZIMUTHS_DEG, GARG_NAYAR_LIGHT_ELEVATIONS_DEG,
+    };
+    let root = tempfile::tempdir().unwrap();
+    let (w, h) = (4usize, 16usize);
+    let png = |path: &Path, codes: &[u16]| {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, database::encode_png16(w, h, codes).unwrap()).unwrap();
+    };
+    let rows = |lit: std::ops::Range<usize>| -> Vec<u16> {
+        (0..w * h)
+            .map(|i| if lit.contains(&(i / w)) { 65535 } else { 0 })
+            .collect()
+    };
+    let views = [0, 20, 40, 60, 80];
+    let env = root.path().join("env_light_database");
+    let point = root.path().join("point_light_database");
+    let mut env_txt = String::new();
+    let (top, bottom) = ((10, 90), (-50, 170));
+    for e in views {
+        env_txt += &format!("cv{e}\n{}\n", ["1"; 10].join(" "));
+        let mut point_txt = String::new();
+        for (v, hz) in [top, bottom] {
+            point_txt += &format!("v{v}\nh{hz} {}\n", ["2"; 10].join(" "));
+        }
+        std::fs::create_dir_all(point.join("txt")).unwrap();
+        std::fs::write(
+            point.join(format!("txt/dcam{e:02}_point_max.txt")),
+            point_txt,
+        )
+        .unwrap();
+        for k in 0..10 {
+            png(&env.join(format!("size16/cv{e}_osc{k}.png")), &rows(0..h));
+            let lit_top = rows(0..h / 4);
+            let lit_bottom = rows(3 * h / 4..h);
+            for ((v, hz), codes) in [(top, &lit_top), (bottom, &lit_bottom)] {
+                png(
+                    &point.join(format!("size16/dcam{e:02}/cv{e}_v{v}_h{hz}_osc{k}.png")),
+                    codes,
+                );
+            }
+        }
+    }
+    std::fs::create_dir_all(env.join("txt")).unwrap();
+    std::fs::write(env.join("txt/normalized_env_max.txt"), env_txt).unwrap();
+
+    let atlas = MatteAtlas::load(root.path(), 1.0 / 60.0).unwrap();
+    let targets: Vec<(f64, f64)> = GARG_NAYAR_LIGHT_ELEVATIONS_DEG
+        .iter()
+        .flat_map(|&e| GARG_NAYAR_LIGHT_AZIMUTHS_DEG.iter().map(move |&a| (e, a)))
+        .collect();
+    assert_eq!(atlas.lights.len(), targets.len());
+    assert_eq!(
+        atlas.layers(),
+        atlas.light_layer0() * (1 + targets.len()),
+        "one point-light layer per environment layer and direction"
+    );
+    // Which of the two files a target is nearest to, by the angle between directions.
+    let dir = |(e, a): (f64, f64)| {
+        LightAngles {
+            elevation_deg: e,
+            azimuth_deg: a,
+        }
+        .direction()
+    };
+    let nearest_top = |t: (f64, f64)| {
+        let d = dir(t);
+        d.dot(dir((top.0 as f64, top.1 as f64))) > d.dot(dir((bottom.0 as f64, bottom.1 as f64)))
+    };
+    let (phases, views_n) = (atlas.phases, atlas.views_deg.len());
+    for (light, &t) in targets.iter().enumerate() {
+        assert!((atlas.lights[light] - dir(t)).length() < 1e-12);
+        for view in 0..views_n {
+            for phase in [0, phases - 1] {
+                let layer = atlas.light_layer0() + (view * targets.len() + light) * phases + phase;
+                // The share of the layer's light in the first half of the streak.
+                let (mut first, mut all) = (0.0, 0.0);
+                for j in 0..200 {
+                    let u = (j as f64 + 0.5) / 200.0;
+                    let n = atlas.sample(layer, u, 0.0);
+                    all += n;
+                    if u < 0.5 {
+                        first += n;
+                    }
+                }
+                let share = first / all;
+                let want_top = nearest_top(t);
+                assert!(
+                    if want_top { share > 0.99 } else { share < 0.01 },
+                    "target {t:?}, view {view}: {share} of its light in the top half"
+                );
+            }
+        }
+    }
+    // Without the point-light part, environment mattes only.
+    std::fs::remove_dir_all(&point).unwrap();
+    let env_only = MatteAtlas::load(root.path(), 1.0 / 60.0).unwrap();
+    assert!(env_only.lights.is_empty());
+    assert_eq!(env_only.layers(), env_only.light_layer0());
+}

@@ -8,7 +8,7 @@
 //! matte moves light along the streak without changing how much the streak holds.
 //!
 //! After the environment layers come the point-light layers (size bin × view bin × light
-//! direction × phase), for the glint of each drop's brightest compact light.
+//! direction × phase), for the glints of each drop's strongest compact lights.
 
 use std::path::Path;
 
@@ -26,6 +26,15 @@ pub const HALF_WIDTH_RADII: f64 = 1.5;
 pub const MAX_MATTE_BINS: usize = 8;
 /// Most point-light directions the stage takes (`MAX_MATTE_LIGHTS` in the WGSL).
 pub const MAX_MATTE_LIGHTS: usize = 16;
+
+/// Light elevations drawn from a copy of Garg & Nayar's point-light part, degrees: its grid
+/// (−90…90° in 20° steps) every 40°, about the horizontal and above it, where street lamps and
+/// the sun are.
+pub const GARG_NAYAR_LIGHT_ELEVATIONS_DEG: [f64; 3] = [-30.0, 10.0, 50.0];
+/// Light azimuths drawn from it (as [`super::LightAngles`]: from the camera's side round to
+/// behind the drop), degrees: its grid (10…170° in 20° steps) every 40°. With the elevations,
+/// 15 ≤ [`MAX_MATTE_LIGHTS`] directions.
+pub const GARG_NAYAR_LIGHT_AZIMUTHS_DEG: [f64; 5] = [10.0, 50.0, 90.0, 130.0, 170.0];
 
 /// The mattes of a render, uploaded once per job.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,24 +170,52 @@ impl MatteAtlas {
         })
     }
 
-    /// The environment mattes of Garg & Nayar's database: the 16-px-wide set, its image width
-    /// taken as the drop's diameter and its height as the footprint.
+    /// The mattes of Garg & Nayar's database: the 16-px-wide set, its image width taken as the
+    /// drop's diameter and its height as the footprint. Where the copy has its point-light
+    /// part, the point-light layers follow, for the directions of
+    /// [`GARG_NAYAR_LIGHT_ELEVATIONS_DEG`] × [`GARG_NAYAR_LIGHT_AZIMUTHS_DEG`], each the nearest
+    /// file that exists.
     pub fn from_garg_nayar(dir: &Path) -> Result<MatteAtlas> {
         let db = GargNayarDb::open(dir, 16)?;
+        let lights: Vec<super::LightAngles> = if dir.join("point_light_database").is_dir() {
+            GARG_NAYAR_LIGHT_ELEVATIONS_DEG
+                .iter()
+                .flat_map(|&elevation_deg| {
+                    GARG_NAYAR_LIGHT_AZIMUTHS_DEG
+                        .iter()
+                        .map(move |&azimuth_deg| super::LightAngles {
+                            elevation_deg,
+                            azimuth_deg,
+                        })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let picks = garg_nayar::VIEW_ELEVATIONS_DEG
+            .iter()
+            .flat_map(|&view| (0..garg_nayar::OSCILLATIONS).map(move |osc| (view, None, osc)));
+        let point_picks = garg_nayar::VIEW_ELEVATIONS_DEG.iter().flat_map(|&view| {
+            lights.iter().flat_map(move |l| {
+                (0..garg_nayar::OSCILLATIONS).map(move |osc| (view, Some(*l), osc))
+            })
+        });
         let mut texels = Vec::new();
-        for view in garg_nayar::VIEW_ELEVATIONS_DEG {
-            for osc in 0..garg_nayar::OSCILLATIONS {
-                let (w, h, m) = GargNayarDb::read(&db.env(view as f64, osc)?)?;
-                texels.extend(layer(|u, v| {
-                    bilinear(|k| m[k], w, h, 0.5 * w as f64 * (1.0 + v), u * h as f64)
-                })?);
-            }
+        for (view, light, osc) in picks.chain(point_picks) {
+            let pick = match light {
+                None => db.env(view as f64, osc)?,
+                Some(l) => db.point(view as f64, l.elevation_deg, l.azimuth_deg, osc)?,
+            };
+            let (w, h, m) = GargNayarDb::read(&pick)?;
+            texels.extend(layer(|u, v| {
+                bilinear(|k| m[k], w, h, 0.5 * w as f64 * (1.0 + v), u * h as f64)
+            })?);
         }
         Ok(MatteAtlas {
             sizes_mm: vec![1.6],
             views_deg: garg_nayar::VIEW_ELEVATIONS_DEG.map(f64::from).to_vec(),
             phases: garg_nayar::OSCILLATIONS,
-            lights: Vec::new(),
+            lights: lights.iter().map(super::LightAngles::direction).collect(),
             texels,
         })
     }

@@ -277,6 +277,7 @@ impl Compositor {
                     device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("glints"),
                         size: std::mem::size_of::<super::types::Glint>() as u64
+                            * super::types::GLINTS_PER_DROP as u64
                             * rain.params.drop_count.max(1) as u64,
                         usage: wgpu::BufferUsages::STORAGE,
                         mapped_at_creation: false,

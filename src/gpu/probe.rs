@@ -9,7 +9,7 @@ use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::rain_probe::{BYTES_PER_DROP, RainProbe};
 use super::stages::rain_simulate::RainSimulate;
-use super::types::{Glint, LightList, RainParams, Streak};
+use super::types::{GLINTS_PER_DROP, Glint, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
 use crate::lighting::RtfTable;
 use crate::{Error, Result};
@@ -98,8 +98,9 @@ pub fn probe_streaks(
     SimulateProbe::new(ctx, setup, params.drop_count, tables).run(ctx, params, lights)
 }
 
-/// Each drop's streak and glint from `rain_simulate`'s `main_mattes` (the brightest compact
-/// light taken out of the streak for its point-light matte), for `params.drop_count` drops.
+/// Each drop's streak and glints from `rain_simulate`'s `main_mattes` (its
+/// [`GLINTS_PER_DROP`] strongest compact lights taken out of the streak for their point-light
+/// mattes, `GLINTS_PER_DROP` per drop), for `params.drop_count` drops.
 pub fn probe_streaks_and_glints(
     ctx: &GpuContext,
     setup: &RainSetup,
@@ -131,7 +132,7 @@ pub fn probe_streaks_and_glints(
         })
     };
     let streaks = out("rain_streaks", std::mem::size_of::<Streak>());
-    let glints = out("glints", std::mem::size_of::<Glint>());
+    let glints = out("glints", GLINTS_PER_DROP * std::mem::size_of::<Glint>());
     let stage = RainSimulate::with_buffers(
         device,
         &uniform,
@@ -150,7 +151,7 @@ pub fn probe_streaks_and_glints(
         )
     };
     let s = read(&streaks, std::mem::size_of::<Streak>())?;
-    let g = read(&glints, std::mem::size_of::<Glint>())?;
+    let g = read(&glints, GLINTS_PER_DROP * std::mem::size_of::<Glint>())?;
     let n = params.drop_count as usize;
     Ok((
         bytemuck::pod_collect_to_vec::<u8, Streak>(&s)
@@ -159,7 +160,7 @@ pub fn probe_streaks_and_glints(
             .collect(),
         bytemuck::pod_collect_to_vec::<u8, Glint>(&g)
             .into_iter()
-            .take(n)
+            .take(GLINTS_PER_DROP * n)
             .collect(),
     ))
 }

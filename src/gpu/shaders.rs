@@ -4,7 +4,7 @@
 //! defines ([`constants`]), so every stage validates alone and no size is written twice.
 
 use super::stages;
-use super::types::{GUSTS, MAX_LIGHTS, SH_COEFFS};
+use super::types::{GLINTS_PER_DROP, GUSTS, MAX_LIGHTS, SH_COEFFS};
 use crate::rain::volume::drop::{
     DRIFT_BITS, DRIFT_PHASE_BITS, FALL_RATE_BITS, INV_HEIGHT_BITS, SPEED_BITS, SPEED_STEPS_LOG2,
     SPEED_TABLE_LEN,
@@ -93,6 +93,7 @@ pub fn constants() -> String {
         ("DRIFT_BITS", DRIFT_BITS),
         ("DRIFT_PHASE_BITS", DRIFT_PHASE_BITS),
         ("MAX_LIGHTS", MAX_LIGHTS as u32),
+        ("GLINTS_PER_DROP", GLINTS_PER_DROP as u32),
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),

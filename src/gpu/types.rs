@@ -298,12 +298,20 @@ pub struct MatteParams {
     pub light_count: [u32; 4],
 }
 
-/// WGSL `Glint`: a drop's brightest compact light, drawn with its point-light matte.
+/// Compact lights per drop drawn with their point-light mattes (`--streaks mattes`): the
+/// drop's strongest, `glints[GLINTS_PER_DROP · id + k]`; weaker ones stay in the smooth colour.
+/// With up to six lamps of similar strength the rest carry under half a per cent of the drops'
+/// direct light (docs/method.md §5.3). At most 4: `rain_streaks` passes a drop's glints as
+/// four varyings.
+pub const GLINTS_PER_DROP: usize = 4;
+const _: () = assert!(GLINTS_PER_DROP <= 4);
+
+/// WGSL `Glint`: one of a drop's strongest compact lights, drawn with its point-light matte.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 #[allow(missing_docs)]
 pub struct Glint {
-    /// rgb: the light's radiance on the drop, taken out of the streak's colour.
+    /// rgb: the light's radiance on the drop, taken out of the streak's colour; 0: none.
     pub colour: [f32; 4],
     /// xyz: drop → light: x image right, y away from the camera, z against the fall.
     pub light_dir: [f32; 4],

@@ -16,10 +16,15 @@
 //! at the exposure's start and end): the streak ends at the impact and, being in the air for
 //! only `s` of the exposure, covers each pixel for `s` times as long (alpha × s). A drop that
 //! landed before the exposure opened (z₀ ≤ 0) is not drawn.
+//!
+//! With point-light mattes, [`take_glints`] is the twin of the stage's `main_mattes`: the
+//! drop's strongest compact lights leave the streak's smooth colour as glints.
 
 use glam::{DVec2, DVec3};
 
-use crate::gpu::types::RainParams;
+use crate::gpu::types::{DirectLight, GLINTS_PER_DROP, Glint, LightList, RainParams, Streak};
+use crate::lighting::RtfTable;
+use crate::lighting::sources::angle_between_rad;
 
 /// Drops thinner than this (px) are drawn this wide, their alpha scaled down.
 pub const MIN_RADIUS_PX: f64 = 0.7;
@@ -179,6 +184,99 @@ pub fn segment_streak(
         return None;
     }
     Some(shape)
+}
+
+/// The radiance `L·Ω·F(θ)` per channel light `l` gives a drop at `offset_m` from the camera
+/// (world axes) seen along unit `v`, and ω (unit, drop → light): a light at a finite distance
+/// is seen from the drop, its solid angle scaled by (d/|light − drop|)², the distance clamped
+/// where Ω would exceed a hemisphere (`light_term` in common/lights.wgsl).
+pub fn light_term(
+    l: &DirectLight,
+    tables: &[RtfTable; 3],
+    v: DVec3,
+    offset_m: DVec3,
+) -> ([f64; 3], DVec3) {
+    let [x, y, z, d] = l.direction_distance.map(f64::from);
+    let [r, g, b, closest_m] = l.strength.map(f64::from);
+    let mut omega = DVec3::new(x, y, z);
+    let mut scale = 1.0;
+    if d > 0.0 {
+        let to_light = omega * d - offset_m;
+        let dist = to_light.length();
+        if dist > 0.0 {
+            omega = to_light / dist;
+        }
+        scale = (d / dist.max(closest_m)).powi(2);
+    }
+    let theta = angle_between_rad(omega, v);
+    let strength = [r, g, b];
+    (
+        std::array::from_fn(|c| strength[c] * scale * tables[c].interpolated(theta)),
+        omega,
+    )
+}
+
+/// The glints of the drop at `pos_m` moving at `vel_mps` (the stage's `main_mattes`): its
+/// [`GLINTS_PER_DROP`] strongest lights of `lights` (by the sum of their rgb; ties keep the
+/// list's order; lights giving nothing are none), strongest first, their directions in the
+/// matte's frame (x image right, y away from the camera, z against the fall); the rest zero.
+/// Their light leaves `streak`'s smooth colour, whose integral along the streak is the mean of
+/// its ends: per channel the glints take at most that mean (scaled down to it where the lights
+/// at mid-exposure exceed the colour given at the ends), both ends lose what they take, or one
+/// end all it has and the other the rest. So glints + smooth hold the streak's light exactly
+/// once and no colour goes negative. A hidden streak (or no light) is left as it is.
+pub fn take_glints(
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+    pos_m: DVec3,
+    vel_mps: DVec3,
+    streak: &mut Streak,
+) -> [Glint; GLINTS_PER_DROP] {
+    let mut glints = [Glint {
+        colour: [0.0; 4],
+        light_dir: [0.0; 4],
+    }; GLINTS_PER_DROP];
+    let count = (lights.count as usize).min(lights.lights.len());
+    if streak.len_px < 0.0 || count == 0 {
+        return glints;
+    }
+    let cam = &p.camera_pos_m;
+    let offset = pos_m - DVec3::new(cam[0] as f64, cam[1] as f64, cam[2] as f64);
+    let v = offset.normalize();
+    let sum = |c: &[f64; 3]| c[0] + c[1] + c[2];
+    let mut terms: Vec<([f64; 3], DVec3)> = lights.lights[..count]
+        .iter()
+        .map(|l| light_term(l, tables, v, offset))
+        .filter(|(c, _)| sum(c) > 0.0)
+        .collect();
+    terms.sort_by(|a, b| sum(&b.0).total_cmp(&sum(&a.0)));
+    terms.truncate(GLINTS_PER_DROP);
+    let up = -vel_mps.normalize_or(DVec3::NEG_Z);
+    let away = (v - up * v.dot(up)).try_normalize().unwrap_or(DVec3::Y);
+    let right = away.cross(up);
+    for k in 0..3 {
+        let total: f64 = terms.iter().map(|(c, _)| c[k]).sum();
+        let (r0, r1) = (streak.radiance0[k] as f64, streak.radiance1[k] as f64);
+        let taken = total.min(0.5 * (r0 + r1));
+        let left = (r0 + r1 - 2.0 * taken).max(0.0);
+        let end0 = (r0 - taken).clamp(0.0, left);
+        streak.radiance0[k] = end0 as f32;
+        streak.radiance1[k] = (left - end0) as f32;
+        let share = if total <= taken { 1.0 } else { taken / total };
+        for (g, (c, _)) in glints.iter_mut().zip(&terms) {
+            g.colour[k] = (c[k] * share) as f32;
+        }
+    }
+    for (g, (_, omega)) in glints.iter_mut().zip(&terms) {
+        g.light_dir = [
+            omega.dot(right) as f32,
+            omega.dot(away) as f32,
+            omega.dot(up) as f32,
+            0.0,
+        ];
+    }
+    glints
 }
 
 #[cfg(test)]

@@ -12,22 +12,24 @@ use glam::{DVec2, DVec3};
 pub use super::rain_simulate::coverage;
 use crate::drops::MatteAtlas;
 use crate::drops::atlas::HALF_WIDTH_RADII;
-use crate::gpu::types::{Glint, RainParams, Streak};
+use crate::gpu::types::{GLINTS_PER_DROP, Glint, RainParams, Streak};
 use crate::rain::volume::drop_uniform;
 
 /// The random stream of a drop's oscillation phase (`MATTE_PHASE_STREAM` in the WGSL).
 pub const MATTE_PHASE_STREAM: u32 = 6;
 
-/// The matte layers of drop `id` with `drop_info` and `glint` (the stage's `vs_mattes`): the
-/// nearest size and view bins and a phase random per drop and fixed in time; for a glint, the
-/// point-light matte of the nearest direction, and whether it is the mirror image.
+/// The matte layers of drop `id` with `drop_info` and `glints` (its glints, strongest first,
+/// as `rain_simulate`'s `main_mattes` writes them; the stage's `vs_mattes`): the nearest size
+/// and view bins and a phase random per drop and fixed in time; for each glint up to the first
+/// without light, the point-light matte of the nearest direction, and whether it is the mirror
+/// image.
 pub fn matte_layers(
     atlas: &MatteAtlas,
     seed: u32,
     id: u32,
     drop_info: u32,
-    glint: Option<&Glint>,
-) -> (usize, Option<(usize, bool)>) {
+    glints: &[Glint],
+) -> (usize, Vec<(usize, bool)>) {
     let unorm = |bits: u32| (bits & 0xffff) as f64 / 65535.0;
     let nearest = |values: &[f64], x: f64| {
         (1..values.len()).fold(0, |best, k| {
@@ -44,8 +46,16 @@ pub fn matte_layers(
     let phase =
         ((drop_uniform(seed, id, MATTE_PHASE_STREAM) * phases as f64) as usize).min(phases - 1);
     let bin = size * atlas.views_deg.len() + view;
-    let glint_layer = glint
-        .filter(|g| !atlas.lights.is_empty() && g.colour[..3].iter().any(|&c| c > 0.0))
+    // No point-light mattes, no glints drawn.
+    let glints = if atlas.lights.is_empty() {
+        &[][..]
+    } else {
+        &glints[..glints.len().min(GLINTS_PER_DROP)]
+    };
+    let lit = |g: &&Glint| g.colour[..3].iter().any(|&c| c > 0.0);
+    let glint_layers = glints
+        .iter()
+        .take_while(lit)
         .map(|g| {
             let [x, y, z, _] = g.light_dir.map(f64::from);
             let mirror = x < 0.0;
@@ -59,8 +69,9 @@ pub fn matte_layers(
             });
             let layer = atlas.light_layer0() + (bin * atlas.lights.len() + light) * phases + phase;
             (layer, mirror)
-        });
-    (bin * phases + phase, glint_layer)
+        })
+        .collect();
+    (bin * phases + phase, glint_layers)
 }
 
 /// Half a pixel of margin around each quad (`AA_MARGIN_PX` in the WGSL).
@@ -108,9 +119,10 @@ pub fn rain_streaks_occluded(
     rain_streaks_with(canvas, p, streaks, None, &[], depth)
 }
 
-/// [`rain_streaks`], the colours spread by `mattes` where given, with each drop's glint
-/// (`rain_simulate`'s `main_mattes`; `glints` may be empty: none), behind the scene of `depth`
-/// where given.
+/// [`rain_streaks`], the colours spread by `mattes` where given, with each drop's glints
+/// (`rain_simulate`'s `main_mattes`: [`GLINTS_PER_DROP`] per drop, drop `id`'s from
+/// `GLINTS_PER_DROP · id`; `glints` may end early: no more), behind the scene of `depth` where
+/// given.
 pub fn rain_streaks_with(
     canvas: &mut [[f64; 3]],
     p: &RainParams,
@@ -128,12 +140,10 @@ pub fn rain_streaks_with(
         DVec2::new(m[0] * d.x + m[1] * d.y, m[2] * d.x + m[3] * d.y)
     };
     for (id, s) in streaks.iter().enumerate().filter(|(_, s)| s.len_px >= 0.0) {
-        let layers = mattes.map(|m| {
-            (
-                m,
-                matte_layers(m, p.seed, id as u32, s.drop_info, glints.get(id)),
-            )
-        });
+        let own = glints
+            .get(GLINTS_PER_DROP * id..)
+            .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
+        let layers = mattes.map(|m| (m, matte_layers(m, p.seed, id as u32, s.drop_info, own)));
         let q0 = DVec2::new(s.q0_px[0] as f64, s.q0_px[1] as f64);
         let dir = DVec2::new(s.dir[0] as f64, s.dir[1] as f64);
         let (len, r) = (s.len_px as f64, s.r_eff_px as f64);
@@ -171,18 +181,23 @@ pub fn rain_streaks_with(
                 });
                 // The premultiplied colour: radiance × alpha, or the mattes' spread of the same
                 // light (∫∫ N du dw = 1 over the footprint, πr² the capsule's coverage).
-                let light: [f64; 3] = match layers {
+                let light: [f64; 3] = match &layers {
                     None => rad.map(|c| c * a),
-                    Some((atlas, (env, glint))) => {
+                    Some((atlas, (env, glint_layers))) => {
                         let footprint = len + 2.0 * r;
                         let spread = s.alpha_scale as f64 * PI * r / footprint;
                         let (u, w) = ((along + r) / footprint, -across / r);
-                        let n = atlas.sample(env, u, w);
+                        let n = atlas.sample(*env, u, w);
+                        let glint_n: Vec<f64> = glint_layers
+                            .iter()
+                            .map(|&(l, mirror)| atlas.sample(l, u, if mirror { -w } else { w }))
+                            .collect();
                         std::array::from_fn(|k| {
-                            let g = glint.map_or(0.0, |(l, mirror)| {
-                                let w = if mirror { -w } else { w };
-                                glints[id].colour[k] as f64 * atlas.sample(l, u, w)
-                            });
+                            let g: f64 = own
+                                .iter()
+                                .zip(&glint_n)
+                                .map(|(g, n)| g.colour[k] as f64 * n)
+                                .sum();
                             (rad[k] * n + g) * spread * shown
                         })
                     }

@@ -38,7 +38,7 @@ pub struct FrameResources {
     pub columns: wgpu::Buffer,
     /// One `Streak` per drop (`rain_simulate` → `rain_streaks`).
     pub streaks: wgpu::Buffer,
-    /// One `Glint` per drop where the streak mattes have point lights (`rain_simulate`'s
+    /// `GLINTS_PER_DROP` `Glint`s per drop where the streak mattes have point lights (`rain_simulate`'s
     /// `main_mattes` → `rain_streaks`); `None` otherwise.
     pub glints: Option<wgpu::Buffer>,
     /// Drops per frame.

@@ -40,7 +40,7 @@ impl RainSimulate {
         glints: Option<&wgpu::Buffer>,
         drops: u32,
     ) -> RainSimulate {
-        // With glints, the brightest light of each drop leaves the streak's colour for them.
+        // With glints, the strongest lights of each drop leave the streak's colour for them.
         let entry = if glints.is_some() {
             "main_mattes"
         } else {
