@@ -10,17 +10,25 @@
 // (or where it passes nothing) it is the picture towards its direction (content at a distance,
 // exact for the sky). Where the image leaves the frame L_r is the SH environment plus the
 // compact lights, blended over the last EDGE_PX pixels.
-// Includes: common/types.wgsl, common/sh.wgsl, common/camera.wgsl, common/depth.wgsl,
-// common/water.wgsl.
+// The ground under the water is the frame's own (decoded from the planes, common/plate.wgsl),
+// not the canvas, which already holds the wet ground's film: the water replaces the film where
+// it covers the ground, C' = C + cover·(L·T + S + T·((k − 1)·L + R·L_r) − C), instead of
+// darkening it twice.
+// Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
+// common/depth.wgsl, common/water.wgsl, common/plate.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> puddle: PuddleParams;
-@group(0) @binding(2) var frame: texture_2d<f32>;
+@group(0) @binding(2) var picture: texture_2d<f32>;
 @group(0) @binding(3) var canvas: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(4) var<storage, read> scene_depth: array<f32>;
 @group(0) @binding(5) var<storage, read> water_depth_m: array<f32>;
 @group(0) @binding(6) var<storage, read> ripples: array<Ripple>;
 @group(0) @binding(7) var<uniform> lights: LightList;
+@group(0) @binding(8) var<uniform> frame: FrameParams;
+@group(0) @binding(9) var plane_y: texture_2d<u32>;
+@group(0) @binding(10) var plane_cb: texture_2d<u32>;
+@group(0) @binding(11) var plane_cr: texture_2d<u32>;
 
 // The reflection fades from the frame to the environment over this many pixels at its border.
 const EDGE_PX: f32 = 8.0;
@@ -52,7 +60,7 @@ fn cull_rings(tile: vec2<u32>, thread: u32) {
     if thread < RING_WORDS { atomicStore(&tile_rings[thread], 0u); }
     workgroupBarrier();
     let h = rain.camera_pos_m.z;
-    let last = min(tile * PIXEL_WORKGROUP + vec2<u32>(PIXEL_WORKGROUP - 1u), textureDimensions(frame) - vec2<u32>(1u));
+    let last = min(tile * PIXEL_WORKGROUP + vec2<u32>(PIXEL_WORKGROUP - 1u), textureDimensions(picture) - vec2<u32>(1u));
     var bounded = h > 0.0;
     var lo = vec2<f32>(3.4e38);
     var hi = vec2<f32>(-3.4e38);
@@ -77,7 +85,7 @@ fn cull_rings(tile: vec2<u32>, thread: u32) {
 }
 
 fn shade(id: vec2<u32>) {
-    let size = textureDimensions(frame);
+    let size = textureDimensions(picture);
     if id.x >= size.x || id.y >= size.y { return; }
     let ray = view_ray(id);
     let d = normalize(ray);
@@ -89,13 +97,9 @@ fn shade(id: vec2<u32>) {
     let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
     if cover <= 0.0 { return; }
     let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
-    let c = textureLoad(frame, id, 0).rgb;
+    let c = textureLoad(picture, id, 0).rgb;
     let t = rain.haze.w;
-    var in_scatter = vec3<f32>(0.0);
-    if t < 1.0 {
-        in_scatter = (1.0 - t) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], ray), vec3<f32>(0.0));
-    }
-    let scene = max(c - in_scatter, vec3<f32>(0.0)) / max(t, 1e-6);
+    let scene = plate_linear(id);
     let e = irradiance_up(rain.env_sh);
     let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
     let n_w = puddle.water_index;
@@ -106,7 +110,8 @@ fn shade(id: vec2<u32>) {
     let mirrored = d + 2.0 * cos_i * normal;
     let r = water_reflectance(n_w, cos_i);
     let change = (k - 1.0) * scene + r * reflected(p, mirrored);
-    textureStore(canvas, id, vec4<f32>(c + cover * shown * t * change, 1.0));
+    let water = scene * t + in_scatter(id) + t * change;
+    textureStore(canvas, id, vec4<f32>(c + cover * shown * (water - c), 1.0));
 }
 
 // Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
@@ -169,7 +174,7 @@ fn reflected(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     }
     if q.z <= 1e-6 { return environment(p, dir); }
     let at = project(q);
-    let size = vec2<f32>(textureDimensions(frame));
+    let size = vec2<f32>(textureDimensions(picture));
     let inside = min(min(at.x, at.y), min(size.x - at.x, size.y - at.y));
     let w = smoothstep(0.0, EDGE_PX, inside);
     if w <= 0.0 { return environment(p, dir); }
@@ -220,7 +225,7 @@ fn camera_dir(dir: vec3<f32>) -> vec3<f32> {
 }
 
 fn in_frame(at: vec2<f32>) -> bool {
-    let size = vec2<f32>(textureDimensions(frame));
+    let size = vec2<f32>(textureDimensions(picture));
     return all(at >= vec2<f32>(0.0)) && all(at < size);
 }
 
@@ -239,14 +244,14 @@ fn behind(q: vec3<f32>) -> bool {
 
 // The frame at coded position `at` (px), bilinear between pixel centres, clamped at the border.
 fn sample_frame(at: vec2<f32>) -> vec3<f32> {
-    let hi = vec2<i32>(textureDimensions(frame)) - vec2<i32>(1);
+    let hi = vec2<i32>(textureDimensions(picture)) - vec2<i32>(1);
     let u = at - vec2<f32>(0.5);
     let i0 = vec2<i32>(floor(u));
     let f = u - floor(u);
-    let a = textureLoad(frame, clamp(i0, vec2<i32>(0), hi), 0).rgb;
-    let b = textureLoad(frame, clamp(i0 + vec2<i32>(1, 0), vec2<i32>(0), hi), 0).rgb;
-    let c = textureLoad(frame, clamp(i0 + vec2<i32>(0, 1), vec2<i32>(0), hi), 0).rgb;
-    let e = textureLoad(frame, clamp(i0 + vec2<i32>(1, 1), vec2<i32>(0), hi), 0).rgb;
+    let a = textureLoad(picture, clamp(i0, vec2<i32>(0), hi), 0).rgb;
+    let b = textureLoad(picture, clamp(i0 + vec2<i32>(1, 0), vec2<i32>(0), hi), 0).rgb;
+    let c = textureLoad(picture, clamp(i0 + vec2<i32>(0, 1), vec2<i32>(0), hi), 0).rgb;
+    let e = textureLoad(picture, clamp(i0 + vec2<i32>(1, 1), vec2<i32>(0), hi), 0).rgb;
     return mix(mix(a, b, f.x), mix(c, e, f.x), f.y);
 }
 

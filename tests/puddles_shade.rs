@@ -408,7 +408,7 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
         let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
         puddles::puddles(
             &mut canvas,
-            w,
+            &frame,
             &p,
             &Water {
                 params: &params,
@@ -721,7 +721,7 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
         let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
         puddles::puddles(
             &mut canvas,
-            160,
+            &frame,
             &p,
             &Water {
                 params: &params,
@@ -883,4 +883,67 @@ fn report_the_cost_at_720p() {
         let stage_ms = (comp.gpu_times().puddles_s - before) * 1e3 / frames as f64;
         eprintln!("| {label} | {per_frame_ms:.1} | {stage_ms:.1} |");
     }
+}
+
+/// Where water covers the ground, it replaces the wet ground's film instead of darkening the
+/// ground a second time: the twin over a wet canvas and over the dry one agree on every pixel
+/// under deep water (the flat water mirrors the sky, the same in both).
+#[test]
+fn water_replaces_the_wet_film_under_it() {
+    use rain_composite::gpu::cpu::wet_ground;
+    use rain_composite::gpu::types::WetParams;
+    let camera = Camera::new(96, 64, 1.0, 1.6, -0.2, 0.0);
+    let s = setup(&camera, false);
+    let p = lit(&s, 0.0, &uniform_sky(0.4), 0.9);
+    let frame = picture(
+        96,
+        64,
+        |x, y| 300 + ((x * 7 + y * 13) % 200) as u16,
+        |x, y, i| 500 + ((x + 3 * y + 40 * i as u32) % 60) as u16,
+    );
+    let water = lake(0.05, 20.0);
+    let params = puddle_params(&water, 0);
+    let lights = LightList::new(&[]);
+    let pond = Water {
+        params: &params,
+        depth_m: &water.values,
+        ripples: &[],
+        lights: &lights,
+    };
+    let dry_canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+    let mut wet_canvas = dry_canvas.clone();
+    wet_ground::wet_ground(
+        &mut wet_canvas,
+        &frame,
+        &p,
+        &WetParams::new(0.9, &FilmOptics::water(), 0.0),
+        None,
+    );
+    let (mut over_dry, mut over_wet) = (dry_canvas.clone(), wet_canvas.clone());
+    puddles::puddles(&mut over_dry, &frame, &p, &pond, None);
+    puddles::puddles(&mut over_wet, &frame, &p, &pond, None);
+    let mut under_water = 0;
+    for i in 0..dry_canvas.len() {
+        let (x, y) = (i as u32 % 96, i as u32 / 96);
+        let ray = camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+        if ray.z >= -1e-3 {
+            continue;
+        }
+        let hit = camera.position_m + ray * (camera.position_m.z / -ray.z);
+        // Deep inside the lake (15 m of its 20 m half-width), away from its soft rim.
+        if hit.x.abs() > 15.0 || hit.y.abs() > 15.0 {
+            continue;
+        }
+        under_water += 1;
+        assert!(wet_canvas[i] != dry_canvas[i], "the film wets pixel {i}");
+        for k in 0..3 {
+            assert!(
+                (over_wet[i][k] - over_dry[i][k]).abs() < 1e-9,
+                "pixel {i}: {} over the film, {} over the dry ground",
+                over_wet[i][k],
+                over_dry[i][k]
+            );
+        }
+    }
+    assert!(under_water > 50, "{under_water} pixels under water");
 }

@@ -14,6 +14,7 @@ use crate::gpu::types::{LightList, MAX_LIGHTS, PuddleParams, RainParams, Ripple}
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::scene::DepthMap;
 use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
+use crate::video::YuvFrame;
 
 /// The reflection fades from the frame to the environment over this many pixels at its border.
 pub const EDGE_PX: f64 = 8.0;
@@ -40,19 +41,25 @@ pub struct Water<'a> {
     pub lights: &'a LightList,
 }
 
-/// Puts the water on `canvas` (linear RGB, coded orientation, row-major, `width` wide) under
-/// the uniforms `p`. The reflection reads the canvas as it was before.
+/// Puts the water on `canvas` (the linear picture of `frame` with its haze, and the wet ground
+/// if any; coded orientation, row-major) under the uniforms `p`. The reflection reads the
+/// canvas as it was before; the ground under the water is `frame`'s own, so the water replaces
+/// a wet ground's film where it covers it.
 ///
 /// With `depth` (the scene's camera depth per displayed pixel), pixels whose scene stands
 /// nearer than the ground keep their value ([`ground_shown`]) and mirrored rays are marched
 /// against it.
 pub fn puddles(
     canvas: &mut [[f64; 3]],
-    width: u32,
+    frame_yuv: &YuvFrame,
     p: &RainParams,
     water: &Water<'_>,
     depth: Option<&DepthMap>,
 ) {
+    let width = frame_yuv.format.width;
+    let mut clear = *p;
+    clear.haze[3] = 1.0;
+    let plate = super::yuv_to_rgb::yuv_to_rgb(frame_yuv, &clear);
     let frame = Frame {
         pixels: canvas.to_vec(),
         width,
@@ -120,14 +127,15 @@ pub fn puddles(
         let r = reflectance(optics.index, cos_i);
         let reflected = mirror.radiance(ground, mirrored);
         for k in 0..3 {
-            let scene = (pixel[k] - in_scatter[k]).max(0.0) / transmittance.max(1e-6);
+            let scene = plate[i][k];
             let albedo = if e_up[k] > 0.0 {
                 (std::f64::consts::PI * scene / e_up[k]).clamp(0.0, 1.0)
             } else {
                 0.0
             };
             let change = (optics.darkening(albedo, -d.z) - 1.0) * scene + r * reflected[k];
-            pixel[k] += cover * shown * transmittance * change;
+            let wet = scene * transmittance + in_scatter[k] + transmittance * change;
+            pixel[k] += cover * shown * (wet - pixel[k]);
         }
     }
 }

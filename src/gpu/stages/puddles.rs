@@ -1,8 +1,10 @@
 //! Stage `puddles`: standing water on the ground, with ripple rings and the frame mirrored in it
 //! (`shaders/puddles.wgsl`; CPU twin [`crate::gpu::cpu::puddles`]). The stage has work only once
 //! a water map is set ([`Puddles::set_water`]); until then it builds nothing and the frame is
-//! untouched. Like the wet ground it copies the canvas first and reads the copy, so the mirror
-//! image is the picture before any water, and pixels without water keep their value bit for bit.
+//! untouched. It copies the canvas first and reads the copy, so the mirror image is the picture
+//! before any water, and pixels without water keep their value bit for bit; the ground under
+//! the water is the frame's own, from the planes (the wet ground's film is replaced, not
+//! darkened again).
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::fluid::Field2;
@@ -26,6 +28,8 @@ pub const LIGHT_LOBE: f64 = 1000.0;
 pub struct Puddles {
     device: wgpu::Device,
     rain_params: wgpu::Buffer,
+    frame_params: wgpu::Buffer,
+    planes: [wgpu::TextureView; 3],
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
     lights: wgpu::Buffer,
@@ -55,6 +59,8 @@ impl Puddles {
         Puddles {
             device: device.clone(),
             rain_params: r.rain_params.clone(),
+            frame_params: r.frame_params.clone(),
+            planes: r.planes.clone(),
             canvas: r.canvas.texture().clone(),
             scene_depth: r.scene_depth.clone(),
             lights: r.lights.list.clone(),
@@ -156,6 +162,10 @@ impl Puddles {
                 buffer(&depth_m),
                 buffer(&ripples),
                 buffer(&self.lights),
+                buffer(&self.frame_params),
+                view(&self.planes[0]),
+                view(&self.planes[1]),
+                view(&self.planes[2]),
             ],
         );
         let optics = FilmOptics::water();
