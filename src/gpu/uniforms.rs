@@ -248,15 +248,18 @@ pub fn build_keyed(
     rotation_deg: i32,
     coded_size_px: (u32, u32),
 ) -> Result<RainSetup> {
-    if keys.is_empty() {
-        return build(
+    let plain = || {
+        build(
             camera,
             camera_config,
             rain,
             exposure_s,
             rotation_deg,
             coded_size_px,
-        );
+        )
+    };
+    if keys.is_empty() {
+        return plain();
     }
     let mut planned = None;
     for t in keys.times_s() {
@@ -291,14 +294,7 @@ pub fn build_keyed(
         }
     }
     let Some(mut setup) = planned else {
-        return build(
-            camera,
-            camera_config,
-            rain,
-            exposure_s,
-            rotation_deg,
-            coded_size_px,
-        );
+        return plain();
     };
     if let Some(k) = &keys.rate_mm_per_h {
         setup.model = setup.model.with_rate_keys(k);

@@ -11,7 +11,7 @@ use super::to_camera;
 use super::wet_ground::{irradiance, radiance};
 use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{LightList, MAX_LIGHTS, PuddleParams, RainParams, Ripple};
-use crate::lighting::prt::{RtfSh, prt_colour_f64};
+use crate::lighting::prt::prt_colour_f64;
 use crate::scene::DepthMap;
 use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
 use crate::video::YuvFrame;
@@ -57,25 +57,13 @@ pub fn puddles(
     depth: Option<&DepthMap>,
 ) {
     let width = frame_yuv.format.width;
-    let mut clear = *p;
-    clear.haze[3] = 1.0;
-    let plate = super::yuv_to_rgb::yuv_to_rgb(frame_yuv, &clear);
+    let plate = super::yuv_to_rgb::plate(frame_yuv, p);
     let frame = Frame {
         pixels: canvas.to_vec(),
         width,
         height: (canvas.len() / width as usize) as u32,
     };
-    let env: Vec<[f64; 3]> = p
-        .env_sh
-        .iter()
-        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
-        .collect();
-    let drop = RtfSh {
-        bands: 4,
-        zonal: (0..4)
-            .map(|l| std::array::from_fn(|c| p.drop_zonal[c][l] as f64))
-            .collect(),
-    };
+    let (env, drop) = super::yuv_to_rgb::environment_and_drop(p);
     let w = water.params;
     let optics = FilmOptics {
         index: w.water_index as f64,

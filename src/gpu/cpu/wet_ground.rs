@@ -9,18 +9,10 @@ use glam::DVec3;
 
 use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{RainParams, WetParams};
-use crate::lighting::prt::{RtfSh, prt_colour_f64};
+use crate::lighting::prt::prt_colour_f64;
 use crate::lighting::sh::{band_of, eval_basis};
 use crate::scene::wetness::{FilmOptics, ground_shown, reach_fade, reflectance};
 use crate::video::YuvFrame;
-
-/// The environment of `p` as f64 coefficients.
-fn environment(p: &RainParams) -> Vec<[f64; 3]> {
-    p.env_sh
-        .iter()
-        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
-        .collect()
-}
 
 /// Radiance of the environment `env` (SH coefficients) from direction `dir`.
 pub fn radiance(env: &[[f64; 3]], dir: DVec3) -> [f64; 3] {
@@ -58,18 +50,9 @@ pub fn wet_terms(
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
 ) -> Vec<Option<[[f64; 3]; 3]>> {
-    // The plate: the frame decoded without the haze.
-    let mut clear = *p;
-    clear.haze[3] = 1.0;
-    let plate = super::yuv_to_rgb::yuv_to_rgb(frame, &clear);
+    let plate = super::yuv_to_rgb::plate(frame, p);
     let width = frame.format.width;
-    let env = environment(p);
-    let drop = RtfSh {
-        bands: 4,
-        zonal: (0..4)
-            .map(|l| std::array::from_fn(|c| p.drop_zonal[c][l] as f64))
-            .collect(),
-    };
+    let (env, drop) = super::yuv_to_rgb::environment_and_drop(p);
     let optics = FilmOptics {
         index: wet.water_index as f64,
         diffuse_external: wet.diffuse_external as f64,

@@ -24,12 +24,10 @@ pub fn view_ray(p: &RainParams, x: u32, y: u32) -> DVec3 {
     row(p.camera_from_world_0) * d.x + row(p.camera_from_world_1) * d.y + row(p.camera_from_world_2)
 }
 
-/// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
-pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
-    let f = frame.format;
-    let (sx, sy) = f.chroma.shift();
-    let transmittance = p.haze[3] as f64;
-    let haze_env: Vec<[f64; 3]> = p
+/// The frame's environment (SH coefficients, `f64`) and the drop's zonal transfer, from the
+/// uniforms `p`: what the haze, the wet ground and the water are lit with.
+pub fn environment_and_drop(p: &RainParams) -> (Vec<[f64; 3]>, RtfSh) {
+    let env = p
         .env_sh
         .iter()
         .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
@@ -40,6 +38,23 @@ pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
             .map(|l| std::array::from_fn(|c| p.drop_zonal[c][l] as f64))
             .collect(),
     };
+    (env, drop)
+}
+
+/// The frame's own linear colour (coded orientation, row-major), without the haze: the scene
+/// the wet ground and the water lie on.
+pub fn plate(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
+    let mut clear = *p;
+    clear.haze[3] = 1.0;
+    yuv_to_rgb(frame, &clear)
+}
+
+/// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
+pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
+    let f = frame.format;
+    let (sx, sy) = f.chroma.shift();
+    let transmittance = p.haze[3] as f64;
+    let (haze_env, drop) = environment_and_drop(p);
     let mut out = Vec::with_capacity((f.width * f.height) as usize);
     for y in 0..f.height {
         for x in 0..f.width {
