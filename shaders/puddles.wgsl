@@ -50,7 +50,18 @@ var<workgroup> tile_rings: array<atomic<u32>, RING_WORDS>;
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) thread: u32) {
     cull_rings(tile.xy, thread);
-    shade(id.xy);
+    shade(id.xy, false);
+}
+
+// For the rain as a layer: the canvas holds the layer so far (premultiplied colour C_l, alpha
+// α_l, over the frame L); the water is written as the layer that, over L, gives the picture
+// (1 − a)·(C_l + (1 − α_l)·L) + a·(L·M + A), a the water's cover, M = T·k its factor on L
+// per channel, A the haze and the reflection: α = 1 − min F with F = (1 − a)(1 − α_l) + a·M,
+// colour (1 − a)·C_l + a·A + L·(F − min F) ≥ 0 (as the wet ground does, §5.2).
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn layer(@builtin(global_invocation_id) id: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) thread: u32) {
+    cull_rings(tile.xy, thread);
+    shade(id.xy, true);
 }
 
 // Marks in tile_rings the rings whose annulus R ± 4s meets the ground under the workgroup's
@@ -84,7 +95,7 @@ fn cull_rings(tile: vec2<u32>, thread: u32) {
     workgroupBarrier();
 }
 
-fn shade(id: vec2<u32>) {
+fn shade(id: vec2<u32>, layer: bool) {
     let size = textureDimensions(picture);
     if id.x >= size.x || id.y >= size.y { return; }
     let ray = view_ray(id);
@@ -97,7 +108,7 @@ fn shade(id: vec2<u32>) {
     let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
     if cover <= 0.0 { return; }
     let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
-    let c = textureLoad(picture, id, 0).rgb;
+    let c = picture_at(vec2<i32>(id));
     let t = rain.haze.w;
     let scene = plate_linear(id);
     let e = irradiance_up(rain.env_sh);
@@ -109,9 +120,19 @@ fn shade(id: vec2<u32>) {
     let cos_i = max(-dot(d, normal), 0.0);
     let mirrored = d + 2.0 * cos_i * normal;
     let r = water_reflectance(n_w, cos_i);
+    let a = cover * shown;
+    if layer {
+        let held = textureLoad(picture, id, 0);
+        let m = t * k;
+        let added = in_scatter(id) + t * r * reflected(p, mirrored);
+        let f = (1.0 - a) * (1.0 - held.a) + a * m;
+        let kept = clamp(min(f.x, min(f.y, f.z)), 0.0, 1.0);
+        textureStore(canvas, id, vec4<f32>((1.0 - a) * held.rgb + a * added + scene * (f - kept), 1.0 - kept));
+        return;
+    }
     let change = (k - 1.0) * scene + r * reflected(p, mirrored);
     let water = scene * t + in_scatter(id) + t * change;
-    textureStore(canvas, id, vec4<f32>(c + cover * shown * (water - c), 1.0));
+    textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
 }
 
 // Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
@@ -242,16 +263,24 @@ fn behind(q: vec3<f32>) -> bool {
     return ray.z >= 0.0 || z < 0.9 * rain.camera_pos_m.z / -ray.z;
 }
 
+// The picture before the water at coded pixel `i`: the canvas, which for the rain as a layer
+// holds the layer (α < 1), laid over the frame itself. A picture's canvas has α = 1: no decode.
+fn picture_at(i: vec2<i32>) -> vec3<f32> {
+    let v = textureLoad(picture, i, 0);
+    if v.a >= 1.0 { return v.rgb; }
+    return v.rgb + (1.0 - v.a) * plate_linear(vec2<u32>(i));
+}
+
 // The frame at coded position `at` (px), bilinear between pixel centres, clamped at the border.
 fn sample_frame(at: vec2<f32>) -> vec3<f32> {
     let hi = vec2<i32>(textureDimensions(picture)) - vec2<i32>(1);
     let u = at - vec2<f32>(0.5);
     let i0 = vec2<i32>(floor(u));
     let f = u - floor(u);
-    let a = textureLoad(picture, clamp(i0, vec2<i32>(0), hi), 0).rgb;
-    let b = textureLoad(picture, clamp(i0 + vec2<i32>(1, 0), vec2<i32>(0), hi), 0).rgb;
-    let c = textureLoad(picture, clamp(i0 + vec2<i32>(0, 1), vec2<i32>(0), hi), 0).rgb;
-    let e = textureLoad(picture, clamp(i0 + vec2<i32>(1, 1), vec2<i32>(0), hi), 0).rgb;
+    let a = picture_at(clamp(i0, vec2<i32>(0), hi));
+    let b = picture_at(clamp(i0 + vec2<i32>(1, 0), vec2<i32>(0), hi));
+    let c = picture_at(clamp(i0 + vec2<i32>(0, 1), vec2<i32>(0), hi));
+    let e = picture_at(clamp(i0 + vec2<i32>(1, 1), vec2<i32>(0), hi));
     return mix(mix(a, b, f.x), mix(c, e, f.x), f.y);
 }
 

@@ -919,15 +919,9 @@ enum PuddleFeed {
 
 impl PuddleFeed {
     fn new(info: &VideoInfo, config: &RenderConfig, layer: Option<Layer>) -> Result<PuddleFeed> {
-        if !config.ground.puddles {
+        // The matte is the rain's coverage alone: no water in it.
+        if !config.ground.puddles || layer == Some(Layer::Matte) {
             return Ok(PuddleFeed::Off);
-        }
-        if layer.is_some() {
-            return Err(Error::Parameter {
-                name: "--puddles",
-                value: "with --layer-only or --matte".into(),
-                expected: "a composite: puddles are not written into layers yet".into(),
-            });
         }
         let fps = crate::fluid::puddles::report::clip_fps(info);
         Ok(PuddleFeed::Pending(Box::new((

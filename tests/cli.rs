@@ -464,7 +464,7 @@ fn preview_is_the_frame_the_full_render_writes() {
 
 /// Puddles are stateful: a preview (and a chunk) fast-forwards the water from the clip's start,
 /// and shows the frame a whole render writes there; the water changes the ground; puddles need
-/// a given ground and a composite.
+/// a given ground.
 #[test]
 fn puddles_preview_is_the_frame_the_full_render_writes() {
     let dir = TempDir::new().expect("tmp");

@@ -189,6 +189,17 @@ fn superluminous(layer: &[u16], frame: &YuvFrame) -> Vec<bool> {
         .collect()
 }
 
+/// The pixels of a premultiplied `layer` whose colour reached the format's largest code: light
+/// beyond the frame's white that the render keeps until its own final clip (a saturated colour
+/// under water, its channels darkened unequally, plus the water's reflection) but an integer
+/// layer cannot hold.
+fn saturated(layer: &[u16]) -> Vec<bool> {
+    layer
+        .chunks_exact(4)
+        .map(|p| p[..3].contains(&u16::MAX))
+        .collect()
+}
+
 /// Pixels of `layer` whose alpha is above 1 %, of all.
 fn covered_fraction(layer: &[u16]) -> f64 {
     let n = layer.len() / 4;
@@ -238,7 +249,7 @@ fn round_trip(pix_fmt: &str, look: &[&str]) -> Vec<Vec<u16>> {
             let skip = if *straight {
                 superluminous(premultiplied, frame)
             } else {
-                vec![false; premultiplied.len() / 4]
+                saturated(premultiplied)
             };
             let skipped = skip.iter().filter(|&&s| s).count();
             assert!(
@@ -273,6 +284,24 @@ fn layer_over_the_original_is_the_render_8_bit() {
 #[test]
 fn layer_over_the_original_is_the_render_10_bit() {
     round_trip("yuv422p10le", &[]);
+}
+
+/// Puddles are in the layer too: the water over the wet ground, its reflection of the picture
+/// (rain included), and the layer over the original is the render, 8-bit.
+#[test]
+fn the_layer_carries_the_puddles() {
+    let puddles = [
+        "--ground",
+        "horizon=0.3",
+        "--pre-rain",
+        "600",
+        "--puddles",
+        "--puddle-particles",
+        "1500",
+        "--relief",
+        "0.01",
+    ];
+    round_trip("yuv420p", &puddles);
 }
 
 /// A wet ground is in the layer: its darkening as alpha, its tint and sheen as colour, and the

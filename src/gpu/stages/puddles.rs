@@ -33,8 +33,8 @@ pub struct Puddles {
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
     lights: wgpu::Buffer,
-    /// Whether frames are pictures: water changes the picture's own colours, per channel and
-    /// by the ground's albedo, which no single α over the frame can carry, so a layer has none.
+    /// Whether frames are pictures; for a layer the water is written as the layer's colour and
+    /// alpha over the frame (entry point `layer`).
     picture: bool,
     job: Option<Water>,
     rings: Vec<Ring>,
@@ -73,9 +73,6 @@ impl Puddles {
     /// Sets the water depth on the ground (m per cell of `depth`, world x, y on z = 0) for the
     /// frames submitted from now on. Negative or non-finite depths count as dry.
     pub fn set_water(&mut self, queue: &wgpu::Queue, depth: &Field2) -> Result<()> {
-        if !self.picture {
-            return Err(Error::Unsupported("puddles in a rain layer".into()));
-        }
         let cells = depth.nx * depth.ny;
         if cells == 0 || depth.values.len() != cells {
             return Err(Error::Unsupported(format!(
@@ -147,7 +144,8 @@ impl Puddles {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let pipeline = super::compute_pipeline(device, Stage::Puddles, "main");
+        let entry = if self.picture { "main" } else { "layer" };
+        let pipeline = super::compute_pipeline(device, Stage::Puddles, entry);
         let canvas = self.canvas.create_view(&Default::default());
         let bind = bind_group(
             device,
