@@ -293,18 +293,9 @@ fn environment(p: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let from_camera = p - rain.camera_pos_m;
     for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
         let l = lights.lights[i];
-        var omega = l.direction_distance.xyz;
-        var scale = 1.0;
-        let dist = l.direction_distance.w;
-        if dist > 0.0 {
-            let to_light = omega * dist - from_camera;
-            let r = length(to_light);
-            if r > 0.0 { omega = to_light / r; }
-            let q = dist / max(r, l.strength.w);
-            scale = q * q;
-        }
-        let lobe = kappa / (2.0 * PI) * exp(kappa * (dot(omega, dir) - 1.0));
-        c += l.strength.rgb * scale * lobe;
+        let seen = light_seen_from(l, from_camera);
+        let lobe = kappa / (2.0 * PI) * exp(kappa * (dot(seen.xyz, dir) - 1.0));
+        c += l.strength.rgb * seen.w * lobe;
     }
     return c;
 }

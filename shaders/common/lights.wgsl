@@ -32,16 +32,9 @@ struct LightTerm {
 
 // The radiance light `l` gives a drop at `drop_from_camera_m` seen along unit `v`.
 fn light_term(l: DirectLight, v: vec3<f32>, drop_from_camera_m: vec3<f32>) -> LightTerm {
-    var omega = l.direction_distance.xyz;
-    var scale = 1.0;
-    let d = l.direction_distance.w;
-    if d > 0.0 {
-        let to_light = omega * d - drop_from_camera_m;
-        let r = length(to_light);
-        if r > 0.0 { omega = to_light / r; }
-        let q = d / max(r, l.strength.w);
-        scale = q * q;
-    }
+    let seen = light_seen_from(l, drop_from_camera_m);
+    let omega = seen.xyz;
+    let scale = seen.w;
     // atan2(|ω×v|, ω·v): accurate near 0 and π, unlike acos.
     let theta = atan2(length(cross(omega, v)), dot(omega, v));
     return LightTerm(l.strength.rgb * scale * rtf_at(theta), omega);

@@ -105,6 +105,20 @@ struct DirectLight {
     strength: vec4<f32>,            // rgb: radiance × solid angle at the camera; w: closest a drop may be, m
 }
 
+// Light `l` seen from the point `from_camera_m` (world axes, metres from the camera): xyz the
+// unit direction point → light, w the factor (d/|light − point|)² on its solid angle, the
+// distance clamped at the closest a drop may be; 1 for a light at infinity
+// (DirectLight::seen_from).
+fn light_seen_from(l: DirectLight, from_camera_m: vec3<f32>) -> vec4<f32> {
+    let d = l.direction_distance.w;
+    if d <= 0.0 { return vec4<f32>(l.direction_distance.xyz, 1.0); }
+    let to_light = l.direction_distance.xyz * d - from_camera_m;
+    let r = length(to_light);
+    let omega = select(l.direction_distance.xyz, to_light / r, r > 0.0);
+    let q = d / max(r, l.strength.w);
+    return vec4<f32>(omega, q * q);
+}
+
 // The frame's compact lights (the brightest MAX_LIGHTS) and the size of the RTF table.
 struct LightList {
     count: u32,

@@ -197,6 +197,25 @@ pub struct DirectLight {
     pub strength: [f32; 4],
 }
 
+impl DirectLight {
+    /// The light seen from a point `from_camera_m` (world axes, metres from the camera): ω, the
+    /// unit direction point → light, and the factor on its solid angle. A light at distance d
+    /// is seen at (d/|light − point|)², the distance clamped at the closest a drop may be,
+    /// where Ω would exceed a hemisphere; a light at infinity is the same from everywhere
+    /// (twin of `light_seen_from` in common/types.wgsl).
+    pub fn seen_from(&self, from_camera_m: glam::DVec3) -> (glam::DVec3, f64) {
+        let [x, y, z, d] = self.direction_distance.map(f64::from);
+        let omega = glam::DVec3::new(x, y, z);
+        if d <= 0.0 {
+            return (omega, 1.0);
+        }
+        let to_light = omega * d - from_camera_m;
+        let r = to_light.length();
+        let omega = if r > 0.0 { to_light / r } else { omega };
+        (omega, (d / r.max(self.strength[3] as f64)).powi(2))
+    }
+}
+
 /// WGSL `LightList`: the frame's compact lights and the size of the RTF table.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]

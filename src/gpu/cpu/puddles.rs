@@ -261,17 +261,7 @@ impl Mirror<'_> {
         let from_camera = ground - v3(&self.p.camera_pos_m);
         let kappa = self.lobe;
         for l in &self.lights.lights[..(self.lights.count as usize).min(MAX_LIGHTS)] {
-            let mut omega = v3(&l.direction_distance);
-            let mut scale = 1.0;
-            let dist = l.direction_distance[3] as f64;
-            if dist > 0.0 {
-                let to_light = omega * dist - from_camera;
-                let r = to_light.length();
-                if r > 0.0 {
-                    omega = to_light / r;
-                }
-                scale = (dist / r.max(l.strength[3] as f64)).powi(2);
-            }
+            let (omega, scale) = l.seen_from(from_camera);
             let lobe = kappa / std::f64::consts::TAU * (kappa * (omega.dot(dir) - 1.0)).exp();
             for (k, ck) in c.iter_mut().enumerate() {
                 *ck += l.strength[k] as f64 * scale * lobe;

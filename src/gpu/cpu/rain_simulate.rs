@@ -196,18 +196,8 @@ pub fn light_term(
     v: DVec3,
     offset_m: DVec3,
 ) -> ([f64; 3], DVec3) {
-    let [x, y, z, d] = l.direction_distance.map(f64::from);
-    let [r, g, b, closest_m] = l.strength.map(f64::from);
-    let mut omega = DVec3::new(x, y, z);
-    let mut scale = 1.0;
-    if d > 0.0 {
-        let to_light = omega * d - offset_m;
-        let dist = to_light.length();
-        if dist > 0.0 {
-            omega = to_light / dist;
-        }
-        scale = (d / dist.max(closest_m)).powi(2);
-    }
+    let [r, g, b, _] = l.strength.map(f64::from);
+    let (omega, scale) = l.seen_from(offset_m);
     let theta = angle_between_rad(omega, v);
     let strength = [r, g, b];
     (
