@@ -48,16 +48,8 @@ pub fn probe_drops_with(
     let mut params = *params;
     params.drop_count = count.min(setup.params.drop_count);
     let n = params.drop_count.max(1) as u64;
-    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_params"),
-        contents: bytemuck::bytes_of(&params),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_columns"),
-        contents: bytemuck::cast_slice(&setup.columns),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
+    let uniform = params_buffer(device, &params);
+    let columns = columns_buffer(device, setup);
     let size = n * BYTES_PER_DROP;
     let out = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("probe_out"),
@@ -110,19 +102,9 @@ pub fn probe_streaks_and_glints(
 ) -> Result<(Vec<Streak>, Vec<Glint>)> {
     let device = &ctx.device;
     let drops = params.drop_count.max(1);
-    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_params"),
-        contents: bytemuck::bytes_of(params),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("rain_columns"),
-        contents: bytemuck::cast_slice(&setup.columns),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let direct = DirectLightBuffers::new(device);
-    direct.upload_table(&ctx.queue, tables);
-    direct.upload_lights(&ctx.queue, lights);
+    let uniform = params_buffer(device, params);
+    let columns = columns_buffer(device, setup);
+    let direct = lit_by(ctx, lights, tables);
     let out = |label, size: usize| {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
@@ -190,11 +172,7 @@ impl SimulateProbe {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rain_columns"),
-            contents: bytemuck::cast_slice(&setup.columns),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let columns = columns_buffer(device, setup);
         let direct = DirectLightBuffers::new(device);
         direct.upload_table(&ctx.queue, tables);
         let out = device.create_buffer(&wgpu::BufferDescriptor {
@@ -336,19 +314,35 @@ fn splash_stage(
 ) {
     use super::stages::rain_splashes::SplashSimulate;
     let device = &ctx.device;
-    let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+    let uniform = params_buffer(device, params);
+    let columns = columns_buffer(device, setup);
+    let direct = lit_by(ctx, lights, tables);
+    let stage = SplashSimulate::new(device, &uniform, &columns, &direct, setup);
+    (stage, (uniform, columns, direct))
+}
+
+/// The `RainParams` uniform holding `params`.
+fn params_buffer(device: &wgpu::Device, params: &RainParams) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("rain_params"),
         contents: bytemuck::bytes_of(params),
         usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let columns = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+    })
+}
+
+/// The rain volume's columns of `setup`.
+fn columns_buffer(device: &wgpu::Device, setup: &RainSetup) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("rain_columns"),
         contents: bytemuck::cast_slice(&setup.columns),
         usage: wgpu::BufferUsages::STORAGE,
-    });
-    let direct = DirectLightBuffers::new(device);
+    })
+}
+
+/// The direct light term's inputs: the transfer `tables` and the compact `lights`.
+fn lit_by(ctx: &GpuContext, lights: &LightList, tables: &[RtfTable; 3]) -> DirectLightBuffers {
+    let direct = DirectLightBuffers::new(&ctx.device);
     direct.upload_table(&ctx.queue, tables);
     direct.upload_lights(&ctx.queue, lights);
-    let stage = SplashSimulate::new(device, &uniform, &columns, &direct, setup);
-    (stage, (uniform, columns, direct))
+    direct
 }
