@@ -190,18 +190,18 @@ impl Curve<DVec2> {
         sum + v_last * (t_s - t_last).max(0.0)
     }
 
-    /// The slope's changes: `(time_s, new slope − old slope)` at each key where it changes.
+    /// The slope's changes: `(time_s, new slope − old slope)` at each key where it changes
+    /// (the curve is flat before its first key and after its last).
     pub fn kinks(&self) -> Vec<(f64, DVec2)> {
-        self.keys
-            .iter()
-            .map(|&(t, _)| {
-                let before = if t > 0.0 {
-                    self.slope_at(t - 1e-9 * t.max(1.0))
-                } else {
-                    DVec2::ZERO
-                };
-                (t, self.slope_at(t) - before)
-            })
+        let k = &self.keys;
+        let slope = |i: usize| -> DVec2 {
+            match (i.checked_sub(1).map(|j| k[j]), k.get(i)) {
+                (Some((t0, v0)), Some(&(t1, v1))) => (v1 - v0) / (t1 - t0),
+                _ => DVec2::ZERO,
+            }
+        };
+        (0..k.len())
+            .map(|i| (k[i].0, slope(i + 1) - slope(i)))
             .filter(|&(_, d)| d != DVec2::ZERO)
             .collect()
     }

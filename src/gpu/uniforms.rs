@@ -261,8 +261,20 @@ pub fn build_keyed(
     if keys.is_empty() {
         return plain();
     }
+    // Of the keyed settings only the lens moves the far distance (the rate is planned at its
+    // peak, the columns lean with the keys' mean wind): one plan per lens key, else one.
+    let mut lens_times: Vec<f64> = [&keys.focus_m, &keys.f_number]
+        .into_iter()
+        .flatten()
+        .flat_map(|c| c.keys().iter().map(|k| k.0))
+        .collect();
+    lens_times.sort_by(f64::total_cmp);
+    lens_times.dedup();
+    if lens_times.is_empty() {
+        lens_times.push(0.0);
+    }
     let mut planned = None;
-    for t in keys.times_s() {
+    for t in lens_times {
         let mut at = crate::config::RenderConfig {
             camera: *camera_config,
             rain: *rain,
