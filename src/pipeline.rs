@@ -905,16 +905,26 @@ impl RainCompositor {
 enum PuddleFeed {
     /// No puddles.
     Off,
-    /// Waiting for the first frame: the camera, the clip's frame rate and the configuration.
-    Pending(Box<(Camera, f64, RenderConfig)>),
-    /// Running: the simulation, the time the rain has been fed up to, the recent impacts.
-    On(
-        Box<(
-            crate::fluid::puddles::PuddleSim,
-            f64,
-            Vec<crate::rain::volume::Impact>,
-        )>,
-    ),
+    /// Waiting for the first frame.
+    Pending(Box<PuddlePlan>),
+    /// Running.
+    On(Box<PuddleRun>),
+}
+
+/// What the water is built from at the first frame.
+struct PuddlePlan {
+    camera: Camera,
+    fps: f64,
+    config: RenderConfig,
+}
+
+/// The water during a job.
+struct PuddleRun {
+    sim: crate::fluid::puddles::PuddleSim,
+    /// The clip time the rain has been fed up to, s.
+    fed_s: f64,
+    /// The impacts of the last ring life, for the ripples.
+    recent: Vec<crate::rain::volume::Impact>,
 }
 
 impl PuddleFeed {
@@ -923,12 +933,11 @@ impl PuddleFeed {
         if !config.ground.puddles || layer == Some(Layer::Matte) {
             return Ok(PuddleFeed::Off);
         }
-        let fps = crate::fluid::puddles::report::clip_fps(info);
-        Ok(PuddleFeed::Pending(Box::new((
-            camera_for(info, config)?,
-            fps,
-            config.clone(),
-        ))))
+        Ok(PuddleFeed::Pending(Box::new(PuddlePlan {
+            camera: camera_for(info, config)?,
+            fps: crate::fluid::puddles::report::clip_fps(info),
+            config: config.clone(),
+        })))
     }
 
     fn feed(
@@ -939,59 +948,79 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<()> {
-        use crate::fluid::puddles::{PuddleSettings, PuddleSim};
         use crate::rain::volume::impacts_between;
         let (volume, model, wind, seed) = (&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+        let life = crate::fluid::ripples::RING_LIFE_S;
         if let PuddleFeed::Pending(plan) = self {
-            let (camera, fps, config) = plan.as_ref();
-            let map = match depth {
-                Some(d) => Some(
-                    d.at(index)?
-                        .resampled(camera.width_px as usize, camera.height_px as usize)
-                        .depth_m
-                        .into_iter()
-                        .map(|z| if z.is_finite() { z } else { 0.0 })
-                        .collect::<Vec<f32>>(),
-                ),
-                None => None,
-            };
-            let started = Instant::now();
-            let settings = PuddleSettings::of(config);
-            let Some(mut sim) = PuddleSim::new(config, camera, map.as_deref(), *fps, &settings)?
-            else {
+            let Some(sim) = plan.build(rain, depth, index, t_s)? else {
                 log::warn!("--puddles: the picture shows no ground within reach; no puddles");
                 *self = PuddleFeed::Off;
                 return Ok(());
             };
-            if t_s > 0.0 {
-                sim.advance_with_rain(volume, model, wind, seed, t_s)?;
-            }
-            let (cap, capped) = sim.particle_cap();
-            log::info!(
-                "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s in {:.1} s",
-                sim.ledger().particles_present,
-                if capped { ", reached" } else { "" },
-                started.elapsed().as_secs_f64()
-            );
-            let life = crate::fluid::ripples::RING_LIFE_S;
             let recent = impacts_between(volume, model, wind, seed, (t_s - life).max(0.0), t_s);
-            *self = PuddleFeed::On(Box::new((sim, t_s, recent)));
-        } else if let PuddleFeed::On(state) = self {
-            let (sim, fed_s, recent) = state.as_mut();
-            if t_s > *fed_s {
-                let hits = impacts_between(volume, model, wind, seed, *fed_s, t_s);
-                sim.advance_to(t_s, &hits)?;
-                recent.extend(hits);
-                recent.retain(|h| h.time_s > t_s - crate::fluid::ripples::RING_LIFE_S);
-                *fed_s = t_s;
-            }
+            *self = PuddleFeed::On(Box::new(PuddleRun {
+                sim,
+                fed_s: t_s,
+                recent,
+            }));
+        } else if let PuddleFeed::On(run) = self
+            && t_s > run.fed_s
+        {
+            let hits = impacts_between(volume, model, wind, seed, run.fed_s, t_s);
+            run.sim.advance_to(t_s, &hits)?;
+            run.recent.extend(hits);
+            run.recent.retain(|h| h.time_s > t_s - life);
+            run.fed_s = t_s;
         }
-        if let PuddleFeed::On(state) = self {
-            let (sim, _, recent) = state.as_ref();
-            compositor.set_water(&sim.shown_depth())?;
-            compositor.set_ripples(recent)?;
+        if let PuddleFeed::On(run) = self {
+            compositor.set_water(&run.sim.shown_depth())?;
+            compositor.set_ripples(&run.recent)?;
         }
         Ok(())
+    }
+}
+
+impl PuddlePlan {
+    /// The water at `t_s`: built with the relief of frame `index`'s depth map (if any) and
+    /// fast-forwarded from the clip's start; `None` where no ground is in view.
+    fn build(
+        &self,
+        rain: &RainSetup,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        t_s: f64,
+    ) -> Result<Option<crate::fluid::puddles::PuddleSim>> {
+        use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+        let camera = &self.camera;
+        let map = match depth {
+            Some(d) => Some(
+                d.at(index)?
+                    .resampled(camera.width_px as usize, camera.height_px as usize)
+                    .depth_m
+                    .into_iter()
+                    .map(|z| if z.is_finite() { z } else { 0.0 })
+                    .collect::<Vec<f32>>(),
+            ),
+            None => None,
+        };
+        let started = Instant::now();
+        let settings = PuddleSettings::of(&self.config);
+        let Some(mut sim) =
+            PuddleSim::new(&self.config, camera, map.as_deref(), self.fps, &settings)?
+        else {
+            return Ok(None);
+        };
+        if t_s > 0.0 {
+            sim.advance_with_rain(&rain.volume, &rain.model, &rain.wind, rain.params.seed, t_s)?;
+        }
+        let (cap, capped) = sim.particle_cap();
+        log::info!(
+            "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s in {:.1} s",
+            sim.ledger().particles_present,
+            if capped { ", reached" } else { "" },
+            started.elapsed().as_secs_f64()
+        );
+        Ok(Some(sim))
     }
 }
 
