@@ -55,7 +55,8 @@
 //! - **One huge clipped region**: extended; the sky model raises it at most to 3× its ring.
 //! - **A lamp at the picture's edge**: still compact, in the direction of its visible part.
 //! - **PQ / HLG**: only samples at the code-value ceiling are clipped; values above diffuse
-//!   white below it are real light and pass unchanged (`hdr_input` trusts even the ceiling).
+//!   white below it are real light and pass unchanged; a stream tagged PQ or HLG is HDR input
+//!   (`HdrInput::Auto`) and trusts even the ceiling, unless the user says `off`.
 //! - **Flicker**: see [`LightTracker`](super::tracker::LightTracker): a lamp switching every other
 //!   frame is a steady lamp at its mean flux.
 //!
