@@ -387,6 +387,69 @@ fn drop_radiance(
     luminance([0, 1, 2].map(|k| sh[k] + d[k]))
 }
 
+/// A night skyline: more lit windows than lights. Their recovered light stays in the lights
+/// (none of it goes to the environment, whose fill outside the view would copy a window at the
+/// picture's edge over the sphere), each window at the night prior's luminance over the
+/// frame's median, and the lights' total flux is the windows' excess over the dark facade,
+/// summed pixel by pixel through the pinhole.
+#[test]
+fn many_lit_windows_keep_their_light_out_of_the_environment() {
+    const FACADE: f64 = 0.02;
+    let windows: Vec<(f64, f64)> = (0..6)
+        .flat_map(|j| (0..5).map(move |i| (20.0 + 64.0 * i as f64, 12.0 + 32.0 * j as f64)))
+        .collect();
+    let lit = |x: f64, y: f64| {
+        let inside = windows
+            .iter()
+            .any(|&(cx, cy)| (x - cx).abs() < 2.0 && (y - cy).abs() < 2.0);
+        [if inside { 1.0 } else { FACADE }; 3]
+    };
+    let cam = camera();
+    let report = light_report(&still(lit), &cam, (1, 1), &LightConfig::default()).unwrap();
+    let dark = light_report(
+        &still(|_, _| [FACADE; 3]),
+        &cam,
+        (1, 1),
+        &LightConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(report.lights.len(), 16);
+    // The environment is the facade's, as if the windows were dark.
+    for (a, b) in report.env.coeffs.iter().zip(&dark.env.coeffs) {
+        for k in 0..3 {
+            assert!(
+                (a[k] - b[k]).abs() < 1e-3 * (1.0 + b[0].abs()),
+                "{a:?} vs {b:?}"
+            );
+        }
+    }
+    // The facade is the frame's median (sRGB-quantised like the still).
+    let facade = f64::from(srgb_to_linear(
+        (linear_to_srgb(FACADE as f32) * 255.0).round() / 255.0,
+    ));
+    let window = 130.0 * facade;
+    let f = cam.focal_px();
+    let mut expected = 0.0;
+    for y in 0..H {
+        for x in 0..W {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            if lit(px, py)[0] == 1.0 {
+                let r2 = (px - 0.5 * W as f64).powi(2) + (py - 0.5 * H as f64).powi(2);
+                expected += (window - facade) * f / (f * f + r2).powf(1.5);
+            }
+        }
+    }
+    let total: f64 = report
+        .lights
+        .iter()
+        .map(|l| luminance(l.radiance_times_solid_angle()))
+        .sum();
+    assert!(
+        (total / expected - 1.0).abs() < 0.05,
+        "{total} vs {expected}"
+    );
+}
+
 #[test]
 fn lamp_glows_on_drops_near_it_by_the_rtf_ratio() {
     let cam = camera();
