@@ -34,7 +34,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 11] = [
+const COMMON: [(&str, &str); 12] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -78,6 +78,10 @@ const COMMON: [(&str, &str); 11] = [
     (
         "common/water.wgsl",
         include_str!("../../shaders/common/water.wgsl"),
+    ),
+    (
+        "common/glow.wgsl",
+        include_str!("../../shaders/common/glow.wgsl"),
     ),
 ];
 

@@ -2,13 +2,19 @@
 //! from the co-sited sample, through [`crate::video::ColorParams::code_to_linear`]; then the
 //! haze: `background · T + (1 − T) · in-scatter`, the in-scatter the PRT colour of the
 //! environment (`RainParams::env_sh`, what the drawn drops show too) for the pixel's view ray
-//! ([`crate::lighting::prt::prt_colour_f64`]).
+//! ([`crate::lighting::prt::prt_colour_f64`]), plus the compact lights' glow ([`haze_glow`]).
 
 use glam::{DVec2, DVec3};
 
-use crate::gpu::types::RainParams;
+use super::rain_simulate::light_term;
+use crate::gpu::types::{LightList, RainParams};
+use crate::lighting::RtfTable;
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::video::YuvFrame;
+
+/// Samples along the ray per light at a finite distance (`HAZE_GLOW_SAMPLES` in
+/// common/glow.wgsl).
+pub const HAZE_GLOW_SAMPLES: usize = 16;
 
 /// The world direction of the view ray through the centre of coded pixel (`x`, `y`) under the
 /// uniforms `p` (back to display pixels, then the pinhole).
@@ -49,8 +55,75 @@ pub fn plate(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     yuv_to_rgb(frame, &clear)
 }
 
+/// The compact lights scattered once by the haze of `p` into the view ray through coded pixel
+/// (`x`, `y`), weighted by the haze's opacity: the halo around a lamp. Twin of `haze_glow` in
+/// common/glow.wgsl, which says how: the haze spans `p.haze[0]` to `p.haze[1]` metres with
+/// transmittance `p.haze[3]`; a light at infinity adds (1 − T) L Ω F(θ), one at a finite distance
+/// the integral of β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it.
+pub fn haze_glow(
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+    x: u32,
+    y: u32,
+) -> [f64; 3] {
+    let t = p.haze[3] as f64;
+    let count = (lights.count as usize).min(lights.lights.len());
+    if t >= 1.0 || count == 0 {
+        return [0.0; 3];
+    }
+    let v = view_ray(p, x, y).normalize();
+    let opacity = 1.0 - t;
+    let near_m = p.haze[0] as f64;
+    let far_m = (p.haze[1] as f64).max(near_m + 1e-6);
+    let beta_per_m = -t.ln() / (far_m - near_m);
+    let mut c = [0.0; 3];
+    let mut add = |w: f64, term: [f64; 3]| (0..3).for_each(|k| c[k] += w * term[k]);
+    for l in &lights.lights[..count] {
+        let [lx, ly, lz, d] = l.direction_distance.map(f64::from);
+        if d <= 0.0 {
+            add(opacity, light_term(l, tables, v, v * near_m).0);
+            continue;
+        }
+        let light_m = DVec3::new(lx, ly, lz) * d;
+        let s0_m = light_m.dot(v);
+        let h_m = (light_m - s0_m * v)
+            .length()
+            .max((l.strength[3] as f64).max(1e-4));
+        let phi_a = ((near_m - s0_m) / h_m).atan();
+        let dphi = (((far_m - s0_m) / h_m).atan() - phi_a) / HAZE_GLOW_SAMPLES as f64;
+        for k in 0..HAZE_GLOW_SAMPLES {
+            let phi = phi_a + (k as f64 + 0.5) * dphi;
+            let s_m = s0_m + h_m * phi.tan();
+            let ds_m = h_m / phi.cos().powi(2) * dphi;
+            let weight = beta_per_m * (-beta_per_m * (s_m - near_m)).exp() * ds_m;
+            add(weight, light_term(l, tables, v, v * s_m).0);
+        }
+    }
+    c
+}
+
 /// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
 pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
+    canvas(frame, p, None)
+}
+
+/// [`yuv_to_rgb`] with the compact lights' glow in the haze (`lights` and the transfer tables
+/// as the GPU stage binds them).
+pub fn yuv_to_rgb_lit(
+    frame: &YuvFrame,
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> Vec<[f64; 3]> {
+    canvas(frame, p, Some((lights, tables)))
+}
+
+fn canvas(
+    frame: &YuvFrame,
+    p: &RainParams,
+    lit: Option<(&LightList, &[RtfTable; 3])>,
+) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
     let transmittance = p.haze[3] as f64;
@@ -70,8 +143,9 @@ pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
             } else {
                 [0.0; 3]
             };
+            let glow = lit.map_or([0.0; 3], |(l, t)| haze_glow(p, l, t, x, y));
             out.push(std::array::from_fn(|k| {
-                rgb[k] * transmittance + in_scatter[k]
+                rgb[k] * transmittance + in_scatter[k] + glow[k]
             }));
         }
     }

@@ -29,6 +29,8 @@ impl YuvToRgb {
                 view(&r.planes[2]),
                 view(&r.canvas),
                 buffer(&r.rain_params),
+                buffer(&r.lights.list),
+                buffer(&r.lights.table),
             ],
         );
         YuvToRgb {
@@ -39,13 +41,15 @@ impl YuvToRgb {
     }
 
     /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
-    /// reads no planes, so its inferred layout holds bindings 0, 4 and 5 only).
+    /// reads no planes, so its inferred layout holds bindings 0 and 4 to 7 only).
     pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
         let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "layer");
         let entries = [
             (0, buffer(&r.frame_params)),
             (4, view(&r.canvas)),
             (5, buffer(&r.rain_params)),
+            (6, buffer(&r.lights.list)),
+            (7, buffer(&r.lights.table)),
         ]
         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
