@@ -200,8 +200,9 @@ fn glow_follows_the_single_scattering_integral() {
         let mut profile = Vec::new();
         for x in 0..W {
             let y = lamp_px.1;
+            // The ray through the pixel's centre.
             let v = yuv_to_rgb::view_ray(&p, x, y).normalize();
-            let glow = yuv_to_rgb::haze_glow(&p, &list, &coarse, x, y);
+            let glow = yuv_to_rgb::haze_glow_along(&p, &list, &coarse, v);
             let steps = 100_000;
             let ds = (HAZE_FAR_M - HAZE_NEAR_M) / steps as f64;
             let mut truth = [0.0; 3];

@@ -101,6 +101,7 @@ pub fn constants() -> String {
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+        ("GLOW_CELL_PX", stages::yuv_to_rgb::GLOW_CELL_PX),
         (
             "RING_WORDS",
             crate::fluid::ripples::MAX_RINGS.div_ceil(32) as u32,

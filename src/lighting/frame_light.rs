@@ -265,10 +265,13 @@ impl LightEstimator {
         let mut lights = self.tracker.update(&found, t_s, cut);
         let hdr = self.hdr_input.is_hdr(frame.color.transfer);
         if self.frames_seen == 0 && hdr {
+            let tag = match frame.color.transfer {
+                Transfer::Pq => "tagged PQ",
+                Transfer::Hlg => "tagged HLG",
+                _ => "--hdr-input=on",
+            };
             log::info!(
-                "HDR input ({:?} transfer): light above diffuse white is kept as it is, none is \
-                 recovered",
-                frame.color.transfer
+                "HDR input ({tag}): light above diffuse white is kept as it is, none is recovered"
             );
         }
         if (self.frames_seen == 0 || cut) && self.recovery.is_some() && !hdr {

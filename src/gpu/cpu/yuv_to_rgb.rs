@@ -7,6 +7,7 @@
 use glam::{DVec2, DVec3};
 
 use super::rain_simulate::light_term;
+use crate::gpu::stages::yuv_to_rgb::{GLOW_CELL_PX, glow_grid_size};
 use crate::gpu::types::{LightList, RainParams};
 use crate::lighting::RtfTable;
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
@@ -19,9 +20,14 @@ pub const HAZE_GLOW_SAMPLES: usize = 16;
 /// The world direction of the view ray through the centre of coded pixel (`x`, `y`) under the
 /// uniforms `p` (back to display pixels, then the pinhole).
 pub fn view_ray(p: &RainParams, x: u32, y: u32) -> DVec3 {
+    view_ray_at(p, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
+}
+
+/// The world direction of the view ray through continuous coded position `at_px` (pixel
+/// (x, y) spans x to x + 1).
+pub fn view_ray_at(p: &RainParams, at_px: DVec2) -> DVec3 {
     let m = p.coded_from_display.map(f64::from);
-    let c = DVec2::new(x as f64 + 0.5, y as f64 + 0.5)
-        - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
+    let c = at_px - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
     // The rotation is orthogonal: display = mᵀ (coded − offset).
     let q = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
     let d =
@@ -55,24 +61,22 @@ pub fn plate(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     yuv_to_rgb(frame, &clear)
 }
 
-/// The compact lights scattered once by the haze of `p` into the view ray through coded pixel
-/// (`x`, `y`), weighted by the haze's opacity: the halo around a lamp. Twin of `haze_glow` in
-/// common/glow.wgsl, which says how: the haze spans `p.haze[0]` to `p.haze[1]` metres with
-/// transmittance `p.haze[3]`; a light at infinity adds (1 − T) L Ω F(θ), one at a finite distance
-/// the integral of β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it.
-pub fn haze_glow(
+/// The compact lights scattered once by the haze of `p` into unit view ray `v`, weighted by the
+/// haze's opacity: the halo around a lamp. Twin of `haze_glow_along` in common/glow.wgsl, which
+/// says how: the haze spans `p.haze[0]` to `p.haze[1]` metres with transmittance `p.haze[3]`; a
+/// light at infinity adds (1 − T) L Ω F(θ), one at a finite distance the integral of
+/// β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it.
+pub fn haze_glow_along(
     p: &RainParams,
     lights: &LightList,
     tables: &[RtfTable; 3],
-    x: u32,
-    y: u32,
+    v: DVec3,
 ) -> [f64; 3] {
     let t = p.haze[3] as f64;
     let count = (lights.count as usize).min(lights.lights.len());
     if t >= 1.0 || count == 0 {
         return [0.0; 3];
     }
-    let v = view_ray(p, x, y).normalize();
     let opacity = 1.0 - t;
     let near_m = p.haze[0] as f64;
     let far_m = (p.haze[1] as f64).max(near_m + 1e-6);
@@ -103,6 +107,40 @@ pub fn haze_glow(
     c
 }
 
+/// The glow of a coded picture of `size` pixels, row-major: integrated along the rays of the
+/// grid points every [`GLOW_CELL_PX`] pixels (corner positions), then bilinear at each pixel's
+/// centre (twin of the `glow` entry point and `haze_glow` in common/glow.wgsl).
+pub fn haze_glow(
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+    size: (u32, u32),
+) -> Vec<[f64; 3]> {
+    let (gw, gh) = glow_grid_size(size);
+    let cell = GLOW_CELL_PX as f64;
+    let grid: Vec<[f64; 3]> = (0..gh)
+        .flat_map(|j| (0..gw).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let at = DVec2::new(i as f64 * cell, j as f64 * cell);
+            haze_glow_along(p, lights, tables, view_ray_at(p, at).normalize())
+        })
+        .collect();
+    let gw = gw as usize;
+    (0..size.1)
+        .flat_map(|y| (0..size.0).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let u = DVec2::new(x as f64 + 0.5, y as f64 + 0.5) / cell;
+            let (g, f) = (u.floor(), u - u.floor());
+            let i = g.y as usize * gw + g.x as usize;
+            std::array::from_fn(|k| {
+                let top = grid[i][k] + (grid[i + 1][k] - grid[i][k]) * f.x;
+                let bottom = grid[i + gw][k] + (grid[i + gw + 1][k] - grid[i + gw][k]) * f.x;
+                top + (bottom - top) * f.y
+            })
+        })
+        .collect()
+}
+
 /// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
 pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     canvas(frame, p, None)
@@ -128,6 +166,7 @@ fn canvas(
     let (sx, sy) = f.chroma.shift();
     let transmittance = p.haze[3] as f64;
     let (haze_env, drop) = environment_and_drop(p);
+    let glow = lit.map(|(l, t)| haze_glow(p, l, t, (f.width, f.height)));
     let mut out = Vec::with_capacity((f.width * f.height) as usize);
     for y in 0..f.height {
         for x in 0..f.width {
@@ -143,9 +182,11 @@ fn canvas(
             } else {
                 [0.0; 3]
             };
-            let glow = lit.map_or([0.0; 3], |(l, t)| haze_glow(p, l, t, x, y));
+            let glow_px = glow
+                .as_ref()
+                .map_or([0.0; 3], |g| g[(y * f.width + x) as usize]);
             out.push(std::array::from_fn(|k| {
-                rgb[k] * transmittance + in_scatter[k] + glow[k]
+                rgb[k] * transmittance + in_scatter[k] + glow_px[k]
             }));
         }
     }
