@@ -2,10 +2,10 @@
 // the frame's own matrix, range and transfer. Chroma is taken from the co-sited sample
 // (nearest): rgb_to_yuv box-averages it back, so a frame without rain returns unchanged.
 // The rain too far to draw drop by drop veils the background here, before the streaks are drawn
-// over it: background · T + in-scatter (T = 1 and in-scatter = 0 without rain: exact identity;
-// common/plate.wgsl).
+// over it: background · T + in-scatter + the lamps' glow (T = 1, in-scatter and glow = 0
+// without rain: exact identity; common/plate.wgsl, common/glow.wgsl).
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/plate.wgsl.
+// common/lights.wgsl, common/plate.wgsl, common/glow.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
 @group(0) @binding(1) var plane_y: texture_2d<u32>;
@@ -13,11 +13,23 @@
 @group(0) @binding(3) var plane_cr: texture_2d<u32>;
 @group(0) @binding(4) var canvas: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(5) var<uniform> rain: RainParams;
+@group(0) @binding(6) var<uniform> lights: LightList;
+@group(0) @binding(7) var<storage, read> rtf_table: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> glow_grid: array<vec4<f32>>;
+
+// The lamps' glow on its coarse grid (common/glow.wgsl), before `main` or `layer` reads it.
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn glow(@builtin(global_invocation_id) id: vec3<u32>) {
+    let w = glow_grid_width();
+    let h = (u32(rain.coded_size_px.y) + GLOW_CELL_PX - 1u) / GLOW_CELL_PX + 1u;
+    if id.x >= w || id.y >= h || !haze_glows() { return; }
+    glow_grid[id.y * w + id.x] = vec4<f32>(glow_at_grid_point(id.xy), 0.0);
+}
 
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
-    textureStore(canvas, id.xy, vec4<f32>(plate_linear(id.xy) * rain.haze.w + in_scatter(id.xy), 1.0));
+    textureStore(canvas, id.xy, vec4<f32>(plate_linear(id.xy) * rain.haze.w + in_scatter(id.xy) + haze_glow(id.xy), 1.0));
 }
 
 // The rain layer's starting canvas: the haze alone, premultiplied over nothing (colour
@@ -25,5 +37,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn layer(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
-    textureStore(canvas, id.xy, vec4<f32>(in_scatter(id.xy), 1.0 - rain.haze.w));
+    textureStore(canvas, id.xy, vec4<f32>(in_scatter(id.xy) + haze_glow(id.xy), 1.0 - rain.haze.w));
 }

@@ -325,7 +325,7 @@ impl RenderConfig {
 impl RenderConfig {
     /// Each flag that sets a value of this configuration, with the value as a user would type
     /// it (`("--wind", "3,-1")`); `--highlight-gain` only when set (its default is the
-    /// recovery's estimate) and `--depth` (no default), `--hdr-input` never (a switch, off unless given). Of
+    /// recovery's estimate) and `--depth` (no default). Of
     /// [`RenderConfig::default`], these are the defaults the help shows and the README's
     /// options table lists (a test checks both), so each default is written once, in the
     /// `Default` impls.
@@ -353,6 +353,7 @@ impl RenderConfig {
             ("--f-number", c.f_number.to_string()),
             ("--sensor-width", c.sensor_width_mm.to_string()),
             ("--light-smoothing", l.smoothing_s.to_string()),
+            ("--hdr-input", l.hdr_input.name().to_string()),
             ("--scene-depth", r.scene_depth_m.to_string()),
             ("--ground", self.ground.mode.to_string()),
             ("--pre-rain", self.ground.pre_rain_min.to_string()),

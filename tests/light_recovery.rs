@@ -10,7 +10,9 @@ use rain_composite::lighting::inspect_light::{light_report, rtf_tables};
 use rain_composite::lighting::prt::{RtfSh, prt_colour};
 use rain_composite::lighting::recovery::luminance;
 use rain_composite::lighting::rtf::RtfTable;
-use rain_composite::lighting::{LightConfig, LightEstimator, LightSource, direct_colour, sh};
+use rain_composite::lighting::{
+    HdrInput, LightConfig, LightEstimator, LightSource, direct_colour, sh,
+};
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Transfer, YuvFrame};
 
@@ -385,6 +387,69 @@ fn drop_radiance(
     luminance([0, 1, 2].map(|k| sh[k] + d[k]))
 }
 
+/// A night skyline: more lit windows than lights. Their recovered light stays in the lights
+/// (none of it goes to the environment, whose fill outside the view would copy a window at the
+/// picture's edge over the sphere), each window at the night prior's luminance over the
+/// frame's median, and the lights' total flux is the windows' excess over the dark facade,
+/// summed pixel by pixel through the pinhole.
+#[test]
+fn many_lit_windows_keep_their_light_out_of_the_environment() {
+    const FACADE: f64 = 0.02;
+    let windows: Vec<(f64, f64)> = (0..6)
+        .flat_map(|j| (0..5).map(move |i| (20.0 + 64.0 * i as f64, 12.0 + 32.0 * j as f64)))
+        .collect();
+    let lit = |x: f64, y: f64| {
+        let inside = windows
+            .iter()
+            .any(|&(cx, cy)| (x - cx).abs() < 2.0 && (y - cy).abs() < 2.0);
+        [if inside { 1.0 } else { FACADE }; 3]
+    };
+    let cam = camera();
+    let report = light_report(&still(lit), &cam, (1, 1), &LightConfig::default()).unwrap();
+    let dark = light_report(
+        &still(|_, _| [FACADE; 3]),
+        &cam,
+        (1, 1),
+        &LightConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(report.lights.len(), 16);
+    // The environment is the facade's, as if the windows were dark.
+    for (a, b) in report.env.coeffs.iter().zip(&dark.env.coeffs) {
+        for k in 0..3 {
+            assert!(
+                (a[k] - b[k]).abs() < 1e-3 * (1.0 + b[0].abs()),
+                "{a:?} vs {b:?}"
+            );
+        }
+    }
+    // The facade is the frame's median (sRGB-quantised like the still).
+    let facade = f64::from(srgb_to_linear(
+        (linear_to_srgb(FACADE as f32) * 255.0).round() / 255.0,
+    ));
+    let window = 130.0 * facade;
+    let f = cam.focal_px();
+    let mut expected = 0.0;
+    for y in 0..H {
+        for x in 0..W {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            if lit(px, py)[0] == 1.0 {
+                let r2 = (px - 0.5 * W as f64).powi(2) + (py - 0.5 * H as f64).powi(2);
+                expected += (window - facade) * f / (f * f + r2).powf(1.5);
+            }
+        }
+    }
+    let total: f64 = report
+        .lights
+        .iter()
+        .map(|l| luminance(l.radiance_times_solid_angle()))
+        .sum();
+    assert!(
+        (total / expected - 1.0).abs() < 0.05,
+        "{total} vs {expected}"
+    );
+}
+
 #[test]
 fn lamp_glows_on_drops_near_it_by_the_rtf_ratio() {
     let cam = camera();
@@ -401,7 +466,7 @@ fn lamp_glows_on_drops_near_it_by_the_rtf_ratio() {
         &cam,
         (1, 1),
         &LightConfig {
-            hdr_input: true,
+            hdr_input: HdrInput::On,
             ..config
         },
     )
@@ -527,7 +592,7 @@ fn frame_without_clipping_gives_bit_identical_light() {
         });
         let mut on = lighting(LightConfig::default());
         let mut trusted = lighting(LightConfig {
-            hdr_input: true,
+            hdr_input: HdrInput::On,
             ..LightConfig::default()
         });
         for k in 0..3 {
@@ -591,40 +656,176 @@ fn hard_frames_give_finite_bounded_light() {
 
 #[test]
 fn hlg_values_above_diffuse_white_are_trusted_below_the_ceiling() {
-    // 10-bit HLG, limited range: diffuse white (75 % signal) is code 721; code 900 is above
-    // it but below the ceiling (940), so it is real light, not clipping.
+    // 10-bit HLG, limited range: diffuse white (75 % signal) is code 721; 3× white is code
+    // 895, above it but below the ceiling (940), so it is real light, not clipping.
     let color = ColorParams {
         transfer: Transfer::Hlg,
         ..ColorParams::bt709(10)
     };
-    let bright = |x: f64, y: f64| {
-        let v = if (x - 160.0).hypot(y - 60.0) < 6.0 {
-            0.8
-        } else {
-            0.02
-        };
-        [v; 3]
-    };
-    let frame = yuv_frame(W, H, color, bright);
-    let mut on = lighting(LightConfig::default());
-    let mut trusted = lighting(LightConfig {
-        hdr_input: true,
-        ..LightConfig::default()
-    });
-    let a = on.update(&frame, 0.0);
-    assert!(a.lights.is_empty());
-    assert_eq!(a, trusted.update(&frame, 0.0));
-    // At the ceiling it is clipped: recovered, finite.
-    let clipped = yuv_frame(W, H, color, |x, y| {
-        if (x - 160.0).hypot(y - 60.0) < 6.0 {
-            [1.2; 3]
-        } else {
-            [0.02; 3]
+    let disc = |inside: f64| {
+        move |x: f64, y: f64| {
+            let v = if (x - 160.0).hypot(y - 60.0) < 6.0 {
+                inside
+            } else {
+                0.02
+            };
+            [v; 3]
         }
-    });
-    let b = lighting(LightConfig::default()).update(&clipped, 0.0);
+    };
+    let with = |hdr_input| LightConfig {
+        hdr_input,
+        ..LightConfig::default()
+    };
+    let frame = yuv_frame(W, H, color, disc(3.0));
+    let a = lighting(with(HdrInput::Off)).update(&frame, 0.0);
+    assert!(a.lights.is_empty());
+    assert_eq!(a, lighting(with(HdrInput::On)).update(&frame, 0.0));
+    // At the ceiling: an HLG stream is HDR by its tag, so nothing is recovered unless the
+    // user says it is not; then it is clipped light, recovered, finite.
+    let clipped = yuv_frame(W, H, color, disc(4.5));
+    let auto = lighting(LightConfig::default()).update(&clipped, 0.0);
+    assert!(auto.lights.is_empty());
+    assert_eq!(auto, lighting(with(HdrInput::On)).update(&clipped, 0.0));
+    let b = lighting(with(HdrInput::Off)).update(&clipped, 0.0);
     assert!(all_finite(&b));
     assert_eq!(b.lights.len(), 1);
+}
+
+/// A 10-bit 4:4:4 clip made by the ffmpeg CLI from code values (limited range, neutral grey):
+/// a dark frame with a block of diffuse white and a disc of `patch_signal`, tagged with the
+/// transfer `trc` (`None`: untagged).
+fn tagged_clip(
+    dir: &std::path::Path,
+    white_signal: f64,
+    patch_signal: f64,
+    trc: Option<&str>,
+) -> String {
+    let code = |e: f64| (64.0 + 876.0 * e).round() as u16;
+    let mut raw = Vec::new();
+    for plane in 0..3 {
+        for y in 0..H {
+            for x in 0..W {
+                let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
+                let v = if plane > 0 {
+                    512
+                } else if (fx - 220.0).hypot(fy - 90.0) < 6.0 {
+                    code(patch_signal)
+                } else if (20.0..100.0).contains(&fx) && (40.0..140.0).contains(&fy) {
+                    code(white_signal)
+                } else {
+                    code(0.1)
+                };
+                raw.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let raw_path = dir.join("frame.yuv");
+    std::fs::write(&raw_path, raw.repeat(2)).unwrap();
+    let out = dir.join(format!("{}.mkv", trc.unwrap_or("untagged")));
+    let size = format!("{W}x{H}");
+    let mut args = vec![
+        "-y",
+        "-v",
+        "error",
+        "-f",
+        "rawvideo",
+        "-pix_fmt",
+        "yuv444p10le",
+        "-s",
+        &size,
+        "-r",
+        "25",
+        "-i",
+    ];
+    let (raw_arg, out_arg) = (raw_path.to_str().unwrap(), out.to_str().unwrap());
+    args.extend([raw_arg, "-c:v", "ffv1", "-color_range", "tv"]);
+    args.extend(["-colorspace", "bt2020nc", "-color_primaries", "bt2020"]);
+    if let Some(trc) = trc {
+        args.extend(["-color_trc", trc]);
+    }
+    args.push(out_arg);
+    let status = std::process::Command::new("ffmpeg")
+        .args(&args)
+        .status()
+        .expect("the ffmpeg CLI is installed");
+    assert!(status.success());
+    out_arg.to_string()
+}
+
+fn first_frame(path: &str) -> YuvFrame {
+    use rain_composite::video::{Source, SourceItem};
+    let mut source = Source::open(path).expect("clip");
+    loop {
+        if let Some(SourceItem::Frame(f)) = source.next_item().expect("decode") {
+            return f;
+        }
+    }
+}
+
+/// The frame's linear light at a pixel (the clip is neutral grey: the green channel).
+fn grey_at(frame: &YuvFrame, x: u32, y: u32) -> f64 {
+    let code = [0, 1, 2].map(|i| frame.sample(i, x, y) as f64);
+    frame.color.code_to_linear(code)[1]
+}
+
+/// A PQ or HLG stream is HDR by its tag: a patch at 1000 cd/m² comes out at its true ratio to
+/// diffuse white (203 cd/m², BT.2408) and nothing is recovered; the same codes untagged are SDR
+/// and light exactly as before.
+#[test]
+fn tagged_hdr_clips_keep_their_light_above_white() {
+    // SMPTE ST 2084: the signal of an absolute luminance.
+    let pq = |cd_m2: f64| {
+        let (m1, m2) = (2610.0 / 16384.0, 2523.0 / 4096.0 * 128.0);
+        let (c1, c2, c3) = (
+            3424.0 / 4096.0,
+            2413.0 / 4096.0 * 32.0,
+            2392.0 / 4096.0 * 32.0,
+        );
+        let y = (cd_m2 / 10_000.0f64).powf(m1);
+        ((c1 + c2 * y) / (1.0 + c3 * y)).powf(m2)
+    };
+    // ARIB STD-B67: 1000 cd/m² on the 1000 cd/m² reference display is the nominal peak, signal
+    // 1.0, scene light 1; reference white is 75 % signal. The rain is scene light, so the
+    // patch's ratio to white is scene-referred (the display's system gamma 1.2 then shows it
+    // as 1000 / 203).
+    let (a, b, c): (f64, f64, f64) = (0.178_832_77, 0.284_668_92, 0.559_910_73);
+    let hlg_white_scene = (((0.75 - c) / a).exp() + b) / 12.0;
+    let hlg_ratio = 1.0 / hlg_white_scene;
+    assert!((hlg_ratio.powf(1.2) / (1000.0 / 203.0) - 1.0).abs() < 0.01);
+    let dir = tempfile::tempdir().unwrap();
+    let with = |hdr_input| LightConfig {
+        hdr_input,
+        ..LightConfig::default()
+    };
+    for (trc, white, patch, ratio) in [
+        ("smpte2084", pq(203.0), pq(1000.0), 1000.0 / 203.0),
+        ("arib-std-b67", 0.75, 1.0, hlg_ratio),
+    ] {
+        let frame = first_frame(&tagged_clip(dir.path(), white, patch, Some(trc)));
+        let white_linear = grey_at(&frame, 60, 90);
+        let seen = grey_at(&frame, 220, 90) / white_linear;
+        assert!(
+            (white_linear - 1.0).abs() < 0.01,
+            "{trc}: white {white_linear}"
+        );
+        assert!(
+            (seen / ratio - 1.0).abs() < 0.02,
+            "{trc}: {seen} for {ratio}"
+        );
+        let auto = lighting(LightConfig::default()).update(&frame, 0.0);
+        assert!(auto.lights.is_empty(), "{trc}: nothing recovered");
+        assert_eq!(auto, lighting(with(HdrInput::On)).update(&frame, 0.0));
+        assert!(all_finite(&auto));
+        if trc == "arib-std-b67" {
+            // At HLG's ceiling: forced off, it is taken for clipping and recovered.
+            let off = lighting(with(HdrInput::Off)).update(&frame, 0.0);
+            assert_eq!(off.lights.len(), 1, "{trc}");
+        }
+        // Untagged, the same codes are SDR: recovered as before, bit for bit.
+        let sdr = first_frame(&tagged_clip(dir.path(), white, patch, None));
+        let auto = lighting(LightConfig::default()).update(&sdr, 0.0);
+        assert_eq!(auto, lighting(with(HdrInput::Off)).update(&sdr, 0.0));
+    }
 }
 
 #[test]
@@ -685,7 +886,10 @@ fn report_recovery_cost() {
         };
         let frame = yuv_frame(w, h, ColorParams::bt709(8), scene);
         let n = 300;
-        for (label, hdr_input) in [("with recovery", false), ("without recovery", true)] {
+        for (label, hdr_input) in [
+            ("with recovery", HdrInput::Auto),
+            ("without recovery", HdrInput::On),
+        ] {
             let config = LightConfig {
                 hdr_input,
                 ..LightConfig::default()

@@ -479,7 +479,7 @@ fn a_lamp_in_shot_glints_in_the_streaks_near_it() {
     comp.set_transfer_table(&tables);
     comp.set_lights(&lights);
     let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
-    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    let mut canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &params, &lights, &tables);
     rain_streaks_with(
         &mut canvas,
         &params,
@@ -663,7 +663,7 @@ fn glints_on_the_gpu_match_the_cpu_twin_and_move_the_light_once() {
     comp.set_transfer_table(&tables);
     comp.set_lights(&lights);
     let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
-    let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &params);
+    let mut canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &params, &lights, &tables);
     rain_streaks_with(&mut canvas, &params, &split, Some(&atlas()), &glints, None);
     let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
     let (mut worst, mut off, mut total) = (0u16, 0usize, 0usize);

@@ -12,6 +12,15 @@ fn view_ray(p: vec2<u32>) -> vec3<f32> {
     return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
 }
 
+// As view_ray, through continuous coded position c (pixel p spans p to p + 1).
+fn view_ray_at(c_px: vec2<f32>) -> vec3<f32> {
+    let m = rain.coded_from_display;
+    let c = c_px - rain.coded_offset_px;
+    let q = vec2<f32>(m.x * c.x + m.y * c.y, m.z * c.x + m.w * c.y);
+    let d = (q - rain.principal_px) / rain.focal_px;
+    return rain.camera_from_world_0.xyz * d.x + rain.camera_from_world_1.xyz * d.y + rain.camera_from_world_2.xyz;
+}
+
 // A world point in the camera's frame (x right, y down, z forward, metres).
 fn to_camera(p_world: vec3<f32>) -> vec3<f32> {
     let d = p_world - rain.camera_pos_m.xyz;

@@ -12,6 +12,8 @@ const PQ_PEAK_OVER_WHITE: f32 = 49.26108374;
 const HLG_A: f32 = 0.17883277;
 const HLG_B: f32 = 0.28466892;
 const HLG_C: f32 = 0.55991073;
+// HLG's reference white as scene light (75 % signal, BT.2408): diffuse white is 1.0.
+const HLG_REF_WHITE: f32 = 0.26496256;
 
 fn to_linear_abs(t: u32, e: f32) -> f32 {
     switch t {
@@ -31,8 +33,8 @@ fn to_linear_abs(t: u32, e: f32) -> f32 {
             return pow(num / (PQ_C2 - PQ_C3 * p), 1.0 / PQ_M1) * PQ_PEAK_OVER_WHITE;
         }
         case 6u: {
-            if e <= 0.5 { return e * e / 3.0; }
-            return (exp((e - HLG_C) / HLG_A) + HLG_B) / 12.0;
+            if e <= 0.5 { return e * e / (3.0 * HLG_REF_WHITE); }
+            return (exp((e - HLG_C) / HLG_A) + HLG_B) / (12.0 * HLG_REF_WHITE);
         }
         default: { return e; }
     }
@@ -55,8 +57,9 @@ fn from_linear_abs(t: u32, l: f32) -> f32 {
             return pow((PQ_C1 + PQ_C2 * y) / (1.0 + PQ_C3 * y), PQ_M2);
         }
         case 6u: {
-            if l <= 1.0 / 12.0 { return sqrt(3.0 * l); }
-            return HLG_A * log(12.0 * l - HLG_B) + HLG_C;
+            let scene = l * HLG_REF_WHITE;
+            if scene <= 1.0 / 12.0 { return sqrt(3.0 * scene); }
+            return HLG_A * log(12.0 * scene - HLG_B) + HLG_C;
         }
         default: { return l; }
     }

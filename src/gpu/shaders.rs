@@ -34,7 +34,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 11] = [
+const COMMON: [(&str, &str); 12] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -79,6 +79,10 @@ const COMMON: [(&str, &str); 11] = [
         "common/water.wgsl",
         include_str!("../../shaders/common/water.wgsl"),
     ),
+    (
+        "common/glow.wgsl",
+        include_str!("../../shaders/common/glow.wgsl"),
+    ),
 ];
 
 /// The `const` lines every stage starts with: sizes and workgroup sizes defined in Rust.
@@ -97,6 +101,7 @@ pub fn constants() -> String {
         ("SH_COEFFS", SH_COEFFS as u32),
         ("SIMULATE_WORKGROUP", stages::rain_simulate::WORKGROUP),
         ("PIXEL_WORKGROUP", stages::PIXEL_WORKGROUP),
+        ("GLOW_CELL_PX", stages::yuv_to_rgb::GLOW_CELL_PX),
         (
             "RING_WORDS",
             crate::fluid::ripples::MAX_RINGS.div_ceil(32) as u32,

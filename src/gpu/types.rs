@@ -105,6 +105,8 @@ pub struct RainParams {
     pub wind_mean_mps: [f32; 2],
     /// The mean wind's travel over the cell size, modulo 1.
     pub mean_travel_cells: [f32; 2],
+    /// The haze: x where it starts (the farthest drawn drop, m), y where it ends (the scene,
+    /// m), w its transmittance T (1: no haze).
     pub haze: [f32; 4],
     pub env_sh: [[f32; 4]; SH_COEFFS],
     pub drop_zonal: [[f32; 4]; 3],

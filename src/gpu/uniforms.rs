@@ -327,8 +327,14 @@ impl RainSetup {
         let mut p = self.motion_at(t_s);
         p.env_sh = light.env.to_gpu_array();
         p.drop_zonal = drop_zonal;
-        // The far drops of the haze scatter the same light as the drawn ones.
-        p.haze = [0.0, 0.0, 0.0, 1.0 - self.haze_at(t_s) as f32];
+        // The far drops of the haze scatter the same light as the drawn ones; the haze spans
+        // the farthest drawn drop to the scene (where its compact lights' glow is integrated).
+        p.haze = [
+            self.volume.far_m as f32,
+            self.scene_depth_m as f32,
+            0.0,
+            1.0 - self.haze_at(t_s) as f32,
+        ];
         p
     }
 

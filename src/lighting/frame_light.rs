@@ -21,6 +21,7 @@ use super::rtf::{ChannelIndices, Polarisation, RtfTable};
 use super::sources::{LightSource, UserLight};
 use super::tracker::LightTracker;
 use crate::scene::Camera;
+use crate::video::Transfer;
 use crate::video::YuvFrame;
 use crate::video::color::eotf_signed;
 use crate::video::frame::coded_pixel;
@@ -50,8 +51,71 @@ pub struct LightConfig {
     /// A fixed factor on the clip level for clipped samples instead of the recovery's estimate
     /// (`None`: estimate).
     pub highlight_gain: Option<f64>,
-    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0 and recover nothing.
-    pub hdr_input: bool,
+    /// Whether the input is scene-referred (PQ, HLG, float): values above 1.0 are trusted and
+    /// nothing is recovered. `auto` tells by the stream's transfer tag.
+    pub hdr_input: HdrInput,
+}
+
+/// Whether light above the frame's diffuse white is real ([`LightConfig::hdr_input`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase", from = "HdrInputField")]
+pub enum HdrInput {
+    /// HDR when the stream is tagged SMPTE ST 2084 (PQ) or ARIB STD-B67 (HLG): both encode
+    /// light far above diffuse white, so a value near their ceiling is a bright source, not
+    /// clipping. Anything else is display-referred and its clipped light is recovered.
+    #[default]
+    Auto,
+    /// Always HDR: trust every value, recover nothing (a float or log input tagged otherwise).
+    On,
+    /// Never HDR: recover clipped light even from a PQ or HLG stream.
+    Off,
+}
+
+/// The JSON forms of [`HdrInput`]: its name, or a bool as configurations before `auto` wrote
+/// it (`true` = on; `false`, which only meant "not forced", = auto).
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum HdrInputField {
+    Flag(bool),
+    Mode(HdrInputMode),
+}
+
+#[derive(serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum HdrInputMode {
+    Auto,
+    On,
+    Off,
+}
+
+impl From<HdrInputField> for HdrInput {
+    fn from(f: HdrInputField) -> HdrInput {
+        match f {
+            HdrInputField::Flag(true) | HdrInputField::Mode(HdrInputMode::On) => HdrInput::On,
+            HdrInputField::Flag(false) | HdrInputField::Mode(HdrInputMode::Auto) => HdrInput::Auto,
+            HdrInputField::Mode(HdrInputMode::Off) => HdrInput::Off,
+        }
+    }
+}
+
+impl HdrInput {
+    /// The name the command line and the configuration use.
+    pub fn name(self) -> &'static str {
+        match self {
+            HdrInput::Auto => "auto",
+            HdrInput::On => "on",
+            HdrInput::Off => "off",
+        }
+    }
+
+    /// Whether a frame coded with `transfer` is taken as HDR.
+    pub fn is_hdr(self, transfer: Transfer) -> bool {
+        match self {
+            HdrInput::Auto => matches!(transfer, Transfer::Pq | Transfer::Hlg),
+            HdrInput::On => true,
+            HdrInput::Off => false,
+        }
+    }
 }
 
 impl Default for LightConfig {
@@ -62,7 +126,7 @@ impl Default for LightConfig {
             smoothing_s: ShSmoother::DEFAULT_TIME_CONSTANT_SECS,
             lights: Vec::new(),
             highlight_gain: None,
-            hdr_input: false,
+            hdr_input: HdrInput::Auto,
         }
     }
 }
@@ -88,6 +152,7 @@ pub struct LightEstimator {
     smoother: ShSmoother,
     tracker: LightTracker,
     recovery: Option<RecoverySettings>,
+    hdr_input: HdrInput,
     rotation_deg: i32,
     tables: [RtfTable; 3],
     user_lights: Vec<LightSource>,
@@ -128,6 +193,7 @@ impl LightEstimator {
             tracker: LightTracker::new(config.smoothing_s, smoother.window_secs()),
             smoother,
             recovery,
+            hdr_input: config.hdr_input,
             rotation_deg,
             tables,
             user_lights,
@@ -180,7 +246,9 @@ impl LightEstimator {
         let stats = self.block_stats(frame);
         let display = self.mapper.project_small(&stats.mean);
         match &self.recovery {
-            Some(settings) if stats.any_clipped() => {
+            Some(settings)
+                if stats.any_clipped() && !self.hdr_input.is_hdr(frame.color.transfer) =>
+            {
                 let r = recover(&stats, self.mapper.camera(), settings);
                 (self.mapper.project_small(&r.remainder), r.lights, display)
             }
@@ -195,7 +263,18 @@ impl LightEstimator {
         let cut = self.smoother.last_was_cut();
         // Sources found in the frame (smoothed over time), then the user's lights.
         let mut lights = self.tracker.update(&found, t_s, cut);
-        if (self.frames_seen == 0 || cut) && self.recovery.is_some() {
+        let hdr = self.hdr_input.is_hdr(frame.color.transfer);
+        if self.frames_seen == 0 && hdr {
+            let tag = match frame.color.transfer {
+                Transfer::Pq => "tagged PQ",
+                Transfer::Hlg => "tagged HLG",
+                _ => "--hdr-input=on",
+            };
+            log::info!(
+                "HDR input ({tag}): light above diffuse white is kept as it is, none is recovered"
+            );
+        }
+        if (self.frames_seen == 0 || cut) && self.recovery.is_some() && !hdr {
             log_lights(t_s, &found);
         }
         self.frames_seen += 1;
@@ -234,7 +313,8 @@ impl LightEstimator {
     }
 }
 
-/// The recovery settings of a configuration (`None`: the input is trusted as it is).
+/// The recovery settings of a configuration (`None`: every input is trusted as it is; a
+/// frame that [`HdrInput::is_hdr`] says is HDR is trusted too).
 pub fn recovery_settings(config: &LightConfig) -> Result<Option<RecoverySettings>> {
     if let Some(g) = config.highlight_gain {
         if !(1.0..=super::recovery::MAX_GAIN).contains(&g) {
@@ -245,9 +325,11 @@ pub fn recovery_settings(config: &LightConfig) -> Result<Option<RecoverySettings
             });
         }
     }
-    Ok((!config.hdr_input).then_some(RecoverySettings {
-        highlight_gain: config.highlight_gain,
-    }))
+    Ok(
+        (config.hdr_input != HdrInput::On).then_some(RecoverySettings {
+            highlight_gain: config.highlight_gain,
+        }),
+    )
 }
 
 /// `-v`: the sources found at the start of a scene.

@@ -34,7 +34,7 @@ pub mod sources;
 pub mod tracker;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
-pub use frame_light::{FrameLight, LightConfig, LightEstimator};
+pub use frame_light::{FrameLight, HdrInput, LightConfig, LightEstimator};
 pub use prt::{RtfSh, brute_force_colour, prt_colour};
 pub use recovery::RecoverySettings;
 pub use rtf::{ChannelIndices, DropOptics, Polarisation, RtfTable};

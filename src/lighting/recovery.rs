@@ -30,10 +30,18 @@
 //!    clip level, and at most [`MAX_GAIN`] times it. Because the prior is on flux (`L Ω`) rather
 //!    than radiance, it does not depend on the picture's resolution or on how far the bloom
 //!    spread the clipped area. The [`MAX_RECOVERED_LIGHTS`] largest become [`LightSource`]s;
-//!    their blocks are replaced in the environment by the ring's level, so their light is not
-//!    counted twice (smaller ones keep their recovered light in the environment). Clipped
-//!    samples keep their measured colour (a sodium lamp clipped in red and green stays
-//!    yellow), scaled by the gain.
+//!    every compact region's blocks are replaced in the environment by the ring's level, and
+//!    the smaller ones add their flux to the nearest light: a compact source's light stays in
+//!    its direction, where the environment's fill outside the view would copy a window at the
+//!    picture's edge over the sphere behind and beside the camera and multiply its flux many
+//!    times (on a night skyline, 0.16 sr of recovered windows became ≈ 3.5 over the sphere and
+//!    veiled the whole frame). Clipped samples keep their measured colour (a sodium lamp
+//!    clipped in red and green stays yellow), scaled by the gain.
+//!
+//!    **More compact regions than lights: a field of emitters.** Lit windows and signs on a
+//!    night skyline are not the scene's key light (they light little of what the camera sees),
+//!    so the flux prior does not hold for them: each gets the typical luminance of a lit window,
+//!    [`EMITTER_OVER_MEAN_AT_NIGHT`] times the frame's median luminance.
 //! 5. **Extended regions: the CIE standard overcast sky**, `L(z) ∝ (1 + 2 cos z)/3` with `z`
 //!    the zenith angle, fitted to the unclipped ring of the region and extrapolated into its
 //!    clipped blocks (never below the clip level; a region with no ring stays at the clip
@@ -55,7 +63,8 @@
 //! - **One huge clipped region**: extended; the sky model raises it at most to 3× its ring.
 //! - **A lamp at the picture's edge**: still compact, in the direction of its visible part.
 //! - **PQ / HLG**: only samples at the code-value ceiling are clipped; values above diffuse
-//!   white below it are real light and pass unchanged (`hdr_input` trusts even the ceiling).
+//!   white below it are real light and pass unchanged; a stream tagged PQ or HLG is HDR input
+//!   (`HdrInput::Auto`) and trusts even the ceiling, unless the user says `off`.
 //! - **Flicker**: see [`LightTracker`](super::tracker::LightTracker): a lamp switching every other
 //!   frame is a steady lamp at its mean flux.
 //!
@@ -84,11 +93,18 @@ pub const COMPACT_MAX_SR: f64 = 0.02;
 pub const EMITTER_MAX_SR: f64 = 0.1;
 /// Surroundings at most this fraction of the clip level make a clipped region an emitter.
 pub const EMITTER_RING_CONTRAST: f64 = 0.25;
-/// Most compact regions turned into light sources per frame; smaller ones stay in the
-/// environment (their recovered light still counts, through the SH).
+/// Most compact regions turned into light sources per frame; smaller ones add their flux to
+/// the nearest of them.
 pub const MAX_RECOVERED_LIGHTS: usize = 16;
 /// Illuminance of all compact sources at the camera over the illuminance on typical surfaces.
 pub const SOURCE_ILLUMINANCE_RATIO: f64 = 3.0;
+/// Luminance of a lit window or sign over the scene's typical luminance at night (the frame's
+/// median, where the exposure puts it): office windows and shop fronts are 30–300 cd/m²
+/// (interiors at 300–500 lx seen through glass; guidance on illuminated signs keeps them to a
+/// few hundred cd/m² in dark surroundings), while exposure tables put a distant view of lit
+/// buildings at EV 2–3, a mean of 0.5–1 cd/m² (L = 12.5 · 2^EV / ISO 100); the ratios span
+/// 30–600, whose geometric middle is ≈ 130.
+pub const EMITTER_OVER_MEAN_AT_NIGHT: f64 = 130.0;
 /// Grey-world albedo that the exposure maps to the frame's median luminance.
 pub const GREY_ALBEDO: f64 = 0.18;
 /// Largest recovered radiance over the clip level (the sun over a mid-grey exposure is ~10⁶).
@@ -252,7 +268,7 @@ pub struct Region {
     /// True when the region touches the picture's border (partly outside the frame).
     pub touches_edge: bool,
     /// True when the region became a light source (compact regions beyond the
-    /// [`MAX_RECOVERED_LIGHTS`] largest stay in the environment, with the same recovered flux).
+    /// [`MAX_RECOVERED_LIGHTS`] largest add their flux to the nearest one).
     pub light: bool,
     /// Recovered radiance of the clipped samples over the clip level (1 = nothing added).
     pub gain: f64,
@@ -454,7 +470,13 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
     for &i in order.iter().take(MAX_RECOVERED_LIGHTS) {
         as_light[i] = true;
     }
+    // More emitters than lights: a field of windows and signs that light little of the scene,
+    // not its key light; each gets the typical luminance of one (see
+    // EMITTER_OVER_MEAN_AT_NIGHT) rather than a share of the key light's flux.
+    let emitter_field = order.len() > MAX_RECOVERED_LIGHTS;
     let mut lights = Vec::new();
+    // Compact regions that did not become lights: (direction, flux).
+    let mut leftovers: Vec<(DVec3, [f64; 3])> = Vec::new();
     let mut regions = Vec::new();
     for (ci, c) in comps.iter().enumerate() {
         let (compact, ring_mean) = (c.compact, c.ring_mean);
@@ -464,7 +486,9 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             if let Some(g) = settings.highlight_gain {
                 return g;
             }
-            if compact {
+            if compact && emitter_field {
+                (EMITTER_OVER_MEAN_AT_NIGHT * l_med / clip_lum).clamp(1.0, MAX_GAIN)
+            } else if compact {
                 let flux = SOURCE_ILLUMINANCE_RATIO * e_frame * c.omega_clip
                     / total_compact_omega.max(1e-300);
                 (flux / c.omega_clip.max(1e-300) / clip_lum).clamp(1.0, MAX_GAIN)
@@ -505,7 +529,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
                         * (g - 1.0)
                         * f64::from(stats.clipped_colour[b][k])
             });
-            if light {
+            if compact {
                 for k in 0..3 {
                     flux[k] += (m[k] - surround[k]).max(0.0) * geo.solid_angle_sr[b];
                 }
@@ -515,7 +539,9 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             }
         }
         let gain = gain_sum / c.blocks.len() as f64;
-        if light && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
+        if compact && !light {
+            leftovers.push((c.dir, flux));
+        } else if light && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
             lights.push(LightSource {
                 direction_world: c.dir,
                 solid_angle_sr: c.omega_clip,
@@ -537,6 +563,22 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             light,
             gain,
         });
+    }
+    // A compact source's light must stay where it is: in the environment, the frame's fill
+    // outside the view would copy a window at the picture's edge over the sphere behind and
+    // beside the camera and multiply its flux many times. So the small ones join the nearest
+    // light, flux conserved (on a skyline, a window beside its neighbour).
+    for (dir, flux) in leftovers {
+        let nearest = lights.iter_mut().max_by(|a, b| {
+            a.direction_world
+                .dot(dir)
+                .total_cmp(&b.direction_world.dot(dir))
+        });
+        if let Some(l) = nearest {
+            for (r, f) in l.radiance_rgb.iter_mut().zip(flux) {
+                *r += f / l.solid_angle_sr;
+            }
+        }
     }
     lights.sort_by(|a, b| {
         luminance(b.radiance_times_solid_angle())

@@ -50,7 +50,8 @@ pub enum Transfer {
     Linear,
     /// SMPTE ST 2084 (PQ); linear 1.0 = 203 cd/m² (BT.2408 reference white).
     Pq,
-    /// ARIB STD-B67 (HLG) inverse OETF, scene-referred; linear 1.0 = nominal peak.
+    /// ARIB STD-B67 (HLG) inverse OETF, scene-referred; linear 1.0 = reference white (75 %
+    /// signal, ITU-R BT.2408), so the nominal peak is 3.77.
     Hlg,
 }
 
@@ -196,6 +197,9 @@ const PQ_PEAK_OVER_WHITE: f64 = 10000.0 / 203.0;
 const HLG_A: f64 = 0.178_832_77;
 const HLG_B: f64 = 0.284_668_92;
 const HLG_C: f64 = 0.559_910_73;
+/// HLG's reference white as scene light (the inverse OETF of 75 % signal, ITU-R BT.2408):
+/// dividing by it puts diffuse white at 1.0 as every other transfer does.
+const HLG_REF_WHITE: f64 = 0.264_962_559_786_400_15;
 
 fn to_linear(t: Transfer, e: f64) -> f64 {
     match t {
@@ -222,11 +226,12 @@ fn to_linear(t: Transfer, e: f64) -> f64 {
             (num / (PQ_C2 - PQ_C3 * p)).powf(1.0 / PQ_M1) * PQ_PEAK_OVER_WHITE
         }
         Transfer::Hlg => {
-            if e <= 0.5 {
+            let scene = if e <= 0.5 {
                 e * e / 3.0
             } else {
                 (((e - HLG_C) / HLG_A).exp() + HLG_B) / 12.0
-            }
+            };
+            scene / HLG_REF_WHITE
         }
     }
 }
@@ -255,10 +260,11 @@ fn from_linear(t: Transfer, l: f64) -> f64 {
             ((PQ_C1 + PQ_C2 * y) / (1.0 + PQ_C3 * y)).powf(PQ_M2)
         }
         Transfer::Hlg => {
-            if l <= 1.0 / 12.0 {
-                (3.0 * l).sqrt()
+            let scene = l * HLG_REF_WHITE;
+            if scene <= 1.0 / 12.0 {
+                (3.0 * scene).sqrt()
             } else {
-                HLG_A * (12.0 * l - HLG_B).ln() + HLG_C
+                HLG_A * (12.0 * scene - HLG_B).ln() + HLG_C
             }
         }
     }
@@ -306,8 +312,13 @@ mod tests {
             assert!((to_linear(t, 1.0) - 1.0).abs() < 1e-12);
             assert_eq!(to_linear(t, 0.0), 0.0);
         }
-        // HLG: 0.5 is 1/12 of the nominal peak (ARIB STD-B67).
-        assert!((to_linear(Transfer::Hlg, 0.5) - 1.0 / 12.0).abs() < 1e-12);
+        // HLG: 0.5 is 1/12 of the nominal peak and 1.0 the peak (ARIB STD-B67, to its
+        // constants' 8 digits), and 75 % signal is reference white (BT.2408): the peak is
+        // 12 / (e^((0.75 − c)/a) + b) times white.
+        let peak = 12.0 / (((0.75 - HLG_C) / HLG_A).exp() + HLG_B);
+        assert!((to_linear(Transfer::Hlg, 0.75) - 1.0).abs() < 1e-12);
+        assert!((to_linear(Transfer::Hlg, 1.0) - peak).abs() < 1e-6 * peak);
+        assert!((to_linear(Transfer::Hlg, 0.5) - peak / 12.0).abs() < 1e-6);
         // PQ: 10000 cd/m² is code 1.0.
         assert!((to_linear(Transfer::Pq, 1.0) - PQ_PEAK_OVER_WHITE).abs() < 1e-9);
     }

@@ -6,6 +6,7 @@ use anyhow::bail;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use rain_composite::config::RenderConfig;
 use rain_composite::gpu::AdapterRequest;
+use rain_composite::lighting::HdrInput;
 use rain_composite::pipeline::FrameRange;
 use rain_composite::preset;
 use rain_composite::video::{AlphaMode, AudioMode, EncodeOptions, Layer, VideoCodec};
@@ -189,10 +190,11 @@ pub struct LookArgs {
     /// estimate (compact ones still become light sources).
     #[arg(long)]
     pub highlight_gain: Option<f64>,
-    /// The input is scene-referred (PQ, HLG, float): trust values above 1.0, recover nothing
-    /// (ignores --highlight-gain).
-    #[arg(long)]
-    pub hdr_input: bool,
+    /// Whether the input is scene-referred: on trusts values above 1.0 and recovers nothing
+    /// (ignores --highlight-gain); auto does so for PQ- and HLG-tagged streams; off recovers
+    /// clipped light even there. Alone: on
+    #[arg(long, value_enum, num_args = 0..=1, require_equals = true, default_missing_value = "on", value_name = "MODE")]
+    pub hdr_input: Option<HdrInputArg>,
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
@@ -255,6 +257,27 @@ pub struct EncodeArgs {
     /// Write the rain's coverage alone, as grey (to the outputs of --layer-only).
     #[arg(long, conflicts_with = "layer_only")]
     pub matte: bool,
+}
+
+/// `--hdr-input[=MODE]`.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum HdrInputArg {
+    /// HDR when the stream is tagged PQ or HLG.
+    Auto,
+    /// Always HDR.
+    On,
+    /// Never HDR: recover clipped light.
+    Off,
+}
+
+impl From<HdrInputArg> for HdrInput {
+    fn from(a: HdrInputArg) -> HdrInput {
+        match a {
+            HdrInputArg::Auto => HdrInput::Auto,
+            HdrInputArg::On => HdrInput::On,
+            HdrInputArg::Off => HdrInput::Off,
+        }
+    }
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
@@ -611,8 +634,8 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     if look.highlight_gain.is_some() {
         c.light.highlight_gain = look.highlight_gain;
     }
-    if look.hdr_input {
-        c.light.hdr_input = true;
+    if let Some(mode) = look.hdr_input {
+        c.light.hdr_input = mode.into();
     }
     set!(look.altitude => r.altitude_m);
     set!(look.scene_depth => r.scene_depth_m);
@@ -731,6 +754,7 @@ mod tests {
         (r.scene_depth_m, r.max_drops) = (80.0, 12_345);
         r.streaks = rain_composite::config::StreakStyle::Mattes;
         (c.light.smoothing_s, c.light.highlight_gain) = (0.5, Some(4.0));
+        c.light.hdr_input = HdrInput::Off;
         c.ground.pre_rain_min = 25.0;
         (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);
         (c.ground.relief_m, c.ground.relief_seed) = (0.01, 7);
@@ -751,12 +775,7 @@ mod tests {
         }
         assert!(values.iter().any(|(f, _)| *f == "--highlight-gain"));
         assert!(values.iter().any(|(f, _)| *f == "--depth"));
-        c.light.hdr_input = true;
-        let mut args = vec![
-            "rain-composite".to_string(),
-            "in.mp4".into(),
-            "--hdr-input".into(),
-        ];
+        let mut args = vec!["rain-composite".to_string(), "in.mp4".into()];
         for (flag, v) in &values {
             args.push(format!("{flag}={v}"));
         }

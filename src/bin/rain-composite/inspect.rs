@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::Subcommand;
 use rain_composite::config::CameraConfig;
 use rain_composite::inspect;
-use rain_composite::lighting::{ChannelIndices, LightConfig};
+use rain_composite::lighting::{ChannelIndices, HdrInput, LightConfig};
 
 use crate::args::{LookArgs, render_config};
 use crate::out;
@@ -236,7 +236,11 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             };
             let light = LightConfig {
                 highlight_gain: *highlight_gain,
-                hdr_input: *hdr_input,
+                hdr_input: if *hdr_input {
+                    HdrInput::On
+                } else {
+                    HdrInput::Auto
+                },
                 ..LightConfig::default()
             };
             inspect::light(image, &camera, grid, &light, plot.as_deref())?

@@ -2,20 +2,35 @@
 //! from the co-sited sample, through [`crate::video::ColorParams::code_to_linear`]; then the
 //! haze: `background · T + (1 − T) · in-scatter`, the in-scatter the PRT colour of the
 //! environment (`RainParams::env_sh`, what the drawn drops show too) for the pixel's view ray
-//! ([`crate::lighting::prt::prt_colour_f64`]).
+//! ([`crate::lighting::prt::prt_colour_f64`]), plus the compact lights' glow ([`haze_glow`]).
 
 use glam::{DVec2, DVec3};
 
-use crate::gpu::types::RainParams;
+use super::rain_simulate::light_term;
+use crate::gpu::stages::yuv_to_rgb::{GLOW_CELL_PX, glow_grid_size};
+use crate::gpu::types::{LightList, RainParams};
+use crate::lighting::RtfTable;
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
 use crate::video::YuvFrame;
+
+/// Samples along the ray per light at a finite distance (`HAZE_GLOW_SAMPLES` in
+/// common/glow.wgsl).
+pub const HAZE_GLOW_SAMPLES: usize = 16;
+/// Share of the extinction that the drop's geometric optics scatter through the transfer table
+/// (`GLOW_GEOMETRIC_SHARE` in common/glow.wgsl): the other half is diffraction within 0.02°.
+pub const GLOW_GEOMETRIC_SHARE: f64 = 0.5;
 
 /// The world direction of the view ray through the centre of coded pixel (`x`, `y`) under the
 /// uniforms `p` (back to display pixels, then the pinhole).
 pub fn view_ray(p: &RainParams, x: u32, y: u32) -> DVec3 {
+    view_ray_at(p, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
+}
+
+/// The world direction of the view ray through continuous coded position `at_px` (pixel
+/// (x, y) spans x to x + 1).
+pub fn view_ray_at(p: &RainParams, at_px: DVec2) -> DVec3 {
     let m = p.coded_from_display.map(f64::from);
-    let c = DVec2::new(x as f64 + 0.5, y as f64 + 0.5)
-        - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
+    let c = at_px - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
     // The rotation is orthogonal: display = mᵀ (coded − offset).
     let q = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
     let d =
@@ -49,12 +64,114 @@ pub fn plate(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
     yuv_to_rgb(frame, &clear)
 }
 
+/// The compact lights scattered once by the haze of `p` into unit view ray `v`, weighted by the
+/// haze's opacity: the halo around a lamp. Twin of `haze_glow_along` in common/glow.wgsl, which
+/// says how: the haze spans `p.haze[0]` to `p.haze[1]` metres with transmittance `p.haze[3]`; a
+/// light at infinity adds ½ (1 − T) L Ω F(θ), one at a finite distance the integral of
+/// ½ β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it (½: the share of
+/// the extinction the geometric optics scatter, [`GLOW_GEOMETRIC_SHARE`]).
+pub fn haze_glow_along(
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+    v: DVec3,
+) -> [f64; 3] {
+    let t = p.haze[3] as f64;
+    let count = (lights.count as usize).min(lights.lights.len());
+    if t >= 1.0 || count == 0 {
+        return [0.0; 3];
+    }
+    let opacity = GLOW_GEOMETRIC_SHARE * (1.0 - t);
+    let near_m = p.haze[0] as f64;
+    let far_m = (p.haze[1] as f64).max(near_m + 1e-6);
+    let beta_per_m = -t.ln() / (far_m - near_m);
+    let mut c = [0.0; 3];
+    let mut add = |w: f64, term: [f64; 3]| (0..3).for_each(|k| c[k] += w * term[k]);
+    for l in &lights.lights[..count] {
+        let [lx, ly, lz, d] = l.direction_distance.map(f64::from);
+        if d <= 0.0 {
+            add(opacity, light_term(l, tables, v, v * near_m).0);
+            continue;
+        }
+        let light_m = DVec3::new(lx, ly, lz) * d;
+        let s0_m = light_m.dot(v);
+        let h_m = (light_m - s0_m * v)
+            .length()
+            .max((l.strength[3] as f64).max(1e-4));
+        let phi_a = ((near_m - s0_m) / h_m).atan();
+        let dphi = (((far_m - s0_m) / h_m).atan() - phi_a) / HAZE_GLOW_SAMPLES as f64;
+        for k in 0..HAZE_GLOW_SAMPLES {
+            let phi = phi_a + (k as f64 + 0.5) * dphi;
+            let s_m = s0_m + h_m * phi.tan();
+            let ds_m = h_m / phi.cos().powi(2) * dphi;
+            let weight =
+                GLOW_GEOMETRIC_SHARE * beta_per_m * (-beta_per_m * (s_m - near_m)).exp() * ds_m;
+            add(weight, light_term(l, tables, v, v * s_m).0);
+        }
+    }
+    c
+}
+
+/// The glow of a coded picture of `size` pixels, row-major: integrated along the rays of the
+/// grid points every [`GLOW_CELL_PX`] pixels (corner positions), then bilinear at each pixel's
+/// centre (twin of the `glow` entry point and `haze_glow` in common/glow.wgsl).
+pub fn haze_glow(
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+    size: (u32, u32),
+) -> Vec<[f64; 3]> {
+    let (gw, gh) = glow_grid_size(size);
+    let cell = GLOW_CELL_PX as f64;
+    let grid: Vec<[f64; 3]> = (0..gh)
+        .flat_map(|j| (0..gw).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let at = DVec2::new(i as f64 * cell, j as f64 * cell);
+            haze_glow_along(p, lights, tables, view_ray_at(p, at).normalize())
+        })
+        .collect();
+    let gw = gw as usize;
+    (0..size.1)
+        .flat_map(|y| (0..size.0).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let u = DVec2::new(x as f64 + 0.5, y as f64 + 0.5) / cell;
+            let (g, f) = (u.floor(), u - u.floor());
+            let i = g.y as usize * gw + g.x as usize;
+            std::array::from_fn(|k| {
+                let top = grid[i][k] + (grid[i + 1][k] - grid[i][k]) * f.x;
+                let bottom = grid[i + gw][k] + (grid[i + gw + 1][k] - grid[i + gw][k]) * f.x;
+                top + (bottom - top) * f.y
+            })
+        })
+        .collect()
+}
+
 /// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
 pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
+    canvas(frame, p, None)
+}
+
+/// [`yuv_to_rgb`] with the compact lights' glow in the haze (`lights` and the transfer tables
+/// as the GPU stage binds them).
+pub fn yuv_to_rgb_lit(
+    frame: &YuvFrame,
+    p: &RainParams,
+    lights: &LightList,
+    tables: &[RtfTable; 3],
+) -> Vec<[f64; 3]> {
+    canvas(frame, p, Some((lights, tables)))
+}
+
+fn canvas(
+    frame: &YuvFrame,
+    p: &RainParams,
+    lit: Option<(&LightList, &[RtfTable; 3])>,
+) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
     let transmittance = p.haze[3] as f64;
     let (haze_env, drop) = environment_and_drop(p);
+    let glow = lit.map(|(l, t)| haze_glow(p, l, t, (f.width, f.height)));
     let mut out = Vec::with_capacity((f.width * f.height) as usize);
     for y in 0..f.height {
         for x in 0..f.width {
@@ -70,8 +187,11 @@ pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
             } else {
                 [0.0; 3]
             };
+            let glow_px = glow
+                .as_ref()
+                .map_or([0.0; 3], |g| g[(y * f.width + x) as usize]);
             out.push(std::array::from_fn(|k| {
-                rgb[k] * transmittance + in_scatter[k]
+                rgb[k] * transmittance + in_scatter[k] + glow_px[k]
             }));
         }
     }
