@@ -121,12 +121,14 @@ pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>
 }
 
 /// `inspect puddles`: the water a render of `input` under `config` has on its ground at
-/// `at_s` (fast-forwarded from the start), its ledger, and with `plot` the water-depth map.
+/// `at_s` (fast-forwarded from the start), its ledger, and with `plot` the water-depth map;
+/// with `keep`, the water is kept along the way as a render keeps it.
 pub fn puddles(
     config: &RenderConfig,
     input: &str,
     at_s: f64,
     plot: Option<&Path>,
+    keep: Option<&crate::fluid::puddles::Checkpoints>,
 ) -> Result<Value> {
-    crate::fluid::puddles::report::report(config, input, at_s, plot)
+    crate::fluid::puddles::report::report(config, input, at_s, plot, keep)
 }

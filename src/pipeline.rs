@@ -12,6 +12,8 @@ use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use crate::config::RenderConfig;
+use crate::fluid::puddles::checkpoint::{self, Checkpoints};
+use crate::fluid::puddles::{PuddleSettings, PuddleSim};
 use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
@@ -330,6 +332,8 @@ pub struct Job {
     pub adapter: AdapterRequest,
     /// Which frames (a chunk of the shot, or all of it).
     pub frames: FrameRange,
+    /// Where the puddles' water is kept and read (`None`: neither).
+    pub checkpoints: Option<Checkpoints>,
 }
 
 enum ToEncode {
@@ -362,6 +366,9 @@ pub fn render(
         Some(d) => rain.with_depth(d),
         None => rain,
     };
+    if let Some(c) = &job.checkpoints {
+        rain = rain.with_checkpoints(c.clone());
+    }
     // A chunk starts decoding where the frames that light its first frame begin (as a preview
     // does), less the interleaving slack for the audio; a pipe is read from the start.
     let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
@@ -698,6 +705,7 @@ pub enum FrameSelector {
 }
 
 /// Renders one frame exactly as [`render`] would; returns it with the stream's description.
+/// The puddles' water starts from the latest of `checkpoints` at or before the frame, if any.
 ///
 /// The light of a frame depends on the frames shortly before it (temporal smoothing), so
 /// those are decoded and fed first, exactly as the full render sees them.
@@ -706,6 +714,7 @@ pub fn preview(
     at: FrameSelector,
     render: &RenderConfig,
     adapter: &AdapterRequest,
+    checkpoints: Option<&Checkpoints>,
     cancel: &AtomicBool,
 ) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
@@ -727,6 +736,9 @@ pub fn preview(
     let mut rain = RainCompositor::new(render, &info, adapter)?;
     if let Some(d) = depth {
         rain = rain.with_depth(d);
+    }
+    if let Some(c) = checkpoints {
+        rain = rain.with_checkpoints(c.clone());
     }
     let t_target = frame_time_s(&info, &target);
     let window = rain.light_window_s();
@@ -832,6 +844,16 @@ impl RainCompositor {
         self
     }
 
+    /// Keeps the puddles' water in `checkpoints` and starts from the latest one at or before
+    /// the first frame rendered (see [`crate::fluid::puddles::checkpoint`]); no effect without
+    /// puddles.
+    pub fn with_checkpoints(mut self, checkpoints: Checkpoints) -> RainCompositor {
+        if let PuddleFeed::Pending(plan) = &mut self.puddles {
+            plan.checkpoints = Some(checkpoints);
+        }
+        self
+    }
+
     /// The uniforms, lights and depth of the frame shown at `t_s`, set on the compositor.
     fn prepare(&mut self, frame: &YuvFrame, t_s: f64) -> Result<RainParams> {
         let (params, lights) = self.lighting.params(&self.rain, frame, t_s);
@@ -916,6 +938,7 @@ struct PuddlePlan {
     camera: Camera,
     fps: f64,
     config: RenderConfig,
+    checkpoints: Option<Checkpoints>,
 }
 
 /// The water during a job.
@@ -925,6 +948,30 @@ struct PuddleRun {
     fed_s: f64,
     /// The impacts of the last ring life, for the ripples.
     recent: Vec<crate::rain::volume::Impact>,
+    /// Where the water is kept.
+    keep: Option<Keeping>,
+}
+
+/// Where a run keeps its water, under which fingerprint.
+struct Keeping {
+    checkpoints: Checkpoints,
+    fingerprint: String,
+}
+
+impl PuddleRun {
+    /// Keeps the water after frame `index` if it is a frame to keep; a file that cannot be
+    /// written costs a later chunk time, not this render its output, so it is a warning.
+    fn keep(&self, index: u64) {
+        if let Some(Keeping {
+            checkpoints,
+            fingerprint,
+        }) = &self.keep
+            && checkpoints.keeps(index)
+            && let Err(e) = checkpoints.save(fingerprint, index, &self.sim)
+        {
+            log::warn!("puddles: the water after frame {index} was not kept: {e}");
+        }
+    }
 }
 
 impl PuddleFeed {
@@ -937,6 +984,7 @@ impl PuddleFeed {
             camera: camera_for(info, config)?,
             fps: crate::fluid::puddles::report::clip_fps(info),
             config: config.clone(),
+            checkpoints: None,
         })))
     }
 
@@ -952,17 +1000,20 @@ impl PuddleFeed {
         let (volume, model, wind, seed) = (&rain.volume, &rain.model, &rain.wind, rain.params.seed);
         let life = crate::fluid::ripples::RING_LIFE_S;
         if let PuddleFeed::Pending(plan) = self {
-            let Some(sim) = plan.build(rain, depth, index, t_s)? else {
+            let Some((sim, keep)) = plan.build(rain, depth, index, t_s)? else {
                 log::warn!("--puddles: the picture shows no ground within reach; no puddles");
                 *self = PuddleFeed::Off;
                 return Ok(());
             };
             let recent = impacts_between(volume, model, wind, seed, (t_s - life).max(0.0), t_s);
-            *self = PuddleFeed::On(Box::new(PuddleRun {
+            let run = PuddleRun {
                 sim,
                 fed_s: t_s,
                 recent,
-            }));
+                keep,
+            };
+            run.keep(index);
+            *self = PuddleFeed::On(Box::new(run));
         } else if let PuddleFeed::On(run) = self
             && t_s > run.fed_s
         {
@@ -971,6 +1022,7 @@ impl PuddleFeed {
             run.recent.extend(hits);
             run.recent.retain(|h| h.time_s > t_s - life);
             run.fed_s = t_s;
+            run.keep(index);
         }
         if let PuddleFeed::On(run) = self {
             compositor.set_water(&run.sim.shown_depth())?;
@@ -981,16 +1033,59 @@ impl PuddleFeed {
 }
 
 impl PuddlePlan {
-    /// The water at `t_s`: built with the relief of frame `index`'s depth map (if any) and
-    /// fast-forwarded from the clip's start; `None` where no ground is in view.
+    /// The water at `t_s`, with where to keep it: from the latest checkpoint at or before
+    /// frame `index` if there is one, otherwise built with the relief of frame `index`'s depth
+    /// map (if any) at the clip's start; either way fast-forwarded to `t_s`. `None` where no
+    /// ground is in view.
     fn build(
         &self,
         rain: &RainSetup,
         depth: &mut Option<DepthSource>,
         index: u64,
         t_s: f64,
-    ) -> Result<Option<crate::fluid::puddles::PuddleSim>> {
-        use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+    ) -> Result<Option<(PuddleSim, Option<Keeping>)>> {
+        let started = Instant::now();
+        let settings = PuddleSettings::of(&self.config);
+        let fingerprint = checkpoint::fingerprint(&self.config, &self.camera, self.fps, &settings);
+        let kept = self
+            .checkpoints
+            .as_ref()
+            .and_then(|c| c.latest(&fingerprint, index));
+        let keep = self.checkpoints.clone().map(|checkpoints| Keeping {
+            checkpoints,
+            fingerprint,
+        });
+        // Built either way: a checkpoint leaves out what the configuration fixes.
+        let Some(fresh) = self.new_sim(depth, index, &settings)? else {
+            return Ok(None);
+        };
+        let (from, mut sim) = match kept {
+            Some((kept_index, sim)) => (
+                format!("from the checkpoint of frame {kept_index}"),
+                sim.with_fixed_parts_of(fresh),
+            ),
+            None => ("from the clip's start".to_string(), fresh),
+        };
+        if t_s > sim.time_s() {
+            sim.advance_with_rain(&rain.volume, &rain.model, &rain.wind, rain.params.seed, t_s)?;
+        }
+        let (cap, capped) = sim.particle_cap();
+        log::info!(
+            "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s {from} in {:.1} s",
+            sim.ledger().particles_present,
+            if capped { ", reached" } else { "" },
+            started.elapsed().as_secs_f64()
+        );
+        Ok(Some((sim, keep)))
+    }
+
+    /// The water at the clip's start, on the relief of frame `index`'s depth map (if any).
+    fn new_sim(
+        &self,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        settings: &PuddleSettings,
+    ) -> Result<Option<PuddleSim>> {
         let camera = &self.camera;
         let map = match depth {
             Some(d) => Some(
@@ -1003,24 +1098,7 @@ impl PuddlePlan {
             ),
             None => None,
         };
-        let started = Instant::now();
-        let settings = PuddleSettings::of(&self.config);
-        let Some(mut sim) =
-            PuddleSim::new(&self.config, camera, map.as_deref(), self.fps, &settings)?
-        else {
-            return Ok(None);
-        };
-        if t_s > 0.0 {
-            sim.advance_with_rain(&rain.volume, &rain.model, &rain.wind, rain.params.seed, t_s)?;
-        }
-        let (cap, capped) = sim.particle_cap();
-        log::info!(
-            "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s in {:.1} s",
-            sim.ledger().particles_present,
-            if capped { ", reached" } else { "" },
-            started.elapsed().as_secs_f64()
-        );
-        Ok(Some(sim))
+        PuddleSim::new(&self.config, camera, map.as_deref(), self.fps, settings)
     }
 }
 

@@ -28,7 +28,7 @@ use crate::{Error, Result};
 use glam::Vec3;
 
 /// What a face of the simulation box does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Face {
     /// A solid wall (semi-analytic boundary + collision).
     Wall,
@@ -37,7 +37,7 @@ pub enum Face {
 }
 
 /// The simulation box, m, z up. Faces in the order −x, +x, −y, +y, −z, +z.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Domain {
     /// Lower corner, m.
     pub min_m: Vec3,
@@ -94,11 +94,13 @@ impl Domain {
 }
 
 /// The box plus an optional terrain.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Boundaries {
     /// The simulation box.
     pub domain: Domain,
-    /// The terrain (thesis §5.2), if any.
+    /// The terrain (thesis §5.2), if any. Not in a checkpoint (the largest part of the water's
+    /// state and fixed by its configuration): a restored solver gets it back from a fresh one.
+    #[serde(skip)]
     pub terrain: Option<HeightField>,
 }
 

@@ -27,7 +27,7 @@ use crate::{Error, Result};
 use glam::{Vec2, Vec3};
 
 /// Parameters of a [`Carpet`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CarpetSettings {
     /// Leaves along x.
     pub nx: usize,
@@ -49,7 +49,7 @@ pub struct CarpetSettings {
 
 /// A cell-centred scalar field on a regular grid: value k sits at
 /// `origin + ((k mod nx) + ½, (k div nx) + ½)·cell`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Field2 {
     /// Cells along x.
     pub nx: usize,
@@ -64,7 +64,7 @@ pub struct Field2 {
 }
 
 /// One quadtree node (or leaf) of the carpet.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CarpetNode {
     /// Surface height, m: water where wet, the terrain where dry; parents: the children's mean.
     pub height_m: f32,
@@ -74,7 +74,7 @@ pub struct CarpetNode {
     pub max_depth_m: f32,
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct Level {
     nx: usize,
     ny: usize,
@@ -83,7 +83,7 @@ struct Level {
 }
 
 /// The carpet over a terrain.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Carpet {
     settings: CarpetSettings,
     levels: Vec<Level>,

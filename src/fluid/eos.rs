@@ -13,7 +13,7 @@ use crate::{Error, Result};
 pub const STANDARD_GRAVITY_MPS2: f32 = 9.81;
 
 /// The pressure law p(ρ).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum EquationOfState {
     /// Desbrun / Müller (5.19): p = k(ρ − ρ₀), k in m²/s² (J/kg); c = √k.
     Linear {

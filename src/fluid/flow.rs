@@ -19,7 +19,7 @@ use crate::{Error, Result};
 use glam::{Vec2, Vec3};
 
 /// Parameters of a [`SurfaceFlow`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SurfaceFlowSettings {
     /// The SPH parameters.
     pub sph: SphSettings,
@@ -61,7 +61,7 @@ impl SurfaceFlowSettings {
 }
 
 /// Rain-fed surface flow over a terrain.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct SurfaceFlow {
     /// The SPH solver.
     pub sph: Muller2003,

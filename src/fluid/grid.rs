@@ -18,7 +18,7 @@ use glam::Vec3;
 use std::ops::Range;
 
 /// A dense uniform grid over the particles' bounding box.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct UniformGrid {
     cell_m: f32,
     reach: usize,
@@ -163,7 +163,7 @@ pub(crate) fn neighbour_capacity(h_m: f32, dx_m: f32) -> usize {
 
 /// Each particle's neighbours within h (excluding itself), in grid order, from the density
 /// pass: fixed-size slots, so they can be written in parallel without allocation.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub(crate) struct NeighbourLists {
     pub(crate) capacity: usize,
     pub(crate) list: Vec<u32>,

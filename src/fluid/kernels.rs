@@ -32,17 +32,17 @@ pub trait Kernel: Copy + Default + Send + Sync + 'static {
 
 /// Poly6 kernel, W = 315/(64π h⁹) (h² − r²)³ — thesis (3.11); Müller's density kernel (5.18),
 /// used here for the colour field (5.23).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Poly6;
 
 /// Spiky kernel (Desbrun & Gascuel 1996), W = 15/(π h⁶) (h − r)³ — thesis (3.12), used for
 /// pressure (5.20) and, here, density (5.18).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Spiky;
 
 /// Viscosity kernel, W = 15/(2π h³) (−r³/(2h³) + r²/h² + h/(2r) − 1) — thesis (3.13), whose
 /// Laplacian 45/(π h⁶)(h − r) is positive; used for viscosity (5.21).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Viscosity;
 
 /// Smallest r at which the singular kernel expressions are evaluated (as a fraction of h), so
@@ -166,7 +166,7 @@ impl Kernel for Viscosity {
 /// gradient of an energy. Other packings differ: the gradient moment is 0.92 on a bcc and 0.91
 /// on an fcc lattice at h = 2Δx (0.95–0.98 at h = 2.5Δx), which bounds the accuracy of
 /// hydrostatic pressure once the particles rearrange (+4 % after 1 s in the column).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct LatticeMoments {
     /// Σ Δx³ W_spiky: divides the density sum, so a lattice at spacing Δx has ρ = m/Δx³.
     pub(crate) density: f32,

@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 /// The fluid particles, structure of arrays. Read-only outside the solver.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Particles {
     pub(crate) position_m: Vec<Vec3>,
     pub(crate) velocity_mps: Vec<Vec3>,
@@ -20,7 +20,7 @@ pub struct Particles {
 }
 
 /// Reusable buffers for permuting [`Particles`] without allocating.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub(crate) struct PermuteScratch {
     vec3: Vec<Vec3>,
     f32s: Vec<f32>,

@@ -17,7 +17,7 @@ pub const WATER_SURFACE_TENSION_N_PER_M: f32 = 0.0728;
 pub const DEFAULT_COURANT: f32 = 0.4;
 
 /// How the time step is chosen.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum TimeStep {
     /// The largest stable step: min(λh/(c + v_max), 0.25√(h/a_max), 0.125h²ρ₀/μ, `max_s`).
     Adaptive {
@@ -34,7 +34,7 @@ pub enum TimeStep {
 }
 
 /// Parameters of [`super::Muller2003`]. Build with [`SphSettings::water`] and adjust.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SphSettings {
     /// Initial particle spacing Δx, m: sets the particle volume and the surface columns.
     pub particle_spacing_m: f32,

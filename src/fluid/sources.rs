@@ -18,7 +18,7 @@ use crate::{Error, Result};
 use glam::{Vec2, Vec3};
 
 /// A particle to be inserted at the next step.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NewParticle {
     /// Position, m.
     pub position_m: Vec3,
@@ -27,7 +27,7 @@ pub struct NewParticle {
 }
 
 /// Particle counts in and out of the simulation. Mass = count × particle mass.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct MassLedger {
     /// Particles ever added (initial blocks, emitters, precipitation).
     pub inserted: u64,
@@ -54,7 +54,7 @@ pub(crate) fn unit_from_hash(x: u64) -> f32 {
 }
 
 /// Per-cell precipitation counters (thesis eq. 5.30–5.31) on a regular grid over the terrain.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PrecipitationGrid {
     nx: usize,
     ny: usize,
@@ -213,7 +213,7 @@ impl PrecipitationGrid {
 }
 
 /// A source pouring particles at a steady rate from a horizontal disk.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Emitter {
     /// Centre of the disk, m.
     pub centre_m: Vec3,

@@ -66,7 +66,7 @@ use rayon::prelude::*;
 const MIN_TASK: usize = 128;
 
 /// The SPH solver (thesis Algorithm 2).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Muller2003 {
     settings: SphSettings,
     moments: LatticeMoments,
@@ -130,6 +130,15 @@ impl Muller2003 {
     /// The box and terrain.
     pub fn boundaries(&self) -> &Boundaries {
         &self.boundaries
+    }
+
+    /// Swaps the terrain: how a solver restored from a checkpoint (which does not hold it)
+    /// gets it back from a fresh one.
+    pub(crate) fn replace_terrain(
+        &mut self,
+        terrain: Option<super::terrain::HeightField>,
+    ) -> Option<super::terrain::HeightField> {
+        std::mem::replace(&mut self.boundaries.terrain, terrain)
     }
 
     /// The particles (in grid order, which changes every step; follow `ids`).

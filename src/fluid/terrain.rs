@@ -16,7 +16,7 @@ use crate::{Error, Result};
 use glam::{DVec2, DVec3, Vec2, Vec3};
 
 /// Height and interpolated unit normal of the terrain at one (x, y).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TerrainSample {
     /// Terrain height, m.
     pub height_m: f32,
@@ -25,7 +25,7 @@ pub struct TerrainSample {
 }
 
 /// A regular-grid height field (DEM), z up, metres.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeightField {
     nx: usize,
     ny: usize,

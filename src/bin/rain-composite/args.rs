@@ -107,6 +107,37 @@ pub struct RenderArgs {
     /// Render only the frames shown before this time.
     #[arg(long, value_name = "TIME")]
     pub to: Option<String>,
+    /// With --puddles: keep the water in a file after every N-th frame, so chunks start from the latest one at or before their first frame instead of simulating the water from the clip's start; 0 = keep none (kept files are still read).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub checkpoint_every: u64,
+    #[command(flatten)]
+    pub checkpoints: CheckpointArgs,
+}
+
+/// Where the puddles' water is kept between chunks.
+#[derive(Args, Debug, Clone)]
+pub struct CheckpointArgs {
+    /// Folder of the puddles' water checkpoints, beside the output (a render) or the input (a preview) [default: STEM.water].
+    #[arg(long, value_name = "DIR")]
+    pub checkpoints: Option<std::path::PathBuf>,
+}
+
+impl CheckpointArgs {
+    /// The folder: as given, or `<stem of input>.water` in `beside`'s folder.
+    pub fn dir(&self, input: &str, beside: &str) -> std::path::PathBuf {
+        use std::path::Path;
+        if let Some(d) = &self.checkpoints {
+            return d.clone();
+        }
+        let stem = Path::new(input)
+            .file_stem()
+            .map_or_else(|| "stdin".into(), |s| s.to_string_lossy().into_owned());
+        let folder = match Path::new(beside).parent() {
+            Some(p) if beside != "-" && !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        };
+        folder.join(format!("{stem}.water"))
+    }
 }
 
 /// The rain and camera: every value is optional, so that only the flags given override the
@@ -329,6 +360,8 @@ pub struct PreviewArgs {
     pub look: LookArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
+    #[command(flatten)]
+    pub checkpoints: CheckpointArgs,
 }
 
 #[derive(Args, Debug)]

@@ -40,6 +40,7 @@ pub fn run_command(b: &BenchArgs) -> anyhow::Result<()> {
         encode: encode_options(&b.encode, true),
         adapter: adapter(&b.gpu),
         frames: Default::default(),
+        checkpoints: None,
     };
     run(&job, &b.input, &b.heights, b.runs as usize)
 }

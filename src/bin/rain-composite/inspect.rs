@@ -164,6 +164,11 @@ pub enum InspectCommand {
         /// Also draw the water-depth map seen from above (far side up) to this PNG.
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
+        /// Keep the water after every N-th frame up to --at, as a render with --checkpoint-every N would: the simulation pass of a farm, before chunks that read --checkpoints.
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        checkpoint_every: u64,
+        #[command(flatten)]
+        checkpoints: crate::args::CheckpointArgs,
         #[command(flatten)]
         look: Box<LookArgs>,
     },
@@ -293,12 +298,18 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             video,
             at,
             plot,
+            checkpoint_every,
+            checkpoints,
             look,
             ..
         } => {
             let config = render_config(look)?;
             let at_s = crate::args::parse_time_s(at)?;
-            inspect::puddles(&config, video, at_s, plot.as_deref())?
+            let keep = rain_composite::fluid::puddles::Checkpoints {
+                dir: checkpoints.dir(video, video),
+                every_frames: *checkpoint_every,
+            };
+            inspect::puddles(&config, video, at_s, plot.as_deref(), Some(&keep))?
         }
     };
     out(&serde_json::to_string_pretty(&report)?)

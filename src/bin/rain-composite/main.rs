@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
+use rain_composite::fluid::puddles::Checkpoints;
 use rain_composite::gpu::list_adapters;
 use rain_composite::pipeline::{self, FrameSelector, Job, Progress};
 use rain_composite::video;
@@ -63,12 +64,16 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let render = render_config(&args.look)?;
     let encode = encode_options(&args.encode, args.overwrite);
     let job = Job {
-        input,
-        output,
+        input: input.clone(),
+        output: output.clone(),
         render,
         encode,
         adapter: adapter(&args.gpu),
         frames: args::frame_range(args)?,
+        checkpoints: Some(Checkpoints {
+            dir: args.checkpoints.dir(&input, &output),
+            every_frames: args.checkpoint_every,
+        }),
     };
     let bar = (args.progress == ProgressMode::Auto && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(0);
@@ -131,8 +136,18 @@ fn run_preview(args: &PreviewArgs) -> anyhow::Result<()> {
         (None, None) => bail!("give --at TIME or --frame N"),
     };
     let render = render_config(&args.look)?;
-    let (frame, info) =
-        pipeline::preview(&args.input, at, &render, &adapter(&args.gpu), &INTERRUPTED)?;
+    let checkpoints = Checkpoints {
+        dir: args.checkpoints.dir(&args.input, &args.input),
+        every_frames: 0,
+    };
+    let (frame, info) = pipeline::preview(
+        &args.input,
+        at,
+        &render,
+        &adapter(&args.gpu),
+        Some(&checkpoints),
+        &INTERRUPTED,
+    )?;
     let bits = if args.bits == Bits::Sixteen { 16 } else { 8 };
     let png = video::still::encode_png(&frame, info.rotation_deg, bits)?;
     if to_stdout {

@@ -12,13 +12,11 @@
 //! particle is counted by the solver's ledger ([`crate::fluid::MassLedger`]): the initial
 //! ones, one per S raindrops landed (5.31), out through the edges, soaked in.
 
-use serde::Serialize;
-
 use crate::fluid::MassLedger;
 use crate::scene::wetness::SurfaceStore;
 
 /// The water balance of a [`super::PuddleSim`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WaterLedger {
     /// Simulated ground, m².
     pub area_m2: f64,

@@ -11,15 +11,17 @@
 //!                      ─► water_depth(): Field2 on z = 0 for the shading
 //! ```
 //!
-//! Modules: [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
+//! Modules: [`checkpoint`] (the water kept in files for chunks), [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
 //! [`ledger`] (the water balance), [`sim`] ([`PuddleSim`], the loop), [`report`]
 //! (`inspect puddles`).
+pub mod checkpoint;
 pub mod fill;
 pub mod ledger;
 pub mod relief;
 pub mod report;
 pub mod sim;
 
+pub use checkpoint::Checkpoints;
 pub use fill::{FilledWater, fill_depressions};
 pub use ledger::WaterLedger;
 pub use relief::{Footprint, ground_footprint, micro_relief};

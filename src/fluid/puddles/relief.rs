@@ -26,7 +26,7 @@ pub const LONGEST_WAVELENGTH_M: f64 = 2.0;
 pub const HURST: f64 = 0.8;
 
 /// An axis-aligned rectangle of the ground z = 0, world metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Footprint {
     /// Corner with the smallest x and y, m.
     pub min_m: DVec2,

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use serde_json::{Value, json};
 
+use super::checkpoint::{Checkpoints, fingerprint};
 use super::sim::{PuddleSettings, PuddleSim};
 use crate::config::RenderConfig;
 use crate::fluid::carpet::Field2;
@@ -26,7 +27,13 @@ pub(crate) fn clip_fps(info: &crate::video::VideoInfo) -> f64 {
 
 /// The report at `at_s` (seconds from the clip's start) of `input` under `config`; with
 /// `plot`, also the water depth seen from above to this PNG.
-pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>) -> Result<Value> {
+pub fn report(
+    config: &RenderConfig,
+    input: &str,
+    at_s: f64,
+    plot: Option<&Path>,
+    keep: Option<&Checkpoints>,
+) -> Result<Value> {
     if !(at_s.is_finite() && at_s >= 0.0) {
         return Err(Error::Parameter {
             name: "--at",
@@ -73,13 +80,24 @@ pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>
         (info.format.width, info.format.height),
     )?;
     let run = Instant::now();
-    let steps = sim.advance_with_rain(
-        &setup.volume,
-        &setup.model,
-        &setup.wind,
-        config.rain.seed,
-        at_s,
-    )?;
+    let (volume, model, wind, seed) = (&setup.volume, &setup.model, &setup.wind, config.rain.seed);
+    let steps = match keep.filter(|k| k.every_frames > 0) {
+        // Frame by frame, keeping the water after every N-th as a render would: a farm's
+        // simulation pass before its chunks.
+        Some(k) => {
+            let print = fingerprint(config, &camera, fps, &settings);
+            let mut steps = 0;
+            let frames = (at_s * fps + 1e-9).floor() as u64;
+            for index in 0..=frames {
+                steps += sim.advance_with_rain(volume, model, wind, seed, index as f64 / fps)?;
+                if k.keeps(index) {
+                    k.save(&print, index, &sim)?;
+                }
+            }
+            steps + sim.advance_with_rain(volume, model, wind, seed, at_s)?
+        }
+        None => sim.advance_with_rain(volume, model, wind, seed, at_s)?,
+    };
     let fast_forward_s = run.elapsed().as_secs_f64();
     let depth = sim.water_depth();
     let cell_m2 = (depth.cell_m as f64).powi(2);

@@ -88,10 +88,12 @@ impl PuddleSettings {
 }
 
 /// The water on a shot's ground (see the module docs).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct PuddleSim {
     flow: SurfaceFlow,
     footprint: Footprint,
+    /// The water before the clip (a checkpoint leaves it out: the configuration fixes it).
+    #[serde(skip)]
     initial: Field2,
     ledger: WaterLedger,
     capped: bool,
@@ -314,6 +316,16 @@ impl PuddleSim {
         let cell = self.flow.carpet.settings().cell_m;
         let g = (Vec2::new(x_m, y_m) - b.min_m.truncate()) / cell;
         g.x >= 0.0 && g.y >= 0.0 && g.x < nx as f32 && g.y < ny as f32
+    }
+
+    /// This water (read from a checkpoint) with the parts a checkpoint leaves out, taken from
+    /// `fresh`: the same water built anew from the same configuration.
+    pub fn with_fixed_parts_of(mut self, mut fresh: PuddleSim) -> PuddleSim {
+        self.flow
+            .sph
+            .replace_terrain(fresh.flow.sph.replace_terrain(None));
+        self.initial = fresh.initial;
+        self
     }
 
     /// Simulated time, s.

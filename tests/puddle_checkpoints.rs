@@ -1,0 +1,277 @@
+//! The puddles' checkpoints: the water kept in a file and read back goes on exactly as the
+//! water that was never stopped; chunks that start from kept water join into the whole render
+//! frame for frame; water kept under other settings, or a damaged file, is never used.
+
+use glam::DVec3;
+use rain_composite::config::RenderConfig;
+use rain_composite::fluid::puddles::checkpoint::fingerprint;
+use rain_composite::fluid::puddles::{Checkpoints, PuddleSettings, PuddleSim};
+use rain_composite::rain::volume::Impact;
+use rain_composite::rng::SplitMix64;
+use rain_composite::scene::Camera;
+use std::path::Path;
+use std::process::Command;
+use tempfile::TempDir;
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+
+const FPS: f64 = 25.0;
+
+/// A street seen from 1.6 m with a 90° lens, four hours of 20 mm/h before the clip.
+fn street() -> (RenderConfig, Camera) {
+    let mut c = RenderConfig::default();
+    c.ground.mode = "horizon=0.1".parse().expect("mode");
+    c.camera.fov_deg = 90.0;
+    c.rain.rate_mm_per_h = 20.0;
+    c.ground.pre_rain_min = 240.0;
+    c.ground.relief_m = 0.006;
+    let camera = c.camera(320, 240).expect("camera");
+    (c, camera)
+}
+
+fn settings() -> PuddleSettings {
+    PuddleSettings {
+        max_distance_m: 3.0,
+        particle_spacing_m: 0.015,
+        max_particles: 6_000,
+        ..PuddleSettings::default()
+    }
+}
+
+/// 400 drops of 2 mm landing during frame `frame`, spread over the ground the camera sees.
+fn rain_of_frame(frame: u64) -> Vec<Impact> {
+    let mut rng = SplitMix64(frame);
+    (0..400)
+        .map(|k| Impact {
+            id: k,
+            pass: frame as u32,
+            time_s: (frame as f64 - rng.next_f64()) / FPS,
+            position_m: DVec3::new(rng.next_f64() * 4.0 - 2.0, 0.2 + rng.next_f64() * 2.8, 0.0),
+            diameter_mm: 2.0,
+            velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+        })
+        .collect()
+}
+
+fn run(sim: &mut PuddleSim, frames: std::ops::RangeInclusive<u64>) {
+    for f in frames {
+        sim.advance_to(f as f64 / FPS, &rain_of_frame(f))
+            .expect("step");
+    }
+}
+
+#[test]
+fn kept_water_goes_on_as_the_water_that_never_stopped() {
+    let (config, camera) = street();
+    let s = settings();
+    let build = || {
+        PuddleSim::new(&config, &camera, None, FPS, &s)
+            .expect("valid")
+            .expect("ground in view")
+    };
+    let dir = TempDir::new().expect("tmp");
+    let kept = Checkpoints {
+        dir: dir.path().join("water"),
+        every_frames: 4,
+    };
+    let print = fingerprint(&config, &camera, FPS, &s);
+
+    let mut straight = build();
+    run(&mut straight, 1..=8);
+    assert!(straight.ledger().rain_drops > 0);
+    kept.save(&print, 8, &straight).expect("kept");
+
+    // Read back at a later frame: the latest file at or before it, with the parts the file
+    // leaves out taken from water built anew.
+    let (at, restored) = kept.latest(&print, 11).expect("a checkpoint");
+    assert_eq!(at, 8);
+    let mut restored = restored.with_fixed_parts_of(build());
+    assert_eq!(restored.time_s(), straight.time_s());
+    run(&mut straight, 9..=14);
+    run(&mut restored, 9..=14);
+    assert!(
+        straight.steps() > 14,
+        "the solver ran: {}",
+        straight.steps()
+    );
+    assert_eq!(
+        restored.flow().sph.state_digest(),
+        straight.flow().sph.state_digest()
+    );
+    assert_eq!(restored.water_depth(), straight.water_depth());
+    assert_eq!(restored.shown_depth(), straight.shown_depth());
+    assert_eq!(restored.wetness(), straight.wetness());
+    assert_eq!(restored.ledger(), straight.ledger());
+
+    // Nothing before the first kept frame; nothing under other settings.
+    assert!(kept.latest(&print, 7).is_none());
+    let (mut wetter, _) = street();
+    wetter.rain.rate_mm_per_h = 21.0;
+    let other = fingerprint(&wetter, &camera, FPS, &s);
+    assert_ne!(other, print);
+    assert!(kept.latest(&other, 11).is_none());
+
+    // A damaged file (cut short) or one renamed to another frame is passed over, not used.
+    let file = kept.path(&print, 8);
+    let bytes = std::fs::read(&file).expect("file");
+    std::fs::write(&file, &bytes[..bytes.len() / 2]).expect("cut");
+    assert!(kept.latest(&print, 11).is_none());
+    std::fs::write(kept.path(&print, 4), &bytes).expect("renamed");
+    assert!(kept.latest(&print, 11).is_none());
+}
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
+    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    c
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// Runs the command; returns its stderr, failing the test with it if the command fails.
+fn ok(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("spawn");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{cmd:?}: {err}");
+    err
+}
+
+/// What the water of a render started from, as its `-v` log says.
+fn start_of_water(log: &str) -> &str {
+    let line = log
+        .lines()
+        .find(|l| l.contains("puddles:") && l.contains("water brought to"))
+        .unwrap_or_else(|| panic!("no puddles line in {log}"));
+    line.find(" s from ").map_or(line, |i| &line[i + 3..])
+}
+
+#[test]
+fn chunks_from_kept_water_join_into_the_whole_render() {
+    let dir = TempDir::new().expect("tmp");
+    let input = dir.path().join("in.mp4");
+    fixtures::ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc2=size=160x120:rate=25",
+        "-t",
+        "3",
+        "-c:v",
+        "libx264",
+        "-g",
+        "10",
+        "-pix_fmt",
+        "yuv420p",
+        s(&input),
+    ]);
+    let water = dir.path().join("water");
+    let render = |name: &str, rain: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let log = ok(bin()
+            .args([s(&input), "-o", s(&out), "--codec", "ffv1", "-v"])
+            .args([
+                "--rain",
+                rain,
+                "--seed",
+                "3",
+                "--cpu",
+                "--ground",
+                "horizon=0.4",
+            ])
+            .args([
+                "--pre-rain",
+                "240",
+                "--puddles",
+                "--puddle-particles",
+                "1500",
+            ])
+            .args(["--relief", "0.01", "--checkpoints", s(&water)])
+            .args(extra));
+        (out, log)
+    };
+    let (whole, log) = render("whole.mkv", "30", &["--checkpoint-every", "10"]);
+    assert!(
+        start_of_water(&log).starts_with("from the clip's start"),
+        "{log}"
+    );
+    let kept = std::fs::read_dir(&water).expect("kept water").count();
+    assert_eq!(kept, 8, "frames 0, 10, … 70 of 75");
+
+    let mut joined = Vec::new();
+    for (range, from) in [("0..25", 0), ("25..52", 20), ("52..", 50)] {
+        let (chunk, log) = render(&format!("c{from}.mkv"), "30", &["--frames", range]);
+        assert!(
+            start_of_water(&log).starts_with(&format!("from the checkpoint of frame {from} ")),
+            "{range}: {log}"
+        );
+        joined.extend(fixtures::framemd5(&chunk, "0:v", false));
+    }
+    assert_eq!(joined, fixtures::framemd5(&whole, "0:v", false));
+
+    // A farm's simulation pass: `inspect puddles` keeps the water a render would keep, and a
+    // chunk started from it is the whole render's chunk.
+    let pass = dir.path().join("pass");
+    ok(bin()
+        .args([
+            "inspect",
+            "puddles",
+            s(&input),
+            "--at",
+            "3",
+            "--checkpoint-every",
+            "25",
+        ])
+        .args(["--checkpoints", s(&pass), "--rain", "30", "--seed", "3"])
+        .args(["--ground", "horizon=0.4", "--pre-rain", "240", "--puddles"])
+        .args(["--puddle-particles", "1500", "--relief", "0.01"]));
+    assert_eq!(
+        std::fs::read_dir(&pass).expect("kept").count(),
+        4,
+        "frames 0, 25, 50, 75"
+    );
+    let out = dir.path().join("late.mkv");
+    let log = ok(bin()
+        .args([s(&input), "-o", s(&out), "--codec", "ffv1", "-v"])
+        .args([
+            "--rain",
+            "30",
+            "--seed",
+            "3",
+            "--cpu",
+            "--ground",
+            "horizon=0.4",
+        ])
+        .args([
+            "--pre-rain",
+            "240",
+            "--puddles",
+            "--puddle-particles",
+            "1500",
+        ])
+        .args([
+            "--relief",
+            "0.01",
+            "--checkpoints",
+            s(&pass),
+            "--frames",
+            "52..",
+        ]));
+    assert!(
+        start_of_water(&log).starts_with("from the checkpoint of frame 50 "),
+        "{log}"
+    );
+    assert_eq!(
+        fixtures::framemd5(&out, "0:v", false),
+        fixtures::framemd5(&whole, "0:v", false)[52..]
+    );
+
+    // Other settings make other water: the kept files are not theirs.
+    let (_, log) = render("wetter.mkv", "31", &["--frames", "52.."]);
+    assert!(
+        start_of_water(&log).starts_with("from the clip's start"),
+        "{log}"
+    );
+}
