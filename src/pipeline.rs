@@ -16,6 +16,7 @@ use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
+use crate::rain::volume::GroundRain;
 use crate::scene::Camera;
 use crate::scene::depth::DepthSource;
 use crate::video::{EncodeOptions, Layer, Sink, Source, SourceItem, VideoInfo, YuvFrame};
@@ -921,9 +922,13 @@ struct PuddlePlan {
 /// The water during a job.
 struct PuddleRun {
     sim: crate::fluid::puddles::PuddleSim,
+    /// All the rain landing on the ground: the drawn drops' and the stream beyond them.
+    rain: GroundRain,
+    /// The render's camera (which rings the picture resolves).
+    camera: Camera,
     /// The clip time the rain has been fed up to, s.
     fed_s: f64,
-    /// The impacts of the last ring life, for the ripples.
+    /// The newest impacts of the last ring life whose rings are drawn.
     recent: Vec<crate::rain::volume::Impact>,
 }
 
@@ -948,28 +953,34 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<()> {
-        use crate::rain::volume::impacts_between;
-        let (volume, model, wind, seed) = (&rain.volume, &rain.model, &rain.wind, rain.params.seed);
-        let life = crate::fluid::ripples::RING_LIFE_S;
+        use crate::fluid::ripples::RING_LIFE_S;
         if let PuddleFeed::Pending(plan) = self {
-            let Some(sim) = plan.build(rain, depth, index, t_s)? else {
+            let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+            let Some(sim) = plan.build(&ground, depth, index, t_s)? else {
                 log::warn!("--puddles: the picture shows no ground within reach; no puddles");
                 *self = PuddleFeed::Off;
                 return Ok(());
             };
-            let recent = impacts_between(volume, model, wind, seed, (t_s - life).max(0.0), t_s);
-            *self = PuddleFeed::On(Box::new(PuddleRun {
+            let mut run = PuddleRun {
                 sim,
+                rain: ground,
+                camera: plan.camera.clone(),
                 fed_s: t_s,
-                recent,
-            }));
+                recent: Vec::new(),
+            };
+            let hits =
+                run.rain
+                    .impacts_between(&run.sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
+            run.keep_rings(hits, t_s);
+            *self = PuddleFeed::On(Box::new(run));
         } else if let PuddleFeed::On(run) = self
             && t_s > run.fed_s
         {
-            let hits = impacts_between(volume, model, wind, seed, run.fed_s, t_s);
+            let hits = run
+                .rain
+                .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
             run.sim.advance_to(t_s, &hits)?;
-            run.recent.extend(hits);
-            run.recent.retain(|h| h.time_s > t_s - life);
+            run.keep_rings(hits, t_s);
             run.fed_s = t_s;
         }
         if let PuddleFeed::On(run) = self {
@@ -980,12 +991,31 @@ impl PuddleFeed {
     }
 }
 
+impl PuddleRun {
+    /// Adds the rings of `hits` worth drawing on their own (on water, in the picture, resolved
+    /// by its pixels) and keeps the newest [`MAX_RINGS`](crate::fluid::ripples::MAX_RINGS)
+    /// alive at `t_s`: the list stays bounded however hard it rains.
+    fn keep_rings(&mut self, hits: Vec<crate::rain::volume::Impact>, t_s: f64) {
+        use crate::fluid::ripples::{MAX_RINGS, RING_LIFE_S, ring_resolved};
+        let water = self.sim.shown_depth();
+        self.recent.extend(
+            hits.into_iter()
+                .filter(|h| ring_resolved(h, &self.camera, &water)),
+        );
+        self.recent.retain(|h| h.time_s > t_s - RING_LIFE_S);
+        if self.recent.len() > MAX_RINGS {
+            self.recent.sort_by(|a, b| b.time_s.total_cmp(&a.time_s));
+            self.recent.truncate(MAX_RINGS);
+        }
+    }
+}
+
 impl PuddlePlan {
     /// The water at `t_s`: built with the relief of frame `index`'s depth map (if any) and
     /// fast-forwarded from the clip's start; `None` where no ground is in view.
     fn build(
         &self,
-        rain: &RainSetup,
+        rain: &GroundRain,
         depth: &mut Option<DepthSource>,
         index: u64,
         t_s: f64,
@@ -1011,7 +1041,7 @@ impl PuddlePlan {
             return Ok(None);
         };
         if t_s > 0.0 {
-            sim.advance_with_rain(&rain.volume, &rain.model, &rain.wind, rain.params.seed, t_s)?;
+            sim.advance_with_rain(rain, t_s)?;
         }
         let (cap, capped) = sim.particle_cap();
         log::info!(

@@ -17,8 +17,10 @@
 use glam::DVec2;
 
 use crate::drops::shape::{WATER_DENSITY_KG_PER_M3, WATER_SURFACE_TENSION_N_PER_M};
+use crate::fluid::carpet::Field2;
 use crate::rain::physics::G_MPS2;
 use crate::rain::volume::impacts::Impact;
+use crate::scene::Camera;
 
 /// Kinematic viscosity of water at 20 °C, m²/s.
 pub const WATER_KINEMATIC_VISCOSITY_M2_PER_S: f64 = 1.004e-6;
@@ -35,8 +37,15 @@ pub const AMPLITUDE_PER_DIAMETER: f64 = 0.05;
 /// ring to a slope below 0.01.
 pub const RING_LIFE_S: f64 = 1.5;
 
-/// Most rings drawn in one frame: the newest are kept (the stage's cost grows with the count).
-pub const MAX_RINGS: usize = 128;
+/// Most rings drawn in one frame: the newest of those worth drawing ([`ring_resolved`]) are
+/// kept. The stage culls rings per 8×8-pixel tile, so its cost grows with the rings that
+/// reach each tile more than with the count.
+pub const MAX_RINGS: usize = 1024;
+
+/// Fewest pixels across a ring's dominant wavelength for it to be drawn on its own: finer
+/// crests alias into noise (a 2 mm drop's 8 mm wavelength spans 2 px at about 4 m at 720p
+/// with a 60° lens).
+pub const MIN_RING_WAVELENGTH_PX: f64 = 2.0;
 
 /// The angular frequency ω (rad/s) of capillary–gravity waves of wavenumber `k` (rad/m) on
 /// deep water.
@@ -138,6 +147,34 @@ impl RingState {
         let carrier = k * r_m - self.phase;
         self.amplitude_m * envelope * (-u / s2 * carrier.cos() - k * carrier.sin())
     }
+}
+
+/// Whether the ring of `impact` is worth drawing on its own in `camera`'s picture: it lands on
+/// water (`water_m`, the shown water depth, > 0 at its point), in the picture, and its dominant
+/// wavelength spans at least [`MIN_RING_WAVELENGTH_PX`] there (λ f / z, the ground's
+/// foreshortening left out: it only shrinks the crests across the view).
+pub fn ring_resolved(impact: &Impact, camera: &Camera, water_m: &Field2) -> bool {
+    let p = impact.position_m;
+    let cell = ((p.truncate().as_vec2() - water_m.origin_m) / water_m.cell_m).floor();
+    let on_water = cell.x >= 0.0
+        && cell.y >= 0.0
+        && (cell.x as usize) < water_m.nx
+        && (cell.y as usize) < water_m.ny
+        && water_m.values[cell.y as usize * water_m.nx + cell.x as usize] > 0.0;
+    if !on_water {
+        return false;
+    }
+    let p_cam = camera.camera_from_world_point(p);
+    let Some(px) = camera.project_camera(p_cam) else {
+        return false;
+    };
+    let inside = px.x >= 0.0
+        && px.y >= 0.0
+        && px.x < camera.width_px as f64
+        && px.y < camera.height_px as f64;
+    let wavelength_px =
+        WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3 * camera.focal_px() / p_cam.z;
+    inside && wavelength_px >= MIN_RING_WAVELENGTH_PX
 }
 
 /// The rings of `rings` alive at `t_s`, at most [`MAX_RINGS`], newest first.

@@ -73,13 +73,13 @@ pub fn report(config: &RenderConfig, input: &str, at_s: f64, plot: Option<&Path>
         (info.format.width, info.format.height),
     )?;
     let run = Instant::now();
-    let steps = sim.advance_with_rain(
+    let rain = crate::rain::volume::GroundRain::new(
         &setup.volume,
         &setup.model,
         &setup.wind,
         config.rain.seed,
-        at_s,
-    )?;
+    );
+    let steps = sim.advance_with_rain(&rain, at_s)?;
     let fast_forward_s = run.elapsed().as_secs_f64();
     let depth = sim.water_depth();
     let cell_m2 = (depth.cell_m as f64).powi(2);
