@@ -185,16 +185,19 @@ fn no_rain_lands_at_rate_zero_and_a_keyed_rate_thins_the_stream() {
         g.impacts_between(&rect(-5.0, 0.0, 5.0, 20.0), 0.0, 2.0)
             .is_empty()
     );
-    // 20 mm/h for the first second, none from the second on.
+    // 20 mm/h, 10 mm/h from 1.1 s to 3 s, none from 3.1 s on: the peak's stream thinned to
+    // the Marshall–Palmer flux of 10 mm/h, then to nothing.
     let s = setup(20.0);
-    let keys = Curve::new(vec![(1.0, 20.0), (2.0, 0.0)]).expect("keys");
+    let keys = Curve::new(vec![(1.0, 20.0), (1.1, 10.0), (3.0, 10.0), (3.1, 0.0)]).expect("keys");
     let model = s.model.clone().with_rate_keys(&keys);
     let g = GroundRain::new(&s.volume, &model, &s.wind, s.params.seed);
     let far = rect(-1.0, 12.0, 1.0, 14.0);
-    let before = g.impacts_between(&far, 0.0, 1.0);
-    let after = g.impacts_between(&far, 2.0, 3.0);
-    assert!(before.len() > 1000, "{}", before.len());
-    assert!(after.is_empty(), "{}", after.len());
+    let ten = inside(&g.impacts_between(&far, 1.5, 2.5), &far) as f64;
+    let want = flux_moment(&setup(10.0), 10.0, 0) * far.area_m2();
+    eprintln!("keyed to 10 mm/h: {ten} impacts, {want:.0} expected");
+    assert!((ten - want).abs() < 4.0 * want.sqrt(), "{ten} vs {want}");
+    let after = inside(&g.impacts_between(&far, 3.1, 4.0), &far);
+    assert_eq!(after, 0);
 }
 
 #[test]
