@@ -928,7 +928,8 @@ struct PuddleRun {
     camera: Camera,
     /// The clip time the rain has been fed up to, s.
     fed_s: f64,
-    /// The newest impacts of the last ring life whose rings are drawn.
+    /// The impacts of the last ring life whose rings the picture resolves (at most
+    /// `RING_POOL`, the newest).
     recent: Vec<crate::rain::volume::Impact>,
 }
 
@@ -953,60 +954,45 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<()> {
-        use crate::fluid::ripples::RING_LIFE_S;
-        if let PuddleFeed::Pending(plan) = self {
-            let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
-            let Some(sim) = plan.build(&ground, depth, index, t_s)? else {
-                log::warn!("--puddles: the picture shows no ground within reach; no puddles");
-                *self = PuddleFeed::Off;
-                return Ok(());
-            };
-            let mut run = PuddleRun {
-                sim,
-                rain: ground,
-                camera: plan.camera.clone(),
-                fed_s: t_s,
-                recent: Vec::new(),
-            };
-            let hits =
-                run.rain
-                    .impacts_between(&run.sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
-            run.keep_rings(hits, t_s);
-            *self = PuddleFeed::On(Box::new(run));
-        } else if let PuddleFeed::On(run) = self
-            && t_s > run.fed_s
-        {
-            let hits = run
-                .rain
-                .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
-            run.sim.advance_to(t_s, &hits)?;
-            run.keep_rings(hits, t_s);
-            run.fed_s = t_s;
-        }
+        use crate::fluid::ripples::{RING_LIFE_S, keep_resolved_rings, rings_on_water};
+        let hits = match self {
+            PuddleFeed::Off => return Ok(()),
+            PuddleFeed::Pending(plan) => {
+                let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+                let Some(sim) = plan.build(&rain, depth, index, t_s)? else {
+                    log::warn!("--puddles: the picture shows no ground within reach; no puddles");
+                    *self = PuddleFeed::Off;
+                    return Ok(());
+                };
+                let hits =
+                    rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
+                let camera = plan.camera.clone();
+                *self = PuddleFeed::On(Box::new(PuddleRun {
+                    sim,
+                    rain,
+                    camera,
+                    fed_s: t_s,
+                    recent: Vec::new(),
+                }));
+                hits
+            }
+            PuddleFeed::On(run) if t_s > run.fed_s => {
+                let hits = run
+                    .rain
+                    .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
+                run.sim.advance_to(t_s, &hits)?;
+                run.fed_s = t_s;
+                hits
+            }
+            PuddleFeed::On(_) => Vec::new(),
+        };
         if let PuddleFeed::On(run) = self {
-            compositor.set_water(&run.sim.shown_depth())?;
-            compositor.set_ripples(&run.recent)?;
+            let water = run.sim.shown_depth();
+            keep_resolved_rings(&mut run.recent, &hits, t_s, &run.camera);
+            compositor.set_water(&water)?;
+            compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
         }
         Ok(())
-    }
-}
-
-impl PuddleRun {
-    /// Adds the rings of `hits` worth drawing on their own (on water, in the picture, resolved
-    /// by its pixels) and keeps the newest [`MAX_RINGS`](crate::fluid::ripples::MAX_RINGS)
-    /// alive at `t_s`: the list stays bounded however hard it rains.
-    fn keep_rings(&mut self, hits: Vec<crate::rain::volume::Impact>, t_s: f64) {
-        use crate::fluid::ripples::{MAX_RINGS, RING_LIFE_S, ring_resolved};
-        let water = self.sim.shown_depth();
-        self.recent.extend(
-            hits.into_iter()
-                .filter(|h| ring_resolved(h, &self.camera, &water)),
-        );
-        self.recent.retain(|h| h.time_s > t_s - RING_LIFE_S);
-        if self.recent.len() > MAX_RINGS {
-            self.recent.sort_by(|a, b| b.time_s.total_cmp(&a.time_s));
-            self.recent.truncate(MAX_RINGS);
-        }
     }
 }
 

@@ -37,8 +37,8 @@ pub const AMPLITUDE_PER_DIAMETER: f64 = 0.05;
 /// ring to a slope below 0.01.
 pub const RING_LIFE_S: f64 = 1.5;
 
-/// Most rings drawn in one frame: the newest of those worth drawing ([`ring_resolved`]) are
-/// kept. The stage culls rings per 8×8-pixel tile, so its cost grows with the rings that
+/// Most rings drawn in one frame: the newest of those the picture resolves on water
+/// ([`rings_on_water`]). The stage culls rings per 8×8-pixel tile, so its cost grows with the rings that
 /// reach each tile more than with the count.
 pub const MAX_RINGS: usize = 1024;
 
@@ -149,22 +149,15 @@ impl RingState {
     }
 }
 
-/// Whether the ring of `impact` is worth drawing on its own in `camera`'s picture: it lands on
-/// water (`water_m`, the shown water depth, > 0 at its point), in the picture, and its dominant
-/// wavelength spans at least [`MIN_RING_WAVELENGTH_PX`] there (λ f / z, the ground's
-/// foreshortening left out: it only shrinks the crests across the view).
-pub fn ring_resolved(impact: &Impact, camera: &Camera, water_m: &Field2) -> bool {
-    let p = impact.position_m;
-    let cell = ((p.truncate().as_vec2() - water_m.origin_m) / water_m.cell_m).floor();
-    let on_water = cell.x >= 0.0
-        && cell.y >= 0.0
-        && (cell.x as usize) < water_m.nx
-        && (cell.y as usize) < water_m.ny
-        && water_m.values[cell.y as usize * water_m.nx + cell.x as usize] > 0.0;
-    if !on_water {
-        return false;
-    }
-    let p_cam = camera.camera_from_world_point(p);
+/// Most impacts a feed keeps for the rings ([`keep_resolved_rings`]): enough for the newest
+/// [`MAX_RINGS`] on water when the water covers 1/64 of the ground where rings resolve.
+pub const RING_POOL: usize = 64 * MAX_RINGS;
+
+/// Whether the ring of `impact` could be drawn on its own in `camera`'s picture: it lands in
+/// the picture and its dominant wavelength spans at least [`MIN_RING_WAVELENGTH_PX`] there
+/// (λ f / z, the ground's foreshortening left out: it only shrinks crests across the view).
+pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
+    let p_cam = camera.camera_from_world_point(impact.position_m);
     let Some(px) = camera.project_camera(p_cam) else {
         return false;
     };
@@ -172,9 +165,47 @@ pub fn ring_resolved(impact: &Impact, camera: &Camera, water_m: &Field2) -> bool
         && px.y >= 0.0
         && px.x < camera.width_px as f64
         && px.y < camera.height_px as f64;
-    let wavelength_px =
-        WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3 * camera.focal_px() / p_cam.z;
-    inside && wavelength_px >= MIN_RING_WAVELENGTH_PX
+    let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
+    inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+}
+
+/// Newest first, ties broken by drop: one order whatever order the impacts came in.
+fn newest_first(a: &Impact, b: &Impact) -> std::cmp::Ordering {
+    b.time_s
+        .total_cmp(&a.time_s)
+        .then(a.id.cmp(&b.id))
+        .then(a.pass.cmp(&b.pass))
+}
+
+/// Adds to `rings` (the impacts a feed keeps for the ripples) those of `hits` that `camera`
+/// resolves ([`ring_resolved`]) and keeps the newest [`RING_POOL`] alive at `t_s`: bounded
+/// however hard it rains and however long the clip, and the same set whether the impacts
+/// came frame by frame or at once (a render or a seek).
+pub fn keep_resolved_rings(rings: &mut Vec<Impact>, hits: &[Impact], t_s: f64, camera: &Camera) {
+    rings.extend(hits.iter().filter(|h| ring_resolved(h, camera)));
+    rings.retain(|h| h.time_s > t_s - RING_LIFE_S);
+    if rings.len() > RING_POOL {
+        rings.sort_by(newest_first);
+        rings.truncate(RING_POOL);
+    }
+}
+
+/// The newest [`MAX_RINGS`] of `rings` that land on water (`water_m`, the shown water depth,
+/// > 0 at their point), newest first: the rings the picture draws one by one.
+pub fn rings_on_water(rings: &[Impact], water_m: &Field2) -> Vec<Impact> {
+    let on_water = |h: &&Impact| {
+        let cell =
+            ((h.position_m.truncate().as_vec2() - water_m.origin_m) / water_m.cell_m).floor();
+        cell.x >= 0.0
+            && cell.y >= 0.0
+            && (cell.x as usize) < water_m.nx
+            && (cell.y as usize) < water_m.ny
+            && water_m.values[cell.y as usize * water_m.nx + cell.x as usize] > 0.0
+    };
+    let mut out: Vec<Impact> = rings.iter().filter(on_water).copied().collect();
+    out.sort_by(newest_first);
+    out.truncate(MAX_RINGS);
+    out
 }
 
 /// The rings of `rings` alive at `t_s`, at most [`MAX_RINGS`], newest first.
