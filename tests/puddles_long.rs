@@ -33,7 +33,7 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     c.rain.rate_mm_per_h = 5.0;
     c.ground.pre_rain_min = 10.0;
     c.ground.relief_m = 0.004;
-    let camera = c.camera(320, 240).expect("camera");
+    let camera = c.camera(1280, 720).expect("camera");
     let settings = PuddleSettings {
         max_distance_m: 2.0,
         particle_spacing_m: 0.02,
@@ -43,7 +43,7 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     let mut sim = PuddleSim::new(&c, &camera, None, FPS, &settings)
         .expect("valid")
         .expect("ground in view");
-    let rain = uniforms::build(&camera, &c.camera, &c.rain, 0.02, 0, (320, 240)).expect("rain");
+    let rain = uniforms::build(&camera, &c.camera, &c.rain, 0.02, 0, (1280, 720)).expect("rain");
     let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, c.rain.seed);
     let mut rings: Vec<Impact> = Vec::new();
     let (mut landed, mut drawn_most) = (0u64, 0usize);
@@ -78,12 +78,18 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     );
     // Flat: nothing grows with the clip's length.
     assert_eq!(first.counters, last.counters);
-    assert!(last.rings_capacity <= first.rings_capacity.max(RING_POOL) * 2, "{last:?}");
+    assert!(
+        last.rings_capacity <= first.rings_capacity.max(RING_POOL) * 2,
+        "{last:?}"
+    );
     assert!(last.queued <= CAP, "{last:?}");
     assert!(drawn_most <= MAX_RINGS);
     // The ledger to the particle: in − out = present; every drop counted or in a particle.
     let p = l.particles;
-    assert_eq!(p.inserted - p.outflow - p.soaked - p.discarded, l.particles_present);
+    assert_eq!(
+        p.inserted - p.outflow - p.soaked - p.discarded,
+        l.particles_present
+    );
     assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
     let s = sim.flow().precipitation.scale() as u64;
     let counted: u64 = sim
