@@ -926,6 +926,8 @@ struct PuddleRun {
     rain: GroundRain,
     /// The render's camera (which rings the picture resolves).
     camera: Camera,
+    /// The rings finer than a pixel, as a rough surface.
+    far: FarRipples,
     /// The clip time the rain has been fed up to, s.
     fed_s: f64,
     /// The impacts of the last ring life whose rings the picture resolves (at most
@@ -967,10 +969,12 @@ impl PuddleFeed {
                 let hits =
                     rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
                 let camera = plan.camera.clone();
+                let far = FarRipples::new(&rain, &camera);
                 *self = PuddleFeed::On(Box::new(PuddleRun {
                     sim,
                     rain,
                     camera,
+                    far,
                     fed_s: t_s,
                     recent: Vec::new(),
                 }));
@@ -991,8 +995,34 @@ impl PuddleFeed {
             keep_resolved_rings(&mut run.recent, &hits, t_s, &run.camera);
             compositor.set_water(&water)?;
             compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
+            let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
+            compositor.set_far_ripples(slope_rms, run.far.resolve_depth_m)?;
         }
         Ok(())
+    }
+}
+
+/// The ripples where single rings are finer than a pixel: the water's mean square slope per
+/// unit impact flux ([`rain_slope_variance`](crate::fluid::ripples::rain_slope_variance) over
+/// the sizes that land) and the camera depth where a ring of the mean landing size spans
+/// [`MIN_RING_WAVELENGTH_PX`](crate::fluid::ripples::MIN_RING_WAVELENGTH_PX).
+struct FarRipples {
+    slope_variance_per_flux: f64,
+    resolve_depth_m: f64,
+}
+
+impl FarRipples {
+    fn new(rain: &GroundRain, camera: &Camera) -> FarRipples {
+        use crate::fluid::ripples::{
+            MIN_RING_WAVELENGTH_PX, WAVELENGTH_PER_DIAMETER, rain_slope_variance,
+        };
+        let sizes_mm = rain.impact_diameters_mm(8);
+        let mean_mm = sizes_mm.iter().sum::<f64>() / sizes_mm.len() as f64;
+        FarRipples {
+            slope_variance_per_flux: rain_slope_variance(1.0, &sizes_mm),
+            resolve_depth_m: WAVELENGTH_PER_DIAMETER * mean_mm * 1e-3 * camera.focal_px()
+                / MIN_RING_WAVELENGTH_PX,
+        }
     }
 }
 

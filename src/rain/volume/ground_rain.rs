@@ -176,6 +176,31 @@ impl GroundRain {
         self.flux_per_m2_s
     }
 
+    /// Impacts per m²·s at `t_s`: Φ thinned by the keyed rate (∫ N v keeps dD over the
+    /// flux-weighted sizes), Φ itself without keys.
+    pub fn flux_at(&self, t_s: f64) -> f64 {
+        let Some(keys) = &self.model.rate_keys else {
+            return self.flux_per_m2_s;
+        };
+        let rate = keys.at(t_s);
+        let n = 256;
+        let kept: f64 = (0..n)
+            .map(|i| {
+                self.model
+                    .keeps(rate, self.diameter_mm((i as f64 + 0.5) / n as f64))
+            })
+            .sum();
+        self.flux_per_m2_s * kept / n as f64
+    }
+
+    /// `n` diameters at equally spaced quantiles of the flux-weighted distribution (the sizes
+    /// that land, equally likely), mm.
+    pub fn impact_diameters_mm(&self, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| self.diameter_mm((i as f64 + 0.5) / n as f64))
+            .collect()
+    }
+
     /// Whether the drawn volume's own drops land at `p` (world x, y on z = 0).
     pub fn drawn_at(&self, p: DVec2) -> bool {
         self.drawn.covers(p)
