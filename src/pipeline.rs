@@ -968,8 +968,15 @@ impl PuddleFeed {
                 };
                 let hits =
                     rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
-                let camera = plan.camera.clone();
+                let camera = plan.camera;
                 let far = FarRipples::new(&rain, &camera);
+                log::info!(
+                    "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them \
+                     water of RMS slope {:.3}",
+                    rain.flux_at(t_s),
+                    far.resolve_depth_m,
+                    (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
+                );
                 *self = PuddleFeed::On(Box::new(PuddleRun {
                     sim,
                     rain,
