@@ -80,6 +80,8 @@ struct DrawnCells {
 }
 
 impl DrawnCells {
+    /// The landing columns' cells, indexed from the first one's corner (the grid's cells are
+    /// whole steps apart, so rounding recovers their indices).
     fn of(volume: &RainVolume) -> DrawnCells {
         let grid = &volume.grid;
         let mut landing = landing_columns(volume).map(|i| grid.columns[i].cell_min_m);
@@ -92,7 +94,7 @@ impl DrawnCells {
             (i.x as i64, i.y as i64)
         };
         let mut cells: HashSet<(i64, i64)> = landing.map(index).collect();
-        cells.insert((0, 0));
+        cells.insert((0, 0)); // the first one's own
         DrawnCells {
             origin_m,
             cell_m,
@@ -100,6 +102,7 @@ impl DrawnCells {
         }
     }
 
+    /// Whether world point `p` on z = 0 lies in a landing column's cell.
     fn covers(&self, p: DVec2) -> bool {
         if self.cells.is_empty() {
             return false;
