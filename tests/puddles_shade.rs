@@ -821,8 +821,9 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
 // ---------------------------------------------------------------------------------------------
 // Cost.
 
-/// The stage's cost at 720p: time per frame without water, with still water, with the newest
-/// 128 rings, and with the rings and a depth map (the march), on this adapter. Run with
+/// The stage's cost at 720p: time per frame without water, with still water, with 128 and
+/// 1024 rings, with the far water's roughness (σ = 0.03 beyond 2 m: four mirror reads), and
+/// with a depth map (the march), on this adapter. Run with
 /// `cargo test --release --test puddles_shade -- --ignored --nocapture`.
 #[test]
 #[ignore]
@@ -860,11 +861,11 @@ fn report_the_cost_at_720p() {
             })
             .collect(),
     };
-    let impacts: Vec<Impact> = (0..400)
+    let impacts: Vec<Impact> = (0..1024)
         .map(|i| Impact {
             id: i,
             pass: 0,
-            time_s: 1.0 - i as f64 * 0.0035,
+            time_s: 1.0 - i as f64 * 0.0013,
             position_m: DVec3::new(
                 ((i * 37) % 100) as f64 * 0.1 - 5.0,
                 2.0 + ((i * 53) % 100) as f64 * 0.1,
@@ -889,11 +890,20 @@ fn report_the_cost_at_720p() {
     let frames = 10;
     eprintln!("| puddles at {w}×{h} | ms per frame | puddles stage, ms (GPU timestamps) |");
     eprintln!("|---|---|---|");
-    for (label, with_water, rings, depth) in [
-        ("no water", false, false, false),
-        ("still water", true, false, false),
-        ("128 rings", true, true, false),
-        ("128 rings, depth map", true, true, true),
+    for (label, with_water, rings, far, depth) in [
+        ("no water", false, 0, false, false),
+        ("still water", true, 0, false, false),
+        ("128 rings", true, 128, false, false),
+        ("1024 rings", true, 1024, false, false),
+        ("1024 rings, far roughness", true, 1024, true, false),
+        ("128 rings, depth map", true, 128, false, true),
+        (
+            "1024 rings, far roughness, depth map",
+            true,
+            1024,
+            true,
+            true,
+        ),
     ] {
         let s = setup(&camera, depth);
         let p = lit(&s, 1.0, &uniform_sky(0.5), 1.0);
@@ -904,8 +914,10 @@ fn report_the_cost_at_720p() {
         }
         if with_water {
             comp.set_water(&water).expect("water");
-            comp.set_ripples(if rings { &impacts } else { &[] })
-                .expect("rings");
+            comp.set_ripples(&impacts[..rings]).expect("rings");
+            if far {
+                comp.set_far_ripples(0.03, 2.0).expect("far ripples");
+            }
         }
         comp.render_one(&frame, &p).expect("warm-up");
         let before = comp.gpu_times().puddles_s;
