@@ -121,18 +121,40 @@ fn shade(id: vec2<u32>, layer: bool) {
     let mirrored = d + 2.0 * cos_i * normal;
     let r = water_reflectance(n_w, cos_i);
     let a = cover * shown;
+    let seen = rough_reflected(p, d, slope, mirrored, ground_z_m);
     if layer {
         let held = textureLoad(picture, id, 0);
         let m = t * k;
-        let added = in_scatter(id) + t * r * reflected(p, mirrored);
+        let added = in_scatter(id) + t * r * seen;
         let f = (1.0 - a) * (1.0 - held.a) + a * m;
         let kept = clamp(min(f.x, min(f.y, f.z)), 0.0, 1.0);
         textureStore(canvas, id, vec4<f32>((1.0 - a) * held.rgb + a * added + scene * (f - kept), 1.0 - kept));
         return;
     }
-    let change = (k - 1.0) * scene + r * reflected(p, mirrored);
+    let change = (k - 1.0) * scene + r * seen;
     let water = scene * t + in_scatter(id) + t * change;
     textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
+}
+
+// The reflection along `mirrored` off the surface of slope `slope`, blurred where the
+// rain's rings are finer than a pixel (beyond camera depth resolve_depth_m, fully from twice
+// that): the mean of the reflections off the slope moved by ±σ along x and along y, four
+// slopes of variance σ²/2 per axis like an isotropic slope distribution of mean square σ²
+// (src/fluid/ripples.rs, rain_slope_variance).
+fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<f32>, depth_m: f32) -> vec3<f32> {
+    if puddle.far_slope_rms <= 0.0 { return reflected(p, mirrored); }
+    let s = puddle.resolve_depth_m;
+    let sigma = puddle.far_slope_rms * smoothstep(s, 2.0 * s, depth_m);
+    if sigma <= 0.0 { return reflected(p, mirrored); }
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < 4u; i++) {
+        let axis = select(vec2<f32>(0.0, 1.0), vec2<f32>(1.0, 0.0), i < 2u);
+        let tilt = select(-sigma, sigma, (i & 1u) == 0u) * axis;
+        let n = normalize(vec3<f32>(-(slope + tilt), 1.0));
+        let c = max(-dot(d, n), 0.0);
+        sum += reflected(p, d + 2.0 * c * n);
+    }
+    return 0.25 * sum;
 }
 
 // Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.

@@ -18,6 +18,7 @@ use crate::gpu::types::{LightList, RainParams};
 use crate::gpu::uniforms::{self as emitter, RainSetup};
 use crate::gpu::{AdapterRequest, Compositor, GpuContext, Rendered};
 use crate::lighting::{EnvironmentSh, FrameLight, LightEstimator};
+use crate::rain::volume::GroundRain;
 use crate::scene::Camera;
 use crate::scene::depth::DepthSource;
 use crate::video::{EncodeOptions, Layer, Sink, Source, SourceItem, VideoInfo, YuvFrame};
@@ -944,9 +945,16 @@ struct PuddlePlan {
 /// The water during a job.
 struct PuddleRun {
     sim: crate::fluid::puddles::PuddleSim,
+    /// All the rain landing on the ground: the drawn drops' and the stream beyond them.
+    rain: GroundRain,
+    /// The render's camera (which rings the picture resolves).
+    camera: Camera,
+    /// The rings finer than a pixel, as a rough surface.
+    far: FarRipples,
     /// The clip time the rain has been fed up to, s.
     fed_s: f64,
-    /// The impacts of the last ring life, for the ripples.
+    /// The impacts of the last ring life whose rings the picture resolves (at most
+    /// `RING_POOL`, the newest).
     recent: Vec<crate::rain::volume::Impact>,
     /// Where the water is kept.
     keep: Option<Keeping>,
@@ -996,39 +1004,84 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<()> {
-        use crate::rain::volume::impacts_between;
-        let (volume, model, wind, seed) = (&rain.volume, &rain.model, &rain.wind, rain.params.seed);
-        let life = crate::fluid::ripples::RING_LIFE_S;
-        if let PuddleFeed::Pending(plan) = self {
-            let Some((sim, keep)) = plan.build(rain, depth, index, t_s)? else {
-                log::warn!("--puddles: the picture shows no ground within reach; no puddles");
-                *self = PuddleFeed::Off;
-                return Ok(());
-            };
-            let recent = impacts_between(volume, model, wind, seed, (t_s - life).max(0.0), t_s);
-            let run = PuddleRun {
-                sim,
-                fed_s: t_s,
-                recent,
-                keep,
-            };
-            run.keep(index);
-            *self = PuddleFeed::On(Box::new(run));
-        } else if let PuddleFeed::On(run) = self
-            && t_s > run.fed_s
-        {
-            let hits = impacts_between(volume, model, wind, seed, run.fed_s, t_s);
-            run.sim.advance_to(t_s, &hits)?;
-            run.recent.extend(hits);
-            run.recent.retain(|h| h.time_s > t_s - life);
-            run.fed_s = t_s;
-            run.keep(index);
-        }
+        use crate::fluid::ripples::{RING_LIFE_S, keep_resolved_rings, rings_on_water};
+        let hits = match self {
+            PuddleFeed::Off => return Ok(()),
+            PuddleFeed::Pending(plan) => {
+                let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+                let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
+                    log::warn!("--puddles: the picture shows no ground within reach; no puddles");
+                    *self = PuddleFeed::Off;
+                    return Ok(());
+                };
+                let hits =
+                    rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
+                let camera = plan.camera;
+                let far = FarRipples::new(&rain, &camera);
+                log::info!(
+                    "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them \
+                     water of RMS slope {:.3}",
+                    rain.flux_at(t_s),
+                    far.resolve_depth_m,
+                    (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
+                );
+                let run = PuddleRun {
+                    sim,
+                    rain,
+                    camera,
+                    far,
+                    fed_s: t_s,
+                    recent: Vec::new(),
+                    keep,
+                };
+                run.keep(index);
+                *self = PuddleFeed::On(Box::new(run));
+                hits
+            }
+            PuddleFeed::On(run) if t_s > run.fed_s => {
+                let hits = run
+                    .rain
+                    .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
+                run.sim.advance_to(t_s, &hits)?;
+                run.fed_s = t_s;
+                run.keep(index);
+                hits
+            }
+            PuddleFeed::On(_) => Vec::new(),
+        };
         if let PuddleFeed::On(run) = self {
-            compositor.set_water(&run.sim.shown_depth())?;
-            compositor.set_ripples(&run.recent)?;
+            let water = run.sim.shown_depth();
+            keep_resolved_rings(&mut run.recent, &hits, t_s, &run.camera);
+            compositor.set_water(&water)?;
+            compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
+            let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
+            compositor.set_far_ripples(slope_rms, run.far.resolve_depth_m)?;
         }
         Ok(())
+    }
+}
+
+/// The ripples where single rings are finer than a pixel: the water's mean square slope per
+/// unit impact flux ([`rain_slope_variance`](crate::fluid::ripples::rain_slope_variance) over
+/// the sizes that land) and the camera depth where a ring of the mean landing size spans
+/// [`MIN_RING_WAVELENGTH_PX`](crate::fluid::ripples::MIN_RING_WAVELENGTH_PX).
+struct FarRipples {
+    slope_variance_per_flux: f64,
+    resolve_depth_m: f64,
+}
+
+impl FarRipples {
+    fn new(rain: &GroundRain, camera: &Camera) -> FarRipples {
+        use crate::fluid::ripples::{
+            MIN_RING_WAVELENGTH_PX, WAVELENGTH_PER_DIAMETER, rain_slope_variance,
+        };
+        let sizes_mm = rain.impact_diameters_mm(8);
+        let mean_mm = sizes_mm.iter().sum::<f64>() / sizes_mm.len() as f64;
+        FarRipples {
+            slope_variance_per_flux: rain_slope_variance(1.0, &sizes_mm),
+            resolve_depth_m: WAVELENGTH_PER_DIAMETER * mean_mm * 1e-3 * camera.focal_px()
+                / MIN_RING_WAVELENGTH_PX,
+        }
     }
 }
 
@@ -1039,7 +1092,7 @@ impl PuddlePlan {
     /// ground is in view.
     fn build(
         &self,
-        rain: &RainSetup,
+        rain: &GroundRain,
         depth: &mut Option<DepthSource>,
         index: u64,
         t_s: f64,
@@ -1067,7 +1120,7 @@ impl PuddlePlan {
             None => ("from the clip's start".to_string(), fresh),
         };
         if t_s > sim.time_s() {
-            sim.advance_with_rain(&rain.volume, &rain.model, &rain.wind, rain.params.seed, t_s)?;
+            sim.advance_with_rain(rain, t_s)?;
         }
         let (cap, capped) = sim.particle_cap();
         log::info!(

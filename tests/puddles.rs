@@ -5,7 +5,7 @@
 use glam::{DVec2, DVec3, Vec2};
 use rain_composite::config::RenderConfig;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
-use rain_composite::rain::volume::{Impact, impacts_between};
+use rain_composite::rain::volume::{GroundRain, Impact};
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
 use std::process::Command;
@@ -223,10 +223,10 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
             .expect("ground in view")
     };
     let (mut render, mut seek) = (build(), build());
-    let seed = config.rain.seed;
+    let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, config.rain.seed);
     for frame in 1..=6 {
         let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
-        let hits = impacts_between(&rain.volume, &rain.model, &rain.wind, seed, t0, t1);
+        let hits = ground.impacts_between(&render.ground_rect(), t0, t1);
         let steps = render.advance_to(t1, &hits).expect("frame");
         assert_eq!(
             steps == 0,
@@ -234,7 +234,7 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
             "the solver runs every other frame"
         );
     }
-    seek.advance_with_rain(&rain.volume, &rain.model, &rain.wind, seed, 6.0 / FPS)
+    seek.advance_with_rain(&ground, 6.0 / FPS)
         .expect("fast-forward");
     assert!(render.ledger().rain_drops > 0, "{:?}", render.ledger());
     // The same drops, summed in another order: their volume agrees to rounding.

@@ -255,6 +255,8 @@ struct Inputs<'a> {
     impacts: &'a [Impact],
     lights: Option<&'a LightList>,
     depth: Option<&'a DepthMap>,
+    /// The far water's RMS slope and the depth where it takes over, m.
+    far: Option<(f64, f64)>,
 }
 
 fn render(
@@ -275,6 +277,10 @@ fn render(
     if let Some(water) = inputs.water {
         comp.set_water(water).expect("water");
         comp.set_ripples(inputs.impacts).expect("ripples");
+        if let Some((slope_rms, depth_m)) = inputs.far {
+            comp.set_far_ripples(slope_rms, depth_m)
+                .expect("far ripples");
+        }
     }
     comp.render_one(frame, p).expect("render")
 }
@@ -288,11 +294,15 @@ fn puddle_params(water: &Field2, rings: usize) -> PuddleParams {
         edge_depth_m: EDGE_DEPTH_M as f32,
         cells: [water.nx as u32, water.ny as u32],
         ring_count: rings as u32,
-        _pad: 0,
+        far_slope_rms: 0.0,
         water_index: optics.index as f32,
         diffuse_external: optics.diffuse_external as f32,
         diffuse_internal: optics.diffuse_internal as f32,
         light_lobe: LIGHT_LOBE as f32,
+        resolve_depth_m: 0.0,
+        _pad0: 0.0,
+        _pad1: 0.0,
+        _pad2: 0.0,
     }
 }
 
@@ -403,8 +413,12 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
         .iter()
         .filter_map(|r| Ripple::new(r, frame_t))
         .collect();
-    let twin = |ripples: &[Ripple]| {
-        let params = puddle_params(&water, ripples.len());
+    let twin = |ripples: &[Ripple], far: (f32, f32)| {
+        let params = PuddleParams {
+            far_slope_rms: far.0,
+            resolve_depth_m: far.1,
+            ..puddle_params(&water, ripples.len())
+        };
         let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
         puddles::puddles(
             &mut canvas,
@@ -420,8 +434,8 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
         );
         rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color)
     };
-    let cpu = twin(&ripples);
-    let flat = twin(&[]);
+    let cpu = twin(&ripples, (0.0, 0.0));
+    let flat = twin(&[], (0.0, 0.0));
     let (mut worst, mut changed, mut rippled) = (0, 0, 0);
     for plane in 0..3 {
         for i in 0..gpu[plane].len() {
@@ -439,6 +453,35 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
     assert!(worst <= 2, "{worst} codes off");
     assert!(changed > 1000, "the water shows: {changed} samples changed");
     assert!(rippled > 10, "the rings show: {rippled}");
+    // The far water rained on (RMS slope 0.1 beyond 4 m, fully from 8 m): a blurred
+    // reflection there, the same on both.
+    let far = (0.1, 4.0);
+    let gpu_far = codes(&render(
+        ctx,
+        &frame,
+        &s,
+        &p,
+        &Inputs {
+            water: Some(&water),
+            impacts: &impacts,
+            lights: Some(&lights),
+            far: Some(far),
+            ..Inputs::default()
+        },
+    ));
+    let cpu_far = twin(&ripples, (far.0 as f32, far.1 as f32));
+    let (mut worst, mut blurred) = (0, 0);
+    for plane in 0..3 {
+        for i in 0..gpu_far[plane].len() {
+            worst = worst.max(gpu_far[plane][i].abs_diff(cpu_far[plane][i]));
+            blurred += (cpu_far[plane][i].abs_diff(cpu[plane][i]) > 2) as usize;
+        }
+    }
+    eprintln!(
+        "turned {rotation_deg}°, far ripples: worst {worst} codes, {blurred} samples blurred"
+    );
+    assert!(worst <= 2, "{worst} codes off with the far ripples");
+    assert!(blurred > 10, "the far ripples show: {blurred}");
 }
 
 #[test]
@@ -778,8 +821,9 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
 // ---------------------------------------------------------------------------------------------
 // Cost.
 
-/// The stage's cost at 720p: time per frame without water, with still water, with the newest
-/// 128 rings, and with the rings and a depth map (the march), on this adapter. Run with
+/// The stage's cost at 720p: time per frame without water, with still water, with 128 and
+/// 1024 rings, with the far water's roughness (σ = 0.03 beyond 2 m: four mirror reads), and
+/// with a depth map (the march), on this adapter. Run with
 /// `cargo test --release --test puddles_shade -- --ignored --nocapture`.
 #[test]
 #[ignore]
@@ -817,11 +861,11 @@ fn report_the_cost_at_720p() {
             })
             .collect(),
     };
-    let impacts: Vec<Impact> = (0..400)
+    let impacts: Vec<Impact> = (0..1024)
         .map(|i| Impact {
             id: i,
             pass: 0,
-            time_s: 1.0 - i as f64 * 0.0035,
+            time_s: 1.0 - i as f64 * 0.0013,
             position_m: DVec3::new(
                 ((i * 37) % 100) as f64 * 0.1 - 5.0,
                 2.0 + ((i * 53) % 100) as f64 * 0.1,
@@ -846,11 +890,20 @@ fn report_the_cost_at_720p() {
     let frames = 10;
     eprintln!("| puddles at {w}×{h} | ms per frame | puddles stage, ms (GPU timestamps) |");
     eprintln!("|---|---|---|");
-    for (label, with_water, rings, depth) in [
-        ("no water", false, false, false),
-        ("still water", true, false, false),
-        ("128 rings", true, true, false),
-        ("128 rings, depth map", true, true, true),
+    for (label, with_water, rings, far, depth) in [
+        ("no water", false, 0, false, false),
+        ("still water", true, 0, false, false),
+        ("128 rings", true, 128, false, false),
+        ("1024 rings", true, 1024, false, false),
+        ("1024 rings, far roughness", true, 1024, true, false),
+        ("128 rings, depth map", true, 128, false, true),
+        (
+            "1024 rings, far roughness, depth map",
+            true,
+            1024,
+            true,
+            true,
+        ),
     ] {
         let s = setup(&camera, depth);
         let p = lit(&s, 1.0, &uniform_sky(0.5), 1.0);
@@ -861,8 +914,10 @@ fn report_the_cost_at_720p() {
         }
         if with_water {
             comp.set_water(&water).expect("water");
-            comp.set_ripples(if rings { &impacts } else { &[] })
-                .expect("rings");
+            comp.set_ripples(&impacts[..rings]).expect("rings");
+            if far {
+                comp.set_far_ripples(0.03, 2.0).expect("far ripples");
+            }
         }
         comp.render_one(&frame, &p).expect("warm-up");
         let before = comp.gpu_times().puddles_s;

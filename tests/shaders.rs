@@ -83,11 +83,15 @@ fn puddle_twins_match_wgsl_layout() {
             edge_depth_m,
             cells,
             ring_count,
-            _pad,
+            far_slope_rms,
             water_index,
             diffuse_external,
             diffuse_internal,
-            light_lobe
+            light_lobe,
+            resolve_depth_m,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     );
     assert_twin!(

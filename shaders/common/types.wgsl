@@ -161,11 +161,15 @@ struct PuddleParams {
     edge_depth_m: f32,      // water covers the ground smoothly from depth 0 to this
     cells: vec2<u32>,       // cells along x, y (row-major, x fastest)
     ring_count: u32,        // live entries of `ripples`
-    _pad: u32,
+    far_slope_rms: f32,     // RMS slope of the water rained on, where single rings are finer than a pixel
     water_index: f32,
     diffuse_external: f32,  // Lekner & Dorf's diffuse reflectances (see WetParams)
     diffuse_internal: f32,
     light_lobe: f32,        // concentration κ of a compact light's mirror image (rad⁻²)
+    resolve_depth_m: f32,   // camera depth where single rings become finer than a pixel
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
 }
 
 // One ripple ring at the frame's time (src/fluid/ripples.rs, RingState): a Gaussian wave packet

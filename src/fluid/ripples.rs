@@ -17,8 +17,10 @@
 use glam::DVec2;
 
 use crate::drops::shape::{WATER_DENSITY_KG_PER_M3, WATER_SURFACE_TENSION_N_PER_M};
+use crate::fluid::carpet::Field2;
 use crate::rain::physics::G_MPS2;
 use crate::rain::volume::impacts::Impact;
+use crate::scene::Camera;
 
 /// Kinematic viscosity of water at 20 °C, m²/s.
 pub const WATER_KINEMATIC_VISCOSITY_M2_PER_S: f64 = 1.004e-6;
@@ -35,8 +37,15 @@ pub const AMPLITUDE_PER_DIAMETER: f64 = 0.05;
 /// ring to a slope below 0.01.
 pub const RING_LIFE_S: f64 = 1.5;
 
-/// Most rings drawn in one frame: the newest are kept (the stage's cost grows with the count).
-pub const MAX_RINGS: usize = 128;
+/// Most rings drawn in one frame: the newest of those the picture resolves on water
+/// ([`rings_on_water`]). The stage culls rings per 8×8-pixel tile, so its cost grows with the rings that
+/// reach each tile more than with the count.
+pub const MAX_RINGS: usize = 1024;
+
+/// Fewest pixels across a ring's dominant wavelength for it to be drawn on its own: finer
+/// crests alias into noise (a 2 mm drop's 8 mm wavelength spans 2 px at about 4 m at 720p
+/// with a 60° lens).
+pub const MIN_RING_WAVELENGTH_PX: f64 = 2.0;
 
 /// The angular frequency ω (rad/s) of capillary–gravity waves of wavenumber `k` (rad/m) on
 /// deep water.
@@ -140,6 +149,65 @@ impl RingState {
     }
 }
 
+/// Most impacts a feed keeps for the rings ([`keep_resolved_rings`]): enough for the newest
+/// [`MAX_RINGS`] on water when the water covers 1/64 of the ground where rings resolve.
+pub const RING_POOL: usize = 64 * MAX_RINGS;
+
+/// Whether the ring of `impact` could be drawn on its own in `camera`'s picture: it lands in
+/// the picture and its dominant wavelength spans at least [`MIN_RING_WAVELENGTH_PX`] there
+/// (λ f / z, the ground's foreshortening left out: it only shrinks crests across the view).
+pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
+    let p_cam = camera.camera_from_world_point(impact.position_m);
+    let Some(px) = camera.project_camera(p_cam) else {
+        return false;
+    };
+    let inside = px.x >= 0.0
+        && px.y >= 0.0
+        && px.x < camera.width_px as f64
+        && px.y < camera.height_px as f64;
+    let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
+    inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+}
+
+/// Newest first, ties broken by drop: one order whatever order the impacts came in.
+fn newest_first(a: &Impact, b: &Impact) -> std::cmp::Ordering {
+    b.time_s
+        .total_cmp(&a.time_s)
+        .then(a.id.cmp(&b.id))
+        .then(a.pass.cmp(&b.pass))
+}
+
+/// Adds to `rings` (the impacts a feed keeps for the ripples) those of `hits` that `camera`
+/// resolves ([`ring_resolved`]) and keeps the newest [`RING_POOL`] alive at `t_s`: bounded
+/// however hard it rains and however long the clip, and the same set whether the impacts
+/// came frame by frame or at once (a render or a seek).
+pub fn keep_resolved_rings(rings: &mut Vec<Impact>, hits: &[Impact], t_s: f64, camera: &Camera) {
+    rings.extend(hits.iter().filter(|h| ring_resolved(h, camera)));
+    rings.retain(|h| h.time_s > t_s - RING_LIFE_S);
+    if rings.len() > RING_POOL {
+        rings.sort_by(newest_first);
+        rings.truncate(RING_POOL);
+    }
+}
+
+/// The newest [`MAX_RINGS`] of `rings` that land on water (`water_m`, the shown water depth,
+/// > 0 at their point), newest first: the rings the picture draws one by one.
+pub fn rings_on_water(rings: &[Impact], water_m: &Field2) -> Vec<Impact> {
+    let on_water = |h: &&Impact| {
+        let cell =
+            ((h.position_m.truncate().as_vec2() - water_m.origin_m) / water_m.cell_m).floor();
+        cell.x >= 0.0
+            && cell.y >= 0.0
+            && (cell.x as usize) < water_m.nx
+            && (cell.y as usize) < water_m.ny
+            && water_m.values[cell.y as usize * water_m.nx + cell.x as usize] > 0.0
+    };
+    let mut out: Vec<Impact> = rings.iter().filter(on_water).copied().collect();
+    out.sort_by(newest_first);
+    out.truncate(MAX_RINGS);
+    out
+}
+
 /// The rings of `rings` alive at `t_s`, at most [`MAX_RINGS`], newest first.
 pub fn live_rings(rings: &[Ring], t_s: f64) -> Vec<Ring> {
     let mut rings: Vec<Ring> = rings
@@ -150,6 +218,58 @@ pub fn live_rings(rings: &[Ring], t_s: f64) -> Vec<Ring> {
     rings.sort_by(|a, b| b.start_s.total_cmp(&a.start_s));
     rings.truncate(MAX_RINGS);
     rings
+}
+
+/// The time-integrated squared slope of one ring, ∫₀^life ∫ |∇η|² dA dt (m²·s), for a drop of
+/// `diameter_mm`: a ring's share of the mean square slope of water rained on (see
+/// [`rain_slope_variance`]). Midpoint quadrature over its age and over the distance R ± 6 s.
+pub fn ring_slope_integral(diameter_mm: f64) -> f64 {
+    const AGES: usize = 300;
+    const RADII: usize = 400;
+    let ring = Ring::from_impact(&Impact {
+        id: 0,
+        pass: 0,
+        time_s: 0.0,
+        position_m: glam::DVec3::ZERO,
+        diameter_mm,
+        velocity_mps: glam::DVec3::ZERO,
+    });
+    let dt = RING_LIFE_S / AGES as f64;
+    (0..AGES)
+        .filter_map(|i| ring.at((i as f64 + 0.5) * dt))
+        .map(|state| {
+            let (lo, hi) = (
+                (state.radius_m - 6.0 * state.width_m).max(0.0),
+                state.radius_m + 6.0 * state.width_m,
+            );
+            let dr = (hi - lo) / RADII as f64;
+            let area_integral: f64 = (0..RADII)
+                .map(|j| {
+                    let r = lo + (j as f64 + 0.5) * dr;
+                    state.slope(ring.wavenumber, r).powi(2) * std::f64::consts::TAU * r * dr
+                })
+                .sum();
+            area_integral * dt
+        })
+        .sum()
+}
+
+/// The mean square slope ⟨|∇η|²⟩ of water on which `flux_per_m2_s` drops land per m²·s with
+/// diameters of quantiles `diameters_mm` (equally likely, e.g. flux-weighted quantiles): by
+/// Campbell's theorem, rings started at the points of a Poisson process in space and time sum
+/// to a field whose mean square slope is the rate times one ring's ∫∫ |∇η|² dA dt — the
+/// energy balance of the rings (impacts per m²·s × a ring's slope energy × its damping time).
+/// What the far water shows where single rings are finer than a pixel.
+pub fn rain_slope_variance(flux_per_m2_s: f64, diameters_mm: &[f64]) -> f64 {
+    if diameters_mm.is_empty() {
+        return 0.0;
+    }
+    let mean: f64 = diameters_mm
+        .iter()
+        .map(|&d| ring_slope_integral(d))
+        .sum::<f64>()
+        / diameters_mm.len() as f64;
+    flux_per_m2_s * mean
 }
 
 #[cfg(test)]
@@ -175,5 +295,54 @@ mod tests {
                 "{k}"
             );
         }
+    }
+
+    #[test]
+    fn rained_on_water_has_the_mean_square_slope_of_campbells_theorem() {
+        // Brute force: rings of 2 mm drops at random points of a 1.2 m square (periodic, wider
+        // than the oldest ring)
+        // over the last ring life, the slope summed at sample points at t, its square averaged.
+        use crate::rain::volume::pcg_hash;
+        let (side_m, flux, d_mm) = (1.2, 3000.0, 2.0);
+        let unit = |i: u32| (pcg_hash(i) >> 8) as f64 / 16_777_216.0;
+        let n = (flux * side_m * side_m * RING_LIFE_S) as u32;
+        let t = RING_LIFE_S;
+        let rings: Vec<Ring> = (0..n)
+            .map(|i| {
+                Ring::from_impact(&Impact {
+                    id: 0,
+                    pass: 0,
+                    time_s: unit(3 * i) * RING_LIFE_S,
+                    position_m: glam::DVec3::new(
+                        unit(3 * i + 1) * side_m,
+                        unit(3 * i + 2) * side_m,
+                        0.0,
+                    ),
+                    diameter_mm: d_mm,
+                    velocity_mps: glam::DVec3::ZERO,
+                })
+            })
+            .collect();
+        let (mut sum, mut count) = (0.0, 0);
+        for j in 0..2000u32 {
+            let p = DVec2::new(unit(1_000_000 + 2 * j), unit(1_000_001 + 2 * j)) * side_m;
+            let mut g = DVec2::ZERO;
+            for ring in &rings {
+                let Some(state) = ring.at(t) else { continue };
+                // The nearest periodic image of the centre.
+                let mut off = p - ring.centre_m;
+                off -= (off / side_m).round() * side_m;
+                let r = off.length();
+                if r > 1e-9 {
+                    g += off / r * state.slope(ring.wavenumber, r);
+                }
+            }
+            sum += g.length_squared();
+            count += 1;
+        }
+        let brute = sum / count as f64;
+        let want = rain_slope_variance(flux, &[d_mm]);
+        eprintln!("{n} rings: mean square slope {brute:.3e}, Campbell {want:.3e}");
+        assert!((brute / want - 1.0).abs() < 0.15, "{brute} vs {want}");
     }
 }

@@ -428,6 +428,14 @@ impl Compositor {
         Ok(())
     }
 
+    /// Sets the RMS slope of the water rained on beyond camera depth `resolve_depth_m`, where
+    /// single rings are finer than a pixel (`fluid::ripples::rain_slope_variance`), for the
+    /// frames submitted from now on.
+    pub fn set_far_ripples(&mut self, slope_rms: f64, resolve_depth_m: f64) -> Result<()> {
+        self.puddles()?.set_far_ripples(slope_rms, resolve_depth_m);
+        Ok(())
+    }
+
     /// Records and submits `frame` with the rain of `rain` (see `RainSetup::params_at`).
     /// Returns the oldest finished frame once `RING` frames are in flight.
     pub fn submit(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Option<YuvFrame>> {

@@ -381,12 +381,20 @@ pub struct PuddleParams {
     pub cells: [u32; 2],
     /// Live entries of the ripple buffer.
     pub ring_count: u32,
-    pub _pad: u32,
+    /// RMS slope of the water rained on ([`crate::fluid::ripples::rain_slope_variance`]),
+    /// shown beyond `resolve_depth_m` as a blurred reflection; 0: none.
+    pub far_slope_rms: f32,
     pub water_index: f32,
     pub diffuse_external: f32,
     pub diffuse_internal: f32,
     /// Concentration κ of a compact light's mirror image (a von Mises–Fisher lobe), rad⁻².
     pub light_lobe: f32,
+    /// Camera depth beyond which single rings are finer than a pixel and the far slope takes
+    /// over (fully from twice this depth), m.
+    pub resolve_depth_m: f32,
+    pub _pad0: f32,
+    pub _pad1: f32,
+    pub _pad2: f32,
 }
 
 /// WGSL `Ripple`: one ring at the frame's time ([`crate::fluid::ripples::RingState`]).

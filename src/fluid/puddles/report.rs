@@ -80,7 +80,12 @@ pub fn report(
         (info.format.width, info.format.height),
     )?;
     let run = Instant::now();
-    let (volume, model, wind, seed) = (&setup.volume, &setup.model, &setup.wind, config.rain.seed);
+    let rain = crate::rain::volume::GroundRain::new(
+        &setup.volume,
+        &setup.model,
+        &setup.wind,
+        config.rain.seed,
+    );
     let steps = match keep.filter(|k| k.every_frames > 0) {
         // Frame by frame, keeping the water after every N-th as a render would: a farm's
         // simulation pass before its chunks.
@@ -89,14 +94,14 @@ pub fn report(
             let mut steps = 0;
             let frames = (at_s * fps + 1e-9).floor() as u64;
             for index in 0..=frames {
-                steps += sim.advance_with_rain(volume, model, wind, seed, index as f64 / fps)?;
+                steps += sim.advance_with_rain(&rain, index as f64 / fps)?;
                 if k.keeps(index) {
                     k.save(&print, index, &sim)?;
                 }
             }
-            steps + sim.advance_with_rain(volume, model, wind, seed, at_s)?
+            steps + sim.advance_with_rain(&rain, at_s)?
         }
-        None => sim.advance_with_rain(volume, model, wind, seed, at_s)?,
+        None => sim.advance_with_rain(&rain, at_s)?,
     };
     let fast_forward_s = run.elapsed().as_secs_f64();
     let depth = sim.water_depth();

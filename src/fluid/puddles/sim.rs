@@ -25,9 +25,7 @@ use crate::config::RenderConfig;
 use crate::fluid::carpet::Field2;
 use crate::fluid::flow::{SurfaceFlow, SurfaceFlowSettings};
 use crate::fluid::terrain::HeightField;
-use crate::rain::physics::RainModel;
-use crate::rain::volume::{Impact, RainVolume, impacts_between};
-use crate::rain::wind::Wind;
+use crate::rain::volume::{GroundRain, GroundRect, Impact};
 use crate::scene::Camera;
 use crate::scene::wetness::SurfaceStore;
 use crate::{Error, Result};
@@ -290,23 +288,25 @@ impl PuddleSim {
         Ok(steps)
     }
 
-    /// Runs from the current time to `t_s` with the rain of `volume` (its impacts computed
-    /// per step, as a render feeds them frame by frame): the fast-forward of a seek.
-    pub fn advance_with_rain(
-        &mut self,
-        volume: &RainVolume,
-        model: &RainModel,
-        wind: &Wind,
-        seed: u32,
-        t_s: f64,
-    ) -> Result<usize> {
+    /// Runs from the current time to `t_s` with all the rain landing on the footprint
+    /// ([`GroundRain`]: the drawn drops and the stream beyond them), its impacts computed per
+    /// step, as a render feeds them frame by frame: the fast-forward of a seek.
+    pub fn advance_with_rain(&mut self, rain: &GroundRain, t_s: f64) -> Result<usize> {
         let mut steps = 0;
         while self.time_s + self.step_s <= t_s + 1e-9 {
             let (t0, t1) = (self.time_s, self.time_s + self.step_s);
-            let hits = impacts_between(volume, model, wind, seed, t0, t1);
+            let hits = rain.impacts_between(&self.ground_rect(), t0, t1);
             steps += self.advance_to(t1, &hits)?;
         }
         Ok(steps)
+    }
+
+    /// The simulated ground as the rectangle the rain is asked for.
+    pub fn ground_rect(&self) -> GroundRect {
+        GroundRect {
+            min_m: self.footprint.min_m,
+            max_m: self.footprint.max_m,
+        }
     }
 
     /// Whether (x, y) falls on the precipitation grid.

@@ -113,7 +113,7 @@ pub fn puddles(
         let cos_i = (-d.dot(normal)).max(0.0);
         let mirrored = d + 2.0 * cos_i * normal;
         let r = reflectance(optics.index, cos_i);
-        let reflected = mirror.radiance(ground, mirrored);
+        let reflected = rough_radiance(&mirror, w, ground, d, slope, mirrored, ground_z_m);
         for k in 0..3 {
             let scene = plate[i][k];
             let albedo = if e_up[k] > 0.0 {
@@ -126,6 +126,41 @@ pub fn puddles(
             pixel[k] += cover * shown * (wet - pixel[k]);
         }
     }
+}
+
+/// The reflection along `mirrored` off the water of slope `slope`, blurred beyond
+/// `params.resolve_depth_m` by the far water's RMS slope σ: the mean of the reflections off
+/// the slope moved by ±σ along x and along y (see `rough_reflected` in the shader).
+fn rough_radiance(
+    mirror: &Mirror,
+    params: &PuddleParams,
+    ground: DVec3,
+    d: DVec3,
+    slope: DVec2,
+    mirrored: DVec3,
+    depth_m: f64,
+) -> [f64; 3] {
+    if params.far_slope_rms <= 0.0 {
+        return mirror.radiance(ground, mirrored);
+    }
+    let s = params.resolve_depth_m as f64;
+    let sigma = params.far_slope_rms as f64 * smoothstep(s, 2.0 * s, depth_m);
+    if sigma <= 0.0 {
+        return mirror.radiance(ground, mirrored);
+    }
+    let mut sum = [0.0; 3];
+    for tilt in [
+        DVec2::new(sigma, 0.0),
+        DVec2::new(-sigma, 0.0),
+        DVec2::new(0.0, sigma),
+        DVec2::new(0.0, -sigma),
+    ] {
+        let n = (-(slope + tilt)).extend(1.0).normalize();
+        let c = (-d.dot(n)).max(0.0);
+        let seen = mirror.radiance(ground, d + 2.0 * c * n);
+        (0..3).for_each(|k| sum[k] += 0.25 * seen[k]);
+    }
+    sum
 }
 
 /// The canvas before the water, for the reflection.

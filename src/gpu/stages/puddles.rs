@@ -38,6 +38,8 @@ pub struct Puddles {
     picture: bool,
     job: Option<Water>,
     rings: Vec<Ring>,
+    /// The far water's RMS slope and the camera depth where it takes over, m.
+    far_slope: (f32, f32),
 }
 
 /// What water on the ground needs.
@@ -67,6 +69,7 @@ impl Puddles {
             picture,
             job: None,
             rings: Vec::new(),
+            far_slope: (0.0, 0.0),
         }
     }
 
@@ -110,6 +113,13 @@ impl Puddles {
     /// (those alive at each frame's time, the newest [`MAX_RINGS`]).
     pub fn set_ripples(&mut self, impacts: &[Impact]) {
         self.rings = impacts.iter().map(Ring::from_impact).collect();
+    }
+
+    /// Sets the RMS slope of the water rained on where single rings are finer than a pixel,
+    /// shown as a blurred reflection from camera depth `resolve_depth_m` on (fully from twice
+    /// that); 0: none.
+    pub fn set_far_ripples(&mut self, slope_rms: f64, resolve_depth_m: f64) {
+        self.far_slope = (slope_rms as f32, resolve_depth_m as f32);
     }
 
     /// The pipeline and buffers, for a water map of `depth_bytes`.
@@ -180,11 +190,15 @@ impl Puddles {
                 edge_depth_m: EDGE_DEPTH_M as f32,
                 cells: [0; 2],
                 ring_count: 0,
-                _pad: 0,
+                far_slope_rms: 0.0,
                 water_index: optics.index as f32,
                 diffuse_external: optics.diffuse_external as f32,
                 diffuse_internal: optics.diffuse_internal as f32,
                 light_lobe: LIGHT_LOBE as f32,
+                resolve_depth_m: 0.0,
+                _pad0: 0.0,
+                _pad1: 0.0,
+                _pad2: 0.0,
             },
         }
     }
@@ -211,6 +225,8 @@ impl FrameStage for Puddles {
         }
         let params = PuddleParams {
             ring_count: ripples.len() as u32,
+            far_slope_rms: self.far_slope.0,
+            resolve_depth_m: self.far_slope.1,
             ..job.base
         };
         queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&params));

@@ -1,0 +1,339 @@
+//! All the rain that lands on the ground, not only the drawn drops': the drawn volume's own
+//! impacts where its columns stand on the ground, and a stateless impact stream elsewhere.
+//!
+//! The drawn volume reaches only to its far distance (a few metres at 720p), while the water
+//! lies up to 20 m away. Beyond the drawn columns, [`GroundRain`] makes impacts on z = 0 as a
+//! pure function of (seed, ground cell, time slot): in each square cell of side `cell_m` and
+//! slot of `slot_s`, a Poisson number of impacts of mean Φ·cell²·slot, where
+//!
+//! Φ = ∫ N(D) v(D) dD
+//!
+//! is the number flux of drops through a horizontal plane (drops per m²·s; N the drop-size
+//! distribution, v the terminal velocity): a horizontal wind moves drops along the plane and
+//! leaves the flux through it unchanged. Each impact has a uniform point in its cell, a
+//! uniform time in its slot and a diameter from the flux-weighted distribution N(D) v(D)/Φ
+//! (large drops land more often than they are seen in the air). With a keyed rate, Φ and the
+//! sizes are the peak's and each impact lands with the probability
+//! [`RainModel::keeps`] of the rate at its time, which thins the peak's flux to exactly the
+//! Marshall–Palmer flux of that rate, sizes included.
+//!
+//! The drawn volume's landing columns cover whole cells of its (u, v) grid at z = 0 (a drop is
+//! wrapped inside its prism, so it lands uniformly over the column's cell): there its own
+//! impacts are used, so a drawn drop's splash and its ring coincide, and the stream leaves them
+//! out. Where the drop budget thinned the drawn drops (weight w > 1), the stream adds the
+//! missing 1 − 1/w of the flux there. No area is counted twice, none is missed.
+//!
+//! Everything is stateless: any interval (t0, t1] gives the impacts whose times fall in it,
+//! whatever the intervals asked before, so a preview's fast-forward and a render's frames feed
+//! the water the same drops.
+
+use std::collections::HashSet;
+
+use glam::{DVec2, DVec3};
+
+use super::RainVolume;
+use super::drop::pcg_hash;
+use super::impacts::{Impact, impacts_between, landing_columns};
+use crate::rain::physics::RainModel;
+use crate::rain::wind::Wind;
+
+/// Mean impacts per cell and slot at the peak rate: small enough for the Poisson count by
+/// inversion, large enough that few cells are visited per impact.
+const IMPACTS_PER_CELL_SLOT: f64 = 8.0;
+/// Time slot of the stream, s.
+const SLOT_S: f64 = 0.1;
+/// Intervals of the flux-weighted diameter table.
+const SIZE_INTERVALS: usize = 512;
+/// Salt of the stream's hash, so its numbers are not the drops'.
+const STREAM_SALT: u32 = 0x5EED_6A1D;
+/// Stream impacts carry ids with this bit set (drawn drops' ids are below 2³²).
+pub const STREAM_ID_BIT: u64 = 1 << 63;
+
+/// An axis-aligned rectangle of the ground z = 0, m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GroundRect {
+    /// Corner with the smallest x and y, m.
+    pub min_m: DVec2,
+    /// Corner with the largest x and y, m.
+    pub max_m: DVec2,
+}
+
+impl GroundRect {
+    /// Whether `p` lies in [min, max) on both axes.
+    pub fn contains(&self, p: DVec2) -> bool {
+        p.cmpge(self.min_m).all() && p.cmplt(self.max_m).all()
+    }
+
+    /// Area, m².
+    pub fn area_m2(&self) -> f64 {
+        let s = (self.max_m - self.min_m).max(DVec2::ZERO);
+        s.x * s.y
+    }
+}
+
+/// The cells of the drawn volume's grid whose columns stand on the ground.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct DrawnCells {
+    origin_m: DVec2,
+    cell_m: DVec2,
+    cells: HashSet<(i64, i64)>,
+}
+
+impl DrawnCells {
+    /// The landing columns' cells, indexed from the first one's corner (the grid's cells are
+    /// whole steps apart, so rounding recovers their indices).
+    fn of(volume: &RainVolume) -> DrawnCells {
+        let grid = &volume.grid;
+        let mut landing = landing_columns(volume).map(|i| grid.columns[i].cell_min_m);
+        let Some(origin_m) = landing.next() else {
+            return DrawnCells::default();
+        };
+        let cell_m = grid.cell_size_m.max(DVec2::splat(1e-9));
+        let index = |c: DVec2| {
+            let i = ((c - origin_m) / cell_m).round();
+            (i.x as i64, i.y as i64)
+        };
+        let mut cells: HashSet<(i64, i64)> = landing.map(index).collect();
+        cells.insert((0, 0)); // the first one's own
+        DrawnCells {
+            origin_m,
+            cell_m,
+            cells,
+        }
+    }
+
+    /// Whether world point `p` on z = 0 lies in a landing column's cell.
+    fn covers(&self, p: DVec2) -> bool {
+        if self.cells.is_empty() {
+            return false;
+        }
+        let i = ((p - self.origin_m) / self.cell_m).floor();
+        self.cells.contains(&(i.x as i64, i.y as i64))
+    }
+}
+
+/// The rain landing on the ground: the drawn volume's impacts and the stream elsewhere (see
+/// the module docs). Owns what it needs, so a puddle simulation can keep one.
+#[derive(Debug, Clone)]
+pub struct GroundRain {
+    volume: RainVolume,
+    model: RainModel,
+    wind: Wind,
+    seed: u32,
+    drawn: DrawnCells,
+    /// Φ of the peak rain, drops per m²·s.
+    flux_per_m2_s: f64,
+    /// Side of the stream's cells, m.
+    cell_m: f64,
+    /// The flux-weighted diameter CDF at `SIZE_INTERVALS + 1` equally spaced diameters.
+    size_cdf: Vec<f64>,
+}
+
+impl GroundRain {
+    /// The rain of `model` (its peak, with its keys) landing on the ground, with `volume`'s
+    /// drawn drops where its columns stand on the ground.
+    pub fn new(volume: &RainVolume, model: &RainModel, wind: &Wind, seed: u32) -> GroundRain {
+        let (d0, d1) = model.dsd.range_mm();
+        let h = (d1 - d0) / SIZE_INTERVALS as f64;
+        let flux_density =
+            |d: f64| model.dsd.density_per_m3_mm(d) * model.fall.terminal_velocity_mps(d);
+        // Cumulative Simpson per interval: the CDF at the table's diameters.
+        let mut size_cdf = Vec::with_capacity(SIZE_INTERVALS + 1);
+        let mut acc = 0.0;
+        size_cdf.push(0.0);
+        for i in 0..SIZE_INTERVALS {
+            let a = d0 + i as f64 * h;
+            acc +=
+                h / 6.0 * (flux_density(a) + 4.0 * flux_density(a + 0.5 * h) + flux_density(a + h));
+            size_cdf.push(acc);
+        }
+        let flux_per_m2_s = if !model.rate.is_off() && acc.is_finite() && acc > 0.0 {
+            acc
+        } else {
+            0.0
+        };
+        if flux_per_m2_s > 0.0 {
+            size_cdf.iter_mut().for_each(|c| *c /= flux_per_m2_s);
+        }
+        let cell_m = if flux_per_m2_s > 0.0 {
+            (IMPACTS_PER_CELL_SLOT / (flux_per_m2_s * SLOT_S))
+                .sqrt()
+                .clamp(0.02, 4.0)
+        } else {
+            1.0
+        };
+        GroundRain {
+            volume: volume.clone(),
+            model: model.clone(),
+            wind: wind.clone(),
+            seed,
+            drawn: DrawnCells::of(volume),
+            flux_per_m2_s,
+            cell_m,
+            size_cdf,
+        }
+    }
+
+    /// Φ of the peak rain, impacts per m²·s.
+    pub fn flux_per_m2_s(&self) -> f64 {
+        self.flux_per_m2_s
+    }
+
+    /// Impacts per m²·s at `t_s`: Φ thinned by the keyed rate (∫ N v keeps dD over the
+    /// flux-weighted sizes), Φ itself without keys.
+    pub fn flux_at(&self, t_s: f64) -> f64 {
+        let Some(keys) = &self.model.rate_keys else {
+            return self.flux_per_m2_s;
+        };
+        let rate = keys.at(t_s);
+        let n = 256;
+        let kept: f64 = (0..n)
+            .map(|i| {
+                self.model
+                    .keeps(rate, self.diameter_mm((i as f64 + 0.5) / n as f64))
+            })
+            .sum();
+        self.flux_per_m2_s * kept / n as f64
+    }
+
+    /// `n` diameters at equally spaced quantiles of the flux-weighted distribution (the sizes
+    /// that land, equally likely), mm.
+    pub fn impact_diameters_mm(&self, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| self.diameter_mm((i as f64 + 0.5) / n as f64))
+            .collect()
+    }
+
+    /// Whether the drawn volume's own drops land at `p` (world x, y on z = 0).
+    pub fn drawn_at(&self, p: DVec2) -> bool {
+        self.drawn.covers(p)
+    }
+
+    /// Every impact in `rect` (and the drawn volume's anywhere) with time in (t0_s, t1_s]:
+    /// the drawn drops' first ([`impacts_between`]), then the stream's.
+    pub fn impacts_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64) -> Vec<Impact> {
+        let mut out = impacts_between(&self.volume, &self.model, &self.wind, self.seed, t0_s, t1_s);
+        self.stream_between(rect, t0_s, t1_s, &mut out);
+        out
+    }
+
+    /// The stream's impacts in `rect` with time in (t0_s, t1_s], appended to `out`: cell by
+    /// cell (x, then y), slot by slot.
+    pub fn stream_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64, out: &mut Vec<Impact>) {
+        let t0_s = t0_s.max(0.0);
+        if self.flux_per_m2_s <= 0.0 || t1_s <= t0_s || rect.area_m2() <= 0.0 {
+            return;
+        }
+        // Where the drawn drops land the stream supplies only what the budget thinned out.
+        let supplement = if self.volume.weight > 1.0 {
+            1.0 - 1.0 / self.volume.weight
+        } else {
+            0.0
+        };
+        let mean = self.flux_per_m2_s * self.cell_m * self.cell_m * SLOT_S;
+        let lo = (rect.min_m / self.cell_m).floor();
+        let hi = (rect.max_m / self.cell_m).ceil();
+        let (s0, s1) = (
+            (t0_s / SLOT_S).floor() as i64,
+            (t1_s / SLOT_S).ceil() as i64,
+        );
+        for ix in lo.x as i64..hi.x as i64 {
+            for iy in lo.y as i64..hi.y as i64 {
+                for slot in s0..s1 {
+                    let key = pcg_hash(
+                        pcg_hash(
+                            pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32,
+                        ) ^ slot as u32,
+                    );
+                    let n = poisson(mean, unit(key, 0));
+                    for j in 0..n {
+                        let k = 8 * (j + 1);
+                        let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
+                        if !(time_s > t0_s && time_s <= t1_s) {
+                            continue;
+                        }
+                        let p = DVec2::new(
+                            (ix as f64 + unit(key, k + 1)) * self.cell_m,
+                            (iy as f64 + unit(key, k + 2)) * self.cell_m,
+                        );
+                        if !rect.contains(p)
+                            || (self.drawn.covers(p) && unit(key, k + 3) >= supplement)
+                        {
+                            continue;
+                        }
+                        let d_mm = self.diameter_mm(unit(key, k + 4));
+                        if let Some(keys) = &self.model.rate_keys
+                            && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), d_mm)
+                        {
+                            continue;
+                        }
+                        out.push(Impact {
+                            id: STREAM_ID_BIT | (key as u64) << 16 | j as u64,
+                            pass: slot as u32,
+                            time_s,
+                            position_m: DVec3::new(p.x, p.y, 0.0),
+                            diameter_mm: d_mm,
+                            velocity_mps: DVec3::new(
+                                0.0,
+                                0.0,
+                                -self.model.fall.terminal_velocity_mps(d_mm),
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+    }
+
+    /// The diameter of flux-weighted quantile `u` (the table inverted, linear within an
+    /// interval), mm.
+    fn diameter_mm(&self, u: f64) -> f64 {
+        let (d0, d1) = self.model.dsd.range_mm();
+        let i = self
+            .size_cdf
+            .partition_point(|&c| c <= u)
+            .clamp(1, SIZE_INTERVALS)
+            - 1;
+        let (c0, c1) = (self.size_cdf[i], self.size_cdf[i + 1]);
+        let f = if c1 > c0 {
+            ((u - c0) / (c1 - c0)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        d0 + (i as f64 + f) * (d1 - d0) / SIZE_INTERVALS as f64
+    }
+}
+
+/// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits).
+fn unit(key: u32, k: u32) -> f64 {
+    (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64 * (1.0 / 16_777_216.0)
+}
+
+/// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few).
+fn poisson(mean: f64, u: f64) -> u32 {
+    let mut p = (-mean).exp();
+    let mut cdf = p;
+    let mut n = 0;
+    while u >= cdf && p > 0.0 {
+        n += 1;
+        p *= mean / n as f64;
+        cdf += p;
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poisson_counts_have_their_mean_and_variance() {
+        let samples: Vec<f64> = (0..200_000u32)
+            .map(|i| poisson(6.5, unit(pcg_hash(i), 0)) as f64)
+            .collect();
+        let mean = samples.iter().sum::<f64>() / samples.len() as f64;
+        let var = samples.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / samples.len() as f64;
+        assert!((mean - 6.5).abs() < 0.03, "{mean}");
+        assert!((var - 6.5).abs() < 0.1, "{var}");
+    }
+}
