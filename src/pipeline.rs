@@ -921,8 +921,9 @@ impl RainCompositor {
 }
 
 /// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
-/// the relief of that frame's depth map, if any) and brought to its time — from the clip's
-/// start, so a preview or a chunk sees the water a whole render shows there; then each frame
+/// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
+/// start or from kept water, so a preview or a chunk sees the water a whole render shows
+/// there; then each frame
 /// hands it the drops that landed since the last one, and the compositor its water map and
 /// the impacts of the last ring life for the ripples.
 enum PuddleFeed {
@@ -1087,9 +1088,8 @@ impl FarRipples {
 
 impl PuddlePlan {
     /// The water at `t_s`, with where to keep it: from the latest checkpoint at or before
-    /// frame `index` if there is one, otherwise built with the relief of frame `index`'s depth
-    /// map (if any) at the clip's start; either way fast-forwarded to `t_s`. `None` where no
-    /// ground is in view.
+    /// frame `index` if there is one, otherwise built at the clip's start; either way
+    /// fast-forwarded to `t_s`. `None` where no ground is in view.
     fn build(
         &self,
         rain: &GroundRain,
@@ -1109,7 +1109,7 @@ impl PuddlePlan {
             fingerprint,
         });
         // Built either way: a checkpoint leaves out what the configuration fixes.
-        let Some(fresh) = self.new_sim(depth, index, &settings)? else {
+        let Some(fresh) = self.new_sim(depth, &settings)? else {
             return Ok(None);
         };
         let (from, mut sim) = match kept {
@@ -1132,17 +1132,17 @@ impl PuddlePlan {
         Ok(Some((sim, keep)))
     }
 
-    /// The water at the clip's start, on the relief of frame `index`'s depth map (if any).
+    /// The water at the clip's start, on the relief of the clip's first depth map (if any):
+    /// the ground a whole render starts from, whichever frame a chunk starts at.
     fn new_sim(
         &self,
         depth: &mut Option<DepthSource>,
-        index: u64,
         settings: &PuddleSettings,
     ) -> Result<Option<PuddleSim>> {
         let camera = &self.camera;
         let map = match depth {
             Some(d) => Some(
-                d.at(index)?
+                d.at(0)?
                     .resampled(camera.width_px as usize, camera.height_px as usize)
                     .depth_m
                     .into_iter()
