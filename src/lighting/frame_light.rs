@@ -135,6 +135,19 @@ impl LightEstimator {
         })
     }
 
+    /// Frames from now on are seen through `camera` (a moving camera's pose and zoom at the
+    /// frame): the frame→sphere mapping is rebuilt when the camera turns or zooms, so the
+    /// environment and the recovered lights stay in world directions and the smoothing
+    /// averages light fixed in the world. The user's lights stay where they were given (the
+    /// world of the camera at t = 0).
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<()> {
+        let now = self.mapper.camera();
+        if now.world_from_camera != camera.world_from_camera || now.fov_x_rad != camera.fov_x_rad {
+            self.mapper = EnvMapper::new(camera, GPU_BANDS)?;
+        }
+        Ok(())
+    }
+
     /// The drop's transfer table per channel (R, G, B), [`GPU_RTF_BINS`] bins: what the
     /// direct light term reads.
     pub fn transfer_tables(&self) -> &[RtfTable; 3] {
