@@ -1,0 +1,241 @@
+//! A moving camera (keyed pan, tilt, roll, height, field of view): the drops stay in the world
+//! and each frame sees them through its own camera; the volume planned for the whole shot
+//! holds every drop any frame sees.
+
+use glam::{DMat3, DVec2, DVec3};
+use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
+use rain_composite::gpu::cpu::rain_simulate::streak_of;
+use rain_composite::gpu::probe::{probe_drops, probe_streaks};
+use rain_composite::gpu::types::LightList;
+use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
+use rain_composite::keyframes::{Curve, Keyframes};
+use rain_composite::lighting::frame_light::rtf_tables;
+use rain_composite::rain::volume::sample_drop;
+use rain_composite::scene::Camera;
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
+
+const SIZE: (u32, u32) = (960, 540);
+
+fn ramp(keys: &[(f64, f64)]) -> Option<Curve<f64>> {
+    Some(Curve::new(keys.to_vec()).expect("keys"))
+}
+
+/// The rain of `rain` seen by `config` with `keys`: the camera at t = 0 and the setup.
+fn rain_of(config: CameraConfig, rain: RainConfig, keys: &Keyframes) -> (Camera, RainSetup) {
+    let camera = config.camera(SIZE.0, SIZE.1);
+    let setup = emitter::build_keyed(&camera, &config, &rain, keys, 0.02, 0, SIZE).expect("rain");
+    (camera, setup)
+}
+
+/// A small, still rain (no wind or gusts), few enough drops for the twin.
+fn light_rain() -> RainConfig {
+    RainConfig {
+        rate_mm_per_h: 5.0,
+        wind_mps: [0.0, 0.0],
+        gust_mps: 0.0,
+        far_m: 15.0,
+        seed: 5,
+        ..RainConfig::default()
+    }
+}
+
+/// A level camera panned right by `pan_deg`, written out by hand: right, down, forward.
+fn panned_by_hand(pan_deg: f64, camera: &Camera) -> Camera {
+    let (s, c) = pan_deg.to_radians().sin_cos();
+    Camera {
+        world_from_camera: DMat3::from_cols(
+            DVec3::new(c, -s, 0.0),
+            DVec3::NEG_Z,
+            DVec3::new(s, c, 0.0),
+        ),
+        ..*camera
+    }
+}
+
+/// Pan 0 → 20° over 1 s: the streak of each drop at 1 s is its world position (which no camera
+/// enters) seen through the panned camera, and a drop on the centre column of the unpanned
+/// picture appears f·tan 20° to the left of the centre.
+#[test]
+fn a_pan_moves_the_image_of_drops_fixed_in_the_world() {
+    let keys = Keyframes {
+        pan_deg: ramp(&[(0.0, 0.0), (1.0, 20.0)]),
+        ..Keyframes::default()
+    };
+    let (camera, setup) = rain_of(CameraConfig::default(), light_rain(), &keys);
+    let params = setup.motion_at(1.0);
+    let panned = panned_by_hand(20.0, &camera);
+    let f = camera.focal_px();
+    let centre_x = camera.principal_px().x;
+    let want_x = centre_x - f * 20f64.to_radians().tan();
+    let (mut drawn, mut on_axis) = (0, 0);
+    for id in 0..setup.drop_count() as u64 {
+        let Some(d) = sample_drop(
+            &setup.volume,
+            &setup.model,
+            &setup.wind,
+            setup.params.seed,
+            id,
+            1.0,
+        ) else {
+            continue;
+        };
+        let Some(s) = streak_of(&params, d.position_m, d.velocity_mps, d.width_mm) else {
+            continue;
+        };
+        drawn += 1;
+        let mid = s.q0_px + s.dir * (0.5 * s.len_px);
+        let by_hand = panned.project_world(d.position_m).expect("in front");
+        assert!(
+            (mid - by_hand).length() < 0.05,
+            "drop {id}: {mid} vs {by_hand}"
+        );
+        let before = camera.project_world(d.position_m);
+        if before.is_some_and(|q| (q.x - centre_x).abs() < 0.5) {
+            on_axis += 1;
+            assert!((mid.x - want_x).abs() < 1.0, "drop {id}: x {} vs {want_x}", mid.x);
+        }
+    }
+    assert!(drawn > 1000 && on_axis > 3, "{drawn} drawn, {on_axis} on the axis");
+}
+
+/// Drops in the picture between the near distance and `far_m` at `t_s`, through the frame's
+/// own camera.
+fn in_view_count(setup: &RainSetup, t_s: f64, far_m: f64) -> usize {
+    let camera = setup.camera_at(t_s);
+    let v = &setup.volume;
+    (0..setup.drop_count() as u64)
+        .filter_map(|id| sample_drop(v, &setup.model, &setup.wind, setup.params.seed, id, t_s))
+        .filter(|d| {
+            let c = camera.camera_from_world_point(d.position_m);
+            c.z >= v.near_m
+                && c.z <= far_m
+                && camera.project_camera(c).is_some_and(|q| {
+                    q.x >= 0.0
+                        && q.y >= 0.0
+                        && q.x < camera.width_px as f64
+                        && q.y < camera.height_px as f64
+                })
+        })
+        .count()
+}
+
+/// No holes in the envelope: at each frame of a 0 → 60° pan with a tilt and a zoom the drops in
+/// view are as many as a still camera at that pose sees, within Poisson noise (3σ), and the
+/// planned volume grows with the envelope.
+#[test]
+fn a_moving_camera_sees_as_much_rain_as_a_still_one_at_each_pose() {
+    let keys = Keyframes {
+        pan_deg: ramp(&[(0.0, 0.0), (2.0, 60.0)]),
+        tilt_deg: ramp(&[(0.0, 0.0), (2.0, 15.0)]),
+        fov_deg: ramp(&[(0.5, 60.0), (2.0, 45.0)]),
+        ..Keyframes::default()
+    };
+    let rain = light_rain();
+    let (_, moving) = rain_of(CameraConfig::default(), rain, &keys);
+    assert!(!moving.volume.budget_binds, "no budget");
+    for t in [0.0, 0.37, 1.0, 1.61, 2.0] {
+        let mut at = RenderConfig::default();
+        keys.apply_at(&mut at, t);
+        let (_, still) = rain_of(at.camera, rain, &Keyframes::default());
+        // The moving camera's far distance is the farthest any of its poses sees rain.
+        let far_m = moving.volume.far_m.min(still.volume.far_m);
+        let (a, b) = (in_view_count(&moving, t, far_m), in_view_count(&still, t, far_m));
+        let sigma = ((a + b) as f64).sqrt();
+        eprintln!("t {t}: moving {a}, still {b} (σ {sigma:.0})");
+        assert!(
+            (a as f64 - b as f64).abs() <= 3.0 * sigma,
+            "t {t}: {a} drops in view, a still camera sees {b}"
+        );
+        assert!(b > 500, "t {t}: {b}");
+        assert!(moving.volume.grid.volume_m3 > 1.5 * still.volume.grid.volume_m3);
+    }
+}
+
+/// The GPU draws each frame's drops through the frame's camera as the twin does, for a pan,
+/// a tilt, a roll, a crane and a zoom together.
+#[test]
+fn the_gpu_follows_the_keyed_camera_as_the_twin_does() {
+    let Some(ctx) = gpu() else { return };
+    let keys = Keyframes {
+        pan_deg: ramp(&[(0.0, -10.0), (1.0, 25.0)]),
+        tilt_deg: ramp(&[(0.0, 5.0), (1.0, -10.0)]),
+        roll_deg: ramp(&[(0.0, 0.0), (1.0, 4.0)]),
+        height_m: ramp(&[(0.0, 1.6), (1.0, 3.0)]),
+        fov_deg: ramp(&[(0.0, 60.0), (1.0, 40.0)]),
+        ..Keyframes::default()
+    };
+    let (_, setup) = rain_of(CameraConfig::default(), light_rain(), &keys);
+    let tables = rtf_tables(&Default::default()).expect("tables");
+    for t in [0.0, 0.6, 1.0] {
+        let params = setup.motion_at(t);
+        let list = LightList::new(&[]);
+        let gpu_streaks = probe_streaks(&ctx, &setup, &params, &list, &tables).expect("streaks");
+        let drops = probe_drops(&ctx, &setup, t, params.drop_count).expect("drops");
+        let (mut drawn, mut mismatched) = (0, 0);
+        for (g, d) in gpu_streaks.iter().zip(&drops) {
+            let cpu = streak_of(
+                &params,
+                d.pos_m.as_dvec3(),
+                d.vel_mps.as_dvec3(),
+                d.width_mm as f64,
+            );
+            match cpu {
+                Some(c) if g.len_px >= 0.0 => {
+                    drawn += 1;
+                    let q = DVec2::new(g.q0_px[0] as f64, g.q0_px[1] as f64);
+                    assert!((q - c.q0_px).length() < 0.02 * (1.0 + c.len_px), "t {t}");
+                }
+                None if g.len_px < 0.0 => {}
+                _ => mismatched += 1,
+            }
+        }
+        assert!(drawn > 500 && mismatched <= 3, "t {t}: {drawn}, {mismatched} mismatched");
+    }
+}
+
+/// The keyed camera's uniforms at t are the unkeyed camera's at that pose: focal length,
+/// centre and rotation (a zoom, a crane, a pan).
+#[test]
+fn each_frame_gets_the_camera_at_its_pose() {
+    let keys = Keyframes {
+        pan_deg: ramp(&[(0.0, 0.0), (2.0, 30.0)]),
+        height_m: ramp(&[(0.0, 1.6), (2.0, 4.0)]),
+        fov_deg: ramp(&[(0.0, 60.0), (2.0, 30.0)]),
+        ..Keyframes::default()
+    };
+    let (_, setup) = rain_of(CameraConfig::default(), light_rain(), &keys);
+    let p = setup.motion_at(1.0);
+    let still = CameraConfig {
+        pan_deg: 15.0,
+        height_m: 2.8,
+        fov_deg: 45.0,
+        ..CameraConfig::default()
+    }
+    .camera(SIZE.0, SIZE.1);
+    assert!((p.focal_px as f64 - still.focal_px()).abs() < 1e-3);
+    assert!((p.camera_pos_m[2] as f64 - 2.8).abs() < 1e-6);
+    let forward = DVec3::new(
+        p.camera_from_world_2[0] as f64,
+        p.camera_from_world_2[1] as f64,
+        p.camera_from_world_2[2] as f64,
+    );
+    let want = DVec3::new(15f64.to_radians().sin(), 15f64.to_radians().cos(), 0.0);
+    assert!((forward - want).length() < 1e-6, "{forward}");
+}
+
+/// A keyed pose with a ground that fixes the pose is refused, naming the ground; shutter keys
+/// are refused with their reason.
+#[test]
+fn moving_camera_refusals_are_named() {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.6".parse().expect("mode");
+    config.keyframes.pan_deg = ramp(&[(0.0, 0.0), (1.0, 10.0)]);
+    let e = config.validate().expect_err("ground with a moving camera").to_string();
+    assert!(e.contains("--ground") && e.contains("keyed camera"), "{e}");
+    let mut tree = serde_json::json!({"camera": {"shutter_deg": [[0, 180], [1, 90]]}});
+    let e = Keyframes::take(&mut tree).expect_err("shutter");
+    assert!(e.contains("camera.shutter_deg") && e.contains("exposure"), "{e}");
+}
