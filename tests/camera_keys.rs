@@ -239,3 +239,54 @@ fn moving_camera_refusals_are_named() {
     let e = Keyframes::take(&mut tree).expect_err("shutter");
     assert!(e.contains("camera.shutter_deg") && e.contains("exposure"), "{e}");
 }
+
+/// Every point any frame sees lies in a column: points drawn uniformly in the frustum slab
+/// (near to far) of frames between the planned poses, of a pan with a tilt, a roll, a crane and
+/// a zoom, found in the column grid by their cell and height.
+#[test]
+fn the_envelope_holds_every_frame_between_the_planned_poses() {
+    let keys = Keyframes {
+        pan_deg: ramp(&[(0.0, 0.0), (1.0, 50.0), (2.0, 35.0)]),
+        tilt_deg: ramp(&[(0.0, -5.0), (2.0, 10.0)]),
+        roll_deg: ramp(&[(0.0, 0.0), (2.0, -6.0)]),
+        height_m: ramp(&[(0.0, 1.6), (2.0, 2.5)]),
+        fov_deg: ramp(&[(0.0, 60.0), (1.3, 35.0)]),
+        ..Keyframes::default()
+    };
+    let (_, setup) = rain_of(CameraConfig::default(), light_rain(), &keys);
+    let grid = &setup.volume.grid;
+    // Cell corners are the grid's origin plus whole cells.
+    let origin = grid.columns[0].cell_min_m;
+    let cells: std::collections::HashMap<(i64, i64), (f64, f64)> = grid
+        .columns
+        .iter()
+        .map(|c| {
+            let k = ((c.cell_min_m - origin) / grid.cell_size_m).round();
+            ((k.x as i64, k.y as i64), (c.z_lo_m, c.z_hi_m))
+        })
+        .collect();
+    let (near, far) = (setup.volume.near_m, setup.volume.far_m);
+    let mut outside = 0;
+    let n = 40_000u32;
+    for i in 0..n {
+        let u = |k: u32| rain_composite::rain::volume::drop_uniform(9, i, k);
+        // Times off the planned samples (irrational steps); depth uniform in volume.
+        let t = 2.0 * u(0);
+        let camera = setup.camera_at(t);
+        let s = (near.powi(3) + u(1) * (far.powi(3) - near.powi(3))).cbrt();
+        let px = DVec2::new(u(2) * camera.width_px as f64, u(3) * camera.height_px as f64);
+        let ray = camera.ray_world(px);
+        let axis = camera.world_from_camera * DVec3::Z;
+        let p = camera.position_m + ray * (s / ray.dot(axis));
+        if p.z < 0.0 {
+            continue; // below the ground the volume stands on
+        }
+        let uv = DVec2::new(p.x, p.y) - grid.slope * p.z;
+        let k = ((uv - origin) / grid.cell_size_m).floor();
+        let inside = cells
+            .get(&(k.x as i64, k.y as i64))
+            .is_some_and(|&(lo, hi)| p.z >= lo - 1e-9 && p.z <= hi + 1e-9);
+        outside += !inside as u32;
+    }
+    assert_eq!(outside, 0, "{outside} of {n} points seen outside the columns");
+}
