@@ -525,6 +525,31 @@ mod tests {
         }
     }
 
+    /// The planned poses: every key, and no two neighbours turned apart by more than the step
+    /// (the pan, tilt and roll changes summed).
+    #[test]
+    fn camera_samples_bound_the_turn_between_poses() {
+        let keys = Keyframes {
+            pan_deg: Some(Curve::new(vec![(0.5, 0.0), (2.0, 30.0)]).expect("pan")),
+            roll_deg: Some(Curve::new(vec![(1.0, 0.0), (1.5, -4.0)]).expect("roll")),
+            ..Keyframes::default()
+        };
+        let s = keys.camera_samples_s(1.0);
+        assert_eq!(s[0], 0.0);
+        for t in [0.5, 1.0, 1.5, 2.0] {
+            assert!(s.contains(&t), "{t} in {s:?}");
+        }
+        let turn = |t: f64| {
+            keys.pan_deg.as_ref().map_or(0.0, |k| k.at(t))
+                - keys.roll_deg.as_ref().map_or(0.0, |k| k.at(t))
+        };
+        for w in s.windows(2) {
+            assert!(w[1] > w[0]);
+            // Pan and roll move in opposite senses here, so their changes add up in `turn`.
+            assert!((turn(w[1]) - turn(w[0])).abs() <= 1.0 + 1e-9, "{w:?}");
+        }
+    }
+
     #[test]
     fn keyed_settings_round_trip_and_unkeyable_ones_are_named() {
         let mut tree = serde_json::json!({
@@ -540,6 +565,19 @@ mod tests {
         let back = Keyframes::take(&mut tree.clone()).expect("again");
         assert_eq!(back, keys);
         assert_eq!(tree["camera"], original["camera"]);
+
+        // The camera's pose and zoom.
+        let mut moving = serde_json::json!({
+            "camera": {"pan_deg": [[0, 0], [2, 40]], "height_m": [[1, 1.6], [3, 4]], "tilt_deg": 2}
+        });
+        let keys = Keyframes::take(&mut moving).expect("pose keys");
+        assert!(keys.moves_camera());
+        assert_eq!(moving["camera"]["pan_deg"], serde_json::json!(0.0));
+        assert_eq!(moving["camera"]["height_m"], serde_json::json!(1.6));
+        keys.put(&mut moving);
+        assert_eq!(Keyframes::take(&mut moving.clone()).expect("again"), keys);
+        let mut still = serde_json::json!({"camera": {"fov_deg": [[0, 50], [2, 50]]}});
+        assert!(!Keyframes::take(&mut still).expect("constant").moves_camera());
 
         let mut constant = serde_json::json!({"rain": {"wind_mps": [3, 1]}});
         assert!(Keyframes::take(&mut constant).expect("constant").is_empty());
