@@ -437,10 +437,7 @@ impl Keyframes {
     /// Whether the camera moves or zooms over the shot (a pose or field-of-view key that
     /// changes).
     pub fn moves_camera(&self) -> bool {
-        self.pose()
-            .into_iter()
-            .flatten()
-            .any(|c| !c.is_constant())
+        self.pose().into_iter().flatten().any(|c| !c.is_constant())
     }
 
     /// The times the camera is sampled at to plan the rain volume for the whole shot: every
@@ -577,7 +574,11 @@ mod tests {
         keys.put(&mut moving);
         assert_eq!(Keyframes::take(&mut moving.clone()).expect("again"), keys);
         let mut still = serde_json::json!({"camera": {"fov_deg": [[0, 50], [2, 50]]}});
-        assert!(!Keyframes::take(&mut still).expect("constant").moves_camera());
+        assert!(
+            !Keyframes::take(&mut still)
+                .expect("constant")
+                .moves_camera()
+        );
 
         let mut constant = serde_json::json!({"rain": {"wind_mps": [3, 1]}});
         assert!(Keyframes::take(&mut constant).expect("constant").is_empty());

@@ -95,10 +95,17 @@ fn a_pan_moves_the_image_of_drops_fixed_in_the_world() {
         let before = camera.project_world(d.position_m);
         if before.is_some_and(|q| (q.x - centre_x).abs() < 0.5) {
             on_axis += 1;
-            assert!((mid.x - want_x).abs() < 1.0, "drop {id}: x {} vs {want_x}", mid.x);
+            assert!(
+                (mid.x - want_x).abs() < 1.0,
+                "drop {id}: x {} vs {want_x}",
+                mid.x
+            );
         }
     }
-    assert!(drawn > 1000 && on_axis > 3, "{drawn} drawn, {on_axis} on the axis");
+    assert!(
+        drawn > 1000 && on_axis > 3,
+        "{drawn} drawn, {on_axis} on the axis"
+    );
 }
 
 /// Drops in the picture between the near distance and `far_m` at `t_s`, through the frame's
@@ -142,7 +149,10 @@ fn a_moving_camera_sees_as_much_rain_as_a_still_one_at_each_pose() {
         let (_, still) = rain_of(at.camera, rain, &Keyframes::default());
         // The moving camera's far distance is the farthest any of its poses sees rain.
         let far_m = moving.volume.far_m.min(still.volume.far_m);
-        let (a, b) = (in_view_count(&moving, t, far_m), in_view_count(&still, t, far_m));
+        let (a, b) = (
+            in_view_count(&moving, t, far_m),
+            in_view_count(&still, t, far_m),
+        );
         let sigma = ((a + b) as f64).sqrt();
         eprintln!("t {t}: moving {a}, still {b} (σ {sigma:.0})");
         assert!(
@@ -192,7 +202,10 @@ fn the_gpu_follows_the_keyed_camera_as_the_twin_does() {
                 _ => mismatched += 1,
             }
         }
-        assert!(drawn > 500 && mismatched <= 3, "t {t}: {drawn}, {mismatched} mismatched");
+        assert!(
+            drawn > 500 && mismatched <= 3,
+            "t {t}: {drawn}, {mismatched} mismatched"
+        );
     }
 }
 
@@ -233,11 +246,17 @@ fn moving_camera_refusals_are_named() {
     let mut config = RenderConfig::default();
     config.ground.mode = "horizon=0.6".parse().expect("mode");
     config.keyframes.pan_deg = ramp(&[(0.0, 0.0), (1.0, 10.0)]);
-    let e = config.validate().expect_err("ground with a moving camera").to_string();
+    let e = config
+        .validate()
+        .expect_err("ground with a moving camera")
+        .to_string();
     assert!(e.contains("--ground") && e.contains("keyed camera"), "{e}");
     let mut tree = serde_json::json!({"camera": {"shutter_deg": [[0, 180], [1, 90]]}});
     let e = Keyframes::take(&mut tree).expect_err("shutter");
-    assert!(e.contains("camera.shutter_deg") && e.contains("exposure"), "{e}");
+    assert!(
+        e.contains("camera.shutter_deg") && e.contains("exposure"),
+        "{e}"
+    );
 }
 
 /// Every point any frame sees lies in a column: points drawn uniformly in the frustum slab
@@ -274,7 +293,10 @@ fn the_envelope_holds_every_frame_between_the_planned_poses() {
         let t = 2.0 * u(0);
         let camera = setup.camera_at(t);
         let s = (near.powi(3) + u(1) * (far.powi(3) - near.powi(3))).cbrt();
-        let px = DVec2::new(u(2) * camera.width_px as f64, u(3) * camera.height_px as f64);
+        let px = DVec2::new(
+            u(2) * camera.width_px as f64,
+            u(3) * camera.height_px as f64,
+        );
         let ray = camera.ray_world(px);
         let axis = camera.world_from_camera * DVec3::Z;
         let p = camera.position_m + ray * (s / ray.dot(axis));
@@ -288,5 +310,66 @@ fn the_envelope_holds_every_frame_between_the_planned_poses() {
             .is_some_and(|&(lo, hi)| p.z >= lo - 1e-9 && p.z <= hi + 1e-9);
         outside += !inside as u32;
     }
-    assert_eq!(outside, 0, "{outside} of {n} points seen outside the columns");
+    assert_eq!(
+        outside, 0,
+        "{outside} of {n} points seen outside the columns"
+    );
+}
+
+/// Report (run with `--ignored --nocapture`): what a 0 → 60° pan costs against a still camera
+/// at 1280×720 — drops simulated, the plan's time, and the light's per-frame remapping.
+#[test]
+#[ignore]
+fn report_moving_camera_costs() {
+    use rain_composite::lighting::envmap::EnvMapper;
+    use std::time::Instant;
+    let camera = CameraConfig::default().camera(1280, 720);
+    let rain = RainConfig::default();
+    println!("| camera | poses | drops | columns' volume (m³) | plan (ms) |");
+    println!("|---|---|---|---|---|");
+    for (name, pan) in [
+        ("still", None),
+        ("pan 0 → 60° over 4 s", ramp(&[(0.0, 0.0), (4.0, 60.0)])),
+    ] {
+        let keys = Keyframes {
+            pan_deg: pan,
+            ..Keyframes::default()
+        };
+        let start = Instant::now();
+        let setup = emitter::build_keyed(
+            &camera,
+            &CameraConfig::default(),
+            &rain,
+            &keys,
+            0.02,
+            0,
+            (1280, 720),
+        )
+        .expect("rain");
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        let poses = if keys.moves_camera() {
+            keys.camera_samples_s(1.0).len()
+        } else {
+            1
+        };
+        println!(
+            "| {name} | {poses} | {} | {:.1} | {ms:.0} |",
+            setup.drop_count(),
+            setup.volume.grid.volume_m3
+        );
+    }
+    let start = Instant::now();
+    let runs = 10;
+    for i in 0..runs {
+        let turned = CameraConfig {
+            pan_deg: i as f64,
+            ..CameraConfig::default()
+        }
+        .camera(1280, 720);
+        std::hint::black_box(EnvMapper::new(&turned, 4).expect("mapper"));
+    }
+    println!(
+        "light: the frame→sphere map rebuilt per turned frame in {:.1} ms",
+        start.elapsed().as_secs_f64() * 1e3 / runs as f64
+    );
 }

@@ -388,7 +388,13 @@ pub fn build_keyed(
 }
 
 /// The camera of `config` with `keys` applied at `t_s`, for a `width_px`×`height_px` picture.
-fn camera_at(config: &CameraConfig, keys: &Keyframes, width_px: u32, height_px: u32, t_s: f64) -> Camera {
+fn camera_at(
+    config: &CameraConfig,
+    keys: &Keyframes,
+    width_px: u32,
+    height_px: u32,
+    t_s: f64,
+) -> Camera {
     let mut at = crate::config::RenderConfig {
         camera: *config,
         ..Default::default()

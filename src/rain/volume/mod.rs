@@ -293,7 +293,10 @@ impl RainVolume {
             (0..path.len())
                 .map(|i| {
                     let near = &path[i.saturating_sub(1)..(i + 2).min(path.len())];
-                    let f_px = near.iter().map(Camera::focal_px).fold(f64::INFINITY, f64::min);
+                    let f_px = near
+                        .iter()
+                        .map(Camera::focal_px)
+                        .fold(f64::INFINITY, f64::min);
                     geometry::widened(&path[i], f_px, 0.5 * step_rad)
                 })
                 .collect()
@@ -324,14 +327,8 @@ impl RainVolume {
         let mut grid = ColumnGrid::default();
         let mut budget_binds = false;
         if density > 0.0 {
-            grid = ColumnGrid::build_envelope(
-                &envelope,
-                near,
-                far,
-                ground,
-                slope,
-                params.max_columns,
-            );
+            grid =
+                ColumnGrid::build_envelope(&envelope, near, far, ground, slope, params.max_columns);
             let budget = params.budget as f64;
             if density * grid.volume_m3 > budget {
                 budget_binds = true;
@@ -359,13 +356,13 @@ impl RainVolume {
                     lo
                 };
                 grid = ColumnGrid::build_envelope(
-                &envelope,
-                near,
-                far,
-                ground,
-                slope,
-                params.max_columns,
-            );
+                    &envelope,
+                    near,
+                    far,
+                    ground,
+                    slope,
+                    params.max_columns,
+                );
             }
         }
         let expected_cols = density * grid.volume_m3;
