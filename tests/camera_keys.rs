@@ -10,8 +10,10 @@ use rain_composite::gpu::types::LightList;
 use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
 use rain_composite::keyframes::{Curve, Keyframes};
 use rain_composite::lighting::frame_light::rtf_tables;
+use rain_composite::lighting::{LightConfig, LightEstimator};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
@@ -372,4 +374,75 @@ fn report_moving_camera_costs() {
         "light: the frame→sphere map rebuilt per turned frame in {:.1} ms",
         start.elapsed().as_secs_f64() * 1e3 / runs as f64
     );
+}
+
+/// A 4:4:4 8-bit BT.709 frame whose displayed pixel (x, y) has linear RGB `f(x, y)`.
+fn frame_of(w: u32, h: u32, f: impl Fn(DVec2) -> [f64; 3]) -> YuvFrame {
+    let color = ColorParams::bt709(8);
+    let format = FrameFormat {
+        width: w,
+        height: h,
+        chroma: Chroma::Cs444,
+        bit_depth: 8,
+    };
+    let mut frame = YuvFrame::filled(format, color, [0, 0, 0]);
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let code = color.linear_to_code(f(DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
+            for (i, plane) in frame.planes.iter_mut().enumerate() {
+                plane.data[y * plane.stride + x] = code[i] as u8;
+            }
+        }
+    }
+    frame
+}
+
+/// A lamp fixed in the world, filmed by a camera panning 0 → 30°: the light recovered from
+/// each frame, read through that frame's camera, stays at the lamp's world direction within a
+/// degree; read through the first camera (the test can tell) it swings with the pan.
+#[test]
+fn a_lamp_fixed_in_the_world_stays_put_while_the_camera_pans() {
+    let (w, h) = (320, 180);
+    let pan = Curve::new(vec![(0.0, 0.0), (1.2, 30.0)]).expect("pan");
+    let camera_at = |t: f64| {
+        CameraConfig {
+            pan_deg: pan.at(t),
+            ..CameraConfig::default()
+        }
+        .camera(w, h)
+    };
+    let (az, el) = (10f64.to_radians(), 8f64.to_radians());
+    let lamp = DVec3::new(az.sin() * el.cos(), az.cos() * el.cos(), el.sin());
+    // A dark street (world-fixed: darker sky above the horizon) and a clipped lamp 1.2° wide.
+    let scene = |ray: DVec3| {
+        if ray.angle_between(lamp) < 1.2f64.to_radians() {
+            [1.0; 3]
+        } else if ray.z > 0.0 {
+            [0.01, 0.01, 0.012]
+        } else {
+            [0.03, 0.03, 0.028]
+        }
+    };
+    let config = LightConfig::default();
+    let mut follows = LightEstimator::new(&camera_at(0.0), 0, &config).expect("light");
+    let mut still = LightEstimator::new(&camera_at(0.0), 0, &config).expect("light");
+    let (mut worst_deg, mut swing_deg) = (0.0f64, 0.0f64);
+    for k in 0..=30 {
+        let t = k as f64 / 25.0;
+        let camera = camera_at(t);
+        let frame = frame_of(w, h, |px| scene(camera.ray_world(px)));
+        follows.set_camera(&camera).expect("camera");
+        let brightest = |l: &rain_composite::lighting::FrameLight| {
+            l.lights
+                .iter()
+                .max_by(|a, b| a.solid_angle_sr.total_cmp(&b.solid_angle_sr))
+                .map(|s| s.direction_world.angle_between(lamp).to_degrees())
+                .expect("the lamp is found")
+        };
+        worst_deg = worst_deg.max(brightest(&follows.update(&frame, t)));
+        swing_deg = swing_deg.max(brightest(&still.update(&frame, t)));
+    }
+    eprintln!("lamp direction: within {worst_deg:.2}° following the camera, {swing_deg:.1}° not");
+    assert!(worst_deg < 1.0, "{worst_deg}°");
+    assert!(swing_deg > 10.0, "{swing_deg}°");
 }
