@@ -409,9 +409,9 @@ impl RenderConfig {
             GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
                 if self.keyframes.moves_camera() {
                     return Err(bad(
-                        "none with a keyed camera pose or field of view: the ground is found \
+                        "no keyed camera pose or field of view besides it: the ground is found \
                          through the camera at one pose, and the splashes, wet ground and \
-                         puddles are mapped through one camera",
+                         puddles are mapped through one camera (use --ground none)",
                     ));
                 }
                 let c = &self.camera;
