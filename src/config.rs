@@ -17,6 +17,10 @@ pub struct CameraConfig {
     pub tilt_deg: f64,
     /// Roll clockwise about the optical axis, degrees.
     pub roll_deg: f64,
+    /// Pan (yaw about the world's vertical) to the right, degrees; 0 faces the world's +y.
+    /// Keyed with the rest of the pose for a moving camera; the wind and the user's lights are
+    /// given in the world the camera sees at t = 0.
+    pub pan_deg: f64,
     /// Shutter angle, degrees; exposure = shutter/360 / fps.
     pub shutter_deg: f64,
     /// Focus distance, metres.
@@ -39,6 +43,7 @@ impl CameraConfig {
             self.tilt_deg.to_radians(),
             self.roll_deg.to_radians(),
         )
+        .panned(self.pan_deg.to_radians())
     }
 }
 
@@ -49,6 +54,7 @@ impl Default for CameraConfig {
             height_m: 1.6,
             tilt_deg: 0.0,
             roll_deg: 0.0,
+            pan_deg: 0.0,
             shutter_deg: 180.0,
             focus_m: 6.0,
             f_number: 8.0,
@@ -402,6 +408,13 @@ impl RenderConfig {
         match mode {
             GroundMode::None => Ok(()),
             GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
+                if self.keyframes.moves_camera() {
+                    return Err(bad(
+                        "no keyed camera pose or field of view besides it: the ground is found \
+                         through the camera at one pose, and the splashes, wet ground and \
+                         puddles are mapped through one camera (use --ground none)",
+                    ));
+                }
                 let c = &self.camera;
                 if c.tilt_deg != 0.0 || c.roll_deg != 0.0 {
                     return Err(bad(
@@ -429,7 +442,8 @@ impl RenderConfig {
                 pose.height_m,
                 pose.tilt_rad,
                 pose.roll_rad,
-            ),
+            )
+            .panned(c.pan_deg.to_radians()),
         })
     }
 }
@@ -514,6 +528,12 @@ impl RenderConfig {
             c.roll_deg,
             (-180.0..=180.0).contains(&c.roll_deg),
             "degrees in [-180, 180]",
+        )?;
+        check(
+            "camera.pan_deg",
+            c.pan_deg,
+            (-360.0..=360.0).contains(&c.pan_deg),
+            "degrees in [-360, 360]",
         )?;
         check("--focus", c.focus_m, c.focus_m > 0.05, "metres, above 0.05")?;
         check(

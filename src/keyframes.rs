@@ -8,12 +8,17 @@
 //!   stops from the top of the frame and no drop pops in or out mid-air;
 //! - `rain.wind_mps`: the drops follow the changing wind with their own lag τ = v_t/g, in
 //!   closed form (`rain::wind::MeanWind`);
-//! - `rain.opacity`, `camera.focus_m`, `camera.f_number`: per frame (a focus pull).
+//! - `rain.opacity`, `camera.focus_m`, `camera.f_number`: per frame (a focus pull);
+//! - the camera's pose and zoom, `camera.pan_deg`, `tilt_deg`, `roll_deg`, `height_m`,
+//!   `fov_deg` (a pan, a tilt, a crane, a zoom): the rain stays in the world while the camera
+//!   moves; the volume is planned for the envelope of the frusta over the shot
+//!   (`rain::volume`, "A moving camera") and each frame sees it through its own camera.
 //!
 //! The others are refused with the reason: a drop's size and speed are fixed for its life
-//! (`drop_scale`, `fall_speed_scale`, `altitude_m`), the rain volume is planned for one camera
-//! (the pose, field of view, shutter, near and far distances), and the gusts' strength is part
-//! of their closed-form spectrum (key `rain.wind_mps` for a gust building up).
+//! (`drop_scale`, `fall_speed_scale`, `altitude_m`), the exposure sets the streaks' length the
+//! far distance is planned with (`shutter_deg`), the near and far distances are planned once,
+//! and the gusts' strength is part of their closed-form spectrum (key `rain.wind_mps` for a
+//! gust building up).
 
 use glam::DVec2;
 use serde_json::Value;
@@ -220,15 +225,39 @@ pub struct Keyframes {
     pub focus_m: Option<Curve<f64>>,
     /// `camera.f_number`.
     pub f_number: Option<Curve<f64>>,
+    /// `camera.pan_deg`.
+    pub pan_deg: Option<Curve<f64>>,
+    /// `camera.tilt_deg`.
+    pub tilt_deg: Option<Curve<f64>>,
+    /// `camera.roll_deg`.
+    pub roll_deg: Option<Curve<f64>>,
+    /// `camera.height_m`.
+    pub height_m: Option<Curve<f64>>,
+    /// `camera.fov_deg`.
+    pub fov_deg: Option<Curve<f64>>,
 }
 
 /// The settings that may be keyed, as `section.field`.
-pub const KEYED: [&str; 5] = [
+pub const KEYED: [&str; 10] = [
     "rain.rate_mm_per_h",
     "rain.wind_mps",
     "rain.opacity",
     "camera.focus_m",
     "camera.f_number",
+    "camera.pan_deg",
+    "camera.tilt_deg",
+    "camera.roll_deg",
+    "camera.height_m",
+    "camera.fov_deg",
+];
+
+/// The keyed camera settings that move the camera (pose and zoom).
+const POSE: [&str; 5] = [
+    "camera.pan_deg",
+    "camera.tilt_deg",
+    "camera.roll_deg",
+    "camera.height_m",
+    "camera.fov_deg",
 ];
 
 /// Why a numeric setting cannot be keyed.
@@ -242,10 +271,10 @@ fn refusal(path: &str) -> &'static str {
              building up"
         }
         "rain.seed" | "rain.max_drops" => "it fixes which drops exist",
-        "rain.scene_depth_m" | "rain.near_m" | "rain.far_m" => {
-            "the rain volume is planned once per shot"
+        "camera.shutter_deg" => {
+            "the exposure sets how long the streaks are, and the far distance is planned with it"
         }
-        _ => "the rain volume is planned for one camera (pose, field of view, shutter)",
+        _ => "the rain volume is planned once per shot",
     }
 }
 
@@ -264,6 +293,7 @@ impl Keyframes {
             &self.f_number,
         ]
         .into_iter()
+        .chain(self.pose())
         .flatten()
         .flat_map(|c| c.keys().iter().map(|k| k.0))
         .chain(
@@ -320,6 +350,11 @@ impl Keyframes {
                             "rain.rate_mm_per_h" => &mut keys.rate_mm_per_h,
                             "rain.opacity" => &mut keys.opacity,
                             "camera.focus_m" => &mut keys.focus_m,
+                            "camera.pan_deg" => &mut keys.pan_deg,
+                            "camera.tilt_deg" => &mut keys.tilt_deg,
+                            "camera.roll_deg" => &mut keys.roll_deg,
+                            "camera.height_m" => &mut keys.height_m,
+                            "camera.fov_deg" => &mut keys.fov_deg,
                             _ => &mut keys.f_number,
                         };
                         *slot = Some(c);
@@ -343,7 +378,9 @@ impl Keyframes {
             ("rain.opacity", &self.opacity),
             ("camera.focus_m", &self.focus_m),
             ("camera.f_number", &self.f_number),
-        ];
+        ]
+        .into_iter()
+        .chain(POSE.into_iter().zip(self.pose()));
         for (path, c) in scalars {
             if let Some(c) = c {
                 set(path, c.to_json());
@@ -372,6 +409,60 @@ impl Keyframes {
         if let Some(k) = &self.f_number {
             c.f_number = k.at(t_s);
         }
+        let pose = [
+            &mut c.pan_deg,
+            &mut c.tilt_deg,
+            &mut c.roll_deg,
+            &mut c.height_m,
+            &mut c.fov_deg,
+        ];
+        for (v, k) in pose.into_iter().zip(self.pose()) {
+            if let Some(k) = k {
+                *v = k.at(t_s);
+            }
+        }
+    }
+
+    /// The pose and zoom curves, in the order of `POSE`.
+    fn pose(&self) -> [&Option<Curve<f64>>; 5] {
+        [
+            &self.pan_deg,
+            &self.tilt_deg,
+            &self.roll_deg,
+            &self.height_m,
+            &self.fov_deg,
+        ]
+    }
+
+    /// Whether the camera moves or zooms over the shot (a pose or field-of-view key that
+    /// changes).
+    pub fn moves_camera(&self) -> bool {
+        self.pose().into_iter().flatten().any(|c| !c.is_constant())
+    }
+
+    /// The times the camera is sampled at to plan the rain volume for the whole shot: every
+    /// pose key, and between keys steps that turn the camera by at most `step_deg` (the sum of
+    /// the pan, tilt and roll changes bounds the rotation between two poses). Sorted, from 0.
+    pub fn camera_samples_s(&self, step_deg: f64) -> Vec<f64> {
+        let mut keys: Vec<f64> = self
+            .pose()
+            .into_iter()
+            .flatten()
+            .flat_map(|c| c.keys().iter().map(|k| k.0))
+            .chain([0.0])
+            .collect();
+        keys.sort_by(f64::total_cmp);
+        keys.dedup();
+        let angles = [&self.pan_deg, &self.tilt_deg, &self.roll_deg];
+        let turn = |t: f64| -> [f64; 3] { angles.map(|k| k.as_ref().map_or(0.0, |k| k.at(t))) };
+        let mut out = vec![keys[0]];
+        for w in keys.windows(2) {
+            let (a, b) = (turn(w[0]), turn(w[1]));
+            let total: f64 = (0..3).map(|i| (b[i] - a[i]).abs()).sum();
+            let n = (total / step_deg.max(1e-3)).ceil().max(1.0) as usize;
+            out.extend((1..=n).map(|i| w[0] + (w[1] - w[0]) * i as f64 / n as f64));
+        }
+        out
     }
 }
 
@@ -431,6 +522,31 @@ mod tests {
         }
     }
 
+    /// The planned poses: every key, and no two neighbours turned apart by more than the step
+    /// (the pan, tilt and roll changes summed).
+    #[test]
+    fn camera_samples_bound_the_turn_between_poses() {
+        let keys = Keyframes {
+            pan_deg: Some(Curve::new(vec![(0.5, 0.0), (2.0, 30.0)]).expect("pan")),
+            roll_deg: Some(Curve::new(vec![(1.0, 0.0), (1.5, -4.0)]).expect("roll")),
+            ..Keyframes::default()
+        };
+        let s = keys.camera_samples_s(1.0);
+        assert_eq!(s[0], 0.0);
+        for t in [0.5, 1.0, 1.5, 2.0] {
+            assert!(s.contains(&t), "{t} in {s:?}");
+        }
+        let turn = |t: f64| {
+            keys.pan_deg.as_ref().map_or(0.0, |k| k.at(t))
+                - keys.roll_deg.as_ref().map_or(0.0, |k| k.at(t))
+        };
+        for w in s.windows(2) {
+            assert!(w[1] > w[0]);
+            // Pan and roll move in opposite senses here, so their changes add up in `turn`.
+            assert!((turn(w[1]) - turn(w[0])).abs() <= 1.0 + 1e-9, "{w:?}");
+        }
+    }
+
     #[test]
     fn keyed_settings_round_trip_and_unkeyable_ones_are_named() {
         let mut tree = serde_json::json!({
@@ -446,6 +562,23 @@ mod tests {
         let back = Keyframes::take(&mut tree.clone()).expect("again");
         assert_eq!(back, keys);
         assert_eq!(tree["camera"], original["camera"]);
+
+        // The camera's pose and zoom.
+        let mut moving = serde_json::json!({
+            "camera": {"pan_deg": [[0, 0], [2, 40]], "height_m": [[1, 1.6], [3, 4]], "tilt_deg": 2}
+        });
+        let keys = Keyframes::take(&mut moving).expect("pose keys");
+        assert!(keys.moves_camera());
+        assert_eq!(moving["camera"]["pan_deg"], serde_json::json!(0.0));
+        assert_eq!(moving["camera"]["height_m"], serde_json::json!(1.6));
+        keys.put(&mut moving);
+        assert_eq!(Keyframes::take(&mut moving.clone()).expect("again"), keys);
+        let mut still = serde_json::json!({"camera": {"fov_deg": [[0, 50], [2, 50]]}});
+        assert!(
+            !Keyframes::take(&mut still)
+                .expect("constant")
+                .moves_camera()
+        );
 
         let mut constant = serde_json::json!({"rain": {"wind_mps": [3, 1]}});
         assert!(Keyframes::take(&mut constant).expect("constant").is_empty());

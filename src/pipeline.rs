@@ -1201,7 +1201,15 @@ impl LightFeed {
     /// The GPU uniforms of `frame`, shown at `t_s`: the rain's and the compact lights'.
     fn params(&mut self, rain: &RainSetup, frame: &YuvFrame, t_s: f64) -> (RainParams, LightList) {
         let light = match &mut self.estimator {
-            Some(l) => l.update(frame, t_s),
+            Some(l) => {
+                if rain.keys.moves_camera()
+                    && let Err(e) = l.set_camera(&rain.camera_at(t_s))
+                {
+                    // Unreachable for validated keys (every field of view in range).
+                    log::warn!("light at {t_s:.3} s seen through the first camera: {e}");
+                }
+                l.update(frame, t_s)
+            }
             None => FrameLight {
                 env: EnvironmentSh::zeros(4),
                 lights: Vec::new(),

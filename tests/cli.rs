@@ -457,6 +457,17 @@ fn preview_is_the_frame_the_full_render_writes() {
         "camera.focus_m=[[0,1],[2,10]]",
     ]);
     keyed.retain(|a| *a != "--rain" && *a != "30");
+    // A moving camera: a pan with a tilt and a zoom.
+    let mut moving = plain.clone();
+    moving.extend([
+        "--set",
+        "camera.pan_deg=[[0,0],[2,40]]",
+        "--set",
+        "camera.tilt_deg=[[0.5,0],[2,-8]]",
+        "--set",
+        "camera.fov_deg=[[0,60],[2,45]]",
+    ]);
+    check_preview_against_render(&dir, &input, "moving", &moving);
     check_preview_against_render(&dir, &input, "plain", &plain);
     check_preview_against_render(&dir, &input, "grounded", &grounded);
     check_preview_against_render(&dir, &input, "keyed", &keyed);

@@ -346,11 +346,18 @@ fn keyed_configurations_validate_every_key() {
         .expect_err("pinhole key")
         .to_string();
     assert!(e.contains("camera.f_number"), "{e}");
-    let e = RenderConfig::from_json(r#"{"camera": {"tilt_deg": [[0, 0], [4, 10]]}}"#)
+    let e = RenderConfig::from_json(r#"{"camera": {"shutter_deg": [[0, 180], [4, 90]]}}"#)
         .expect_err("not keyable")
         .to_string();
     assert!(
-        e.contains("camera.tilt_deg") && e.contains("rain.rate_mm_per_h"),
+        e.contains("camera.shutter_deg") && e.contains("rain.rate_mm_per_h"),
         "{e}"
     );
+    // A keyed pose is checked at each key too.
+    let e = RenderConfig::from_json(r#"{"camera": {"tilt_deg": [[0, 0], [4, 100]]}}"#)
+        .expect("parses")
+        .validate()
+        .expect_err("tilt beyond 90°")
+        .to_string();
+    assert!(e.contains("--tilt") && e.contains("at 4 s"), "{e}");
 }

@@ -102,6 +102,43 @@ pub fn build(
     rotation_deg: i32,
     coded_size_px: (u32, u32),
 ) -> Result<RainSetup> {
+    let path = CameraPath {
+        cameras: std::slice::from_ref(camera),
+        step_rad: 0.0,
+    };
+    build_on(
+        path,
+        camera_config,
+        rain,
+        exposure_s,
+        rotation_deg,
+        coded_size_px,
+    )
+}
+
+/// A moving camera sampled over the shot (the first at t = 0), at most `step_rad` of turn
+/// between samples.
+#[derive(Clone, Copy)]
+struct CameraPath<'a> {
+    cameras: &'a [Camera],
+    step_rad: f64,
+}
+
+/// Most turn between the camera poses a moving camera's rain volume is planned for, degrees
+/// (the frusta between are covered by widening each by half of it).
+const PATH_STEP_DEG: f64 = 1.0;
+
+/// [`build`] for the camera path `path`: the volume is planned for all its poses, the
+/// uniforms hold the first.
+fn build_on(
+    path: CameraPath,
+    camera_config: &CameraConfig,
+    rain: &RainConfig,
+    exposure_s: f64,
+    rotation_deg: i32,
+    coded_size_px: (u32, u32),
+) -> Result<RainSetup> {
+    let camera = &path.cameras[0];
     let model = RainModel::new(
         RainRate::from_mm_per_h(rain.rate_mm_per_h)?,
         DsdShape::MarshallPalmer,
@@ -110,7 +147,7 @@ pub fn build(
     let wind = Wind::new(DVec2::from(rain.wind_mps), rain.gust_mps, rain.seed as u64)?;
     let plan = plan_params(camera_config, rain, exposure_s)?;
     let lens = plan.lens;
-    let volume = RainVolume::plan(camera, &model, &wind, &plan)?;
+    let volume = RainVolume::plan_moving(path.cameras, path.step_rad, &model, &wind, &plan)?;
     let grid = &volume.grid;
     let mut columns: Vec<Column> = grid
         .columns
@@ -140,20 +177,13 @@ pub fn build(
         ];
     }
     let (lens_blur_k_px_m, inv_focus_per_m) = lens_uniforms(camera, lens);
-    let f = camera.focal_px();
-    let r = camera.world_from_camera.transpose();
-    let row = |k: usize| {
-        let v = r.row(k);
-        [v.x as f32, v.y as f32, v.z as f32, 0.0]
-    };
     let (m, off) = coded_from_display(rotation_deg, coded_size_px.0 as f32, coded_size_px.1 as f32);
-    let p = camera.position_m;
-    let params = RainParams {
-        camera_pos_m: [p.x as f32, p.y as f32, p.z as f32],
-        focal_px: f as f32,
-        camera_from_world_0: row(0),
-        camera_from_world_1: row(1),
-        camera_from_world_2: row(2),
+    let mut params = RainParams {
+        camera_pos_m: [0.0; 3],
+        focal_px: 0.0,
+        camera_from_world_0: [0.0; 4],
+        camera_from_world_1: [0.0; 4],
+        camera_from_world_2: [0.0; 4],
         principal_px: camera.principal_px().as_vec2().to_array(),
         display_size_px: [camera.width_px as f32, camera.height_px as f32],
         coded_from_display: m,
@@ -200,6 +230,7 @@ pub fn build(
         rate_keys: [[0.0; 4]; MAX_KEYS],
         speed_q: volume.motion.speed_q,
     };
+    set_camera(&mut params, camera);
     // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
     let haze_alpha = if rain.scene_depth_m > volume.far_m {
         haze_alpha(model.rate, volume.far_m, rain.scene_depth_m)
@@ -220,6 +251,21 @@ pub fn build(
         lens_camera: (*camera, *camera_config),
         scene_depth_m: rain.scene_depth_m,
     })
+}
+
+/// The camera's fields of `p`: its centre, focal length and rotation.
+fn set_camera(p: &mut RainParams, camera: &Camera) {
+    let r = camera.world_from_camera.transpose();
+    let row = |k: usize| {
+        let v = r.row(k);
+        [v.x as f32, v.y as f32, v.z as f32, 0.0]
+    };
+    let c = camera.position_m;
+    p.camera_pos_m = [c.x as f32, c.y as f32, c.z as f32];
+    p.focal_px = camera.focal_px() as f32;
+    p.camera_from_world_0 = row(0);
+    p.camera_from_world_1 = row(1);
+    p.camera_from_world_2 = row(2);
 }
 
 /// The defocus uniforms of `lens` (`None`: a pinhole): k of the circle of confusion's diameter
@@ -273,6 +319,26 @@ pub fn build_keyed(
     if lens_times.is_empty() {
         lens_times.push(0.0);
     }
+    // A moving camera: the volume covers the frusta of the poses over the shot.
+    let cameras: Vec<Camera> = if keys.moves_camera() {
+        let (w, h) = (camera.width_px, camera.height_px);
+        keys.camera_samples_s(PATH_STEP_DEG)
+            .into_iter()
+            .map(|t| camera_at(camera_config, keys, w, h, t))
+            .collect()
+    } else {
+        vec![*camera]
+    };
+    let path = CameraPath {
+        cameras: &cameras,
+        step_rad: PATH_STEP_DEG.to_radians(),
+    };
+    if cameras.len() > 1 {
+        log::info!(
+            "moving camera: rain volume planned for {} poses over the shot",
+            cameras.len()
+        );
+    }
     let mut planned = None;
     for t in lens_times {
         let mut at = crate::config::RenderConfig {
@@ -290,8 +356,8 @@ pub fn build_keyed(
             let k = w.keys();
             at.rain.wind_mps = (k.iter().map(|k| k.1).sum::<DVec2>() / k.len() as f64).to_array();
         }
-        let setup = build(
-            camera,
+        let setup = build_on(
+            path,
             &at.camera,
             &at.rain,
             exposure_s,
@@ -317,7 +383,24 @@ pub fn build_keyed(
         setup.params.wind_start_mps = [w0.x as f32, w0.y as f32];
     }
     setup.keys = keys.clone();
+    setup.lens_camera = (*camera, *camera_config);
     Ok(setup)
+}
+
+/// The camera of `config` with `keys` applied at `t_s`, for a `width_px`×`height_px` picture.
+fn camera_at(
+    config: &CameraConfig,
+    keys: &Keyframes,
+    width_px: u32,
+    height_px: u32,
+    t_s: f64,
+) -> Camera {
+    let mut at = crate::config::RenderConfig {
+        camera: *config,
+        ..Default::default()
+    };
+    keys.apply_at(&mut at, t_s);
+    at.camera.camera(width_px, height_px)
 }
 
 impl RainSetup {
@@ -412,8 +495,13 @@ impl RainSetup {
         if let Some(k) = &self.keys.opacity {
             p.opacity = k.at(t_s) as f32;
         }
-        if self.keys.focus_m.is_some() || self.keys.f_number.is_some() {
-            let (camera, mut lens) = self.lens_camera;
+        let moving = self.keys.moves_camera();
+        if moving || self.keys.focus_m.is_some() || self.keys.f_number.is_some() {
+            let (mut camera, mut lens) = self.lens_camera;
+            if moving {
+                camera = self.camera_at(t_s);
+                set_camera(p, &camera);
+            }
             if let Some(k) = &self.keys.focus_m {
                 lens.focus_m = k.at(t_s);
             }
@@ -425,6 +513,17 @@ impl RainSetup {
                 .then(|| ThinLens::new(lens.sensor_width_mm, lens.f_number, lens.focus_m).ok())
                 .flatten();
             (p.lens_blur_k_px_m, p.inv_focus_per_m) = lens_uniforms(&camera, thin);
+        }
+    }
+
+    /// The camera of the frame shown at `t_s` (the displayed picture): the shot's camera, or
+    /// for a keyed pose or zoom, the camera at that time.
+    pub fn camera_at(&self, t_s: f64) -> Camera {
+        let (camera, config) = &self.lens_camera;
+        if self.keys.moves_camera() {
+            camera_at(config, &self.keys, camera.width_px, camera.height_px, t_s)
+        } else {
+            *camera
         }
     }
 

@@ -148,6 +148,11 @@ pub struct FrameLight {
 #[derive(Debug, Clone)]
 pub struct LightEstimator {
     mapper: EnvMapper,
+    /// The camera of the frames now fed (a moving camera's; else the mapper's) and, when it
+    /// turned from the mapper's, the rotation `world_from_camera · mapper's camera_from_world`
+    /// that carries the mapper's environment to this camera's.
+    frame_camera: Camera,
+    turn: Option<glam::DMat3>,
     rtf: RtfSh,
     smoother: ShSmoother,
     tracker: LightTracker,
@@ -185,6 +190,8 @@ impl LightEstimator {
         let smoother = ShSmoother::new(config.smoothing_s, ShSmoother::DEFAULT_CUT_THRESHOLD)?;
         Ok(LightEstimator {
             mapper: EnvMapper::new(camera, GPU_BANDS)?,
+            frame_camera: *camera,
+            turn: None,
             rtf: RtfSh::water(
                 ChannelIndices::from(config.refractive_index),
                 config.n_max,
@@ -199,6 +206,43 @@ impl LightEstimator {
             user_lights,
             frames_seen: 0,
         })
+    }
+
+    /// Frames from now on are seen through `camera` (a moving camera's pose and zoom at the
+    /// frame), so the environment and the recovered lights stay in world directions and the
+    /// smoothing averages light fixed in the world. The frame→sphere map is defined in the
+    /// camera's frame, so a turned camera's environment is the mapper's rotated by the turn
+    /// (exact in SH, and cheap); a zoom rebuilds the map. The user's lights stay where they were
+    /// given (the world of the camera at t = 0).
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<()> {
+        let mapped = *self.mapper.camera();
+        if mapped.fov_x_rad != camera.fov_x_rad {
+            self.mapper = EnvMapper::new(camera, GPU_BANDS)?;
+        }
+        let mapped = self.mapper.camera().world_from_camera;
+        self.turn = (mapped != camera.world_from_camera)
+            .then(|| camera.world_from_camera * mapped.transpose());
+        self.frame_camera = *camera;
+        Ok(())
+    }
+
+    /// The mapper's projection of `small`, carried to the frame camera's turn.
+    fn project(&self, small: &[[f32; 3]]) -> EnvironmentSh {
+        let env = self.mapper.project_small(small);
+        let Some(turn) = self.turn else {
+            return env;
+        };
+        let channel = |k: usize| -> Vec<f64> {
+            let c: Vec<f64> = env.coeffs.iter().map(|c| f64::from(c[k])).collect();
+            super::sh::rotate(&c, turn)
+        };
+        let [r, g, b] = [0, 1, 2].map(channel);
+        EnvironmentSh {
+            bands: env.bands,
+            coeffs: (0..r.len())
+                .map(|i| [r[i] as f32, g[i] as f32, b[i] as f32])
+                .collect(),
+        }
     }
 
     /// The drop's transfer table per channel (R, G, B), [`GPU_RTF_BINS`] bins: what the
@@ -244,13 +288,13 @@ impl LightEstimator {
     /// lights), the sources, and the display-referred environment that scene cuts are told by.
     fn raw_light(&self, frame: &YuvFrame) -> (EnvironmentSh, Vec<LightSource>, EnvironmentSh) {
         let stats = self.block_stats(frame);
-        let display = self.mapper.project_small(&stats.mean);
+        let display = self.project(&stats.mean);
         match &self.recovery {
             Some(settings)
                 if stats.any_clipped() && !self.hdr_input.is_hdr(frame.color.transfer) =>
             {
-                let r = recover(&stats, self.mapper.camera(), settings);
-                (self.mapper.project_small(&r.remainder), r.lights, display)
+                let r = recover(&stats, &self.frame_camera, settings);
+                (self.project(&r.remainder), r.lights, display)
             }
             _ => (display.clone(), Vec::new(), display),
         }

@@ -44,6 +44,16 @@ impl Camera {
         }
     }
 
+    /// This camera panned right by `pan_rad` about the world's vertical through its centre
+    /// (the identity for 0, so an unpanned camera keeps its exact rotation).
+    pub fn panned(mut self, pan_rad: f64) -> Camera {
+        if pan_rad != 0.0 {
+            // Right is clockwise seen from above: a rotation by −pan about +z.
+            self.world_from_camera = DMat3::from_rotation_z(-pan_rad) * self.world_from_camera;
+        }
+        self
+    }
+
     /// Focal length in pixels: `f = (W/2) / tan(fov_x/2)`.
     pub fn focal_px(&self) -> f64 {
         0.5 * self.width_px as f64 / (0.5 * self.fov_x_rad).tan()

@@ -57,6 +57,21 @@ impl ColumnGrid {
         slope: DVec2,
         max_columns: usize,
     ) -> ColumnGrid {
+        let cameras = std::slice::from_ref(camera);
+        ColumnGrid::build_envelope(cameras, near_m, far_m, ground_z_m, slope, max_columns)
+    }
+
+    /// Column prisms covering every camera's frustum slab (a moving camera sampled over the
+    /// shot): the grid spans the union of their footprints and each cell's prism spans the
+    /// union of the z ranges the cameras see in it. One camera gives [`ColumnGrid::build`].
+    pub fn build_envelope(
+        cameras: &[Camera],
+        near_m: f64,
+        far_m: f64,
+        ground_z_m: Option<f64>,
+        slope: DVec2,
+        max_columns: usize,
+    ) -> ColumnGrid {
         let mut grid = ColumnGrid {
             slope,
             ..ColumnGrid::default()
@@ -64,14 +79,17 @@ impl ColumnGrid {
         if far_m.partial_cmp(&near_m) != Some(std::cmp::Ordering::Greater) || !slope.is_finite() {
             return grid;
         }
-        let world = slab_half_spaces(camera, near_m, far_m, ground_z_m);
-        let verts = polytope_vertices(&world);
-        if verts.len() < 4 {
+        let slabs: Vec<Vec<HalfSpace>> = cameras
+            .iter()
+            .map(|c| slab_half_spaces(c, near_m, far_m, ground_z_m))
+            .filter(|w| polytope_vertices(w).len() >= 4)
+            .collect();
+        if slabs.is_empty() {
             return grid;
         }
         let to_uv = |p: DVec3| DVec2::new(p.x, p.y) - slope * p.z;
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        for &p in &verts {
+        for p in slabs.iter().flat_map(|w| polytope_vertices(w)) {
             lo = lo.min(to_uv(p));
             hi = hi.max(to_uv(p));
         }
@@ -83,31 +101,38 @@ impl ColumnGrid {
         grid.cell_size_m = cell;
         // Shear the world half-spaces: n·(u + kx z, v + ky z, z) = (nx, ny, nx kx + ny ky + nz)·(u,v,z).
         let shear = DMat3::from_cols(DVec3::X, DVec3::Y, DVec3::new(slope.x, slope.y, 1.0));
-        let sheared: Vec<HalfSpace> = world
+        let sheared: Vec<Vec<HalfSpace>> = slabs
             .iter()
-            .map(|h| HalfSpace {
-                n: shear.transpose() * h.n,
-                d: h.d,
+            .map(|world| {
+                world
+                    .iter()
+                    .map(|h| HalfSpace {
+                        n: shear.transpose() * h.n,
+                        d: h.d,
+                    })
+                    .map(|h| HalfSpace::new(h.n, h.d))
+                    .collect()
             })
-            .map(|h| HalfSpace::new(h.n, h.d))
             .collect();
         for iu in 0..nu as usize {
             for iv in 0..nv as usize {
                 let c0 = lo + cell * DVec2::new(iu as f64, iv as f64);
                 let c1 = c0 + cell;
-                let mut hs = sheared.clone();
-                hs.extend([
+                let walls = [
                     HalfSpace::new(DVec3::X, c1.x),
                     HalfSpace::new(DVec3::NEG_X, -c0.x),
                     HalfSpace::new(DVec3::Y, c1.y),
                     HalfSpace::new(DVec3::NEG_Y, -c0.y),
-                ]);
-                let vs = polytope_vertices(&hs);
-                if vs.is_empty() {
-                    continue;
+                ];
+                let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for slab in &sheared {
+                    let mut hs = slab.clone();
+                    hs.extend(walls);
+                    for p in polytope_vertices(&hs) {
+                        z_lo = z_lo.min(p.z);
+                        z_hi = z_hi.max(p.z);
+                    }
                 }
-                let z_lo = vs.iter().fold(f64::INFINITY, |m, p| m.min(p.z));
-                let z_hi = vs.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.z));
                 let vol = cell.x * cell.y * (z_hi - z_lo);
                 if z_hi - z_lo > 1e-9 && vol.is_finite() && vol > 0.0 {
                     grid.columns.push(Column {

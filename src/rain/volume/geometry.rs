@@ -52,6 +52,31 @@ pub(super) fn slab_half_spaces(
     hs
 }
 
+/// `camera` seen with focal length `f_px` (≤ its own: a wider view) and widened on every side
+/// so that any ray of that view turned by up to `turn_rad` stays inside: a ray at angle θ from
+/// the axis turned by ε lies at most θ + ε from it, so each image-plane half extent grows by
+/// tan(θc + ε) − tan(θc), θc the corner's angle (the largest θ).
+pub(crate) fn widened(camera: &Camera, f_px: f64, turn_rad: f64) -> Camera {
+    let f = f_px.min(camera.focal_px());
+    let (a, b) = (
+        0.5 * camera.width_px as f64 / f,
+        0.5 * camera.height_px as f64 / f,
+    );
+    let corner = a.hypot(b).atan();
+    let grow = if corner + turn_rad < 1.5 {
+        (corner + turn_rad).tan() - corner.tan()
+    } else {
+        1.0
+    };
+    let (w, h) = (2.0 * (a + grow) * f, 2.0 * (b + grow) * f);
+    Camera {
+        width_px: w.ceil() as u32,
+        height_px: h.ceil() as u32,
+        fov_x_rad: 2.0 * (0.5 * w.ceil() / f).atan(),
+        ..*camera
+    }
+}
+
 /// Vertices of the bounded polytope ∩ half-spaces (every feasible intersection of three
 /// planes). Empty when the polytope is empty or flat.
 pub(super) fn polytope_vertices(hs: &[HalfSpace]) -> Vec<DVec3> {

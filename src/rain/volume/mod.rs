@@ -252,18 +252,57 @@ impl RainVolume {
         wind: &Wind,
         params: &VolumeParams,
     ) -> Result<RainVolume> {
+        RainVolume::plan_moving(std::slice::from_ref(camera), 0.0, model, wind, params)
+    }
+
+    /// Plans the rain volume of a shot filmed by a moving camera, sampled at `path` (the
+    /// first at t = 0) with at most `step_rad` of turn between neighbouring samples: the far
+    /// distance is the farthest any sample sees rain, and the columns cover the envelope of
+    /// the frusta — each sample's, widened by half a step's turn and to its neighbours' widest
+    /// field of view, so the poses between samples are inside it too. The view volume and its
+    /// bands are those of the first camera; the drops per m³ are the same as for a still one.
+    pub fn plan_moving(
+        path: &[Camera],
+        step_rad: f64,
+        model: &RainModel,
+        wind: &Wind,
+        params: &VolumeParams,
+    ) -> Result<RainVolume> {
         params.validate()?;
-        if camera.width_px == 0
-            || camera.height_px == 0
-            || !(camera.fov_x_rad > 0.0 && camera.fov_x_rad < std::f64::consts::PI)
-            || !camera.position_m.is_finite()
-        {
+        let Some(camera) = path.first() else {
             return Err(Error::Parameter {
-                name: "--fov",
-                value: format!("{}°", camera.fov_x_rad.to_degrees()),
-                expected: "a field of view in (0°, 180°) and a non-empty picture".into(),
+                name: "camera",
+                value: "no pose".into(),
+                expected: "at least one camera pose".into(),
             });
+        };
+        for camera in path {
+            if camera.width_px == 0
+                || camera.height_px == 0
+                || !(camera.fov_x_rad > 0.0 && camera.fov_x_rad < std::f64::consts::PI)
+                || !camera.position_m.is_finite()
+            {
+                return Err(Error::Parameter {
+                    name: "--fov",
+                    value: format!("{}°", camera.fov_x_rad.to_degrees()),
+                    expected: "a field of view in (0°, 180°) and a non-empty picture".into(),
+                });
+            }
         }
+        let envelope: Vec<Camera> = if path.len() == 1 {
+            path.to_vec()
+        } else {
+            (0..path.len())
+                .map(|i| {
+                    let near = &path[i.saturating_sub(1)..(i + 2).min(path.len())];
+                    let f_px = near
+                        .iter()
+                        .map(Camera::focal_px)
+                        .fold(f64::INFINITY, f64::min);
+                    geometry::widened(&path[i], f_px, 0.5 * step_rad)
+                })
+                .collect()
+        };
         let dsd = &model.dsd;
         let (d_lo, d_hi) = dsd.range_mm();
         let density = dsd.number_density_per_m3();
@@ -280,14 +319,18 @@ impl RainVolume {
         );
         let slope = -wind.mean_mps / v_drawn.max(0.1);
         let near = params.near_m;
-        let far_visible = visible_far_m(camera, params, d_drawn, v_drawn, wind.mean_mps);
+        let far_visible = path
+            .iter()
+            .map(|c| visible_far_m(c, params, d_drawn, v_drawn, wind.mean_mps))
+            .fold(f64::NEG_INFINITY, f64::max);
         let far0 = far_visible.clamp((near + MIN_SPAN_M).min(params.far_max_m), params.far_max_m);
         let ground = params.ground_z_m;
         let mut far = far0;
         let mut grid = ColumnGrid::default();
         let mut budget_binds = false;
         if density > 0.0 {
-            grid = ColumnGrid::build(camera, near, far, ground, slope, params.max_columns);
+            grid =
+                ColumnGrid::build_envelope(&envelope, near, far, ground, slope, params.max_columns);
             let budget = params.budget as f64;
             if density * grid.volume_m3 > budget {
                 budget_binds = true;
@@ -314,7 +357,14 @@ impl RainVolume {
                     }
                     lo
                 };
-                grid = ColumnGrid::build(camera, near, far, ground, slope, params.max_columns);
+                grid = ColumnGrid::build_envelope(
+                    &envelope,
+                    near,
+                    far,
+                    ground,
+                    slope,
+                    params.max_columns,
+                );
             }
         }
         let expected_cols = density * grid.volume_m3;
