@@ -72,12 +72,20 @@ pub struct Muller2003 {
     moments: LatticeMoments,
     boundaries: Boundaries,
     particles: Particles,
+    // Scratch, rebuilt before each use: left out of checkpoints.
+    #[serde(skip)]
     grid: UniformGrid,
+    #[serde(skip)]
     permute_scratch: PermuteScratch,
+    #[serde(skip)]
     neighbours: NeighbourLists,
+    #[serde(skip)]
     pair_terms: Vec<[f32; 2]>,
+    #[serde(skip)]
     column_best: Vec<u32>,
+    #[serde(skip)]
     keep: Vec<bool>,
+    #[serde(skip)]
     fate: Vec<u8>,
     emitters: Vec<Emitter>,
     pending: Vec<NewParticle>,
