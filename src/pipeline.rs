@@ -857,7 +857,27 @@ impl RainCompositor {
 
     /// The uniforms, lights and depth of the frame shown at `t_s`, set on the compositor.
     fn prepare(&mut self, frame: &YuvFrame, t_s: f64) -> Result<RainParams> {
-        let (params, lights) = self.lighting.params(&self.rain, frame, t_s);
+        // Running water advances on its own thread beside the frame's light estimation (the
+        // other CPU task of a frame; neither reads the other), joined before its map goes up.
+        let ((params, lights), water) = match &self.puddles {
+            PuddleFeed::On(_) => {
+                let (puddles, rain, lighting) = (&mut self.puddles, &self.rain, &mut self.lighting);
+                std::thread::scope(|scope| {
+                    let water = std::thread::Builder::new()
+                        .name("water".into())
+                        .spawn_scoped(scope, || puddles.advance(frame.index, t_s));
+                    let light = lighting.params(rain, frame, t_s);
+                    (light, water.map(|w| w.join()))
+                })
+            }
+            _ => (
+                self.lighting.params(&self.rain, frame, t_s),
+                Ok(Ok(Ok(Vec::new()))),
+            ),
+        };
+        let mut hits = water
+            .map_err(Error::io("starting the water's thread"))?
+            .map_err(|_| Error::Gpu("the water's thread panicked".into()))??;
         self.compositor.set_lights(&lights);
         feed_depth(
             &mut self.depth,
@@ -866,13 +886,11 @@ impl RainCompositor {
             !self.depth_fed,
         )?;
         self.depth_fed = true;
-        self.puddles.feed(
-            &self.rain,
-            &mut self.compositor,
-            &mut self.depth,
-            frame.index,
-            t_s,
-        )?;
+        hits.extend(
+            self.puddles
+                .start(&self.rain, &mut self.depth, frame.index, t_s)?,
+        );
+        self.puddles.show(&mut self.compositor, &hits, t_s)?;
         Ok(params)
     }
 
@@ -997,62 +1015,79 @@ impl PuddleFeed {
         })))
     }
 
-    fn feed(
+    /// Builds the water at the first frame rendered (frame `index`, shown at `t_s`); returns the
+    /// impacts of the last ring life, for the ripples (none once running).
+    fn start(
         &mut self,
         rain: &RainSetup,
-        compositor: &mut Compositor,
         depth: &mut Option<DepthSource>,
         index: u64,
         t_s: f64,
-    ) -> Result<()> {
-        use crate::fluid::ripples::{RING_LIFE_S, keep_resolved_rings, rings_on_water};
-        let hits = match self {
-            PuddleFeed::Off => return Ok(()),
-            PuddleFeed::Pending(plan) => {
-                let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
-                let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
-                    log::warn!("--puddles: the picture shows no ground within reach; no puddles");
-                    *self = PuddleFeed::Off;
-                    return Ok(());
-                };
-                let hits =
-                    rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
-                let camera = plan.camera;
-                let far = FarRipples::new(&rain, &camera);
-                log::info!(
-                    "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them \
-                     water of RMS slope {:.3}",
-                    rain.flux_at(t_s),
-                    far.resolve_depth_m,
-                    (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
-                );
-                let run = PuddleRun {
-                    sim,
-                    rain,
-                    camera,
-                    far,
-                    fed_s: t_s,
-                    recent: Vec::new(),
-                    keep,
-                };
-                run.keep(index);
-                *self = PuddleFeed::On(Box::new(run));
-                hits
-            }
-            PuddleFeed::On(run) if t_s > run.fed_s => {
-                let hits = run
-                    .rain
-                    .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
-                run.sim.advance_to(t_s, &hits)?;
-                run.fed_s = t_s;
-                run.keep(index);
-                hits
-            }
-            PuddleFeed::On(_) => Vec::new(),
+    ) -> Result<Vec<crate::rain::volume::Impact>> {
+        use crate::fluid::ripples::RING_LIFE_S;
+        let PuddleFeed::Pending(plan) = self else {
+            return Ok(Vec::new());
         };
+        let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+        let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
+            log::warn!("--puddles: the picture shows no ground within reach; no puddles");
+            *self = PuddleFeed::Off;
+            return Ok(Vec::new());
+        };
+        let hits = rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
+        let camera = plan.camera;
+        let far = FarRipples::new(&rain, &camera);
+        log::info!(
+            "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them water of \
+             RMS slope {:.3}",
+            rain.flux_at(t_s),
+            far.resolve_depth_m,
+            (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
+        );
+        let run = PuddleRun {
+            sim,
+            rain,
+            camera,
+            far,
+            fed_s: t_s,
+            recent: Vec::new(),
+            keep,
+        };
+        run.keep(index);
+        *self = PuddleFeed::On(Box::new(run));
+        Ok(hits)
+    }
+
+    /// Feeds running water the rain that landed since the last frame and runs it to `t_s`
+    /// (frame `index`, kept if due); returns those impacts.
+    fn advance(&mut self, index: u64, t_s: f64) -> Result<Vec<crate::rain::volume::Impact>> {
+        let PuddleFeed::On(run) = self else {
+            return Ok(Vec::new());
+        };
+        if t_s <= run.fed_s {
+            return Ok(Vec::new());
+        }
+        let hits = run
+            .rain
+            .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
+        run.sim.advance_to(t_s, &hits)?;
+        run.fed_s = t_s;
+        run.keep(index);
+        Ok(hits)
+    }
+
+    /// The water map, the rings the picture resolves (with `hits`, the frame's new impacts) and
+    /// the far water's roughness at `t_s`, to the compositor.
+    fn show(
+        &mut self,
+        compositor: &mut Compositor,
+        hits: &[crate::rain::volume::Impact],
+        t_s: f64,
+    ) -> Result<()> {
+        use crate::fluid::ripples::{keep_resolved_rings, rings_on_water};
         if let PuddleFeed::On(run) = self {
             let water = run.sim.shown_depth();
-            keep_resolved_rings(&mut run.recent, &hits, t_s, &run.camera);
+            keep_resolved_rings(&mut run.recent, hits, t_s, &run.camera);
             compositor.set_water(&water)?;
             compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
             let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
