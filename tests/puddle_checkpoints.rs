@@ -168,30 +168,18 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
         s(&input),
     ]);
     let water = dir.path().join("water");
-    let render = |name: &str, rain: &str, extra: &[&str]| {
+    let render_from = |kept: &Path, name: &str, rain: &str, extra: &[&str]| {
         let out = dir.path().join(name);
         let log = ok(bin()
             .args([s(&input), "-o", s(&out), "--codec", "ffv1", "-v"])
-            .args([
-                "--rain",
-                rain,
-                "--seed",
-                "3",
-                "--cpu",
-                "--ground",
-                "horizon=0.4",
-            ])
-            .args([
-                "--pre-rain",
-                "240",
-                "--puddles",
-                "--puddle-particles",
-                "1500",
-            ])
-            .args(["--relief", "0.01", "--checkpoints", s(&water)])
+            .args(["--rain", rain, "--seed", "3", "--cpu"])
+            .args(["--ground", "horizon=0.4", "--pre-rain", "240", "--puddles"])
+            .args(["--puddle-particles", "1500", "--relief", "0.01"])
+            .args(["--checkpoints", s(kept)])
             .args(extra));
         (out, log)
     };
+    let render = |name: &str, rain: &str, extra: &[&str]| render_from(&water, name, rain, extra);
     let (whole, log) = render("whole.mkv", "30", &["--checkpoint-every", "10"]);
     assert!(
         start_of_water(&log).starts_with("from the clip's start"),
@@ -232,33 +220,7 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
         4,
         "frames 0, 25, 50, 75"
     );
-    let out = dir.path().join("late.mkv");
-    let log = ok(bin()
-        .args([s(&input), "-o", s(&out), "--codec", "ffv1", "-v"])
-        .args([
-            "--rain",
-            "30",
-            "--seed",
-            "3",
-            "--cpu",
-            "--ground",
-            "horizon=0.4",
-        ])
-        .args([
-            "--pre-rain",
-            "240",
-            "--puddles",
-            "--puddle-particles",
-            "1500",
-        ])
-        .args([
-            "--relief",
-            "0.01",
-            "--checkpoints",
-            s(&pass),
-            "--frames",
-            "52..",
-        ]));
+    let (out, log) = render_from(&pass, "late.mkv", "30", &["--frames", "52.."]);
     assert!(
         start_of_water(&log).starts_with("from the checkpoint of frame 50 "),
         "{log}"

@@ -60,47 +60,36 @@ fn glow_pass(
 impl YuvToRgb {
     /// Builds the pipeline and binds `r`.
     pub fn new(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
-        let (grid, glow, glow_bind) = glow_pass(device, r);
-        let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "main");
-        // Bindings as the entry point uses them: the table only the glow's pass reads.
-        let entries = [
-            (0, buffer(&r.frame_params)),
-            (1, view(&r.planes[0])),
-            (2, view(&r.planes[1])),
-            (3, view(&r.planes[2])),
-            (4, view(&r.canvas)),
-            (5, buffer(&r.rain_params)),
-            (6, buffer(&r.lights.list)),
-            (8, buffer(&grid)),
-        ]
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(Stage::YuvToRgb.name()),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
-        YuvToRgb {
-            pipeline,
-            bind,
-            glow,
-            glow_bind,
-            size: (r.frame.width, r.frame.height),
-        }
+        YuvToRgb::with_entry(device, r, "main")
     }
 
     /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
     /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6 and 8 only).
     pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
+        YuvToRgb::with_entry(device, r, "layer")
+    }
+
+    /// The stage with entry point `entry`, bound to what that entry point reads (the planes
+    /// only for `main`; the drop tables only the glow's pass reads).
+    fn with_entry(device: &wgpu::Device, r: &FrameResources, entry: &str) -> YuvToRgb {
         let (grid, glow, glow_bind) = glow_pass(device, r);
-        let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "layer");
-        let entries = [
+        let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, entry);
+        let planes = [
+            (1, view(&r.planes[0])),
+            (2, view(&r.planes[1])),
+            (3, view(&r.planes[2])),
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = [
             (0, buffer(&r.frame_params)),
             (4, view(&r.canvas)),
             (5, buffer(&r.rain_params)),
             (6, buffer(&r.lights.list)),
             (8, buffer(&grid)),
         ]
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
+        .into_iter()
+        .chain(planes.into_iter().filter(|_| entry == "main"))
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
+        .collect();
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(Stage::YuvToRgb.name()),
             layout: &pipeline.get_bind_group_layout(0),
