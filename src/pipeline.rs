@@ -863,21 +863,16 @@ impl RainCompositor {
             PuddleFeed::On(_) => {
                 let (puddles, rain, lighting) = (&mut self.puddles, &self.rain, &mut self.lighting);
                 std::thread::scope(|scope| {
-                    let water = std::thread::Builder::new()
-                        .name("water".into())
-                        .spawn_scoped(scope, || puddles.advance(frame.index, t_s));
-                    let light = lighting.params(rain, frame, t_s);
-                    (light, water.map(|w| w.join()))
+                    let water = scope.spawn(|| puddles.advance(frame.index, t_s));
+                    (lighting.params(rain, frame, t_s), water.join())
                 })
             }
             _ => (
                 self.lighting.params(&self.rain, frame, t_s),
-                Ok(Ok(Ok(Vec::new()))),
+                Ok(Ok(Vec::new())),
             ),
         };
-        let mut hits = water
-            .map_err(Error::io("starting the water's thread"))?
-            .map_err(|_| Error::Gpu("the water's thread panicked".into()))??;
+        let mut hits = water.map_err(|_| Error::Gpu("the water's thread panicked".into()))??;
         self.compositor.set_lights(&lights);
         feed_depth(
             &mut self.depth,
