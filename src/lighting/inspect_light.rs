@@ -40,6 +40,9 @@ pub struct LightReport {
     pub drop_radiance: Vec<[f64; 3]>,
     /// Drop radiance along each grid ray, the frame taken as it is.
     pub drop_radiance_without_recovery: Vec<[f64; 3]>,
+    /// Per pixel (row-major, the image's size): the 1-based index of its clipped region in
+    /// `regions`, 0 where the pixel is not clipped.
+    pub labels: Vec<u16>,
 }
 
 /// The light of `image` (an sRGB still, decoded to linear) seen through `camera`, and the drop
@@ -77,13 +80,38 @@ pub fn light_report(
         |x, y| image.pixels[y * w + x].map(f64::from),
     );
     let env_without_recovery = mapper.project_small(&stats.mean);
-    let (env, lights, regions) = match settings {
+    let (env, lights, regions, block_region) = match settings {
         Some(s) => {
             let r = recover(&stats, camera, &s);
-            (mapper.project_small(&r.remainder), r.lights, r.regions)
+            (
+                mapper.project_small(&r.remainder),
+                r.lights,
+                r.regions,
+                r.block_region,
+            )
         }
-        None => (env_without_recovery.clone(), Vec::new(), Vec::new()),
+        None => (
+            env_without_recovery.clone(),
+            Vec::new(),
+            Vec::new(),
+            vec![0; stats.mean.len()],
+        ),
     };
+    // A pixel belongs to the region of its block where one of its channels is clipped.
+    let labels = image
+        .pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let clipped = (0..3).any(|k| f64::from(p[k]) >= clip.threshold[k]);
+            let b = (i / w) / stats.block_px * stats.width + (i % w) / stats.block_px;
+            if clipped {
+                block_region[b].min(u32::from(u16::MAX)) as u16
+            } else {
+                0
+            }
+        })
+        .collect();
     let rtf = RtfSh::water(config.refractive_index, config.n_max, GPU_BANDS)?;
     let tables = rtf_tables(config)?;
     let (n, m) = grid;
@@ -113,6 +141,7 @@ pub fn light_report(
         positions_px,
         drop_radiance,
         drop_radiance_without_recovery: without,
+        labels,
     })
 }
 
@@ -200,7 +229,7 @@ pub fn plot_light(
         }
     }
     for reg in &report.regions {
-        if reg.kind == super::recovery::RegionKind::Extended {
+        if !reg.light {
             let [x, y] = reg.centre_px;
             for d in -5..=5 {
                 put(x + d as f64, y, [40, 230, 230]);

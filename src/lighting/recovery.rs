@@ -10,47 +10,50 @@
 //!    environment's input), the fraction of samples whose channel sits at the frame's own ceiling
 //!    (within [`CLIP_TOLERANCE_CODES`] code values, per channel), so clipping is seen before the
 //!    block average smears it.
-//! 2. **Regions**: connected components (8-neighbour) of blocks holding clipped samples, with
-//!    their clipped solid angle `Ω_clip = Σ f_b Ω_b` through the pinhole model and the level of
-//!    the unclipped ring around them.
-//! 3. **Classes**: a region whose clipped solid angle is at most [`COMPACT_MAX_SR`] (a disc of
-//!    ≈ 9°), or at most [`EMITTER_MAX_SR`] (≈ 20°) with an unclipped ring darker than
-//!    [`EMITTER_RING_CONTRAST`] × the clip level, is a *compact source* (sun, lamp, window, a
-//!    softbox against a dark studio); any other is *extended* (bright sky, a sunlit wall, which
-//!    fade into surroundings near the clip level).
-//! 4. **Compact sources: an exposure-anchored illuminance prior.** The camera's exposure puts
-//!    a mid-grey surface near the frame's median luminance `L_med`, so the illuminance on the
-//!    scene's typical surfaces is `E = π L_med / a` (grey-world albedo `a` = 0.18, Lambert). The
-//!    compact sources deliver, at the camera, an illuminance of the same order: the sun gives
-//!    ≈ 10× the sky's diffuse light at high elevation and ≈ 1× near the horizon; a street lamp
-//!    lights the road about as much as it lights a camera at a similar distance. Their total
-//!    `Σ L Ω` is set to [`SOURCE_ILLUMINANCE_RATIO`] (3, the geometric middle of 1–10) times
-//!    `E`, shared in proportion to their clipped solid angles (a source's bloom grows with its
-//!    flux); each source's radiance is that flux over its clipped solid angle, never below the
-//!    clip level, and at most [`MAX_GAIN`] times it. Because the prior is on flux (`L Ω`) rather
-//!    than radiance, it does not depend on the picture's resolution or on how far the bloom
-//!    spread the clipped area. The [`MAX_RECOVERED_LIGHTS`] largest become [`LightSource`]s;
-//!    every compact region's blocks are replaced in the environment by the ring's level, and
-//!    the smaller ones add their flux to the nearest light: a compact source's light stays in
-//!    its direction, where the environment's fill outside the view would copy a window at the
-//!    picture's edge over the sphere behind and beside the camera and multiply its flux many
-//!    times (on a night skyline, 0.16 sr of recovered windows became ≈ 3.5 over the sphere and
-//!    veiled the whole frame). Clipped samples keep their measured colour (a sodium lamp
-//!    clipped in red and green stays yellow), scaled by the gain.
+//! 2. **Regions and kinds**: connected components (8-neighbour) of blocks holding clipped
+//!    samples, with their clipped solid angle `Ω_clip = Σ f_b Ω_b` through the pinhole model and
+//!    the level of the unclipped ring around them. A region is a **surface** unless the evidence
+//!    says emitter:
+//!    - a **lamp** is compact (at most [`EMITTER_MAX_SR`]) and stands in a dark place: its ring
+//!      is darker than [`EMITTER_RING_CONTRAST`] × the clip level, and, unless the whole frame
+//!      is dark (a median below [`NIGHT_MEDIAN_OVER_CLIP`] of white), it is above the horizon
+//!      with a ring darker than [`DARK_SURROUND_OVER_MEDIAN`] × the frame's median (a white roof
+//!      on asphalt in daylight has the scene's typical luminance around it, a lamp does not);
+//!      more lamps than [`MAX_RECOVERED_LIGHTS`] are a field of lit **windows**;
+//!    - with no lamp, the **sun** is in the largest clipped region above the horizon, when that
+//!      holds at least [`SUN_MIN_SR`] (its glare clips several degrees) and its surroundings
+//!      are no brighter than [`SUN_SURROUND_OVER_MEDIAN`] × the median;
+//!    - any other region above the horizon larger than [`COMPACT_MAX_SR`] is **sky**.
+//! 3. **Radiance.** The exposure anchors it: the camera puts a mid-grey surface near the frame's
+//!    median luminance `L_med`, so the illuminance on the scene's typical surfaces is
+//!    `E = π L_med / a` (grey-world albedo `a` = [`GREY_ALBEDO`], Lambert).
+//!    - A **surface** reflects at most the light that falls on it: never more than
+//!      [`SURFACE_BOUND_OVER_MEDIAN`] × `L_med` (snow in full sun against shade; ≈ 10× the
+//!      frame's white in daylight exposed for mid-grey, less the darker the frame), and its
+//!      clipped samples are taken at the mean of the histogram's bright tail above the clip,
+//!      [`SURFACE_OVER_CLIP`] × the clip level, less where the region only grazes the clip.
+//!    - **Sky**: the CIE standard overcast sky, `L(z) ∝ (1 + 2 cos z)/3` with `z` the zenith
+//!      angle, fitted to the unclipped ring and extrapolated into the clipped blocks, at least
+//!      the surface estimate and at most its bound.
+//!    - The **sun** region is sky, and the key light's flux `Φ = k E` (`k` =
+//!      [`KEY_LIGHT_ILLUMINANCE_RATIO`]) becomes a light source at its core (the blocks farthest
+//!      from the unclipped surroundings), in the colour of the clipped samples there: the
+//!      region is no longer flattened to white, and its flux does not depend on how far the
+//!      glare spread.
+//!    - **Lamps** share the key light's flux in proportion to their clipped solid angles (a
+//!      source's bloom grows with its flux); each becomes a light source, and its blocks are
+//!      replaced in the environment by the ring's level: the environment's fill outside the view
+//!      would copy a lamp at the picture's edge over the sphere behind and beside the camera and
+//!      multiply its flux many times. The [`MAX_RECOVERED_LIGHTS`] largest become lights; the
+//!      smaller ones add their flux to the nearest.
+//!    - **Windows** are not the scene's key light (they light little of what the camera sees):
+//!      each gets the typical luminance of a lit window, [`EMITTER_OVER_MEAN_AT_NIGHT`] times
+//!      the frame's median.
 //!
-//!    **More compact regions than lights: a field of emitters.** Lit windows and signs on a
-//!    night skyline are not the scene's key light (they light little of what the camera sees),
-//!    so the flux prior does not hold for them: each gets the typical luminance of a lit window,
-//!    [`EMITTER_OVER_MEAN_AT_NIGHT`] times the frame's median luminance.
-//! 5. **Extended regions: the CIE standard overcast sky**, `L(z) ∝ (1 + 2 cos z)/3` with `z`
-//!    the zenith angle, fitted to the unclipped ring of the region and extrapolated into its
-//!    clipped blocks (never below the clip level; a region with no ring stays at the clip
-//!    level). Sky gradients are gentle (3:1 from zenith to horizon), so this restores at most a
-//!    few times the clip level, which is what an unclipped sky next to the region allows.
-//!    Both estimates are luminances; the clipped samples keep their measured colour, scaled to
-//!    reach them.
-//! 6. `highlight_gain` replaces steps 4–5 by a fixed factor: every clipped sample becomes `G ×`
-//!    its own value, compact regions still becoming lights.
+//!    Clipped samples keep their measured colour (a sodium lamp clipped in red and green stays
+//!    yellow), scaled to reach the estimated luminance.
+//! 4. `highlight_gain` replaces step 3 by a fixed factor: every clipped sample becomes `G ×` its
+//!    own value, lamps still becoming lights.
 //!
 //! A frame without clipped samples comes back unchanged (the same thumbnail, no lights).
 //!
@@ -60,7 +63,8 @@
 //!   at the clip level (the light of the frame as it is), no lights.
 //! - **All black**: nothing clipped. A lamp in an otherwise black frame gets its flux from
 //!   [`MIN_MEDIAN_LUMINANCE`], small and finite.
-//! - **One huge clipped region**: extended; the sky model raises it at most to 3× its ring.
+//! - **One huge clipped region**: sky, or surface below the horizon; never above the surface
+//!   bound unless it holds the sun, whose flux is bounded by the exposure.
 //! - **A lamp at the picture's edge**: still compact, in the direction of its visible part.
 //! - **PQ / HLG**: only samples at the code-value ceiling are clipped; values above diffuse
 //!   white below it are real light and pass unchanged; a stream tagged PQ or HLG is HDR input
@@ -96,8 +100,39 @@ pub const EMITTER_RING_CONTRAST: f64 = 0.25;
 /// Most compact regions turned into light sources per frame; smaller ones add their flux to
 /// the nearest of them.
 pub const MAX_RECOVERED_LIGHTS: usize = 16;
-/// Illuminance of all compact sources at the camera over the illuminance on typical surfaces.
-pub const SOURCE_ILLUMINANCE_RATIO: f64 = 3.0;
+/// Illuminance the key light (the sun, or the lamps together) gives at the camera over the
+/// illuminance on the surfaces the exposure is set for. A camera facing the sun receives its
+/// direct beam at normal incidence, a typical surface at about 60° plus the sky's fill: of the
+/// same order. 1 is the middle of the range the panoramas of `tests/data` span (region table in
+/// `docs/method.md`); 3 over-brightens the sun's region by ≈ 1.6 stops there.
+pub const KEY_LIGHT_ILLUMINANCE_RATIO: f64 = 1.0;
+/// Luminance of a typical clipped lit surface over the clip level. Surfaces lit by the same
+/// light fill the bright end of a frame's histogram with a tail that falls roughly as a power
+/// law of exponent α ≈ 2–3; the mean of such a tail above a threshold is α/(α − 1) = 1.5–2
+/// times the threshold, whatever the exposure. Scaled toward the clip level by the region's
+/// clipped fraction (a region only grazing the clip lies just above it) and by its whiteness (a
+/// sample clipped in one channel only has its other channels well below the clip).
+pub const SURFACE_OVER_CLIP: f64 = 2.0;
+/// The most a clipped surface may be over the frame's median: the whitest surfaces (fresh
+/// snow, albedo 0.9) over grey, ≈ 5, times sun plus sky over the typical light, ≤ 11.
+pub const SURFACE_BOUND_OVER_MEDIAN: f64 = 55.0;
+/// Surroundings of a lamp are at most this fraction of the frame's median luminance: an
+/// emitter stands in a place darker than the scene's typical surfaces (a white roof on asphalt
+/// in daylight does not: its surroundings are the scene's typical luminance).
+pub const DARK_SURROUND_OVER_MEDIAN: f64 = 0.25;
+/// Surroundings of the sun's region are at most this multiple of the frame's median: the
+/// glare and the bright sky next to the sun are clipped with it, so what is left unclipped
+/// around it is the sky and the scene farther off, darker than the glare's edge; a bright
+/// surface against a brighter sky (a facade, a cloud bank) has more light around it.
+pub const SUN_SURROUND_OVER_MEDIAN: f64 = 1.0;
+/// A frame whose median luminance is at most this fraction of its white is a night (or dark
+/// interior) scene, exposed well under mid-grey: its clipped compact regions against dark
+/// surroundings are lamps whatever the median.
+pub const NIGHT_MEDIAN_OVER_CLIP: f64 = 0.05;
+/// Smallest clipped solid angle of a region holding the sun, steradians (a disc of ≈ 6.5°):
+/// the sun is 10⁵–10⁶ times a mid-grey exposure, so a lens's glare clips several degrees
+/// around it; a smaller clipped patch in the sky is a cloud's edge or a surface.
+pub const SUN_MIN_SR: f64 = 0.05;
 /// Luminance of a lit window or sign over the scene's typical luminance at night (the frame's
 /// median, where the exposure puts it): office windows and shop fronts are 30–300 cd/m²
 /// (interiors at 300–500 lx seen through glass; guidance on illuminated signs keeps them to a
@@ -242,20 +277,31 @@ pub struct RecoverySettings {
     pub highlight_gain: Option<f64>,
 }
 
-/// The class of a clipped region.
+/// What a clipped region is taken to be.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RegionKind {
-    /// Small solid angle: becomes a light source.
-    Compact,
-    /// Large solid angle: stays in the environment, extrapolated by the sky model.
-    Extended,
+    /// A lit surface (a sunlit wall, a white roof, snow, a cloud's edge): a few times the clip
+    /// level at most, kept in the environment.
+    Surface,
+    /// A large clipped region above the horizon: the overcast gradient of its surroundings,
+    /// kept in the environment.
+    Sky,
+    /// The sky region that holds the sun: the sky, plus the key light's flux as a light
+    /// source at its core.
+    Sun,
+    /// A compact emitter against dark surroundings (a lamp, a softbox): a light source sharing
+    /// the key light's flux.
+    Lamp,
+    /// One of more emitters than lights (lit windows and signs of a night skyline): a light
+    /// source at the luminance of a lit window.
+    Window,
 }
 
 /// One connected clipped region and what recovery made of it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Region {
-    /// Compact or extended.
+    /// What the region is taken to be.
     pub kind: RegionKind,
     /// Blocks in the region.
     pub blocks: usize,
@@ -272,6 +318,10 @@ pub struct Region {
     pub light: bool,
     /// Recovered radiance of the clipped samples over the clip level (1 = nothing added).
     pub gain: f64,
+    /// Recovered mean radiance of the region's clipped samples, linear RGB, frame units.
+    pub radiance_rgb: [f64; 3],
+    /// Mean luminance of the unclipped surroundings, frame units (0 with none).
+    pub surround_luminance: f64,
 }
 
 /// What recovery returns for one frame.
@@ -284,6 +334,8 @@ pub struct Recovered {
     pub remainder: Vec<[f32; 3]>,
     /// The clipped regions found.
     pub regions: Vec<Region>,
+    /// Per block: the 1-based index of its region in `regions`, 0 where nothing is clipped.
+    pub block_region: Vec<u32>,
 }
 
 /// Geometry of the blocks through the camera.
@@ -363,11 +415,60 @@ fn overcast(dir: DVec3) -> f64 {
 
 /// Recovers the clipped light of one frame (module doc). `stats` must come from a frame seen
 /// through `camera`.
+/// Chessboard distance, in blocks, from each block to the nearest unclipped block of the
+/// picture (the picture's border is not a boundary: a region cut by it may go on beyond it).
+fn distance_to_unclipped(w: usize, h: usize, mask: &[bool]) -> Vec<u32> {
+    let mut dist = vec![u32::MAX; w * h];
+    let mut queue: std::collections::VecDeque<usize> = (0..w * h).filter(|&b| !mask[b]).collect();
+    for &b in &queue {
+        dist[b] = 0;
+    }
+    while let Some(b) = queue.pop_front() {
+        let (x, y) = ((b % w) as isize, (b / w) as isize);
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
+                    continue;
+                }
+                let n = ny as usize * w + nx as usize;
+                if dist[n] == u32::MAX {
+                    dist[n] = dist[b] + 1;
+                    queue.push_back(n);
+                }
+            }
+        }
+    }
+    dist
+}
+
+/// One clipped region while it is being classified.
+struct Candidate {
+    blocks: Vec<usize>,
+    /// Clipped solid angle `Σ f_b Ω_b`, and that of the blocks whole.
+    omega_clip: f64,
+    omega_blocks: f64,
+    centre: DVec2,
+    dir: DVec3,
+    ring: Vec<usize>,
+    ring_mean: Option<[f64; 3]>,
+    touches_edge: bool,
+}
+
+impl Candidate {
+    fn ring_luminance(&self) -> f64 {
+        self.ring_mean.map_or(0.0, luminance)
+    }
+}
+
+/// Recovers the clipped light of one frame (module doc). `stats` must come from a frame seen
+/// through `camera`.
 pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings) -> Recovered {
     let mut remainder = stats.mean.clone();
     if !stats.any_clipped() {
         return Recovered {
             lights: Vec::new(),
+            block_region: vec![0; remainder.len()],
             remainder,
             regions: Vec::new(),
         };
@@ -383,34 +484,29 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         .map(|b| stats.clipped_fraction(b) > 0.0)
         .collect();
     let clip_lum = luminance(stats.clip.level).max(1e-12);
-    // The exposure anchor: the frame's median luminance.
+    // The exposure anchor: the frame's median luminance, and the illuminance on the surfaces
+    // the exposure is set for.
     let mut sorted = lum.clone();
     sorted.sort_by(f64::total_cmp);
     let l_med = sorted[sorted.len() / 2].max(MIN_MEDIAN_LUMINANCE);
     let e_frame = std::f64::consts::PI * l_med / GREY_ALBEDO;
+    let key_flux = KEY_LIGHT_ILLUMINANCE_RATIO * e_frame;
+    // What a clipped surface is taken to be, and the most it may be (module doc, step 3).
+    let surface_bound = (SURFACE_BOUND_OVER_MEDIAN * l_med).max(clip_lum);
+    let surface_typical = (SURFACE_OVER_CLIP * clip_lum).min(surface_bound);
 
-    struct Comp {
-        blocks: Vec<usize>,
-        omega_clip: f64,
-        centre: DVec2,
-        dir: DVec3,
-        ring: Vec<usize>,
-        ring_mean: Option<[f64; 3]>,
-        compact: bool,
-        touches_edge: bool,
-    }
-    let comps: Vec<Comp> = components(w, h, &mask)
+    let cands: Vec<Candidate> = components(w, h, &mask)
         .into_iter()
         .map(|blocks| {
             let mut omega_clip = 0.0;
-            let mut omega_all = 0.0;
+            let mut omega_blocks = 0.0;
             let mut dir = DVec3::ZERO;
             let mut centre = DVec2::ZERO;
             let mut touches_edge = false;
             for &b in &blocks {
                 let f = stats.clipped_fraction(b);
                 omega_clip += f * geo.solid_angle_sr[b];
-                omega_all += geo.solid_angle_sr[b];
+                omega_blocks += geo.solid_angle_sr[b];
                 dir += f * geo.solid_angle_sr[b] * geo.dir[b];
                 centre += f * geo.solid_angle_sr[b] * geo.centre_px[b];
                 let (x, y) = (b % w, b / w);
@@ -420,7 +516,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             let centre = centre / omega_clip.max(1e-300);
             // The unclipped ring: blocks within three equivalent radii of the centroid (at
             // least two blocks' width), outside the region.
-            let r_eq = (omega_all / std::f64::consts::PI).sqrt();
+            let r_eq = (omega_blocks / std::f64::consts::PI).sqrt();
             let block_rad = geo.solid_angle_sr[blocks[0]].sqrt();
             let cos_ring = (3.0 * r_eq).max(2.5 * block_rad).min(1.5).cos();
             let ring: Vec<usize> = (0..w * h)
@@ -433,83 +529,119 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
                 }
                 acc.map(|v| v / ring.len() as f64)
             });
-            // An emitter: small, or moderately large but standing out against darker
-            // surroundings (a luminaire, a window at night); a bright sky or a sunlit wall
-            // fades into surroundings near the clip level instead.
-            let dark_ring =
-                ring_mean.is_some_and(|m| luminance(m) <= EMITTER_RING_CONTRAST * clip_lum);
-            let compact =
-                omega_clip <= COMPACT_MAX_SR || (omega_clip <= EMITTER_MAX_SR && dark_ring);
-            Comp {
+            Candidate {
                 blocks,
                 omega_clip,
+                omega_blocks,
                 centre,
                 dir,
                 ring,
                 ring_mean,
-                compact,
                 touches_edge,
             }
         })
         .collect();
 
-    let total_compact_omega: f64 = comps
-        .iter()
-        .filter(|c| c.compact)
-        .map(|c| c.omega_clip)
-        .sum();
-    // The largest compact regions (largest flux under the prior) become lights.
-    let mut order: Vec<usize> = (0..comps.len()).filter(|&i| comps[i].compact).collect();
-    order.sort_by(|&a, &b| {
-        comps[b]
+    // Step 2: the kinds. Lamps and windows: compact, above the horizon, against surroundings
+    // dark both next to the clip level and next to the scene's typical luminance.
+    let night = l_med <= NIGHT_MEDIAN_OVER_CLIP * clip_lum;
+    let is_lamp = |c: &Candidate| {
+        let ring = c.ring_luminance();
+        c.omega_clip <= EMITTER_MAX_SR
+            && ring <= EMITTER_RING_CONTRAST * clip_lum
+            && (night || (c.dir.z > 0.0 && ring <= DARK_SURROUND_OVER_MEDIAN * l_med))
+    };
+    let mut lamps: Vec<usize> = (0..cands.len()).filter(|&i| is_lamp(&cands[i])).collect();
+    lamps.sort_by(|&a, &b| {
+        cands[b]
             .omega_clip
-            .total_cmp(&comps[a].omega_clip)
+            .total_cmp(&cands[a].omega_clip)
             .then(a.cmp(&b))
     });
-    let mut as_light = vec![false; comps.len()];
-    for &i in order.iter().take(MAX_RECOVERED_LIGHTS) {
+    // More emitters than lights: a field of windows and signs.
+    let emitter_field = lamps.len() > MAX_RECOVERED_LIGHTS;
+    // The sun, where no lamp is the key light: the largest clipped region above the horizon,
+    // if it is as large as the sun's clipped glare.
+    let sun = if lamps.is_empty() && settings.highlight_gain.is_none() {
+        (0..cands.len())
+            .filter(|&i| {
+                cands[i].dir.z > 0.0
+                    && cands[i].omega_clip >= SUN_MIN_SR
+                    && cands[i].ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
+            })
+            .max_by(|&a, &b| cands[a].omega_clip.total_cmp(&cands[b].omega_clip))
+    } else {
+        None
+    };
+    let kind_of = |i: usize| -> RegionKind {
+        if lamps.contains(&i) {
+            if emitter_field {
+                RegionKind::Window
+            } else {
+                RegionKind::Lamp
+            }
+        } else if sun == Some(i) {
+            RegionKind::Sun
+        } else if cands[i].dir.z > 0.0 && cands[i].omega_clip > COMPACT_MAX_SR {
+            RegionKind::Sky
+        } else {
+            RegionKind::Surface
+        }
+    };
+    let total_lamp_omega: f64 = lamps.iter().map(|&i| cands[i].omega_clip).sum();
+    let mut as_light = vec![false; cands.len()];
+    for &i in lamps.iter().take(MAX_RECOVERED_LIGHTS) {
         as_light[i] = true;
     }
-    // More emitters than lights: a field of windows and signs that light little of the scene,
-    // not its key light; each gets the typical luminance of one (see
-    // EMITTER_OVER_MEAN_AT_NIGHT) rather than a share of the key light's flux.
-    let emitter_field = order.len() > MAX_RECOVERED_LIGHTS;
+    let dist = distance_to_unclipped(w, h, &mask);
+
     let mut lights = Vec::new();
-    // Compact regions that did not become lights: (direction, flux).
+    // Lamps that did not become lights: (direction, flux).
     let mut leftovers: Vec<(DVec3, [f64; 3])> = Vec::new();
     let mut regions = Vec::new();
-    for (ci, c) in comps.iter().enumerate() {
-        let (compact, ring_mean) = (c.compact, c.ring_mean);
-        let light = as_light[ci];
-        // Radiance of a clipped sample over the clip level, per block.
-        let gain_of = |b: usize| -> f64 {
-            if let Some(g) = settings.highlight_gain {
-                return g;
-            }
-            if compact && emitter_field {
-                (EMITTER_OVER_MEAN_AT_NIGHT * l_med / clip_lum).clamp(1.0, MAX_GAIN)
-            } else if compact {
-                let flux = SOURCE_ILLUMINANCE_RATIO * e_frame * c.omega_clip
-                    / total_compact_omega.max(1e-300);
-                (flux / c.omega_clip.max(1e-300) / clip_lum).clamp(1.0, MAX_GAIN)
-            } else {
-                // Overcast gradient fitted to the ring (mean of L/g over its blocks).
-                let fit: Vec<f64> = c
-                    .ring
-                    .iter()
-                    .filter(|&&r| geo.dir[r].z > 0.0)
-                    .map(|&r| lum[r] / overcast(geo.dir[r]))
-                    .collect();
-                if fit.is_empty() {
-                    return 1.0;
+    let mut block_region = vec![0u32; w * h];
+    for (ci, c) in cands.iter().enumerate() {
+        let kind = kind_of(ci);
+        let emitter = matches!(kind, RegionKind::Lamp | RegionKind::Window);
+        // Step 3: the luminance of a clipped sample, per block.
+        let sky_fit = || -> Option<f64> {
+            let fit: Vec<f64> = c
+                .ring
+                .iter()
+                .filter(|&&r| geo.dir[r].z > 0.0)
+                .map(|&r| lum[r] / overcast(geo.dir[r]))
+                .collect();
+            (!fit.is_empty()).then(|| fit.iter().sum::<f64>() / fit.len() as f64)
+        };
+        let sky_zenith = sky_fit();
+        let fill = (c.omega_clip / c.omega_blocks.max(1e-300)).clamp(0.0, 1.0);
+        let target_lum = |b: usize| -> f64 {
+            match kind {
+                RegionKind::Window => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
+                RegionKind::Lamp => {
+                    key_flux * c.omega_clip
+                        / total_lamp_omega.max(1e-300)
+                        / c.omega_clip.max(1e-300)
                 }
-                let lz = fit.iter().sum::<f64>() / fit.len() as f64;
-                (lz * overcast(geo.dir[b]) / clip_lum).clamp(1.0, MAX_GAIN)
+                RegionKind::Sky | RegionKind::Sun => {
+                    let fit = sky_zenith.map_or(clip_lum, |lz| lz * overcast(geo.dir[b]));
+                    fit.max(clip_lum + (surface_typical - clip_lum) * fill)
+                        .min(surface_bound)
+                }
+                RegionKind::Surface => clip_lum + (surface_typical - clip_lum) * fill,
             }
+            .min(if c.ring_mean.is_some() {
+                f64::INFINITY
+            } else {
+                // Nothing unclipped around it: no evidence of anything above the clip.
+                clip_lum
+            })
         };
         let mut gain_sum = 0.0;
+        let mut rad_acc = [0.0f64; 3];
+        let mut rad_w = 0.0;
         let mut flux = [0.0f64; 3];
-        let surround = ring_mean.unwrap_or([0.0; 3]);
+        let surround = c.ring_mean.unwrap_or([0.0; 3]);
         for &b in &c.blocks {
             // The estimates are luminances: the gain on the clipped samples' own colour that
             // reaches it (a coloured clip has less luminance than the white level).
@@ -517,19 +649,28 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             let g = match settings.highlight_gain {
                 Some(g) => g,
                 None => {
-                    let to_lum = (clip_lum / colour_lum.max(0.25 * clip_lum)).max(1.0);
-                    (gain_of(b) * to_lum).min(MAX_GAIN)
+                    let white = (colour_lum / clip_lum).clamp(0.25, 1.0);
+                    let g = target_lum(b) / clip_lum;
+                    if kind == RegionKind::Surface {
+                        // A sample clipped in one channel only lies near the clip: its other
+                        // channels are well below it.
+                        1.0 + (g - 1.0).max(0.0) * white
+                    } else {
+                        (g / white).clamp(1.0, MAX_GAIN)
+                    }
                 }
             };
             gain_sum += g;
+            block_region[b] = regions.len() as u32 + 1;
+            let fw = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
+            rad_w += fw;
+            (0..3).for_each(|k| rad_acc[k] += fw * g * f64::from(stats.clipped_colour[b][k]));
             // The clipped samples keep their colour, scaled by the gain.
             let m: [f64; 3] = std::array::from_fn(|k| {
                 f64::from(stats.mean[b][k])
-                    + f64::from(stats.clipped[b])
-                        * (g - 1.0)
-                        * f64::from(stats.clipped_colour[b][k])
+                    + stats.clipped_fraction(b) * (g - 1.0) * f64::from(stats.clipped_colour[b][k])
             });
-            if compact {
+            if emitter {
                 for k in 0..3 {
                     flux[k] += (m[k] - surround[k]).max(0.0) * geo.solid_angle_sr[b];
                 }
@@ -538,10 +679,34 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
                 remainder[b] = m.map(|v| v as f32);
             }
         }
-        let gain = gain_sum / c.blocks.len() as f64;
-        if compact && !light {
+        let mut radiance_rgb = rad_acc.map(|v| v / rad_w.max(1e-300));
+        if kind == RegionKind::Sun {
+            // The sun's flux, at the core of the region: the blocks farthest from its unclipped
+            // surroundings, in the colour of their clipped samples.
+            let d_max = c.blocks.iter().map(|&b| dist[b]).max().unwrap_or(0);
+            let mut core_dir = DVec3::ZERO;
+            let mut colour = [0.0f64; 3];
+            for &b in c.blocks.iter().filter(|&&b| dist[b] + 1 >= d_max) {
+                let wgt = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
+                core_dir += wgt * geo.dir[b];
+                (0..3).for_each(|k| colour[k] += wgt * f64::from(stats.clipped_colour[b][k]));
+            }
+            let colour_lum = luminance(colour).max(1e-300);
+            let solid_angle_sr = c.omega_clip.min(COMPACT_MAX_SR);
+            let sun_rgb = colour.map(|v| key_flux * v / colour_lum);
+            lights.push(LightSource {
+                direction_world: core_dir.normalize_or(c.dir),
+                solid_angle_sr,
+                radiance_rgb: sun_rgb.map(|v| v / solid_angle_sr),
+                distance_m: None,
+            });
+            for k in 0..3 {
+                radiance_rgb[k] += sun_rgb[k] / c.omega_clip.max(1e-300);
+            }
+        }
+        if emitter && !as_light[ci] {
             leftovers.push((c.dir, flux));
-        } else if light && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
+        } else if emitter && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
             lights.push(LightSource {
                 direction_world: c.dir,
                 solid_angle_sr: c.omega_clip,
@@ -550,24 +715,22 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             });
         }
         regions.push(Region {
-            kind: if compact {
-                RegionKind::Compact
-            } else {
-                RegionKind::Extended
-            },
+            kind,
             blocks: c.blocks.len(),
             clipped_solid_angle_sr: c.omega_clip,
             centre_px: c.centre.to_array(),
             direction_world: c.dir.to_array(),
             touches_edge: c.touches_edge,
-            light,
-            gain,
+            light: as_light[ci] || kind == RegionKind::Sun,
+            gain: gain_sum / c.blocks.len() as f64,
+            radiance_rgb,
+            surround_luminance: c.ring_luminance(),
         });
     }
-    // A compact source's light must stay where it is: in the environment, the frame's fill
-    // outside the view would copy a window at the picture's edge over the sphere behind and
-    // beside the camera and multiply its flux many times. So the small ones join the nearest
-    // light, flux conserved (on a skyline, a window beside its neighbour).
+    // A lamp's light must stay where it is: in the environment, the frame's fill outside the
+    // view would copy a window at the picture's edge over the sphere behind and beside the
+    // camera and multiply its flux many times. So the small ones join the nearest light, flux
+    // conserved (on a skyline, a window beside its neighbour).
     for (dir, flux) in leftovers {
         let nearest = lights.iter_mut().max_by(|a, b| {
             a.direction_world
@@ -588,5 +751,6 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         lights,
         remainder,
         regions,
+        block_region,
     }
 }
