@@ -109,7 +109,7 @@ fn shade(id: vec2<u32>, layer: bool) {
     if cover <= 0.0 { return; }
     let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
     let c = picture_at(vec2<i32>(id));
-    let t = rain.haze.w;
+    let t = haze_transmittance(id);
     let scene = plate_linear(id);
     let e = irradiance_up(rain.env_sh);
     let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
@@ -125,14 +125,14 @@ fn shade(id: vec2<u32>, layer: bool) {
     if layer {
         let held = textureLoad(picture, id, 0);
         let m = t * k;
-        let added = in_scatter(id) + t * r * seen;
+        let added = in_scatter(id, t) + t * r * seen;
         let f = (1.0 - a) * (1.0 - held.a) + a * m;
         let kept = clamp(min(f.x, min(f.y, f.z)), 0.0, 1.0);
         textureStore(canvas, id, vec4<f32>((1.0 - a) * held.rgb + a * added + scene * (f - kept), 1.0 - kept));
         return;
     }
     let change = (k - 1.0) * scene + r * seen;
-    let water = scene * t + in_scatter(id) + t * change;
+    let water = scene * t + in_scatter(id, t) + t * change;
     textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
 }
 

@@ -40,7 +40,7 @@ fn wet_at(p: vec2<u32>) -> Wet {
     let d = normalize(ray);
     if d.z >= 0.0 || rain.camera_pos_m.z <= 0.0 { return Wet(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0)); }
     let scene = plate_linear(p);
-    let t = rain.haze.w;
+    let t = haze_transmittance(p);
     let e = irradiance_up(rain.env_sh);
     let albedo = select(vec3<f32>(0.0), clamp(PI * scene / e, vec3<f32>(0.0), vec3<f32>(1.0)), e > vec3<f32>(0.0));
     let cos_view = -d.z;
@@ -52,7 +52,7 @@ fn wet_at(p: vec2<u32>) -> Wet {
     let ground_z_m = rain.camera_pos_m.z / -ray.z;
     let shown = ground_shown(scene_depth_m(vec2<f32>(p) + vec2<f32>(0.5)), ground_z_m);
     let w = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown;
-    return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p) + w * t * r * sky);
+    return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p, t) + w * t * r * sky);
 }
 
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)

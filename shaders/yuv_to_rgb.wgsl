@@ -29,7 +29,8 @@ fn glow(@builtin(global_invocation_id) id: vec3<u32>) {
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
-    textureStore(canvas, id.xy, vec4<f32>(plate_linear(id.xy) * rain.haze.w + in_scatter(id.xy) + haze_glow(id.xy), 1.0));
+    let t = haze_transmittance(id.xy);
+    textureStore(canvas, id.xy, vec4<f32>(plate_linear(id.xy) * t + in_scatter(id.xy, t) + haze_glow(id.xy, t), 1.0));
 }
 
 // The rain layer's starting canvas: the haze alone, premultiplied over nothing (colour
@@ -37,5 +38,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
 fn layer(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
-    textureStore(canvas, id.xy, vec4<f32>(in_scatter(id.xy) + haze_glow(id.xy), 1.0 - rain.haze.w));
+    let t = haze_transmittance(id.xy);
+    textureStore(canvas, id.xy, vec4<f32>(in_scatter(id.xy, t) + haze_glow(id.xy, t), 1.0 - t));
 }

@@ -68,12 +68,16 @@ pub fn light(
     grid: (usize, usize),
     light: &LightConfig,
     plot: Option<&Path>,
+    labels: Option<&Path>,
 ) -> Result<Value> {
     let img = LinearImage::load_png(image)?;
     let camera = camera.camera(img.width as u32, img.height as u32);
     let report = inspect_light::light_report(&img, &camera, grid, light)?;
     if let Some(path) = plot {
         inspect_light::plot_light(&img, &camera, &report, path)?;
+    }
+    if let Some(path) = labels {
+        inspect_light::write_labels(&report, (img.width, img.height), path)?;
     }
     Ok(inspect_light::inspect_light(&report, &camera))
 }

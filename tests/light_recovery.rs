@@ -1018,6 +1018,91 @@ fn inspect_light_cli_prints_the_grid_and_plots() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--labels`: a 16-bit PNG of the image's size whose pixels name their region in the JSON's
+/// `regions`. At night a lamp's pixels are a `lamp` region (a light); in daylight a white sign on
+/// the road is a `surface` recovered near the clip level (its surroundings are the frame's
+/// typical luminance: no lamp), not a light. Every unclipped pixel is 0. A name that is not a
+/// PNG is refused before any work and leaves an existing file as it was.
+#[test]
+fn inspect_light_labels_name_each_clipped_pixel_s_region() {
+    let dir = tempfile::tempdir().unwrap();
+    let sign = |x: f64, y: f64| (200.0..212.0).contains(&x) && (140.0..148.0).contains(&y);
+    // Daylight: road 0.18 below the horizon, sky 0.35 above; the sign on the road.
+    let day = still(|x, y| {
+        if sign(x, y) {
+            [1.0; 3]
+        } else if y > 0.5 * H as f64 {
+            [0.18, 0.18, 0.17]
+        } else {
+            [0.33, 0.35, 0.4]
+        }
+    });
+    let night = still(lamp_at(110.0, 50.0, 3.0));
+    let run = |img: &LinearImage, name: &str, labels: &std::path::Path| {
+        let png = dir.path().join(name);
+        let bytes: Vec<u8> = img
+            .pixels
+            .iter()
+            .flat_map(|c| c.map(|x| (linear_to_srgb(x) * 255.0).round() as u8))
+            .collect();
+        image::RgbImage::from_raw(W as u32, H as u32, bytes)
+            .unwrap()
+            .save(&png)
+            .unwrap();
+        std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+            .args([
+                "inspect",
+                "light",
+                png.to_str().unwrap(),
+                "--json",
+                "--labels",
+            ])
+            .arg(labels)
+            .output()
+            .unwrap()
+    };
+    // The region of pixel (x, y), checking every pixel's label against its clipping.
+    let region_at = |img: &LinearImage, name: &str, x: u32, y: u32| {
+        let labels = dir.path().join(format!("{name}.labels.png"));
+        let out = run(img, name, &labels);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let regions = v["regions"].as_array().unwrap().clone();
+        let map = image::open(&labels).unwrap();
+        assert!(matches!(map, image::DynamicImage::ImageLuma16(_)));
+        let map = map.to_luma16();
+        assert_eq!((map.width(), map.height()), (W as u32, H as u32));
+        for (i, p) in img.pixels.iter().enumerate() {
+            let clipped = p.iter().any(|v| *v >= 0.98);
+            let l = map.as_raw()[i] as usize;
+            assert_eq!(clipped, l > 0, "pixel {i}: {p:?} labelled {l}");
+            assert!(l <= regions.len());
+        }
+        let l = map.get_pixel(x, y).0[0] as usize;
+        assert!(l >= 1, "({x}, {y}) not labelled");
+        regions[l - 1].clone()
+    };
+    let lamp = region_at(&night, "night.png", 110, 50);
+    assert_eq!(lamp["kind"], "lamp");
+    assert_eq!(lamp["light"], true);
+    let white = region_at(&day, "day.png", 205, 143);
+    assert_eq!(white["kind"], "surface");
+    assert_eq!(white["light"], false);
+    let lum = luminance(serde_json::from_value::<[f64; 3]>(white["radiance_rgb"].clone()).unwrap());
+    assert!((1.0..=2.0).contains(&lum), "the sign at {lum}x white");
+    // Not a PNG: refused before the work, the existing file untouched.
+    let jpg = dir.path().join("labels.jpg");
+    std::fs::write(&jpg, b"keep").unwrap();
+    let bad = run(&day, "day.png", &jpg);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--labels"));
+    assert_eq!(std::fs::read(&jpg).unwrap(), b"keep");
+}
+
 // ---------------------------------------------------------------------------------------------
 // The direct term
 

@@ -235,13 +235,20 @@ fn every_stage_matches_its_cpu_twin() {
                         },
                     );
                     let params = lit(&setup, 0.0);
-                    let (gpu, cpu, _) = both_frames(&ctx, &case, &setup, &params);
-                    let (worst, share) = compare(&gpu, &cpu);
-                    eprintln!("{what}: worst {worst} codes");
-                    // The canvas is f16 on the GPU: an encoded value a hair from a rounding
-                    // edge may land one code away.
-                    assert!(worst <= 1, "{what}: {worst} codes off");
-                    assert!(share == 0.0, "{what}");
+                    // With a ground the veil follows each ray's distance to it (Koschmieder):
+                    // the haze from 2 m, β = 0.05/m, the scene at 60 m.
+                    let mut grounded = params;
+                    grounded.ground_clip = 1;
+                    grounded.haze = [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()];
+                    for (veil, params) in [("constant", params), ("by distance", grounded)] {
+                        let (gpu, cpu, _) = both_frames(&ctx, &case, &setup, &params);
+                        let (worst, share) = compare(&gpu, &cpu);
+                        eprintln!("{what}, veil {veil}: worst {worst} codes");
+                        // The canvas is f16 on the GPU: an encoded value a hair from a rounding
+                        // edge may land one code away.
+                        assert!(worst <= 1, "{what}, veil {veil}: {worst} codes off");
+                        assert!(share == 0.0, "{what}, veil {veil}");
+                    }
                 }
                 // The layer's output stage, on a canvas of its own: `tests/layers.rs`
                 // (`rgba_out_matches_its_cpu_twin`).

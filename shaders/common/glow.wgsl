@@ -75,9 +75,13 @@ fn glow_at_grid_point(g: vec2<u32>) -> vec3<f32> {
     return haze_glow_along(normalize(view_ray_at(vec2<f32>(g * GLOW_CELL_PX))));
 }
 
-// The glow at coded pixel `p`, bilinear between the grid points around its centre.
-fn haze_glow(p: vec2<u32>) -> vec3<f32> {
+// The glow at coded pixel `p`, bilinear between the grid points around its centre, for a ray
+// whose haze has transmittance `t`: the grid integrates the haze to the scene's depth, and a
+// ray that meets the ground sooner glows by its share of that opacity (exact for lights at
+// infinity, whose glow is proportional to the opacity).
+fn haze_glow(p: vec2<u32>, t: f32) -> vec3<f32> {
     if !haze_glows() { return vec3<f32>(0.0); }
+    let share = (1.0 - t) / (1.0 - rain.haze.w);
     let u = (vec2<f32>(p) + vec2<f32>(0.5)) / f32(GLOW_CELL_PX);
     let g = vec2<u32>(floor(u));
     let f = u - floor(u);
@@ -85,5 +89,5 @@ fn haze_glow(p: vec2<u32>) -> vec3<f32> {
     let i = g.y * w + g.x;
     let top = mix(glow_grid[i].rgb, glow_grid[i + 1u].rgb, f.x);
     let bottom = mix(glow_grid[i + w].rgb, glow_grid[i + w + 1u].rgb, f.x);
-    return mix(top, bottom, f.y);
+    return share * mix(top, bottom, f.y);
 }

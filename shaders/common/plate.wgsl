@@ -22,10 +22,25 @@ fn plate_linear(p: vec2<u32>) -> vec3<f32> {
     return to_linear(frame.transfer, ycbcr_to_rgb(frame.kr, frame.kb, ycc));
 }
 
+// The haze's transmittance along the ray of coded pixel `p` (Koschmieder): e^(−β s) over the
+// rain from the farthest drawn drop (rain.haze.x) to what the ray meets. Where a ground is
+// given and the ray goes down to it, that is the ground plane z = 0, so the near road is
+// clear and the far road veiled; elsewhere the scene's depth (rain.haze.y), whose
+// transmittance is rain.haze.w.
+fn haze_transmittance(p: vec2<u32>) -> f32 {
+    if rain.haze.w >= 1.0 { return 1.0; }
+    let d = normalize(view_ray(p));
+    let h = rain.camera_pos_m.z;
+    if rain.ground_clip == 0u || d.z >= 0.0 || h <= 0.0 { return rain.haze.w; }
+    let ground_m = h / -d.z;
+    if ground_m >= rain.haze.y { return rain.haze.w; }
+    return exp(-rain.haze.z * max(ground_m - rain.haze.x, 0.0));
+}
+
 // The haze's in-scatter at pixel `p`, already weighted by its opacity 1 − T: what a drop on
 // the pixel's ray shows (the PRT colour of the frame's environment; compact lights are left to
 // the drawn drops) times the haze's opacity, so the veil follows the light across the picture.
-fn in_scatter(p: vec2<u32>) -> vec3<f32> {
-    if rain.haze.w >= 1.0 { return vec3<f32>(0.0); }
-    return (1.0 - rain.haze.w) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(p)), vec3<f32>(0.0));
+fn in_scatter(p: vec2<u32>, t: f32) -> vec3<f32> {
+    if t >= 1.0 { return vec3<f32>(0.0); }
+    return (1.0 - t) * max(prt_colour(rain.env_sh, rain.drop_zonal[0], rain.drop_zonal[1], rain.drop_zonal[2], view_ray(p)), vec3<f32>(0.0));
 }

@@ -41,7 +41,7 @@ struct RainParams {
     cell_size_m: vec2<f32>,
     wind_mean_mps: vec2<f32>,
     mean_travel_cells: vec2<f32>,    // mean wind · t / cell size, modulo 1 (computed in f64)
-    haze: vec4<f32>,                 // rain beyond the drawn drops: x its start, y its end (m), w transmittance; it scatters env_sh and the lights
+    haze: vec4<f32>,                 // rain beyond the drawn drops: x its start, y its end (m), z extinction (1/m), w transmittance to y; it scatters env_sh and the lights
     env_sh: array<vec4<f32>, SH_COEFFS>,    // the frame's environment, 4 SH bands, rgb per coefficient
     drop_zonal: array<vec4<f32>, 3>, // the drop's RTF zonal coefficients z0..z3 per channel R, G, B
     gust_amp: array<vec4<f32>, GUSTS>,   // per gust component: ax, ay (m/s), ω (rad/s), unused

@@ -106,7 +106,7 @@ pub struct RainParams {
     /// The mean wind's travel over the cell size, modulo 1.
     pub mean_travel_cells: [f32; 2],
     /// The haze: x where it starts (the farthest drawn drop, m), y where it ends (the scene,
-    /// m), w its transmittance T (1: no haze).
+    /// m), z its extinction coefficient β (1/m), w its transmittance T to y (1: no haze).
     pub haze: [f32; 4],
     pub env_sh: [[f32; 4]; SH_COEFFS],
     pub drop_zonal: [[f32; 4]; 3],

@@ -411,12 +411,20 @@ impl RainSetup {
         p.env_sh = light.env.to_gpu_array();
         p.drop_zonal = drop_zonal;
         // The far drops of the haze scatter the same light as the drawn ones; the haze spans
-        // the farthest drawn drop to the scene (where its compact lights' glow is integrated).
+        // the farthest drawn drop to the scene (where its compact lights' glow is integrated),
+        // or to the ground where a ray meets it sooner (its extinction per metre, z).
+        let alpha = self.haze_at(t_s);
+        let span_m = self.scene_depth_m - self.volume.far_m;
+        let beta_per_m = if alpha > 0.0 && span_m > 0.0 {
+            -(-alpha).ln_1p() / span_m
+        } else {
+            0.0
+        };
         p.haze = [
             self.volume.far_m as f32,
             self.scene_depth_m as f32,
-            0.0,
-            1.0 - self.haze_at(t_s) as f32,
+            beta_per_m as f32,
+            1.0 - alpha as f32,
         ];
         p
     }

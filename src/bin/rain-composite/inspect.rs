@@ -98,6 +98,10 @@ pub enum InspectCommand {
         /// Also draw the frame with the lights marked to this PNG.
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
+        /// Also write the clipped regions to this 16-bit greyscale PNG of the image's size:
+        /// each pixel the 1-based index of its region in `regions` (0 = not clipped).
+        #[arg(long, value_name = "PNG")]
+        labels: Option<PathBuf>,
     },
     /// The ground `--ground auto` finds at a time of a clip: horizon_row (where the horizon
     /// crosses the vertical centre line, a fraction of the height from the top), tilt_deg and
@@ -225,9 +229,20 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             highlight_gain,
             hdr_input,
             plot,
+            labels,
             ..
         } => {
             check_fov(*fov)?;
+            if let Some(path) = labels
+                && !path
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+            {
+                bail!(
+                    "--labels '{}': the labels are a 16-bit PNG, name the file NAME.png",
+                    path.display()
+                );
+            }
             let parsed = grid
                 .split_once(['x', 'X'])
                 .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
@@ -248,7 +263,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                 },
                 ..LightConfig::default()
             };
-            inspect::light(image, &camera, grid, &light, plot.as_deref())?
+            inspect::light(
+                image,
+                &camera,
+                grid,
+                &light,
+                plot.as_deref(),
+                labels.as_deref(),
+            )?
         }
         InspectCommand::Ground {
             video,

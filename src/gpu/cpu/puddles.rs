@@ -70,7 +70,6 @@ pub fn puddles(
         diffuse_external: w.diffuse_external as f64,
         diffuse_internal: w.diffuse_internal as f64,
     };
-    let transmittance = p.haze[3] as f64;
     let e_up = irradiance(&env, DVec3::Z);
     let camera = v3(&p.camera_pos_m);
     let h = camera.z;
@@ -103,6 +102,7 @@ pub fn puddles(
         let scene_m =
             depth.and_then(|map| scene_depth(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
         let shown = ground_shown(scene_m, ground_z_m);
+        let transmittance = super::yuv_to_rgb::haze_transmittance(p, x, y);
         let in_scatter = if transmittance < 1.0 {
             prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
         } else {

@@ -39,6 +39,27 @@ pub fn view_ray_at(p: &RainParams, at_px: DVec2) -> DVec3 {
     row(p.camera_from_world_0) * d.x + row(p.camera_from_world_1) * d.y + row(p.camera_from_world_2)
 }
 
+/// The haze's transmittance along the ray of coded pixel (`x`, `y`) (twin of
+/// `haze_transmittance` in common/plate.wgsl): Koschmieder's `e^(−β s)` over the rain from the
+/// farthest drawn drop to the ground plane where a ground is given and the ray meets it before
+/// the scene's depth, else `p.haze[3]`, the transmittance to the scene's depth.
+pub fn haze_transmittance(p: &RainParams, x: u32, y: u32) -> f64 {
+    let t = p.haze[3] as f64;
+    if t >= 1.0 {
+        return 1.0;
+    }
+    let d = view_ray(p, x, y).normalize();
+    let h = p.camera_pos_m[2] as f64;
+    if p.ground_clip == 0 || d.z >= 0.0 || h <= 0.0 {
+        return t;
+    }
+    let ground_m = h / -d.z;
+    if ground_m >= p.haze[1] as f64 {
+        return t;
+    }
+    (-(p.haze[2] as f64) * (ground_m - p.haze[0] as f64).max(0.0)).exp()
+}
+
 /// The frame's environment (SH coefficients, `f64`) and the drop's zonal transfer, from the
 /// uniforms `p`: what the haze, the wet ground and the water are lit with.
 pub fn environment_and_drop(p: &RainParams) -> (Vec<[f64; 3]>, RtfSh) {
@@ -169,7 +190,6 @@ fn canvas(
 ) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
-    let transmittance = p.haze[3] as f64;
     let (haze_env, drop) = environment_and_drop(p);
     let glow = lit.map(|(l, t)| haze_glow(p, l, t, (f.width, f.height)));
     let mut out = Vec::with_capacity((f.width * f.height) as usize);
@@ -181,15 +201,19 @@ fn canvas(
                 frame.sample(2, x >> sx, y >> sy) as f64,
             ];
             let rgb = frame.color.code_to_linear(code);
+            let transmittance = haze_transmittance(p, x, y);
             let in_scatter = if transmittance < 1.0 {
                 prt_colour_f64(&haze_env, &drop, view_ray(p, x, y))
                     .map(|v| (1.0 - transmittance) * v.max(0.0))
             } else {
                 [0.0; 3]
             };
-            let glow_px = glow
-                .as_ref()
-                .map_or([0.0; 3], |g| g[(y * f.width + x) as usize]);
+            // The grid's glow is the haze's to the scene's depth; a ray meeting the ground
+            // sooner glows by its share of that opacity.
+            let share = (1.0 - transmittance) / (1.0 - p.haze[3] as f64).max(1e-300);
+            let glow_px = glow.as_ref().map_or([0.0; 3], |g| {
+                g[(y * f.width + x) as usize].map(|v| v * share)
+            });
             out.push(std::array::from_fn(|k| {
                 rgb[k] * transmittance + in_scatter[k] + glow_px[k]
             }));
