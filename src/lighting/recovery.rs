@@ -20,9 +20,11 @@
 //!      with a ring darker than [`DARK_SURROUND_OVER_MEDIAN`] × the frame's median (a white roof
 //!      on asphalt in daylight has the scene's typical luminance around it, a lamp does not);
 //!      more lamps than [`MAX_RECOVERED_LIGHTS`] are a field of lit **windows**;
-//!    - with no lamp, the **sun** is in the largest clipped region above the horizon, when that
-//!      holds at least [`SUN_MIN_SR`] (its glare clips several degrees) and its surroundings
-//!      are no brighter than [`SUN_SURROUND_OVER_MEDIAN`] × the median;
+//!    - unless lamps light a night scene, the **sun** is in the largest clipped region above the
+//!      horizon, when that holds at least [`SUN_MIN_SR`] (its glare clips several degrees), at
+//!      least [`SUN_MIN_FILL`] of its blocks (the glare clips solidly, a facade of lit windows
+//!      does not) and its surroundings are no brighter than [`SUN_SURROUND_OVER_MEDIAN`] × the
+//!      median;
 //!    - any other region above the horizon larger than [`COMPACT_MAX_SR`] is **sky**.
 //! 3. **Radiance.** The exposure anchors it: the camera puts a mid-grey surface near the frame's
 //!    median luminance `L_med`, so the illuminance on the scene's typical surfaces is
@@ -40,11 +42,12 @@
 //!      from the unclipped surroundings), in the colour of the clipped samples there: the
 //!      region is no longer flattened to white, and its flux does not depend on how far the
 //!      glare spread.
-//!    - **Lamps** share the key light's flux in proportion to their clipped solid angles (a
-//!      source's bloom grows with its flux); each becomes a light source, and its blocks are
-//!      replaced in the environment by the ring's level: the environment's fill outside the view
-//!      would copy a lamp at the picture's edge over the sphere behind and beside the camera and
-//!      multiply its flux many times. The [`MAX_RECOVERED_LIGHTS`] largest become lights; the
+//!    - **Lamps** at night share the key light's flux in proportion to their clipped solid
+//!      angles (a source's bloom grows with its flux); in daylight they are not the key light
+//!      and each gets the luminance of a lit window (below). Each becomes a light source, and
+//!      its blocks are replaced in the environment by the ring's level: the environment's fill
+//!      outside the view would copy a lamp at the picture's edge over the sphere behind and
+//!      beside the camera and multiply its flux many times. The [`MAX_RECOVERED_LIGHTS`] largest become lights; the
 //!      smaller ones add their flux to the nearest.
 //!    - **Windows** are not the scene's key light (they light little of what the camera sees):
 //!      each gets the typical luminance of a lit window, [`EMITTER_OVER_MEAN_AT_NIGHT`] times
@@ -124,7 +127,11 @@ pub const DARK_SURROUND_OVER_MEDIAN: f64 = 0.25;
 /// glare and the bright sky next to the sun are clipped with it, so what is left unclipped
 /// around it is the sky and the scene farther off, darker than the glare's edge; a bright
 /// surface against a brighter sky (a facade, a cloud bank) has more light around it.
-pub const SUN_SURROUND_OVER_MEDIAN: f64 = 1.0;
+pub const SUN_SURROUND_OVER_MEDIAN: f64 = 2.0;
+/// Least share of its blocks' solid angle that the sun's region has clipped: the sun's glare
+/// clips solidly (0.8–1 on the panoramas of `tests/data`); a facade of lit windows or a field of
+/// glints clips a lattice of small patches that 1° blocks join into one sparse region.
+pub const SUN_MIN_FILL: f64 = 0.6;
 /// A frame whose median luminance is at most this fraction of its white is a night (or dark
 /// interior) scene, exposed well under mid-grey: its clipped compact regions against dark
 /// surroundings are lamps whatever the median.
@@ -560,14 +567,20 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
     });
     // More emitters than lights: a field of windows and signs.
     let emitter_field = lamps.len() > MAX_RECOVERED_LIGHTS;
+    // Lamps are the key light only at night; in daylight the sun and sky are, and a lamp or a
+    // lit window shows the luminance of one.
+    let lamps_are_key = night && !lamps.is_empty();
     // The sun, where no lamp is the key light: the largest clipped region above the horizon,
-    // if it is as large as the sun's clipped glare.
-    let sun = if lamps.is_empty() && settings.highlight_gain.is_none() {
+    // if it is as large and as solidly clipped as the sun's glare.
+    let sun = if !lamps_are_key && settings.highlight_gain.is_none() {
         (0..cands.len())
             .filter(|&i| {
-                cands[i].dir.z > 0.0
-                    && cands[i].omega_clip >= SUN_MIN_SR
-                    && cands[i].ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
+                let c = &cands[i];
+                c.dir.z > 0.0
+                    && !lamps.contains(&i)
+                    && c.omega_clip >= SUN_MIN_SR
+                    && c.omega_clip >= SUN_MIN_FILL * c.omega_blocks
+                    && c.ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
             })
             .max_by(|&a, &b| cands[a].omega_clip.total_cmp(&cands[b].omega_clip))
     } else {
@@ -618,6 +631,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         let target_lum = |b: usize| -> f64 {
             match kind {
                 RegionKind::Window => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
+                RegionKind::Lamp if !lamps_are_key => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
                 RegionKind::Lamp => {
                     key_flux * c.omega_clip
                         / total_lamp_omega.max(1e-300)
