@@ -5,7 +5,7 @@
 // over it: background · T + in-scatter + the lamps' glow (T = 1, in-scatter and glow = 0
 // without rain: exact identity; common/plate.wgsl, common/glow.wgsl).
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/lights.wgsl, common/plate.wgsl, common/glow.wgsl.
+// common/lights.wgsl, common/depth.wgsl, common/plate.wgsl, common/glow.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
 @group(0) @binding(1) var plane_y: texture_2d<u32>;
@@ -16,6 +16,7 @@
 @group(0) @binding(6) var<uniform> lights: LightList;
 @group(0) @binding(7) var<storage, read> rtf_table: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> glow_grid: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> scene_depth: array<f32>;
 
 // The lamps' glow on its coarse grid (common/glow.wgsl), before `main` or `layer` reads it.
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)

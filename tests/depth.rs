@@ -325,6 +325,71 @@ fn occlusion_matches_the_cpu_twin() {
     );
 }
 
+/// The haze ends where each pixel's ray meets the scene of the depth map (Koschmieder): the
+/// GPU frame without drops against the twin on the ramp turned 90°, and the twin against the
+/// closed form e^(−β (z |ray| − near)) at pixels the map knows, the constant veil in its hole.
+#[test]
+fn veil_by_the_depth_map_matches_the_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    let rotation = 90;
+    let setup = rain(0.3, 8.0, rotation);
+    let mut p = params(&setup);
+    p.drop_count = 0;
+    let (near_m, far_m, beta) = (0.5f32, 30.0f32, 0.2f32);
+    p.haze = [near_m, far_m, beta, (-beta * (far_m - near_m)).exp()];
+    let ramp: Vec<f32> = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            if (20..30).contains(&y) {
+                f32::NAN
+            } else {
+                1.0 + 7.0 * x as f32 / W as f32
+            }
+        })
+        .collect();
+    let map = DepthMap::from_values(W as usize, H as usize, &ramp, 1.0).expect("map");
+    let f = format(rotation);
+    let frame = picture(f);
+    let mut comp = Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), &setup).expect("gpu");
+    comp.set_transfer_table(&tables());
+    comp.set_scene_depth(&map).expect("depth");
+    let out = comp.render_one(&frame, &p).expect("render");
+    let canvas = yuv_to_rgb::yuv_to_rgb_with_depth(&frame, &p, Some(&map));
+    let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, f, &frame.color);
+    let mut worst = 0;
+    for y in 0..f.height {
+        for x in 0..f.width {
+            worst = worst.max(
+                out.sample(0, x, y)
+                    .abs_diff(cpu[0][(y * f.width + x) as usize]),
+            );
+        }
+    }
+    assert!(worst <= 1, "GPU vs twin: {worst} codes off");
+    // The twin against the closed form.
+    let (mut known, mut hole) = (0, 0);
+    for y in 0..f.height {
+        for x in 0..f.width {
+            let t = yuv_to_rgb::haze_transmittance(&p, Some(&map), x, y);
+            let ray = yuv_to_rgb::view_ray(&p, x, y);
+            let at = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+            match yuv_to_rgb::scene_depth_at(&p, &map, at) {
+                Some(z) => {
+                    let s = z * ray.length();
+                    let want = (-(beta as f64) * (s - near_m as f64).max(0.0)).exp();
+                    assert!((t - want).abs() < 1e-6, "({x}, {y}): {t} vs {want}");
+                    known += 1;
+                }
+                None => {
+                    assert_eq!(t, p.haze[3] as f64);
+                    hole += 1;
+                }
+            }
+        }
+    }
+    assert!(known > 0 && hole > 0, "{known} known, {hole} in the hole");
+}
+
 /// Along a projected segment 1/z is affine in the picture: the twin's drop depth at a point
 /// of the streak equals the depth of the 3-D point that projects there.
 #[test]

@@ -81,7 +81,7 @@ fn veil_follows_each_ray_s_distance_to_the_ground() {
     let mut below = 0;
     for y in 0..H {
         for x in 0..W {
-            let t = haze_transmittance(&p, x, y);
+            let t = haze_transmittance(&p, None, x, y);
             let want = koschmieder(&camera, x, y);
             assert!(
                 (t - want).abs() < 1e-5,
@@ -99,13 +99,13 @@ fn veil_follows_each_ray_s_distance_to_the_ground() {
     // horizon row by row.
     let col = W / 2;
     for y in H / 2 + 1..H {
-        assert!(haze_transmittance(&p, col, y) >= haze_transmittance(&p, col, y - 1));
+        assert!(haze_transmittance(&p, None, col, y) >= haze_transmittance(&p, None, col, y - 1));
     }
     // Without a ground: the constant veil to the scene's depth everywhere.
     let (_, flat) = params(false);
     for y in 0..H {
         for x in 0..W {
-            assert_eq!(haze_transmittance(&flat, x, y), flat.haze[3] as f64);
+            assert_eq!(haze_transmittance(&flat, None, x, y), flat.haze[3] as f64);
         }
     }
 }

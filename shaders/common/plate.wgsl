@@ -3,8 +3,9 @@
 // box-averages back), and the haze that veils it.
 //
 // Needs, declared by the stage that includes it: var<uniform> frame: FrameParams;
-// plane_y, plane_cb, plane_cr: texture_2d<u32>; var<uniform> rain: RainParams. Uses
-// common/color.wgsl, common/sh.wgsl and common/camera.wgsl.
+// plane_y, plane_cb, plane_cr: texture_2d<u32>; var<uniform> rain: RainParams; and those of
+// common/depth.wgsl. Uses common/color.wgsl, common/sh.wgsl, common/camera.wgsl and
+// common/depth.wgsl.
 
 // The frame's linear RGB at coded pixel `p`.
 fn plate_linear(p: vec2<u32>) -> vec3<f32> {
@@ -23,13 +24,17 @@ fn plate_linear(p: vec2<u32>) -> vec3<f32> {
 }
 
 // The haze's transmittance along the ray of coded pixel `p` (Koschmieder): e^(−β s) over the
-// rain from the farthest drawn drop (rain.haze.x) to what the ray meets. Where a ground is
-// given and the ray goes down to it, that is the ground plane z = 0, so the near road is
-// clear and the far road veiled; elsewhere the scene's depth (rain.haze.y), whose
-// transmittance is rain.haze.w.
+// rain from the farthest drawn drop (rain.haze.x) to what the ray meets, s along the ray: the
+// depth map's scene where it knows it; else, where a ground is given and the ray goes down to
+// it, the ground plane z = 0 (the near road clear, the far road veiled); else the scene's
+// depth (rain.haze.y), whose transmittance is rain.haze.w.
 fn haze_transmittance(p: vec2<u32>) -> f32 {
     if rain.haze.w >= 1.0 { return 1.0; }
-    let d = normalize(view_ray(p));
+    let ray = view_ray(p);
+    // `ray` has unit camera depth: a camera z of z metres lies z · |ray| along it.
+    let mapped_m = scene_depth_m(vec2<f32>(p) + vec2<f32>(0.5)) * length(ray);
+    if mapped_m > 0.0 { return exp(-rain.haze.z * max(mapped_m - rain.haze.x, 0.0)); }
+    let d = normalize(ray);
     let h = rain.camera_pos_m.z;
     if rain.ground_clip == 0u || d.z >= 0.0 || h <= 0.0 { return rain.haze.w; }
     let ground_m = h / -d.z;

@@ -99,10 +99,11 @@ pub fn puddles(
         if cover <= 0.0 {
             continue;
         }
-        let scene_m =
-            depth.and_then(|map| scene_depth(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
+        let scene_m = depth.and_then(|map| {
+            super::yuv_to_rgb::scene_depth_at(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
+        });
         let shown = ground_shown(scene_m, ground_z_m);
-        let transmittance = super::yuv_to_rgb::haze_transmittance(p, x, y);
+        let transmittance = super::yuv_to_rgb::haze_transmittance(p, depth, x, y);
         let in_scatter = if transmittance < 1.0 {
             prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
         } else {
@@ -243,7 +244,7 @@ impl Mirror<'_> {
                 return false;
             }
             let at = project(self.p, q);
-            let Some(z) = scene_depth(self.p, map, at) else {
+            let Some(z) = super::yuv_to_rgb::scene_depth_at(self.p, map, at) else {
                 return false;
             };
             let ray = view_ray(self.p, at.x.max(0.0) as u32, at.y.max(0.0) as u32);
@@ -358,15 +359,6 @@ pub fn project(p: &RainParams, q: DVec3) -> DVec2 {
 
 /// The scene's depth (m) at coded position `coded`, looked up at its displayed pixel; `None`
 /// where unknown.
-fn scene_depth(p: &RainParams, map: &DepthMap, coded: DVec2) -> Option<f64> {
-    let m = p.coded_from_display.map(f64::from);
-    let c = coded - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
-    let shown = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
-    let x = (shown.x.max(0.0) as usize).min(map.width - 1);
-    let y = (shown.y.max(0.0) as usize).min(map.height - 1);
-    map.at(x, y).map(f64::from).filter(|d| *d > 0.0)
-}
-
 fn smoothstep(lo: f64, hi: f64, x: f64) -> f64 {
     let t = ((x - lo) / (hi - lo)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)

@@ -69,7 +69,7 @@ pub fn wet_terms(
             if d.z >= 0.0 || p.camera_pos_m[2] <= 0.0 {
                 return None;
             }
-            let transmittance = super::yuv_to_rgb::haze_transmittance(p, x, y);
+            let transmittance = super::yuv_to_rgb::haze_transmittance(p, depth, x, y);
             let in_scatter = if transmittance < 1.0 {
                 prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))
             } else {

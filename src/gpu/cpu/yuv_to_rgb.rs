@@ -11,6 +11,7 @@ use crate::gpu::stages::yuv_to_rgb::{GLOW_CELL_PX, glow_grid_size};
 use crate::gpu::types::{LightList, RainParams};
 use crate::lighting::RtfTable;
 use crate::lighting::prt::{RtfSh, prt_colour_f64};
+use crate::scene::DepthMap;
 use crate::video::YuvFrame;
 
 /// Samples along the ray per light at a finite distance (`HAZE_GLOW_SAMPLES` in
@@ -41,14 +42,23 @@ pub fn view_ray_at(p: &RainParams, at_px: DVec2) -> DVec3 {
 
 /// The haze's transmittance along the ray of coded pixel (`x`, `y`) (twin of
 /// `haze_transmittance` in common/plate.wgsl): Koschmieder's `e^(−β s)` over the rain from the
-/// farthest drawn drop to the ground plane where a ground is given and the ray meets it before
-/// the scene's depth, else `p.haze[3]`, the transmittance to the scene's depth.
-pub fn haze_transmittance(p: &RainParams, x: u32, y: u32) -> f64 {
+/// farthest drawn drop to what the ray meets: the scene of the depth map `depth` where it knows
+/// it, else the ground plane where a ground is given and the ray meets it before the scene's
+/// depth, else `p.haze[3]`, the transmittance to the scene's depth.
+pub fn haze_transmittance(p: &RainParams, depth: Option<&DepthMap>, x: u32, y: u32) -> f64 {
     let t = p.haze[3] as f64;
     if t >= 1.0 {
         return 1.0;
     }
-    let d = view_ray(p, x, y).normalize();
+    let (near_m, beta_per_m) = (p.haze[0] as f64, p.haze[2] as f64);
+    let ray = view_ray(p, x, y);
+    let mapped =
+        depth.and_then(|map| scene_depth_at(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5)));
+    if let Some(z_m) = mapped {
+        // `ray` has unit camera depth: a camera z of z metres lies z · |ray| along it.
+        return (-beta_per_m * (z_m * ray.length() - near_m).max(0.0)).exp();
+    }
+    let d = ray.normalize();
     let h = p.camera_pos_m[2] as f64;
     if p.ground_clip == 0 || d.z >= 0.0 || h <= 0.0 {
         return t;
@@ -57,7 +67,19 @@ pub fn haze_transmittance(p: &RainParams, x: u32, y: u32) -> f64 {
     if ground_m >= p.haze[1] as f64 {
         return t;
     }
-    (-(p.haze[2] as f64) * (ground_m - p.haze[0] as f64).max(0.0)).exp()
+    (-beta_per_m * (ground_m - near_m).max(0.0)).exp()
+}
+
+/// The scene's depth (camera z, metres) of `map` at coded position `coded_px`, looked up at its
+/// displayed pixel; `None` where the map does not know it (twin of `scene_depth_m` in
+/// common/depth.wgsl).
+pub fn scene_depth_at(p: &RainParams, map: &DepthMap, coded_px: DVec2) -> Option<f64> {
+    let m = p.coded_from_display.map(f64::from);
+    let c = coded_px - DVec2::new(p.coded_offset_px[0] as f64, p.coded_offset_px[1] as f64);
+    let shown = DVec2::new(m[0] * c.x + m[1] * c.y, m[2] * c.x + m[3] * c.y);
+    let x = (shown.x.max(0.0) as usize).min(map.width - 1);
+    let y = (shown.y.max(0.0) as usize).min(map.height - 1);
+    map.at(x, y).map(f64::from).filter(|d| *d > 0.0)
 }
 
 /// The frame's environment (SH coefficients, `f64`) and the drop's zonal transfer, from the
@@ -169,7 +191,17 @@ pub fn haze_glow(
 
 /// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
 pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
-    canvas(frame, p, None)
+    canvas(frame, p, None, None)
+}
+
+/// [`yuv_to_rgb`] with the scene's depth map: the haze of each pixel the map knows ends at its
+/// scene.
+pub fn yuv_to_rgb_with_depth(
+    frame: &YuvFrame,
+    p: &RainParams,
+    depth: Option<&DepthMap>,
+) -> Vec<[f64; 3]> {
+    canvas(frame, p, None, depth)
 }
 
 /// [`yuv_to_rgb`] with the compact lights' glow in the haze (`lights` and the transfer tables
@@ -180,13 +212,14 @@ pub fn yuv_to_rgb_lit(
     lights: &LightList,
     tables: &[RtfTable; 3],
 ) -> Vec<[f64; 3]> {
-    canvas(frame, p, Some((lights, tables)))
+    canvas(frame, p, Some((lights, tables)), None)
 }
 
 fn canvas(
     frame: &YuvFrame,
     p: &RainParams,
     lit: Option<(&LightList, &[RtfTable; 3])>,
+    depth: Option<&DepthMap>,
 ) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
@@ -201,7 +234,7 @@ fn canvas(
                 frame.sample(2, x >> sx, y >> sy) as f64,
             ];
             let rgb = frame.color.code_to_linear(code);
-            let transmittance = haze_transmittance(p, x, y);
+            let transmittance = haze_transmittance(p, depth, x, y);
             let in_scatter = if transmittance < 1.0 {
                 prt_colour_f64(&haze_env, &drop, view_ray(p, x, y))
                     .map(|v| (1.0 - transmittance) * v.max(0.0))

@@ -64,7 +64,7 @@ impl YuvToRgb {
     }
 
     /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
-    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6 and 8 only).
+    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6, 8 and 9 only).
     pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
         YuvToRgb::with_entry(device, r, "layer")
     }
@@ -85,6 +85,7 @@ impl YuvToRgb {
             (5, buffer(&r.rain_params)),
             (6, buffer(&r.lights.list)),
             (8, buffer(&grid)),
+            (9, buffer(&r.scene_depth)),
         ]
         .into_iter()
         .chain(planes.into_iter().filter(|_| entry == "main"))
