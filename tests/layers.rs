@@ -412,7 +412,7 @@ fn prores_layer_has_alpha_and_says_premultiplied() {
 fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
     let dir = TempDir::new().unwrap();
     let input = source(dir.path(), "yuv420p");
-    let cases: [(&str, &[&str], &str); 5] = [
+    let cases: [(&str, &[&str], &str); 8] = [
         ("out.mp4", &["--layer-only"], "cannot hold"),
         ("out.mp4", &["--matte"], "cannot hold"),
         (
@@ -422,6 +422,10 @@ fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
         ),
         ("single.png", &["--layer-only"], "frame number pattern"),
         ("plain_%05d.png", &[], "image sequences are written for"),
+        // FFmpeg cuts a number wider than 19 digits: every image would get the same name.
+        ("wide_%020d.png", &["--layer-only"], "at most 19 digits"),
+        ("wide_%025d.png", &["--matte"], "at most 19 digits"),
+        ("wide_%0100d.png", &["--layer-only"], "at most 19 digits"),
     ];
     for (name, flags, says) in cases {
         let out = render(&input, &dir.path().join(name), flags);
@@ -570,4 +574,24 @@ fn rgba_out_matches_its_cpu_twin() {
             assert!(gpu.iter().zip(&cpu).filter(|(g, c)| g != c).count() * 100 < gpu.len());
         }
     }
+}
+
+/// The widest frame-number pattern FFmpeg formats whole still names each image apart.
+#[test]
+fn a_sequence_pattern_of_19_digits_names_every_frame() {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), "yuv420p");
+    let seq = dir.path().join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    render_ok(
+        &input,
+        &seq.join("g_%019d.png"),
+        &["--layer-only", "--frames", "0..3"],
+    );
+    assert_eq!(
+        files_in(&seq),
+        (1..=3)
+            .map(|i| format!("g_{i:019}.png"))
+            .collect::<Vec<_>>()
+    );
 }

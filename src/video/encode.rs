@@ -962,6 +962,15 @@ fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
                 .into(),
         });
     };
+    // FFmpeg formats the number in a buffer of 19 digits: a wider pattern names every image
+    // alike, and each would overwrite the last.
+    if ffi::sequence_file_name(&name, 2).as_deref() == Some(first.as_str()) {
+        return Err(Error::Parameter {
+            name: "--output",
+            value: output.to_owned(),
+            expected: "a frame number pattern of at most 19 digits, e.g. out_%05d.png".into(),
+        });
+    }
     let first = Path::new(output).with_file_name(first);
     if first.exists() && !opts.overwrite {
         return Err(Error::OutputExists(first));
