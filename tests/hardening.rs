@@ -434,3 +434,155 @@ fn inspect_drops_prints_the_plan_the_render_uses() {
     let pinhole: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     assert_ne!(pinhole["volume"]["far_m"], plan["far_m"]);
 }
+
+/// Starts `cmd`, sends `signal` after `after`, and returns its output and how long it took to
+/// stop; `None` when it had already finished (a machine faster than the test expects).
+fn stop_with(cmd: &mut Command, signal: &str, after: Duration) -> Option<(Output, Duration)> {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    std::thread::sleep(after);
+    if child.try_wait().expect("wait").is_some() {
+        return None;
+    }
+    let sent = Instant::now();
+    let pid = child.id().to_string();
+    let _ = Command::new("kill")
+        .args([&format!("-{signal}"), &pid])
+        .status();
+    while child.try_wait().expect("wait").is_none() {
+        if sent.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!("{cmd:?} ignored {signal}: {}", stderr(&out));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let took = sent.elapsed();
+    Some((child.wait_with_output().expect("output"), took))
+}
+
+/// Every long piece of work — the water's simulation pass, its fast-forward before a preview
+/// or a chunk, the streak database's ray tracing — stops within a second of INT, TERM or HUP,
+/// says so in one line and leaves no file behind.
+#[test]
+fn long_work_stops_on_int_term_and_hup_and_leaves_nothing() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (160, 96), 30, 3.0);
+    let water = [
+        "--ground",
+        "horizon=0.3",
+        "--pre-rain",
+        "60",
+        "--puddle-particles",
+        "10000",
+    ];
+    let out = dir.path().join("out.mkv");
+    let png = dir.path().join("p.png");
+    let db = dir.path().join("db");
+    let cases: [(&str, Vec<&str>); 4] = [
+        ("TERM", vec!["inspect", "puddles", s(&input), "--at", "2.9"]),
+        (
+            "HUP",
+            vec![
+                "preview",
+                s(&input),
+                "--at",
+                "2.9",
+                "--puddles",
+                "-o",
+                s(&png),
+            ],
+        ),
+        (
+            "INT",
+            vec![s(&input), "--frames", "70..72", "--puddles", "-o", s(&out)],
+        ),
+        (
+            "INT",
+            vec![
+                "drops",
+                "generate",
+                "-o",
+                s(&db),
+                "--sizes",
+                "4",
+                "--views",
+                "0",
+                "--phases",
+                "1",
+                "--pixels-per-diameter",
+                "32",
+                "--samples",
+                "4",
+            ],
+        ),
+    ];
+    let mut stopped = 0;
+    for (signal, args) in cases {
+        let extra: &[&str] = if args[0] == "drops" { &[] } else { &water };
+        let Some((o, took)) = stop_with(
+            bin().args(&args).args(extra),
+            signal,
+            Duration::from_millis(2500),
+        ) else {
+            continue;
+        };
+        stopped += 1;
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("error: interrupted"), "{args:?}: {err}");
+        assert!(
+            took < Duration::from_secs(2),
+            "{args:?}: {took:?} after {signal}"
+        );
+        let left: Vec<String> = files_in(dir.path())
+            .into_iter()
+            .filter(|n| n != "in.mkv" && !(n == "db" && files_in(&db).is_empty()))
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+    // The streak at 32 pixels a diameter takes minutes on any machine.
+    assert!(stopped > 0);
+}
+
+/// A depth map that is not a regular file (a FIFO would block the read forever, a device never
+/// ends) is refused at once.
+#[test]
+fn a_depth_map_is_read_from_regular_files_only() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    for name in ["fifo.png", "fifo.mkv"] {
+        let fifo = dir.path().join(name);
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .expect("mkfifo")
+                .success()
+        );
+        let zero = dir.path().join(format!("zero-{name}"));
+        std::os::unix::fs::symlink("/dev/zero", &zero).expect("symlink");
+        for depth in [&fifo, &zero] {
+            let out = run_within(
+                bin().args([
+                    "preview",
+                    s(&input),
+                    "--frame",
+                    "0",
+                    "-o",
+                    s(&dir.path().join("p.png")),
+                    "--depth",
+                    s(depth),
+                ]),
+                Duration::from_secs(20),
+            );
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(1), "{err}");
+            assert!(err.contains("not a regular file"), "{err}");
+        }
+    }
+    assert!(!dir.path().join("p.png").exists());
+}

@@ -309,7 +309,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                 dir: checkpoints.dir(video, video),
                 every_frames: *checkpoint_every,
             };
-            inspect::puddles(&config, video, at_s, plot.as_deref(), Some(&keep))?
+            inspect::puddles(
+                &config,
+                video,
+                at_s,
+                plot.as_deref(),
+                Some(&keep),
+                &crate::INTERRUPTED,
+            )?
         }
     };
     out(&serde_json::to_string_pretty(&report)?)

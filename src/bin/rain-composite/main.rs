@@ -23,7 +23,8 @@ mod bench;
 mod drops;
 mod inspect;
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Set by Ctrl-C, TERM and HUP: every long loop polls it and stops cleanly.
+pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// Our messages at the chosen level; other crates' (wgpu, naga) only at `-vv`, and then only
 /// their warnings and errors.
