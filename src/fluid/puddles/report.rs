@@ -45,8 +45,12 @@ pub fn report(
         });
     }
     config.validate()?;
-    let source = Source::open(input)?;
+    let mut source = Source::open(input)?;
     let info = source.info().clone();
+    // A time beyond the clip is refused as a preview refuses it, not simulated.
+    if source.is_seekable() {
+        source.seek_to_time(at_s)?;
+    }
     let camera = camera_for(&info, config)?;
     let fps = clip_fps(&info);
     let depth = match &config.ground.depth {
