@@ -422,6 +422,15 @@ impl RenderConfig {
                          the camera's tilt and roll",
                     ));
                 }
+                // The plane's distance is the height: another one would be ignored.
+                if matches!(mode, GroundMode::Plane { .. })
+                    && c.height_m != CameraConfig::default().height_m
+                {
+                    return Err(bad(
+                        "no --camera-height (camera.height_m) besides it: plane= sets the \
+                         camera's height",
+                    ));
+                }
                 Ok(())
             }
         }
