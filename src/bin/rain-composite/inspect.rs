@@ -142,9 +142,10 @@ pub enum InspectCommand {
         /// Instead of the plan, draw a labelled contact sheet of the streak mattes to this PNG.
         #[arg(long, value_name = "PNG")]
         mattes: Option<PathBuf>,
-        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's.
-        #[arg(long, value_name = "PATH", default_value = "drops")]
-        streak_db: PathBuf,
+        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's
+        /// [default: the one the render uses, installed beside the program].
+        #[arg(long, value_name = "PATH")]
+        streak_db: Option<PathBuf>,
         #[command(flatten)]
         look: Box<LookArgs>,
     },
@@ -281,7 +282,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             ..
         } => {
             if let Some(sheet) = mattes {
-                let report = rain_composite::drops::sheet::contact_sheet(streak_db, sheet)?;
+                let db = match streak_db {
+                    Some(db) => db.clone(),
+                    None => rain_composite::pipeline::default_streak_db().context(
+                        "no streak database is installed beside the program \
+                         (../share/rain-composite/drops, or drops/ next to it): pass --streak-db DIR",
+                    )?,
+                };
+                let report = rain_composite::drops::sheet::contact_sheet(&db, sheet)?;
                 return out(&serde_json::to_string_pretty(&report)?);
             }
             let config = render_config(look)?;
