@@ -412,7 +412,7 @@ fn prores_layer_has_alpha_and_says_premultiplied() {
 fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
     let dir = TempDir::new().unwrap();
     let input = source(dir.path(), "yuv420p");
-    let cases: [(&str, &[&str], &str); 8] = [
+    let cases: [(&str, &[&str], &str); 11] = [
         ("out.mp4", &["--layer-only"], "cannot hold"),
         ("out.mp4", &["--matte"], "cannot hold"),
         (
@@ -424,6 +424,18 @@ fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
         ("plain_%05d.png", &[], "image sequences are written for"),
         // FFmpeg cuts a number wider than 19 digits: every image would get the same name.
         ("wide_%020d.png", &["--layer-only"], "at most 19 digits"),
+        // Flags the layer would ignore.
+        (
+            "l.mkv",
+            &["--layer-only", "--codec", "h264"],
+            "--codec h264",
+        ),
+        ("m.mkv", &["--matte", "--codec", "h264"], "--codec h264"),
+        (
+            "b.mkv",
+            &["--layer-only=black", "--alpha", "straight"],
+            "--alpha",
+        ),
         ("wide_%025d.png", &["--matte"], "at most 19 digits"),
         ("wide_%0100d.png", &["--layer-only"], "at most 19 digits"),
     ];

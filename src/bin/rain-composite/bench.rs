@@ -36,7 +36,7 @@ pub fn run_command(b: &BenchArgs) -> anyhow::Result<()> {
         input: b.input.clone(),
         output: String::new(),
         render: render_config(&b.look)?,
-        encode: encode_options(&b.encode, true),
+        encode: encode_options(&b.encode, true)?,
         adapter: adapter(&b.gpu),
         frames: Default::default(),
         checkpoints: None,

@@ -63,7 +63,7 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("no output given: add -o OUTPUT (or -o - for stdout)");
     };
     let render = render_config(&args.look)?;
-    let encode = encode_options(&args.encode, args.overwrite);
+    let encode = encode_options(&args.encode, args.overwrite)?;
     let job = Job {
         input: input.clone(),
         output: output.clone(),
