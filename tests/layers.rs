@@ -588,7 +588,8 @@ fn rgba_out_matches_its_cpu_twin() {
     }
 }
 
-/// The widest frame-number pattern FFmpeg formats whole still names each image apart.
+/// The widest frame-number pattern FFmpeg formats whole still names each image apart; images
+/// are numbered by source frame, so a chunk writes its own images and never a neighbour's.
 #[test]
 fn a_sequence_pattern_of_19_digits_names_every_frame() {
     let dir = TempDir::new().unwrap();
@@ -606,4 +607,20 @@ fn a_sequence_pattern_of_19_digits_names_every_frame() {
             .map(|i| format!("g_{i:019}.png"))
             .collect::<Vec<_>>()
     );
+    let chunks = dir.path().join("chunks");
+    std::fs::create_dir(&chunks).unwrap();
+    let pattern = chunks.join("c_%05d.png");
+    render_ok(&input, &pattern, &["--layer-only", "--frames", "2..3"]);
+    assert_eq!(files_in(&chunks), ["c_00003.png"]);
+    let last = std::fs::read(chunks.join("c_00003.png")).unwrap();
+    render_ok(
+        &input,
+        &pattern,
+        &["--layer-only", "--frames", "0..2", "-y"],
+    );
+    assert_eq!(
+        files_in(&chunks),
+        ["c_00001.png", "c_00002.png", "c_00003.png"]
+    );
+    assert_eq!(std::fs::read(chunks.join("c_00003.png")).unwrap(), last);
 }
