@@ -275,7 +275,9 @@ impl RenderConfig {
                 MAX_CONFIG_BYTES >> 20
             )));
         }
-        Self::from_json(&text).map_err(|e| fail(e.to_string()))
+        // A byte-order mark, which some editors write, is no JSON but harmless.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        Self::from_json(text).map_err(|e| fail(e.to_string()))
     }
 
     /// Parses a JSON configuration (any field may be left out; unknown keys are errors). A
@@ -491,23 +493,43 @@ impl RenderConfig {
                 expected: "keys from 0.5 to 64 (a pinhole cannot be keyed)".into(),
             });
         }
-        for t in self.keyframes.times_s() {
-            let mut at = self.at(t);
-            at.keyframes = Default::default();
-            at.validate_values().map_err(|e| match e {
-                Error::Parameter {
-                    name,
-                    value,
-                    expected,
-                } => Error::Parameter {
-                    name,
-                    value: format!("{value} (keyed, at {t} s)"),
-                    expected,
-                },
-                e => e,
-            })?;
-        }
-        Ok(())
+        let checked: Vec<(f64, Result<()>)> = self
+            .keyframes
+            .times_s()
+            .into_iter()
+            .map(|t| {
+                let mut at = self.at(t);
+                at.keyframes = Default::default();
+                (t, at.validate_values())
+            })
+            .collect();
+        let same = |a: &Result<()>, b: &Result<()>| match (a, b) {
+            (
+                Err(Error::Parameter { name, value, .. }),
+                Err(Error::Parameter {
+                    name: n, value: v, ..
+                }),
+            ) => name == n && value == v,
+            _ => false,
+        };
+        let Some(i) = checked.iter().position(|(_, r)| r.is_err()) else {
+            return Ok(());
+        };
+        // The same error at every key is no key's: it is told without a key's time.
+        let keyed = checked.iter().any(|(_, r)| !same(r, &checked[i].1));
+        let (t, result) = checked.into_iter().nth(i).expect("found above");
+        result.map_err(|e| match e {
+            Error::Parameter {
+                name,
+                value,
+                expected,
+            } if keyed => Error::Parameter {
+                name,
+                value: format!("{value} (keyed, at {t} s)"),
+                expected,
+            },
+            e => e,
+        })
     }
 
     /// [`RenderConfig::validate`] of the values at t = 0.

@@ -246,13 +246,10 @@ impl std::fmt::Display for FrameRange {
             FrameRange::Indices { start, end: e } => {
                 write!(f, "frames {start}..{}", end(e.map(|e| e.to_string())))
             }
-            FrameRange::Times { from_s, to_s } => {
-                write!(
-                    f,
-                    "times {from_s} s..{} s",
-                    end(to_s.map(|t| t.to_string()))
-                )
-            }
+            FrameRange::Times { from_s, to_s } => match to_s {
+                Some(to_s) => write!(f, "times {from_s} s..{to_s} s"),
+                None => write!(f, "times from {from_s} s on"),
+            },
         }
     }
 }
@@ -377,7 +374,17 @@ pub fn render(
     let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
     let mut first = None;
     if warm_from_s > 0.0 && source.is_seekable() {
-        first = Some(SourceItem::Frame(source.seek_to_time(warm_from_s)?));
+        // The seek goes to the frames that light the chunk, before it: a chunk beyond the clip
+        // is named by its own start.
+        let frame = source.seek_to_time(warm_from_s).map_err(|e| match e {
+            Error::OutOfRange(_) => Error::OutOfRange(format!(
+                "{} s is beyond the last frame of '{}'",
+                job.frames.start_s(&info),
+                job.input
+            )),
+            e => e,
+        })?;
+        first = Some(SourceItem::Frame(frame));
     }
     let mut chunk = ChunkCut::new(job.frames, &info);
 

@@ -586,3 +586,86 @@ fn a_depth_map_is_read_from_regular_files_only() {
     }
     assert!(!dir.path().join("p.png").exists());
 }
+
+/// Each message says what is wrong with what the user typed: the time asked for, not the one
+/// a seek started from; a range that is open at the end; a count that does not fit; a conflict,
+/// not a range; a number too large for JSON; an error of a setting no key changes, without a
+/// key's time; the flag's own name; the format a file is not; a BOM-marked configuration read.
+#[test]
+fn messages_say_what_is_wrong_with_what_was_typed() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.5);
+    let out = dir.path().join("o.mkv");
+    let (i, o) = (s(&input), s(&out));
+    let keyed = "rain.rate_mm_per_h=[[0,10],[1,20]]";
+    let cases: [(Vec<&str>, &str, &str); 11] = [
+        (vec![i, "-o", o, "--from", "5"], "5 s is beyond", ""),
+        (vec![i, "-o", o, "--from", "1:2:3:4"], "invalid time", ""),
+        (
+            vec![i, "-o", o, "--from", "0.49"],
+            "from 0.49 s on",
+            " s.. s",
+        ),
+        (
+            vec![i, "-o", o, "--frames", "0..=18446744073709551615"],
+            "invalid --frames",
+            "0..0",
+        ),
+        (
+            vec![
+                i,
+                "-o",
+                o,
+                "--ground",
+                "horizon=0.5",
+                "--set",
+                "camera.tilt_deg=5",
+            ],
+            "conflicts with --ground horizon=0.5",
+            "out of range",
+        ),
+        (
+            vec![i, "-o", o, "--set", "rain.rate_mm_per_h=1e999"],
+            "not a finite number",
+            "string",
+        ),
+        (
+            vec![i, "-o", o, "--set", keyed, "--fov", "200"],
+            "--fov = 200: degrees",
+            "keyed",
+        ),
+        (
+            vec![i, "-o", o, "--set", "rain.rate_mm_per_h=[[0,10],[1,2000]]"],
+            "2000 (keyed, at 1 s) is out of range",
+            "conflicts",
+        ),
+        (
+            vec![
+                "inspect",
+                "sh",
+                "tests/data/courtyard_128x64.png",
+                "--bands",
+                "30",
+            ],
+            "--bands",
+            "",
+        ),
+        (vec!["inspect", "light", i], "not a PNG image", "extension"),
+        (
+            vec![i, "-o", o, "--streaks", "mattes", "--streak-db", "MISSING"],
+            "no such folder",
+            "",
+        ),
+    ];
+    for (args, says, not) in cases {
+        let e = fails(bin().args(&args));
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(not.is_empty() || !e.contains(not), "{args:?}: {e}");
+    }
+    let e = fails(bin().args([i, "--layer-only", "-o", "-"]));
+    assert!(!e.contains("--codec libx264"), "no --codec was given: {e}");
+    let bom = dir.path().join("bom.json");
+    std::fs::write(&bom, "\u{feff}{\"rain\": {\"rate_mm_per_h\": 5}}").expect("write");
+    succeeds(bin().args(["preview", i, "--frame", "0", "-o", "-", "--config", s(&bom)]));
+    assert_eq!(files_in(dir.path()), ["bom.json", "in.mp4"]);
+}

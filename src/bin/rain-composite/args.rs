@@ -537,9 +537,20 @@ pub fn parse_time_s(s: &str) -> anyhow::Result<f64> {
     let t = if let Some(ms) = s.strip_suffix("ms") {
         ms.trim().parse::<f64>().map_err(|_| bad())? / 1000.0
     } else if s.contains(':') {
-        s.split(':')
-            .try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v))
-            .map_err(|_| bad())?
+        // [[HH:]MM:]SS: at most three fields, minutes and seconds below 60 after the first.
+        let parts: Vec<&str> = s.split(':').collect();
+        if parts.len() > 3 {
+            return Err(bad());
+        }
+        let values = parts
+            .iter()
+            .map(|p| p.trim().parse::<f64>())
+            .collect::<Result<Vec<f64>, _>>()
+            .map_err(|_| bad())?;
+        if values[1..].iter().any(|v| !(0.0..60.0).contains(v)) {
+            return Err(bad());
+        }
+        values.iter().fold(0.0, |acc, v| acc * 60.0 + v)
     } else {
         s.strip_suffix('s')
             .unwrap_or(s)
@@ -704,7 +715,13 @@ pub fn frame_range(r: &RenderArgs) -> anyhow::Result<FrameRange> {
         let (a, b) = text.split_once("..").ok_or_else(bad)?;
         let start: u64 = a.trim().parse().map_err(|_| bad())?;
         let end = match b.strip_prefix('=') {
-            Some(b) => Some(b.trim().parse::<u64>().map_err(|_| bad())? + 1),
+            Some(b) => Some(
+                b.trim()
+                    .parse::<u64>()
+                    .ok()
+                    .and_then(|b| b.checked_add(1))
+                    .ok_or_else(bad)?,
+            ),
             None if b.trim().is_empty() => None,
             None => Some(b.trim().parse().map_err(|_| bad())?),
         };

@@ -85,6 +85,9 @@ impl Checkpoints {
                 .map_err(|e| failed(e.to_string()))?,
         );
         bytes.extend(fnv1a_bytes(&bytes).to_le_bytes());
+        if self.dir.exists() && !self.dir.is_dir() {
+            return Err(failed(format!("'{}' is not a folder", self.dir.display())));
+        }
         std::fs::create_dir_all(&self.dir).map_err(|e| failed(e.to_string()))?;
         let tmp = path.with_extension(format!("{EXTENSION}.{}.tmp", std::process::id()));
         std::fs::write(&tmp, &bytes)
