@@ -247,7 +247,8 @@ pub const MAX_CONFIG_BYTES: u64 = 4 << 20;
 impl RenderConfig {
     /// Reads a JSON configuration (any field may be left out). Only regular files of at most
     /// [`MAX_CONFIG_BYTES`] are read, so a FIFO or a device such as `/dev/zero` is refused at
-    /// once instead of blocking or growing without bound.
+    /// once instead of blocking or growing without bound. A relative `ground.depth` is taken
+    /// from the file's folder.
     pub fn from_json_file(path: &std::path::Path) -> Result<RenderConfig> {
         use std::io::Read;
         let fail = |reason: String| Error::Config {
@@ -277,7 +278,15 @@ impl RenderConfig {
         }
         // A byte-order mark, which some editors write, is no JSON but harmless.
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        Self::from_json(text).map_err(|e| fail(e.to_string()))
+        let mut config = Self::from_json(text).map_err(|e| fail(e.to_string()))?;
+        // A relative depth path is the file's, as a config travels with its depth maps.
+        if let Some(depth) = &config.ground.depth
+            && depth.is_relative()
+            && let Some(dir) = path.parent()
+        {
+            config.ground.depth = Some(dir.join(depth));
+        }
+        Ok(config)
     }
 
     /// Parses a JSON configuration (any field may be left out; unknown keys are errors). A

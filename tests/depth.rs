@@ -592,3 +592,27 @@ fn puddles_over_a_map_of_holes_or_of_a_wall() {
         assert!(!err.contains("error"), "{mm} mm: {err}");
     }
 }
+
+/// A configuration names its depth map relative to itself: it travels with its maps, and is
+/// read the same from any folder.
+#[test]
+fn a_configuration_names_its_depth_map_relative_to_itself() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (64, 48), 20, 0.12);
+    let shot = dir.path().join("shot");
+    std::fs::create_dir(&shot).expect("dir");
+    write_png(&shot.join("depth.png"), 64, 48, |_, _| 3000);
+    let config = shot.join("look.json");
+    std::fs::write(&config, r#"{"ground": {"depth": "depth.png"}}"#).expect("write");
+    let (ok, err) = run_bin(&[
+        "preview",
+        input.to_str().expect("utf-8"),
+        "--frame",
+        "0",
+        "-o",
+        "-",
+        "--config",
+        config.to_str().expect("utf-8"),
+    ]);
+    assert!(ok, "{err}");
+}

@@ -669,3 +669,60 @@ fn messages_say_what_is_wrong_with_what_was_typed() {
     succeeds(bin().args(["preview", i, "--frame", "0", "-o", "-", "--config", s(&bom)]));
     assert_eq!(files_in(dir.path()), ["bom.json", "in.mp4"]);
 }
+
+/// CRC-32 (PNG's), for a hand-made header.
+fn crc32(bytes: &[u8]) -> u32 {
+    !bytes.iter().fold(!0u32, |c, &b| {
+        (0..8).fold(c ^ b as u32, |c, _| {
+            if c & 1 == 1 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            }
+        })
+    })
+}
+
+/// A PNG whose header claims a picture of 100 000² pixels (a few dozen bytes on disk) is
+/// refused from its header, as a depth map and as an image for `inspect`, not decoded.
+#[test]
+fn a_huge_picture_is_refused_from_its_header() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        let body = [kind, data].concat();
+        c.extend(&body);
+        c.extend(crc32(&body).to_be_bytes());
+        c
+    };
+    let mut ihdr = 100_000u32.to_be_bytes().repeat(2);
+    ihdr.extend([16, 0, 0, 0, 0]);
+    let png = [
+        b"\x89PNG\r\n\x1a\n".to_vec(),
+        chunk(b"IHDR", &ihdr),
+        chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]),
+        chunk(b"IEND", &[]),
+    ]
+    .concat();
+    let huge = dir.path().join("huge.png");
+    std::fs::write(&huge, png).expect("write");
+    let started = Instant::now();
+    let e = fails(bin().args([
+        "preview",
+        s(&input),
+        "--frame",
+        "0",
+        "-o",
+        "-",
+        "--depth",
+        s(&huge),
+    ]));
+    assert!(
+        e.contains("too large") || e.contains("pixels a side"),
+        "{e}"
+    );
+    let e = fails(bin().args(["inspect", "sh", s(&huge)]));
+    assert!(e.contains("too large"), "{e}");
+    assert!(started.elapsed() < Duration::from_secs(20));
+}
