@@ -286,6 +286,20 @@ fn damaged_or_strange_checkpoints_are_passed_over_and_replaced() {
     std::os::unix::fs::symlink("/dev/zero", &file).expect("symlink");
     assert!(kept.latest(&print, 4).is_none(), "a device");
     assert!(started.elapsed().as_secs() < 5, "{:?}", started.elapsed());
+
+    // A folder that is a file is named as such (not "File exists").
+    let not_a_folder = Checkpoints {
+        dir: dir
+            .path()
+            .join("water")
+            .join(file.file_name().expect("name")),
+        every_frames: 4,
+    };
+    let e = not_a_folder
+        .save(&print, 4, &sim)
+        .expect_err("a file as the folder")
+        .to_string();
+    assert!(e.contains("is not a folder"), "{e}");
 }
 
 /// The settings of the picture alone — whether the puddles are shown, the streaks, the light —
