@@ -24,10 +24,16 @@ fn check_plot(plot: Option<&Path>) -> Result<()> {
 }
 
 /// `inspect sph`: runs a validation scene (`column`, `dam-break`, `basin`) for `steps` solver
-/// steps, or for the steps that reach its validated state when `None`.
-pub fn sph(scene: &str, steps: Option<usize>) -> Result<Value> {
-    let steps = steps.unwrap_or_else(|| crate::fluid::scenes::validated_steps(scene));
-    crate::fluid::scenes::inspect_sph(scene, steps)
+/// steps, or for the steps that reach its validated state when `None`; stops with
+/// [`crate::Error::Interrupted`] once `cancel` is set.
+pub fn sph(
+    scene: &str,
+    steps: Option<usize>,
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<Value> {
+    use crate::fluid::scenes::{SceneOptions, inspect_sph_or_stop, validated_steps};
+    let steps = steps.unwrap_or_else(|| validated_steps(scene));
+    inspect_sph_or_stop(scene, steps, &SceneOptions::default(), cancel)
 }
 
 /// Highest scattering order `inspect rtf` tabulates unless told: the render's.

@@ -482,8 +482,12 @@ fn long_work_stops_on_int_term_and_hup_and_leaves_nothing() {
     let out = dir.path().join("out.mkv");
     let png = dir.path().join("p.png");
     let db = dir.path().join("db");
-    let cases: [(&str, Vec<&str>); 4] = [
+    let cases: [(&str, Vec<&str>); 5] = [
         ("TERM", vec!["inspect", "puddles", s(&input), "--at", "2.9"]),
+        (
+            "TERM",
+            vec!["inspect", "sph", "--scene", "basin", "--steps", "100000"],
+        ),
         (
             "HUP",
             vec![
@@ -522,7 +526,11 @@ fn long_work_stops_on_int_term_and_hup_and_leaves_nothing() {
     ];
     let mut stopped = 0;
     for (signal, args) in cases {
-        let extra: &[&str] = if args[0] == "drops" { &[] } else { &water };
+        let extra: &[&str] = if args[0] == "drops" || args[1] == "sph" {
+            &[]
+        } else {
+            &water
+        };
         let Some((o, took)) = stop_with(
             bin().args(&args).args(extra),
             signal,
@@ -598,7 +606,7 @@ fn messages_say_what_is_wrong_with_what_was_typed() {
     let out = dir.path().join("o.mkv");
     let (i, o) = (s(&input), s(&out));
     let keyed = "rain.rate_mm_per_h=[[0,10],[1,20]]";
-    let cases: [(Vec<&str>, &str, &str); 11] = [
+    let cases: [(Vec<&str>, &str, &str); 14] = [
         (vec![i, "-o", o, "--from", "5"], "5 s is beyond", ""),
         (vec![i, "-o", o, "--from", "1:2:3:4"], "invalid time", ""),
         (
@@ -651,6 +659,13 @@ fn messages_say_what_is_wrong_with_what_was_typed() {
             "",
         ),
         (vec!["inspect", "light", i], "not a PNG image", "extension"),
+        (vec!["inspect", "rtf", "--bins", "1"], "--bins", ""),
+        (vec!["inspect", "rtf", "--nmax", "100000"], "--nmax", ""),
+        (
+            vec!["inspect", "sph", "--scene", "column", "--steps", "1000000"],
+            "--steps",
+            "",
+        ),
         (
             vec![i, "-o", o, "--streaks", "mattes", "--streak-db", "MISSING"],
             "no such folder",

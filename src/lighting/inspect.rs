@@ -61,14 +61,14 @@ fn check_rtf_params(n_max: usize, bins: usize, bands: usize) -> Result<()> {
     sh::check_bands(bands)?;
     if n_max < 1 {
         return Err(Error::Parameter {
-            name: "n-max",
+            name: "--nmax",
             value: n_max.to_string(),
             expected: "an order ≥ 1".into(),
         });
     }
     if bins < 2 {
         return Err(Error::Parameter {
-            name: "bins",
+            name: "--bins",
             value: bins.to_string(),
             expected: "at least 2 bins".into(),
         });

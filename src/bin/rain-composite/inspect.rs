@@ -20,8 +20,8 @@ pub enum InspectCommand {
         /// column, dam-break or basin.
         #[arg(long, value_parser = ["column", "dam-break", "basin"])]
         scene: String,
-        /// Solver steps [default: the steps that reach the validated state: column 3500,
-        /// dam-break 1500, basin 5000].
+        /// Solver steps, at most 100000 [default: the steps that reach the validated state:
+        /// column 3500, dam-break 1500, basin 5000].
         #[arg(long)]
         steps: Option<usize>,
         /// Print JSON (the only format).
@@ -186,7 +186,9 @@ fn check_fov(fov: f64) -> anyhow::Result<()> {
 /// Runs one report and prints it.
 pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
     let report = match command {
-        InspectCommand::Sph { scene, steps, .. } => inspect::sph(scene, *steps)?,
+        InspectCommand::Sph { scene, steps, .. } => {
+            inspect::sph(scene, *steps, &crate::INTERRUPTED)?
+        }
         InspectCommand::Rtf {
             rho,
             nmax,
