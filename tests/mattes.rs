@@ -689,3 +689,32 @@ fn a_garg_nayar_copy_with_point_lights_gives_the_render_its_glints() {
     assert!(env_only.lights.is_empty());
     assert_eq!(env_only.layers(), env_only.light_layer0());
 }
+
+/// A database's files are read only when regular: a FIFO as `index.json` or as a matte is an
+/// error at once, not a read that never ends.
+#[test]
+fn a_database_is_read_from_regular_files_only() {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("drops");
+    let index = database::load_index(&shipped).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = |path: &Path| {
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(path)
+                .status()
+                .unwrap()
+                .success()
+        );
+    };
+    fifo(&dir.path().join("index.json"));
+    let e = database::load_index(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("not a regular file"), "{e}");
+    let entry = &index.mattes[0];
+    let matte = dir.path().join(&entry.file);
+    std::fs::create_dir_all(matte.parent().unwrap()).unwrap();
+    fifo(&matte);
+    let e = database::read_matte(dir.path(), entry)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a regular file"), "{e}");
+}

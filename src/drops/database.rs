@@ -415,14 +415,19 @@ pub fn generate(
     Ok(index)
 }
 
-/// Reads `index.json` of a database folder.
+/// Largest `index.json` read, bytes: one of [`MAX_STREAKS`] streaks under a few dozen lights
+/// takes tens of MiB.
+pub const MAX_INDEX_BYTES: u64 = 256 << 20;
+
+/// Reads `index.json` of a database folder (a regular file of at most [`MAX_INDEX_BYTES`]).
 pub fn load_index(dir: &Path) -> Result<Index> {
     let path = dir.join("index.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::InputOpen {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    })?;
-    serde_json::from_str(&text).map_err(|e| Error::InputOpen {
+    let bytes =
+        crate::files::read_regular(&path, MAX_INDEX_BYTES).map_err(|reason| Error::InputOpen {
+            path: path.display().to_string(),
+            reason,
+        })?;
+    serde_json::from_slice(&bytes).map_err(|e| Error::InputOpen {
         path: path.display().to_string(),
         reason: format!("not a streak index: {e}"),
     })
@@ -435,11 +440,7 @@ pub fn read_matte(dir: &Path, entry: &MatteEntry) -> Result<Vec<f64>> {
         path: path.display().to_string(),
         reason,
     };
-    let img = image::ImageReader::open(&path)
-        .map_err(|e| fail(e.to_string()))?
-        .decode()
-        .map_err(|e| fail(e.to_string()))?
-        .into_luma16();
+    let img = crate::files::read_png(&path).map_err(fail)?.into_luma16();
     if (img.width() as usize, img.height() as usize) != (entry.width, entry.height) {
         return Err(fail(format!(
             "{}×{} px, the index says {}×{}",
