@@ -247,7 +247,8 @@ pub const MAX_CONFIG_BYTES: u64 = 4 << 20;
 impl RenderConfig {
     /// Reads a JSON configuration (any field may be left out). Only regular files of at most
     /// [`MAX_CONFIG_BYTES`] are read, so a FIFO or a device such as `/dev/zero` is refused at
-    /// once instead of blocking or growing without bound.
+    /// once instead of blocking or growing without bound. A relative `ground.depth` is taken
+    /// from the file's folder.
     pub fn from_json_file(path: &std::path::Path) -> Result<RenderConfig> {
         use std::io::Read;
         let fail = |reason: String| Error::Config {
@@ -275,7 +276,17 @@ impl RenderConfig {
                 MAX_CONFIG_BYTES >> 20
             )));
         }
-        Self::from_json(&text).map_err(|e| fail(e.to_string()))
+        // A byte-order mark, which some editors write, is no JSON but harmless.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let mut config = Self::from_json(text).map_err(|e| fail(e.to_string()))?;
+        // A relative depth path is the file's, as a config travels with its depth maps.
+        if let Some(depth) = &config.ground.depth
+            && depth.is_relative()
+            && let Some(dir) = path.parent()
+        {
+            config.ground.depth = Some(dir.join(depth));
+        }
+        Ok(config)
     }
 
     /// Parses a JSON configuration (any field may be left out; unknown keys are errors). A
@@ -422,6 +433,15 @@ impl RenderConfig {
                          the camera's tilt and roll",
                     ));
                 }
+                // The plane's distance is the height: another one would be ignored.
+                if matches!(mode, GroundMode::Plane { .. })
+                    && c.height_m != CameraConfig::default().height_m
+                {
+                    return Err(bad(
+                        "no --camera-height (camera.height_m) besides it: plane= sets the \
+                         camera's height",
+                    ));
+                }
                 Ok(())
             }
         }
@@ -482,23 +502,43 @@ impl RenderConfig {
                 expected: "keys from 0.5 to 64 (a pinhole cannot be keyed)".into(),
             });
         }
-        for t in self.keyframes.times_s() {
-            let mut at = self.at(t);
-            at.keyframes = Default::default();
-            at.validate_values().map_err(|e| match e {
-                Error::Parameter {
-                    name,
-                    value,
-                    expected,
-                } => Error::Parameter {
-                    name,
-                    value: format!("{value} (keyed, at {t} s)"),
-                    expected,
-                },
-                e => e,
-            })?;
-        }
-        Ok(())
+        let checked: Vec<(f64, Result<()>)> = self
+            .keyframes
+            .times_s()
+            .into_iter()
+            .map(|t| {
+                let mut at = self.at(t);
+                at.keyframes = Default::default();
+                (t, at.validate_values())
+            })
+            .collect();
+        let same = |a: &Result<()>, b: &Result<()>| match (a, b) {
+            (
+                Err(Error::Parameter { name, value, .. }),
+                Err(Error::Parameter {
+                    name: n, value: v, ..
+                }),
+            ) => name == n && value == v,
+            _ => false,
+        };
+        let Some(i) = checked.iter().position(|(_, r)| r.is_err()) else {
+            return Ok(());
+        };
+        // The same error at every key is no key's: it is told without a key's time.
+        let keyed = checked.iter().any(|(_, r)| !same(r, &checked[i].1));
+        let (t, result) = checked.into_iter().nth(i).expect("found above");
+        result.map_err(|e| match e {
+            Error::Parameter {
+                name,
+                value,
+                expected,
+            } if keyed => Error::Parameter {
+                name,
+                value: format!("{value} (keyed, at {t} s)"),
+                expected,
+            },
+            e => e,
+        })
     }
 
     /// [`RenderConfig::validate`] of the values at t = 0.

@@ -18,11 +18,22 @@ use crate::lighting::inspect::{self as light_inspect, LinearImage};
 use crate::lighting::{ChannelIndices, LightConfig, inspect_light, rtf};
 use crate::rain::{physics, volume};
 
+/// Refuses a plot that could not be written before the report's work is done.
+fn check_plot(plot: Option<&Path>) -> Result<()> {
+    plot.map_or(Ok(()), crate::files::check_png_output)
+}
+
 /// `inspect sph`: runs a validation scene (`column`, `dam-break`, `basin`) for `steps` solver
-/// steps, or for the steps that reach its validated state when `None`.
-pub fn sph(scene: &str, steps: Option<usize>) -> Result<Value> {
-    let steps = steps.unwrap_or_else(|| crate::fluid::scenes::validated_steps(scene));
-    crate::fluid::scenes::inspect_sph(scene, steps)
+/// steps, or for the steps that reach its validated state when `None`; stops with
+/// [`crate::Error::Interrupted`] once `cancel` is set.
+pub fn sph(
+    scene: &str,
+    steps: Option<usize>,
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<Value> {
+    use crate::fluid::scenes::{SceneOptions, inspect_sph_or_stop, validated_steps};
+    let steps = steps.unwrap_or_else(|| validated_steps(scene));
+    inspect_sph_or_stop(scene, steps, &SceneOptions::default(), cancel)
 }
 
 /// Highest scattering order `inspect rtf` tabulates unless told: the render's.
@@ -38,6 +49,7 @@ pub fn rtf(
     bands: usize,
     plot: Option<&Path>,
 ) -> Result<Value> {
+    check_plot(plot)?;
     let v = light_inspect::inspect_rtf(rho, n_max, bins, bands)?;
     if let Some(path) = plot {
         light_inspect::plot_rtf(rho, n_max, bins, path)?;
@@ -49,6 +61,7 @@ pub fn rtf(
 /// through `camera` (the render's camera model: its height and roll included); with `plot`,
 /// also the environment reconstructed from the coefficients beside the mapped original.
 pub fn sh(image: &Path, camera: &CameraConfig, bands: usize, plot: Option<&Path>) -> Result<Value> {
+    check_plot(plot)?;
     let img = LinearImage::load_png(image)?;
     let camera = camera.camera(img.width as u32, img.height as u32);
     let v = light_inspect::inspect_sh(&img, &camera, bands)?;
@@ -70,6 +83,7 @@ pub fn light(
     plot: Option<&Path>,
     labels: Option<&Path>,
 ) -> Result<Value> {
+    check_plot(plot)?;
     let img = LinearImage::load_png(image)?;
     let camera = camera.camera(img.width as u32, img.height as u32);
     let report = inspect_light::light_report(&img, &camera, grid, light)?;
@@ -121,18 +135,22 @@ pub fn drops(
 /// estimates at `at_s` of the clip `input` through `camera`'s field of view; with `plot`, also
 /// the frame with the horizon and a metre grid on the ground (at `camera.height_m`).
 pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
+    check_plot(plot)?;
     crate::scene::ground_inspect::report(input, at_s, camera, plot)
 }
 
 /// `inspect puddles`: the water a render of `input` under `config` has on its ground at
 /// `at_s` (fast-forwarded from the start), its ledger, and with `plot` the water-depth map;
-/// with `keep`, the water is kept along the way as a render keeps it.
+/// with `keep`, the water is kept along the way as a render keeps it. Stops with
+/// [`crate::Error::Interrupted`] once `cancel` is set.
 pub fn puddles(
     config: &RenderConfig,
     input: &str,
     at_s: f64,
     plot: Option<&Path>,
     keep: Option<&crate::fluid::puddles::Checkpoints>,
+    cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<Value> {
-    crate::fluid::puddles::report::report(config, input, at_s, plot, keep)
+    check_plot(plot)?;
+    crate::fluid::puddles::report::report(config, input, at_s, plot, keep, cancel)
 }

@@ -50,6 +50,7 @@
 pub mod config;
 pub mod drops;
 pub mod error;
+pub mod files;
 pub mod fluid;
 pub mod gpu;
 pub mod inspect;

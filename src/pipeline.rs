@@ -246,13 +246,10 @@ impl std::fmt::Display for FrameRange {
             FrameRange::Indices { start, end: e } => {
                 write!(f, "frames {start}..{}", end(e.map(|e| e.to_string())))
             }
-            FrameRange::Times { from_s, to_s } => {
-                write!(
-                    f,
-                    "times {from_s} s..{} s",
-                    end(to_s.map(|t| t.to_string()))
-                )
-            }
+            FrameRange::Times { from_s, to_s } => match to_s {
+                Some(to_s) => write!(f, "times {from_s} s..{to_s} s"),
+                None => write!(f, "times from {from_s} s on"),
+            },
         }
     }
 }
@@ -346,10 +343,11 @@ enum ToEncode {
 }
 
 /// Runs `job`. `progress` is called after every written frame; `cancel` stops the job cleanly
-/// (the partial output is removed).
+/// (the partial output is removed), also within a frame's long work such as the water's
+/// fast-forward, so it is a static like the flag a signal handler sets.
 pub fn render(
     job: &Job,
-    cancel: &AtomicBool,
+    cancel: &'static AtomicBool,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Summary> {
     job.render.validate()?;
@@ -370,12 +368,23 @@ pub fn render(
     if let Some(c) = &job.checkpoints {
         rain = rain.with_checkpoints(c.clone());
     }
+    let mut rain = rain.with_cancel(cancel);
     // A chunk starts decoding where the frames that light its first frame begin (as a preview
     // does), less the interleaving slack for the audio; a pipe is read from the start.
     let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
     let mut first = None;
     if warm_from_s > 0.0 && source.is_seekable() {
-        first = Some(SourceItem::Frame(source.seek_to_time(warm_from_s)?));
+        // The seek goes to the frames that light the chunk, before it: a chunk beyond the clip
+        // is named by its own start.
+        let frame = source.seek_to_time(warm_from_s).map_err(|e| match e {
+            Error::OutOfRange(_) => Error::OutOfRange(format!(
+                "{} s is beyond the last frame of '{}'",
+                job.frames.start_s(&info),
+                job.input
+            )),
+            e => e,
+        })?;
+        first = Some(SourceItem::Frame(frame));
     }
     let mut chunk = ChunkCut::new(job.frames, &info);
 
@@ -716,7 +725,7 @@ pub fn preview(
     render: &RenderConfig,
     adapter: &AdapterRequest,
     checkpoints: Option<&Checkpoints>,
-    cancel: &AtomicBool,
+    cancel: &'static AtomicBool,
 ) -> Result<(YuvFrame, VideoInfo)> {
     render.validate()?;
     let check = || {
@@ -741,6 +750,7 @@ pub fn preview(
     if let Some(c) = checkpoints {
         rain = rain.with_checkpoints(c.clone());
     }
+    rain = rain.with_cancel(cancel);
     let t_target = frame_time_s(&info, &target);
     let window = rain.light_window_s();
     if window > 0.0 {
@@ -855,6 +865,15 @@ impl RainCompositor {
         self
     }
 
+    /// Stops the long work inside a frame (the water's fast-forward to the first frame) with
+    /// [`Error::Interrupted`] once `cancel` is set: the flag the caller's frame loop polls.
+    pub fn with_cancel(mut self, cancel: &'static AtomicBool) -> RainCompositor {
+        if let PuddleFeed::Pending(plan) = &mut self.puddles {
+            plan.cancel = Some(cancel);
+        }
+        self
+    }
+
     /// The uniforms, lights and depth of the frame shown at `t_s`, set on the compositor.
     fn prepare(&mut self, frame: &YuvFrame, t_s: f64) -> Result<RainParams> {
         // Running water advances on its own thread beside the frame's light estimation (the
@@ -954,6 +973,8 @@ struct PuddlePlan {
     fps: f64,
     config: RenderConfig,
     checkpoints: Option<Checkpoints>,
+    /// Stops the fast-forward.
+    cancel: Option<&'static AtomicBool>,
 }
 
 /// The water during a job.
@@ -1007,6 +1028,7 @@ impl PuddleFeed {
             fps: crate::fluid::puddles::report::clip_fps(info),
             config: config.clone(),
             checkpoints: None,
+            cancel: None,
         })))
     }
 
@@ -1025,7 +1047,14 @@ impl PuddleFeed {
         };
         let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
         let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
-            log::warn!("--puddles: the picture shows no ground within reach; no puddles");
+            log::warn!(
+                "--puddles: the {} shows no ground within reach; no puddles",
+                if depth.is_some() {
+                    "depth map"
+                } else {
+                    "picture"
+                }
+            );
             *self = PuddleFeed::Off;
             return Ok(Vec::new());
         };
@@ -1150,7 +1179,8 @@ impl PuddlePlan {
             None => ("from the clip's start".to_string(), fresh),
         };
         if t_s > sim.time_s() {
-            sim.advance_with_rain(rain, t_s)?;
+            let never = AtomicBool::new(false);
+            sim.advance_with_rain_or_stop(rain, t_s, self.cancel.unwrap_or(&never))?;
         }
         let (cap, capped) = sim.particle_cap();
         log::info!(

@@ -98,9 +98,9 @@ pub fn with_overrides(config: &RenderConfig, sets: &[String]) -> Result<RenderCo
     let mut tree = config.to_value();
     for set in sets {
         apply(&mut tree, set)?;
-        // Deserialising after each one names the override whose value has the wrong type.
-        RenderConfig::deserialize_value(tree.clone())
-            .map_err(|e| bad_set(set, format!("wrong type: {e}")))?;
+        // Deserialising after each one names the override whose value has the wrong type (the
+        // reader's own message says which: "invalid type", "invalid value", a key's error).
+        RenderConfig::deserialize_value(tree.clone()).map_err(|e| bad_set(set, e.to_string()))?;
     }
     RenderConfig::deserialize_value(tree).map_err(|e| bad_set("", e.to_string()))
 }
@@ -117,7 +117,14 @@ fn apply(tree: &mut Value, set: &str) -> Result<()> {
     let Some((path, text)) = set.split_once('=') else {
         return Err(bad_set(set, "expected key.path=value".into()));
     };
-    let value = serde_json::from_str(text).unwrap_or_else(|_| Value::String(text.to_string()));
+    let value = match serde_json::from_str(text) {
+        Ok(v) => v,
+        // A number JSON cannot hold (1e999) is not a string.
+        Err(_) if text.trim().parse::<f64>().is_ok_and(|v| !v.is_nan()) => {
+            return Err(bad_set(set, format!("{text} is not a finite number")));
+        }
+        Err(_) => Value::String(text.to_string()),
+    };
     let mut node = tree;
     let mut at = String::new();
     for key in path.split('.') {
@@ -196,10 +203,19 @@ pub fn validate_layered(
         .rev()
         .find(|&i| without(i).is_some_and(clears))
     {
-        Some(i) => Err(bad_set(
-            &sets[i],
-            format!("{value} is out of range: {expected} (the range of {name})"),
-        )),
+        Some(i) => {
+            // The override's own value out of range, or a value it conflicts with.
+            let given = sets[i].split_once('=').map_or("", |(_, v)| v.trim());
+            let same = given == value
+                || value.contains("(keyed, at ")
+                || matches!((given.parse::<f64>(), value.parse::<f64>()), (Ok(a), Ok(b)) if a == b);
+            let reason = if same {
+                format!("{value} is out of range: {expected} (the range of {name})")
+            } else {
+                format!("conflicts with {name} {value}: {expected}")
+            };
+            Err(bad_set(&sets[i], reason))
+        }
         None => Err(error),
     }
 }
@@ -265,9 +281,10 @@ mod tests {
             ("rain.rate_mm_per_h.x=5", "single value"),
             ("weather.rate_mm_per_h=5", "no key 'weather'"),
             ("light.lights.0.azimuth_deg=5", "not an index"),
-            ("rain.rate_mm_per_h=heavy", "wrong type"),
-            ("rain.seed=-1", "wrong type"),
-            ("rain.wind_mps=3", "wrong type"),
+            ("rain.rate_mm_per_h=heavy", "invalid type"),
+            ("rain.seed=-1", "invalid value"),
+            ("rain.wind_mps=3", "invalid type"),
+            ("rain.rate_mm_per_h=1e999", "not a finite number"),
             ("rain.rate_mm_per_h", "key.path=value"),
         ] {
             let e = with_overrides(&base, &sets(&[set]))

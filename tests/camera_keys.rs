@@ -469,3 +469,34 @@ fn a_lamp_fixed_in_the_world_stays_put_while_the_camera_pans() {
     assert!(worst_deg < 1.0, "{worst_deg}°");
     assert!(swing_deg > 10.0, "{swing_deg}°");
 }
+
+/// Planning costs milliseconds a pose, so a camera that turns far is planned for a bounded
+/// number of poses (a coarser step, the envelope still holding every frame's drops), and a
+/// camera that spins beyond what a coarse step covers is refused by name, at once.
+#[test]
+fn a_camera_that_turns_far_is_planned_for_bounded_poses() {
+    let started = std::time::Instant::now();
+    let two_turns = Keyframes {
+        pan_deg: ramp(&[(0.0, 0.0), (2.0, 720.0)]),
+        ..Keyframes::default()
+    };
+    let (_, setup) = rain_of(CameraConfig::default(), light_rain(), &two_turns);
+    for t in [0.0, 0.5, 1.3, 2.0] {
+        assert!(in_view_count(&setup, t, setup.volume.far_m) > 100, "t {t}");
+    }
+    let spin: Vec<(f64, f64)> = (0..16)
+        .map(|k| (k as f64, if k % 2 == 0 { -360.0 } else { 360.0 }))
+        .collect();
+    let spinning = Keyframes {
+        pan_deg: ramp(&spin),
+        ..Keyframes::default()
+    };
+    let config = CameraConfig::default();
+    let camera = config.camera(SIZE.0, SIZE.1);
+    let e = emitter::build_keyed(&camera, &config, &light_rain(), &spinning, 0.02, 0, SIZE)
+        .map(|_| ())
+        .expect_err("a spin of 30 turns is refused")
+        .to_string();
+    assert!(e.contains("camera keys") && e.contains("3600"), "{e}");
+    assert!(started.elapsed().as_secs() < 60, "{:?}", started.elapsed());
+}

@@ -836,3 +836,67 @@ fn a_truncated_stream_is_an_error_even_when_its_start_decodes() {
         "no output or temporary file left"
     );
 }
+
+/// A report's plot is checked before the report's work: a name that is not PNG, a directory or
+/// a missing folder is one error line, and an existing file of that name is left as it was; a
+/// plot that is written replaces the old file whole and leaves nothing beside it.
+#[test]
+fn inspect_plots_are_checked_first_and_never_destroy_a_file() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mp4");
+    clip(&input, "96x64", 0.5, &[]);
+    let keep = p(&dir, "plot.jpg");
+    std::fs::write(&keep, "keep").expect("write");
+    let image = "tests/data/courtyard_128x64.png";
+    let puddles = [
+        "inspect",
+        "puddles",
+        s(&input),
+        "--at",
+        "0.4",
+        "--ground",
+        "horizon=0.4",
+    ];
+    let reports: [&[&str]; 6] = [
+        &["inspect", "rtf", "--bins", "64"],
+        &["inspect", "sh", image],
+        &["inspect", "light", image],
+        &["inspect", "ground", s(&input)],
+        &puddles,
+        &["inspect", "drops"],
+    ];
+    let sub = p(&dir, "sub");
+    std::fs::create_dir(&sub).expect("mkdir");
+    let missing = p(&dir, "no/such/plot.png");
+    let new = p(&dir, "new.jpg");
+    let started = std::time::Instant::now();
+    for report in reports {
+        let flag = if report[1] == "drops" {
+            "--mattes"
+        } else {
+            "--plot"
+        };
+        for (plot, says) in [
+            (keep.as_path(), ".png"),
+            (new.as_path(), ".png"),
+            (sub.as_path(), "directory"),
+            (missing.as_path(), "does not exist"),
+        ] {
+            let err = fails(bin().args(report).args([flag, s(plot)]));
+            assert!(err.contains(says), "{report:?} {plot:?}: {err}");
+        }
+    }
+    // Refused before the work: no simulation, no decoding.
+    assert!(started.elapsed().as_secs() < 60, "{:?}", started.elapsed());
+    assert_eq!(std::fs::read(&keep).expect("read"), b"keep");
+    assert_eq!(only_files(dir.path()), ["in.mp4", "plot.jpg", "sub"]);
+
+    let plot = p(&dir, "rtf.png");
+    std::fs::write(&plot, "old").expect("write");
+    ok(bin().args(["inspect", "rtf", "--bins", "64", "--plot", s(&plot)]));
+    assert_eq!(&std::fs::read(&plot).expect("read")[..4], b"\x89PNG");
+    assert_eq!(
+        only_files(dir.path()),
+        ["in.mp4", "plot.jpg", "rtf.png", "sub"]
+    );
+}

@@ -548,3 +548,136 @@ fn the_cli_takes_a_depth_map() {
     let (o, out) = render("wall.mkv", &["--depth", wall.to_str().expect("utf-8")]);
     assert!(plain != md5(o, &out), "a near wall hid nothing");
 }
+
+/// Runs the binary; returns whether it succeeded and its stderr.
+fn run_bin(args: &[&str]) -> (bool, String) {
+    let o = bin()
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .args(args)
+        .output()
+        .expect("spawn");
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Only the documented format is depth: an 8-bit or colour PNG, an 8-bit or colour video (the
+/// clip itself) would be read on a scale no one means, so each is one error line naming the
+/// format wanted.
+#[test]
+fn depth_in_another_format_is_refused() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (64, 48), 20, 0.12);
+    let grey8 = dir.path().join("grey8.png");
+    image::GrayImage::from_pixel(64, 48, image::Luma([200]))
+        .save(&grey8)
+        .expect("png");
+    let rgb16 = dir.path().join("rgb16.png");
+    image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_pixel(64, 48, image::Rgb([900; 3]))
+        .save(&rgb16)
+        .expect("png");
+    let grey8_video = dir.path().join("grey8.mkv");
+    fixtures::ffmpeg(&[
+        "-i",
+        grey8.to_str().expect("utf-8"),
+        "-c:v",
+        "ffv1",
+        "-pix_fmt",
+        "gray",
+        grey8_video.to_str().expect("utf-8"),
+    ]);
+    let png = dir.path().join("p.png");
+    for depth in [&grey8, &rgb16, &grey8_video, &input] {
+        let (ok, err) = run_bin(&[
+            "preview",
+            input.to_str().expect("utf-8"),
+            "--frame",
+            "0",
+            "-o",
+            png.to_str().expect("utf-8"),
+            "--depth",
+            depth.to_str().expect("utf-8"),
+        ]);
+        assert!(!ok, "{depth:?} was taken for depth");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            err.starts_with("error:") && err.contains("16-bit greyscale"),
+            "{err}"
+        );
+    }
+    assert!(!png.exists());
+}
+
+/// With puddles, a map of holes knows nothing, so the water lies on the plane as without a
+/// map; a map that shows no ground within reach (a wall near or far) gives no puddles, with a
+/// warning, as a camera that sees no ground does.
+#[test]
+fn puddles_over_a_map_of_holes_or_of_a_wall() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (96, 64), 24, 0.12);
+    let preview = |name: &str, depth: Option<&Path>| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "preview",
+            input.to_str().expect("utf-8"),
+            "--frame",
+            "2",
+            "-o",
+            out.to_str().expect("utf-8"),
+            "--ground",
+            "horizon=0.5",
+            "--puddles",
+            "--puddle-particles",
+            "500",
+            "--pre-rain",
+            "5",
+            "--cpu",
+        ];
+        if let Some(d) = depth {
+            args.extend(["--depth", d.to_str().expect("utf-8")]);
+        }
+        let (ok, err) = run_bin(&args);
+        assert!(ok, "{name}: {err}");
+        (std::fs::read(&out).expect("png"), err)
+    };
+    let (plain, _) = preview("plain.png", None);
+    let holes = dir.path().join("holes-map.png");
+    write_png(&holes, 48, 32, |_, _| 0);
+    let (with_holes, err) = preview("with-holes.png", Some(&holes));
+    assert!(
+        with_holes == plain,
+        "a map of holes changed the water: {err}"
+    );
+    for mm in [500, 3_000, 51_400] {
+        let wall = dir.path().join(format!("wall{mm}.png"));
+        write_png(&wall, 48, 32, |_, _| mm);
+        let (_, err) = preview(&format!("wall{mm}.out.png"), Some(&wall));
+        assert!(err.contains("no puddles"), "{mm} mm: {err}");
+        assert!(!err.contains("error"), "{mm} mm: {err}");
+    }
+}
+
+/// A configuration names its depth map relative to itself: it travels with its maps, and is
+/// read the same from any folder.
+#[test]
+fn a_configuration_names_its_depth_map_relative_to_itself() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (64, 48), 20, 0.12);
+    let shot = dir.path().join("shot");
+    std::fs::create_dir(&shot).expect("dir");
+    write_png(&shot.join("depth.png"), 64, 48, |_, _| 3000);
+    let config = shot.join("look.json");
+    std::fs::write(&config, r#"{"ground": {"depth": "depth.png"}}"#).expect("write");
+    let (ok, err) = run_bin(&[
+        "preview",
+        input.to_str().expect("utf-8"),
+        "--frame",
+        "0",
+        "-o",
+        "-",
+        "--config",
+        config.to_str().expect("utf-8"),
+    ]);
+    assert!(ok, "{err}");
+}

@@ -1,6 +1,7 @@
-//! Seeded mutation fuzzing of the two parsers that read untrusted bytes: the JSON configuration
-//! and the video reader (y4m, the format pipes carry). Every mutated input must give `Ok` or a
-//! clean `Err`, never a panic, and a configuration that validates must plan its rain.
+//! Seeded mutation fuzzing of the parsers that read untrusted bytes: the JSON configuration,
+//! the video reader (y4m, the format pipes carry), the puddles' checkpoints, depth maps and
+//! `--set` overrides. Every mutated input must give `Ok` or a clean `Err`, never a panic, and a
+//! configuration that validates must plan its rain.
 //!
 //! CI runs a bounded number of cases; a longer run:
 //! `RAIN_COMPOSITE_FUZZ_CASES=200000 cargo test --release --test fuzz -- --nocapture`.
@@ -245,4 +246,126 @@ fn mutated_y4m_streams_never_panic() {
         decoded > 10,
         "only {decoded} mutated streams decoded at all"
     );
+}
+
+/// FNV-1a, 64 bits: the hash a checkpoint ends in, so a mutated file can be made to pass it
+/// and reach the state's reader.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// Kept water that is damaged — whether its hash then matches or not — is passed over or
+/// read, never a panic, and water read from it goes on running.
+#[test]
+fn mutated_checkpoints_never_panic() {
+    use rain_composite::fluid::puddles::checkpoint::fingerprint;
+    use rain_composite::fluid::puddles::{Checkpoints, PuddleSettings, PuddleSim};
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.1".parse().expect("mode");
+    config.camera.fov_deg = 90.0;
+    config.ground.pre_rain_min = 60.0;
+    let camera = config.camera(96, 64).expect("camera");
+    let settings = PuddleSettings {
+        max_distance_m: 2.0,
+        particle_spacing_m: 0.03,
+        max_particles: 400,
+        ..PuddleSettings::default()
+    };
+    let build = || {
+        PuddleSim::new(&config, &camera, None, 25.0, &settings)
+            .expect("valid")
+            .expect("ground in view")
+    };
+    let dir = tempfile::tempdir().expect("tmp");
+    let kept = Checkpoints {
+        dir: dir.path().to_path_buf(),
+        every_frames: 1,
+    };
+    let print = fingerprint(&config, &camera, 25.0, &settings);
+    kept.save(&print, 0, &build()).expect("kept");
+    let file = kept.path(&print, 0);
+    let sound = std::fs::read(&file).expect("file");
+    let mut rng = SplitMix64(0xc4ec_4901);
+    let mut read = 0;
+    for case in 0..cases(300) {
+        let mut bytes = mutate(&mut rng, &sound[..sound.len() - 8]);
+        // Half the cases carry a hash that matches: the reader of the state itself is fuzzed.
+        let hash = if case % 2 == 0 {
+            fnv1a(&bytes)
+        } else {
+            rng.next_u64()
+        };
+        bytes.extend(hash.to_le_bytes());
+        std::fs::write(&file, &bytes).expect("write");
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            if let Some((_, sim)) = kept.latest(&print, 0) {
+                let mut sim = sim.with_fixed_parts_of(build());
+                let _ = sim.advance_to(0.08, &[]);
+                return true;
+            }
+            false
+        }));
+        match r {
+            Ok(used) => read += usize::from(used),
+            Err(_) => panic!("case {case} panicked on a mutated checkpoint"),
+        }
+    }
+    // Mutations that keep the state readable must reach the solver, not stop at the hash.
+    assert!(read > 0, "no mutated checkpoint was read");
+}
+
+/// A damaged depth map is an error, never a panic.
+#[test]
+fn mutated_depth_maps_never_panic() {
+    use rain_composite::scene::DepthMap;
+    let dir = tempfile::tempdir().expect("tmp");
+    let seed_path = dir.path().join("seed.png");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(23, 17, |x, y| {
+        image::Luma([(x * 300 + y * 7) as u16])
+    })
+    .save(&seed_path)
+    .expect("png");
+    let seed = std::fs::read(&seed_path).expect("read");
+    let mut rng = SplitMix64(0xdeb7_4a95);
+    let mut loaded = 0;
+    for case in 0..cases(1000) {
+        let bytes = mutate(&mut rng, &seed);
+        let path = dir.path().join("case.png");
+        std::fs::write(&path, &bytes).expect("write");
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            DepthMap::load_png(&path, 1.0).map(|m| m.resampled(40, 30).known_fraction())
+        }));
+        match r {
+            Ok(result) => loaded += usize::from(result.is_ok()),
+            Err(_) => panic!("case {case} panicked on a mutated depth map"),
+        }
+    }
+    assert!(loaded > 10, "only {loaded} mutated maps loaded");
+}
+
+/// `--set` overrides mutated in their keys and values are applied or refused, never a panic.
+#[test]
+fn mutated_overrides_never_panic() {
+    let seeds = [
+        "rain.rate_mm_per_h=12.5",
+        "camera.fov_deg=[[0,60],[2,40]]",
+        "ground.mode=horizon=0.45",
+        "light.lights=[]",
+        "rain.wind_mps=[1.5,-0.5]",
+    ];
+    let mut rng = SplitMix64(0x0e77_1de5);
+    let base = RenderConfig::default();
+    for case in 0..cases(3000) {
+        let set = String::from_utf8_lossy(&mutate(&mut rng, seeds[case % seeds.len()].as_bytes()))
+            .into_owned();
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            if let Ok(c) = rain_composite::preset::with_overrides(&base, std::slice::from_ref(&set))
+            {
+                let _ = c.validate();
+            }
+        }));
+        assert!(r.is_ok(), "case {case} panicked on --set {set:?}");
+    }
 }

@@ -323,6 +323,10 @@ fn ground_modes_parse_and_name_their_errors() {
     for (text, range) in [
         ("horizon=0.5,roll=95", "(-90, 90)"),
         ("plane=0,-1,0,0", "d ≠ 0"),
+        // n·X = d read as n·X + d = 0: a ceiling, the camera upside down or on its side.
+        ("plane=0,1,0,1.6", "rolls the camera by"),
+        ("plane=1,0,0,1.6", "rolls the camera by"),
+        ("plane=0,1e-30,0,1.6", "length above 1e-9"),
         ("sky", "horizon=ROW"),
     ] {
         let err = text
@@ -343,6 +347,17 @@ fn ground_modes_parse_and_name_their_errors() {
             mode
         );
     }
+    // A plane sets the camera's height: a height given besides it (as `--set
+    // camera.height_m` or in a configuration) would be ignored, so it is refused.
+    let mut config = rain_composite::config::RenderConfig::default();
+    config.ground.mode = "plane=0,-1,0,1.6".parse().expect("mode");
+    config.validate().expect("a plane alone");
+    config.camera.height_m = 3.0;
+    let err = config.validate().expect_err("two heights").to_string();
+    assert!(
+        err.contains("--camera-height") && err.contains("plane="),
+        "{err}"
+    );
 }
 
 /// Across tilts: near level, down 20°, and rolled 20° while looking up, the reading is

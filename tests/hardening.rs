@@ -434,3 +434,310 @@ fn inspect_drops_prints_the_plan_the_render_uses() {
     let pinhole: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     assert_ne!(pinhole["volume"]["far_m"], plan["far_m"]);
 }
+
+/// Starts `cmd`, sends `signal` after `after`, and returns its output and how long it took to
+/// stop; `None` when it had already finished (a machine faster than the test expects).
+fn stop_with(cmd: &mut Command, signal: &str, after: Duration) -> Option<(Output, Duration)> {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    std::thread::sleep(after);
+    if child.try_wait().expect("wait").is_some() {
+        return None;
+    }
+    let sent = Instant::now();
+    let pid = child.id().to_string();
+    let _ = Command::new("kill")
+        .args([&format!("-{signal}"), &pid])
+        .status();
+    while child.try_wait().expect("wait").is_none() {
+        if sent.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!("{cmd:?} ignored {signal}: {}", stderr(&out));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let took = sent.elapsed();
+    Some((child.wait_with_output().expect("output"), took))
+}
+
+/// Every long piece of work — the water's simulation pass, its fast-forward before a preview
+/// or a chunk, the streak database's ray tracing — stops within a second of INT, TERM or HUP,
+/// says so in one line and leaves no file behind.
+#[test]
+fn long_work_stops_on_int_term_and_hup_and_leaves_nothing() {
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::sky_over_ground(dir.path(), "in.mkv", (160, 96), 30, 3.0);
+    let water = [
+        "--ground",
+        "horizon=0.3",
+        "--pre-rain",
+        "60",
+        "--puddle-particles",
+        "10000",
+    ];
+    let out = dir.path().join("out.mkv");
+    let png = dir.path().join("p.png");
+    let db = dir.path().join("db");
+    let cases: [(&str, Vec<&str>); 5] = [
+        ("TERM", vec!["inspect", "puddles", s(&input), "--at", "2.9"]),
+        (
+            "TERM",
+            vec!["inspect", "sph", "--scene", "basin", "--steps", "100000"],
+        ),
+        (
+            "HUP",
+            vec![
+                "preview",
+                s(&input),
+                "--at",
+                "2.9",
+                "--puddles",
+                "-o",
+                s(&png),
+            ],
+        ),
+        (
+            "INT",
+            vec![s(&input), "--frames", "70..72", "--puddles", "-o", s(&out)],
+        ),
+        (
+            "INT",
+            vec![
+                "drops",
+                "generate",
+                "-o",
+                s(&db),
+                "--sizes",
+                "4",
+                "--views",
+                "0",
+                "--phases",
+                "1",
+                "--pixels-per-diameter",
+                "32",
+                "--samples",
+                "4",
+            ],
+        ),
+    ];
+    let mut stopped = 0;
+    for (signal, args) in cases {
+        let extra: &[&str] = if args[0] == "drops" || args[1] == "sph" {
+            &[]
+        } else {
+            &water
+        };
+        let Some((o, took)) = stop_with(
+            bin().args(&args).args(extra),
+            signal,
+            Duration::from_millis(2500),
+        ) else {
+            continue;
+        };
+        stopped += 1;
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("error: interrupted"), "{args:?}: {err}");
+        assert!(
+            took < Duration::from_secs(2),
+            "{args:?}: {took:?} after {signal}"
+        );
+        let left: Vec<String> = files_in(dir.path())
+            .into_iter()
+            .filter(|n| n != "in.mkv" && !(n == "db" && files_in(&db).is_empty()))
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+    // The streak at 32 pixels a diameter takes minutes on any machine.
+    assert!(stopped > 0);
+}
+
+/// A depth map that is not a regular file (a FIFO would block the read forever, a device never
+/// ends) is refused at once.
+#[test]
+fn a_depth_map_is_read_from_regular_files_only() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    for name in ["fifo.png", "fifo.mkv"] {
+        let fifo = dir.path().join(name);
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .expect("mkfifo")
+                .success()
+        );
+        let zero = dir.path().join(format!("zero-{name}"));
+        std::os::unix::fs::symlink("/dev/zero", &zero).expect("symlink");
+        for depth in [&fifo, &zero] {
+            let out = run_within(
+                bin().args([
+                    "preview",
+                    s(&input),
+                    "--frame",
+                    "0",
+                    "-o",
+                    s(&dir.path().join("p.png")),
+                    "--depth",
+                    s(depth),
+                ]),
+                Duration::from_secs(20),
+            );
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(1), "{err}");
+            assert!(err.contains("not a regular file"), "{err}");
+        }
+    }
+    assert!(!dir.path().join("p.png").exists());
+}
+
+/// Each message says what is wrong with what the user typed: the time asked for, not the one
+/// a seek started from; a range that is open at the end; a count that does not fit; a conflict,
+/// not a range; a number too large for JSON; an error of a setting no key changes, without a
+/// key's time; the flag's own name; the format a file is not; a BOM-marked configuration read.
+#[test]
+fn messages_say_what_is_wrong_with_what_was_typed() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.5);
+    let out = dir.path().join("o.mkv");
+    let (i, o) = (s(&input), s(&out));
+    let keyed = "rain.rate_mm_per_h=[[0,10],[1,20]]";
+    let cases: [(Vec<&str>, &str, &str); 14] = [
+        (vec![i, "-o", o, "--from", "5"], "5 s is beyond", ""),
+        (vec![i, "-o", o, "--from", "1:2:3:4"], "invalid time", ""),
+        (
+            vec![i, "-o", o, "--from", "0.49"],
+            "from 0.49 s on",
+            " s.. s",
+        ),
+        (
+            vec![i, "-o", o, "--frames", "0..=18446744073709551615"],
+            "invalid --frames",
+            "0..0",
+        ),
+        (
+            vec![
+                i,
+                "-o",
+                o,
+                "--ground",
+                "horizon=0.5",
+                "--set",
+                "camera.tilt_deg=5",
+            ],
+            "conflicts with --ground horizon=0.5",
+            "out of range",
+        ),
+        (
+            vec![i, "-o", o, "--set", "rain.rate_mm_per_h=1e999"],
+            "not a finite number",
+            "string",
+        ),
+        (
+            vec![i, "-o", o, "--set", keyed, "--fov", "200"],
+            "--fov = 200: degrees",
+            "keyed",
+        ),
+        (
+            vec![i, "-o", o, "--set", "rain.rate_mm_per_h=[[0,10],[1,2000]]"],
+            "2000 (keyed, at 1 s) is out of range",
+            "conflicts",
+        ),
+        (
+            vec![
+                "inspect",
+                "sh",
+                "tests/data/courtyard_128x64.png",
+                "--bands",
+                "30",
+            ],
+            "--bands",
+            "",
+        ),
+        (vec!["inspect", "light", i], "not a PNG image", "extension"),
+        (vec!["inspect", "rtf", "--bins", "1"], "--bins", ""),
+        (vec!["inspect", "rtf", "--nmax", "100000"], "--nmax", ""),
+        (
+            vec!["inspect", "sph", "--scene", "column", "--steps", "1000000"],
+            "--steps",
+            "",
+        ),
+        (
+            vec![i, "-o", o, "--streaks", "mattes", "--streak-db", "MISSING"],
+            "no such folder",
+            "",
+        ),
+    ];
+    for (args, says, not) in cases {
+        let e = fails(bin().args(&args));
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(not.is_empty() || !e.contains(not), "{args:?}: {e}");
+    }
+    let e = fails(bin().args([i, "--layer-only", "-o", "-"]));
+    assert!(!e.contains("--codec libx264"), "no --codec was given: {e}");
+    let bom = dir.path().join("bom.json");
+    std::fs::write(&bom, "\u{feff}{\"rain\": {\"rate_mm_per_h\": 5}}").expect("write");
+    succeeds(bin().args(["preview", i, "--frame", "0", "-o", "-", "--config", s(&bom)]));
+    assert_eq!(files_in(dir.path()), ["bom.json", "in.mp4"]);
+}
+
+/// CRC-32 (PNG's), for a hand-made header.
+fn crc32(bytes: &[u8]) -> u32 {
+    !bytes.iter().fold(!0u32, |c, &b| {
+        (0..8).fold(c ^ b as u32, |c, _| {
+            if c & 1 == 1 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            }
+        })
+    })
+}
+
+/// A PNG whose header claims a picture of 100 000² pixels (a few dozen bytes on disk) is
+/// refused from its header, as a depth map and as an image for `inspect`, not decoded.
+#[test]
+fn a_huge_picture_is_refused_from_its_header() {
+    let dir = TempDir::new().expect("tmp");
+    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        let body = [kind, data].concat();
+        c.extend(&body);
+        c.extend(crc32(&body).to_be_bytes());
+        c
+    };
+    let mut ihdr = 100_000u32.to_be_bytes().repeat(2);
+    ihdr.extend([16, 0, 0, 0, 0]);
+    let png = [
+        b"\x89PNG\r\n\x1a\n".to_vec(),
+        chunk(b"IHDR", &ihdr),
+        chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]),
+        chunk(b"IEND", &[]),
+    ]
+    .concat();
+    let huge = dir.path().join("huge.png");
+    std::fs::write(&huge, png).expect("write");
+    let started = Instant::now();
+    let e = fails(bin().args([
+        "preview",
+        s(&input),
+        "--frame",
+        "0",
+        "-o",
+        "-",
+        "--depth",
+        s(&huge),
+    ]));
+    assert!(
+        e.contains("too large") || e.contains("pixels a side"),
+        "{e}"
+    );
+    let e = fails(bin().args(["inspect", "sh", s(&huge)]));
+    assert!(e.contains("too large"), "{e}");
+    assert!(started.elapsed() < Duration::from_secs(20));
+}

@@ -412,7 +412,7 @@ fn prores_layer_has_alpha_and_says_premultiplied() {
 fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
     let dir = TempDir::new().unwrap();
     let input = source(dir.path(), "yuv420p");
-    let cases: [(&str, &[&str], &str); 5] = [
+    let cases: [(&str, &[&str], &str); 11] = [
         ("out.mp4", &["--layer-only"], "cannot hold"),
         ("out.mp4", &["--matte"], "cannot hold"),
         (
@@ -422,6 +422,22 @@ fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
         ),
         ("single.png", &["--layer-only"], "frame number pattern"),
         ("plain_%05d.png", &[], "image sequences are written for"),
+        // FFmpeg cuts a number wider than 19 digits: every image would get the same name.
+        ("wide_%020d.png", &["--layer-only"], "at most 19 digits"),
+        // Flags the layer would ignore.
+        (
+            "l.mkv",
+            &["--layer-only", "--codec", "h264"],
+            "--codec h264",
+        ),
+        ("m.mkv", &["--matte", "--codec", "h264"], "--codec h264"),
+        (
+            "b.mkv",
+            &["--layer-only=black", "--alpha", "straight"],
+            "--alpha",
+        ),
+        ("wide_%025d.png", &["--matte"], "at most 19 digits"),
+        ("wide_%0100d.png", &["--layer-only"], "at most 19 digits"),
     ];
     for (name, flags, says) in cases {
         let out = render(&input, &dir.path().join(name), flags);
@@ -570,4 +586,41 @@ fn rgba_out_matches_its_cpu_twin() {
             assert!(gpu.iter().zip(&cpu).filter(|(g, c)| g != c).count() * 100 < gpu.len());
         }
     }
+}
+
+/// The widest frame-number pattern FFmpeg formats whole still names each image apart; images
+/// are numbered by source frame, so a chunk writes its own images and never a neighbour's.
+#[test]
+fn a_sequence_pattern_of_19_digits_names_every_frame() {
+    let dir = TempDir::new().unwrap();
+    let input = source(dir.path(), "yuv420p");
+    let seq = dir.path().join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    render_ok(
+        &input,
+        &seq.join("g_%019d.png"),
+        &["--layer-only", "--frames", "0..3"],
+    );
+    assert_eq!(
+        files_in(&seq),
+        (1..=3)
+            .map(|i| format!("g_{i:019}.png"))
+            .collect::<Vec<_>>()
+    );
+    let chunks = dir.path().join("chunks");
+    std::fs::create_dir(&chunks).unwrap();
+    let pattern = chunks.join("c_%05d.png");
+    render_ok(&input, &pattern, &["--layer-only", "--frames", "2..3"]);
+    assert_eq!(files_in(&chunks), ["c_00003.png"]);
+    let last = std::fs::read(chunks.join("c_00003.png")).unwrap();
+    render_ok(
+        &input,
+        &pattern,
+        &["--layer-only", "--frames", "0..2", "-y"],
+    );
+    assert_eq!(
+        files_in(&chunks),
+        ["c_00001.png", "c_00002.png", "c_00003.png"]
+    );
+    assert_eq!(std::fs::read(chunks.join("c_00003.png")).unwrap(), last);
 }

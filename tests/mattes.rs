@@ -496,6 +496,38 @@ fn the_command_line_generates_a_database_and_draws_its_contact_sheet() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(image::open(&sheet).is_ok());
+    // Without --streak-db, outside the source tree: the database the render uses.
+    let shipped = dir.path().join("shipped.png");
+    let out = std::process::Command::new(bin)
+        .current_dir(dir.path())
+        .args(["inspect", "drops", "--mattes", "shipped.png"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(image::open(&shipped).is_ok());
+    // Counts beyond their bounds are refused before any work.
+    for (flag, value) in [("--phases", "65"), ("--samples", "17")] {
+        let out = run(&["drops", "generate", "-o", db.to_str().unwrap(), flag, value]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(flag), "{stderr}");
+    }
+    let out = run(&[
+        "drops",
+        "generate",
+        "-o",
+        dir.path().join("many").to_str().unwrap(),
+        "--views",
+        "0,1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17,18,19,20,21,22,23,24,25,26,27,28,29,30,31,32,33,34,35,36,37,38,39,40,41,42,43,44,45,46,47,48,49,50,51,52,53,54,55,56,57,58,59,60",
+        "--phases",
+        "64",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("at most 10000 streaks"), "{stderr}");
+    assert!(!dir.path().join("many").exists());
     // A mistake is one error line and nothing written.
     let bad = dir.path().join("bad");
     let out = run(&[
@@ -656,4 +688,33 @@ fn a_garg_nayar_copy_with_point_lights_gives_the_render_its_glints() {
     let env_only = MatteAtlas::load(root.path(), 1.0 / 60.0).unwrap();
     assert!(env_only.lights.is_empty());
     assert_eq!(env_only.layers(), env_only.light_layer0());
+}
+
+/// A database's files are read only when regular: a FIFO as `index.json` or as a matte is an
+/// error at once, not a read that never ends.
+#[test]
+fn a_database_is_read_from_regular_files_only() {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("drops");
+    let index = database::load_index(&shipped).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = |path: &Path| {
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(path)
+                .status()
+                .unwrap()
+                .success()
+        );
+    };
+    fifo(&dir.path().join("index.json"));
+    let e = database::load_index(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("not a regular file"), "{e}");
+    let entry = &index.mattes[0];
+    let matte = dir.path().join(&entry.file);
+    std::fs::create_dir_all(matte.parent().unwrap()).unwrap();
+    fifo(&matte);
+    let e = database::read_matte(dir.path(), entry)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a regular file"), "{e}");
 }

@@ -200,7 +200,8 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
     assert_eq!(joined, fixtures::framemd5(&whole, "0:v", false));
 
     // A farm's simulation pass: `inspect puddles` keeps the water a render would keep, and a
-    // chunk started from it is the whole render's chunk.
+    // chunk started from it is the whole render's chunk (the pass needs no `--puddles`: what
+    // is shown does not change the water).
     let pass = dir.path().join("pass");
     ok(bin()
         .args([
@@ -213,7 +214,7 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
             "25",
         ])
         .args(["--checkpoints", s(&pass), "--rain", "30", "--seed", "3"])
-        .args(["--ground", "horizon=0.4", "--pre-rain", "240", "--puddles"])
+        .args(["--ground", "horizon=0.4", "--pre-rain", "240"])
         .args(["--puddle-particles", "1500", "--relief", "0.01"]));
     assert_eq!(
         std::fs::read_dir(&pass).expect("kept").count(),
@@ -236,4 +237,89 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
         start_of_water(&log).starts_with("from the clip's start"),
         "{log}"
     );
+    assert!(log.contains("simulated with other settings"), "{log}");
+}
+
+/// A kept file is checked whole before it is used: flipped bits in its body, a FIFO or a link
+/// to a device named like one are passed over (at once, whatever their size), and a damaged
+/// file is replaced when the water is kept again.
+#[test]
+fn damaged_or_strange_checkpoints_are_passed_over_and_replaced() {
+    let (config, camera) = street();
+    let s = settings();
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &s)
+        .expect("valid")
+        .expect("ground in view");
+    run(&mut sim, 1..=4);
+    let dir = TempDir::new().expect("tmp");
+    let kept = Checkpoints {
+        dir: dir.path().join("water"),
+        every_frames: 4,
+    };
+    let print = fingerprint(&config, &camera, FPS, &s);
+    kept.save(&print, 4, &sim).expect("kept");
+    let file = kept.path(&print, 4);
+    let sound = std::fs::read(&file).expect("file");
+    assert!(kept.latest(&print, 4).is_some());
+
+    // Bits flipped in the middle of the state: the floats would still parse.
+    let mut flipped = sound.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x55;
+    std::fs::write(&file, &flipped).expect("write");
+    assert!(kept.latest(&print, 4).is_none(), "a damaged file was used");
+    // Kept again: the damaged file is replaced by the sound one.
+    kept.save(&print, 4, &sim).expect("kept");
+    assert_eq!(std::fs::read(&file).expect("file"), sound);
+
+    let started = std::time::Instant::now();
+    std::fs::remove_file(&file).expect("rm");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&file)
+            .status()
+            .expect("mkfifo")
+            .success()
+    );
+    assert!(kept.latest(&print, 4).is_none(), "a FIFO");
+    std::fs::remove_file(&file).expect("rm");
+    std::os::unix::fs::symlink("/dev/zero", &file).expect("symlink");
+    assert!(kept.latest(&print, 4).is_none(), "a device");
+    assert!(started.elapsed().as_secs() < 5, "{:?}", started.elapsed());
+
+    // A folder that is a file is named as such (not "File exists").
+    let not_a_folder = Checkpoints {
+        dir: dir
+            .path()
+            .join("water")
+            .join(file.file_name().expect("name")),
+        every_frames: 4,
+    };
+    let e = not_a_folder
+        .save(&print, 4, &sim)
+        .expect_err("a file as the folder")
+        .to_string();
+    assert!(e.contains("is not a folder"), "{e}");
+}
+
+/// The settings of the picture alone — whether the puddles are shown, the streaks, the light —
+/// do not change the water, so they do not change its fingerprint: the simulation pass of
+/// `inspect puddles` (without `--puddles`) serves a render's chunks.
+#[test]
+fn the_fingerprint_holds_what_the_water_depends_on_only() {
+    let (config, camera) = street();
+    let s = settings();
+    let print = fingerprint(&config, &camera, FPS, &s);
+    let mut shown = config.clone();
+    shown.ground.puddles = true;
+    shown.rain.streaks = rain_composite::config::StreakStyle::Mattes;
+    shown.light.smoothing_s = 2.0;
+    shown.streak_db = Some("elsewhere".into());
+    assert_eq!(fingerprint(&shown, &camera, FPS, &s), print);
+    let mut wetter = config.clone();
+    wetter.rain.rate_mm_per_h += 1.0;
+    assert_ne!(fingerprint(&wetter, &camera, FPS, &s), print);
+    let mut bumpier = config;
+    bumpier.ground.relief_seed += 1;
+    assert_ne!(fingerprint(&bumpier, &camera, FPS, &s), print);
 }

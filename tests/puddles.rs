@@ -478,6 +478,17 @@ fn inspect_puddles_reports_the_water_and_its_ledger_and_nothing_without_a_ground
         .expect("runs");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--relief"));
+    // A time beyond the clip is refused as a preview refuses it, before any simulation.
+    let started = std::time::Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+        .args(["inspect", "puddles", input.to_str().expect("path")])
+        .args(["--at", "75", "--ground", "horizon=0.3"])
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("beyond the last frame"), "{err}");
+    assert!(started.elapsed().as_secs() < 20, "{:?}", started.elapsed());
 }
 
 /// Cost of the puddles at the default reach for a 720p street view (10 mm/h, 10 min of

@@ -100,9 +100,15 @@ impl MatteAtlas {
         } else if dir.join("env_light_database").is_dir() {
             Self::from_garg_nayar(dir)
         } else {
+            let reason = if dir.exists() {
+                "not a streak database (no index.json, no env_light_database/)"
+            } else {
+                "no such folder: --streak-db takes a streak database (a folder with index.json, \
+                 made by `rain-composite drops generate`)"
+            };
             Err(Error::InputOpen {
                 path: dir.display().to_string(),
-                reason: "not a streak database (no index.json, no env_light_database/)".into(),
+                reason: reason.into(),
             })
         }
     }

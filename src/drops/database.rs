@@ -304,20 +304,39 @@ pub fn entries(
         .collect()
 }
 
+/// Most oscillation phases per streak: the oscillation's period is sampled finely long before.
+pub const MAX_PHASES: usize = 64;
+
+/// Most samples per pixel side (and time steps per pixel of travel).
+pub const MAX_SAMPLES: usize = 16;
+
+/// Most streaks in one database (each writes a matte per light): a bound on the files and the
+/// time a mistyped count costs.
+pub const MAX_STREAKS: usize = 10_000;
+
 /// Renders the whole grid into `dir` (created if missing) and writes `index.json` last.
-/// `progress` is called after each streak with (done, total).
+/// `progress` is called after each streak with (done, total); `cancel` stops the work between
+/// two streaks with [`Error::Interrupted`] (the mattes already written stay, `index.json` is
+/// not written).
 pub fn generate(
     spec: &DatabaseSpec,
     dir: &Path,
+    cancel: &std::sync::atomic::AtomicBool,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Index> {
-    if spec.phases == 0 {
-        return Err(Error::Parameter {
-            name: "--phases",
-            value: "0".into(),
-            expected: "at least 1".into(),
-        });
-    }
+    let count = |name: &'static str, value: usize, max: usize| {
+        if (1..=max).contains(&value) {
+            Ok(())
+        } else {
+            Err(Error::Parameter {
+                name,
+                value: value.to_string(),
+                expected: format!("1 to {max}"),
+            })
+        }
+    };
+    count("--phases", spec.phases, MAX_PHASES)?;
+    count("--samples", spec.samples, MAX_SAMPLES)?;
     if spec.sizes_mm.is_empty()
         || spec.exposures_s.is_empty()
         || spec.view_elevations_deg.is_empty()
@@ -326,6 +345,28 @@ pub fn generate(
             name: "--sizes/--exposures/--views",
             value: "(none)".into(),
             expected: "at least one value of each".into(),
+        });
+    }
+    let streaks = [
+        spec.sizes_mm.len(),
+        spec.exposures_s.len(),
+        spec.view_elevations_deg.len(),
+        spec.phases,
+    ]
+    .iter()
+    .try_fold(1usize, |n, &k| n.checked_mul(k))
+    .filter(|&n| n <= MAX_STREAKS);
+    if streaks.is_none() {
+        return Err(Error::Parameter {
+            name: "--sizes/--exposures/--views/--phases",
+            value: format!(
+                "{} × {} × {} × {}",
+                spec.sizes_mm.len(),
+                spec.exposures_s.len(),
+                spec.view_elevations_deg.len(),
+                spec.phases
+            ),
+            expected: format!("at most {MAX_STREAKS} streaks in all"),
         });
     }
     let mut jobs = Vec::new();
@@ -350,7 +391,10 @@ pub fn generate(
         mattes: Vec::new(),
     };
     for (i, job) in jobs.iter().enumerate() {
-        let streak = job.render(&spec.lights)?;
+        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
+        let streak = job.render_or_stop(&spec.lights, cancel)?;
         for (entry, matte) in entries(spec, job, &streak) {
             let path = dir.join(&entry.file);
             if let Some(parent) = path.parent() {
@@ -371,14 +415,19 @@ pub fn generate(
     Ok(index)
 }
 
-/// Reads `index.json` of a database folder.
+/// Largest `index.json` read, bytes: one of [`MAX_STREAKS`] streaks under a few dozen lights
+/// takes tens of MiB.
+pub const MAX_INDEX_BYTES: u64 = 256 << 20;
+
+/// Reads `index.json` of a database folder (a regular file of at most [`MAX_INDEX_BYTES`]).
 pub fn load_index(dir: &Path) -> Result<Index> {
     let path = dir.join("index.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::InputOpen {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    })?;
-    serde_json::from_str(&text).map_err(|e| Error::InputOpen {
+    let bytes =
+        crate::files::read_regular(&path, MAX_INDEX_BYTES).map_err(|reason| Error::InputOpen {
+            path: path.display().to_string(),
+            reason,
+        })?;
+    serde_json::from_slice(&bytes).map_err(|e| Error::InputOpen {
         path: path.display().to_string(),
         reason: format!("not a streak index: {e}"),
     })
@@ -391,11 +440,7 @@ pub fn read_matte(dir: &Path, entry: &MatteEntry) -> Result<Vec<f64>> {
         path: path.display().to_string(),
         reason,
     };
-    let img = image::ImageReader::open(&path)
-        .map_err(|e| fail(e.to_string()))?
-        .decode()
-        .map_err(|e| fail(e.to_string()))?
-        .into_luma16();
+    let img = crate::files::read_png(&path).map_err(fail)?.into_luma16();
     if (img.width() as usize, img.height() as usize) != (entry.width, entry.height) {
         return Err(fail(format!(
             "{}×{} px, the index says {}×{}",

@@ -204,10 +204,8 @@ impl GargNayarDb {
 
     /// Reads a picked file as matte values (code / 65535 × multiplier), with its size.
     pub fn read(pick: &Pick) -> Result<(usize, usize, Vec<f64>)> {
-        let img = image::ImageReader::open(&pick.path)
-            .map_err(|e| open_error(&pick.path, e.to_string()))?
-            .decode()
-            .map_err(|e| open_error(&pick.path, e.to_string()))?
+        let img = crate::files::read_png(&pick.path)
+            .map_err(|e| open_error(&pick.path, e))?
             .into_luma16();
         let (w, h) = (img.width() as usize, img.height() as usize);
         Ok((

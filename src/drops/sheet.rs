@@ -96,6 +96,7 @@ fn draw(rows: &[(String, Vec<Tile>)], columns: &[String], path: &Path) -> Result
 /// Draws the contact sheet of the database at `db` (ours, with `index.json`, or a copy of
 /// Garg & Nayar's at 16 px width) to the PNG `path`.
 pub fn contact_sheet(db: &Path, path: &Path) -> Result<SheetReport> {
+    crate::files::check_png_output(path)?;
     if !db.join("index.json").is_file() {
         let gn = GargNayarDb::open(db, 16)?;
         let columns: Vec<String> = (0..OSCILLATIONS).map(|k| k.to_string()).collect();

@@ -153,6 +153,17 @@ impl StreakSetup {
 
     /// Renders the streak under a uniform environment and under each light.
     pub fn render(&self, lights: &[LightAngles]) -> Result<Streak> {
+        self.render_or_stop(lights, &std::sync::atomic::AtomicBool::new(false))
+    }
+
+    /// [`render`](Self::render), stopping with [`Error::Interrupted`] once `cancel` is set
+    /// (polled per pixel: a fine streak takes minutes).
+    pub fn render_or_stop(
+        &self,
+        lights: &[LightAngles],
+        cancel: &std::sync::atomic::AtomicBool,
+    ) -> Result<Streak> {
+        use std::sync::atomic::Ordering;
         self.validate()?;
         let e = self.view_elevation_deg.to_radians();
         let view = DVec3::new(0.0, e.cos(), -e.sin());
@@ -185,6 +196,9 @@ impl StreakSetup {
 
         let mut out = vec![0.0; width * height * stride];
         out.par_chunks_mut(stride).enumerate().for_each(|(k, acc)| {
+            if cancel.load(Ordering::Relaxed) {
+                return;
+            }
             let (col, row) = (k % width, k / width);
             for b in 0..s {
                 let y = row as f64 + (b as f64 + 0.5) / s as f64;
@@ -221,6 +235,9 @@ impl StreakSetup {
             }
             acc.iter_mut().for_each(|v| *v *= norm);
         });
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
         let channel = |c: usize| {
             out.iter()
                 .skip(c)

@@ -408,14 +408,48 @@ pub fn inspect_sph(scene: &str, steps: usize) -> Result<Value> {
     inspect_sph_with(scene, steps, &SceneOptions::default())
 }
 
+/// Most solver steps a scene runs: twenty times the longest validated run.
+pub const MAX_STEPS: usize = 100_000;
+
 /// [`inspect_sph`] with overrides.
 pub fn inspect_sph_with(scene: &str, steps: usize, opts: &SceneOptions) -> Result<Value> {
+    inspect_sph_or_stop(
+        scene,
+        steps,
+        opts,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+}
+
+/// [`inspect_sph_with`], stopping with [`Error::Interrupted`] between two steps once `cancel`
+/// is set; more than [`MAX_STEPS`] steps are refused.
+pub fn inspect_sph_or_stop(
+    scene: &str,
+    steps: usize,
+    opts: &SceneOptions,
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<Value> {
+    if !(1..=MAX_STEPS).contains(&steps) {
+        return Err(Error::Parameter {
+            name: "--steps",
+            value: steps.to_string(),
+            expected: format!("1 to {MAX_STEPS}"),
+        });
+    }
+    let check = || {
+        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            Err(Error::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let started = std::time::Instant::now();
     let mut out = match scene {
         "column" => {
             let mut sph = column(opts)?;
             let mut ke = Vec::new();
             for k in 0..steps {
+                check()?;
                 sph.step();
                 if k % (steps / 20).max(1) == 0 || k + 1 == steps {
                     ke.push(json!([sph.time_s(), sph.kinetic_energy_j()]));
@@ -444,6 +478,7 @@ pub fn inspect_sph_with(scene: &str, steps: usize, opts: &SceneOptions) -> Resul
             let mut worst = 0.0f32;
             let limit = 8.0; // Z beyond which the tank's end wall (10a) interferes.
             for k in 0..steps {
+                check()?;
                 db.sph.step();
                 if k % (steps / 40).max(1) == 0 || k + 1 == steps {
                     let (t, z) = (db.normalised_time(), db.front_m() / db.a_m);
@@ -468,6 +503,7 @@ pub fn inspect_sph_with(scene: &str, steps: usize, opts: &SceneOptions) -> Resul
         "basin" => {
             let mut b = Basin::new(opts)?;
             while (b.flow.sph.steps() as usize) < steps {
+                check()?;
                 b.frame()?;
             }
             json!({

@@ -138,6 +138,8 @@ impl HeightField {
     /// space z (distance along the optical axis) of pixel (u, v), 0 or non-finite where unknown.
     /// Each pixel's world point is binned to its nearest vertex (mean z); vertices without a
     /// sample take the mean of their sampled neighbours, repeatedly, until all are filled.
+    /// `None` when no known pixel lands on the grid (a wall, or a map of holes): the map
+    /// shows none of this ground.
     pub fn from_depth_map(
         camera: &Camera,
         depth_m: &[f32],
@@ -145,7 +147,7 @@ impl HeightField {
         ny: usize,
         origin_m: Vec2,
         spacing_m: f32,
-    ) -> Result<HeightField> {
+    ) -> Result<Option<HeightField>> {
         let (w, h) = (camera.width_px as usize, camera.height_px as usize);
         if depth_m.len() != w * h {
             return Err(Error::Parameter {
@@ -177,11 +179,7 @@ impl HeightField {
             count[v] += 1;
         }
         if count.iter().all(|&n| n == 0) {
-            return Err(Error::Parameter {
-                name: "terrain.depth_map",
-                value: "no valid depth inside the grid".into(),
-                expected: "some pixels with depth > 0 that land on the terrain grid".into(),
-            });
+            return Ok(None);
         }
         let mut heights: Vec<Option<f64>> = sum
             .iter()
@@ -216,7 +214,7 @@ impl HeightField {
             .into_iter()
             .map(|z| z.unwrap_or(0.0) as f32)
             .collect();
-        HeightField::new(nx, ny, origin_m, spacing_m, heights)
+        HeightField::new(nx, ny, origin_m, spacing_m, heights).map(Some)
     }
 
     /// Vertices along x.
@@ -334,7 +332,8 @@ mod tests {
             }
         }
         let t = HeightField::from_depth_map(&cam, &depth, 11, 11, Vec2::new(-1.0, 1.0), 0.2)
-            .expect("depth map");
+            .expect("depth map")
+            .expect("ground in the map");
         let (lo, hi) = t.height_range_m();
         assert!(lo.abs() < 1e-4 && hi.abs() < 1e-4, "{lo} {hi}");
     }

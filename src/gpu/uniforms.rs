@@ -12,7 +12,6 @@
 use glam::DVec2;
 
 use super::types::{Column, GUSTS, LightList, RainParams};
-use crate::Result;
 use crate::config::{CameraConfig, RainConfig};
 use crate::keyframes::{Keyframes, MAX_KEYS};
 use crate::lighting::FrameLight;
@@ -21,6 +20,7 @@ use crate::rain::volume::drop::inv_height_q;
 use crate::rain::volume::{RainVolume, SplitTime, VolumeParams, mean_travel_cells};
 use crate::rain::wind::Wind;
 use crate::scene::Camera;
+use crate::{Error, Result};
 
 /// The drops of a shot: the plan, and uniforms (without the per-frame fields) and columns
 /// ready for the GPU.
@@ -127,6 +127,40 @@ struct CameraPath<'a> {
 /// Most turn between the camera poses a moving camera's rain volume is planned for, degrees
 /// (the frusta between are covered by widening each by half of it).
 const PATH_STEP_DEG: f64 = 1.0;
+
+/// Most poses planned between the keys: each costs milliseconds, so a camera that turns far
+/// is planned at a coarser step (wider frusta) rather than for minutes.
+pub const MAX_PATH_POSES: usize = 360;
+
+/// Coarsest step the planning takes, degrees: a camera that turns further than
+/// [`MAX_PATH_POSES`] of these over the shot is refused (its frusta would be too wide).
+pub const MAX_PATH_STEP_DEG: f64 = 10.0;
+
+/// The step a moving camera's path is planned at: [`PATH_STEP_DEG`], coarser where that would
+/// take more than [`MAX_PATH_POSES`] poses (with a warning).
+fn path_step_deg(keys: &Keyframes) -> Result<f64> {
+    let poses = keys.camera_samples_s(PATH_STEP_DEG).len();
+    if poses <= MAX_PATH_POSES {
+        return Ok(PATH_STEP_DEG);
+    }
+    let step = PATH_STEP_DEG * poses as f64 / MAX_PATH_POSES as f64;
+    if step > MAX_PATH_STEP_DEG {
+        return Err(Error::Parameter {
+            name: "camera keys",
+            value: format!("a turn of about {} degrees over the shot", poses - 1),
+            expected: format!(
+                "at most {:.0} degrees of pan, tilt and roll in all",
+                MAX_PATH_STEP_DEG * MAX_PATH_POSES as f64
+            ),
+        });
+    }
+    log::warn!(
+        "moving camera: the camera turns about {} degrees over the shot; the rain volume is \
+         planned every {step:.1} degrees (at most {MAX_PATH_POSES} poses), with wider columns",
+        poses - 1
+    );
+    Ok(step)
+}
 
 /// [`build`] for the camera path `path`: the volume is planned for all its poses, the
 /// uniforms hold the first.
@@ -320,9 +354,14 @@ pub fn build_keyed(
         lens_times.push(0.0);
     }
     // A moving camera: the volume covers the frusta of the poses over the shot.
+    let step_deg = if keys.moves_camera() {
+        path_step_deg(keys)?
+    } else {
+        PATH_STEP_DEG
+    };
     let cameras: Vec<Camera> = if keys.moves_camera() {
         let (w, h) = (camera.width_px, camera.height_px);
-        keys.camera_samples_s(PATH_STEP_DEG)
+        keys.camera_samples_s(step_deg)
             .into_iter()
             .map(|t| camera_at(camera_config, keys, w, h, t))
             .collect()
@@ -331,7 +370,7 @@ pub fn build_keyed(
     };
     let path = CameraPath {
         cameras: &cameras,
-        step_rad: PATH_STEP_DEG.to_radians(),
+        step_rad: step_deg.to_radians(),
     };
     if cameras.len() > 1 {
         log::info!(

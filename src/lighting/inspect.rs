@@ -46,13 +46,7 @@ impl LinearImage {
             path: path.display().to_string(),
             reason,
         };
-        let img = image::ImageReader::open(path)
-            .map_err(|e| fail(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| fail(e.to_string()))?
-            .decode()
-            .map_err(|e| fail(e.to_string()))?
-            .to_rgb32f();
+        let img = crate::files::read_png(path).map_err(fail)?.to_rgb32f();
         let (width, height) = (img.width() as usize, img.height() as usize);
         let pixels = img.pixels().map(|p| p.0.map(srgb_to_linear)).collect();
         Ok(LinearImage {
@@ -67,14 +61,14 @@ fn check_rtf_params(n_max: usize, bins: usize, bands: usize) -> Result<()> {
     sh::check_bands(bands)?;
     if n_max < 1 {
         return Err(Error::Parameter {
-            name: "n-max",
+            name: "--nmax",
             value: n_max.to_string(),
             expected: "an order ≥ 1".into(),
         });
     }
     if bins < 2 {
         return Err(Error::Parameter {
-            name: "bins",
+            name: "--bins",
             value: bins.to_string(),
             expected: "at least 2 bins".into(),
         });
@@ -290,10 +284,7 @@ impl Canvas {
                     reason: "bad canvas size".into(),
                 }
             })?;
-        img.save(path).map_err(|e| Error::OutputWrite {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })
+        crate::files::save_png(&img, path)
     }
 }
 

@@ -249,10 +249,9 @@ pub fn plot_light(
         path: path.display().to_string(),
         reason,
     };
-    image::RgbImage::from_raw(w as u32, h as u32, bytes)
-        .ok_or_else(|| fail("bad canvas size".into()))?
-        .save(path)
-        .map_err(|e| fail(e.to_string()))
+    let img = image::RgbImage::from_raw(w as u32, h as u32, bytes)
+        .ok_or_else(|| fail("bad canvas size".into()))?;
+    crate::files::save_png(&img, path)
 }
 
 /// Writes the report's region labels as a 16-bit greyscale PNG of the image's size: each pixel

@@ -63,26 +63,25 @@ impl DepthMap {
         })
     }
 
-    /// Reads a 16-bit (or 8-bit) greyscale PNG in millimetres, times `depth_scale`.
+    /// Reads a 16-bit greyscale PNG in millimetres, times `depth_scale` (a regular file of
+    /// bounded size, see [`crate::files::read_png`]).
     pub fn load_png(path: &Path, depth_scale: f64) -> Result<DepthMap> {
         let fail = |reason: String| Error::InputOpen {
             path: path.display().to_string(),
             reason,
         };
         check_scale(depth_scale)?;
-        let img = image::ImageReader::open(path)
-            .map_err(|e| fail(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| fail(e.to_string()))?
-            .decode()
-            .map_err(|e| fail(e.to_string()))?;
+        let img = crate::files::read_png(path).map_err(fail)?;
         if img.width() > MAX_DEPTH_SIDE || img.height() > MAX_DEPTH_SIDE {
             return Err(fail(format!("larger than {MAX_DEPTH_SIDE} pixels a side")));
         }
-        if img.color().has_color() {
-            return Err(fail(
-                "a depth map is one channel (greyscale), millimetres".into(),
-            ));
+        // An 8-bit map would be read as millimetres × 257 (its codes stretched to 16 bits): a
+        // silent scale no one means, so only the documented format is taken.
+        if img.color() != image::ColorType::L16 {
+            return Err(fail(format!(
+                "a depth map is a 16-bit greyscale PNG in millimetres, this one is {}",
+                color_name(img.color())
+            )));
         }
         let grey = img.to_luma16();
         let values: Vec<f32> = grey.pixels().map(|p| p.0[0] as f32).collect();
@@ -148,6 +147,18 @@ impl DepthMap {
     /// Fraction of the pixels whose depth is known.
     pub fn known_fraction(&self) -> f64 {
         self.depth_m.iter().filter(|v| v.is_finite()).count() as f64 / self.depth_m.len() as f64
+    }
+}
+
+/// How a PNG's pixel layout is named in messages.
+fn color_name(c: image::ColorType) -> String {
+    use image::ColorType::*;
+    match c {
+        L8 => "8-bit greyscale".into(),
+        La8 | La16 => "greyscale with alpha".into(),
+        Rgb8 | Rgba8 => "8-bit colour".into(),
+        Rgb16 | Rgba16 => "16-bit colour".into(),
+        c => format!("{c:?}"),
     }
 }
 
@@ -220,6 +231,10 @@ impl DepthSource {
             DepthMap::load_png(first, scale)?;
             return Ok(DepthSource::Frames { paths, scale });
         }
+        // A FIFO or a device would block the read or never end.
+        if !meta.is_file() {
+            return Err(fail("not a regular file or a directory".into()));
+        }
         let is_png = path
             .extension()
             .is_some_and(|x| x.eq_ignore_ascii_case("png"));
@@ -227,6 +242,15 @@ impl DepthSource {
             return Ok(DepthSource::Still(DepthMap::load_png(path, scale)?));
         }
         let source = crate::video::Source::open(&path.display().to_string())?;
+        // Any other video (the clip itself, 8-bit or colour) would be read as depth on a scale
+        // no one means.
+        let pixel = &source.info().pixel_format;
+        if !pixel.starts_with("gray16") {
+            return Err(fail(format!(
+                "a depth video is 16-bit greyscale in millimetres (e.g. FFV1 gray16le), this \
+                 one is {pixel}"
+            )));
+        }
         Ok(DepthSource::Video {
             source: Box::new(source),
             next: 0,

@@ -108,8 +108,13 @@ impl GroundPlane {
     }
 }
 
+/// Shortest normal `plane=` takes: a shorter one is rounding noise, not a direction.
+pub const MIN_PLANE_NORMAL: f64 = 1e-9;
+
 /// Normalises a camera-frame plane `n · X + d = 0` so that the camera is above it: the unit
-/// upward normal and the camera's height.
+/// upward normal and the camera's height. A plane that would turn the camera on its side or
+/// upside down (|roll| ≥ 90°) is refused: it is almost always the plane written as
+/// `n · X = d` (level ground 1.6 m below is `0,-1,0,1.6`, not `0,1,0,1.6`).
 pub fn camera_frame_plane(n: [f64; 3], d: f64) -> Result<(DVec3, f64)> {
     let v = DVec3::from_array(n);
     let len = v.length();
@@ -118,14 +123,25 @@ pub fn camera_frame_plane(n: [f64; 3], d: f64) -> Result<(DVec3, f64)> {
         value: format!("plane={},{},{},{}", n[0], n[1], n[2], d),
         expected: expected.to_string(),
     };
-    if !(len.is_finite() && len > 1e-9 && d.is_finite()) {
-        return Err(bad("a finite, non-zero normal nx,ny,nz and a finite d"));
+    if !(len.is_finite() && len > MIN_PLANE_NORMAL && d.is_finite()) {
+        return Err(bad(&format!(
+            "a finite normal nx,ny,nz of length above {MIN_PLANE_NORMAL:e} and a finite d"
+        )));
     }
     if d == 0.0 {
         return Err(bad("a plane not through the camera (d ≠ 0)"));
     }
     let s = d.signum();
-    Ok((v * (s / len), d.abs() / len))
+    let up = v * (s / len);
+    let (_, roll) = tilt_roll_from_up(up);
+    if roll.to_degrees().abs() >= 90.0 {
+        return Err(bad(&format!(
+            "n·X + d = 0 in the camera frame (y down), a ground below the camera: this one \
+             rolls the camera by {:.0}° (level ground 1.6 m below is plane=0,-1,0,1.6)",
+            roll.to_degrees()
+        )));
+    }
+    Ok((up, d.abs() / len))
 }
 
 /// The ground's upward normal in camera space for a camera of `tilt_rad` and `roll_rad`

@@ -133,12 +133,7 @@ pub fn plot_ground(
         let i = 3 * (y * w + x) as usize;
         image::Rgb([0, 1, 2].map(|c| (rgb16[i + c] >> 8) as u8))
     });
-    let save = |img: &image::RgbImage| {
-        img.save(path).map_err(|e| Error::OutputWrite {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })
-    };
+    let save = |img: &image::RgbImage| crate::files::save_png(img, path);
     let Some(est) = est else {
         return save(&img);
     };

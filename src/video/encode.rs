@@ -251,6 +251,8 @@ pub struct Sink {
     routes: Vec<Option<Route>>,
     info_tags: super::info::ColorTags,
     finished: bool,
+    /// The source index of the first frame written: an image sequence is numbered by it.
+    first_index: Option<u64>,
 }
 
 /// The image2 muxer's name (PNG sequences).
@@ -418,6 +420,7 @@ impl Sink {
             routes,
             info_tags: info.tags,
             finished: false,
+            first_index: None,
         })
     }
 
@@ -477,6 +480,7 @@ impl Sink {
         let mut av = ff::frame::Video::new(encoding.pixel, w, h);
         super::layer::pack(frame, layer, encoding, &v.color, &mut av);
         let tags = layer_tags(self.info_tags, layer, encoding);
+        self.first_index.get_or_insert(frame.index);
         self.send_video(av, frame.pts, frame.index, tags)
     }
 
@@ -583,7 +587,8 @@ impl Sink {
         // Close the file before renaming it.
         drop(self.octx.take());
         if let Some(temp) = &self.temp {
-            publish(temp, &self.output).map_err(|e| Error::OutputWrite {
+            let first = self.first_index.unwrap_or(0);
+            publish(temp, &self.output, first).map_err(|e| Error::OutputWrite {
                 path: self.output.clone(),
                 reason: format!("renaming the finished temporary file: {e}"),
             })?;
@@ -962,6 +967,15 @@ fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
                 .into(),
         });
     };
+    // FFmpeg formats the number in a buffer of 19 digits: a wider pattern names every image
+    // alike, and each would overwrite the last.
+    if ffi::sequence_file_name(&name, 2).as_deref() == Some(first.as_str()) {
+        return Err(Error::Parameter {
+            name: "--output",
+            value: output.to_owned(),
+            expected: "a frame number pattern of at most 19 digits, e.g. out_%05d.png".into(),
+        });
+    }
     let first = Path::new(output).with_file_name(first);
     if first.exists() && !opts.overwrite {
         return Err(Error::OutputExists(first));
@@ -970,8 +984,10 @@ fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
 }
 
 /// Moves a finished temporary output onto `output`: renames a file, or moves each image of a
-/// sequence's directory beside the output pattern and removes the directory.
-fn publish(temp: &Path, output: &str) -> std::io::Result<()> {
+/// sequence's directory beside the output pattern and removes the directory. The images are
+/// numbered by source frame (frame `first_index` is image `first_index + 1`), so the chunks of
+/// a shot write their own images of one sequence and never each other's.
+fn publish(temp: &Path, output: &str, first_index: u64) -> std::io::Result<()> {
     if !temp.is_dir() {
         return std::fs::rename(temp, output);
     }
@@ -982,11 +998,20 @@ fn publish(temp: &Path, output: &str) -> std::io::Result<()> {
     // The file named like the pattern itself is the I/O context opened with the muxer; the
     // image2 muxer writes each image to a file of its own and leaves that one empty.
     let pattern = Path::new(output).file_name().unwrap_or_default();
-    for entry in std::fs::read_dir(temp)? {
-        let entry = entry?;
-        if entry.file_name() != pattern {
-            std::fs::rename(entry.path(), dir.join(entry.file_name()))?;
+    let text = pattern.to_string_lossy();
+    let name = |number: u64| {
+        i32::try_from(number)
+            .ok()
+            .and_then(|n| ffi::sequence_file_name(&text, n))
+            .ok_or_else(|| std::io::Error::other(format!("no image name for frame {number}")))
+    };
+    // The muxer numbers the images it writes from 1.
+    for k in 1.. {
+        let written = temp.join(name(k)?);
+        if !written.exists() {
+            break;
         }
+        std::fs::rename(written, dir.join(name(first_index + k)?))?;
     }
     std::fs::remove_file(temp.join(pattern)).or_else(|e| match e.kind() {
         std::io::ErrorKind::NotFound => Ok(()),

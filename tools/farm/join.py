@@ -9,6 +9,7 @@ the next chunk's first frame then lands exactly one frame after this chunk's las
 """
 
 import json
+import os
 import subprocess
 import sys
 from fractions import Fraction
@@ -32,6 +33,8 @@ def concat_list(chunks):
     probed = [_probe(c) for c in chunks]
     lines = ["ffconcat version 1.0"]
     for i, path in enumerate(chunks):
+        # ffmpeg reads a relative name against the list's folder, not the current one.
+        path = os.path.abspath(path)
         lines.append("file '%s'" % path.replace("'", "'\\''"))
         if i + 1 < len(chunks):
             start, _, video_end = probed[i]
@@ -42,13 +45,18 @@ def concat_list(chunks):
 
 
 def join(chunks, output, list_path):
-    """Writes `output` from `chunks` with `ffmpeg -f concat -c copy` through `list_path`."""
-    with open(list_path, "w") as f:
-        f.write(concat_list(chunks))
-    subprocess.run(
-        ["ffmpeg", "-hide_banner", "-nostdin", "-v", "error", "-y", "-f", "concat", "-safe", "0",
-         "-i", list_path, "-map", "0", "-c", "copy", output],
-        check=True)
+    """Writes `output` from `chunks` with `ffmpeg -f concat -c copy` through `list_path`, which
+    is removed afterwards, whether the join succeeds or not."""
+    try:
+        with open(list_path, "w") as f:
+            f.write(concat_list(chunks))
+        subprocess.run(
+            ["ffmpeg", "-hide_banner", "-nostdin", "-v", "error", "-y", "-f", "concat", "-safe",
+             "0", "-i", list_path, "-map", "0", "-c", "copy", output],
+            check=True)
+    finally:
+        if os.path.exists(list_path):
+            os.remove(list_path)
 
 
 if __name__ == "__main__":

@@ -229,7 +229,7 @@ pub struct LookArgs {
     /// Distance of the filmed scene, metres: rain beyond the drawn drops veils it; 0 = no haze.
     #[arg(long)]
     pub scene_depth: Option<f64>,
-    /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (camera frame: x right, y down, z forward, metres); it sets the camera's tilt and roll, and streaks end where drops land.
+    /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (the plane n·X + d = 0 in the camera frame: x right, y down, z forward, metres; level ground 1.6 m below is plane=0,-1,0,1.6); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
     /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
@@ -264,9 +264,9 @@ pub struct LookArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct EncodeArgs {
-    /// Video codec.
-    #[arg(long, value_enum, default_value_t = CodecArg::from(EncodeOptions::default().codec))]
-    pub codec: CodecArg,
+    /// Video codec [default: h264; a layer with alpha or a matte takes its container's].
+    #[arg(long, value_enum)]
+    pub codec: Option<CodecArg>,
     /// Constant rate factor (H.264/HEVC; lower is better).
     #[arg(long, default_value_t = EncodeOptions::default().crf, value_parser = clap::value_parser!(u8).range(0..=51))]
     pub crf: u8,
@@ -537,9 +537,20 @@ pub fn parse_time_s(s: &str) -> anyhow::Result<f64> {
     let t = if let Some(ms) = s.strip_suffix("ms") {
         ms.trim().parse::<f64>().map_err(|_| bad())? / 1000.0
     } else if s.contains(':') {
-        s.split(':')
-            .try_fold(0.0, |acc, part| part.parse::<f64>().map(|v| acc * 60.0 + v))
-            .map_err(|_| bad())?
+        // [[HH:]MM:]SS: at most three fields, minutes and seconds below 60 after the first.
+        let parts: Vec<&str> = s.split(':').collect();
+        if parts.len() > 3 {
+            return Err(bad());
+        }
+        let values = parts
+            .iter()
+            .map(|p| p.trim().parse::<f64>())
+            .collect::<Result<Vec<f64>, _>>()
+            .map_err(|_| bad())?;
+        if values[1..].iter().any(|v| !(0.0..60.0).contains(v)) {
+            return Err(bad());
+        }
+        values.iter().fold(0.0, |acc, v| acc * 60.0 + v)
     } else {
         s.strip_suffix('s')
             .unwrap_or(s)
@@ -704,7 +715,13 @@ pub fn frame_range(r: &RenderArgs) -> anyhow::Result<FrameRange> {
         let (a, b) = text.split_once("..").ok_or_else(bad)?;
         let start: u64 = a.trim().parse().map_err(|_| bad())?;
         let end = match b.strip_prefix('=') {
-            Some(b) => Some(b.trim().parse::<u64>().map_err(|_| bad())? + 1),
+            Some(b) => Some(
+                b.trim()
+                    .parse::<u64>()
+                    .ok()
+                    .and_then(|b| b.checked_add(1))
+                    .ok_or_else(bad)?,
+            ),
             None if b.trim().is_empty() => None,
             None => Some(b.trim().parse().map_err(|_| bad())?),
         };
@@ -732,10 +749,29 @@ pub fn adapter(g: &GpuArgs) -> AdapterRequest {
     }
 }
 
-/// The encoder settings the flags ask for.
-pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
-    EncodeOptions {
-        codec: e.codec.into(),
+/// The encoder settings the flags ask for. Flags the output would silently ignore are refused:
+/// H.264 for a layer with alpha or a matte (its container fixes the codec), `--alpha` for a
+/// layer over black (it has no alpha).
+pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> anyhow::Result<EncodeOptions> {
+    let rgba_layer = e.matte || e.layer_only == Some(LayerArg::Alpha);
+    if rgba_layer && e.codec == Some(CodecArg::H264) {
+        bail!(
+            "--codec h264 cannot hold {}: leave --codec out (FFV1 in .mkv, ProRes 4444 in \
+             .mov, 16-bit PNG in a sequence)",
+            if e.matte {
+                "the matte"
+            } else {
+                "a layer with alpha"
+            }
+        );
+    }
+    if e.alpha.is_some() && e.layer_only == Some(LayerArg::Black) {
+        bail!("--alpha applies to --layer-only=alpha: a layer over black has no alpha");
+    }
+    Ok(EncodeOptions {
+        codec: e
+            .codec
+            .map_or(EncodeOptions::default().codec, VideoCodec::from),
         crf: e.crf,
         preset: e.preset.clone(),
         container: e.format.map(|f| {
@@ -757,7 +793,7 @@ pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> EncodeOptions {
             })),
             (None, false) => None,
         },
-    }
+    })
 }
 
 #[cfg(test)]
@@ -905,7 +941,7 @@ mod tests {
     fn encode_defaults_are_the_library_defaults() {
         let cli = parsed(&["rain-composite", "in.mp4"]);
         assert_eq!(
-            encode_options(&cli.render.encode, false),
+            encode_options(&cli.render.encode, false).expect("valid"),
             EncodeOptions::default()
         );
     }

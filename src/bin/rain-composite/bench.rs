@@ -3,7 +3,6 @@
 
 use std::path::Path;
 use std::process::Command;
-use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -37,7 +36,7 @@ pub fn run_command(b: &BenchArgs) -> anyhow::Result<()> {
         input: b.input.clone(),
         output: String::new(),
         render: render_config(&b.look)?,
-        encode: encode_options(&b.encode, true),
+        encode: encode_options(&b.encode, true)?,
         adapter: adapter(&b.gpu),
         frames: Default::default(),
         checkpoints: None,
@@ -102,7 +101,7 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                     ..template.clone()
                 };
                 job.encode.overwrite = true;
-                let s = pipeline::render(&job, &AtomicBool::new(false), &mut |_| {})?;
+                let s = pipeline::render(&job, &crate::INTERRUPTED, &mut |_| {})?;
                 ours.push(s.elapsed_s);
                 stages.push(s.stages);
                 frames = s.frames;

@@ -29,13 +29,13 @@ pub struct GenerateArgs {
     /// Camera elevations, degrees in [0, 85] [default: 0,30,60].
     #[arg(long, value_delimiter = ',', value_name = "DEG")]
     views: Option<Vec<f64>>,
-    /// Oscillation phases per streak [default: 4].
+    /// Oscillation phases per streak, 1 to 64 [default: 4].
     #[arg(long)]
     phases: Option<usize>,
     /// Pixels across the drop's diameter [default: 8].
     #[arg(long)]
     pixels_per_diameter: Option<f64>,
-    /// Samples per pixel side and time steps per pixel of travel [default: 2].
+    /// Samples per pixel side and time steps per pixel of travel, 1 to 16 [default: 2].
     #[arg(long)]
     samples: Option<usize>,
 }
@@ -85,7 +85,7 @@ pub fn run(command: &DropsCommand) -> anyhow::Result<()> {
         );
     }
     let terminal = std::io::stderr().is_terminal();
-    let index = database::generate(&spec, &args.output, |done, total| {
+    let index = database::generate(&spec, &args.output, &crate::INTERRUPTED, |done, total| {
         if terminal {
             eprint!("\r{done}/{total} streaks");
         }

@@ -20,8 +20,8 @@ pub enum InspectCommand {
         /// column, dam-break or basin.
         #[arg(long, value_parser = ["column", "dam-break", "basin"])]
         scene: String,
-        /// Solver steps [default: the steps that reach the validated state: column 3500,
-        /// dam-break 1500, basin 5000].
+        /// Solver steps, at most 100000 [default: the steps that reach the validated state:
+        /// column 3500, dam-break 1500, basin 5000].
         #[arg(long)]
         steps: Option<usize>,
         /// Print JSON (the only format).
@@ -146,9 +146,10 @@ pub enum InspectCommand {
         /// Instead of the plan, draw a labelled contact sheet of the streak mattes to this PNG.
         #[arg(long, value_name = "PNG")]
         mattes: Option<PathBuf>,
-        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's.
-        #[arg(long, value_name = "PATH", default_value = "drops")]
-        streak_db: PathBuf,
+        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's
+        /// [default: the one the render uses, installed beside the program].
+        #[arg(long, value_name = "PATH")]
+        streak_db: Option<PathBuf>,
         #[command(flatten)]
         look: Box<LookArgs>,
     },
@@ -189,7 +190,9 @@ fn check_fov(fov: f64) -> anyhow::Result<()> {
 /// Runs one report and prints it.
 pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
     let report = match command {
-        InspectCommand::Sph { scene, steps, .. } => inspect::sph(scene, *steps)?,
+        InspectCommand::Sph { scene, steps, .. } => {
+            inspect::sph(scene, *steps, &crate::INTERRUPTED)?
+        }
         InspectCommand::Rtf {
             rho,
             nmax,
@@ -303,7 +306,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             ..
         } => {
             if let Some(sheet) = mattes {
-                let report = rain_composite::drops::sheet::contact_sheet(streak_db, sheet)?;
+                let db = match streak_db {
+                    Some(db) => db.clone(),
+                    None => rain_composite::pipeline::default_streak_db().context(
+                        "no streak database is installed beside the program \
+                         (../share/rain-composite/drops, or drops/ next to it): pass --streak-db DIR",
+                    )?,
+                };
+                let report = rain_composite::drops::sheet::contact_sheet(&db, sheet)?;
                 return out(&serde_json::to_string_pretty(&report)?);
             }
             let config = render_config(look)?;
@@ -331,7 +341,14 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
                 dir: checkpoints.dir(video, video),
                 every_frames: *checkpoint_every,
             };
-            inspect::puddles(&config, video, at_s, plot.as_deref(), Some(&keep))?
+            inspect::puddles(
+                &config,
+                video,
+                at_s,
+                plot.as_deref(),
+                Some(&keep),
+                &crate::INTERRUPTED,
+            )?
         }
     };
     out(&serde_json::to_string_pretty(&report)?)

@@ -23,7 +23,8 @@ mod bench;
 mod drops;
 mod inspect;
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Set by Ctrl-C, TERM and HUP: every long loop polls it and stops cleanly.
+pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// Our messages at the chosen level; other crates' (wgpu, naga) only at `-vv`, and then only
 /// their warnings and errors.
@@ -62,7 +63,7 @@ fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("no output given: add -o OUTPUT (or -o - for stdout)");
     };
     let render = render_config(&args.look)?;
-    let encode = encode_options(&args.encode, args.overwrite);
+    let encode = encode_options(&args.encode, args.overwrite)?;
     let job = Job {
         input: input.clone(),
         output: output.clone(),

@@ -8,8 +8,12 @@
 //! the frame rate, the simulation's settings and this format. Its name carries the fingerprint's
 //! hash, so renders with other settings keep their own files side by side and a file is never
 //! used for water it does not describe; the full fingerprint inside guards against a hash
-//! collision. Files are written to a temporary name and renamed, so chunks running in parallel
-//! may race to write the same one.
+//! collision. The settings that change only the picture (the streaks, the light, whether the
+//! puddles are shown) are left out, so the simulation pass of `inspect puddles` and the chunks
+//! of a render share their files. Files are written to a temporary name and renamed, so chunks
+//! running in parallel may race to write the same one; each ends in a hash of the rest, so a
+//! damaged file is passed over (and replaced when the water is kept again) instead of
+//! silently changing the water.
 
 use std::path::{Path, PathBuf};
 
@@ -17,7 +21,14 @@ use super::PuddleSim;
 use crate::{Error, Result};
 
 /// Changes whenever the layout of the state changes.
-pub const FORMAT: u32 = 1;
+pub const FORMAT: u32 = 2;
+
+/// Largest checkpoint read, bytes: the water of the most particles `--puddle-particles` allows
+/// takes a few hundred MiB; the bound keeps a wrong file from filling the memory.
+pub const MAX_CHECKPOINT_BYTES: u64 = 2 << 30;
+
+/// Bytes of the hash that ends a file.
+const HASH_BYTES: usize = 8;
 
 const MAGIC: &[u8; 8] = b"RAINH2O\n";
 const EXTENSION: &str = "water";
@@ -33,7 +44,12 @@ pub struct Checkpoints {
 
 /// FNV-1a, 64 bits: a hash that stays the same across builds and machines (unlike std's).
 fn fnv1a(text: &str) -> u64 {
-    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+    fnv1a_bytes(text.as_bytes())
+}
+
+/// [`fnv1a`] of bytes.
+fn fnv1a_bytes(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
     })
 }
@@ -52,10 +68,11 @@ impl Checkpoints {
         self.every_frames > 0 && index.is_multiple_of(self.every_frames)
     }
 
-    /// Writes the water after frame `index`, unless a file for it is already there.
+    /// Writes the water after frame `index`, unless a sound file for it is already there (a
+    /// damaged one is replaced).
     pub fn save(&self, fingerprint: &str, index: u64, sim: &PuddleSim) -> Result<()> {
         let path = self.path(fingerprint, index);
-        if path.exists() {
+        if path.exists() && sound(&path).is_ok() {
             return Ok(());
         }
         let failed = |reason: String| Error::OutputWrite {
@@ -67,6 +84,10 @@ impl Checkpoints {
             postcard::to_stdvec(&(FORMAT, fingerprint, index, sim))
                 .map_err(|e| failed(e.to_string()))?,
         );
+        bytes.extend(fnv1a_bytes(&bytes).to_le_bytes());
+        if self.dir.exists() && !self.dir.is_dir() {
+            return Err(failed(format!("'{}' is not a folder", self.dir.display())));
+        }
         std::fs::create_dir_all(&self.dir).map_err(|e| failed(e.to_string()))?;
         let tmp = path.with_extension(format!("{EXTENSION}.{}.tmp", std::process::id()));
         std::fs::write(&tmp, &bytes)
@@ -75,6 +96,24 @@ impl Checkpoints {
                 let _ = std::fs::remove_file(&tmp);
                 failed(e.to_string())
             })
+    }
+
+    /// Warns when the folder holds water only under other fingerprints: kept by a render or a
+    /// simulation pass with settings that change the water, so this run simulates its own.
+    fn warn_of_other_settings(&self, prefix: &str) {
+        let others = std::fs::read_dir(&self.dir)
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|n| n.ends_with(&format!(".{EXTENSION}")) && !n.starts_with(prefix))
+            .count();
+        if others > 0 {
+            log::warn!(
+                "puddles: '{}' holds {others} checkpoints of water simulated with other settings \
+                 (rain, ground, camera, relief or particles differ); simulating this water anew",
+                self.dir.display()
+            );
+        }
     }
 
     /// The water after the latest kept frame at or before `index` under `fingerprint`, with
@@ -91,6 +130,9 @@ impl Checkpoints {
             })
             .filter(|&i| i <= index)
             .collect();
+        if kept.is_empty() {
+            self.warn_of_other_settings(&prefix);
+        }
         kept.sort_unstable();
         kept.into_iter().rev().find_map(|i| {
             let path = self.path(fingerprint, i);
@@ -105,16 +147,35 @@ impl Checkpoints {
     }
 }
 
-/// The water in `path`, if the file holds the water of `fingerprint` after frame `index`.
-fn read(path: &Path, fingerprint: &str, index: u64) -> std::result::Result<PuddleSim, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+/// The body of the checkpoint at `path` (after the magic and the format, without the hash),
+/// if it is a regular file of bounded size in this build's format whose hash matches.
+fn sound(path: &Path) -> std::result::Result<Vec<u8>, String> {
+    let mut bytes = crate::files::read_regular(path, MAX_CHECKPOINT_BYTES)?;
     let body = bytes
         .strip_prefix(MAGIC.as_slice())
         .ok_or("not a water checkpoint")?;
-    let (format, rest): (u32, _) = postcard::take_from_bytes(body).map_err(|e| e.to_string())?;
+    let (format, _): (u32, _) = postcard::take_from_bytes(body).map_err(|e| e.to_string())?;
     if format != FORMAT {
         return Err(format!("format {format}, this build reads {FORMAT}"));
     }
+    let end = bytes
+        .len()
+        .checked_sub(HASH_BYTES)
+        .filter(|&e| e > MAGIC.len())
+        .ok_or("damaged: truncated")?;
+    let stored = u64::from_le_bytes(bytes[end..].try_into().map_err(|_| "damaged")?);
+    if fnv1a_bytes(&bytes[..end]) != stored {
+        return Err("damaged: its hash does not match its contents".into());
+    }
+    bytes.truncate(end);
+    bytes.drain(..MAGIC.len());
+    Ok(bytes)
+}
+
+/// The water in `path`, if the file holds the water of `fingerprint` after frame `index`.
+fn read(path: &Path, fingerprint: &str, index: u64) -> std::result::Result<PuddleSim, String> {
+    let body = sound(path)?;
+    let (_, rest): (u32, _) = postcard::take_from_bytes(&body).map_err(|e| e.to_string())?;
     let (stored, rest): (String, _) = postcard::take_from_bytes(rest).map_err(|e| e.to_string())?;
     if stored != fingerprint {
         return Err("made with other settings".into());
@@ -132,18 +193,28 @@ fn read(path: &Path, fingerprint: &str, index: u64) -> std::result::Result<Puddl
 }
 
 /// Everything the water of a render depends on, as text: two renders whose fingerprints are
-/// equal simulate the same water frame for frame.
+/// equal simulate the same water frame for frame. The settings of the picture alone are left
+/// out (see the module's documentation).
 pub fn fingerprint(
     config: &crate::config::RenderConfig,
     camera: &crate::scene::Camera,
     fps: f64,
     settings: &super::PuddleSettings,
 ) -> String {
+    let mut water = config.to_value();
+    if let Some(tree) = water.as_object_mut() {
+        tree.remove("light");
+        tree.remove("streak_db");
+    }
+    for (section, key) in [("ground", "puddles"), ("rain", "streaks")] {
+        if let Some(s) = water.get_mut(section).and_then(|s| s.as_object_mut()) {
+            s.remove(key);
+        }
+    }
     format!(
-        "rain-composite {} water format {FORMAT}\nconfig {}\ncamera {camera:?}\nfps {fps:?}\n\
-         settings {settings:?}",
+        "rain-composite {} water format {FORMAT}\nconfig {water}\ncamera {camera:?}\nfps \
+         {fps:?}\nsettings {settings:?}",
         env!("CARGO_PKG_VERSION"),
-        config.to_value()
     )
 }
 

@@ -3,6 +3,7 @@
 //! water-depth map as a plot.
 
 use std::path::Path;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use serde_json::{Value, json};
@@ -26,13 +27,15 @@ pub(crate) fn clip_fps(info: &crate::video::VideoInfo) -> f64 {
 }
 
 /// The report at `at_s` (seconds from the clip's start) of `input` under `config`; with
-/// `plot`, also the water depth seen from above to this PNG.
+/// `plot`, also the water depth seen from above to this PNG. Stops with
+/// [`Error::Interrupted`] once `cancel` is set.
 pub fn report(
     config: &RenderConfig,
     input: &str,
     at_s: f64,
     plot: Option<&Path>,
     keep: Option<&Checkpoints>,
+    cancel: &AtomicBool,
 ) -> Result<Value> {
     if !(at_s.is_finite() && at_s >= 0.0) {
         return Err(Error::Parameter {
@@ -42,8 +45,12 @@ pub fn report(
         });
     }
     config.validate()?;
-    let source = Source::open(input)?;
+    let mut source = Source::open(input)?;
     let info = source.info().clone();
+    // A time beyond the clip is refused as a preview refuses it, not simulated.
+    if source.is_seekable() {
+        source.seek_to_time(at_s)?;
+    }
     let camera = camera_for(&info, config)?;
     let fps = clip_fps(&info);
     let depth = match &config.ground.depth {
@@ -62,7 +69,9 @@ pub fn report(
     let Some(mut sim) = PuddleSim::new(config, &camera, depth.as_deref(), fps, &settings)? else {
         return Ok(json!({
             "simulated": false,
-            "reason": if config.ground.is_given() {
+            "reason": if depth.is_some() {
+                "the depth map shows no ground within reach"
+            } else if config.ground.is_given() {
                 "the picture shows no ground within reach"
             } else {
                 "no ground given (--ground none or auto): no fluid is built"
@@ -94,14 +103,14 @@ pub fn report(
             let mut steps = 0;
             let frames = (at_s * fps + 1e-9).floor() as u64;
             for index in 0..=frames {
-                steps += sim.advance_with_rain(&rain, index as f64 / fps)?;
+                steps += sim.advance_with_rain_or_stop(&rain, index as f64 / fps, cancel)?;
                 if k.keeps(index) {
                     k.save(&print, index, &sim)?;
                 }
             }
-            steps + sim.advance_with_rain(&rain, at_s)?
+            steps + sim.advance_with_rain_or_stop(&rain, at_s, cancel)?
         }
-        None => sim.advance_with_rain(&rain, at_s)?,
+        None => sim.advance_with_rain_or_stop(&rain, at_s, cancel)?,
     };
     let fast_forward_s = run.elapsed().as_secs_f64();
     let depth = sim.water_depth();
@@ -151,8 +160,5 @@ pub fn plot_depth(depth: &Field2, path: &Path) -> Result<()> {
             (255.0 - 120.0 * s) as u8,
         ])
     });
-    img.save(path).map_err(|e| Error::OutputWrite {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    })
+    crate::files::save_png(&img, path)
 }

@@ -118,8 +118,9 @@ impl PuddleSim {
     /// The water at t = 0 on the ground of `config` seen by `camera` (the render's camera, its
     /// pose set by the ground), the rain stepped every `settings.step_every_frames` frames of
     /// `fps`. `depth_m`: the scene's depth (camera z per pixel of the camera's picture, 0
-    /// unknown) to take the relief from; `None`: the plane z = 0. `Ok(None)` without a ground
-    /// or without ground in view: nothing is built.
+    /// unknown) to take the relief from; `None` or a map of holes only: the plane z = 0.
+    /// `Ok(None)` without a ground, without ground in view or where the map shows none within
+    /// reach: nothing is built.
     pub fn new(
         config: &RenderConfig,
         camera: &Camera,
@@ -152,8 +153,16 @@ impl PuddleSim {
         };
         let (nx, ny, cell) = relief_grid(&footprint, s.relief_cell_m, s.max_vertices);
         let origin = footprint.min_m.as_vec2();
-        let base = match depth_m {
-            Some(depth) => HeightField::from_depth_map(camera, depth, nx, ny, origin, cell)?,
+        // A map of holes only knows nothing: the ground is the plane, as without a map.
+        let known = depth_m.filter(|d| d.iter().any(|&z| z.is_finite() && z > 0.0));
+        let base = match known {
+            Some(depth) => {
+                // No known pixel on the ground within reach: the map shows a wall there.
+                match HeightField::from_depth_map(camera, depth, nx, ny, origin, cell)? {
+                    Some(base) => base,
+                    None => return Ok(None),
+                }
+            }
             None => HeightField::flat(nx, ny, origin, cell, 0.0)?,
         };
         let g = &config.ground;
@@ -292,8 +301,23 @@ impl PuddleSim {
     /// ([`GroundRain`]: the drawn drops and the stream beyond them), its impacts computed per
     /// step, as a render feeds them frame by frame: the fast-forward of a seek.
     pub fn advance_with_rain(&mut self, rain: &GroundRain, t_s: f64) -> Result<usize> {
+        self.advance_with_rain_or_stop(rain, t_s, &std::sync::atomic::AtomicBool::new(false))
+    }
+
+    /// [`advance_with_rain`](Self::advance_with_rain), stopping with [`Error::Interrupted`]
+    /// between two steps once `cancel` is set (a fast-forward can take minutes; a step takes
+    /// milliseconds).
+    pub fn advance_with_rain_or_stop(
+        &mut self,
+        rain: &GroundRain,
+        t_s: f64,
+        cancel: &std::sync::atomic::AtomicBool,
+    ) -> Result<usize> {
         let mut steps = 0;
         while self.time_s + self.step_s <= t_s + 1e-9 {
+            if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                return Err(Error::Interrupted);
+            }
             let (t0, t1) = (self.time_s, self.time_s + self.step_s);
             let hits = rain.impacts_between(&self.ground_rect(), t0, t1);
             steps += self.advance_to(t1, &hits)?;
