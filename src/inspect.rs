@@ -84,6 +84,7 @@ pub fn light(
     labels: Option<&Path>,
 ) -> Result<Value> {
     check_plot(plot)?;
+    check_plot(labels)?;
     let img = LinearImage::load_png(image)?;
     let camera = camera.camera(img.width as u32, img.height as u32);
     let report = inspect_light::light_report(&img, &camera, grid, light)?;

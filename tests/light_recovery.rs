@@ -1099,7 +1099,7 @@ fn inspect_light_labels_name_each_clipped_pixel_s_region() {
     std::fs::write(&jpg, b"keep").unwrap();
     let bad = run(&day, "day.png", &jpg);
     assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("--labels"));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("labels.jpg"));
     assert_eq!(std::fs::read(&jpg).unwrap(), b"keep");
 }
 

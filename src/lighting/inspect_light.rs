@@ -255,37 +255,21 @@ pub fn plot_light(
 }
 
 /// Writes the report's region labels as a 16-bit greyscale PNG of the image's size: each pixel
-/// the 1-based index of its region in the JSON's `regions`, 0 where nothing is clipped. Written
-/// to a temporary name beside `path` and renamed, so a failure leaves no partial file and an
-/// existing one untouched.
+/// the 1-based index of its region in the JSON's `regions`, 0 where nothing is clipped; atomic,
+/// as every output (an existing file is replaced only by a complete one).
 pub fn write_labels(report: &LightReport, size: (usize, usize), path: &Path) -> Result<()> {
     let fail = |reason: String| Error::OutputWrite {
         path: path.display().to_string(),
         reason,
     };
-    let is_png = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if !is_png {
-        return Err(fail("the labels are a PNG: name the file NAME.png".into()));
-    }
     let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(
         size.0 as u32,
         size.1 as u32,
         report.labels.clone(),
     )
     .ok_or_else(|| fail("the labels do not match the image's size".into()))?;
-    let name = path
-        .file_name()
-        .ok_or_else(|| fail("not a file name".into()))?
-        .to_string_lossy();
-    let tmp = path.with_file_name(format!(".{name}.labels-{}.png", std::process::id()));
-    let written = img
-        .save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| fail(e.to_string()))
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| fail(e.to_string())));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| fail(e.to_string()))?;
+    crate::files::write_atomic(path, png.get_ref())
 }

@@ -236,16 +236,6 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             ..
         } => {
             check_fov(*fov)?;
-            if let Some(path) = labels
-                && !path
-                    .extension()
-                    .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-            {
-                bail!(
-                    "--labels '{}': the labels are a 16-bit PNG, name the file NAME.png",
-                    path.display()
-                );
-            }
             let parsed = grid
                 .split_once(['x', 'X'])
                 .and_then(|(a, b)| Some((a.trim().parse().ok()?, b.trim().parse().ok()?)));
