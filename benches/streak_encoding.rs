@@ -128,13 +128,20 @@ fn s(p: &Path) -> &str {
 }
 
 fn main() {
-    // `cargo bench` passes `--bench`; a filter argument is not used.
+    // `cargo bench --bench streak_encoding [-- N…]`: scenes N… only (1-based), else all.
+    let chosen: Vec<usize> = std::env::args().filter_map(|a| a.parse().ok()).collect();
+    let scenes: Vec<&Scene> = SCENES
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| chosen.is_empty() || chosen.contains(&(i + 1)))
+        .map(|(_, s)| s)
+        .collect();
     let dir = tempfile::TempDir::new().expect("temporary directory");
     let samples = Path::new(env!("CARGO_MANIFEST_DIR")).join("samples");
     // results[setting][scene] = (kept %, bytes); visible[scene] = % of the frame.
     let mut results = vec![Vec::new(); SETTINGS.len() + 1];
     let mut visible_pc = Vec::new();
-    for (i, scene) in SCENES.iter().enumerate() {
+    for (i, scene) in scenes.iter().enumerate() {
         let clip = dir.path().join(format!("clip{i}.mkv"));
         let sample = samples.join(scene.sample);
         let mut args = vec!["-i", s(&sample), "-t", scene.secs];
@@ -147,7 +154,10 @@ fn main() {
         let mut look = scene.look.to_vec();
         look.extend(["--codec", "ffv1"]);
         render(&clip, &rain, &look);
-        look.extend(["--rain", "0"]);
+        match look.iter().position(|a| *a == "--rain") {
+            Some(k) => look[k + 1] = "0",
+            None => look.extend(["--rain", "0"]),
+        }
         render(&clip, &dry, &look);
         let (rain_y, dry_y) = (luma_frames(&rain), luma_frames(&dry));
         let measure = |encoded: &Path| {
@@ -180,11 +190,11 @@ fn main() {
     }
 
     print!("| setting |");
-    for (scene, v) in SCENES.iter().zip(&visible_pc) {
+    for (scene, v) in scenes.iter().zip(&visible_pc) {
         print!(" {} ({v:.2} % visible): kept | size |", scene.name);
     }
     println!();
-    println!("|---|{}", "---|---|".repeat(SCENES.len()));
+    println!("|---|{}", "---|---|".repeat(scenes.len()));
     let labels = SETTINGS
         .iter()
         .map(|(l, _)| *l)

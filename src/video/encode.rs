@@ -99,9 +99,9 @@ pub struct EncodeOptions {
 /// B-frames and a flatter rate control. Streaks are new in every frame, so nothing predicts
 /// them: B-frames (bi-predicted, and given coarser quantisers than the frames they sit
 /// between) smooth most faint streaks away, and a steeper `qcomp` raises the quantiser of the
-/// busy frames rain makes. Measured against a lossless render, these keep 60–85 % of the
-/// visible streak pixels where the encoders' defaults keep 50–65 %, for 1.3–1.5× the bytes
-/// (README, "Streaks through the encoder").
+/// busy frames rain makes. Measured against a lossless render, these keep 62–74 % of the
+/// visible streak pixels where x264's defaults keep 51–62 %, for 1.3–1.5× the bytes (README,
+/// "Streaks through the encoder").
 pub const STREAK_PARAMS: &str = "bframes=0:qcomp=0.8";
 
 /// The speed presets libx264 and libx265 share, fastest first.
