@@ -733,6 +733,8 @@ fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
     assert!(err.contains("--fov"), "{err}");
     let err = fails(bin().args([s(&good), "-o", s(&out), "--rain", "buckets", "--cpu"]));
     assert!(err.contains("--rain"), "{err}");
+    let err = fails(bin().args([s(&good), "-o", s(&out), "--encoder-params", "bframes"]));
+    assert!(err.contains("--encoder-params"), "{err}");
 
     assert_eq!(
         only_files(dir.path()),
