@@ -8,7 +8,10 @@ use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
-use fixtures::{color_tags, ffmpeg, frame_times, framemd5, psnr};
+use fixtures::{
+    VISIBLE_STREAK_CODES, color_tags, ffmpeg, frame_times, framemd5, luma_frames, psnr,
+    streaks_kept,
+};
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
@@ -153,6 +156,8 @@ fn without_rain_the_output_matches_a_plain_transcode() {
             "libx264",
             "-crf",
             "18",
+            "-x264-params",
+            rain_composite::video::STREAK_PARAMS,
             s(&reference),
         ]);
         let db = psnr(&out, &reference);
@@ -340,6 +345,49 @@ fn rain_falls_down_the_displayed_picture_of_a_rotated_clip() {
         .max_by(|a, b| score(*a).total_cmp(&score(*b)))
         .expect("shift");
     assert!(best > 0, "rain moves by {best} rows between frames");
+}
+
+/// The default H.264 output keeps at least 60 % of the streak pixels a lossless render shows
+/// (brighter than the render without rain by `VISIBLE_STREAK_CODES` or more; kept: still
+/// brighter by half as much). Lit buildings at night under 30 mm/h: the encoder's own
+/// defaults (B-frames) keep about half of them.
+#[test]
+fn the_default_encoding_keeps_the_streaks() {
+    let dir = TempDir::new().expect("tmp");
+    let input = p(&dir, "in.mkv");
+    let sample = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/city.mp4");
+    ffmpeg(&[
+        "-i",
+        sample,
+        "-t",
+        "1",
+        "-vf",
+        "crop=320:180:400:224",
+        "-c:v",
+        "ffv1",
+        s(&input),
+    ]);
+    let render = |name: &str, args: &[&str]| {
+        let out = p(&dir, name);
+        ok(bin()
+            .args([s(&input), "-o", s(&out), "--scene-depth", "0", "--cpu"])
+            .args(args));
+        luma_frames(&out)
+    };
+    let rain = render("rain.mkv", &["--rain", "30", "--codec", "ffv1"]);
+    let dry = render("dry.mkv", &["--rain", "0", "--codec", "ffv1"]);
+    let encoded = render("out.mp4", &["--rain", "30"]);
+    let (visible, kept) = streaks_kept(&rain, &dry, &encoded, VISIBLE_STREAK_CODES);
+    assert!(
+        visible > rain.len() / 500,
+        "only {visible} visible streak pixels"
+    );
+    let share = kept as f64 / visible as f64;
+    assert!(
+        share >= 0.6,
+        "the default encoding keeps {:.1} % of {visible} visible streak pixels",
+        100.0 * share
+    );
 }
 
 #[test]
@@ -685,6 +733,8 @@ fn user_mistakes_and_bad_files_give_one_clear_line_and_no_output() {
     assert!(err.contains("--fov"), "{err}");
     let err = fails(bin().args([s(&good), "-o", s(&out), "--rain", "buckets", "--cpu"]));
     assert!(err.contains("--rain"), "{err}");
+    let err = fails(bin().args([s(&good), "-o", s(&out), "--encoder-params", "bframes"]));
+    assert!(err.contains("--encoder-params"), "{err}");
 
     assert_eq!(
         only_files(dir.path()),

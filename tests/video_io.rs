@@ -188,6 +188,8 @@ fn x264_output_matches_the_ffmpeg_cli() {
         "libx264",
         "-crf",
         "18",
+        "-x264-params",
+        rain_composite::video::STREAK_PARAMS,
         s(&reference),
     ]);
     let db = psnr(&ours, &reference);

@@ -19,7 +19,9 @@ pub mod still;
 
 pub use color::{ColorParams, Matrix, Transfer};
 pub use decode::{CopiedPacket, Source, SourceItem, init, set_ffmpeg_log_level};
-pub use encode::{AudioMode, EncodeOptions, Sink, VideoCodec, output_format, plan_streams};
+pub use encode::{
+    AudioMode, EncodeOptions, STREAK_PARAMS, Sink, VideoCodec, output_format, plan_streams,
+};
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
 pub use info::{ColorTags, StreamAction, StreamInfo, StreamKind, VideoInfo};
 pub use layer::{AlphaMode, Layer, LayerFrame};

@@ -267,3 +267,47 @@ pub fn sky_over_ground(
     ]);
     path
 }
+
+/// How much brighter than the same render without rain (8-bit luma codes) a pixel of a lossless
+/// render must be to count as a visible streak pixel: about the smallest step a thin line
+/// shows against mid grey (1.6 % of the range); daylight streaks rarely reach 8 codes.
+pub const VISIBLE_STREAK_CODES: i16 = 4;
+
+/// The 8-bit luma of every frame of `path` (the ffmpeg CLI's decode), frame after frame.
+pub fn luma_frames(path: &Path) -> Vec<u8> {
+    let out = Command::new("ffmpeg")
+        .args(["-hide_banner", "-nostdin", "-v", "error", "-i"])
+        .arg(path)
+        .args(["-f", "rawvideo", "-pix_fmt", "gray", "-"])
+        .output()
+        .expect("the ffmpeg CLI is installed");
+    assert!(
+        out.status.success(),
+        "decoding {}: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
+/// The streak pixels an encoding keeps, as (visible, kept), from the luma of three renders of
+/// the same frames: `rain` and `dry` (no rain) written losslessly, and `encoded` (the rain
+/// through the encoder under test). A visible streak pixel is one where `rain` is at least
+/// `threshold` codes above `dry`; it is kept where `encoded` is still above `dry` by at least
+/// half that difference. Both sets are defined by the lossless renders alone, so every
+/// encoder is measured against the same pixels.
+pub fn streaks_kept(rain: &[u8], dry: &[u8], encoded: &[u8], threshold: i16) -> (usize, usize) {
+    assert_eq!(rain.len(), dry.len(), "the renders differ in size");
+    assert_eq!(rain.len(), encoded.len(), "the encoding differs in size");
+    let (mut visible, mut kept) = (0, 0);
+    for ((&r, &d), &e) in rain.iter().zip(dry).zip(encoded) {
+        let streak = i16::from(r) - i16::from(d);
+        if streak >= threshold {
+            visible += 1;
+            if 2 * (i16::from(e) - i16::from(d)) >= streak {
+                kept += 1;
+            }
+        }
+    }
+    (visible, kept)
+}

@@ -273,6 +273,9 @@ pub struct EncodeArgs {
     /// Encoder preset (H.264/HEVC).
     #[arg(long, default_value_t = EncodeOptions::default().preset)]
     pub preset: String,
+    /// More H.264/HEVC encoder options, KEY=VALUE joined by ':' (as ffmpeg's -x264-params/-x265-params), applied over --preset and --crf; the default keeps faint streaks through the encoding; none: the encoder's own defaults.
+    #[arg(long, default_value_t = EncodeOptions::default().encoder_params, value_name = "KEY=VALUE[:…]")]
+    pub encoder_params: String,
     /// Container for stdout (or to override the extension).
     #[arg(long, value_enum)]
     pub format: Option<FormatArg>,
@@ -774,6 +777,10 @@ pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> anyhow::Result<EncodeO
             .map_or(EncodeOptions::default().codec, VideoCodec::from),
         crf: e.crf,
         preset: e.preset.clone(),
+        encoder_params: match e.encoder_params.as_str() {
+            "none" => String::new(),
+            p => p.to_owned(),
+        },
         container: e.format.map(|f| {
             match f {
                 FormatArg::Y4m => "yuv4mpegpipe",

@@ -107,20 +107,16 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                 frames = s.frames;
                 drops = s.drops;
                 adapter = s.adapter;
+                let crf = job.encode.crf.to_string();
+                let mut args = vec!["-i", clip_s, "-c:v", "libx264", "-crf", &crf];
+                args.extend(["-preset", &job.encode.preset]);
+                // The same encoder options as the render's, so the two write the same stream.
+                if !job.encode.encoder_params.is_empty() {
+                    args.extend(["-x264-params", &job.encode.encoder_params]);
+                }
+                args.extend(["-c:a", "copy", &out_s]);
                 let t = Instant::now();
-                ffmpeg(&[
-                    "-i",
-                    clip_s,
-                    "-c:v",
-                    "libx264",
-                    "-crf",
-                    &job.encode.crf.to_string(),
-                    "-preset",
-                    &job.encode.preset,
-                    "-c:a",
-                    "copy",
-                    &out_s,
-                ])?;
+                ffmpeg(&args)?;
                 theirs.push(t.elapsed().as_secs_f64());
             }
             let per_frame = |f: fn(&StageTimes) -> f64| {
