@@ -196,6 +196,28 @@ fn x264_output_matches_the_ffmpeg_cli() {
     assert!(db >= 50.0, "PSNR {db} dB");
     assert_eq!(color_tags(&input), color_tags(&ours));
     assert_eq!(stream(&ours, "v:0")["codec_name"], "h264");
+
+    // Without our options: x264's own defaults at the same CRF and preset.
+    let plain = EncodeOptions {
+        encoder_params: String::new(),
+        ..EncodeOptions::default()
+    };
+    let (ours, reference) = (
+        dir.path().join("plain.mp4"),
+        dir.path().join("plain-ref.mp4"),
+    );
+    transcode(&input, &ours, &plain);
+    ffmpeg(&[
+        "-i",
+        s(&input),
+        "-c:v",
+        "libx264",
+        "-crf",
+        "18",
+        s(&reference),
+    ]);
+    let db = psnr(&ours, &reference);
+    assert!(db >= 50.0, "without our options: PSNR {db} dB");
 }
 
 #[test]
