@@ -264,16 +264,9 @@ fn holes_hide_nothing_and_a_map_of_another_size_is_resampled() {
     }
 }
 
-/// The GPU frame behind a depth ramp (1 m at the left to 8 m at the right, with a hole) against
-/// the CPU twins (`yuv_to_rgb` → `rain_streaks_occluded` of the GPU's own streaks →
-/// `rgb_to_yuv`), on a picture displayed turned 90° so the depth is looked up through the
-/// display rotation; and the map must have hidden part of the rain.
-#[test]
-fn occlusion_matches_the_cpu_twin() {
-    let Some(ctx) = gpu() else { return };
-    let rotation = 90;
-    let setup = rain(0.3, 8.0, rotation);
-    let p = params(&setup);
+/// A depth ramp, 1 m at the left to 8 m at the right, with a hole (unknown) across rows
+/// 20–29.
+fn ramp() -> DepthMap {
     let ramp: Vec<f32> = (0..H)
         .flat_map(|y| (0..W).map(move |x| (x, y)))
         .map(|(x, y)| {
@@ -284,7 +277,20 @@ fn occlusion_matches_the_cpu_twin() {
             }
         })
         .collect();
-    let map = DepthMap::from_values(W as usize, H as usize, &ramp, 1.0).expect("map");
+    DepthMap::from_values(W as usize, H as usize, &ramp, 1.0).expect("map")
+}
+
+/// The GPU frame behind a depth ramp (1 m at the left to 8 m at the right, with a hole) against
+/// the CPU twins (`yuv_to_rgb` → `rain_streaks_occluded` of the GPU's own streaks →
+/// `rgb_to_yuv`), on a picture displayed turned 90° so the depth is looked up through the
+/// display rotation; and the map must have hidden part of the rain.
+#[test]
+fn occlusion_matches_the_cpu_twin() {
+    let Some(ctx) = gpu() else { return };
+    let rotation = 90;
+    let setup = rain(0.3, 8.0, rotation);
+    let p = params(&setup);
+    let map = ramp();
     let f = format(rotation);
     let frame = picture(f);
     let tables = tables();
@@ -337,17 +343,7 @@ fn veil_by_the_depth_map_matches_the_cpu_twin() {
     p.drop_count = 0;
     let (near_m, far_m, beta) = (0.5f32, 30.0f32, 0.2f32);
     p.haze = [near_m, far_m, beta, (-beta * (far_m - near_m)).exp()];
-    let ramp: Vec<f32> = (0..H)
-        .flat_map(|y| (0..W).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            if (20..30).contains(&y) {
-                f32::NAN
-            } else {
-                1.0 + 7.0 * x as f32 / W as f32
-            }
-        })
-        .collect();
-    let map = DepthMap::from_values(W as usize, H as usize, &ramp, 1.0).expect("map");
+    let map = ramp();
     let f = format(rotation);
     let frame = picture(f);
     let mut comp = Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), &setup).expect("gpu");

@@ -951,12 +951,8 @@ fn report_recovery_cost() {
     }
 }
 
-#[test]
-fn inspect_light_cli_prints_the_grid_and_plots() {
-    let dir = std::env::temp_dir().join(format!("rc_inspect_light_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let png = dir.join("lamp.png");
-    let img = still(lamp_at(110.0, 50.0, 3.0));
+/// Writes a still made by [`still`] as the 8-bit sRGB PNG it stands for.
+fn save_still(img: &LinearImage, path: &std::path::Path) {
     let bytes: Vec<u8> = img
         .pixels
         .iter()
@@ -964,8 +960,17 @@ fn inspect_light_cli_prints_the_grid_and_plots() {
         .collect();
     image::RgbImage::from_raw(W as u32, H as u32, bytes)
         .unwrap()
-        .save(&png)
+        .save(path)
         .unwrap();
+}
+
+#[test]
+fn inspect_light_cli_prints_the_grid_and_plots() {
+    let dir = std::env::temp_dir().join(format!("rc_inspect_light_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("lamp.png");
+    let img = still(lamp_at(110.0, 50.0, 3.0));
+    save_still(&img, &png);
     let plot = dir.join("plot.png");
     let run = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
@@ -1040,15 +1045,7 @@ fn inspect_light_labels_name_each_clipped_pixel_s_region() {
     let night = still(lamp_at(110.0, 50.0, 3.0));
     let run = |img: &LinearImage, name: &str, labels: &std::path::Path| {
         let png = dir.path().join(name);
-        let bytes: Vec<u8> = img
-            .pixels
-            .iter()
-            .flat_map(|c| c.map(|x| (linear_to_srgb(x) * 255.0).round() as u8))
-            .collect();
-        image::RgbImage::from_raw(W as u32, H as u32, bytes)
-            .unwrap()
-            .save(&png)
-            .unwrap();
+        save_still(img, &png);
         std::process::Command::new(env!("CARGO_BIN_EXE_rain-composite"))
             .args([
                 "inspect",

@@ -379,6 +379,17 @@ fn block_geometry(stats: &BlockStats, camera: &Camera) -> BlockGeometry {
     g
 }
 
+/// The 8 neighbours of block `b` of a `w × h` grid that lie inside it.
+fn neighbours(b: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = ((b % w) as isize, (b / w) as isize);
+    (-1..=1)
+        .flat_map(move |dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+        .filter(move |&(nx, ny)| {
+            (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize
+        })
+        .map(move |(nx, ny)| ny as usize * w + nx as usize)
+}
+
 /// Connected components (8-neighbour) of the blocks where `mask` is true, in scan order.
 fn components(w: usize, h: usize, mask: &[bool]) -> Vec<Vec<usize>> {
     let mut label = vec![usize::MAX; w * h];
@@ -394,18 +405,10 @@ fn components(w: usize, h: usize, mask: &[bool]) -> Vec<Vec<usize>> {
         while i < comp.len() {
             let b = comp[i];
             i += 1;
-            let (x, y) = ((b % w) as isize, (b / w) as isize);
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
-                        continue;
-                    }
-                    let n = ny as usize * w + nx as usize;
-                    if mask[n] && label[n] == usize::MAX {
-                        label[n] = id;
-                        comp.push(n);
-                    }
+            for n in neighbours(b, w, h) {
+                if mask[n] && label[n] == usize::MAX {
+                    label[n] = id;
+                    comp.push(n);
                 }
             }
         }
@@ -420,8 +423,6 @@ fn overcast(dir: DVec3) -> f64 {
     (1.0 + 2.0 * dir.z.max(0.0)) / 3.0
 }
 
-/// Recovers the clipped light of one frame (module doc). `stats` must come from a frame seen
-/// through `camera`.
 /// Chessboard distance, in blocks, from each block to the nearest unclipped block of the
 /// picture (the picture's border is not a boundary: a region cut by it may go on beyond it).
 fn distance_to_unclipped(w: usize, h: usize, mask: &[bool]) -> Vec<u32> {
@@ -431,18 +432,10 @@ fn distance_to_unclipped(w: usize, h: usize, mask: &[bool]) -> Vec<u32> {
         dist[b] = 0;
     }
     while let Some(b) = queue.pop_front() {
-        let (x, y) = ((b % w) as isize, (b / w) as isize);
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
-                    continue;
-                }
-                let n = ny as usize * w + nx as usize;
-                if dist[n] == u32::MAX {
-                    dist[n] = dist[b] + 1;
-                    queue.push_back(n);
-                }
+        for n in neighbours(b, w, h) {
+            if dist[n] == u32::MAX {
+                dist[n] = dist[b] + 1;
+                queue.push_back(n);
             }
         }
     }
