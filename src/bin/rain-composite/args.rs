@@ -264,7 +264,7 @@ pub struct LookArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct EncodeArgs {
-    /// Video codec [default: h264; a layer with alpha or a matte takes its container's].
+    /// Video codec; a layer with alpha or a matte takes its container's [default: h264].
     #[arg(long, value_enum)]
     pub codec: Option<CodecArg>,
     /// Constant rate factor (H.264/HEVC; lower is better).

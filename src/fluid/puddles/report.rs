@@ -45,14 +45,19 @@ pub fn report(
         });
     }
     config.validate()?;
-    let mut source = Source::open(input)?;
+    let source = Source::open(input)?;
     let info = source.info().clone();
-    // A time beyond the clip is refused as a preview refuses it, not simulated.
-    if source.is_seekable() {
-        source.seek_to_time(at_s)?;
-    }
     let camera = camera_for(&info, config)?;
     let fps = clip_fps(&info);
+    // A time beyond the clip is refused, not simulated; its end (a farm's pass to the last
+    // frame's end) is taken.
+    if let Some(duration_s) = info.duration_s
+        && at_s > duration_s + 1.0 / fps
+    {
+        return Err(Error::OutOfRange(format!(
+            "{at_s} s is beyond the last frame of '{input}' (it lasts {duration_s:.2} s)"
+        )));
+    }
     let depth = match &config.ground.depth {
         Some(path) => {
             let mut maps = crate::scene::depth::DepthSource::open(path, config.ground.depth_scale)?;
