@@ -13,7 +13,7 @@
 //! - [`envmap`]: the frame spread over the sphere around the camera, projected on SH.
 //! - [`rtf`]: the raindrop's radiance-transfer function (thesis Algorithm 1) and its zonal SH.
 //! - [`prt`]: the drop colour for a view ray, and the brute-force reference.
-//! - [`recovery`]: the light clipping removed from the frame (compact sources, extended sky).
+//! - [`recovery`]: the light clipping removed from the frame (surfaces, sky, the sun, lamps).
 //! - [`sources`]: compact light sources (direct term beside the SH).
 //! - [`tracker`]: recovered sources smoothed over frames.
 //! - [`inspect`], [`inspect_light`]: JSON reports and PNG plots for the CLI.

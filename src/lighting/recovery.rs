@@ -320,8 +320,8 @@ pub struct Region {
     pub direction_world: [f64; 3],
     /// True when the region touches the picture's border (partly outside the frame).
     pub touches_edge: bool,
-    /// True when the region became a light source (compact regions beyond the
-    /// [`MAX_RECOVERED_LIGHTS`] largest add their flux to the nearest one).
+    /// True when the region became a light source: the sun, and the [`MAX_RECOVERED_LIGHTS`]
+    /// largest lamps or windows (the others add their flux to the nearest one).
     pub light: bool,
     /// Recovered radiance of the clipped samples over the clip level (1 = nothing added).
     pub gain: f64,
@@ -334,10 +334,10 @@ pub struct Region {
 /// What recovery returns for one frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recovered {
-    /// Compact sources (frame units), brightest first.
+    /// The sun and lamps (frame units), brightest first.
     pub lights: Vec<LightSource>,
-    /// The thumbnail of the extended remainder: compact sources replaced by their
-    /// surroundings, extended regions extrapolated.
+    /// The thumbnail of the extended remainder: lamps and windows replaced by their
+    /// surroundings, surfaces and sky (the sun's included) at their recovered radiance.
     pub remainder: Vec<[f32; 3]>,
     /// The clipped regions found.
     pub regions: Vec<Region>,
