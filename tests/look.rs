@@ -35,21 +35,9 @@ fn luma(path: &Path, frames: usize) -> (usize, usize, Vec<Vec<f64>>) {
         probe["width"].as_u64().unwrap() as usize,
         probe["height"].as_u64().unwrap() as usize,
     );
-    let out = Command::new("ffmpeg")
-        .args(["-v", "error", "-i"])
-        .arg(path)
-        .args(["-frames:v", &frames.to_string()])
-        .args(["-f", "rawvideo", "-pix_fmt", "gray", "-"])
-        .output()
-        .expect("ffmpeg");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let planes = out
-        .stdout
+    let planes = fixtures::luma_frames(path)
         .chunks_exact(w * h)
+        .take(frames)
         .map(|p| p.iter().map(|&v| f64::from(v)).collect())
         .collect();
     (w, h, planes)

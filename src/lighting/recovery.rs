@@ -558,6 +558,8 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             .total_cmp(&cands[a].omega_clip)
             .then(a.cmp(&b))
     });
+    let mut is_lamp = vec![false; cands.len()];
+    lamps.iter().for_each(|&i| is_lamp[i] = true);
     // More emitters than lights: a field of windows and signs.
     let emitter_field = lamps.len() > MAX_RECOVERED_LIGHTS;
     // Lamps are the key light only at night; in daylight the sun and sky are, and a lamp or a
@@ -570,7 +572,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             .filter(|&i| {
                 let c = &cands[i];
                 c.dir.z > 0.0
-                    && !lamps.contains(&i)
+                    && !is_lamp[i]
                     && c.omega_clip >= SUN_MIN_SR
                     && c.omega_clip >= SUN_MIN_FILL * c.omega_blocks
                     && c.ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
@@ -580,7 +582,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         None
     };
     let kind_of = |i: usize| -> RegionKind {
-        if lamps.contains(&i) {
+        if is_lamp[i] {
             if emitter_field {
                 RegionKind::Window
             } else {
@@ -610,26 +612,21 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         let kind = kind_of(ci);
         let emitter = matches!(kind, RegionKind::Lamp | RegionKind::Window);
         // Step 3: the luminance of a clipped sample, per block.
-        let sky_fit = || -> Option<f64> {
-            let fit: Vec<f64> = c
-                .ring
-                .iter()
-                .filter(|&&r| geo.dir[r].z > 0.0)
-                .map(|&r| lum[r] / overcast(geo.dir[r]))
-                .collect();
-            (!fit.is_empty()).then(|| fit.iter().sum::<f64>() / fit.len() as f64)
-        };
-        let sky_zenith = sky_fit();
+        // The overcast sky's zenith luminance fitted to the ring above the horizon.
+        let fit: Vec<f64> = c
+            .ring
+            .iter()
+            .filter(|&&r| geo.dir[r].z > 0.0)
+            .map(|&r| lum[r] / overcast(geo.dir[r]))
+            .collect();
+        let sky_zenith = (!fit.is_empty()).then(|| fit.iter().sum::<f64>() / fit.len() as f64);
         let fill = (c.omega_clip / c.omega_blocks.max(1e-300)).clamp(0.0, 1.0);
         let target_lum = |b: usize| -> f64 {
             match kind {
                 RegionKind::Window => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
                 RegionKind::Lamp if !lamps_are_key => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
-                RegionKind::Lamp => {
-                    key_flux * c.omega_clip
-                        / total_lamp_omega.max(1e-300)
-                        / c.omega_clip.max(1e-300)
-                }
+                // The key light's flux shared in proportion to Ω: the same radiance for all.
+                RegionKind::Lamp => key_flux / total_lamp_omega.max(1e-300),
                 RegionKind::Sky | RegionKind::Sun => {
                     let fit = sky_zenith.map_or(clip_lum, |lz| lz * overcast(geo.dir[b]));
                     fit.max(clip_lum + (surface_typical - clip_lum) * fill)
