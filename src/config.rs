@@ -170,7 +170,7 @@ pub struct GroundConfig {
     /// its height), and streaks end where their drops land on it.
     pub mode: crate::scene::GroundMode,
     /// Minutes it has rained (at the clip's rate) before the clip starts: how wet a given
-    /// ground already is (0: dry at the start; see [`crate::scene::wetness`]).
+    /// ground already is (0: dry at the start; see [`crate::lighting::wetness`]).
     pub pre_rain_min: f64,
     /// The scene's depth (camera z), drops behind it hidden: a 16-bit greyscale PNG in
     /// millimetres for the whole clip, a directory of them (one per frame, in name order) or a
@@ -216,8 +216,8 @@ impl GroundConfig {
         keys: Option<&crate::keyframes::Curve<f64>>,
         rate_mm_per_h: f64,
         reach_m: f64,
-    ) -> Option<crate::scene::wetness::Wetting> {
-        use crate::scene::wetness::{RainHistory, SurfaceStore, Wetting};
+    ) -> Option<crate::lighting::wetness::Wetting> {
+        use crate::lighting::wetness::{RainHistory, SurfaceStore, Wetting};
         let pre_rain_s = 60.0 * self.pre_rain_min;
         let history = match keys {
             Some(k) => RainHistory::keyed(k, pre_rain_s),
@@ -334,7 +334,7 @@ impl RenderConfig {
     /// The configuration at `t_s`: every keyed setting at its value then.
     pub fn at(&self, t_s: f64) -> RenderConfig {
         let mut c = self.clone();
-        self.keyframes.apply_at(&mut c, t_s);
+        c.apply_keys_at(&self.keyframes, t_s);
         c
     }
 }
@@ -719,5 +719,40 @@ impl RenderConfig {
             )?;
         }
         Ok(())
+    }
+}
+
+impl RenderConfig {
+    /// Every setting `keys` keys set to its value at `t_s` (the configuration's own keys are
+    /// left as they are).
+    pub fn apply_keys_at(&mut self, keys: &crate::keyframes::Keyframes, t_s: f64) {
+        let (r, c) = (&mut self.rain, &mut self.camera);
+        if let Some(k) = &keys.rate_mm_per_h {
+            r.rate_mm_per_h = k.at(t_s);
+        }
+        if let Some(k) = &keys.wind_mps {
+            r.wind_mps = k.at(t_s).to_array();
+        }
+        if let Some(k) = &keys.opacity {
+            r.opacity = k.at(t_s);
+        }
+        if let Some(k) = &keys.focus_m {
+            c.focus_m = k.at(t_s);
+        }
+        if let Some(k) = &keys.f_number {
+            c.f_number = k.at(t_s);
+        }
+        let pose = [
+            &mut c.pan_deg,
+            &mut c.tilt_deg,
+            &mut c.roll_deg,
+            &mut c.height_m,
+            &mut c.fov_deg,
+        ];
+        for (v, k) in pose.into_iter().zip(keys.pose()) {
+            if let Some(k) = k {
+                *v = k.at(t_s);
+            }
+        }
     }
 }

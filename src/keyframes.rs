@@ -391,40 +391,8 @@ impl Keyframes {
         }
     }
 
-    /// `config` with every keyed setting at its value at `t_s`.
-    pub fn apply_at(&self, config: &mut crate::config::RenderConfig, t_s: f64) {
-        let (r, c) = (&mut config.rain, &mut config.camera);
-        if let Some(k) = &self.rate_mm_per_h {
-            r.rate_mm_per_h = k.at(t_s);
-        }
-        if let Some(k) = &self.wind_mps {
-            r.wind_mps = k.at(t_s).to_array();
-        }
-        if let Some(k) = &self.opacity {
-            r.opacity = k.at(t_s);
-        }
-        if let Some(k) = &self.focus_m {
-            c.focus_m = k.at(t_s);
-        }
-        if let Some(k) = &self.f_number {
-            c.f_number = k.at(t_s);
-        }
-        let pose = [
-            &mut c.pan_deg,
-            &mut c.tilt_deg,
-            &mut c.roll_deg,
-            &mut c.height_m,
-            &mut c.fov_deg,
-        ];
-        for (v, k) in pose.into_iter().zip(self.pose()) {
-            if let Some(k) = k {
-                *v = k.at(t_s);
-            }
-        }
-    }
-
-    /// The pose and zoom curves, in the order of `POSE`.
-    fn pose(&self) -> [&Option<Curve<f64>>; 5] {
+    /// The pose and zoom curves: pan, tilt, roll, height and field of view.
+    pub fn pose(&self) -> [&Option<Curve<f64>>; 5] {
         [
             &self.pan_deg,
             &self.tilt_deg,

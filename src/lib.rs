@@ -61,7 +61,8 @@ pub mod preset;
 pub mod rain;
 pub mod rng;
 pub mod scene;
+pub mod shot;
 pub mod video;
 
 pub use error::{Error, Result};
-pub use pipeline::RainCompositor;
+pub use pipeline::Renderer;

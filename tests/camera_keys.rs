@@ -147,7 +147,7 @@ fn a_moving_camera_sees_as_much_rain_as_a_still_one_at_each_pose() {
     assert!(!moving.volume.budget_binds, "no budget");
     for t in [0.0, 0.37, 1.0, 1.61, 2.0] {
         let mut at = RenderConfig::default();
-        keys.apply_at(&mut at, t);
+        at.apply_keys_at(&keys, t);
         let (_, still) = rain_of(at.camera, rain, &Keyframes::default());
         // The moving camera's far distance is the farthest any of its poses sees rain.
         let far_m = moving.volume.far_m.min(still.volume.far_m);

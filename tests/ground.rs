@@ -407,8 +407,8 @@ fn looking_up_40_degrees_is_not_confidently_wrong() {
 /// move it, and frames that disagree lower the confidence.
 #[test]
 fn clip_readings_combine_robustly() {
+    use rain_composite::pipeline::ground::{combine, weighted_median};
     use rain_composite::scene::ground::up_from_tilt_roll;
-    use rain_composite::scene::ground_auto::{combine, weighted_median};
     // An outlier does not drag it (the weighted mean here is 4.3).
     let m = weighted_median(&[(1.0, 1.0), (1.5, 1.0), (50.0, 0.2), (2.0, 1.0)]);
     assert_eq!(m, Some(1.5));
@@ -482,8 +482,8 @@ fn clip(dir: &std::path::Path, name: &str, frames: &[YuvFrame]) -> std::path::Pa
 #[test]
 fn auto_in_the_render() {
     use rain_composite::config::RenderConfig;
+    use rain_composite::pipeline::ground::{estimate_clip, resolve};
     use rain_composite::scene::GroundMode;
-    use rain_composite::scene::ground_auto::{estimate_clip, resolve};
     fn blobs(_o: DVec3, d: DVec3) -> f64 {
         0.4 + 0.3 * (-(1.0 - d.dot(DVec3::new(0.2, 0.1, 0.97).normalize())) * 60.0).exp()
     }

@@ -8,11 +8,11 @@ use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::probe::probe_drops;
 use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
 use rain_composite::keyframes::{Curve, Keyframes};
+use rain_composite::lighting::wetness::{RainHistory, SurfaceStore};
 use rain_composite::rain::physics::{DropSizeDistribution, RainRate};
 use rain_composite::rain::volume::{RATE_STREAM, cycle_uniform, drop_uniform, sample_drop};
 use rain_composite::rain::wind::Wind;
 use rain_composite::scene::Camera;
-use rain_composite::scene::wetness::{RainHistory, SurfaceStore};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;

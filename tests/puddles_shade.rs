@@ -18,9 +18,9 @@ use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
 use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, Ripple};
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::gpu::{Compositor, GpuContext};
+use rain_composite::lighting::wetness::{FilmOptics, WATER_INDEX};
 use rain_composite::lighting::{EnvironmentSh, FrameLight, LightSource};
 use rain_composite::rain::volume::impacts::Impact;
-use rain_composite::scene::wetness::{FilmOptics, WATER_INDEX};
 use rain_composite::scene::{Camera, DepthMap};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
 

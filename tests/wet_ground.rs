@@ -12,10 +12,10 @@ use rain_composite::gpu::cpu::{rgb_to_yuv, wet_ground, yuv_to_rgb};
 use rain_composite::gpu::types::{RainParams, WetParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::gpu::{Compositor, GpuContext};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
-use rain_composite::scene::wetness::{
+use rain_composite::lighting::wetness::{
     FilmOptics, RainHistory, SurfaceStore, WATER_INDEX, Wetting, water_reflectance,
 };
+use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::{Camera, DepthMap, GroundMode};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
 

@@ -9,10 +9,7 @@ use super::eos::{EquationOfState, STANDARD_GRAVITY_MPS2, positive};
 use crate::{Error, Result};
 use glam::Vec3;
 
-/// Water's rest density used by Müller 2003 and Kelager 2006, kg/m³.
-pub const WATER_REST_DENSITY_KG_M3: f32 = 998.29;
-/// Water's surface tension against air, N/m.
-pub const WATER_SURFACE_TENSION_N_PER_M: f32 = 0.0728;
+pub use crate::rain::physics::water::{WATER_REST_DENSITY_KG_M3, WATER_SURFACE_TENSION_N_PER_M};
 /// The default Courant number λ of the sound-speed limit.
 pub const DEFAULT_COURANT: f32 = 0.4;
 

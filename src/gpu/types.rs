@@ -266,7 +266,7 @@ impl LightList {
     }
 }
 
-/// WGSL `WetParams`: the wet ground's look for one frame (see [`crate::scene::wetness`]).
+/// WGSL `WetParams`: the wet ground's look for one frame (see [`crate::lighting::wetness`]).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 #[allow(missing_docs)]
@@ -277,7 +277,7 @@ pub struct WetParams {
     pub diffuse_external: f32,
     pub diffuse_internal: f32,
     /// How far the ground reaches, m: wetness fades out from half this distance to it (0: no
-    /// limit). See [`crate::scene::wetness::Wetting::reach_m`].
+    /// limit). See [`crate::lighting::wetness::Wetting::reach_m`].
     pub reach_m: f32,
     pub _pad0: f32,
     pub _pad1: f32,
@@ -288,7 +288,7 @@ impl WetParams {
     /// The uniforms for wetness `wetness` of a film with `optics`, on ground reaching `reach_m`.
     pub fn new(
         wetness: f64,
-        optics: &crate::scene::wetness::FilmOptics,
+        optics: &crate::lighting::wetness::FilmOptics,
         reach_m: f64,
     ) -> WetParams {
         WetParams {

@@ -32,6 +32,7 @@ pub mod rtf;
 pub mod sh;
 pub mod sources;
 pub mod tracker;
+pub mod wetness;
 
 pub use envmap::{EnvMapper, EnvironmentSh, ShSmoother};
 pub use frame_light::{FrameLight, HdrInput, LightConfig, LightEstimator};

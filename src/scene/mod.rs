@@ -6,10 +6,7 @@
 pub mod camera;
 pub mod depth;
 pub mod ground;
-pub mod ground_auto;
-pub mod ground_inspect;
 pub mod horizon;
-pub mod wetness;
 
 pub use camera::Camera;
 pub use depth::DepthMap;

@@ -298,7 +298,7 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             if let Some(sheet) = mattes {
                 let db = match streak_db {
                     Some(db) => db.clone(),
-                    None => rain_composite::pipeline::default_streak_db().context(
+                    None => rain_composite::shot::default_streak_db().context(
                         "no streak database is installed beside the program \
                          (../share/rain-composite/drops, or drops/ next to it): pass --streak-db DIR",
                     )?,

@@ -3,7 +3,7 @@
 //!
 //! Before the clip, the rain of `--pre-rain` minutes over the simulated ground is split, in
 //! this order: the surface's pores and film take their share (the linear store of
-//! [`crate::scene::wetness`], S(0) at the clip's start) and lose what evaporates from it,
+//! [`crate::lighting::wetness`], S(0) at the clip's start) and lose what evaporates from it,
 //! ∫₀ᵀ S/τ dt = S∞·(T − (1 − e^{−kT})/k); what the store shed soaks into the road at the
 //! infiltration rate; the rest runs over the relief, filling its depressions
 //! ([`super::fill`]) or running off the edges. The water in the depressions becomes particles
@@ -13,7 +13,7 @@
 //! ones, one per S raindrops landed (5.31), out through the edges, soaked in.
 
 use crate::fluid::MassLedger;
-use crate::scene::wetness::SurfaceStore;
+use crate::lighting::wetness::SurfaceStore;
 
 /// The water balance of a [`super::PuddleSim`].
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -18,7 +18,6 @@ pub mod checkpoint;
 pub mod fill;
 pub mod ledger;
 pub mod relief;
-pub mod report;
 pub mod sim;
 
 pub use checkpoint::Checkpoints;

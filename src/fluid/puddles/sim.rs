@@ -25,9 +25,9 @@ use crate::config::RenderConfig;
 use crate::fluid::carpet::Field2;
 use crate::fluid::flow::{SurfaceFlow, SurfaceFlowSettings};
 use crate::fluid::terrain::HeightField;
+use crate::lighting::wetness::SurfaceStore;
 use crate::rain::volume::{GroundRain, GroundRect, Impact};
 use crate::scene::Camera;
-use crate::scene::wetness::SurfaceStore;
 use crate::{Error, Result};
 
 /// Infiltration into a road, mm/h: a dense asphalt sheds nearly all rain (Yang, Hu & Beecham

@@ -12,8 +12,8 @@ use super::wet_ground::{irradiance, radiance};
 use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{LightList, MAX_LIGHTS, PuddleParams, RainParams, Ripple};
 use crate::lighting::prt::prt_colour_f64;
+use crate::lighting::wetness::{FilmOptics, ground_shown, reflectance};
 use crate::scene::DepthMap;
-use crate::scene::wetness::{FilmOptics, ground_shown, reflectance};
 use crate::video::YuvFrame;
 
 /// The reflection fades from the frame to the environment over this many pixels at its border.

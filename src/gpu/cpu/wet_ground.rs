@@ -11,7 +11,7 @@ use super::yuv_to_rgb::view_ray;
 use crate::gpu::types::{RainParams, WetParams};
 use crate::lighting::prt::prt_colour_f64;
 use crate::lighting::sh::{band_of, eval_basis};
-use crate::scene::wetness::{FilmOptics, ground_shown, reach_fade, reflectance};
+use crate::lighting::wetness::{FilmOptics, ground_shown, reach_fade, reflectance};
 use crate::video::YuvFrame;
 
 /// Radiance of the environment `env` (SH coefficients) from direction `dir`.

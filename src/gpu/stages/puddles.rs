@@ -12,8 +12,8 @@ use crate::fluid::ripples::{MAX_RINGS, Ring, live_rings};
 use crate::gpu::bind::{bind_group, buffer, view};
 use crate::gpu::shaders::Stage;
 use crate::gpu::types::{PuddleParams, RainParams, Ripple};
+use crate::lighting::wetness::FilmOptics;
 use crate::rain::volume::impacts::Impact;
-use crate::scene::wetness::FilmOptics;
 use crate::{Error, Result};
 
 /// Water covers the ground smoothly as its depth rises from 0 to this, m: a puddle's rim is a

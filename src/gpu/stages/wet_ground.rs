@@ -8,7 +8,7 @@ use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgrou
 use crate::gpu::bind::{bind_group, buffer, view};
 use crate::gpu::shaders::Stage;
 use crate::gpu::types::{RainParams, WetParams};
-use crate::scene::wetness::{FilmOptics, Wetting};
+use crate::lighting::wetness::{FilmOptics, Wetting};
 
 /// The stage; it has work only where the job has a ground that gets wet.
 pub struct WetGround {

@@ -18,6 +18,7 @@ mod fall;
 mod optics;
 mod shape;
 pub mod splash;
+pub mod water;
 
 pub use dsd::*;
 pub use fall::*;

@@ -27,7 +27,7 @@
 use glam::DVec3;
 
 use super::G_MPS2;
-use crate::fluid::settings::{WATER_REST_DENSITY_KG_M3, WATER_SURFACE_TENSION_N_PER_M};
+use super::water::{WATER_REST_DENSITY_KG_M3, WATER_SURFACE_TENSION_N_PER_M};
 
 /// Dynamic viscosity of water at 20 °C, Pa·s.
 pub const WATER_VISCOSITY_PA_S: f64 = 1.002e-3;

@@ -7,16 +7,19 @@
 //! the lens and the budget, the camera from [`CameraConfig`] — so what it prints is what a
 //! render with the same settings draws.
 
+pub mod ground;
+pub mod puddles;
+
 use std::path::Path;
 
 use serde_json::Value;
 
 use crate::Result;
 use crate::config::{CameraConfig, RenderConfig};
-use crate::gpu::uniforms as emitter;
 use crate::lighting::inspect::{self as light_inspect, LinearImage};
 use crate::lighting::{ChannelIndices, LightConfig, inspect_light, rtf};
 use crate::rain::{physics, volume};
+use crate::shot::rain as planner;
 
 /// Refuses a plot that could not be written before the report's work is done.
 fn check_plot(plot: Option<&Path>) -> Result<()> {
@@ -111,7 +114,7 @@ pub fn drops(
     let cam = &config.camera;
     let camera = cam.camera(w, h);
     let exposure = physics::exposure_s(cam.shutter_deg, fps)?;
-    let setup = emitter::build_keyed(
+    let setup = planner::plan_keyed(
         &camera,
         cam,
         &config.rain,
@@ -120,7 +123,7 @@ pub fn drops(
         0,
         size_px,
     )?;
-    let params = emitter::plan_params(cam, &config.rain, exposure)?;
+    let params = planner::plan_params(cam, &config.rain, exposure)?;
     volume::inspect_drops(
         &camera,
         &setup.model,
@@ -137,7 +140,7 @@ pub fn drops(
 /// the frame with the horizon and a metre grid on the ground (at `camera.height_m`).
 pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
     check_plot(plot)?;
-    crate::scene::ground_inspect::report(input, at_s, camera, plot)
+    ground::report(input, at_s, camera, plot)
 }
 
 /// `inspect puddles`: the water a render of `input` under `config` has on its ground at
@@ -153,5 +156,5 @@ pub fn puddles(
     cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<Value> {
     check_plot(plot)?;
-    crate::fluid::puddles::report::report(config, input, at_s, plot, keep, cancel)
+    puddles::report(config, input, at_s, plot, keep, cancel)
 }

@@ -6,10 +6,10 @@ use glam::{DVec2, DVec3};
 use serde_json::{Value, json};
 
 use crate::config::CameraConfig;
-use crate::pipeline::frame_time_s;
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_points_px, up_from_tilt_roll};
 use crate::scene::horizon::{self, GroundTracker, HorizonEstimate, Luma};
+use crate::shot::frame_time_s;
 use crate::video::{Source, YuvFrame};
 use crate::{Error, Result};
 

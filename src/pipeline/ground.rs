@@ -1,7 +1,7 @@
 //! `--ground auto` in the render: one camera pose for the clip, from a pre-pass over its first
 //! shot, before the rain is built.
 //!
-//! The rain volume is built once, for one camera pose (`pipeline::rain_for`), and a drop's
+//! The rain volume is built once, for one camera pose (`shot::Shot::plan`), and a drop's
 //! state is a pure function of (seed, drop, t): so the pose cannot follow the estimate frame by
 //! frame without moving every drop. Instead the render, and the preview the same way, read the
 //! clip's first [`PREPASS_S`] seconds up to the first cut (the cut detector of
@@ -139,7 +139,7 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
                 .sum::<f32>()
                 / 144.0;
             if change > CUT_THRESHOLD {
-                cut_s = Some(crate::pipeline::frame_time_s(&info, &frame));
+                cut_s = Some(crate::shot::frame_time_s(&info, &frame));
                 break;
             }
         }

@@ -8,23 +8,13 @@ use std::time::Instant;
 
 use serde_json::{Value, json};
 
-use super::checkpoint::{Checkpoints, fingerprint};
-use super::sim::{PuddleSettings, PuddleSim};
 use crate::config::RenderConfig;
 use crate::fluid::carpet::Field2;
-use crate::pipeline::{camera_for, exposure_s};
+use crate::fluid::puddles::checkpoint::{Checkpoints, fingerprint};
+use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+use crate::shot::{Footage, camera_for, exposure_s};
 use crate::video::Source;
 use crate::{Error, Result};
-
-/// The clip's frame rate: the average, else the nominal, else 25 fps.
-pub(crate) fn clip_fps(info: &crate::video::VideoInfo) -> f64 {
-    [info.avg_frame_rate, info.frame_rate]
-        .into_iter()
-        .filter(|&(n, d)| n > 0 && d > 0)
-        .map(|(n, d)| n as f64 / d as f64)
-        .find(|f| f.is_finite() && *f > 0.0)
-        .unwrap_or(25.0)
-}
 
 /// The report at `at_s` (seconds from the clip's start) of `input` under `config`; with
 /// `plot`, also the water depth seen from above to this PNG. Stops with
@@ -48,7 +38,7 @@ pub fn report(
     let source = Source::open(input)?;
     let info = source.info().clone();
     let camera = camera_for(&info, config)?;
-    let fps = clip_fps(&info);
+    let fps = Footage::of(&info).fps;
     // A time beyond the clip is refused, not simulated; its end (a farm's pass to the last
     // frame's end) is taken.
     if let Some(duration_s) = info.duration_s

@@ -17,8 +17,8 @@
 //! k(a, μ) = (1 − R(μ))·(1 − R̄ₑ) / (n²·(1 − a·R̄ᵢ)) (the n² is the radiance's change across
 //! the interface), plus the film's mirror reflection R(μ)·L_env(mirrored view).
 
-use crate::lighting::rtf::fresnel;
-use crate::lighting::sh::composite_gauss;
+use super::rtf::fresnel;
+use super::sh::composite_gauss;
 use crate::{Error, Result};
 
 /// Refractive index of water in the visible.

@@ -1,0 +1,280 @@
+//! The water feed: the puddles' simulation, brought to the first frame rendered and advanced
+//! with the rain that lands, handed to the compositor frame by frame.
+
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use crate::Result;
+use crate::config::RenderConfig;
+use crate::fluid::puddles::checkpoint::{self, Checkpoints};
+use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+use crate::gpu::Compositor;
+use crate::gpu::uniforms::RainSetup;
+use crate::rain::volume::{GroundRain, Impact};
+use crate::scene::Camera;
+use crate::scene::depth::DepthSource;
+use crate::shot::Shot;
+use crate::video::Layer;
+
+/// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
+/// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
+/// start or from kept water, so a preview or a chunk sees the water a whole render shows
+/// there; then each frame
+/// hands it the drops that landed since the last one, and the compositor its water map and
+/// the impacts of the last ring life for the ripples.
+pub(super) enum PuddleFeed {
+    /// No puddles.
+    Off,
+    /// Waiting for the first frame.
+    Pending(Box<PuddlePlan>),
+    /// Running.
+    On(Box<PuddleRun>),
+}
+
+/// What the water is built from at the first frame.
+pub(super) struct PuddlePlan {
+    camera: Camera,
+    fps: f64,
+    config: RenderConfig,
+    pub(super) checkpoints: Option<Checkpoints>,
+    /// Stops the fast-forward.
+    pub(super) cancel: Option<&'static AtomicBool>,
+}
+
+/// The water during a job.
+pub(super) struct PuddleRun {
+    sim: crate::fluid::puddles::PuddleSim,
+    /// All the rain landing on the ground: the drawn drops' and the stream beyond them.
+    rain: GroundRain,
+    /// The render's camera (which rings the picture resolves).
+    camera: Camera,
+    /// The rings finer than a pixel, as a rough surface.
+    far: FarRipples,
+    /// The clip time the rain has been fed up to, s.
+    fed_s: f64,
+    /// The impacts of the last ring life whose rings the picture resolves (at most
+    /// `RING_POOL`, the newest).
+    recent: Vec<Impact>,
+    /// Where the water is kept.
+    keep: Option<Keeping>,
+}
+
+/// Where a run keeps its water, under which fingerprint.
+struct Keeping {
+    checkpoints: Checkpoints,
+    fingerprint: String,
+}
+
+impl PuddleRun {
+    /// Keeps the water after frame `index` if it is a frame to keep; a file that cannot be
+    /// written costs a later chunk time, not this render its output, so it is a warning.
+    fn keep(&self, index: u64) {
+        if let Some(Keeping {
+            checkpoints,
+            fingerprint,
+        }) = &self.keep
+            && checkpoints.keeps(index)
+            && let Err(e) = checkpoints.save(fingerprint, index, &self.sim)
+        {
+            log::warn!("puddles: the water after frame {index} was not kept: {e}");
+        }
+    }
+}
+
+impl PuddleFeed {
+    pub(super) fn new(shot: &Shot, layer: Option<Layer>) -> PuddleFeed {
+        // The matte is the rain's coverage alone: no water in it.
+        if !shot.config.ground.puddles || layer == Some(Layer::Matte) {
+            return PuddleFeed::Off;
+        }
+        PuddleFeed::Pending(Box::new(PuddlePlan {
+            camera: shot.camera,
+            fps: shot.footage.fps,
+            config: shot.config.clone(),
+            checkpoints: None,
+            cancel: None,
+        }))
+    }
+
+    /// Builds the water at the first frame rendered (frame `index`, shown at `t_s`); returns the
+    /// impacts of the last ring life, for the ripples (none once running).
+    pub(super) fn start(
+        &mut self,
+        rain: &RainSetup,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        t_s: f64,
+    ) -> Result<Vec<Impact>> {
+        use crate::fluid::ripples::RING_LIFE_S;
+        let PuddleFeed::Pending(plan) = self else {
+            return Ok(Vec::new());
+        };
+        let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+        let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
+            log::warn!(
+                "--puddles: the {} shows no ground within reach; no puddles",
+                if depth.is_some() {
+                    "depth map"
+                } else {
+                    "picture"
+                }
+            );
+            *self = PuddleFeed::Off;
+            return Ok(Vec::new());
+        };
+        let hits = rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
+        let camera = plan.camera;
+        let far = FarRipples::new(&rain, &camera);
+        log::info!(
+            "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them water of \
+             RMS slope {:.3}",
+            rain.flux_at(t_s),
+            far.resolve_depth_m,
+            (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
+        );
+        let run = PuddleRun {
+            sim,
+            rain,
+            camera,
+            far,
+            fed_s: t_s,
+            recent: Vec::new(),
+            keep,
+        };
+        run.keep(index);
+        *self = PuddleFeed::On(Box::new(run));
+        Ok(hits)
+    }
+
+    /// Feeds running water the rain that landed since the last frame and runs it to `t_s`
+    /// (frame `index`, kept if due); returns those impacts.
+    pub(super) fn advance(&mut self, index: u64, t_s: f64) -> Result<Vec<Impact>> {
+        let PuddleFeed::On(run) = self else {
+            return Ok(Vec::new());
+        };
+        if t_s <= run.fed_s {
+            return Ok(Vec::new());
+        }
+        let hits = run
+            .rain
+            .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
+        run.sim.advance_to(t_s, &hits)?;
+        run.fed_s = t_s;
+        run.keep(index);
+        Ok(hits)
+    }
+
+    /// The water map, the rings the picture resolves (with `hits`, the frame's new impacts) and
+    /// the far water's roughness at `t_s`, to the compositor.
+    pub(super) fn show(
+        &mut self,
+        compositor: &mut Compositor,
+        hits: &[Impact],
+        t_s: f64,
+    ) -> Result<()> {
+        use crate::fluid::ripples::{keep_resolved_rings, rings_on_water};
+        if let PuddleFeed::On(run) = self {
+            let water = run.sim.shown_depth();
+            keep_resolved_rings(&mut run.recent, hits, t_s, &run.camera);
+            compositor.set_water(&water)?;
+            compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
+            let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
+            compositor.set_far_ripples(slope_rms, run.far.resolve_depth_m)?;
+        }
+        Ok(())
+    }
+}
+
+/// The ripples where single rings are finer than a pixel: the water's mean square slope per
+/// unit impact flux ([`rain_slope_variance`](crate::fluid::ripples::rain_slope_variance) over
+/// the sizes that land) and the camera depth where a ring of the mean landing size spans
+/// [`MIN_RING_WAVELENGTH_PX`](crate::fluid::ripples::MIN_RING_WAVELENGTH_PX).
+struct FarRipples {
+    slope_variance_per_flux: f64,
+    resolve_depth_m: f64,
+}
+
+impl FarRipples {
+    fn new(rain: &GroundRain, camera: &Camera) -> FarRipples {
+        use crate::fluid::ripples::{
+            MIN_RING_WAVELENGTH_PX, WAVELENGTH_PER_DIAMETER, rain_slope_variance,
+        };
+        let sizes_mm = rain.impact_diameters_mm(8);
+        let mean_mm = sizes_mm.iter().sum::<f64>() / sizes_mm.len() as f64;
+        FarRipples {
+            slope_variance_per_flux: rain_slope_variance(1.0, &sizes_mm),
+            resolve_depth_m: WAVELENGTH_PER_DIAMETER * mean_mm * 1e-3 * camera.focal_px()
+                / MIN_RING_WAVELENGTH_PX,
+        }
+    }
+}
+
+impl PuddlePlan {
+    /// The water at `t_s`, with where to keep it: from the latest checkpoint at or before
+    /// frame `index` if there is one, otherwise built at the clip's start; either way
+    /// fast-forwarded to `t_s`. `None` where no ground is in view.
+    fn build(
+        &self,
+        rain: &GroundRain,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        t_s: f64,
+    ) -> Result<Option<(PuddleSim, Option<Keeping>)>> {
+        let started = Instant::now();
+        let settings = PuddleSettings::of(&self.config);
+        let fingerprint = checkpoint::fingerprint(&self.config, &self.camera, self.fps, &settings);
+        let kept = self
+            .checkpoints
+            .as_ref()
+            .and_then(|c| c.latest(&fingerprint, index));
+        let keep = self.checkpoints.clone().map(|checkpoints| Keeping {
+            checkpoints,
+            fingerprint,
+        });
+        // Built either way: a checkpoint leaves out what the configuration fixes.
+        let Some(fresh) = self.new_sim(depth, &settings)? else {
+            return Ok(None);
+        };
+        let (from, mut sim) = match kept {
+            Some((kept_index, sim)) => (
+                format!("from the checkpoint of frame {kept_index}"),
+                sim.with_fixed_parts_of(fresh),
+            ),
+            None => ("from the clip's start".to_string(), fresh),
+        };
+        if t_s > sim.time_s() {
+            let never = AtomicBool::new(false);
+            sim.advance_with_rain_or_stop(rain, t_s, self.cancel.unwrap_or(&never))?;
+        }
+        let (cap, capped) = sim.particle_cap();
+        log::info!(
+            "puddles: {} particles (cap {cap}{}), water brought to {t_s:.2} s {from} in {:.1} s",
+            sim.ledger().particles_present,
+            if capped { ", reached" } else { "" },
+            started.elapsed().as_secs_f64()
+        );
+        Ok(Some((sim, keep)))
+    }
+
+    /// The water at the clip's start, on the relief of the clip's first depth map (if any):
+    /// the ground a whole render starts from, whichever frame a chunk starts at.
+    fn new_sim(
+        &self,
+        depth: &mut Option<DepthSource>,
+        settings: &PuddleSettings,
+    ) -> Result<Option<PuddleSim>> {
+        let camera = &self.camera;
+        let map = match depth {
+            Some(d) => Some(
+                d.at(0)?
+                    .resampled(camera.width_px as usize, camera.height_px as usize)
+                    .depth_m
+                    .into_iter()
+                    .map(|z| if z.is_finite() { z } else { 0.0 })
+                    .collect::<Vec<f32>>(),
+            ),
+            None => None,
+        };
+        PuddleSim::new(&self.config, camera, map.as_deref(), self.fps, settings)
+    }
+}
