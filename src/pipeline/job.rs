@@ -12,7 +12,7 @@ use crate::config::RenderConfig;
 use crate::fluid::puddles::checkpoint::Checkpoints;
 use crate::gpu::{AdapterRequest, Rendered};
 use crate::shot::{Footage, frame_time_s};
-use crate::video::{CopiedPacket, EncodeOptions, Sink, Source, SourceItem};
+use crate::video::{CopiedPacket, EncodeOptions, Sink, Source, SourceItem, VideoInfo};
 use crate::{Error, Result};
 
 /// Frames or packets buffered between two threads.
@@ -109,177 +109,34 @@ pub fn render(
         None => rain,
     };
     let mut rain = rain.with_cancel(cancel);
-    // A chunk starts decoding where the frames that light its first frame begin (as a preview
-    // does), less the interleaving slack for the audio; a pipe is read from the start.
-    let warm_from_s = job.frames.start_s(&info) - rain.light_window_s() - INTERLEAVE_SLACK_S;
-    let mut first = None;
-    if warm_from_s > 0.0 && source.is_seekable() {
-        // The seek goes to the frames that light the chunk, before it: a chunk beyond the clip
-        // is named by its own start.
-        let frame = source.seek_to_time(warm_from_s).map_err(|e| match e {
-            Error::OutOfRange(_) => Error::OutOfRange(format!(
-                "{} s is beyond the last frame of '{}'",
-                job.frames.start_s(&info),
-                job.input
-            )),
-            e => e,
-        })?;
-        first = Some(SourceItem::Frame(frame));
-    }
-    let mut chunk = ChunkCut::new(job.frames, &info);
+    let first = warm_up_seek(job, &info, &mut source, rain.light_window_s())?;
 
     let (in_tx, in_rx) = mpsc::sync_channel::<Result<SourceItem>>(CHANNEL_DEPTH);
     let (out_tx, out_rx) = mpsc::sync_channel::<ToEncode>(CHANNEL_DEPTH);
     let stop = Arc::new(AtomicBool::new(false));
-    let decode_stop = stop.clone();
-    let decoder = std::thread::Builder::new()
-        .name("decode".into())
-        .spawn(move || {
-            let mut source = source;
-            let mut spent = Duration::ZERO;
-            loop {
-                let t = Instant::now();
-                let item = match first.take() {
-                    Some(f) => Ok(Some(f)),
-                    None => source.next_item(),
-                };
-                spent += t.elapsed();
-                let end = !matches!(item, Ok(Some(_)));
-                let item = match item {
-                    Ok(Some(i)) => Ok(i),
-                    Ok(None) => break,
-                    Err(e) => Err(e),
-                };
-                if in_tx.send(item).is_err() || end || decode_stop.load(Ordering::Relaxed) {
-                    break;
-                }
-            }
-            spent
-        })
-        .map_err(Error::io("starting the decode thread"))?;
-    let encoder = std::thread::Builder::new()
-        .name("encode".into())
-        .spawn(move || -> Result<(u64, Duration)> {
-            let mut sink = sink;
-            let mut spent = Duration::ZERO;
-            let mut frames = 0;
-            for item in out_rx {
-                let t = Instant::now();
-                match item {
-                    ToEncode::Frame(f) => {
-                        sink.write_rendered(&f)?;
-                        frames += 1;
-                    }
-                    ToEncode::Packet(p) => sink.write_packet(p)?,
-                    ToEncode::Finish => {
-                        if frames == 0 {
-                            return Err(Error::CorruptInput("no frame could be decoded".into()));
-                        }
-                        sink.finish()?;
-                        return Ok((frames, spent + t.elapsed()));
-                    }
-                }
-                spent += t.elapsed();
-            }
-            Err(Error::Interrupted)
-        })
-        .map_err(Error::io("starting the encode thread"))?;
+    let decoder = spawn_decoder(source, first, in_tx, stop.clone())?;
+    let encoder = spawn_encoder(sink, out_rx)?;
 
     let mut stages = StageTimes::default();
-    let mut written = 0u64;
-    let frames_total = match job.frames {
-        FrameRange::All => info.frame_count,
-        FrameRange::Indices { start, end } => {
-            let last = match (end, info.frame_count) {
-                (Some(e), Some(n)) => Some(e.min(n)),
-                (e, n) => e.or(n),
-            };
-            last.map(|l| l.saturating_sub(start))
-        }
-        FrameRange::Times { .. } => None,
+    let mut frames = FrameLoop {
+        job,
+        info: &info,
+        chunk: ChunkCut::new(job.frames, &info),
+        out: &out_tx,
+        written: 0,
+        frames_total: frames_total(job.frames, &info),
+        started,
+        progress,
     };
-    let gpu_result = (|| -> Result<()> {
-        let mut send = |f: Rendered, written: &mut u64| -> Result<()> {
-            out_tx
-                .send(ToEncode::Frame(f))
-                .map_err(|_| Error::EncoderStopped)?;
-            *written += 1;
-            progress(Progress {
-                frames_done: *written,
-                frames_total,
-                elapsed_s: started.elapsed().as_secs_f64(),
-            });
-            Ok(())
-        };
-        let send_packets = |packets: Vec<CopiedPacket>| -> Result<()> {
-            for p in packets {
-                out_tx
-                    .send(ToEncode::Packet(p))
-                    .map_err(|_| Error::EncoderStopped)?;
-            }
-            Ok(())
-        };
-        for item in &in_rx {
-            if cancel.load(Ordering::Relaxed) {
-                return Err(Error::Interrupted);
-            }
-            match item? {
-                SourceItem::Frame(frame) => {
-                    let t_s = frame_time_s(&info, &frame);
-                    match chunk.frame(&frame, t_s) {
-                        Cut::Before => {
-                            // Lights the frames of the chunk (temporal smoothing).
-                            rain.observe(&frame, t_s);
-                            continue;
-                        }
-                        Cut::Done => break,
-                        Cut::After(packets) => {
-                            send_packets(packets)?;
-                            continue;
-                        }
-                        Cut::In(packets) => send_packets(packets)?,
-                    }
-                    let t = Instant::now();
-                    let done = rain.submit(&frame, t_s)?;
-                    stages.submit_s += t.elapsed().as_secs_f64();
-                    if let Some(done) = done {
-                        send(done, &mut written)?;
-                    }
-                }
-                SourceItem::Packet(p) => {
-                    let Some(p) = chunk.packet(p) else {
-                        continue;
-                    };
-                    if out_tx.send(ToEncode::Packet(p)).is_err() {
-                        break;
-                    }
-                }
-            }
-        }
-        if !chunk.started {
-            return Err(Error::OutOfRange(format!(
-                "no frame of '{}' lies in {}",
-                job.input, job.frames
-            )));
-        }
-        send_packets(chunk.finish())?;
-        let t = Instant::now();
-        let rest = rain.flush()?;
-        stages.readback_s += t.elapsed().as_secs_f64();
-        for f in rest {
-            send(f, &mut written)?;
-        }
-        Ok(())
-    })();
+    let gpu_result = frames.run(&in_rx, &mut rain, &mut stages, cancel);
     stop.store(true, Ordering::Relaxed);
     drop(in_rx);
-    if gpu_result.is_err() {
+    if let Err(err) = gpu_result {
         // Closing the channel without finishing tells the encoder to give up; its Sink is
         // dropped unfinished, which removes the temporary file.
         drop(out_tx);
         let encoded = encoder.join();
         let _ = decoder.join();
-        let err = gpu_result.err().unwrap_or(Error::Interrupted);
         // When the encoder stopped first (a full disk, a closed pipe), its error is the cause.
         return Err(match (err, encoded) {
             (Error::EncoderStopped, Ok(Err(cause))) => cause,
@@ -309,4 +166,215 @@ pub fn render(
         drops: rain.drop_count(),
         adapter: rain.adapter().to_string(),
     })
+}
+
+/// Seeks a chunk's source to where the frames that light its first frame begin (as a preview
+/// does), less the interleaving slack for the audio; returns the frame found there. A pipe, or
+/// a chunk at the clip's start, is read from the start (`None`).
+fn warm_up_seek(
+    job: &Job,
+    info: &VideoInfo,
+    source: &mut Source,
+    light_window_s: f64,
+) -> Result<Option<SourceItem>> {
+    let warm_from_s = job.frames.start_s(info) - light_window_s - INTERLEAVE_SLACK_S;
+    if warm_from_s <= 0.0 || !source.is_seekable() {
+        return Ok(None);
+    }
+    // The seek goes to the frames that light the chunk, before it: a chunk beyond the clip is
+    // named by its own start.
+    let frame = source.seek_to_time(warm_from_s).map_err(|e| match e {
+        Error::OutOfRange(_) => Error::OutOfRange(format!(
+            "{} s is beyond the last frame of '{}'",
+            job.frames.start_s(info),
+            job.input
+        )),
+        e => e,
+    })?;
+    Ok(Some(SourceItem::Frame(frame)))
+}
+
+/// Frames a job writes, when the container says how many the clip has.
+fn frames_total(range: FrameRange, info: &VideoInfo) -> Option<u64> {
+    match range {
+        FrameRange::All => info.frame_count,
+        FrameRange::Indices { start, end } => {
+            let last = match (end, info.frame_count) {
+                (Some(e), Some(n)) => Some(e.min(n)),
+                (e, n) => e.or(n),
+            };
+            last.map(|l| l.saturating_sub(start))
+        }
+        FrameRange::Times { .. } => None,
+    }
+}
+
+/// The decode thread: sends `first`, then the source's items, until the end, an error, a
+/// closed channel or `stop`; returns the time it spent decoding.
+fn spawn_decoder(
+    mut source: Source,
+    mut first: Option<SourceItem>,
+    in_tx: mpsc::SyncSender<Result<SourceItem>>,
+    stop: Arc<AtomicBool>,
+) -> Result<std::thread::JoinHandle<Duration>> {
+    std::thread::Builder::new()
+        .name("decode".into())
+        .spawn(move || {
+            let mut spent = Duration::ZERO;
+            loop {
+                let t = Instant::now();
+                let item = match first.take() {
+                    Some(f) => Ok(Some(f)),
+                    None => source.next_item(),
+                };
+                spent += t.elapsed();
+                let end = !matches!(item, Ok(Some(_)));
+                let item = match item {
+                    Ok(Some(i)) => Ok(i),
+                    Ok(None) => break,
+                    Err(e) => Err(e),
+                };
+                if in_tx.send(item).is_err() || end || stop.load(Ordering::Relaxed) {
+                    break;
+                }
+            }
+            spent
+        })
+        .map_err(Error::io("starting the decode thread"))
+}
+
+/// The encode thread: writes frames and packets until [`ToEncode::Finish`], then publishes the
+/// output; returns the frames written and the time spent. A channel closed without `Finish`
+/// is a failed job: the unfinished sink removes its temporary file.
+fn spawn_encoder(
+    mut sink: Sink,
+    out_rx: mpsc::Receiver<ToEncode>,
+) -> Result<std::thread::JoinHandle<Result<(u64, Duration)>>> {
+    std::thread::Builder::new()
+        .name("encode".into())
+        .spawn(move || -> Result<(u64, Duration)> {
+            let mut spent = Duration::ZERO;
+            let mut frames = 0;
+            for item in out_rx {
+                let t = Instant::now();
+                match item {
+                    ToEncode::Frame(f) => {
+                        sink.write_rendered(&f)?;
+                        frames += 1;
+                    }
+                    ToEncode::Packet(p) => sink.write_packet(p)?,
+                    ToEncode::Finish => {
+                        if frames == 0 {
+                            return Err(Error::CorruptInput("no frame could be decoded".into()));
+                        }
+                        sink.finish()?;
+                        return Ok((frames, spent + t.elapsed()));
+                    }
+                }
+                spent += t.elapsed();
+            }
+            Err(Error::Interrupted)
+        })
+        .map_err(Error::io("starting the encode thread"))
+}
+
+/// The job's own thread: each decoded item cut to the job's range, frames rendered, frames
+/// and packets sent on to the encoder in order.
+struct FrameLoop<'a> {
+    job: &'a Job,
+    info: &'a VideoInfo,
+    chunk: ChunkCut,
+    out: &'a mpsc::SyncSender<ToEncode>,
+    written: u64,
+    frames_total: Option<u64>,
+    started: Instant,
+    progress: &'a mut dyn FnMut(Progress),
+}
+
+impl FrameLoop<'_> {
+    /// Renders every frame of the range that `in_rx` brings, then the frames still in flight.
+    fn run(
+        &mut self,
+        in_rx: &mpsc::Receiver<Result<SourceItem>>,
+        rain: &mut Renderer,
+        stages: &mut StageTimes,
+        cancel: &AtomicBool,
+    ) -> Result<()> {
+        for item in in_rx {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::Interrupted);
+            }
+            match item? {
+                SourceItem::Frame(frame) => {
+                    let t_s = frame_time_s(self.info, &frame);
+                    match self.chunk.frame(&frame, t_s) {
+                        Cut::Before => {
+                            // Lights the frames of the chunk (temporal smoothing).
+                            rain.observe(&frame, t_s);
+                            continue;
+                        }
+                        Cut::Done => break,
+                        Cut::After(packets) => {
+                            self.send_packets(packets)?;
+                            continue;
+                        }
+                        Cut::In(packets) => self.send_packets(packets)?,
+                    }
+                    let t = Instant::now();
+                    let done = rain.submit(&frame, t_s)?;
+                    stages.submit_s += t.elapsed().as_secs_f64();
+                    if let Some(done) = done {
+                        self.send(done)?;
+                    }
+                }
+                SourceItem::Packet(p) => {
+                    let Some(p) = self.chunk.packet(p) else {
+                        continue;
+                    };
+                    if self.out.send(ToEncode::Packet(p)).is_err() {
+                        break;
+                    }
+                }
+            }
+        }
+        if !self.chunk.started {
+            return Err(Error::OutOfRange(format!(
+                "no frame of '{}' lies in {}",
+                self.job.input, self.job.frames
+            )));
+        }
+        let held = self.chunk.finish();
+        self.send_packets(held)?;
+        let t = Instant::now();
+        let rest = rain.flush()?;
+        stages.readback_s += t.elapsed().as_secs_f64();
+        for f in rest {
+            self.send(f)?;
+        }
+        Ok(())
+    }
+
+    /// Sends a rendered frame to the encoder and reports progress.
+    fn send(&mut self, f: Rendered) -> Result<()> {
+        self.out
+            .send(ToEncode::Frame(f))
+            .map_err(|_| Error::EncoderStopped)?;
+        self.written += 1;
+        (self.progress)(Progress {
+            frames_done: self.written,
+            frames_total: self.frames_total,
+            elapsed_s: self.started.elapsed().as_secs_f64(),
+        });
+        Ok(())
+    }
+
+    /// Sends copied packets to the encoder.
+    fn send_packets(&self, packets: Vec<CopiedPacket>) -> Result<()> {
+        for p in packets {
+            self.out
+                .send(ToEncode::Packet(p))
+                .map_err(|_| Error::EncoderStopped)?;
+        }
+        Ok(())
+    }
 }

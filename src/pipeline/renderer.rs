@@ -23,26 +23,7 @@ use crate::{Error, Result};
 /// [`crate::shot::frame_time_s`]): the rain at a frame is a pure function of that time, and the
 /// light of a frame is smoothed over the frames shortly before it, so to start mid-shot, first
 /// [`observe`](Self::observe) the frames of [`light_window_s`](Self::light_window_s) before it.
-///
-/// ```
-/// # fn main() -> rain_composite::Result<()> {
-/// use rain_composite::{Renderer, config::RenderConfig, gpu::AdapterRequest, shot::Footage};
-/// use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
-///
-/// // A grey 320×180 4:2:0 picture at 25 fps: a street under an overcast sky, say.
-/// let format = FrameFormat { width: 320, height: 180, chroma: Chroma::Cs420, bit_depth: 8 };
-/// let footage = Footage::picture(format, ColorParams::bt709(8), 25.0);
-/// let frame = YuvFrame::filled(format, footage.color, [120, 128, 128]);
-///
-/// let mut config = RenderConfig::default();
-/// config.rain.rate_mm_per_h = 30.0;
-/// let mut renderer = Renderer::new(&config, &footage, &AdapterRequest::default())?;
-/// let wet = renderer.render(&frame, 0.0)?;
-/// assert_eq!(wet.format, frame.format);
-/// assert_ne!(wet.planes[0].data, frame.planes[0].data, "rain changes the picture");
-/// # Ok(())
-/// # }
-/// ```
+/// The crate's front page shows one rendering a frame of a generated picture.
 pub struct Renderer {
     rain: RainSetup,
     compositor: Compositor,
