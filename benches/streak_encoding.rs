@@ -1,6 +1,6 @@
 //! How many of a lossless render's visible streak pixels each encoder setting keeps, and at
-//! what size: the table behind the default `--encoder-params` (README, "Streaks through the
-//! encoder").
+//! what size: the table behind the default `--encoder-params` (docs/measurements.md, "Streaks
+//! through the encoder"; the reasoning in docs/guide/encoding.md).
 //!
 //! `cargo bench --bench streak_encoding` (about ten minutes on two CPU cores). Each scene is
 //! rendered twice losslessly (FFV1), with rain and with `--rain 0`, both with `--scene-depth 0`

@@ -1,5 +1,6 @@
-//! One place for each default: the library's `Default` impls. The binary's help and the
-//! README's option tables must say the same; these tests read both and compare.
+//! One place for each default: the library's `Default` impls. The binary's help, the full
+//! option tables of docs/guide/options.md and the README's short table of the most used options
+//! must say the same; these tests read all three and compare.
 
 use std::collections::BTreeMap;
 use std::process::Command;
@@ -54,25 +55,41 @@ fn help_defaults() -> BTreeMap<String, Option<String>> {
     map
 }
 
-/// The README's option tables: (first option name of the row, its `default` cell).
-fn readme_defaults() -> Vec<(String, String)> {
-    let readme = include_str!("../README.md");
-    let section = readme
-        .split("### Options")
-        .nth(1)
-        .expect("README has an Options section");
-    let section = section.split("\n### ").next().unwrap_or(section);
+/// The full option tables, with units and every default.
+const OPTIONS_GUIDE: &str = include_str!("../docs/guide/options.md");
+/// The README, with its short table of the most used options.
+const README: &str = include_str!("../README.md");
+
+/// The cells of a Markdown table row, trimmed; `\|` inside a cell is not a separator.
+fn cells(line: &str) -> Vec<String> {
+    let row = line.trim();
+    let row = row.strip_prefix('|').unwrap_or(row);
+    let row = row.strip_suffix('|').unwrap_or(row);
+    let mut cells = vec![String::new()];
+    let mut escaped = false;
+    for c in row.chars() {
+        match c {
+            '|' if !escaped => cells.push(String::new()),
+            _ => cells.last_mut().expect("a cell").push(c),
+        }
+        escaped = c == '\\';
+    }
+    cells.into_iter().map(|c| c.trim().to_string()).collect()
+}
+
+/// The option tables of a Markdown text: (first option name of the row, its `default` cell),
+/// from every table whose header's first cell is `option` and which has a `default` column.
+fn option_rows(markdown: &str) -> Vec<(String, String)> {
     let mut rows = Vec::new();
     let mut default_col = None;
-    for line in section.lines() {
-        let cells: Vec<&str> = line.trim().trim_matches('|').split('|').collect();
+    for line in markdown.lines() {
         if !line.trim_start().starts_with('|') {
             default_col = None;
             continue;
         }
-        let cells: Vec<&str> = cells.iter().map(|c| c.trim()).collect();
-        if cells.first() == Some(&"option") {
-            default_col = cells.iter().position(|c| *c == "default");
+        let cells = cells(line);
+        if cells.first().map(String::as_str) == Some("option") {
+            default_col = cells.iter().position(|c| c == "default");
             continue;
         }
         let (Some(col), Some(first)) = (default_col, cells.first()) else {
@@ -87,36 +104,111 @@ fn readme_defaults() -> Vec<(String, String)> {
             .next()
             .expect("an option name")
             .to_string();
-        rows.push((name, cells[col].trim_matches('`').to_string()));
+        let default = cells.get(col).map_or("", |c| c.as_str());
+        rows.push((name, default.trim_matches('`').to_string()));
     }
-    assert!(rows.len() > 20, "README option tables not found: {rows:?}");
     rows
 }
 
-/// Every default the README lists is the one the help shows, and every option it names exists.
+/// docs/guide/options.md's tables: every option of a render.
+fn guide_defaults() -> Vec<(String, String)> {
+    let rows = option_rows(OPTIONS_GUIDE);
+    assert!(
+        rows.len() > 40,
+        "docs/guide/options.md's option tables not found: {rows:?}"
+    );
+    rows
+}
+
+/// The README's short table of the most used options.
+fn readme_defaults() -> Vec<(String, String)> {
+    let rows = option_rows(README);
+    assert!(
+        rows.len() >= 10,
+        "the README's table of the most used options not found: {rows:?}"
+    );
+    rows
+}
+
+/// What `rows` (from `source`) say that the help does not: an option the help lacks, or a
+/// default other than the help's `[default: …]` (rows of options without one are not checked).
+fn disagreements(
+    source: &str,
+    rows: &[(String, String)],
+    help: &BTreeMap<String, Option<String>>,
+) -> Vec<String> {
+    let mut wrong = Vec::new();
+    for (name, default) in rows {
+        match help.get(name) {
+            None => wrong.push(format!(
+                "{source} lists {name}, which `rain-composite -h` lacks"
+            )),
+            Some(Some(shown)) if shown != default => wrong.push(format!(
+                "{source} gives {name} the default {default:?}, the help {shown:?}"
+            )),
+            Some(_) => {}
+        }
+    }
+    wrong
+}
+
+/// Every default the options guide lists is the one the help shows, and every option it names
+/// exists.
+#[test]
+fn options_guide_matches_the_help() {
+    let wrong = disagreements("docs/guide/options.md", &guide_defaults(), &help_defaults());
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// The same for the README's short table.
 #[test]
 fn readme_table_matches_the_help() {
-    let help = help_defaults();
-    for (name, readme_default) in readme_defaults() {
-        let shown = help
-            .get(&name)
-            .unwrap_or_else(|| panic!("README lists {name}, which `rain-composite -h` lacks"));
-        if let Some(shown) = shown {
-            assert_eq!(
-                &readme_default, shown,
-                "README's default of {name} differs from the help's"
-            );
-        }
+    let wrong = disagreements("README.md", &readme_defaults(), &help_defaults());
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Every option of the README's short table is in the options guide, with the same default
+/// (also where the help shows none, such as `off` or `all`).
+#[test]
+fn readme_table_agrees_with_the_options_guide() {
+    let guide: BTreeMap<String, String> = guide_defaults().into_iter().collect();
+    for (name, default) in readme_defaults() {
+        assert_eq!(
+            guide.get(&name),
+            Some(&default),
+            "README's table gives {name} the default {default:?}; docs/guide/options.md should too"
+        );
     }
 }
 
+/// The checks above fail on a wrong table: a changed default, an option that does not exist.
+#[test]
+fn a_wrong_table_is_caught() {
+    let table = "| option | unit | default | meaning |\n|---|---|---|---|\n\
+                 | `--rain R` | mm/h | 11 | rain rate |\n\
+                 | `--config NAME\\|FILE` | — | — | a preset |\n\
+                 | `--no-such-option` | — | 0 | none |\n";
+    let rows = option_rows(table);
+    assert_eq!(
+        rows,
+        [
+            ("--rain".to_string(), "11".to_string()),
+            ("--config".to_string(), "—".to_string()),
+            ("--no-such-option".to_string(), "0".to_string()),
+        ]
+    );
+    let wrong = disagreements("the sample", &rows, &help_defaults());
+    assert_eq!(wrong.len(), 2, "{wrong:?}");
+    assert!(wrong[0].contains("--rain") && wrong[1].contains("--no-such-option"));
+}
+
 /// The help's defaults are the library's: every rain and camera value of
-/// `RenderConfig::default()` and the encoder's `EncodeOptions::default()`; and the README
-/// lists each of them.
+/// `RenderConfig::default()` and the encoder's `EncodeOptions::default()`; and the options
+/// guide lists each of them.
 #[test]
 fn help_shows_the_library_defaults() {
     let help = help_defaults();
-    let readme: BTreeMap<String, String> = readme_defaults().into_iter().collect();
+    let guide: BTreeMap<String, String> = guide_defaults().into_iter().collect();
     let e = EncodeOptions::default();
     let mut expected = RenderConfig::default().flag_values();
     expected.push(("--crf", e.crf.to_string()));
@@ -128,9 +220,9 @@ fn help_shows_the_library_defaults() {
             "help of {flag} should end in [default: {value}]"
         );
         assert_eq!(
-            readme.get(flag),
+            guide.get(flag),
             Some(&value),
-            "README's table should list {flag} with default {value}"
+            "docs/guide/options.md's tables should list {flag} with default {value}"
         );
     }
 }

@@ -667,7 +667,7 @@ fn inspect_reports_sampled_bands_close_to_the_plan() {
     );
 }
 
-/// Numbers for the README: simulated drops against rain rate, default camera (fov 60°, 1.6 m,
+/// Numbers for docs/measurements.md: simulated drops against rain rate, default camera (fov 60°, 1.6 m,
 /// level, 1/50 s), default budget and thresholds. `cargo test --test rain_physics -- --ignored
 /// --nocapture readme`.
 #[test]
