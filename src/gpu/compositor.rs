@@ -176,45 +176,8 @@ impl Compositor {
             contents: bytemuck::bytes_of(&frame_params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let plane_format = if format.bytes_per_sample() == 1 {
-            wgpu::TextureFormat::R8Uint
-        } else {
-            wgpu::TextureFormat::R16Uint
-        };
-        let planes: [wgpu::Texture; 3] = std::array::from_fn(|i| {
-            let (w, h) = format.plane_size(i);
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(["plane_y", "plane_cb", "plane_cr"][i]),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: plane_format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        });
-        let canvas = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("canvas"),
-            size: wgpu::Extent3d {
-                width: format.width,
-                height: format.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: super::stages::rain_streaks::CANVAS_FORMAT,
-            usage: wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let planes = plane_textures(device, &format);
+        let canvas = canvas_texture(device, &format);
         let out_words = if rgba {
             u64::from(format.width)
                 * u64::from(format.height)
@@ -294,50 +257,11 @@ impl Compositor {
             .wetting
             .as_ref()
             .filter(|_| layer != Some(Layer::Matte));
-        let start = match layer {
-            None => YuvToRgb::new(device, &resources),
-            Some(_) => YuvToRgb::layer(device, &resources),
-        };
-        let out: Box<dyn FrameStage> = match layer {
-            Some(l) if rgba => Box::new(RgbaOut::new(device, &resources, l)),
-            _ => Box::new(RgbToYuv::new(device, &resources)),
-        };
-        let stages: Vec<Box<dyn FrameStage>> = vec![
-            Box::new(start),
-            Box::new(WetGround::new(device, &resources, wetting, layer.is_some())),
-            Box::new(Puddles::new(device, &resources, layer.is_none())),
-            Box::new(RainSimulate::new(device, &resources)),
-            Box::new(RainSplashes::new(device, &resources, rain)),
-            Box::new(RainStreaks::new(device, &resources, rain.mattes.as_deref())),
-            out,
-        ];
+        let stages = frame_stages(device, &resources, rain, layer, wetting);
         let timed = stages.len() as u64;
-        let timestamps = device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY)
-            .then(|| {
-                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("stage_timestamps"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2 * timed as u32,
-                });
-                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("stage_timestamps"),
-                    size: 16 * timed,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                });
-                (set, resolve)
-            });
+        let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
-            .map(|_| {
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("readback"),
-                    size: out_bytes + 16 * timed,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                })
-            })
+            .map(|_| readback_buffer(device, out_bytes + 16 * timed))
             .collect();
         Ok(Compositor {
             ctx,
@@ -642,4 +566,113 @@ impl Compositor {
         out.pop()
             .ok_or_else(|| Error::Gpu("no frame came back".into()))
     }
+}
+
+/// The three planes of a frame of `format`, as integer textures the first stage reads.
+fn plane_textures(device: &wgpu::Device, format: &FrameFormat) -> [wgpu::Texture; 3] {
+    let plane_format = if format.bytes_per_sample() == 1 {
+        wgpu::TextureFormat::R8Uint
+    } else {
+        wgpu::TextureFormat::R16Uint
+    };
+    std::array::from_fn(|i| {
+        let (w, h) = format.plane_size(i);
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(["plane_y", "plane_cb", "plane_cr"][i]),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: plane_format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        })
+    })
+}
+
+/// The canvas: linear RGB of the frame that every stage between the first and the last reads
+/// and writes.
+fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("canvas"),
+        size: wgpu::Extent3d {
+            width: format.width,
+            height: format.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: super::stages::rain_streaks::CANVAS_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// The frame's stages, in order: colour in (the frame, or a layer's transparent start), the
+/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out.
+fn frame_stages(
+    device: &wgpu::Device,
+    resources: &FrameResources,
+    rain: &RainSetup,
+    layer: Option<Layer>,
+    wetting: Option<&crate::lighting::wetness::Wetting>,
+) -> Vec<Box<dyn FrameStage>> {
+    let rgba = layer.is_some_and(Layer::is_rgba);
+    let start = match layer {
+        None => YuvToRgb::new(device, resources),
+        Some(_) => YuvToRgb::layer(device, resources),
+    };
+    let out: Box<dyn FrameStage> = match layer {
+        Some(l) if rgba => Box::new(RgbaOut::new(device, resources, l)),
+        _ => Box::new(RgbToYuv::new(device, resources)),
+    };
+    vec![
+        Box::new(start),
+        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
+        Box::new(Puddles::new(device, resources, layer.is_none())),
+        Box::new(RainSimulate::new(device, resources)),
+        Box::new(RainSplashes::new(device, resources, rain)),
+        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
+        out,
+    ]
+}
+
+/// A query set of two timestamps per stage and the buffer they resolve into, where the device
+/// can time passes.
+fn timestamp_queries(device: &wgpu::Device, timed: u64) -> Option<(wgpu::QuerySet, wgpu::Buffer)> {
+    device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY)
+        .then(|| {
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("stage_timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * timed as u32,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("stage_timestamps"),
+                size: 16 * timed,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, resolve)
+        })
+}
+
+/// One buffer of the readback ring: a frame's packed output and its timestamps.
+fn readback_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
