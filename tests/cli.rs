@@ -2,36 +2,20 @@
 //! GPU work runs on whatever adapter the machine has (lavapipe in CI).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
 use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
 use fixtures::{
-    VISIBLE_STREAK_CODES, color_tags, ffmpeg, frame_times, framemd5, luma_frames, psnr,
-    streaks_kept,
+    VISIBLE_STREAK_CODES, color_tags, ffmpeg, frame_times, framemd5, luma_frames, psnr, quick_clip,
+    s, streaks_kept,
 };
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
-
-fn run(cmd: &mut Command) -> Output {
-    cmd.output().expect("spawn")
-}
-
-fn ok(cmd: &mut Command) -> Output {
-    let out = run(cmd);
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
+#[path = "common/binary.rs"]
+mod binary;
+use binary::{bin, ok};
 
 fn ffprobe(path: &Path, args: &[&str]) -> String {
     let out = Command::new("ffprobe")
@@ -46,10 +30,6 @@ fn ffprobe(path: &Path, args: &[&str]) -> String {
 
 fn p(dir: &TempDir, name: &str) -> PathBuf {
     dir.path().join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 /// A testsrc2 clip: `size`, `secs` long at 25 fps, extra encoder args.
@@ -674,7 +654,7 @@ fn works_inside_a_pipe() {
 
 /// Runs a command that must fail; returns its stderr.
 fn fails(cmd: &mut Command) -> String {
-    let out = run(cmd);
+    let out = cmd.output().expect("spawn");
     assert!(!out.status.success(), "{cmd:?} should fail");
     assert_eq!(
         out.status.code(),
@@ -809,20 +789,7 @@ fn inspect_prints_the_models_as_json() {
 #[test]
 fn ctrl_c_stops_cleanly_and_leaves_no_output() {
     let dir = TempDir::new().expect("tmp");
-    let input = p(&dir, "long.mp4");
-    clip(
-        &input,
-        "320x240",
-        30.0,
-        &[
-            "-c:v",
-            "libx264",
-            "-preset",
-            "ultrafast",
-            "-pix_fmt",
-            "yuv420p",
-        ],
-    );
+    let input = quick_clip(dir.path(), "long.mp4", "320x240", 30.0);
     let out = p(&dir, "out.mp4");
     let mut child = bin()
         .args([s(&input), "-o", s(&out), "--cpu", "--progress", "json"])

@@ -5,22 +5,18 @@
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
 use std::path::Path;
-use std::process::Command;
 use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
 use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::GpuContext;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::probe::probe_streaks;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{Compositor, GpuContext};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::depth::DepthSource;
 use rain_composite::scene::{Camera, DepthMap};
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 use tempfile::TempDir;
 
 #[path = "common/gpu.rs"]
@@ -29,6 +25,18 @@ use shared_gpu::gpu;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
+
+#[path = "common/binary.rs"]
+mod binary;
+use binary::bin;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{lit, render_with, water_tables};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::plane_codes;
 
 const W: u32 = 160;
 const H: u32 = 96;
@@ -57,17 +65,7 @@ const GREY: u16 = 90;
 
 /// A flat grey picture (coded orientation); the rain is lit by a brighter environment.
 fn picture(f: FrameFormat) -> YuvFrame {
-    let planes = std::array::from_fn(|i| Plane {
-        data: vec![if i == 0 { GREY as u8 } else { 128 }; (f.width * f.height) as usize],
-        stride: f.width as usize,
-    });
-    YuvFrame {
-        format: f,
-        color: ColorParams::bt709(8),
-        planes,
-        pts: 0,
-        index: 0,
-    }
+    YuvFrame::filled(f, ColorParams::bt709(8), [GREY, 128, 128])
 }
 
 /// Heavy rain of large drops between `near_m` and `far_m`, on a displayed `W`×`H` picture.
@@ -97,40 +95,33 @@ fn rain(near_m: f64, far_m: f64, rotation_deg: i32) -> RainSetup {
     .with_scene_depth(true)
 }
 
+/// The uniforms at 0.7 s under a brighter environment than [`picture`].
 fn params(setup: &RainSetup) -> RainParams {
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [2.0, 2.0, 2.2];
-    setup.params_at(
-        0.7,
-        &FrameLight {
-            env,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
-    )
+    lit(setup, 0.7, &[(0, [2.0, 2.0, 2.2])], None)
 }
 
-fn tables() -> [RtfTable; 3] {
-    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"))
+/// The luma codes of `frame` rendered with `setup` at `p` behind `depth` (none: as without a
+/// map).
+fn luma_behind(
+    ctx: &Arc<GpuContext>,
+    frame: &YuvFrame,
+    setup: &RainSetup,
+    p: &RainParams,
+    depth: Option<&DepthMap>,
+) -> Vec<u16> {
+    let tables = water_tables(256);
+    let out = render_with(ctx, frame, setup, p, |comp| {
+        comp.set_transfer_table(&tables);
+        if let Some(d) = depth {
+            comp.set_scene_depth(d).expect("depth");
+        }
+    });
+    plane_codes(&out, 0)
 }
 
 /// The luma codes of the frame rendered with `setup` behind `depth` (none: as without a map).
 fn render(ctx: &Arc<GpuContext>, setup: &RainSetup, depth: Option<&DepthMap>) -> Vec<u16> {
-    let f = format(0);
-    let mut comp = Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), setup).expect("gpu");
-    comp.set_transfer_table(&tables());
-    if let Some(d) = depth {
-        comp.set_scene_depth(d).expect("depth");
-    }
-    let out = comp
-        .render_one(&picture(f), &params(setup))
-        .expect("render");
-    (0..H)
-        .flat_map(|y| (0..W).map(move |x| (x, y)))
-        .map(|(x, y)| out.sample(0, x, y))
-        .collect()
+    luma_behind(ctx, &picture(format(0)), setup, &params(setup), depth)
 }
 
 /// A `w`×`h` depth map of the scene: the box (its picture scaled to the map) at [`BOX_M`] in
@@ -293,20 +284,8 @@ fn occlusion_matches_the_cpu_twin() {
     let map = ramp();
     let f = format(rotation);
     let frame = picture(f);
-    let tables = tables();
-    let gpu_frame = |depth: Option<&DepthMap>| {
-        let mut comp =
-            Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), &setup).expect("gpu");
-        comp.set_transfer_table(&tables);
-        if let Some(d) = depth {
-            comp.set_scene_depth(d).expect("depth");
-        }
-        let out = comp.render_one(&frame, &p).expect("render");
-        (0..f.height)
-            .flat_map(|y| (0..f.width).map(move |x| (x, y)))
-            .map(|(x, y)| out.sample(0, x, y))
-            .collect::<Vec<u16>>()
-    };
+    let tables = water_tables(256);
+    let gpu_frame = |depth: Option<&DepthMap>| luma_behind(&ctx, &frame, &setup, &p, depth);
     let gpu = gpu_frame(Some(&map));
     let streaks = probe_streaks(&ctx, &setup, &p, &LightList::new(&[]), &tables).expect("probe");
     let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
@@ -346,10 +325,10 @@ fn veil_by_the_depth_map_matches_the_cpu_twin() {
     let map = ramp();
     let f = format(rotation);
     let frame = picture(f);
-    let mut comp = Compositor::new(ctx.clone(), f, &ColorParams::bt709(8), &setup).expect("gpu");
-    comp.set_transfer_table(&tables());
-    comp.set_scene_depth(&map).expect("depth");
-    let out = comp.render_one(&frame, &p).expect("render");
+    let out = render_with(&ctx, &frame, &setup, &p, |comp| {
+        comp.set_transfer_table(&water_tables(256));
+        comp.set_scene_depth(&map).expect("depth");
+    });
     let canvas = yuv_to_rgb::yuv_to_rgb_with_depth(&frame, &p, Some(&map));
     let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, f, &frame.color);
     let mut worst = 0;
@@ -486,10 +465,6 @@ fn depth_is_read_from_a_png_a_directory_and_a_video() {
     assert!(DepthSource::open(&empty, 1.0).is_err(), "no maps");
 }
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_rain-composite"))
-}
-
 /// The command line: a missing depth map is one `error:` line and no output; a map that is
 /// all holes renders exactly as without `--depth`; a near wall hides rain.
 #[test]
@@ -547,11 +522,7 @@ fn the_cli_takes_a_depth_map() {
 
 /// Runs the binary; returns whether it succeeded and its stderr.
 fn run_bin(args: &[&str]) -> (bool, String) {
-    let o = bin()
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .args(args)
-        .output()
-        .expect("spawn");
+    let o = bin().args(args).output().expect("spawn");
     (
         o.status.success(),
         String::from_utf8_lossy(&o.stderr).into_owned(),

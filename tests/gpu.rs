@@ -12,11 +12,15 @@ use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
 use rain_composite::rain::physics::streak_width_factor;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::{padded_picture, plane_codes, scatter};
 
 /// A deterministic picture of scattered code values. `chroma_spread` in (0, 1] narrows chroma
 /// around neutral: at 1 many pixels are far out of the RGB gamut (fine for SDR transfers, whose
@@ -25,33 +29,19 @@ use shared_gpu::gpu;
 fn test_frame(format: FrameFormat, color: ColorParams, chroma_spread: f64) -> YuvFrame {
     let max = (1u32 << format.bit_depth) - 1;
     let mid = (max + 1) as f64 / 2.0;
-    let planes = std::array::from_fn(|i| {
-        let (w, h) = format.plane_size(i);
-        let stride = format.packed_stride(i) + 7 * format.bytes_per_sample(); // padded like FFmpeg
-        let mut data = vec![0u8; stride * h as usize];
-        for y in 0..h {
-            for x in 0..w {
-                let mut v = ((x * 37 + y * 91 + i as u32 * 53).wrapping_mul(2654435761u32) >> 7)
-                    % (max + 1);
-                if i > 0 {
-                    v = (mid + (v as f64 - mid) * chroma_spread).round() as u32;
-                }
-                let at = y as usize * stride + x as usize * format.bytes_per_sample();
-                if format.bytes_per_sample() == 1 {
-                    data[at] = v as u8;
-                } else {
-                    data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
-                }
-            }
+    // Rows padded like FFmpeg's.
+    let frame = padded_picture(format, color, 7, |i, x, y| {
+        let v = scatter(i, x, y) % (max + 1);
+        if i > 0 {
+            (mid + (v as f64 - mid) * chroma_spread).round() as u16
+        } else {
+            v as u16
         }
-        Plane { data, stride }
     });
     YuvFrame {
-        format,
-        color,
-        planes,
         pts: 42,
         index: 3,
+        ..frame
     }
 }
 
@@ -276,13 +266,7 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
     let a = comp.render_one(&dark, &lit(&setup, 1.0)).expect("render");
     let b = comp.render_one(&dark, &lit(&setup, 1.04)).expect("render");
-    let luma = |f: &YuvFrame| {
-        (0..120)
-            .flat_map(|y| (0..160).map(move |x| (x, y)))
-            .map(|(x, y)| f.sample(0, x, y))
-            .collect::<Vec<_>>()
-    };
-    let (la, lb) = (luma(&a), luma(&b));
+    let (la, lb) = (plane_codes(&a, 0), plane_codes(&b, 0));
     assert!(
         la.iter().all(|&v| v >= 40),
         "rain never darkens a dark frame"
@@ -340,9 +324,9 @@ fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32,
     let out = comp
         .render_one(&dark, &lit(&setup, time_s))
         .expect("render");
-    let luma = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| out.sample(0, x, y) as f64 - 30.0)
+    let luma = plane_codes(&out, 0)
+        .iter()
+        .map(|&c| c as f64 - 30.0)
         .collect();
     (w, h, luma)
 }
@@ -467,10 +451,7 @@ fn hard_cameras_render_finite_local_streaks() {
         );
         let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
         let out = comp.render_one(&dark, &lit(&setup, 3.0)).expect("render");
-        let luma: Vec<f64> = (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| out.sample(0, x, y) as f64)
-            .collect();
+        let luma: Vec<f64> = plane_codes(&out, 0).iter().map(|&c| c as f64).collect();
         let mean_rise = luma.iter().map(|v| v - 20.0).sum::<f64>() / luma.len() as f64;
         // Streaks stay streaks: the mean rise stays a small fraction of the way to white.
         assert!(mean_rise < 0.1 * 215.0, "{name}: mean rise {mean_rise}");

@@ -4,20 +4,20 @@
 //! impacts however the time is cut.
 
 use glam::DVec2;
-use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::config::RainConfig;
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::keyframes::Curve;
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
 use rain_composite::rain::volume::{GroundRain, GroundRect, Impact, landing_columns};
+
+#[path = "common/render.rs"]
+mod render;
+use render::{looking_down, rain_seen_by};
 
 /// A camera 1.6 m above the street looking down (the horizon 10 % from the top, 90° lens) in
 /// `rate_mm_per_h` of still rain, drops drawn 3 times their size to 6 m (so the drawn drops
 /// land on the first few metres of ground).
 fn setup(rate_mm_per_h: f64) -> RainSetup {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    let camera = c.camera(320, 180).expect("camera");
     let rain = RainConfig {
         rate_mm_per_h,
         near_m: 0.3,
@@ -26,16 +26,7 @@ fn setup(rate_mm_per_h: f64) -> RainSetup {
         drop_scale: 3.0,
         ..RainConfig::default()
     };
-    uniforms::build(
-        &camera,
-        &CameraConfig::default(),
-        &rain,
-        0.02,
-        0,
-        (320, 180),
-    )
-    .expect("rain")
-    .with_ground(true)
+    rain_seen_by(&looking_down(), (320, 180), &rain, 0.02, true).1
 }
 
 fn ground_rain(s: &RainSetup) -> GroundRain {

@@ -2,7 +2,7 @@
 //! never a panic (101), never a destroyed input and never a file left behind; a successful
 //! run is quiet on stderr.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -10,17 +10,11 @@ use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
-use fixtures::{ffmpeg, files_in, frame_times};
+use fixtures::{ffmpeg, files_in, frame_times, quick_clip, s};
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+#[path = "common/binary.rs"]
+mod binary;
+use binary::bin;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -66,14 +60,10 @@ fn succeeds(cmd: &mut Command) -> Output {
     out
 }
 
-fn clip(dir: &Path, name: &str, size: &str, secs: f64) -> PathBuf {
-    fixtures::quick_clip(dir, name, size, secs)
-}
-
 #[test]
 fn a_drop_budget_beyond_the_gpu_is_lowered_with_a_warning_not_a_panic() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let png = dir.path().join("m.png");
     let out = succeeds(bin().args([
         "preview",
@@ -105,7 +95,7 @@ fn a_drop_budget_beyond_the_gpu_is_lowered_with_a_warning_not_a_panic() {
 #[test]
 fn the_input_is_never_the_output() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "a.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "a.mp4", "64x64", 0.2);
     let before = std::fs::read(&input).expect("read");
     let hard = dir.path().join("hard.mp4");
     std::fs::hard_link(&input, &hard).expect("link");
@@ -124,7 +114,7 @@ fn the_input_is_never_the_output() {
 #[test]
 fn a_config_is_read_from_regular_files_of_bounded_size_only() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let fifo = dir.path().join("fifo.json");
     assert!(
         Command::new("mkfifo")
@@ -208,7 +198,7 @@ fn joined_transport_streams_keep_time_running() {
 #[test]
 fn preview_outputs_are_checked_first_and_never_left_half_written() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let sub = dir.path().join("sub");
     std::fs::create_dir(&sub).expect("mkdir");
     let e = fails(bin().args(["preview", s(&input), "--frame", "0", "-o", s(&sub), "-y"]));
@@ -241,7 +231,7 @@ fn preview_outputs_are_checked_first_and_never_left_half_written() {
 fn preview_stops_on_interrupt_and_leaves_nothing() {
     let dir = TempDir::new().expect("tmp");
     // Enough frames before the target that feeding the light's smoothing window takes a while.
-    let input = clip(dir.path(), "in.mp4", "1280x720", 10.0);
+    let input = quick_clip(dir.path(), "in.mp4", "1280x720", 10.0);
     let png = dir.path().join("p.png");
     let child = bin()
         .args([
@@ -276,7 +266,7 @@ fn preview_stops_on_interrupt_and_leaves_nothing() {
 #[test]
 fn output_names_at_the_file_system_limit_work() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let name = format!("{}.mp4", "r".repeat(251));
     let out = dir.path().join(&name);
     succeeds(bin().args([s(&input), "-o", s(&out), "--rain", "0"]));
@@ -289,7 +279,7 @@ fn output_names_at_the_file_system_limit_work() {
 #[test]
 fn a_directory_as_output_is_refused_before_the_render() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let started = Instant::now();
     let e = fails(bin().args([s(&input), "-o", s(dir.path()), "-y"]));
     assert!(e.contains("directory"), "{e}");
@@ -302,7 +292,7 @@ fn a_directory_as_output_is_refused_before_the_render() {
 #[test]
 fn messages_name_the_option_and_the_cause() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let out = dir.path().join("o.mp4");
     let o = s(&out);
     let i = s(&input);
@@ -378,7 +368,7 @@ fn messages_name_the_option_and_the_cause() {
 #[test]
 fn a_successful_run_is_quiet_even_without_a_display_environment() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let out = succeeds(
         bin()
             .env_remove("XDG_RUNTIME_DIR")
@@ -397,7 +387,7 @@ fn a_successful_run_is_quiet_even_without_a_display_environment() {
 #[test]
 fn inspect_drops_prints_the_plan_the_render_uses() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "320x180", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "320x180", 0.2);
     // A fast lens focused close: defocus changes how far drops stay visible.
     let look = ["--f-number", "1.4", "--focus", "1", "--rain", "20"];
     let out = succeeds(
@@ -561,7 +551,7 @@ fn long_work_stops_on_int_term_and_hup_and_leaves_nothing() {
 #[test]
 fn a_depth_map_is_read_from_regular_files_only() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     for name in ["fifo.png", "fifo.mkv"] {
         let fifo = dir.path().join(name);
         assert!(
@@ -602,7 +592,7 @@ fn a_depth_map_is_read_from_regular_files_only() {
 #[test]
 fn messages_say_what_is_wrong_with_what_was_typed() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.5);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.5);
     let out = dir.path().join("o.mkv");
     let (i, o) = (s(&input), s(&out));
     let keyed = "rain.rate_mm_per_h=[[0,10],[1,20]]";
@@ -703,7 +693,7 @@ fn crc32(bytes: &[u8]) -> u32 {
 #[test]
 fn a_huge_picture_is_refused_from_its_header() {
     let dir = TempDir::new().expect("tmp");
-    let input = clip(dir.path(), "in.mp4", "64x64", 0.2);
+    let input = quick_clip(dir.path(), "in.mp4", "64x64", 0.2);
     let chunk = |kind: &[u8], data: &[u8]| {
         let mut c = (data.len() as u32).to_be_bytes().to_vec();
         let body = [kind, data].concat();

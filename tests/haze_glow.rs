@@ -4,19 +4,24 @@
 
 use glam::{DVec2, DVec3};
 use rain_composite::config::{CameraConfig, RainConfig};
-use rain_composite::gpu::Compositor;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight, LightSource};
+use rain_composite::lighting::LightSource;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{lit, render_with, water_tables};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::codes;
 
 const W: u32 = 96;
 const H: u32 = 64;
@@ -27,12 +32,6 @@ const HAZE_T: f64 = 0.85;
 
 fn camera() -> Camera {
     Camera::new(W, H, 60f64.to_radians(), 1.6, 0.0, 0.0)
-}
-
-fn tables(bins: usize) -> [RtfTable; 3] {
-    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(bins).expect("table"))
 }
 
 /// A lamp at infinity right of centre and one 12 m away up to the left.
@@ -68,13 +67,7 @@ fn setup_and_params(cam: &Camera) -> (RainSetup, RainParams) {
         (W, H),
     )
     .expect("rain");
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.05, 0.05, 0.08];
-    let light = FrameLight {
-        env,
-        lights: Vec::new(),
-    };
-    let mut p = setup.params_at(0.0, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    let mut p = lit(&setup, 0.0, &[(0, [0.05, 0.05, 0.08])], None);
     p.haze = [HAZE_NEAR_M as f32, HAZE_FAR_M as f32, 0.0, HAZE_T as f32];
     (setup, p)
 }
@@ -90,16 +83,6 @@ fn dark_frame() -> YuvFrame {
     YuvFrame::filled(format, ColorParams::bt709(8), [24, 130, 126])
 }
 
-fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
-    std::array::from_fn(|i| {
-        let (w, h) = frame.format.plane_size(i);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| frame.sample(i, x, y))
-            .collect()
-    })
-}
-
 /// The GPU frame with `lights` in the haze, and the CPU twins' (yuv_to_rgb with the glow →
 /// rgb_to_yuv).
 fn both(lights: &[LightSource]) -> ([Vec<u16>; 3], [Vec<u16>; 3]) {
@@ -107,12 +90,12 @@ fn both(lights: &[LightSource]) -> ([Vec<u16>; 3], [Vec<u16>; 3]) {
     let cam = camera();
     let (setup, p) = setup_and_params(&cam);
     let frame = dark_frame();
-    let tables = tables(1024);
+    let tables = water_tables(1024);
     let list = LightList::new(lights);
-    let mut comp = Compositor::new(ctx, frame.format, &frame.color, &setup).expect("compositor");
-    comp.set_transfer_table(&tables);
-    comp.set_lights(&list);
-    let gpu = codes(&comp.render_one(&frame, &p).expect("render"));
+    let gpu = codes(&render_with(&ctx, &frame, &setup, &p, |comp| {
+        comp.set_transfer_table(&tables);
+        comp.set_lights(&list);
+    }));
     let canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, &list, &tables);
     (
         gpu,
@@ -155,7 +138,7 @@ fn no_lights_add_nothing() {
     let cam = camera();
     let (_, p) = setup_and_params(&cam);
     let frame = dark_frame();
-    let tables = tables(1024);
+    let tables = water_tables(1024);
     let unlit = yuv_to_rgb::yuv_to_rgb(&frame, &p);
     let lit = yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, &LightList::new(&[]), &tables);
     assert_eq!(unlit, lit);
@@ -180,8 +163,8 @@ fn no_lights_add_nothing() {
 fn glow_follows_the_single_scattering_integral() {
     let cam = camera();
     let (_, p) = setup_and_params(&cam);
-    let coarse = tables(1024);
-    let fine = tables(8192);
+    let coarse = water_tables(1024);
+    let fine = water_tables(8192);
     let beta = -HAZE_T.ln() / (HAZE_FAR_M - HAZE_NEAR_M);
     for lamp in lamps(&cam) {
         let list = LightList::new(std::slice::from_ref(&lamp));

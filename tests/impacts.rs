@@ -3,16 +3,13 @@
 //! a ground the render is unchanged, byte for byte.
 
 use std::path::Path;
-use std::process::Command;
 
 use glam::DVec3;
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::cpu::rain_simulate::{self, StreakShape};
 use rain_composite::gpu::probe::{probe_drops, probe_streaks};
 use rain_composite::gpu::types::{LightList, RainParams};
-use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use tempfile::TempDir;
@@ -23,23 +20,21 @@ use shared_gpu::gpu;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
+use fixtures::s;
+
+#[path = "common/binary.rs"]
+mod binary;
+use binary::bin;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{looking_down, rain_seen_by, water_tables};
 
 const EXPOSURE_S: f64 = 0.02;
-
-/// The render configuration of a camera looking down at the street: the ground's horizon
-/// crosses the picture's centre line 10 % of the height from the top (a 90° lens tilted down
-/// by about 22°).
-fn looking_down() -> RenderConfig {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    c
-}
 
 /// Heavy rain close to the camera, `w`×`h`, seen through `config`'s camera, with or without
 /// the ground's impacts.
 fn setup(config: &RenderConfig, w: u32, h: u32, ground: bool) -> (Camera, RainSetup) {
-    let camera = config.camera(w, h).expect("camera");
     let rain = RainConfig {
         rate_mm_per_h: 60.0,
         opacity: 15.0,
@@ -49,17 +44,7 @@ fn setup(config: &RenderConfig, w: u32, h: u32, ground: bool) -> (Camera, RainSe
         drop_scale: 2.0,
         ..RainConfig::default()
     };
-    let s = uniforms::build(
-        &camera,
-        &CameraConfig::default(),
-        &rain,
-        EXPOSURE_S,
-        0,
-        (w, h),
-    )
-    .expect("rain")
-    .with_ground(ground);
-    (camera, s)
+    rain_seen_by(config, (w, h), &rain, EXPOSURE_S, ground)
 }
 
 /// Where a drop at `pos_m` (mid-exposure) moving at `vel_mps` is in the picture at the start of
@@ -182,9 +167,7 @@ fn the_gpu_ends_streaks_at_the_impact_like_its_twin() {
     let config = looking_down();
     let (camera, s) = setup(&config, 160, 90, true);
     eprintln!("{}", s.summary());
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"));
+    let tables = water_tables(256);
     let (mut landed, mut compared, mut worst_px) = (0, 0, 0.0f64);
     for t in [0.4, 2.75] {
         let p: RainParams = s.motion_at(t);
@@ -242,16 +225,6 @@ fn the_gpu_ends_streaks_at_the_impact_like_its_twin() {
         compared > 100 && landed > 10,
         "{compared} compared, {landed} landed"
     );
-}
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 /// Without a ground — no flag, `--ground none`, or `ground.mode` "none" in a configuration —

@@ -15,18 +15,16 @@ use tempfile::TempDir;
 mod fixtures;
 use fixtures::{clip, files_in, stream};
 
+#[path = "common/binary.rs"]
+mod binary;
+use binary::bin;
+
 /// Heavy rain, so that many pixels are covered; the haze is on by default, so every pixel has
 /// some alpha too.
 /// The colour bars' clipped light stays at the clip level (`--highlight-gain 1`): recovered, they
 /// would be lamps hundreds of times white whose glow in the haze is brighter than white, which
 /// a premultiplied layer cannot hold (its colour would exceed its alpha).
 const RAIN: [&str; 6] = ["--rain", "60", "--seed", "7", "--highlight-gain", "1"];
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
 
 fn render(input: &Path, output: &Path, extra: &[&str]) -> Output {
     bin()

@@ -17,8 +17,11 @@ mod fixtures;
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 
+#[path = "common/binary.rs"]
+mod binary;
+use binary::{bin, ok};
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use fixtures::ffmpeg;
 
@@ -134,7 +137,7 @@ fn look(input: &Path, output: &Path, frames: usize) -> Look {
 
 /// Renders `frames` frames of `input` losslessly at `rate_mm_per_h` with `args`.
 fn render(input: &Path, out: &Path, rate_mm_per_h: f64, frames: usize, args: &[&str]) {
-    let run = Command::new(env!("CARGO_BIN_EXE_rain-composite"))
+    ok(bin()
         .arg(input)
         .arg("-o")
         .arg(out)
@@ -146,15 +149,7 @@ fn render(input: &Path, out: &Path, rate_mm_per_h: f64, frames: usize, args: &[&
             &rate_mm_per_h.to_string(),
         ])
         .args(["--frames", &format!("0..{frames}")])
-        .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("spawn");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+        .args(args));
 }
 
 /// A night street with a lamp: road 0.03 and sky 0.01 (linear), a lamp of radius 4 px above the

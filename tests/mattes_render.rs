@@ -8,7 +8,6 @@ use std::sync::{Arc, OnceLock};
 
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig, StreakStyle};
 use rain_composite::drops::MatteAtlas;
-use rain_composite::gpu::Compositor;
 use rain_composite::gpu::cpu::rain_simulate::{light_term, take_glints};
 use rain_composite::gpu::cpu::rain_streaks::{matte_layers, rain_streaks_with};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
@@ -18,15 +17,21 @@ use rain_composite::gpu::types::{
     DirectLight, GLINTS_PER_DROP, Glint, LightList, RainParams, Streak,
 };
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::lighting::rtf::RtfTable;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{BLUISH_SKY, render_with, water_tables};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::codes;
 
 /// The shipped database's mattes at 1/60 s.
 fn atlas() -> Arc<MatteAtlas> {
@@ -291,12 +296,6 @@ fn each_drop_keeps_its_matte() {
     assert_ne!(layers, other_seed);
 }
 
-fn tables() -> [RtfTable; 3] {
-    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"))
-}
-
 fn setup_for(format: FrameFormat) -> RainSetup {
     let camera = Camera::new(format.width, format.height, 1.0, 1.6, 0.05, 0.0);
     let rain = RainConfig {
@@ -318,28 +317,9 @@ fn setup_for(format: FrameFormat) -> RainSetup {
     .expect("rain")
 }
 
+/// The uniforms at 1.7 s under a bluish sky brighter overhead.
 fn lit(setup: &RainSetup) -> RainParams {
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.9, 1.0, 1.3];
-    env.coeffs[2] = [0.3, 0.3, 0.4];
-    setup.params_at(
-        1.7,
-        &FrameLight {
-            env,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
-    )
-}
-
-fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
-    std::array::from_fn(|i| {
-        let (w, h) = frame.format.plane_size(i);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| frame.sample(i, x, y))
-            .collect()
-    })
+    render::lit(setup, 1.7, &BLUISH_SKY, None)
 }
 
 /// The GPU's `fs_mattes` against the CPU twin, on the GPU's own streaks.
@@ -354,11 +334,11 @@ fn mattes_on_the_gpu_match_the_cpu_twin() {
     };
     let color = ColorParams::bt709(10);
     let frame = YuvFrame::filled(format, color, [200, 512, 512]);
-    let tables = tables();
+    let tables = water_tables(256);
     let render = |setup: &RainSetup| {
-        let mut comp = Compositor::new(ctx.clone(), format, &color, setup).expect("compositor");
-        comp.set_transfer_table(&tables);
-        codes(&comp.render_one(&frame, &lit(setup)).expect("render"))
+        codes(&render_with(&ctx, &frame, setup, &lit(setup), |comp| {
+            comp.set_transfer_table(&tables)
+        }))
     };
     let simple = setup_for(format);
     let matted = setup_for(format).with_mattes(Some(atlas()));
@@ -400,7 +380,7 @@ fn a_lamp_in_shot_glints_in_the_streaks_near_it() {
     };
     let color = ColorParams::bt709(10);
     let frame = YuvFrame::filled(format, color, [150, 512, 512]);
-    let tables = tables();
+    let tables = water_tables(256);
     let setup = setup_for(format).with_mattes(Some(atlas()));
     let params = lit(&setup);
     // The lamp: in front of the camera, a little right of and above the centre.
@@ -475,10 +455,10 @@ fn a_lamp_in_shot_glints_in_the_streaks_near_it() {
     assert!(far_share < 0.5 * near_share, "far from it, less");
 
     // The frame: GPU against the twin with the same glints.
-    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
-    comp.set_transfer_table(&tables);
-    comp.set_lights(&lights);
-    let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
+    let gpu = codes(&render_with(&ctx, &frame, &setup, &params, |comp| {
+        comp.set_transfer_table(&tables);
+        comp.set_lights(&lights);
+    }));
     let mut canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &params, &lights, &tables);
     rain_streaks_with(
         &mut canvas,
@@ -550,13 +530,6 @@ fn degrees_from(params: &RainParams, s: &Streak, at: [f32; 2]) -> f32 {
     cos.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-/// The transfer tables at the GPU's own resolution, so the twin interpolates what it reads.
-fn gpu_tables() -> [RtfTable; 3] {
-    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(TABLE_BINS).expect("table"))
-}
-
 /// The light list of `lamps`.
 fn light_list(lamps: &[DirectLight]) -> LightList {
     let mut list = LightList::new(&[]);
@@ -579,7 +552,8 @@ fn glints_on_the_gpu_match_the_cpu_twin_and_move_the_light_once() {
         chroma: Chroma::Cs444,
         bit_depth: 10,
     };
-    let tables = gpu_tables();
+    // At the GPU's own resolution, so the twin interpolates what it reads.
+    let tables = water_tables(TABLE_BINS);
     let setup = setup_for(format).with_mattes(Some(atlas()));
     let params = lit(&setup);
     let lights = light_list(&[
@@ -659,10 +633,10 @@ fn glints_on_the_gpu_match_the_cpu_twin_and_move_the_light_once() {
     // The frame: every glint drawn with its matte, GPU against the twin.
     let color = ColorParams::bt709(10);
     let frame = YuvFrame::filled(format, color, [150, 512, 512]);
-    let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
-    comp.set_transfer_table(&tables);
-    comp.set_lights(&lights);
-    let gpu = codes(&comp.render_one(&frame, &params).expect("render"));
+    let gpu = codes(&render_with(&ctx, &frame, &setup, &params, |comp| {
+        comp.set_transfer_table(&tables);
+        comp.set_lights(&lights);
+    }));
     let mut canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &params, &lights, &tables);
     rain_streaks_with(&mut canvas, &params, &split, Some(&atlas()), &glints, None);
     let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, format, &color);
@@ -705,16 +679,11 @@ fn lamp_share(
 
 /// A street at night: a dim sky, so lamps light the rain.
 fn night(setup: &RainSetup) -> RainParams {
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.05, 0.05, 0.07];
-    env.coeffs[2] = [0.01, 0.01, 0.02];
-    setup.params_at(
+    render::lit(
+        setup,
         1.7,
-        &FrameLight {
-            env,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
+        &[(0, [0.05, 0.05, 0.07]), (2, [0.01, 0.01, 0.02])],
+        None,
     )
 }
 
@@ -735,7 +704,8 @@ fn two_lamps_each_bead_the_streaks_near_them() {
         chroma: Chroma::Cs444,
         bit_depth: 10,
     };
-    let tables = gpu_tables();
+    // At the GPU's own resolution, so the twin interpolates what it reads.
+    let tables = water_tables(TABLE_BINS);
     let atlas = atlas();
     let setup = setup_for(format).with_mattes(Some(atlas.clone()));
     let params = night(&setup);
@@ -878,7 +848,8 @@ fn report_the_light_the_glints_leave_out() {
         chroma: Chroma::Cs444,
         bit_depth: 10,
     };
-    let tables = gpu_tables();
+    // At the GPU's own resolution, so the twin interpolates what it reads.
+    let tables = water_tables(TABLE_BINS);
     let setup = setup_for(format);
     let params = lit(&setup);
     let drops = probe_drops_with(&ctx, &setup, &params, params.drop_count).expect("drops");

@@ -15,6 +15,11 @@ use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
+use fixtures::s;
+
+#[path = "common/binary.rs"]
+mod binary;
+use binary::{bin, ok};
 
 const FPS: f64 = 25.0;
 
@@ -121,24 +126,6 @@ fn kept_water_goes_on_as_the_water_that_never_stopped() {
     assert!(kept.latest(&print, 11).is_none());
 }
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
-/// Runs the command; returns its stderr, failing the test with it if the command fails.
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("spawn");
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(out.status.success(), "{cmd:?}: {err}");
-    err
-}
-
 /// What the water of a render started from, as its `-v` log says.
 fn start_of_water(log: &str) -> &str {
     let line = log
@@ -177,7 +164,7 @@ fn chunks_from_kept_water_join_into_the_whole_render() {
             .args(["--puddle-particles", "1500", "--relief", "0.01"])
             .args(["--checkpoints", s(kept)])
             .args(extra));
-        (out, log)
+        (out, String::from_utf8_lossy(&log.stderr).into_owned())
     };
     let render = |name: &str, rain: &str, extra: &[&str]| render_from(&water, name, rain, extra);
     let (whole, log) = render("whole.mkv", "30", &["--checkpoint-every", "10"]);

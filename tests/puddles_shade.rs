@@ -9,24 +9,31 @@ use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
 
 use glam::{DVec2, DVec3, Vec2};
-use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::fluid::Field2;
 use rain_composite::fluid::ripples::{Ring, live_rings};
 use rain_composite::gpu::cpu::puddles::{self, Water};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
 use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, Ripple};
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext};
+use rain_composite::lighting::LightSource;
 use rain_composite::lighting::wetness::{FilmOptics, WATER_INDEX};
-use rain_composite::lighting::{EnvironmentSh, FrameLight, LightSource};
 use rain_composite::rain::volume::impacts::Impact;
 use rain_composite::scene::{Camera, DepthMap};
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
+use rain_composite::video::{ColorParams, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{dry_ground, lit, render_with};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::{codes, picture_444, plane_codes};
 
 // ---------------------------------------------------------------------------------------------
 // Ripples.
@@ -133,90 +140,13 @@ fn a_ring_grows_at_the_group_velocity_of_its_dominant_wavelength() {
 // ---------------------------------------------------------------------------------------------
 // Pictures, setups, renders.
 
-/// A 4:4:4 10-bit BT.709 picture whose luma is `luma(x, y)` and chroma `chroma(x, y)`.
-fn picture(
-    width: u32,
-    height: u32,
-    luma: impl Fn(u32, u32) -> u16,
-    chroma: impl Fn(u32, u32, usize) -> u16,
-) -> YuvFrame {
-    let format = FrameFormat {
-        width,
-        height,
-        chroma: Chroma::Cs444,
-        bit_depth: 10,
-    };
-    let planes = std::array::from_fn(|i| {
-        let stride = format.packed_stride(i);
-        let mut data = vec![0u8; stride * height as usize];
-        for y in 0..height {
-            for x in 0..width {
-                let v = if i == 0 { luma(x, y) } else { chroma(x, y, i) };
-                let at = y as usize * stride + x as usize * 2;
-                data[at..at + 2].copy_from_slice(&v.to_le_bytes());
-            }
-        }
-        Plane { data, stride }
-    });
-    YuvFrame {
-        format,
-        color: ColorParams::bt709(10),
-        planes,
-        pts: 0,
-        index: 0,
-    }
-}
-
 fn grey(_: u32, _: u32, _: usize) -> u16 {
     512
 }
 
 /// No rain drawn; the ground z = 0 under `camera`.
 fn setup(camera: &Camera, depth: bool) -> RainSetup {
-    turned(camera, depth, 0)
-}
-
-/// As [`setup`], the video stored turned by `rotation_deg` (coded ≠ displayed).
-fn turned(camera: &Camera, depth: bool, rotation_deg: i32) -> RainSetup {
-    let coded = if rotation_deg % 180 == 0 {
-        (camera.width_px, camera.height_px)
-    } else {
-        (camera.height_px, camera.width_px)
-    };
-    let rain = RainConfig {
-        rate_mm_per_h: 0.0,
-        ..RainConfig::default()
-    };
-    uniforms::build(
-        camera,
-        &CameraConfig::default(),
-        &rain,
-        0.01,
-        rotation_deg,
-        coded,
-    )
-    .expect("rain")
-    .with_ground(true)
-    .with_scene_depth(depth)
-}
-
-/// The uniforms at `t_s` under the environment `env` (coefficient, rgb), haze transmittance
-/// `haze`.
-fn lit(setup: &RainSetup, t_s: f64, env: &[(usize, [f32; 3])], haze: f32) -> RainParams {
-    let mut sh = EnvironmentSh::zeros(4);
-    for &(i, c) in env {
-        sh.coeffs[i] = c;
-    }
-    let mut p = setup.params_at(
-        t_s,
-        &FrameLight {
-            env: sh,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
-    );
-    p.haze = [0.0, 0.0, 0.0, haze];
-    p
+    dry_ground(camera, 0).with_scene_depth(depth)
 }
 
 /// A uniform sky of radiance `l`: its only coefficient.
@@ -237,17 +167,6 @@ fn lake(depth_m: f32, half_m: f32) -> Field2 {
     }
 }
 
-/// Code values of every plane, row-major.
-fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
-    std::array::from_fn(|i| {
-        let (w, h) = frame.format.plane_size(i);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| frame.sample(i, x, y))
-            .collect()
-    })
-}
-
 /// What a compositor is given besides the frame.
 #[derive(Default)]
 struct Inputs<'a> {
@@ -266,26 +185,24 @@ fn render(
     p: &RainParams,
     inputs: &Inputs<'_>,
 ) -> YuvFrame {
-    let mut comp =
-        Compositor::new(ctx.clone(), frame.format, &frame.color, setup).expect("compositor");
-    if let Some(lights) = inputs.lights {
-        comp.set_lights(lights);
-    }
-    if let Some(depth) = inputs.depth {
-        comp.set_scene_depth(depth).expect("depth");
-    }
-    if let Some(water) = inputs.water {
-        comp.set_water(water).expect("water");
-        comp.set_ripples(inputs.impacts).expect("ripples");
-        if let Some((slope_rms, depth_m)) = inputs.far {
-            comp.set_far_ripples(slope_rms, depth_m)
-                .expect("far ripples");
+    render_with(ctx, frame, setup, p, |comp| {
+        if let Some(lights) = inputs.lights {
+            comp.set_lights(lights);
         }
-    }
-    comp.render_one(frame, p).expect("render")
+        if let Some(depth) = inputs.depth {
+            comp.set_scene_depth(depth).expect("depth");
+        }
+        if let Some(water) = inputs.water {
+            comp.set_water(water).expect("water");
+            comp.set_ripples(inputs.impacts).expect("ripples");
+            if let Some((slope_rms, depth_m)) = inputs.far {
+                comp.set_far_ripples(slope_rms, depth_m)
+                    .expect("far ripples");
+            }
+        }
+    })
 }
 
-/// The stage's uniforms for `water` with `rings` rings (as `stages::puddles` fills them).
 fn puddle_params(water: &Field2, rings: usize) -> PuddleParams {
     let optics = FilmOptics::water();
     PuddleParams {
@@ -327,7 +244,7 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
         f64::to_radians(-8.0),
         f64::to_radians(8.0),
     );
-    let s = turned(&camera, false, rotation_deg);
+    let s = dry_ground(&camera, rotation_deg).with_scene_depth(false);
     let (w, h) = (
         s.params.coded_size_px[0] as u32,
         s.params.coded_size_px[1] as u32,
@@ -338,8 +255,8 @@ fn twin_case(ctx: &Arc<GpuContext>, rotation_deg: i32) {
         (2, [0.5, 0.6, 0.8]),
         (3, [0.3, 0.2, 0.1]),
     ];
-    let p = lit(&s, t_s, &sky, 0.9);
-    let frame = picture(
+    let p = lit(&s, t_s, &sky, Some(0.9));
+    let frame = picture_444(
         w,
         h,
         |x, y| (100 + ((x * 37 + y * 91).wrapping_mul(2654435761) >> 7) % 700) as u16,
@@ -489,8 +406,8 @@ fn without_water_the_frame_is_untouched() {
     let Some(ctx) = gpu() else { return };
     let camera = Camera::new(40, 30, 1.0, 1.6, f64::to_radians(-10.0), 0.0);
     let s = setup(&camera, false);
-    let p = lit(&s, 0.0, &uniform_sky(1.0), 1.0);
-    let frame = picture(40, 30, |x, y| (200 + 11 * x + 7 * y) as u16, grey);
+    let p = lit(&s, 0.0, &uniform_sky(1.0), Some(1.0));
+    let frame = picture_444(40, 30, |x, y| (200 + 11 * x + 7 * y) as u16, grey);
     let none = codes(&render(&ctx, &frame, &s, &p, &Inputs::default()));
     let dry_map = lake(0.0, 50.0);
     let dry = codes(&render(
@@ -541,14 +458,14 @@ fn fresnel_render(ctx: &Arc<GpuContext>, camera: &Camera, frame_sky: u16) -> (u1
     let color = ColorParams::bt709(10);
     let sky = color.code_to_linear([frame_sky as f64, 512.0, 512.0])[1];
     let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
-    let frame = picture(
+    let frame = picture_444(
         w,
         h,
         |x, y| if ray(x, y).z > 0.0 { frame_sky } else { 64 },
         grey,
     );
     let s = setup(camera, false);
-    let p = lit(&s, 0.0, &uniform_sky(sky), 1.0);
+    let p = lit(&s, 0.0, &uniform_sky(sky), Some(1.0));
     let water = lake(0.05, 500.0);
     let out = codes(&render(
         ctx,
@@ -614,7 +531,7 @@ fn still_water_reflects_as_fresnel_says_head_on_and_at_grazing() {
 
 /// Luma of `frame` at every pixel.
 fn luma(frame: &YuvFrame) -> Vec<f64> {
-    codes(frame)[0].iter().map(|&c| c as f64).collect()
+    plane_codes(frame, 0).iter().map(|&c| c as f64).collect()
 }
 
 #[test]
@@ -629,7 +546,7 @@ fn a_bright_object_in_the_sky_shows_at_its_mirrored_position() {
         let object = DVec2::new(100.0, (horizon_row - 20.0).round());
         let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
         let shot = |with_object: bool| {
-            picture(
+            picture_444(
                 160,
                 120,
                 |x, y| {
@@ -646,7 +563,7 @@ fn a_bright_object_in_the_sky_shows_at_its_mirrored_position() {
             )
         };
         let s = setup(&camera, false);
-        let p = lit(&s, 0.0, &uniform_sky(0.2), 1.0);
+        let p = lit(&s, 0.0, &uniform_sky(0.2), Some(1.0));
         let water = lake(0.05, 400.0);
         let inputs = Inputs {
             water: Some(&water),
@@ -699,7 +616,7 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
         d.y > 0.0 && (hit.x - pole_x).abs() < 0.5 * pole_w && (0.0..pole_h).contains(&hit.z)
     };
     let shot = |with_pole: bool| {
-        picture(
+        picture_444(
             160,
             120,
             |x, y| match (with_pole && on_pole(x, y), ray(x, y).z > 0.0) {
@@ -729,7 +646,7 @@ fn a_pole_on_the_ground_is_mirrored_at_its_depth() {
         DepthMap::from_values(160, 120, &values, 1.0).expect("map")
     };
     let s = setup(&camera, true);
-    let p = lit(&s, 0.0, &uniform_sky(0.2), 1.0);
+    let p = lit(&s, 0.0, &uniform_sky(0.2), Some(1.0));
     let water = lake(0.05, 400.0);
     let image = |with_pole: bool| {
         let map = depth(with_pole);
@@ -832,7 +749,7 @@ fn report_the_cost_at_720p() {
     let (w, h) = (1280, 720);
     let camera = Camera::new(w, h, 1.0, 1.6, f64::to_radians(-10.0), 0.0);
     let ray = |x: u32, y: u32| camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
-    let frame = picture(
+    let frame = picture_444(
         w,
         h,
         |x, y| {
@@ -906,7 +823,7 @@ fn report_the_cost_at_720p() {
         ),
     ] {
         let s = setup(&camera, depth);
-        let p = lit(&s, 1.0, &uniform_sky(0.5), 1.0);
+        let p = lit(&s, 1.0, &uniform_sky(0.5), Some(1.0));
         let mut comp =
             Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("compositor");
         if depth {
@@ -940,8 +857,8 @@ fn water_replaces_the_wet_film_under_it() {
     use rain_composite::gpu::types::WetParams;
     let camera = Camera::new(96, 64, 1.0, 1.6, -0.2, 0.0);
     let s = setup(&camera, false);
-    let p = lit(&s, 0.0, &uniform_sky(0.4), 0.9);
-    let frame = picture(
+    let p = lit(&s, 0.0, &uniform_sky(0.4), Some(0.9));
+    let frame = picture_444(
         96,
         64,
         |x, y| 300 + ((x * 7 + y * 13) % 200) as u16,

@@ -3,13 +3,11 @@
 //! splashing threshold splash, the GPU stage draws what its CPU twin draws (its draw list holding
 //! exactly the drawn slots, in order), and without a ground the stage has nothing to do.
 
-use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
+use rain_composite::config::RainConfig;
 use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
 use rain_composite::gpu::probe::{probe_splash_draw_list, probe_splashes};
 use rain_composite::gpu::types::LightList;
-use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::physics::splash::{SPLASH_SLOTS, splash_number, splashes};
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
 use rain_composite::rain::volume::{impacts_between, landing_columns, sample_drop};
@@ -17,6 +15,10 @@ use rain_composite::rain::volume::{impacts_between, landing_columns, sample_drop
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{looking_down, rain_seen_by, water_tables};
 
 const EXPOSURE_S: f64 = 0.02;
 
@@ -36,10 +38,6 @@ fn setup_in_wind(
     wind_mps: [f64; 2],
     gust_mps: f64,
 ) -> RainSetup {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    let camera = c.camera(w, h).expect("camera");
     let rain = RainConfig {
         rate_mm_per_h,
         opacity: 4.0,
@@ -51,16 +49,7 @@ fn setup_in_wind(
         gust_mps,
         ..RainConfig::default()
     };
-    uniforms::build(
-        &camera,
-        &CameraConfig::default(),
-        &rain,
-        EXPOSURE_S,
-        0,
-        (w, h),
-    )
-    .expect("rain")
-    .with_ground(ground)
+    rain_seen_by(&looking_down(), (w, h), &rain, EXPOSURE_S, ground).1
 }
 
 /// ∫ f(D) dD over [a, b] by Simpson's rule on `n` (even) intervals.
@@ -174,9 +163,7 @@ fn only_drops_above_the_splashing_threshold_splash() {
 #[test]
 fn the_gpu_draws_the_splashes_its_twin_draws() {
     let Some(ctx) = gpu() else { return };
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"));
+    let tables = water_tables(256);
     let none = LightList::new(&[]);
     let off = setup(160, 90, 25.0, 3.0, false);
     let (ids, _) = probe_splashes(&ctx, &off, &off.motion_at(1.0), &none, &tables).expect("probe");
@@ -249,9 +236,7 @@ fn the_gpu_draws_the_splashes_its_twin_draws() {
 #[test]
 fn the_draw_list_is_the_drawn_slots_in_order() {
     let Some(ctx) = gpu() else { return };
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"));
+    let tables = water_tables(256);
     let none = LightList::new(&[]);
     let still = setup(160, 90, 25.0, 3.0, true);
     let gusty = setup_in_wind(160, 90, 25.0, 3.0, true, [2.0, 1.0], 2.0);

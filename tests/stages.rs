@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::GpuContext;
 use rain_composite::gpu::cpu::{
     rain_simulate, rain_splashes, rain_streaks, rgb_to_yuv, yuv_to_rgb,
 };
@@ -13,17 +14,21 @@ use rain_composite::gpu::probe::{probe_drops, probe_splashes, probe_streaks};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::{self, RainSetup};
-use rain_composite::gpu::{Compositor, GpuContext};
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Plane, Transfer, YuvFrame};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{BLUISH_SKY, render_with, water_tables};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::{codes, scatter};
 
 /// One frame case: a picture format, its colour, and a display rotation.
 struct Case {
@@ -75,39 +80,16 @@ fn cases() -> Vec<Case> {
 
 /// A picture of scattered, mildly saturated code values.
 fn picture(case: &Case) -> YuvFrame {
-    let f = case.format;
-    let max = (1u32 << f.bit_depth) - 1;
+    let max = (1u32 << case.format.bit_depth) - 1;
     let mid = (max + 1) as f64 / 2.0;
-    let planes = std::array::from_fn(|i| {
-        let (w, h) = f.plane_size(i);
-        let stride = f.packed_stride(i);
-        let mut data = vec![0u8; stride * h as usize];
-        for y in 0..h {
-            for x in 0..w {
-                let mut v =
-                    ((x * 37 + y * 91 + i as u32 * 53).wrapping_mul(2654435761) >> 7) % (max + 1);
-                if i > 0 {
-                    v = (mid + (v as f64 - mid) * 0.3).round() as u32;
-                } else {
-                    v = v / 2 + max / 8;
-                }
-                let at = y as usize * stride + x as usize * f.bytes_per_sample();
-                if f.bytes_per_sample() == 1 {
-                    data[at] = v as u8;
-                } else {
-                    data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
-                }
-            }
+    pictures::picture(case.format, case.color, |i, x, y| {
+        let v = scatter(i, x, y) % (max + 1);
+        if i > 0 {
+            (mid + (v as f64 - mid) * 0.3).round() as u16
+        } else {
+            (v / 2 + max / 8) as u16
         }
-        Plane { data, stride }
-    });
-    YuvFrame {
-        format: f,
-        color: case.color,
-        planes,
-        pts: 0,
-        index: 0,
-    }
+    })
 }
 
 /// Heavy close rain over the case's displayed picture.
@@ -140,37 +122,9 @@ fn heavy_rain() -> RainConfig {
 /// The uniforms at `t_s` in a bluish environment brighter overhead, with a haze veil lit by
 /// a sky brighter to one side.
 fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.9, 1.0, 1.3];
-    env.coeffs[2] = [0.3, 0.3, 0.4];
-    let mut p = setup.params_at(
-        t_s,
-        &FrameLight {
-            env,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
-    );
-    p.haze = [0.0, 0.0, 0.0, 0.9];
+    let mut p = render::lit(setup, t_s, &BLUISH_SKY, Some(0.9));
     p.env_sh[3] = [0.4, 0.3, 0.2, 0.0]; // brighter to one side
     p
-}
-
-fn tables() -> [RtfTable; 3] {
-    channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(256).expect("table"))
-}
-
-/// Code values of every plane of `frame`, row-major, tightly packed.
-fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
-    std::array::from_fn(|i| {
-        let (w, h) = frame.format.plane_size(i);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| frame.sample(i, x, y))
-            .collect()
-    })
 }
 
 /// Largest code difference and the share of samples that differ by more than one code.
@@ -198,11 +152,10 @@ fn both_frames(
     params: &RainParams,
 ) -> ([Vec<u16>; 3], [Vec<u16>; 3], usize) {
     let frame = picture(case);
-    let tables = tables();
-    let mut comp =
-        Compositor::new(ctx.clone(), case.format, &case.color, setup).expect("compositor");
-    comp.set_transfer_table(&tables);
-    let gpu = comp.render_one(&frame, params).expect("render");
+    let tables = water_tables(256);
+    let gpu = render_with(ctx, &frame, setup, params, |comp| {
+        comp.set_transfer_table(&tables)
+    });
     let streaks = if params.drop_count > 0 {
         probe_streaks(ctx, setup, params, &LightList::new(&[]), &tables).expect("streaks")
     } else {
@@ -259,9 +212,14 @@ fn every_stage_matches_its_cpu_twin() {
                     let t = 1.3;
                     let params = lit(&setup, t);
                     let drops = probe_drops(&ctx, &setup, t, params.drop_count).expect("drops");
-                    let streaks =
-                        probe_streaks(&ctx, &setup, &params, &LightList::new(&[]), &tables())
-                            .expect("streaks");
+                    let streaks = probe_streaks(
+                        &ctx,
+                        &setup,
+                        &params,
+                        &LightList::new(&[]),
+                        &water_tables(256),
+                    )
+                    .expect("streaks");
                     let (mut off, mut drawn) = (0, 0);
                     for (id, (g, s)) in drops.iter().zip(&streaks).enumerate() {
                         let c = sample_drop(
@@ -354,9 +312,14 @@ fn every_stage_matches_its_cpu_twin() {
                     .with_ground(true);
                     let t = 1.3;
                     let params = lit(&setup, t);
-                    let (ids, gpu) =
-                        probe_splashes(&ctx, &setup, &params, &LightList::new(&[]), &tables())
-                            .expect("splashes");
+                    let (ids, gpu) = probe_splashes(
+                        &ctx,
+                        &setup,
+                        &params,
+                        &LightList::new(&[]),
+                        &water_tables(256),
+                    )
+                    .expect("splashes");
                     let slots = rain_composite::rain::physics::splash::SPLASH_SLOTS as usize;
                     let mut drawn = 0;
                     for (g, &id) in ids.iter().enumerate() {

@@ -14,10 +14,6 @@ use rain_composite::video::{
 };
 use tempfile::TempDir;
 
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
 /// Source → Sink with every frame and packet passed through unchanged.
 fn transcode(input: &Path, output: &Path, opts: &EncodeOptions) -> VideoInfo {
     let mut src = Source::open(s(input)).expect("open input");
@@ -471,21 +467,7 @@ fn odd_tiny_and_4k_sizes_work() {
     assert_eq!(frame_times(&out).len(), 10);
     assert!(psnr(&out, &tiny) > 30.0);
 
-    let big = clip(
-        dir.path(),
-        "big.mp4",
-        "3840x2160",
-        25,
-        0.08,
-        &[
-            "-c:v",
-            "libx264",
-            "-preset",
-            "ultrafast",
-            "-pix_fmt",
-            "yuv420p",
-        ],
-    );
+    let big = quick_clip(dir.path(), "big.mp4", "3840x2160", 0.08);
     let out = dir.path().join("big_out.mkv");
     transcode(&big, &out, &ffv1());
     assert_eq!(

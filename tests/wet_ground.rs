@@ -4,24 +4,29 @@
 //! dry render above the horizon (bit for bit) for tilted, rolled and rotated cameras.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
-use std::sync::Arc;
-
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, GroundConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, wet_ground, yuv_to_rgb};
-use rain_composite::gpu::types::{RainParams, WetParams};
+use rain_composite::gpu::types::WetParams;
 use rain_composite::gpu::uniforms::{self, RainSetup};
 use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::wetness::{
     FilmOptics, RainHistory, SurfaceStore, WATER_INDEX, Wetting, water_reflectance,
 };
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::{Camera, DepthMap, GroundMode};
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, Plane, YuvFrame};
+use rain_composite::video::YuvFrame;
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
 use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{dry_ground, lit, render, render_with};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::{codes, picture_444, scatter};
 
 /// Fresnel's unpolarised reflectance in angle form, air → water (independent of the cosine
 /// form the crate uses).
@@ -163,61 +168,24 @@ fn wetness_grows_with_the_rain_before_the_clip_and_dries_after() {
 
 /// A 4:4:4 10-bit BT.709 picture: a texture, or one grey (`flat`).
 fn picture(width: u32, height: u32, flat: Option<u16>) -> YuvFrame {
-    let format = FrameFormat {
+    let hash = |i: usize, x: u32, y: u32| scatter(i, x, y) % 1024;
+    picture_444(
         width,
         height,
-        chroma: Chroma::Cs444,
-        bit_depth: 10,
-    };
-    let planes = std::array::from_fn(|i| {
-        let stride = format.packed_stride(i);
-        let mut data = vec![0u8; stride * height as usize];
-        for y in 0..height {
-            for x in 0..width {
-                let hash = ((x * 37 + y * 91 + i as u32 * 53).wrapping_mul(2654435761) >> 7) % 1024;
-                let v = match (flat, i) {
-                    (Some(code), 0) => code as u32,
-                    (Some(_), _) => 512,
-                    (None, 0) => 100 + hash * 3 / 4,
-                    (None, _) => 512 + (hash as i32 - 512) as u32 / 4,
-                };
-                let at = y as usize * stride + x as usize * 2;
-                data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
-            }
-        }
-        Plane { data, stride }
-    });
-    YuvFrame {
-        format,
-        color: ColorParams::bt709(10),
-        planes,
-        pts: 0,
-        index: 0,
-    }
+        |x, y| match flat {
+            Some(code) => code,
+            None => (100 + hash(0, x, y) * 3 / 4) as u16,
+        },
+        |x, y, i| match flat {
+            Some(_) => 512,
+            None => (512 + (hash(i, x, y) as i32 - 512) as u32 / 4) as u16,
+        },
+    )
 }
 
 /// No rain drawn, the ground z = 0 under a camera 1.6 m up; wet as `wetting`.
 fn setup(camera: &Camera, rotation_deg: i32, wetting: Option<Wetting>) -> RainSetup {
-    let coded = if rotation_deg % 180 == 0 {
-        (camera.width_px, camera.height_px)
-    } else {
-        (camera.height_px, camera.width_px)
-    };
-    let rain = RainConfig {
-        rate_mm_per_h: 0.0,
-        ..RainConfig::default()
-    };
-    uniforms::build(
-        camera,
-        &CameraConfig::default(),
-        &rain,
-        0.01,
-        rotation_deg,
-        coded,
-    )
-    .expect("rain")
-    .with_ground(true)
-    .with_wetting(wetting)
+    dry_ground(camera, rotation_deg).with_wetting(wetting)
 }
 
 /// It rained at 10 mm/h for ten minutes and stops at the clip's start.
@@ -227,42 +195,6 @@ fn drying() -> Wetting {
         history: RainHistory::new(vec![(-600.0, 10.0), (0.0, 0.0)]).expect("history"),
         reach_m: 0.0,
     }
-}
-
-/// The uniforms at `t_s` under the environment `env` (coefficient, rgb) and haze transmittance
-/// `haze`.
-fn lit(setup: &RainSetup, t_s: f64, env: &[(usize, [f32; 3])], haze: f32) -> RainParams {
-    let mut sh = EnvironmentSh::zeros(4);
-    for &(i, c) in env {
-        sh.coeffs[i] = c;
-    }
-    let mut p = setup.params_at(
-        t_s,
-        &FrameLight {
-            env: sh,
-            lights: Vec::new(),
-        },
-        [[1.0, 0.4, 0.2, 0.1]; 3],
-    );
-    p.haze = [0.0, 0.0, 0.0, haze];
-    p
-}
-
-/// Code values of every plane, row-major.
-fn codes(frame: &YuvFrame) -> [Vec<u16>; 3] {
-    std::array::from_fn(|i| {
-        let (w, h) = frame.format.plane_size(i);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| frame.sample(i, x, y))
-            .collect()
-    })
-}
-
-fn render(ctx: &Arc<GpuContext>, frame: &YuvFrame, setup: &RainSetup, p: &RainParams) -> YuvFrame {
-    let mut comp =
-        Compositor::new(ctx.clone(), frame.format, &frame.color, setup).expect("compositor");
-    comp.render_one(frame, p).expect("render")
 }
 
 /// A sky brighter overhead and warmer to one side.
@@ -291,7 +223,7 @@ fn the_stage_matches_its_cpu_twin() {
             ..drying()
         };
         let s = setup(&camera, rotation, Some(wetting));
-        let p = lit(&s, 120.0, &SKY, 0.9);
+        let p = lit(&s, 120.0, &SKY, Some(0.9));
         let frame = picture(
             s.params.coded_size_px[0] as u32,
             s.params.coded_size_px[1] as u32,
@@ -336,7 +268,7 @@ fn nothing_changes_at_or_above_the_horizon() {
             f64::to_radians(roll_deg),
         );
         let wet = setup(&camera, rotation, Some(drying()));
-        let p = lit(&wet, 0.0, &SKY, 1.0);
+        let p = lit(&wet, 0.0, &SKY, Some(1.0));
         let (w, h) = (
             wet.params.coded_size_px[0] as u32,
             wet.params.coded_size_px[1] as u32,
@@ -389,7 +321,7 @@ fn grey_ground_closed_form(ctx: &std::sync::Arc<GpuContext>, reach_m: f64) {
     let sky = 2.0;
     let y00 = 0.5 / std::f64::consts::PI.sqrt();
     let c0 = (sky / y00) as f32;
-    let p = lit(&s, t, &[(0, [c0, c0, c0])], 1.0);
+    let p = lit(&s, t, &[(0, [c0, c0, c0])], Some(1.0));
     let frame = picture(40, 60, Some(400));
     let gpu = codes(&render(ctx, &frame, &s, &p));
     let dry = frame.color.code_to_linear([400.0, 512.0, 512.0])[1];
@@ -472,14 +404,14 @@ fn without_a_ground_the_frame_is_bit_identical() {
         .with_wetting(none.wetting(None, rain.rate_mm_per_h, rain.scene_depth_m));
     assert!(with_none.wetting.is_none());
     let frame = picture(32, 24, None);
-    let p = lit(&plain, 1.0, &SKY, 0.95);
+    let p = lit(&plain, 1.0, &SKY, Some(0.95));
     assert_eq!(
         codes(&render(&ctx, &frame, &plain, &p)),
         codes(&render(
             &ctx,
             &frame,
             &with_none,
-            &lit(&with_none, 1.0, &SKY, 0.95)
+            &lit(&with_none, 1.0, &SKY, Some(0.95))
         ))
     );
 }
@@ -504,7 +436,7 @@ fn report_cost_per_frame_at_720p() {
         ("wet ground", Some(drying())),
     ] {
         let s = setup(&camera, 0, wetting);
-        let p = lit(&s, 10.0, &SKY, 0.9);
+        let p = lit(&s, 10.0, &SKY, Some(0.9));
         let mut comp =
             Compositor::new(ctx.clone(), frame.format, &frame.color, &s).expect("compositor");
         comp.render_one(&frame, &p).expect("warm-up");
@@ -538,19 +470,18 @@ fn what_stands_on_the_ground_stays_dry_with_a_depth_map() {
     let map = DepthMap::from_values(w as usize, h as usize, &values, 1.0).expect("map");
     let plain = setup(&camera, 0, Some(drying()));
     let with_map = plain.clone().with_scene_depth(true);
-    let p = lit(&plain, 120.0, &SKY, 1.0);
+    let p = lit(&plain, 120.0, &SKY, Some(1.0));
     let frame = picture(w, h, None);
-    let render_with = |s: &RainSetup, depth: Option<&DepthMap>| {
-        let mut comp =
-            Compositor::new(ctx.clone(), frame.format, &frame.color, s).expect("compositor");
-        if let Some(d) = depth {
-            comp.set_scene_depth(d).expect("depth");
-        }
-        codes(&comp.render_one(&frame, &p).expect("render"))
+    let render_behind = |s: &RainSetup, depth: Option<&DepthMap>| {
+        codes(&render_with(&ctx, &frame, s, &p, |comp| {
+            if let Some(d) = depth {
+                comp.set_scene_depth(d).expect("depth");
+            }
+        }))
     };
     let dry = codes(&render(&ctx, &frame, &setup(&camera, 0, None), &p));
-    let unmasked = render_with(&plain, None);
-    let masked = render_with(&with_map, Some(&map));
+    let unmasked = render_behind(&plain, None);
+    let masked = render_behind(&with_map, Some(&map));
     let (mut box_wet, mut ground_changed, mut off_mask) = (0, 0, 0);
     for (i, ((m, u), d)) in masked[0].iter().zip(&unmasked[0]).zip(&dry[0]).enumerate() {
         let x = i as u32 % w;
@@ -589,7 +520,7 @@ fn what_stands_on_the_ground_stays_dry_with_a_depth_map() {
 fn the_wet_ground_as_a_layer_over_the_plate_is_the_wet_picture() {
     let camera = Camera::new(48, 32, 1.0, 1.6, f64::to_radians(-10.0), 0.2);
     let s = setup(&camera, 0, Some(drying()));
-    let p = lit(&s, 120.0, &SKY, 0.9);
+    let p = lit(&s, 120.0, &SKY, Some(0.9));
     let frame = picture(48, 32, None);
     let wet = WetParams::new(drying().wetness_at(120.0), &FilmOptics::water(), 0.0);
     let mut picture = yuv_to_rgb::yuv_to_rgb(&frame, &p);

@@ -3,37 +3,22 @@
 //! the machine has (lavapipe in CI).
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
+use fixtures::s;
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rain-composite"));
-    c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    c
-}
-
-fn ok(cmd: &mut Command) -> Output {
-    let out = cmd.output().expect("spawn");
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
+#[path = "common/binary.rs"]
+mod binary;
+use binary::{bin, ok};
 
 fn fails(cmd: &mut Command) -> String {
     let out = cmd.output().expect("spawn");
     assert!(!out.status.success(), "{cmd:?} should fail");
     String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 fn preset_names() -> Vec<String> {
