@@ -11,6 +11,7 @@ use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
 use rain_composite::keyframes::{Curve, Keyframes};
 use rain_composite::lighting::frame_light::rtf_tables;
 use rain_composite::lighting::{LightConfig, LightEstimator};
+use rain_composite::rain::volume::Rainfall;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
@@ -74,14 +75,7 @@ fn a_pan_moves_the_image_of_drops_fixed_in_the_world() {
     let want_x = centre_x - f * 20f64.to_radians().tan();
     let (mut drawn, mut on_axis) = (0, 0);
     for id in 0..setup.drop_count() as u64 {
-        let Some(d) = sample_drop(
-            &setup.volume,
-            &setup.model,
-            &setup.wind,
-            setup.params.seed,
-            id,
-            1.0,
-        ) else {
+        let Some(d) = sample_drop(setup.rainfall(), id, 1.0) else {
             continue;
         };
         let Some(s) = streak_of(&params, d.position_m, d.velocity_mps, d.width_mm) else {
@@ -116,7 +110,13 @@ fn in_view_count(setup: &RainSetup, t_s: f64, far_m: f64) -> usize {
     let camera = setup.camera_at(t_s);
     let v = &setup.volume;
     (0..setup.drop_count() as u64)
-        .filter_map(|id| sample_drop(v, &setup.model, &setup.wind, setup.params.seed, id, t_s))
+        .filter_map(|id| {
+            sample_drop(
+                Rainfall::new(v, &setup.model, &setup.wind, setup.params.seed),
+                id,
+                t_s,
+            )
+        })
         .filter(|d| {
             let c = camera.camera_from_world_point(d.position_m);
             c.z >= v.near_m

@@ -205,15 +205,7 @@ fn gpu_drops_match_the_cpu_reference() {
         let gpu_states = probe_drops(&ctx, &setup, t, 4096).expect("probe");
         let mut wrapped = 0;
         for (id, g) in gpu_states.iter().enumerate() {
-            let c = sample_drop(
-                &setup.volume,
-                &setup.model,
-                &setup.wind,
-                rain.seed,
-                id as u64,
-                t,
-            )
-            .expect("drop");
+            let c = sample_drop(setup.rainfall(), id as u64, t).expect("drop");
             let c_pos = c.position_m.as_vec3();
             assert!(
                 (g.vel_mps - c.velocity_mps.as_vec3()).length() < 1e-3 * (1.0 + t as f32),

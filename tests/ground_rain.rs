@@ -8,6 +8,7 @@ use rain_composite::config::RainConfig;
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::keyframes::Curve;
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
+use rain_composite::rain::volume::Rainfall;
 use rain_composite::rain::volume::{GroundRain, GroundRect, Impact, landing_columns};
 
 #[path = "common/render.rs"]
@@ -30,7 +31,7 @@ fn setup(rate_mm_per_h: f64) -> RainSetup {
 }
 
 fn ground_rain(s: &RainSetup) -> GroundRain {
-    GroundRain::new(&s.volume, &s.model, &s.wind, s.params.seed)
+    GroundRain::new(s.rainfall())
 }
 
 /// ∫ f(D) dD over [a, b] by Simpson's rule on `n` (even) intervals.
@@ -181,7 +182,7 @@ fn no_rain_lands_at_rate_zero_and_a_keyed_rate_thins_the_stream() {
     let s = setup(20.0);
     let keys = Curve::new(vec![(1.0, 20.0), (1.1, 10.0), (3.0, 10.0), (3.1, 0.0)]).expect("keys");
     let model = s.model.clone().with_rate_keys(&keys);
-    let g = GroundRain::new(&s.volume, &model, &s.wind, s.params.seed);
+    let g = GroundRain::new(Rainfall::new(&s.volume, &model, &s.wind, s.params.seed));
     let far = rect(-1.0, 12.0, 1.0, 14.0);
     let ten = inside(&g.impacts_between(&far, 1.5, 2.5), &far) as f64;
     let want = flux_moment(&setup(10.0), 10.0, 0) * far.area_m2();

@@ -132,7 +132,7 @@ fn no_streak_reaches_below_the_ground() {
         for t in [0.0, 0.37, 1.9, 12.25] {
             let p = s.motion_at(t);
             for id in 0..s.volume.simulated {
-                let d = sample_drop(&s.volume, &s.model, &s.wind, p.seed, id, t).expect("drop");
+                let d = sample_drop(s.rainfall(), id, t).expect("drop");
                 let Some(st) = rain_simulate::streak_of(&p, d.position_m, d.velocity_mps, 2.0)
                 else {
                     continue;

@@ -10,6 +10,7 @@ use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
 use rain_composite::keyframes::{Curve, Keyframes};
 use rain_composite::lighting::wetness::{RainHistory, SurfaceStore};
 use rain_composite::rain::physics::{DropSizeDistribution, RainRate};
+use rain_composite::rain::volume::Rainfall;
 use rain_composite::rain::volume::{RATE_STREAM, cycle_uniform, drop_uniform, sample_drop};
 use rain_composite::rain::wind::Wind;
 use rain_composite::scene::Camera;
@@ -126,7 +127,7 @@ fn a_keyed_rate_adds_drops_only_where_they_enter_the_view() {
         let t = frame as f64 / FPS;
         let mut count = 0;
         for id in 0..n {
-            let cur = sample_drop(vol, model, wind, seed, id, t);
+            let cur = sample_drop(Rainfall::new(vol, model, wind, seed), id, t);
             let seen = cur.filter(|d| in_view(&camera, &setup, d.position_m, 0.0));
             count += seen.is_some() as u32;
             let before = std::mem::replace(&mut prev[id as usize], cur);
@@ -142,8 +143,9 @@ fn a_keyed_rate_adds_drops_only_where_they_enter_the_view() {
                         d.born_s > t - 1.0 / FPS - 1e-9 && d.born_s <= t,
                         "drop {id}"
                     );
-                    let at_birth = sample_drop(vol, model, wind, seed, id, d.born_s + 1e-7)
-                        .expect("the same pass falls");
+                    let at_birth =
+                        sample_drop(Rainfall::new(vol, model, wind, seed), id, d.born_s + 1e-7)
+                            .expect("the same pass falls");
                     assert_eq!(at_birth.pass, d.pass);
                     assert!(
                         !in_view(&camera, &setup, at_birth.position_m, 1.0),
@@ -154,7 +156,8 @@ fn a_keyed_rate_adds_drops_only_where_they_enter_the_view() {
                 (Some(b), None) => {
                     // Gone: only because its pass ended (it fell out of its column).
                     left += 1;
-                    let now = sample_drop(vol, &unkeyed, wind, seed, id, t).expect("in a column");
+                    let now = sample_drop(Rainfall::new(vol, &unkeyed, wind, seed), id, t)
+                        .expect("in a column");
                     assert_ne!(now.pass, b.pass, "drop {id} vanished mid-air at {t} s");
                 }
                 _ => {}
@@ -254,14 +257,7 @@ fn the_gpu_thins_and_blows_the_drops_as_the_twin_does() {
         let gpu_drops = probe_drops(&ctx, &setup, t, 8192).expect("probe");
         let (mut both, mut disagree, mut wrapped) = (0, 0, 0);
         for (id, g) in gpu_drops.iter().enumerate() {
-            let c = sample_drop(
-                &setup.volume,
-                &setup.model,
-                &setup.wind,
-                setup.params.seed,
-                id as u64,
-                t,
-            );
+            let c = sample_drop(setup.rainfall(), id as u64, t);
             match c {
                 Some(c) if g.diameter_mm > 0.0 => {
                     both += 1;

@@ -223,7 +223,7 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
             .expect("ground in view")
     };
     let (mut render, mut seek) = (build(), build());
-    let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, config.rain.seed);
+    let ground = GroundRain::new(rain.rainfall());
     for frame in 1..=6 {
         let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
         let hits = ground.impacts_between(&render.ground_rect(), t0, t1);

@@ -44,7 +44,7 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
         .expect("valid")
         .expect("ground in view");
     let rain = uniforms::build(&camera, &c.camera, &c.rain, 0.02, 0, (1280, 720)).expect("rain");
-    let ground = GroundRain::new(&rain.volume, &rain.model, &rain.wind, c.rain.seed);
+    let ground = GroundRain::new(rain.rainfall());
     let mut rings: Vec<Impact> = Vec::new();
     let (mut landed, mut drawn_most) = (0u64, 0usize);
     let held = |sim: &PuddleSim, rings: &Vec<Impact>| Held {

@@ -7,6 +7,7 @@ use rain_composite::rain::physics::{
     DropSizeDistribution, DsdShape, FallSpeed, RainModel, RainRate, ThinLens, image_velocity_pxps,
     projected_streak_px, streak_length_px,
 };
+use rain_composite::rain::volume::Rainfall;
 use rain_composite::rain::volume::{
     ColumnGrid, RainVolume, VolumeParams, drop_uniform, inspect_drops, sample_drop,
 };
@@ -178,7 +179,7 @@ fn no_drop_exceeds_terminal_velocity_in_still_air() {
     let mut worst = 0.0f64;
     for id in (0..vol.simulated).step_by(step as usize) {
         for t in [0.0, 1.7, 60.0] {
-            let d = sample_drop(&vol, &model, &wind, 3, id, t).expect("drop");
+            let d = sample_drop(Rainfall::new(&vol, &model, &wind, 3), id, t).expect("drop");
             // The emitter's fall speed is its table of Gunn & Kinzer's curve by size quantile
             // (16 steps per octave of 1 − u, 1/1024 m/s steps), within 0.01 m/s of the curve.
             let vt = -d.velocity_mps.z;
@@ -213,7 +214,7 @@ fn measured_density(cam: &Camera, model: &RainModel, wind: &Wind, params: &Volum
     let vol = RainVolume::plan(cam, model, wind, params).expect("plan");
     let inside = (0..vol.simulated)
         .filter(|&id| {
-            let d = sample_drop(&vol, model, wind, 11, id, 3.7).expect("drop");
+            let d = sample_drop(Rainfall::new(&vol, model, wind, 11), id, 3.7).expect("drop");
             in_slab(cam, d.position_m, vol.near_m, vol.far_m, params.ground_z_m)
         })
         .count();
@@ -360,7 +361,7 @@ fn streak_angles_deg(
     let vol = RainVolume::plan(cam, model, &wind, &params).expect("plan");
     let (mut got, mut want, mut n) = (0.0, 0.0, 0);
     for id in 0..vol.simulated {
-        let d = sample_drop(&vol, model, &wind, 8, id, 2.0).expect("drop");
+        let d = sample_drop(Rainfall::new(&vol, model, &wind, 8), id, 2.0).expect("drop");
         let q = cam.camera_from_world_point(d.position_m);
         if q.z < 1.0 || (q.x / q.z).abs() > 0.05 || (q.y / q.z).abs() > 0.05 {
             continue;
@@ -532,7 +533,7 @@ fn check_plan(label: &str, cam: &Camera, model: &RainModel, wind: &Wind, params:
         assert!(b.expected.is_finite() && b.simulated.is_finite(), "{label}");
     }
     for id in (0..vol.simulated).step_by((vol.simulated / 200).max(1) as usize) {
-        let d = sample_drop(&vol, model, wind, 1, id, 12.3).expect("drop");
+        let d = sample_drop(Rainfall::new(&vol, model, wind, 1), id, 12.3).expect("drop");
         assert!(
             d.position_m.is_finite() && d.velocity_mps.is_finite(),
             "{label}: drop {id}"
@@ -752,7 +753,7 @@ fn the_drop_twin_equals_its_closed_form_at_any_time() {
     let (mut compared, mut edge) = (0, 0);
     for t in [10.25, 3_600.5, 36_000.25, 36_000.25 + 7.0 * 86_400.0] {
         for id in (0..vol.simulated).step_by(97) {
-            let d = sample_drop(&vol, &model, &wind, seed, id, t).expect("drop");
+            let d = sample_drop(Rainfall::new(&vol, &model, &wind, seed), id, t).expect("drop");
             let col = &grid.columns[d.column];
             let id32 = id as u32;
             let speed_q = vol.motion.fall_speed_q(drop_bits(seed, id32, 3));

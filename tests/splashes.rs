@@ -73,7 +73,7 @@ fn splashes_per_second_and_square_metre_are_the_marshall_palmer_flux_above_the_t
     let area_m2 =
         landing_columns(&s.volume).count() as f64 * grid.cell_size_m.x * grid.cell_size_m.y;
     let (t0, t1) = (2.0, 5.0);
-    let hits = impacts_between(&s.volume, &s.model, &s.wind, s.params.seed, t0, t1);
+    let hits = impacts_between(s.rainfall(), t0, t1);
     let per = |n: usize| n as f64 * s.volume.weight / (area_m2 * (t1 - t0));
     let splashing = hits
         .iter()
@@ -109,20 +109,17 @@ fn splashes_per_second_and_square_metre_are_the_marshall_palmer_flux_above_the_t
 #[test]
 fn impacts_lie_on_the_ground_where_the_drops_meet_it() {
     let s = setup(320, 180, 25.0, 3.0, true);
-    let seed = s.params.seed;
-    let hits = impacts_between(&s.volume, &s.model, &s.wind, seed, 7.0, 7.3);
+    let hits = impacts_between(s.rainfall(), 7.0, 7.3);
     assert!(hits.len() > 500, "{}", hits.len());
     let eps = 1e-4;
     let mut worst = 0.0f64;
     for h in &hits {
         assert_eq!(h.position_m.z, 0.0);
-        let d =
-            sample_drop(&s.volume, &s.model, &s.wind, seed, h.id, h.time_s - eps).expect("drop");
+        let d = sample_drop(s.rainfall(), h.id, h.time_s - eps).expect("drop");
         let want = h.position_m - h.velocity_mps * eps;
         worst = worst.max((d.position_m - want).length());
         assert!((d.diameter_mm - h.diameter_mm).abs() < 1e-12);
-        let after =
-            sample_drop(&s.volume, &s.model, &s.wind, seed, h.id, h.time_s + eps).expect("drop");
+        let after = sample_drop(s.rainfall(), h.id, h.time_s + eps).expect("drop");
         let col = &s.volume.grid.columns[after.column];
         assert!(after.position_m.z > col.z_hi_m - 2.0 * eps * -h.velocity_mps.z - 1e-6);
     }
@@ -291,7 +288,7 @@ fn splashes_are_placed_at_the_impacts() {
         for t in [1.1, 6.4] {
             let p = s.motion_at(t);
             for id in 0..s.volume.simulated {
-                let Some(hit) = latest_impact(&s.volume, &s.model, &s.wind, p.seed, id, t) else {
+                let Some(hit) = latest_impact(s.rainfall(), id, t) else {
                     continue;
                 };
                 if t - hit.time_s > 0.5 {

@@ -222,15 +222,7 @@ fn every_stage_matches_its_cpu_twin() {
                     .expect("streaks");
                     let (mut off, mut drawn) = (0, 0);
                     for (id, (g, s)) in drops.iter().zip(&streaks).enumerate() {
-                        let c = sample_drop(
-                            &setup.volume,
-                            &setup.model,
-                            &setup.wind,
-                            setup.params.seed,
-                            id as u64,
-                            t,
-                        )
-                        .expect("drop");
+                        let c = sample_drop(setup.rainfall(), id as u64, t).expect("drop");
                         let err = (g.pos_m.as_dvec3() - c.position_m).length();
                         off += (err > 2e-3) as usize;
                         assert!(
@@ -373,15 +365,7 @@ fn drop_errors(ctx: &GpuContext, setup: &RainSetup, t_s: f64, what: &str) -> (f6
     assert!(gpu.len() > 500, "{what}: {} drops", gpu.len());
     let (mut worst, mut wrapped) = (0.0f64, 0);
     for (id, g) in gpu.iter().enumerate() {
-        let c = sample_drop(
-            &setup.volume,
-            &setup.model,
-            &setup.wind,
-            setup.params.seed,
-            id as u64,
-            t_s,
-        )
-        .expect("drop");
+        let c = sample_drop(setup.rainfall(), id as u64, t_s).expect("drop");
         let dv = (g.vel_mps.as_dvec3() - c.velocity_mps).length();
         assert!(dv < 1e-3, "{what} t={t_s}: drop {id} velocity off by {dv}");
         assert!(

@@ -84,12 +84,7 @@ pub fn report(
         (info.format.width, info.format.height),
     )?;
     let run = Instant::now();
-    let rain = crate::rain::volume::GroundRain::new(
-        &setup.volume,
-        &setup.model,
-        &setup.wind,
-        config.rain.seed,
-    );
+    let rain = crate::rain::volume::GroundRain::new(setup.rainfall());
     let steps = match keep.filter(|k| k.every_frames > 0) {
         // Frame by frame, keeping the water after every N-th as a render would: a farm's
         // simulation pass before its chunks.

@@ -109,7 +109,7 @@ impl PuddleFeed {
         let PuddleFeed::Pending(plan) = self else {
             return Ok(Vec::new());
         };
-        let rain = GroundRain::new(&rain.volume, &rain.model, &rain.wind, rain.params.seed);
+        let rain = GroundRain::new(rain.rainfall());
         let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
             log::warn!(
                 "--puddles: the {} shows no ground within reach; no puddles",

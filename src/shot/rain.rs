@@ -402,6 +402,11 @@ impl RainPlan {
         self
     }
 
+    /// The rain its drops see: volume, model, wind and seed.
+    pub fn rainfall(&self) -> crate::rain::volume::Rainfall<'_> {
+        crate::rain::volume::Rainfall::new(&self.volume, &self.model, &self.wind, self.seed)
+    }
+
     /// Drops drawn per frame.
     pub fn drop_count(&self) -> u32 {
         self.volume.simulated.min(u32::MAX as u64) as u32

@@ -64,7 +64,7 @@ pub fn splash_streaks(
     }
     let exposure = p.exposure_s as f64;
     let (a, b) = (t_s - 0.5 * exposure, t_s + 0.5 * exposure);
-    let Some(hit) = latest_impact(&setup.volume, &setup.model, &setup.wind, p.seed, id, b) else {
+    let Some(hit) = latest_impact(setup.rainfall(), id, b) else {
         return (None, Vec::new());
     };
     let hit = placed_from_frame(setup, p, hit, t_s);

@@ -16,6 +16,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::rainfall::Rainfall;
 use super::{ColumnGrid, RainVolume};
 use crate::rain::physics::{G_MPS2, RainModel, streak_width_factor};
 use crate::rain::wind::Wind;
@@ -234,14 +235,13 @@ pub fn cycle_uniform(seed: u32, id: u32, cycle: u32, stream: u32) -> f64 {
 /// the fall and the drift (fixed-point phases, see the module notes) and the wind, wrapped
 /// modulo the column, with a new lateral offset (streams 4, 5 of the pass number) each time
 /// the drop wraps through the bottom.
-pub fn sample_drop(
-    volume: &RainVolume,
-    model: &RainModel,
-    wind: &Wind,
-    seed: u32,
-    id: u64,
-    t_s: f64,
-) -> Option<SampledDrop> {
+pub fn sample_drop(rain: Rainfall, id: u64, t_s: f64) -> Option<SampledDrop> {
+    let Rainfall {
+        volume,
+        model,
+        wind,
+        seed,
+    } = rain;
     let ci = volume.grid.column_of(id)?;
     let col = &volume.grid.columns[ci];
     let grid = &volume.grid;

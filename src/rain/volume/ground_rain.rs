@@ -31,9 +31,9 @@ use std::collections::HashSet;
 
 use glam::{DVec2, DVec3};
 
-use super::RainVolume;
 use super::drop::pcg_hash;
 use super::impacts::{Impact, impacts_between, landing_columns};
+use super::{RainVolume, Rainfall};
 use crate::rain::physics::RainModel;
 use crate::rain::wind::Wind;
 
@@ -130,9 +130,15 @@ pub struct GroundRain {
 }
 
 impl GroundRain {
-    /// The rain of `model` (its peak, with its keys) landing on the ground, with `volume`'s
-    /// drawn drops where its columns stand on the ground.
-    pub fn new(volume: &RainVolume, model: &RainModel, wind: &Wind, seed: u32) -> GroundRain {
+    /// The rain of `rain`'s model (its peak, with its keys) landing on the ground, with its
+    /// volume's drawn drops where its columns stand on the ground.
+    pub fn new(rain: Rainfall) -> GroundRain {
+        let Rainfall {
+            volume,
+            model,
+            wind,
+            seed,
+        } = rain;
         let (d0, d1) = model.dsd.range_mm();
         let h = (d1 - d0) / SIZE_INTERVALS as f64;
         let flux_density =
@@ -209,10 +215,15 @@ impl GroundRain {
         self.drawn.covers(p)
     }
 
+    /// The rain that falls, as the drawn drops see it.
+    pub fn rainfall(&self) -> Rainfall<'_> {
+        Rainfall::new(&self.volume, &self.model, &self.wind, self.seed)
+    }
+
     /// Every impact in `rect` (and the drawn volume's anywhere) with time in (t0_s, t1_s]:
     /// the drawn drops' first ([`impacts_between`]), then the stream's.
     pub fn impacts_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64) -> Vec<Impact> {
-        let mut out = impacts_between(&self.volume, &self.model, &self.wind, self.seed, t0_s, t1_s);
+        let mut out = impacts_between(self.rainfall(), t0_s, t1_s);
         self.stream_between(rect, t0_s, t1_s, &mut out);
         out
     }

@@ -18,8 +18,8 @@ use super::drop::{
     FALL_RATE_BITS, SPEED_BITS, SplitTime, drift_cells, drop_bits, drop_uniform, fall_rate_q,
     falls, inv_height_q, lateral_fractions,
 };
-use crate::rain::physics::{G_MPS2, RainModel};
-use crate::rain::wind::Wind;
+use super::rainfall::Rainfall;
+use crate::rain::physics::G_MPS2;
 
 /// A column bottom this close to z = 0 (m) stands on the ground.
 pub const GROUND_TOLERANCE_M: f64 = 1e-6;
@@ -72,15 +72,13 @@ fn fall(volume: &RainVolume, seed: u32, ci: usize, id: u64) -> (f64, f64, u32) {
 }
 
 /// The impact of drop `id` (in column `ci`) when its height fraction crosses the integer `c`.
-fn impact(
-    volume: &RainVolume,
-    model: &RainModel,
-    wind: &Wind,
-    seed: u32,
-    ci: usize,
-    id: u64,
-    c: i64,
-) -> Impact {
+fn impact(rain: Rainfall, ci: usize, id: u64, c: i64) -> Impact {
+    let Rainfall {
+        volume,
+        model,
+        wind,
+        seed,
+    } = rain;
     let (u2, rate, speed_q) = fall(volume, seed, ci, id);
     let time_s = (u2 - c as f64) / rate;
     let pass = c as u32;
@@ -106,14 +104,13 @@ fn impact(
 
 /// Whether the pass of drop `id` (in column `ci`) that ends when its height fraction crosses
 /// `c` falls at all ([`falls`]): it was born one column height before.
-fn pass_falls(
-    volume: &RainVolume,
-    model: &RainModel,
-    seed: u32,
-    ci: usize,
-    id: u64,
-    c: i64,
-) -> bool {
+fn pass_falls(rain: Rainfall, ci: usize, id: u64, c: i64) -> bool {
+    let Rainfall {
+        volume,
+        model,
+        seed,
+        ..
+    } = rain;
     let (u2, rate, _) = fall(volume, seed, ci, id);
     let birth_s = (u2 - c as f64 - 1.0) / rate;
     let d_mm = model
@@ -123,14 +120,8 @@ fn pass_falls(
 }
 
 /// Every impact on the ground in (t0_s, t1_s], 0 ≤ t0_s, in drop order then time order.
-pub fn impacts_between(
-    volume: &RainVolume,
-    model: &RainModel,
-    wind: &Wind,
-    seed: u32,
-    t0_s: f64,
-    t1_s: f64,
-) -> Vec<Impact> {
+pub fn impacts_between(rain: Rainfall, t0_s: f64, t1_s: f64) -> Vec<Impact> {
+    let Rainfall { volume, seed, .. } = rain;
     let mut out = Vec::new();
     for ci in landing_columns(volume) {
         let col = &volume.grid.columns[ci];
@@ -143,8 +134,8 @@ pub fn impacts_between(
             let lo = (u2 - rate * t1_s).ceil() as i64;
             let hi = (u2 - rate * t0_s.max(0.0)).ceil() as i64;
             for c in (lo..hi).rev() {
-                if pass_falls(volume, model, seed, ci, id, c) {
-                    out.push(impact(volume, model, wind, seed, ci, id, c));
+                if pass_falls(rain, ci, id, c) {
+                    out.push(impact(rain, ci, id, c));
                 }
             }
         }
@@ -154,14 +145,8 @@ pub fn impacts_between(
 
 /// Drop `id`'s latest impact at or before `t_s` (`None` if its column does not stand on the
 /// ground, or its latest impact would be before t = 0).
-pub fn latest_impact(
-    volume: &RainVolume,
-    model: &RainModel,
-    wind: &Wind,
-    seed: u32,
-    id: u64,
-    t_s: f64,
-) -> Option<Impact> {
+pub fn latest_impact(rain: Rainfall, id: u64, t_s: f64) -> Option<Impact> {
+    let Rainfall { volume, seed, .. } = rain;
     let ci = volume.grid.column_of(id)?;
     if volume.grid.columns[ci].z_lo_m.abs() >= GROUND_TOLERANCE_M {
         return None;
@@ -171,6 +156,6 @@ pub fn latest_impact(
         return None;
     }
     let c = (u2 - rate * t_s).ceil() as i64;
-    let hit = impact(volume, model, wind, seed, ci, id, c);
-    (hit.time_s >= 0.0 && pass_falls(volume, model, seed, ci, id, c)).then_some(hit)
+    let hit = impact(rain, ci, id, c);
+    (hit.time_s >= 0.0 && pass_falls(rain, ci, id, c)).then_some(hit)
 }

@@ -3,6 +3,7 @@
 use glam::DVec3;
 use serde_json::{Value, json};
 
+use super::rainfall::Rainfall;
 use super::{RainVolume, SampledDrop, VolumeParams, sample_drop};
 use crate::Result;
 use crate::rain::physics::{DsdShape, RainModel};
@@ -27,7 +28,7 @@ pub fn inspect_drops(
         .filter_map(|i| {
             // i < n, so n > 0 here.
             let id = i * volume.simulated / n.max(1);
-            sample_drop(&volume, model, wind, seed, id, t_s)
+            sample_drop(Rainfall::new(&volume, model, wind, seed), id, t_s)
         })
         .collect();
     let depth = |p: DVec3| camera.camera_from_world_point(p).z;

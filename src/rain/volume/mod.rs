@@ -52,6 +52,7 @@ pub mod geometry;
 pub mod ground_rain;
 pub mod impacts;
 pub mod inspect;
+pub mod rainfall;
 
 pub use columns::{Column, ColumnGrid, columns};
 pub use drop::{
@@ -62,6 +63,7 @@ pub use geometry::view_volume_m3;
 pub use ground_rain::{GroundRain, GroundRect};
 pub use impacts::{Impact, impacts_between, landing_columns, latest_impact};
 pub use inspect::inspect_drops;
+pub use rainfall::Rainfall;
 
 use glam::{DVec2, DVec3};
 use serde_json::{Value, json};
