@@ -82,27 +82,8 @@ struct InFlight {
     template: YuvFrame,
 }
 
-/// A frame read back: the composite (or the layer over black) as Y'CbCr planes, or the
-/// rain as an R'G'B'A layer.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Rendered {
-    /// Planes in the input's layout.
-    Picture(YuvFrame),
-    /// The layer, or the matte.
-    Layer(LayerFrame),
-}
-
-impl Rendered {
-    /// The picture, or an error for a layer.
-    pub fn into_picture(self) -> Result<YuvFrame> {
-        match self {
-            Rendered::Picture(f) => Ok(f),
-            Rendered::Layer(_) => Err(Error::Gpu(
-                "this compositor writes R'G'B'A layers, not pictures".into(),
-            )),
-        }
-    }
-}
+/// Kept here, where the compositor produces it; the type lives in [`crate::video`].
+pub use crate::video::Rendered;
 
 /// Renders rain onto frames of one fixed format.
 pub struct Compositor {

@@ -1,14 +1,18 @@
-//! Files the user names, other than the video: read only when regular and within a size bound,
-//! written through a temporary name beside them.
+//! Files the user names: read only when regular and within a size bound, written through a
+//! temporary name beside them.
 //!
 //! A FIFO would block the read forever and a device such as `/dev/zero` (or a link to one)
 //! would fill the memory, so anything but a regular file is refused before it is opened. An
 //! output is written under a hidden name in its folder and renamed when complete, so a failed
-//! write never truncates or half-writes the file it replaces.
+//! write never truncates or half-writes the file it replaces; [`output`] holds that temporary
+//! file and the checks every output (video or PNG) passes before any work is done.
+
+pub mod output;
 
 use std::path::Path;
 
-use crate::video::TempFile;
+pub use output::{TempFile, check_output, same_file, temp_path};
+
 use crate::{Error, Result};
 
 /// The bytes of the regular file at `path` (links followed), at most `max_bytes` of them; the
@@ -66,7 +70,7 @@ pub fn check_png_output(path: &Path) -> Result<()> {
             reason: "plots are PNG: give a name ending in .png".into(),
         });
     }
-    crate::video::check_output(&path.to_string_lossy(), &[], true)
+    check_output(&path.to_string_lossy(), &[], true)
 }
 
 /// Encodes `img` as PNG (whatever the name's extension) and writes it to `path` atomically.
