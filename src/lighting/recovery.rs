@@ -483,124 +483,16 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
     let mask: Vec<bool> = (0..w * h)
         .map(|b| stats.clipped_fraction(b) > 0.0)
         .collect();
-    let clip_lum = luminance(stats.clip.level).max(1e-12);
-    // The exposure anchor: the frame's median luminance, and the illuminance on the surfaces
-    // the exposure is set for.
-    let mut sorted = lum.clone();
-    sorted.sort_by(f64::total_cmp);
-    let l_med = sorted[sorted.len() / 2].max(MIN_MEDIAN_LUMINANCE);
-    let e_frame = std::f64::consts::PI * l_med / GREY_ALBEDO;
-    let key_flux = KEY_LIGHT_ILLUMINANCE_RATIO * e_frame;
-    // What a clipped surface is taken to be, and the most it may be (module doc, step 3).
-    let surface_bound = (SURFACE_BOUND_OVER_MEDIAN * l_med).max(clip_lum);
-    let surface_typical = (SURFACE_OVER_CLIP * clip_lum).min(surface_bound);
-
-    let cands: Vec<Candidate> = components(w, h, &mask)
-        .into_iter()
-        .map(|blocks| {
-            let mut omega_clip = 0.0;
-            let mut omega_blocks = 0.0;
-            let mut dir = DVec3::ZERO;
-            let mut centre = DVec2::ZERO;
-            let mut touches_edge = false;
-            for &b in &blocks {
-                let f = stats.clipped_fraction(b);
-                omega_clip += f * geo.solid_angle_sr[b];
-                omega_blocks += geo.solid_angle_sr[b];
-                dir += f * geo.solid_angle_sr[b] * geo.dir[b];
-                centre += f * geo.solid_angle_sr[b] * geo.centre_px[b];
-                let (x, y) = (b % w, b / w);
-                touches_edge |= x == 0 || y == 0 || x + 1 == w || y + 1 == h;
-            }
-            let dir = dir.normalize_or(geo.dir[blocks[0]]);
-            let centre = centre / omega_clip.max(1e-300);
-            // The unclipped ring: blocks within three equivalent radii of the centroid (at
-            // least two blocks' width), outside the region.
-            let r_eq = (omega_blocks / std::f64::consts::PI).sqrt();
-            let block_rad = geo.solid_angle_sr[blocks[0]].sqrt();
-            let cos_ring = (3.0 * r_eq).max(2.5 * block_rad).min(1.5).cos();
-            let ring: Vec<usize> = (0..w * h)
-                .filter(|&b| !mask[b] && geo.dir[b].dot(dir) >= cos_ring)
-                .collect();
-            let ring_mean = (!ring.is_empty()).then(|| {
-                let mut acc = [0.0f64; 3];
-                for &b in &ring {
-                    (0..3).for_each(|k| acc[k] += f64::from(stats.mean[b][k]));
-                }
-                acc.map(|v| v / ring.len() as f64)
-            });
-            Candidate {
-                blocks,
-                omega_clip,
-                omega_blocks,
-                centre,
-                dir,
-                ring,
-                ring_mean,
-                touches_edge,
-            }
-        })
-        .collect();
-
-    // Step 2: the kinds. Lamps and windows: compact, above the horizon, against surroundings
-    // dark both next to the clip level and next to the scene's typical luminance.
-    let night = l_med <= NIGHT_MEDIAN_OVER_CLIP * clip_lum;
-    let is_lamp = |c: &Candidate| {
-        let ring = c.ring_luminance();
-        c.omega_clip <= EMITTER_MAX_SR
-            && ring <= EMITTER_RING_CONTRAST * clip_lum
-            && (night || (c.dir.z > 0.0 && ring <= DARK_SURROUND_OVER_MEDIAN * l_med))
-    };
-    let mut lamps: Vec<usize> = (0..cands.len()).filter(|&i| is_lamp(&cands[i])).collect();
-    lamps.sort_by(|&a, &b| {
-        cands[b]
-            .omega_clip
-            .total_cmp(&cands[a].omega_clip)
-            .then(a.cmp(&b))
-    });
-    let mut is_lamp = vec![false; cands.len()];
-    lamps.iter().for_each(|&i| is_lamp[i] = true);
-    // More emitters than lights: a field of windows and signs.
-    let emitter_field = lamps.len() > MAX_RECOVERED_LIGHTS;
-    // Lamps are the key light only at night; in daylight the sun and sky are, and a lamp or a
-    // lit window shows the luminance of one.
-    let lamps_are_key = night && !lamps.is_empty();
-    // The sun, where no lamp is the key light: the largest clipped region above the horizon,
-    // if it is as large and as solidly clipped as the sun's glare.
-    let sun = if !lamps_are_key && settings.highlight_gain.is_none() {
-        (0..cands.len())
-            .filter(|&i| {
-                let c = &cands[i];
-                c.dir.z > 0.0
-                    && !is_lamp[i]
-                    && c.omega_clip >= SUN_MIN_SR
-                    && c.omega_clip >= SUN_MIN_FILL * c.omega_blocks
-                    && c.ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
-            })
-            .max_by(|&a, &b| cands[a].omega_clip.total_cmp(&cands[b].omega_clip))
-    } else {
-        None
-    };
-    let kind_of = |i: usize| -> RegionKind {
-        if is_lamp[i] {
-            if emitter_field {
-                RegionKind::Window
-            } else {
-                RegionKind::Lamp
-            }
-        } else if sun == Some(i) {
-            RegionKind::Sun
-        } else if cands[i].dir.z > 0.0 && cands[i].omega_clip > COMPACT_MAX_SR {
-            RegionKind::Sky
-        } else {
-            RegionKind::Surface
-        }
-    };
-    let total_lamp_omega: f64 = lamps.iter().map(|&i| cands[i].omega_clip).sum();
-    let mut as_light = vec![false; cands.len()];
-    for &i in lamps.iter().take(MAX_RECOVERED_LIGHTS) {
-        as_light[i] = true;
-    }
+    let anchor = Anchor::of(stats, &lum);
+    let Anchor {
+        clip_lum,
+        l_med,
+        key_flux,
+        surface_bound,
+        surface_typical,
+    } = anchor;
+    let cands = candidates(stats, &geo, &mask);
+    let kinds = Kinds::of(&cands, &anchor, settings);
     let dist = distance_to_unclipped(w, h, &mask);
 
     let mut lights = Vec::new();
@@ -609,7 +501,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
     let mut regions = Vec::new();
     let mut block_region = vec![0u32; w * h];
     for (ci, c) in cands.iter().enumerate() {
-        let kind = kind_of(ci);
+        let kind = kinds.kind[ci];
         let emitter = matches!(kind, RegionKind::Lamp | RegionKind::Window);
         // Step 3: the luminance of a clipped sample, per block.
         // The overcast sky's zenith luminance fitted to the ring above the horizon.
@@ -624,9 +516,9 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         let target_lum = |b: usize| -> f64 {
             match kind {
                 RegionKind::Window => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
-                RegionKind::Lamp if !lamps_are_key => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
+                RegionKind::Lamp if !kinds.lamps_are_key => EMITTER_OVER_MEAN_AT_NIGHT * l_med,
                 // The key light's flux shared in proportion to Ω: the same radiance for all.
-                RegionKind::Lamp => key_flux / total_lamp_omega.max(1e-300),
+                RegionKind::Lamp => key_flux / kinds.total_lamp_omega.max(1e-300),
                 RegionKind::Sky | RegionKind::Sun => {
                     let fit = sky_zenith.map_or(clip_lum, |lz| lz * overcast(geo.dir[b]));
                     fit.max(clip_lum + (surface_typical - clip_lum) * fill)
@@ -685,30 +577,13 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         }
         let mut radiance_rgb = rad_acc.map(|v| v / rad_w.max(1e-300));
         if kind == RegionKind::Sun {
-            // The sun's flux, at the core of the region: the blocks farthest from its unclipped
-            // surroundings, in the colour of their clipped samples.
-            let d_max = c.blocks.iter().map(|&b| dist[b]).max().unwrap_or(0);
-            let mut core_dir = DVec3::ZERO;
-            let mut colour = [0.0f64; 3];
-            for &b in c.blocks.iter().filter(|&&b| dist[b] + 1 >= d_max) {
-                let wgt = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
-                core_dir += wgt * geo.dir[b];
-                (0..3).for_each(|k| colour[k] += wgt * f64::from(stats.clipped_colour[b][k]));
-            }
-            let colour_lum = luminance(colour).max(1e-300);
-            let solid_angle_sr = c.omega_clip.min(COMPACT_MAX_SR);
-            let sun_rgb = colour.map(|v| key_flux * v / colour_lum);
-            lights.push(LightSource {
-                direction_world: core_dir.normalize_or(c.dir),
-                solid_angle_sr,
-                radiance_rgb: sun_rgb.map(|v| v / solid_angle_sr),
-                distance_m: None,
-            });
+            let (light, sun_rgb) = sun_light(c, stats, &geo, &dist, key_flux);
+            lights.push(light);
             for k in 0..3 {
                 radiance_rgb[k] += sun_rgb[k] / c.omega_clip.max(1e-300);
             }
         }
-        if emitter && !as_light[ci] {
+        if emitter && !kinds.as_light[ci] {
             leftovers.push((c.dir, flux));
         } else if emitter && c.omega_clip > 0.0 && flux.iter().any(|v| *v > 0.0) {
             lights.push(LightSource {
@@ -725,12 +600,58 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             centre_px: c.centre.to_array(),
             direction_world: c.dir.to_array(),
             touches_edge: c.touches_edge,
-            light: as_light[ci] || kind == RegionKind::Sun,
+            light: kinds.as_light[ci] || kind == RegionKind::Sun,
             gain: gain_sum / c.blocks.len() as f64,
             radiance_rgb,
             surround_luminance: c.ring_luminance(),
         });
     }
+    merge_into_nearest(&mut lights, leftovers);
+    lights.sort_by(|a, b| {
+        luminance(b.radiance_times_solid_angle())
+            .total_cmp(&luminance(a.radiance_times_solid_angle()))
+    });
+    Recovered {
+        lights,
+        remainder,
+        regions,
+        block_region,
+    }
+}
+
+/// The sun's light, at the core of region `c`: the blocks farthest from its unclipped
+/// surroundings (`dist`), in the colour of their clipped samples, carrying the key light's
+/// flux; and that flux per colour.
+fn sun_light(
+    c: &Candidate,
+    stats: &BlockStats,
+    geo: &BlockGeometry,
+    dist: &[u32],
+    key_flux: f64,
+) -> (LightSource, [f64; 3]) {
+    let d_max = c.blocks.iter().map(|&b| dist[b]).max().unwrap_or(0);
+    let mut core_dir = DVec3::ZERO;
+    let mut colour = [0.0f64; 3];
+    for &b in c.blocks.iter().filter(|&&b| dist[b] + 1 >= d_max) {
+        let wgt = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
+        core_dir += wgt * geo.dir[b];
+        (0..3).for_each(|k| colour[k] += wgt * f64::from(stats.clipped_colour[b][k]));
+    }
+    let colour_lum = luminance(colour).max(1e-300);
+    let solid_angle_sr = c.omega_clip.min(COMPACT_MAX_SR);
+    let sun_rgb = colour.map(|v| key_flux * v / colour_lum);
+    let light = LightSource {
+        direction_world: core_dir.normalize_or(c.dir),
+        solid_angle_sr,
+        radiance_rgb: sun_rgb.map(|v| v / solid_angle_sr),
+        distance_m: None,
+    };
+    (light, sun_rgb)
+}
+
+/// Emitters that did not become lights (`leftovers`: direction, flux) join the nearest light,
+/// flux conserved.
+fn merge_into_nearest(lights: &mut [LightSource], leftovers: Vec<(DVec3, [f64; 3])>) {
     // A lamp's light must stay where it is: in the environment, the frame's fill outside the
     // view would copy a window at the picture's edge over the sphere behind and beside the
     // camera and multiply its flux many times. So the small ones join the nearest light, flux
@@ -747,14 +668,176 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
             }
         }
     }
-    lights.sort_by(|a, b| {
-        luminance(b.radiance_times_solid_angle())
-            .total_cmp(&luminance(a.radiance_times_solid_angle()))
-    });
-    Recovered {
-        lights,
-        remainder,
-        regions,
-        block_region,
+}
+
+/// What the frame's exposure says about its clipped light: the clip level's luminance, the
+/// frame's median, the key light's flux, and what a clipped surface is taken to be and the
+/// most it may be (module doc, step 3).
+#[derive(Debug, Clone, Copy)]
+struct Anchor {
+    clip_lum: f64,
+    l_med: f64,
+    key_flux: f64,
+    surface_bound: f64,
+    surface_typical: f64,
+}
+
+impl Anchor {
+    /// The anchor of a frame whose blocks have luminance `lum`: its median, and the
+    /// illuminance on the surfaces the exposure is set for.
+    fn of(stats: &BlockStats, lum: &[f64]) -> Anchor {
+        let clip_lum = luminance(stats.clip.level).max(1e-12);
+        let mut sorted = lum.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let l_med = sorted[sorted.len() / 2].max(MIN_MEDIAN_LUMINANCE);
+        let e_frame = std::f64::consts::PI * l_med / GREY_ALBEDO;
+        let surface_bound = (SURFACE_BOUND_OVER_MEDIAN * l_med).max(clip_lum);
+        Anchor {
+            clip_lum,
+            l_med,
+            key_flux: KEY_LIGHT_ILLUMINANCE_RATIO * e_frame,
+            surface_bound,
+            surface_typical: (SURFACE_OVER_CLIP * clip_lum).min(surface_bound),
+        }
+    }
+
+    /// A frame exposed for the dark: its median far below the clip level.
+    fn night(&self) -> bool {
+        self.l_med <= NIGHT_MEDIAN_OVER_CLIP * self.clip_lum
+    }
+}
+
+/// Step 1: the clipped regions (connected clipped blocks), each with its solid angle,
+/// direction and unclipped ring.
+fn candidates(stats: &BlockStats, geo: &BlockGeometry, mask: &[bool]) -> Vec<Candidate> {
+    let (w, h) = (stats.width, stats.height);
+    components(w, h, mask)
+        .into_iter()
+        .map(|blocks| {
+            let mut omega_clip = 0.0;
+            let mut omega_blocks = 0.0;
+            let mut dir = DVec3::ZERO;
+            let mut centre = DVec2::ZERO;
+            let mut touches_edge = false;
+            for &b in &blocks {
+                let f = stats.clipped_fraction(b);
+                omega_clip += f * geo.solid_angle_sr[b];
+                omega_blocks += geo.solid_angle_sr[b];
+                dir += f * geo.solid_angle_sr[b] * geo.dir[b];
+                centre += f * geo.solid_angle_sr[b] * geo.centre_px[b];
+                let (x, y) = (b % w, b / w);
+                touches_edge |= x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+            }
+            let dir = dir.normalize_or(geo.dir[blocks[0]]);
+            let centre = centre / omega_clip.max(1e-300);
+            // The unclipped ring: blocks within three equivalent radii of the centroid (at
+            // least two blocks' width), outside the region.
+            let r_eq = (omega_blocks / std::f64::consts::PI).sqrt();
+            let block_rad = geo.solid_angle_sr[blocks[0]].sqrt();
+            let cos_ring = (3.0 * r_eq).max(2.5 * block_rad).min(1.5).cos();
+            let ring: Vec<usize> = (0..w * h)
+                .filter(|&b| !mask[b] && geo.dir[b].dot(dir) >= cos_ring)
+                .collect();
+            let ring_mean = (!ring.is_empty()).then(|| {
+                let mut acc = [0.0f64; 3];
+                for &b in &ring {
+                    (0..3).for_each(|k| acc[k] += f64::from(stats.mean[b][k]));
+                }
+                acc.map(|v| v / ring.len() as f64)
+            });
+            Candidate {
+                blocks,
+                omega_clip,
+                omega_blocks,
+                centre,
+                dir,
+                ring,
+                ring_mean,
+                touches_edge,
+            }
+        })
+        .collect()
+}
+
+/// Step 2: what each region is, and which emitters become lights.
+struct Kinds {
+    kind: Vec<RegionKind>,
+    /// Whether a region's flux becomes a light of its own.
+    as_light: Vec<bool>,
+    /// Lamps carry the key light (a night frame with lamps).
+    lamps_are_key: bool,
+    /// Clipped solid angle of all lamps, sr.
+    total_lamp_omega: f64,
+}
+
+impl Kinds {
+    fn of(cands: &[Candidate], anchor: &Anchor, settings: &RecoverySettings) -> Kinds {
+        let Anchor {
+            clip_lum, l_med, ..
+        } = *anchor;
+        // Step 2: the kinds. Lamps and windows: compact, above the horizon, against surroundings
+        // dark both next to the clip level and next to the scene's typical luminance.
+        let night = anchor.night();
+        let is_lamp = |c: &Candidate| {
+            let ring = c.ring_luminance();
+            c.omega_clip <= EMITTER_MAX_SR
+                && ring <= EMITTER_RING_CONTRAST * clip_lum
+                && (night || (c.dir.z > 0.0 && ring <= DARK_SURROUND_OVER_MEDIAN * l_med))
+        };
+        let mut lamps: Vec<usize> = (0..cands.len()).filter(|&i| is_lamp(&cands[i])).collect();
+        lamps.sort_by(|&a, &b| {
+            cands[b]
+                .omega_clip
+                .total_cmp(&cands[a].omega_clip)
+                .then(a.cmp(&b))
+        });
+        let mut is_lamp = vec![false; cands.len()];
+        lamps.iter().for_each(|&i| is_lamp[i] = true);
+        // More emitters than lights: a field of windows and signs.
+        let emitter_field = lamps.len() > MAX_RECOVERED_LIGHTS;
+        // Lamps are the key light only at night; in daylight the sun and sky are, and a lamp or a
+        // lit window shows the luminance of one.
+        let lamps_are_key = night && !lamps.is_empty();
+        // The sun, where no lamp is the key light: the largest clipped region above the horizon,
+        // if it is as large and as solidly clipped as the sun's glare.
+        let sun = if !lamps_are_key && settings.highlight_gain.is_none() {
+            (0..cands.len())
+                .filter(|&i| {
+                    let c = &cands[i];
+                    c.dir.z > 0.0
+                        && !is_lamp[i]
+                        && c.omega_clip >= SUN_MIN_SR
+                        && c.omega_clip >= SUN_MIN_FILL * c.omega_blocks
+                        && c.ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
+                })
+                .max_by(|&a, &b| cands[a].omega_clip.total_cmp(&cands[b].omega_clip))
+        } else {
+            None
+        };
+        let kind_of = |i: usize| -> RegionKind {
+            if is_lamp[i] {
+                if emitter_field {
+                    RegionKind::Window
+                } else {
+                    RegionKind::Lamp
+                }
+            } else if sun == Some(i) {
+                RegionKind::Sun
+            } else if cands[i].dir.z > 0.0 && cands[i].omega_clip > COMPACT_MAX_SR {
+                RegionKind::Sky
+            } else {
+                RegionKind::Surface
+            }
+        };
+        let mut as_light = vec![false; cands.len()];
+        for &i in lamps.iter().take(MAX_RECOVERED_LIGHTS) {
+            as_light[i] = true;
+        }
+        Kinds {
+            kind: (0..cands.len()).map(kind_of).collect(),
+            as_light,
+            lamps_are_key,
+            total_lamp_omega: lamps.iter().map(|&i| cands[i].omega_clip).sum(),
+        }
     }
 }
