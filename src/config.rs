@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::check;
 use crate::{Error, Result};
 
 /// The camera that filmed the shot (the rain is seen through it).
@@ -110,7 +111,7 @@ pub enum StreakStyle {
 }
 
 impl StreakStyle {
-    /// The name `--streaks` and the configuration take.
+    /// The name `rain.streaks` takes, in a configuration and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             StreakStyle::Simple => "simple",
@@ -340,79 +341,96 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
-    /// Each flag that sets a value of this configuration, with the value as a user would type
-    /// it (`("--wind", "3,-1")`); `--highlight-gain` only when set (its default is the
-    /// recovery's estimate) and `--depth` (no default). Of
-    /// [`RenderConfig::default`], these are the defaults the help shows and the README's
-    /// options table lists (a test checks both), so each default is written once, in the
-    /// `Default` impls.
-    pub fn flag_values(&self) -> Vec<(&'static str, String)> {
-        let (c, r, l) = (&self.camera, &self.rain, &self.light);
+    /// Each setting that holds one value (not a switch or a list), by key, with the value as a
+    /// user types it (`("rain.wind_mps", "3,-1")`); `light.highlight_gain` only when set (its
+    /// default is the recovery's estimate) and `ground.depth` only when given. Of
+    /// [`RenderConfig::default`], these are the defaults the command line's help shows for the
+    /// flags of these keys, so each default is written once, in the `Default` impls.
+    pub fn setting_values(&self) -> Vec<(&'static str, String)> {
+        let (c, r, l, g) = (&self.camera, &self.rain, &self.light, &self.ground);
         vec![
-            ("--rain", r.rate_mm_per_h.to_string()),
-            ("--drop-scale", r.drop_scale.to_string()),
-            ("--fall-speed-scale", r.fall_speed_scale.to_string()),
-            ("--wind", format!("{},{}", r.wind_mps[0], r.wind_mps[1])),
-            ("--opacity", r.opacity.to_string()),
-            ("--seed", r.seed.to_string()),
-            ("--streaks", r.streaks.name().to_string()),
-            ("--fov", c.fov_deg.to_string()),
-            ("--camera-height", c.height_m.to_string()),
-            ("--tilt", c.tilt_deg.to_string()),
-            ("--roll", c.roll_deg.to_string()),
-            ("--shutter", c.shutter_deg.to_string()),
-            ("--near", r.near_m.to_string()),
-            ("--far", r.far_m.to_string()),
-            ("--max-drops", r.max_drops.to_string()),
-            ("--gust", r.gust_mps.to_string()),
-            ("--altitude", r.altitude_m.to_string()),
-            ("--focus", c.focus_m.to_string()),
-            ("--f-number", c.f_number.to_string()),
-            ("--sensor-width", c.sensor_width_mm.to_string()),
-            ("--light-smoothing", l.smoothing_s.to_string()),
-            ("--hdr-input", l.hdr_input.name().to_string()),
-            ("--scene-depth", r.scene_depth_m.to_string()),
-            ("--ground", self.ground.mode.to_string()),
-            ("--pre-rain", self.ground.pre_rain_min.to_string()),
-            ("--depth-scale", self.ground.depth_scale.to_string()),
-            ("--relief", self.ground.relief_m.to_string()),
-            ("--relief-seed", self.ground.relief_seed.to_string()),
+            ("rain.rate_mm_per_h", r.rate_mm_per_h.to_string()),
+            ("rain.drop_scale", r.drop_scale.to_string()),
+            ("rain.fall_speed_scale", r.fall_speed_scale.to_string()),
             (
-                "--puddle-particles",
-                self.ground.puddle_particles.to_string(),
+                "rain.wind_mps",
+                format!("{},{}", r.wind_mps[0], r.wind_mps[1]),
             ),
+            ("rain.opacity", r.opacity.to_string()),
+            ("rain.seed", r.seed.to_string()),
+            ("rain.streaks", r.streaks.name().to_string()),
+            ("camera.fov_deg", c.fov_deg.to_string()),
+            ("camera.height_m", c.height_m.to_string()),
+            ("camera.tilt_deg", c.tilt_deg.to_string()),
+            ("camera.roll_deg", c.roll_deg.to_string()),
+            ("camera.pan_deg", c.pan_deg.to_string()),
+            ("camera.shutter_deg", c.shutter_deg.to_string()),
+            ("rain.near_m", r.near_m.to_string()),
+            ("rain.far_m", r.far_m.to_string()),
+            ("rain.max_drops", r.max_drops.to_string()),
+            ("rain.gust_mps", r.gust_mps.to_string()),
+            ("rain.altitude_m", r.altitude_m.to_string()),
+            ("camera.focus_m", c.focus_m.to_string()),
+            ("camera.f_number", c.f_number.to_string()),
+            ("camera.sensor_width_mm", c.sensor_width_mm.to_string()),
+            ("light.n_max", l.n_max.to_string()),
+            ("light.smoothing_s", l.smoothing_s.to_string()),
+            ("light.hdr_input", l.hdr_input.name().to_string()),
+            ("rain.scene_depth_m", r.scene_depth_m.to_string()),
+            ("ground.mode", g.mode.to_string()),
+            ("ground.pre_rain_min", g.pre_rain_min.to_string()),
+            ("ground.depth_scale", g.depth_scale.to_string()),
+            ("ground.relief_m", g.relief_m.to_string()),
+            ("ground.relief_seed", g.relief_seed.to_string()),
+            ("ground.puddle_particles", g.puddle_particles.to_string()),
         ]
         .into_iter()
         .chain(
             l.highlight_gain
-                .map(|g| ("--highlight-gain", g.to_string())),
+                .map(|v| ("light.highlight_gain", v.to_string())),
         )
         .chain(
-            self.ground
-                .depth
+            g.depth
                 .as_ref()
-                .map(|d| ("--depth", d.display().to_string())),
+                .map(|d| ("ground.depth", d.display().to_string())),
         )
         .collect()
     }
+
+    /// [`RenderConfig::setting_values`] under the command line's flag names, from the binary's
+    /// table of them (`src/bin/rain-composite/flags.rs`); settings without a flag are left
+    /// out. Kept for the tests that compare the help with the README until they read that
+    /// table themselves; the library has no other use for flags.
+    #[doc(hidden)]
+    pub fn flag_values(&self) -> Vec<(&'static str, String)> {
+        self.setting_values()
+            .into_iter()
+            .filter_map(|(key, value)| Some((cli_flags::option_of(key)?, value)))
+            .collect()
+    }
 }
+
+/// The binary's table of settings and their flags, for [`RenderConfig::flag_values`] alone.
+#[path = "bin/rain-composite/flags.rs"]
+#[allow(dead_code)]
+mod cli_flags;
 
 impl RenderConfig {
     /// The ground's checks: a mode the render can use, and a camera pose given once — by the
-    /// ground or by `--tilt`/`--roll`, not both.
+    /// ground or by `camera.tilt_deg`/`camera.roll_deg`, not both.
     fn validate_ground(&self) -> Result<()> {
         use crate::scene::GroundMode;
         let mode = self.ground.mode;
         mode.validate()?;
         crate::scene::depth::check_scale(self.ground.depth_scale)?;
         check(
-            "--relief",
+            "ground.relief_m",
             self.ground.relief_m,
             (0.0..=0.1).contains(&self.ground.relief_m),
             "metres in [0, 0.1] (a micro-relief of millimetres to centimetres)",
         )?;
         let bad = |expected: &str| Error::Parameter {
-            name: "--ground",
+            name: "ground.mode",
             value: mode.to_string(),
             expected: expected.to_string(),
         };
@@ -423,14 +441,14 @@ impl RenderConfig {
                     return Err(bad(
                         "no keyed camera pose or field of view besides it: the ground is found \
                          through the camera at one pose, and the splashes, wet ground and \
-                         puddles are mapped through one camera (use --ground none)",
+                         puddles are mapped through one camera (use ground.mode none)",
                     ));
                 }
                 let c = &self.camera;
                 if c.tilt_deg != 0.0 || c.roll_deg != 0.0 {
                     return Err(bad(
-                        "no --tilt or --roll besides it: --ground auto/horizon=/plane= sets \
-                         the camera's tilt and roll",
+                        "no camera.tilt_deg or camera.roll_deg besides it: ground.mode \
+                         auto/horizon=/plane= sets the camera's tilt and roll",
                     ));
                 }
                 // The plane's distance is the height: another one would be ignored.
@@ -438,8 +456,7 @@ impl RenderConfig {
                     && c.height_m != CameraConfig::default().height_m
                 {
                     return Err(bad(
-                        "no --camera-height (camera.height_m) besides it: plane= sets the \
-                         camera's height",
+                        "no camera.height_m besides it: plane= sets the camera's height",
                     ));
                 }
                 Ok(())
@@ -468,22 +485,8 @@ impl RenderConfig {
     }
 }
 
-/// `Ok` when `ok` holds and `value` is finite; otherwise the error naming `name` (the flag or
-/// key a user types) and what is `expected`.
-pub(crate) fn check(name: &'static str, value: f64, ok: bool, expected: &str) -> Result<()> {
-    if ok && value.is_finite() {
-        Ok(())
-    } else {
-        Err(Error::Parameter {
-            name,
-            value: value.to_string(),
-            expected: expected.to_string(),
-        })
-    }
-}
-
 impl RenderConfig {
-    /// Rejects values outside their physical or practical range, naming the flag; keyed
+    /// Rejects values outside their physical or practical range, naming the setting's key; keyed
     /// settings are checked at every key.
     pub fn validate(&self) -> Result<()> {
         self.validate_at_keys()?;
@@ -546,25 +549,25 @@ impl RenderConfig {
         let c = &self.camera;
         let r = &self.rain;
         check(
-            "--fov",
+            "camera.fov_deg",
             c.fov_deg,
             c.fov_deg > 1.0 && c.fov_deg < 170.0,
             "degrees in (1, 170)",
         )?;
         check(
-            "--camera-height",
+            "camera.height_m",
             c.height_m,
             (0.0..=1000.0).contains(&c.height_m),
             "metres in [0, 1000]",
         )?;
         check(
-            "--tilt",
+            "camera.tilt_deg",
             c.tilt_deg,
             (-90.0..=90.0).contains(&c.tilt_deg),
             "degrees in [-90, 90]",
         )?;
         check(
-            "--roll",
+            "camera.roll_deg",
             c.roll_deg,
             (-180.0..=180.0).contains(&c.roll_deg),
             "degrees in [-180, 180]",
@@ -575,39 +578,44 @@ impl RenderConfig {
             (-360.0..=360.0).contains(&c.pan_deg),
             "degrees in [-360, 360]",
         )?;
-        check("--focus", c.focus_m, c.focus_m > 0.05, "metres, above 0.05")?;
         check(
-            "--f-number",
+            "camera.focus_m",
+            c.focus_m,
+            c.focus_m > 0.05,
+            "metres, above 0.05",
+        )?;
+        check(
+            "camera.f_number",
             c.f_number,
             c.f_number == 0.0 || (0.5..=64.0).contains(&c.f_number),
             "0 (pinhole) or 0.5 to 64",
         )?;
         check(
-            "--sensor-width",
+            "camera.sensor_width_mm",
             c.sensor_width_mm,
             c.sensor_width_mm > 1.0 && c.sensor_width_mm <= 100.0,
             "mm in (1, 100]",
         )?;
         check(
-            "--shutter",
+            "camera.shutter_deg",
             c.shutter_deg,
             c.shutter_deg > 0.0 && c.shutter_deg <= 360.0,
             "degrees in (0, 360]",
         )?;
         check(
-            "--rain",
+            "rain.rate_mm_per_h",
             r.rate_mm_per_h,
             (0.0..=500.0).contains(&r.rate_mm_per_h),
             "mm/h in [0, 500]",
         )?;
         check(
-            "--drop-scale",
+            "rain.drop_scale",
             r.drop_scale,
             r.drop_scale > 0.0 && r.drop_scale <= 10.0,
             "a factor in (0, 10]",
         )?;
         check(
-            "--fall-speed-scale",
+            "rain.fall_speed_scale",
             r.fall_speed_scale,
             r.fall_speed_scale > 0.0 && r.fall_speed_scale <= 10.0,
             "a factor in (0, 10]",
@@ -615,7 +623,7 @@ impl RenderConfig {
         let wind_mps = r.wind_mps[0].hypot(r.wind_mps[1]);
         if !(wind_mps.is_finite() && wind_mps <= crate::rain::wind::MAX_WIND_MPS) {
             return Err(Error::Parameter {
-                name: "--wind",
+                name: "rain.wind_mps",
                 value: format!("{},{}", r.wind_mps[0], r.wind_mps[1]),
                 expected: format!(
                     "a horizontal wind of at most {} m/s (the vector's length)",
@@ -624,46 +632,46 @@ impl RenderConfig {
             });
         }
         check(
-            "--gust",
+            "rain.gust_mps",
             r.gust_mps,
             (0.0..=60.0).contains(&r.gust_mps),
             "m/s in [0, 60]",
         )?;
         check(
-            "--altitude",
+            "rain.altitude_m",
             r.altitude_m,
             (-500.0..=9000.0).contains(&r.altitude_m),
             "metres in [-500, 9000]",
         )?;
         check(
-            "--opacity",
+            "rain.opacity",
             r.opacity,
             (0.0..=100.0).contains(&r.opacity),
             "a factor in [0, 100]",
         )?;
         check(
-            "--near",
+            "rain.near_m",
             r.near_m,
             r.near_m >= 0.05 && r.near_m < r.far_m,
-            "metres, ≥ 0.05 and below --far",
+            "metres, ≥ 0.05 and below rain.far_m",
         )?;
         check(
-            "--far",
+            "rain.far_m",
             r.far_m,
             r.far_m <= 10_000.0,
             "metres, at most 10000",
         )?;
         check(
-            "--scene-depth",
+            "rain.scene_depth_m",
             r.scene_depth_m,
             (0.0..=100_000.0).contains(&r.scene_depth_m),
             "metres in [0, 100000]",
         )?;
         check(
-            "--max-drops",
+            "rain.max_drops",
             r.max_drops as f64,
             (1..=20_000_000).contains(&r.max_drops),
-            "drops from 1 to 20000000 (for no rain, use --rain 0)",
+            "drops from 1 to 20000000 (for no rain, use rain.rate_mm_per_h 0)",
         )?;
         let l = &self.light;
         for n in l.refractive_index {
@@ -681,7 +689,7 @@ impl RenderConfig {
             "an order from 1 to 64",
         )?;
         check(
-            "--light-smoothing",
+            "light.smoothing_s",
             l.smoothing_s,
             (0.0..=10.0).contains(&l.smoothing_s),
             "seconds in [0, 10]",
@@ -691,28 +699,28 @@ impl RenderConfig {
         }
         self.validate_ground()?;
         check(
-            "--pre-rain",
+            "ground.pre_rain_min",
             self.ground.pre_rain_min,
             (0.0..=100_000.0).contains(&self.ground.pre_rain_min),
             "minutes in [0, 100000]",
         )?;
         check(
-            "--puddle-particles",
+            "ground.puddle_particles",
             self.ground.puddle_particles as f64,
             (100..=2_000_000).contains(&self.ground.puddle_particles),
             "particles from 100 to 2000000",
         )?;
         if self.ground.puddles && !self.ground.is_given() {
             return Err(Error::Parameter {
-                name: "--puddles",
+                name: "ground.puddles",
                 value: self.ground.mode.to_string(),
-                expected: "a given ground (--ground horizon=… or plane=…): puddles lie on it"
+                expected: "a given ground (ground.mode horizon=… or plane=…): puddles lie on it"
                     .into(),
             });
         }
         if let Some(g) = l.highlight_gain {
             check(
-                "--highlight-gain",
+                "light.highlight_gain",
                 g,
                 (1.0..=crate::lighting::recovery::MAX_GAIN).contains(&g),
                 "a factor in [1, 1000000] on the clip level",

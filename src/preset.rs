@@ -176,8 +176,8 @@ fn apply(tree: &mut Value, set: &str) -> Result<()> {
 
 /// [`RenderConfig::validate`] of a configuration built with the overrides `sets`: when a value
 /// is out of range and building without one override (`without(i)`) clears that error, the
-/// error names that override with the allowed range, since the flag the range is written for
-/// may not have been typed at all.
+/// error is that override's ([`Error::OverrideRange`]), with the allowed range, since the
+/// setting the range is written for may not have been given any other way.
 pub fn validate_layered(
     config: &RenderConfig,
     sets: &[String],
@@ -206,15 +206,16 @@ pub fn validate_layered(
         Some(i) => {
             // The override's own value out of range, or a value it conflicts with.
             let given = sets[i].split_once('=').map_or("", |(_, v)| v.trim());
-            let same = given == value
+            let own = given == value
                 || value.contains("(keyed, at ")
                 || matches!((given.parse::<f64>(), value.parse::<f64>()), (Ok(a), Ok(b)) if a == b);
-            let reason = if same {
-                format!("{value} is out of range: {expected} (the range of {name})")
-            } else {
-                format!("conflicts with {name} {value}: {expected}")
-            };
-            Err(bad_set(&sets[i], reason))
+            Err(Error::OverrideRange {
+                assignment: sets[i].clone(),
+                name,
+                value: value.clone(),
+                expected: expected.clone(),
+                own,
+            })
         }
         None => Err(error),
     }
@@ -321,7 +322,10 @@ mod tests {
         let e = validate_layered(&bad, &all, |_| Some(bad.clone()))
             .expect_err("fov")
             .to_string();
-        assert!(e.contains("--fov") && !e.contains("--set"), "{e}");
+        assert!(
+            e.contains("camera.fov_deg") && !e.contains("override"),
+            "{e}"
+        );
     }
 
     /// Every preset parses, validates, and says in one line what it is.

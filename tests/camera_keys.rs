@@ -252,7 +252,10 @@ fn moving_camera_refusals_are_named() {
         .validate()
         .expect_err("ground with a moving camera")
         .to_string();
-    assert!(e.contains("--ground") && e.contains("keyed camera"), "{e}");
+    assert!(
+        e.contains("ground.mode") && e.contains("keyed camera"),
+        "{e}"
+    );
     let mut tree = serde_json::json!({"camera": {"shutter_deg": [[0, 180], [1, 90]]}});
     let e = Keyframes::take(&mut tree).expect_err("shutter");
     assert!(

@@ -298,7 +298,7 @@ fn depth_png_in_millimetres() {
     let e = DepthMap::load_png(&path, 0.0)
         .expect_err("scale 0")
         .to_string();
-    assert!(e.contains("--depth-scale"), "{e}");
+    assert!(e.contains("ground.depth_scale"), "{e}");
 }
 
 /// Cost of one frame's estimate at 1080p (reported, with a generous bound).
@@ -315,7 +315,7 @@ fn cost_per_frame() {
     assert!(ms < 200.0);
 }
 
-/// Ground modes as a user writes them: wrong values are refused naming the option and the
+/// Ground modes as a user writes them: wrong values are refused naming the setting and the
 /// range, and every valid mode prints back as it parses.
 #[test]
 fn ground_modes_parse_and_name_their_errors() {
@@ -335,7 +335,7 @@ fn ground_modes_parse_and_name_their_errors() {
             .expect_err(text)
             .to_string();
         assert!(
-            err.contains("--ground") && err.contains(range),
+            err.contains("ground.mode") && err.contains(range),
             "{text}: {err}"
         );
     }
@@ -355,7 +355,7 @@ fn ground_modes_parse_and_name_their_errors() {
     config.camera.height_m = 3.0;
     let err = config.validate().expect_err("two heights").to_string();
     assert!(
-        err.contains("--camera-height") && err.contains("plane="),
+        err.contains("camera.height_m") && err.contains("plane="),
         "{err}"
     );
 }

@@ -403,7 +403,10 @@ fn the_given_ground_is_the_level_world_ground() {
     assert!((cam.position_m.z - 2.5 / n.length()).abs() < 1e-12);
     c.camera.tilt_deg = 5.0;
     let e = c.validate().expect_err("pose twice").to_string();
-    assert!(e.contains("--ground") && e.contains("--tilt"), "{e}");
+    assert!(
+        e.contains("ground.mode") && e.contains("camera.tilt_deg"),
+        "{e}"
+    );
     // `auto` estimates the pose too.
     let auto = RenderConfig::from_json(r#"{"ground": {"mode": "auto"}}"#).expect("parses");
     auto.validate().expect("auto");
@@ -412,5 +415,8 @@ fn the_given_ground_is_the_level_world_ground() {
         .validate()
         .expect_err("auto with a roll")
         .to_string();
-    assert!(e.contains("--ground") && e.contains("--roll"), "{e}");
+    assert!(
+        e.contains("ground.mode") && e.contains("camera.roll_deg"),
+        "{e}"
+    );
 }

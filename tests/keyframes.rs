@@ -355,5 +355,5 @@ fn keyed_configurations_validate_every_key() {
         .validate()
         .expect_err("tilt beyond 90°")
         .to_string();
-    assert!(e.contains("--tilt") && e.contains("at 4 s"), "{e}");
+    assert!(e.contains("camera.tilt_deg") && e.contains("at 4 s"), "{e}");
 }

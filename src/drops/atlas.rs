@@ -103,8 +103,8 @@ impl MatteAtlas {
             let reason = if dir.exists() {
                 "not a streak database (no index.json, no env_light_database/)"
             } else {
-                "no such folder: --streak-db takes a streak database (a folder with index.json, \
-                 made by `rain-composite drops generate`)"
+                "no such folder: a streak database is a folder with index.json, made by \
+                 `rain-composite drops generate`"
             };
             Err(Error::InputOpen {
                 path: dir.display().to_string(),

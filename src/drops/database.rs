@@ -335,17 +335,20 @@ pub fn generate(
             })
         }
     };
-    count("--phases", spec.phases, MAX_PHASES)?;
-    count("--samples", spec.samples, MAX_SAMPLES)?;
-    if spec.sizes_mm.is_empty()
-        || spec.exposures_s.is_empty()
-        || spec.view_elevations_deg.is_empty()
-    {
-        return Err(Error::Parameter {
-            name: "--sizes/--exposures/--views",
-            value: "(none)".into(),
-            expected: "at least one value of each".into(),
-        });
+    count("drops.phases", spec.phases, MAX_PHASES)?;
+    count("drops.samples", spec.samples, MAX_SAMPLES)?;
+    for (name, len) in [
+        ("drops.sizes_mm", spec.sizes_mm.len()),
+        ("drops.exposures_s", spec.exposures_s.len()),
+        ("drops.view_elevations_deg", spec.view_elevations_deg.len()),
+    ] {
+        if len == 0 {
+            return Err(Error::Parameter {
+                name,
+                value: "(none)".into(),
+                expected: "at least one value".into(),
+            });
+        }
     }
     let streaks = [
         spec.sizes_mm.len(),
@@ -358,7 +361,7 @@ pub fn generate(
     .filter(|&n| n <= MAX_STREAKS);
     if streaks.is_none() {
         return Err(Error::Parameter {
-            name: "--sizes/--exposures/--views/--phases",
+            name: "drops.streaks",
             value: format!(
                 "{} × {} × {} × {}",
                 spec.sizes_mm.len(),

@@ -103,7 +103,7 @@ impl StreakSetup {
         };
         if !(self.diameter_m.is_finite() && (0.1e-3..=6e-3).contains(&self.diameter_m)) {
             return Err(bad(
-                "--sizes",
+                "drops.sizes_mm",
                 // Back to the millimetres the user typed (µm precision).
                 (self.diameter_m * 1e6).round() / 1e3,
                 "drop diameters in [0.1, 6] mm",
@@ -111,34 +111,34 @@ impl StreakSetup {
         }
         if !(self.exposure_s.is_finite() && (1e-5..=1.0).contains(&self.exposure_s)) {
             return Err(bad(
-                "--exposures",
+                "drops.exposures_s",
                 self.exposure_s,
                 "exposure times in [1e-5, 1] s",
             ));
         }
         if !(0.0..=85.0).contains(&self.view_elevation_deg) {
             return Err(bad(
-                "--views",
+                "drops.view_elevations_deg",
                 self.view_elevation_deg,
                 "elevations in [0, 85] degrees",
             ));
         }
         if !(self.pixel_m.is_finite() && self.pixel_m > 0.0 && self.pixel_m <= self.diameter_m) {
             return Err(bad(
-                "--pixels-per-diameter",
+                "drops.pixels_per_diameter",
                 self.diameter_m / self.pixel_m,
                 "at least 1",
             ));
         }
         if !(1..=16).contains(&self.samples) {
-            return Err(bad("--samples", self.samples as f64, "1 to 16"));
+            return Err(bad("drops.samples", self.samples as f64, "1 to 16"));
         }
         if !(1..=32).contains(&self.orders) {
-            return Err(bad("--orders", self.orders as f64, "1 to 32"));
+            return Err(bad("drops.orders", self.orders as f64, "1 to 32"));
         }
         if !(self.light_width_deg > 0.1 && self.light_width_deg <= 45.0) {
             return Err(bad(
-                "--light-width",
+                "drops.light_width_deg",
                 self.light_width_deg,
                 "degrees in (0.1, 45]",
             ));

@@ -431,7 +431,7 @@ pub fn inspect_sph_or_stop(
 ) -> Result<Value> {
     if !(1..=MAX_STEPS).contains(&steps) {
         return Err(Error::Parameter {
-            name: "--steps",
+            name: "inspect.sph.steps",
             value: steps.to_string(),
             expected: format!("1 to {MAX_STEPS}"),
         });
@@ -517,7 +517,7 @@ pub fn inspect_sph_or_stop(
         }
         other => {
             return Err(Error::Parameter {
-                name: "--scene",
+                name: "inspect.sph.scene",
                 value: other.to_string(),
                 expected: format!("one of {}", SCENES.join(", ")),
             });

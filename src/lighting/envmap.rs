@@ -197,7 +197,7 @@ impl EnvMapper {
         }
         if !(camera.fov_x_rad > 0.0 && camera.fov_x_rad < std::f64::consts::PI) {
             return Err(Error::Parameter {
-                name: "--fov",
+                name: "camera.fov_deg",
                 value: camera.fov_x_rad.to_degrees().to_string(),
                 expected: "a horizontal field of view in (0°, 180°)".into(),
             });
@@ -553,14 +553,14 @@ impl ShSmoother {
     pub fn new(time_constant_secs: f64, cut_threshold: f64) -> Result<ShSmoother> {
         if !(time_constant_secs.is_finite() && time_constant_secs >= 0.0) {
             return Err(Error::Parameter {
-                name: "--light-smoothing",
+                name: "light.smoothing_s",
                 value: time_constant_secs.to_string(),
                 expected: "a time constant in seconds, ≥ 0 (0 = off)".into(),
             });
         }
         if !(cut_threshold > 0.0 && cut_threshold <= 2.0) {
             return Err(Error::Parameter {
-                name: "--cut-threshold",
+                name: "smoother.cut_threshold",
                 value: cut_threshold.to_string(),
                 expected: "a normalised distance in (0, 2]".into(),
             });

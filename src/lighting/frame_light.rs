@@ -312,7 +312,7 @@ impl LightEstimator {
             let tag = match frame.color.transfer {
                 Transfer::Pq => "tagged PQ",
                 Transfer::Hlg => "tagged HLG",
-                _ => "--hdr-input=on",
+                _ => "light.hdr_input=on",
             };
             log::info!(
                 "HDR input ({tag}): light above diffuse white is kept as it is, none is recovered"
@@ -363,7 +363,7 @@ pub fn recovery_settings(config: &LightConfig) -> Result<Option<RecoverySettings
     if let Some(g) = config.highlight_gain {
         if !(1.0..=super::recovery::MAX_GAIN).contains(&g) {
             return Err(Error::Parameter {
-                name: "--highlight-gain",
+                name: "light.highlight_gain",
                 value: g.to_string(),
                 expected: "a factor in [1, 1000000] on the clip level".into(),
             });

@@ -2,7 +2,7 @@
 //! with the `image` crate alone.
 //!
 //! Every function validates its parameters and returns [`Error::Parameter`] instead of
-//! panicking: bands in 1..=8, ρ in [1, 10], bins ≥ 2, n_max ≥ 1.
+//! panicking: bands in 1..=8, ρ in [1, 10], bins in 2..=65536, n_max in 1..=64.
 
 use std::path::Path;
 
@@ -11,7 +11,9 @@ use serde_json::{Value, json};
 
 use crate::lighting::envmap::{EnvMapper, reconstruct_equirect};
 use crate::lighting::prt::channel_optics;
-use crate::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, caustic_angle_rad};
+use crate::lighting::rtf::{
+    ChannelIndices, MAX_BINS, MAX_N_MAX, Polarisation, RtfTable, caustic_angle_rad,
+};
 use crate::lighting::sh;
 use crate::scene::Camera;
 use crate::{Error, Result};
@@ -57,20 +59,22 @@ impl LinearImage {
     }
 }
 
+/// The report's arguments in range, named as the report's (`inspect.rtf.n_max`), before the
+/// optics check them as the render's.
 fn check_rtf_params(n_max: usize, bins: usize, bands: usize) -> Result<()> {
     sh::check_bands(bands)?;
-    if n_max < 1 {
+    if !(1..=MAX_N_MAX).contains(&n_max) {
         return Err(Error::Parameter {
-            name: "--nmax",
+            name: "inspect.rtf.n_max",
             value: n_max.to_string(),
-            expected: "an order ≥ 1".into(),
+            expected: format!("an order in 1..={MAX_N_MAX}"),
         });
     }
-    if bins < 2 {
+    if !(2..=MAX_BINS).contains(&bins) {
         return Err(Error::Parameter {
-            name: "--bins",
+            name: "inspect.rtf.bins",
             value: bins.to_string(),
-            expected: "at least 2 bins".into(),
+            expected: format!("an integer in 2..={MAX_BINS}"),
         });
     }
     Ok(())

@@ -63,7 +63,7 @@ pub fn light_report(
     }
     if grid.0 == 0 || grid.1 == 0 || grid.0 * grid.1 > 1 << 20 {
         return Err(Error::Parameter {
-            name: "--grid",
+            name: "inspect.light.grid",
             value: format!("{}x{}", grid.0, grid.1),
             expected: "NxM with N, M ≥ 1 (at most 2^20 rays)".into(),
         });

@@ -149,7 +149,7 @@ impl DropOptics {
         }
         if !(1..=MAX_N_MAX).contains(&n_max) {
             return Err(Error::Parameter {
-                name: "--nmax",
+                name: "light.n_max",
                 value: n_max.to_string(),
                 expected: format!("an order in 1..={MAX_N_MAX}"),
             });
@@ -344,7 +344,7 @@ impl DropOptics {
     pub fn tabulate(&self, bins: usize) -> Result<RtfTable> {
         if !(2..=MAX_BINS).contains(&bins) {
             return Err(Error::Parameter {
-                name: "--bins",
+                name: "rtf.bins",
                 value: bins.to_string(),
                 expected: format!("an integer in 2..={MAX_BINS}"),
             });

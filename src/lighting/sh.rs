@@ -48,7 +48,7 @@ pub fn check_bands(bands: usize) -> Result<()> {
         Ok(())
     } else {
         Err(Error::Parameter {
-            name: "--bands",
+            name: "inspect.bands",
             value: bands.to_string(),
             expected: format!("an integer in 1..={MAX_BANDS}"),
         })

@@ -25,7 +25,7 @@
 use glam::DVec3;
 
 use super::rtf::RtfTable;
-use crate::config::check;
+use crate::error::check;
 use crate::{Error, Result};
 
 /// One compact light source, seen from the camera.
@@ -161,20 +161,20 @@ impl UserLight {
     /// Rejects values outside their range, naming the key.
     pub fn validate(&self) -> Result<()> {
         check(
-            "--light azimuth",
+            "light.lights.azimuth_deg",
             self.azimuth_deg,
             (-360.0..=360.0).contains(&self.azimuth_deg),
             "degrees in [-360, 360]",
         )?;
         check(
-            "--light elevation",
+            "light.lights.elevation_deg",
             self.elevation_deg,
             (-90.0..=90.0).contains(&self.elevation_deg),
             "degrees in [-90, 90]",
         )?;
         for l in self.radiance_rgb {
             check(
-                "--light radiance",
+                "light.lights.radiance_rgb",
                 l,
                 (0.0..=1e9).contains(&l),
                 "a radiance ≥ 0 (and at most 1e9) relative to the frame's white",
@@ -182,14 +182,14 @@ impl UserLight {
         }
         if let Some(d) = self.distance_m {
             check(
-                "--light distance",
+                "light.lights.distance_m",
                 d,
                 d > 0.0 && d <= 1e7,
                 "metres, above 0 (and at most 1e7)",
             )?;
         }
         check(
-            "light angular_diameter_deg",
+            "light.lights.angular_diameter_deg",
             self.angular_diameter_deg,
             self.angular_diameter_deg > 0.0 && self.angular_diameter_deg <= 90.0,
             "degrees in (0, 90]",
@@ -221,7 +221,7 @@ impl UserLight {
     /// frame's white, metres).
     pub fn parse(text: &str) -> Result<UserLight> {
         let bad = || Error::Parameter {
-            name: "--light",
+            name: "light.lights",
             value: text.to_string(),
             expected: "az,el,r,g,b[,distance_m]: degrees right and up of the view \
                        direction, radiance relative to the frame's white, metres"
@@ -286,12 +286,12 @@ mod tests {
         assert_eq!(l.distance_m, Some(4.5));
         assert_eq!(l.radiance_rgb, [100.0, 90.0, 80.0]);
         for (text, key) in [
-            ("0,95,1,1,1", "--light elevation"),
-            ("0,0,-1,1,1", "--light radiance"),
-            ("0,0,1,1,1,0", "--light distance"),
-            ("0,0,1,1,inf", "--light radiance"),
-            ("0,0,1,1", "--light"),
-            ("a,0,1,1,1", "--light"),
+            ("0,95,1,1,1", "light.lights.elevation_deg"),
+            ("0,0,-1,1,1", "light.lights.radiance_rgb"),
+            ("0,0,1,1,1,0", "light.lights.distance_m"),
+            ("0,0,1,1,inf", "light.lights.radiance_rgb"),
+            ("0,0,1,1", "light.lights"),
+            ("a,0,1,1,1", "light.lights"),
         ] {
             match UserLight::parse(text) {
                 Err(Error::Parameter { name, .. }) => assert_eq!(name, key, "{text}"),
@@ -339,7 +339,7 @@ mod config_tests {
         .expect("parses");
         match bad.validate() {
             Err(Error::Parameter { name, expected, .. }) => {
-                assert_eq!(name, "--light elevation");
+                assert_eq!(name, "light.lights.elevation_deg");
                 assert!(expected.contains("[-90, 90]"), "{expected}");
             }
             other => panic!("{other:?}"),

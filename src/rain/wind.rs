@@ -90,14 +90,14 @@ impl Wind {
     pub fn new(mean_mps: DVec2, gust_mps: f64, seed: u64) -> Result<Wind> {
         if !(mean_mps.is_finite() && mean_mps.length() <= MAX_WIND_MPS) {
             return Err(Error::Parameter {
-                name: "--wind",
+                name: "rain.wind_mps",
                 value: format!("{},{}", mean_mps.x, mean_mps.y),
                 expected: format!("a horizontal wind vector of at most {MAX_WIND_MPS} m/s"),
             });
         }
         if !(gust_mps.is_finite() && (0.0..=MAX_WIND_MPS).contains(&gust_mps)) {
             return Err(Error::Parameter {
-                name: "--gust",
+                name: "rain.gust_mps",
                 value: gust_mps.to_string(),
                 expected: format!("a gust RMS from 0 to {MAX_WIND_MPS} m/s"),
             });

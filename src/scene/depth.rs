@@ -40,7 +40,7 @@ impl DepthMap {
     ) -> Result<DepthMap> {
         if width == 0 || height == 0 || values.len() != width * height {
             return Err(Error::Parameter {
-                name: "--depth",
+                name: "ground.depth",
                 value: format!("{width}x{height} with {} samples", values.len()),
                 expected: "a non-empty map of width × height samples".into(),
             });
@@ -162,13 +162,13 @@ fn color_name(c: image::ColorType) -> String {
     }
 }
 
-/// Checks `--depth-scale`: metres per millimetre of the file, relative; (0, 1000000].
+/// Checks `ground.depth_scale`: metres per millimetre of the file, relative; (0, 1000000].
 pub fn check_scale(depth_scale: f64) -> Result<()> {
     if depth_scale.is_finite() && depth_scale > 0.0 && depth_scale <= 1e6 {
         Ok(())
     } else {
         Err(Error::Parameter {
-            name: "--depth-scale",
+            name: "ground.depth_scale",
             value: depth_scale.to_string(),
             expected: "a factor in (0, 1000000] on the file's millimetres".into(),
         })
@@ -273,7 +273,7 @@ impl DepthSource {
         use std::borrow::Cow;
         let missing = |count: u64| {
             Error::OutOfRange(format!(
-                "--depth has {count} depth maps, the clip has a frame {index} (counting from 0)"
+                "ground.depth has {count} depth maps, the clip has a frame {index} (counting from 0)"
             ))
         };
         match self {

@@ -119,7 +119,7 @@ pub fn camera_frame_plane(n: [f64; 3], d: f64) -> Result<(DVec3, f64)> {
     let v = DVec3::from_array(n);
     let len = v.length();
     let bad = |expected: &str| Error::Parameter {
-        name: "--ground",
+        name: "ground.mode",
         value: format!("plane={},{},{},{}", n[0], n[1], n[2], d),
         expected: expected.to_string(),
     };
@@ -236,10 +236,10 @@ pub enum GroundMode {
 pub const MAX_HORIZON_ROW: f64 = 20.0;
 
 impl GroundMode {
-    /// Checks the values' ranges, naming `--ground`.
+    /// Checks the values' ranges, naming `ground.mode`.
     pub fn validate(&self) -> Result<()> {
         let bad = |expected: &str| Error::Parameter {
-            name: "--ground",
+            name: "ground.mode",
             value: self.to_string(),
             expected: expected.to_string(),
         };
@@ -309,7 +309,7 @@ impl FromStr for GroundMode {
 
     fn from_str(s: &str) -> Result<GroundMode> {
         let bad = || Error::Parameter {
-            name: "--ground",
+            name: "ground.mode",
             value: s.to_string(),
             expected: "auto, none, horizon=ROW[,roll=DEG] or plane=nx,ny,nz,d".into(),
         };
@@ -466,7 +466,7 @@ mod tests {
             "horizon=nan",
         ] {
             let e = s.parse::<GroundMode>().expect_err(s).to_string();
-            assert!(e.contains("--ground"), "{e}");
+            assert!(e.contains("ground.mode"), "{e}");
         }
     }
 }

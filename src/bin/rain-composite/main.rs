@@ -2,6 +2,8 @@
 //! here.
 //!
 //! - `args`: the flags (clap) and their translation into the library's settings.
+//! - `flags`: the table of the settings' keys and their flags.
+//! - `messages`: the library's errors and warnings in the command line's words (flags).
 //! - `inspect`: the `inspect` subcommands, printing the library's reports.
 //! - `bench`: speed against a plain ffmpeg transcode.
 
@@ -21,7 +23,9 @@ use args::{adapter, encode_options, parse_time_s, render_config};
 mod args;
 mod bench;
 mod drops;
+mod flags;
 mod inspect;
+mod messages;
 
 /// Set by Ctrl-C, TERM and HUP: every long loop polls it and stops cleanly.
 pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -49,7 +53,8 @@ impl log::Log for StderrLogger {
                 log::Level::Info => "info",
                 _ => "debug",
             };
-            eprintln!("{tag}: {}", r.args());
+            // The library names settings by key; the user reads their flags.
+            eprintln!("{tag}: {}", flags::in_prose(&r.args().to_string()));
         }
     }
     fn flush(&self) {}
@@ -271,7 +276,7 @@ fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", messages::for_user(&e));
             ExitCode::FAILURE
         }
     }

@@ -105,7 +105,7 @@ impl DropSizeDistribution {
     ) -> Result<DropSizeDistribution> {
         if !(d_min_mm > 0.0 && d_min_mm < d_max_mm && d_max_mm <= D_LIMIT_MM) {
             return Err(Error::Parameter {
-                name: "--drop-sizes",
+                name: "dsd.diameter_range_mm",
                 value: format!("{d_min_mm}..{d_max_mm} mm"),
                 expected: format!("0 < minimum < maximum ≤ {D_LIMIT_MM} mm"),
             });
@@ -115,7 +115,7 @@ impl DropSizeDistribution {
             DsdShape::MarshallPalmer => Ok(mp),
             DsdShape::Gamma { mu } => {
                 if !(mu.is_finite() && (-2.0..=15.0).contains(&mu)) {
-                    return Err(param_error("--dsd-mu", mu, "a gamma shape μ in [−2, 15]"));
+                    return Err(param_error("dsd.mu", mu, "a gamma shape μ in [−2, 15]"));
                 }
                 // Same median volume diameter (Ulbrich 1983: Λ D0 ≈ 3.67 + μ) and the same
                 // water content ∫N D³ dD = N0 Γ(4)/Λ⁴ = N0μ Γ(μ+4)/Λμ^(μ+4).

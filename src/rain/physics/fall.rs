@@ -97,7 +97,7 @@ impl FallSpeed {
         let (lo, hi) = FallSpeed::ALTITUDE_RANGE_M;
         if !(altitude_m.is_finite() && (lo..=hi).contains(&altitude_m)) {
             return Err(param_error(
-                "--altitude",
+                "rain.altitude_m",
                 altitude_m,
                 "metres above sea level, from −500 to 11000",
             ));

@@ -153,7 +153,7 @@ impl RainRate {
 
 fn rain_error(value: String) -> Error {
     Error::Parameter {
-        name: "--rain",
+        name: "rain.rate_mm_per_h",
         value,
         expected: format!(
             "a rate in mm/h from 0 (off) to {MAX_RAIN_MM_PER_H}, or one of drizzle, light, \

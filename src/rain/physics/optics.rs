@@ -48,13 +48,17 @@ pub const DEFAULT_SENSOR_WIDTH_MM: f64 = 36.0;
 pub fn exposure_s(shutter_angle_deg: f64, fps: f64) -> Result<f64> {
     if !(shutter_angle_deg.is_finite() && shutter_angle_deg > 0.0 && shutter_angle_deg <= 360.0) {
         return Err(param_error(
-            "--shutter",
+            "camera.shutter_deg",
             shutter_angle_deg,
             "degrees in (0, 360]",
         ));
     }
     if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
-        return Err(param_error("--fps", fps, "frames per second in (0, 1000]"));
+        return Err(param_error(
+            "inspect.drops.fps",
+            fps,
+            "frames per second in (0, 1000]",
+        ));
     }
     Ok(shutter_angle_deg / 360.0 / fps)
 }
@@ -115,20 +119,24 @@ impl ThinLens {
     pub fn new(sensor_width_mm: f64, f_number: f64, focus_m: f64) -> Result<ThinLens> {
         if !(sensor_width_mm.is_finite() && sensor_width_mm > 0.0) {
             return Err(param_error(
-                "--sensor-width",
+                "camera.sensor_width_mm",
                 sensor_width_mm,
                 "millimetres > 0",
             ));
         }
         if !(f_number.is_finite() && (0.5..=64.0).contains(&f_number)) {
             return Err(param_error(
-                "--f-number",
+                "camera.f_number",
                 f_number,
                 "an f-number in [0.5, 64]",
             ));
         }
         if focus_m.is_nan() || focus_m <= 0.0 {
-            return Err(param_error("--focus", focus_m, "metres > 0 (or inf)"));
+            return Err(param_error(
+                "camera.focus_m",
+                focus_m,
+                "metres > 0 (or inf)",
+            ));
         }
         Ok(ThinLens {
             sensor_width_mm,

@@ -130,7 +130,8 @@ impl Default for VolumeParams {
 }
 
 impl VolumeParams {
-    /// Checks every field; the error names the option a user would type.
+    /// Checks every field; the error names the setting of the configuration it comes from, or
+    /// the field (`volume.alpha_min`).
     pub fn validate(&self) -> Result<()> {
         let bad = |name: &'static str, value: f64, expected: &str| {
             Err(Error::Parameter {
@@ -140,50 +141,54 @@ impl VolumeParams {
             })
         };
         if !(self.exposure_s.is_finite() && self.exposure_s > 0.0 && self.exposure_s <= 1.0) {
-            return bad("--exposure", self.exposure_s, "seconds in (0, 1]");
+            return bad("volume.exposure_s", self.exposure_s, "seconds in (0, 1]");
         }
         if !(self.alpha_min.is_finite() && self.alpha_min > 0.0 && self.alpha_min < 1.0) {
-            return bad("--alpha-min", self.alpha_min, "an alpha in (0, 1)");
+            return bad("volume.alpha_min", self.alpha_min, "an alpha in (0, 1)");
         }
         if !(self.near_m.is_finite() && self.near_m >= 0.01) {
-            return bad("--near", self.near_m, "metres ≥ 0.01");
+            return bad("rain.near_m", self.near_m, "metres ≥ 0.01");
         }
         if !(self.far_max_m.is_finite() && self.far_max_m > self.near_m && self.far_max_m <= 1e4) {
             return bad(
-                "--far",
+                "rain.far_m",
                 self.far_max_m,
-                "metres beyond --near, at most 10000",
+                "metres beyond rain.near_m, at most 10000",
             );
         }
         if !(self.diameter_scale.is_finite() && self.diameter_scale > 0.0) {
-            return bad("--drop-scale", self.diameter_scale, "a factor > 0");
+            return bad("rain.drop_scale", self.diameter_scale, "a factor > 0");
         }
         if !(self.fall_speed_scale.is_finite() && self.fall_speed_scale > 0.0) {
-            return bad("--fall-speed-scale", self.fall_speed_scale, "a factor > 0");
+            return bad(
+                "rain.fall_speed_scale",
+                self.fall_speed_scale,
+                "a factor > 0",
+            );
         }
         if self.budget == 0 || self.budget > MAX_BUDGET {
-            return bad("--max-drops", self.budget as f64, "from 1 to 2^30 drops");
+            return bad("rain.max_drops", self.budget as f64, "from 1 to 2^30 drops");
         }
         if let Some(g) = self.ground_z_m
             && !g.is_finite()
         {
-            return bad("--ground", g, "a finite height in metres");
+            return bad("volume.ground_z_m", g, "a finite height in metres");
         }
         if let Some(d) = self.reference_diameter_mm
             && !(d.is_finite() && d > 0.0)
         {
-            return bad("--reference-diameter", d, "millimetres > 0");
+            return bad("volume.reference_diameter_mm", d, "millimetres > 0");
         }
         if !(self.far_shrink_limit.is_finite() && (0.0..=1.0).contains(&self.far_shrink_limit)) {
             return bad(
-                "--far-shrink",
+                "volume.far_shrink_limit",
                 self.far_shrink_limit,
                 "a fraction in [0, 1]",
             );
         }
         if !(16..=1 << 20).contains(&self.max_columns) {
             return bad(
-                "--columns",
+                "volume.max_columns",
                 self.max_columns as f64,
                 "from 16 to 2^20 cells",
             );
@@ -285,7 +290,7 @@ impl RainVolume {
                 || !camera.position_m.is_finite()
             {
                 return Err(Error::Parameter {
-                    name: "--fov",
+                    name: "camera.fov_deg",
                     value: format!("{}°", camera.fov_x_rad.to_degrees()),
                     expected: "a field of view in (0°, 180°) and a non-empty picture".into(),
                 });
