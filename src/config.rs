@@ -396,24 +396,7 @@ impl RenderConfig {
         )
         .collect()
     }
-
-    /// [`RenderConfig::setting_values`] under the command line's flag names, from the binary's
-    /// table of them (`src/bin/rain-composite/flags.rs`); settings without a flag are left
-    /// out. Kept for the tests that compare the help with the README until they read that
-    /// table themselves; the library has no other use for flags.
-    #[doc(hidden)]
-    pub fn flag_values(&self) -> Vec<(&'static str, String)> {
-        self.setting_values()
-            .into_iter()
-            .filter_map(|(key, value)| Some((cli_flags::option_of(key)?, value)))
-            .collect()
-    }
 }
-
-/// The binary's table of settings and their flags, for [`RenderConfig::flag_values`] alone.
-#[path = "bin/rain-composite/flags.rs"]
-#[allow(dead_code)]
-mod cli_flags;
 
 impl RenderConfig {
     /// The ground's checks: a mode the render can use, and a camera pose given once — by the

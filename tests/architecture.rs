@@ -127,7 +127,10 @@ fn modules_import_only_the_layers_below_them() {
         seen.insert(module.clone());
         let code = code_of(&std::fs::read_to_string(&path).expect("readable"));
         for imported in imported_modules(&code) {
-            let at = LAYERS.iter().position(|l| *l == imported).expect("filtered");
+            let at = LAYERS
+                .iter()
+                .position(|l| *l == imported)
+                .expect("filtered");
             if imported != module && at > level {
                 wrong.push(format!(
                     "{} imports {imported}, a layer above {module}",
@@ -157,7 +160,10 @@ fn no_source_file_is_too_long() {
     let long: Vec<String> = rust_files(&src())
         .into_iter()
         .filter_map(|p| {
-            let n = std::fs::read_to_string(&p).expect("readable").lines().count();
+            let n = std::fs::read_to_string(&p)
+                .expect("readable")
+                .lines()
+                .count();
             (n > MAX_FILE_LINES).then(|| format!("{} has {n} lines", p.display()))
         })
         .collect();
@@ -167,10 +173,9 @@ fn no_source_file_is_too_long() {
 /// `docs/ARCHITECTURE.md`'s module map names every source file, and only files that exist.
 #[test]
 fn the_module_map_names_every_file() {
-    let doc = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ARCHITECTURE.md"),
-    )
-    .expect("docs/ARCHITECTURE.md");
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ARCHITECTURE.md"))
+            .expect("docs/ARCHITECTURE.md");
     let map = doc
         .split("## Module map")
         .nth(1)

@@ -5,6 +5,11 @@
 use std::collections::BTreeMap;
 use std::process::Command;
 
+/// The binary's table of settings and their flags.
+#[path = "../src/bin/rain-composite/flags.rs"]
+#[allow(dead_code)]
+mod flags;
+
 use rain_composite::config::RenderConfig;
 use rain_composite::video::EncodeOptions;
 
@@ -210,7 +215,11 @@ fn help_shows_the_library_defaults() {
     let help = help_defaults();
     let guide: BTreeMap<String, String> = guide_defaults().into_iter().collect();
     let e = EncodeOptions::default();
-    let mut expected = RenderConfig::default().flag_values();
+    let mut expected: Vec<(&str, String)> = RenderConfig::default()
+        .setting_values()
+        .into_iter()
+        .filter_map(|(key, value)| Some((flags::option_of(key)?, value)))
+        .collect();
     expected.push(("--crf", e.crf.to_string()));
     expected.push(("--preset", e.preset.clone()));
     for (flag, value) in expected {

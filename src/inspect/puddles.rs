@@ -29,7 +29,7 @@ pub fn report(
 ) -> Result<Value> {
     if !(at_s.is_finite() && at_s >= 0.0) {
         return Err(Error::Parameter {
-            name: "--at",
+            name: "job.at",
             value: at_s.to_string(),
             expected: "a time ≥ 0 s".into(),
         });
@@ -69,7 +69,7 @@ pub fn report(
             } else if config.ground.is_given() {
                 "the picture shows no ground within reach"
             } else {
-                "no ground given (--ground none or auto): no fluid is built"
+                "no ground given (none, or auto): no fluid is built"
             },
         }));
     };

@@ -85,7 +85,7 @@ impl FrameRange {
         };
         if empty {
             return Err(Error::Parameter {
-                name: "--frames/--from/--to",
+                name: "job.frames",
                 value: self.to_string(),
                 expected: "a range that starts at or after 0 and ends after it starts".into(),
             });

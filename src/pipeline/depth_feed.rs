@@ -27,7 +27,7 @@ impl DepthFeed {
             && maps < frames
         {
             return Err(Error::Parameter {
-                name: "--depth",
+                name: "ground.depth",
                 value: path.display().to_string(),
                 expected: format!("a depth map per frame: {maps} maps for {frames} frames"),
             });

@@ -103,7 +103,7 @@ pub fn combine(readings: &[HorizonEstimate], camera: &Camera) -> Option<HorizonE
 pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
     if input == "-" {
         return Err(Error::Parameter {
-            name: "--ground",
+            name: "ground.mode",
             value: "auto".into(),
             expected: "a file input: auto reads the start of the clip before the render \
                        (give horizon=ROW,roll=DEG for a stream on stdin)"
@@ -149,7 +149,7 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
         }
     }
     let estimate = combine(&readings, &cam)
-        .ok_or_else(|| Error::CorruptInput("--ground auto: no frame could be decoded".into()))?;
+        .ok_or_else(|| Error::CorruptInput("ground.mode auto: no frame could be decoded".into()))?;
     Ok(ClipGround {
         estimate,
         frames: readings.len(),

@@ -112,7 +112,7 @@ impl PuddleFeed {
         let rain = GroundRain::new(rain.rainfall());
         let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
             log::warn!(
-                "--puddles: the {} shows no ground within reach; no puddles",
+                "ground.puddles: the {} shows no ground within reach; no puddles",
                 if depth.is_some() {
                     "depth map"
                 } else {

@@ -103,7 +103,7 @@ impl Shot {
         if exposure > 1.0 {
             let fps = config.camera.shutter_deg / 360.0 / exposure;
             return Err(Error::Parameter {
-                name: "--shutter",
+                name: "camera.shutter_deg",
                 value: config.camera.shutter_deg.to_string(),
                 expected: format!(
                     "an exposure of at most 1 s: this clip runs at {fps:.3} fps, so at most {:.1} degrees",
@@ -114,7 +114,7 @@ impl Shot {
         let mut rain_config = config.rain;
         if let Some(cap) = max_drops.filter(|&cap| rain_config.max_drops > cap) {
             log::warn!(
-                "--max-drops {} is more than the device holds in one frame; using {cap}",
+                "rain.max_drops {} is more than the device holds in one frame; using {cap}",
                 rain_config.max_drops,
             );
             rain_config.max_drops = cap;
@@ -135,11 +135,11 @@ impl Shot {
                 let dir = match &config.streak_db {
                     Some(dir) => std::path::PathBuf::from(dir),
                     None => default_streak_db().ok_or_else(|| Error::Parameter {
-                        name: "--streaks",
+                        name: "rain.streaks",
                         value: "mattes".into(),
                         expected: "a streak database, and none is installed beside the program \
                                    (../share/rain-composite/drops, or drops/ next to it): pass \
-                                   --streak-db DIR (made by `rain-composite drops generate`)"
+                                   streak_db DIR (made by `rain-composite drops generate`)"
                             .into(),
                     })?,
                 };

@@ -115,13 +115,17 @@ pub fn layer_encoding(muxer: &str, codec: VideoCodec, layer: Layer) -> Result<La
         // H.264 is the default, not a codec asked for: the container alone is at fault.
         let with_codec = match codec {
             VideoCodec::H264 => String::new(),
-            c => format!(" with --codec {}", c.encoder_name()),
+            c => format!(" with encode.codec {}", c.encoder_name()),
         };
         return Err(Error::Unsupported(format!(
             "{} writes an alpha layer, which {muxer} output{with_codec} cannot hold: write \
              .mov (ProRes 4444), .mkv (FFV1) or a PNG sequence (out_%05d.png), and leave \
-             --codec out",
-            if matte { "--matte" } else { "--layer-only" },
+             encode.codec out",
+            if matte {
+                "encode.matte"
+            } else {
+                "encode.layer"
+            },
         )));
     };
     let pixel = match (chosen, matte) {

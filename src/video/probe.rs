@@ -33,7 +33,7 @@ pub fn probe(input: &str, output_container: Option<&str>) -> Result<ProbeReport>
             .or_else(|| ffi::guess_output_format(None, Some(c)))
             .or_else(|| ffi::guess_output_format(None, Some(&format!("x.{c}"))))
             .ok_or_else(|| Error::Parameter {
-                name: "--format",
+                name: "probe.for_output",
                 value: c.to_owned(),
                 expected: "a container name (mp4, mkv, nut…) or an output file name".into(),
             })?;

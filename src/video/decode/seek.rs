@@ -24,7 +24,7 @@ impl Source {
     pub fn seek_to_time(&mut self, t_s: f64) -> Result<YuvFrame> {
         if !t_s.is_finite() || t_s < 0.0 {
             return Err(Error::Parameter {
-                name: "--at",
+                name: "job.at",
                 value: t_s.to_string(),
                 expected: "a time ≥ 0 in seconds".into(),
             });

@@ -104,7 +104,7 @@ impl EncodeOptions {
     pub fn validate(&self) -> Result<()> {
         if !X26X_PRESETS.contains(&self.preset.as_str()) {
             return Err(Error::Parameter {
-                name: "--preset",
+                name: "encode.preset",
                 value: format!("'{}'", self.preset),
                 expected: format!("one of {}", X26X_PRESETS.join(", ")),
             });
@@ -119,14 +119,14 @@ impl EncodeOptions {
             })
         {
             return Err(Error::Parameter {
-                name: "--encoder-params",
+                name: "encode.encoder_params",
                 value: format!("'{bad}'"),
                 expected: "KEY=VALUE pairs joined by ':' (bframes=0:qcomp=0.8), or none".into(),
             });
         }
         if self.crf > 51 {
             return Err(Error::Parameter {
-                name: "--crf",
+                name: "encode.crf",
                 value: self.crf.to_string(),
                 expected: "0 to 51".into(),
             });

@@ -72,7 +72,7 @@ fn full_chroma(
         }
         None => Err(Error::Unsupported(format!(
             "{} cannot encode {}x{} in {}: subsampled chroma needs an even size (use \
-             --codec ffv1, or crop the input)",
+             encode.codec ffv1, or crop the input)",
             video_codec.encoder_name(),
             format.width,
             format.height,

@@ -20,7 +20,7 @@ pub fn output_format(output: &str, container: Option<&str>) -> Result<ff::format
     ffi::guess_output_format(name, file)
         .or_else(|| name.and_then(|n| ffi::guess_output_format(None, Some(&format!("x.{n}")))))
         .ok_or_else(|| Error::Parameter {
-            name: "--format",
+            name: "encode.container",
             value: name.unwrap_or(output).to_owned(),
             expected:
                 "a container FFmpeg can write (mp4, mov, mkv, webm, nut, y4m…), given by the \

@@ -92,9 +92,9 @@ impl Drop for TempGuard {
 pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
     if !opts.layer.is_some_and(Layer::is_rgba) {
         return Err(Error::Parameter {
-            name: "--output",
+            name: "job.output",
             value: output.to_owned(),
-            expected: "a video file; image sequences are written for --layer-only or --matte"
+            expected: "a video file; image sequences are written for encode.layer or encode.matte"
                 .into(),
         });
     }
@@ -104,7 +104,7 @@ pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
         .unwrap_or_default();
     let Some(first) = ffi::sequence_file_name(&name, 1) else {
         return Err(Error::Parameter {
-            name: "--output",
+            name: "job.output",
             value: output.to_owned(),
             expected: "an image-sequence name with a frame number pattern, e.g. out_%05d.png"
                 .into(),
@@ -114,7 +114,7 @@ pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
     // alike, and each would overwrite the last.
     if ffi::sequence_file_name(&name, 2).as_deref() == Some(first.as_str()) {
         return Err(Error::Parameter {
-            name: "--output",
+            name: "job.output",
             value: output.to_owned(),
             expected: "a frame number pattern of at most 19 digits, e.g. out_%05d.png".into(),
         });

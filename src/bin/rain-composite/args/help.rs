@@ -229,10 +229,5 @@ mod tests {
                 "{flag}: {line}"
             );
         }
-        // The library's list under the flags' names, which the README's test reads.
-        assert_eq!(
-            RenderConfig::default().flag_values(),
-            flag_values(&RenderConfig::default())
-        );
     }
 }
