@@ -58,8 +58,10 @@ impl Renderer {
         let ctx = Arc::new(GpuContext::new(adapter)?);
         let cap = crate::gpu::max_drops(&ctx);
         if config.rain.max_drops > cap {
-            log::info!(
-                "this GPU holds {cap} drops in one frame: its largest storage buffer is {} MiB",
+            log::warn!(
+                "rain.max_drops {} is more than this GPU holds in one frame ({cap} drops: its \
+                 largest storage buffer is {} MiB); using {cap}",
+                config.rain.max_drops,
                 ctx.device.limits().max_storage_buffer_binding_size >> 20
             );
         }

@@ -96,7 +96,7 @@ impl Shot {
     /// Plans the shot of `footage` under `config` (validated), with at most
     /// `max_drops` drops a frame where the device that draws them holds fewer than the
     /// configuration asks for (the plan then shrinks the far distance and weights drops exactly
-    /// as for any other budget; a warning names the limit).
+    /// as for any other budget; the caller, who knows the device, says so).
     pub fn plan(footage: &Footage, config: &RenderConfig, max_drops: Option<u32>) -> Result<Shot> {
         config.validate()?;
         let exposure = footage.exposure_s(config)?;
@@ -113,10 +113,6 @@ impl Shot {
         }
         let mut rain_config = config.rain;
         if let Some(cap) = max_drops.filter(|&cap| rain_config.max_drops > cap) {
-            log::warn!(
-                "rain.max_drops {} is more than the device holds in one frame; using {cap}",
-                rain_config.max_drops,
-            );
             rain_config.max_drops = cap;
         }
         let camera = footage.camera(config)?;
