@@ -155,10 +155,10 @@ fn no_lights_add_nothing() {
 }
 
 /// The halo's profile along a row through each lamp, against a brute-force integral along the
-/// ray: a fine Riemann sum over s of ½ β e^(−β (s − s_near)) · L Ω (d / r)² · F(θ) (half the
-/// extinction is diffraction within 0.02° of the lamp, the other half the geometric optics F
-/// holds), with F from a table eight times finer read as its bin averages, and the geometry
-/// in plain vectors.
+/// ray: a fine Riemann sum over s of β e^(−β (s − s_near)) · L Ω (d / r)² · F(θ) (β the haze's
+/// extinction as a picture sees it: the diffracted half of a drop's extinction stays within
+/// 0.03° of the beam, so what the beam loses is what the geometric optics F scatter), with F
+/// from a table eight times finer read as its bin averages, and the geometry in plain vectors.
 #[test]
 fn glow_follows_the_single_scattering_integral() {
     let cam = camera();
@@ -202,7 +202,7 @@ fn glow_follows_the_single_scattering_integral() {
                     }
                 };
                 let theta = to_light.dot(v).clamp(-1.0, 1.0).acos();
-                let w = 0.5 * beta * (-beta * (s - HAZE_NEAR_M)).exp() * ds * scale;
+                let w = beta * (-beta * (s - HAZE_NEAR_M)).exp() * ds * scale;
                 for k in 0..3 {
                     truth[k] +=
                         w * lamp.radiance_rgb[k] * lamp.solid_angle_sr * fine[k].value(theta);

@@ -16,10 +16,6 @@
 // Samples along the ray per light at a finite distance; a light at infinity is seen at one
 // angle all along the ray and needs none.
 const HAZE_GLOW_SAMPLES: u32 = 16u;
-// Share of the extinction β that the drop's geometric optics (its transfer table F, which
-// integrates to 1) scatter: a drop removes twice its cross-section (the extinction paradox),
-// the other half diffracted within λ/D ≈ 0.02° of the lamp, inside the lamp's own pixel.
-const GLOW_GEOMETRIC_SHARE: f32 = 0.5;
 
 // The compact lights scattered once by the haze into unit view ray `v`. The haze spans s from
 // rain.haze.x (the farthest drawn drop: the drawn drops carry the light before it, so nothing
@@ -28,10 +24,12 @@ const GLOW_GEOMETRIC_SHARE: f32 = 0.5;
 // β e^(−β (s − x)) ds. At infinity Ω and θ are constant: (1 − T) L Ω F(θ). A light at a finite
 // distance is a point the ray passes at h: its Ω(s) ∝ 1/r² peaks there, so the samples are
 // equiangular (uniform in the angle φ = atan((s − s₀)/h) seen from the light, where
-// ds/r² = dφ/h), which integrates the peak exactly and leaves a slowly varying rest. Of β,
-// the geometric share scatters through F.
+// ds/r² = dφ/h), which integrates the peak exactly and leaves a slowly varying rest. β is the
+// imaging extinction (rain::physics::imaging_extinction_per_m): the diffracted half of a drop's
+// extinction stays in the beam, so what the beam loses is what the geometric optics scatter
+// through F.
 fn haze_glow_along(v: vec3<f32>) -> vec3<f32> {
-    let opacity = GLOW_GEOMETRIC_SHARE * (1.0 - rain.haze.w);
+    let opacity = 1.0 - rain.haze.w;
     let near_m = rain.haze.x;
     let far_m = max(rain.haze.y, near_m + 1e-6);
     let beta_per_m = -log(rain.haze.w) / (far_m - near_m);
@@ -52,7 +50,7 @@ fn haze_glow_along(v: vec3<f32>) -> vec3<f32> {
             let s_m = s0_m + h_m * tan(phi);
             let cos_phi = cos(phi);
             let ds_m = h_m / (cos_phi * cos_phi) * dphi;
-            let weight = GLOW_GEOMETRIC_SHARE * beta_per_m * exp(-beta_per_m * (s_m - near_m)) * ds_m;
+            let weight = beta_per_m * exp(-beta_per_m * (s_m - near_m)) * ds_m;
             c += weight * light_term(l, v, v * s_m).colour;
         }
     }

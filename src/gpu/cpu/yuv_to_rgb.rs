@@ -17,9 +17,6 @@ use crate::video::YuvFrame;
 /// Samples along the ray per light at a finite distance (`HAZE_GLOW_SAMPLES` in
 /// common/glow.wgsl).
 pub const HAZE_GLOW_SAMPLES: usize = 16;
-/// Share of the extinction that the drop's geometric optics scatter through the transfer table
-/// (`GLOW_GEOMETRIC_SHARE` in common/glow.wgsl): the other half is diffraction within 0.02°.
-pub const GLOW_GEOMETRIC_SHARE: f64 = 0.5;
 
 /// The world direction of the view ray through the centre of coded pixel (`x`, `y`) under the
 /// uniforms `p` (back to display pixels, then the pinhole).
@@ -110,9 +107,10 @@ pub fn plate(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
 /// The compact lights scattered once by the haze of `p` into unit view ray `v`, weighted by the
 /// haze's opacity: the halo around a lamp. Twin of `haze_glow_along` in common/glow.wgsl, which
 /// says how: the haze spans `p.haze[0]` to `p.haze[1]` metres with transmittance `p.haze[3]`; a
-/// light at infinity adds ½ (1 − T) L Ω F(θ), one at a finite distance the integral of
-/// ½ β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it (½: the share of
-/// the extinction the geometric optics scatter, [`GLOW_GEOMETRIC_SHARE`]).
+/// light at infinity adds (1 − T) L Ω F(θ), one at a finite distance the integral of
+/// β e^(−β (s − s_near)) L Ω(s) F(θ(s)) ds, sampled equiangularly about it (β the imaging
+/// extinction: what the beam loses is what the geometric optics scatter,
+/// [`crate::rain::physics::imaging_extinction_per_m`]).
 pub fn haze_glow_along(
     p: &RainParams,
     lights: &LightList,
@@ -124,7 +122,7 @@ pub fn haze_glow_along(
     if t >= 1.0 || count == 0 {
         return [0.0; 3];
     }
-    let opacity = GLOW_GEOMETRIC_SHARE * (1.0 - t);
+    let opacity = 1.0 - t;
     let near_m = p.haze[0] as f64;
     let far_m = (p.haze[1] as f64).max(near_m + 1e-6);
     let beta_per_m = -t.ln() / (far_m - near_m);
@@ -147,8 +145,7 @@ pub fn haze_glow_along(
             let phi = phi_a + (k as f64 + 0.5) * dphi;
             let s_m = s0_m + h_m * phi.tan();
             let ds_m = h_m / phi.cos().powi(2) * dphi;
-            let weight =
-                GLOW_GEOMETRIC_SHARE * beta_per_m * (-beta_per_m * (s_m - near_m)).exp() * ds_m;
+            let weight = beta_per_m * (-beta_per_m * (s_m - near_m)).exp() * ds_m;
             add(weight, light_term(l, tables, v, v * s_m).0);
         }
     }

@@ -368,6 +368,22 @@ mod tests {
         assert_eq!(haze_alpha(RainRate::OFF, 0.0, 1e9), 0.0);
     }
 
+    /// The haze a picture sees keeps the diffracted half of the extinction in the beam: its
+    /// transmittance over a path is the square root of the transmissometer's.
+    #[test]
+    fn the_haze_keeps_the_diffracted_half_in_the_beam() {
+        for (r, d) in [(1.0, 500.0), (10.0, 70.0), (75.0, 300.0)] {
+            let rate = RainRate::from_mm_per_h(r).unwrap();
+            let seen = 1.0 - haze_alpha(rate, 20.0, 20.0 + d);
+            let measured = transmittance(rate, d);
+            assert!(
+                (seen - measured.sqrt()).abs() < 1e-12,
+                "{r} mm/h over {d} m"
+            );
+            assert!(seen > measured);
+        }
+    }
+
     #[test]
     fn exposure_from_shutter_angle() {
         assert!((exposure_s(180.0, 25.0).unwrap() - 0.02).abs() < 1e-15);

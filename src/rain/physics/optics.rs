@@ -27,11 +27,26 @@ pub fn transmittance(rate: RainRate, distance_m: f64) -> f64 {
     (-extinction_per_m(rate) * distance_m.max(0.0)).exp()
 }
 
-/// Opacity of the rain between `from_m` and `to_m` along a ray (the haze that stands for drops
-/// too far to draw one by one): 1 − e^{−β (to − from)}, 0 when `to ≤ from`.
+/// Share of a drop's extinction that is diffraction: a drop much larger than the wavelength
+/// removes twice its cross-section from a beam (the extinction paradox), half by refraction and
+/// reflection, half diffracted within about λ/D ≈ 0.03° of the beam (D = 1 mm) — about one
+/// pixel of a 1080p picture 60° wide. A transmissometer counts that half as lost; a picture
+/// keeps it in the pixel it came from.
+pub const DIFFRACTED_SHARE: f64 = 0.5;
+
+/// Extinction of rain as a picture sees it, m⁻¹: [`extinction_per_m`] less its diffracted
+/// share, which stays in the beam (the δ-scaling of a forward peak narrower than a pixel). What
+/// is removed is exactly what the geometric optics scatter, so the same β weights the in-scatter.
+pub fn imaging_extinction_per_m(rate: RainRate) -> f64 {
+    (1.0 - DIFFRACTED_SHARE) * extinction_per_m(rate)
+}
+
+/// Opacity of the rain between `from_m` and `to_m` along a ray as a picture sees it (the haze
+/// that stands for drops too far to draw one by one): 1 − e^{−β′ (to − from)} with the imaging
+/// extinction β′ ([`imaging_extinction_per_m`]), 0 when `to ≤ from`.
 pub fn haze_alpha(rate: RainRate, from_m: f64, to_m: f64) -> f64 {
     let d = (to_m - from_m).max(0.0);
-    -(-extinction_per_m(rate) * d).exp_m1()
+    -(-imaging_extinction_per_m(rate) * d).exp_m1()
 }
 
 // ------------------------------------------------------------------------------------------
