@@ -7,7 +7,7 @@ use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::probe::{probe_drops, probe_streaks};
 use rain_composite::gpu::types::LightList;
-use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::keyframes::{Curve, Keyframes};
 use rain_composite::lighting::frame_light::rtf_tables;
 use rain_composite::lighting::{LightConfig, LightEstimator};
@@ -29,7 +29,10 @@ fn ramp(keys: &[(f64, f64)]) -> Option<Curve<f64>> {
 /// The rain of `rain` seen by `config` with `keys`: the camera at t = 0 and the setup.
 fn rain_of(config: CameraConfig, rain: RainConfig, keys: &Keyframes) -> (Camera, RainSetup) {
     let camera = config.camera(SIZE.0, SIZE.1);
-    let setup = emitter::build_keyed(&camera, &config, &rain, keys, 0.02, 0, SIZE).expect("rain");
+    let setup =
+        rain_composite::shot::rain::plan_keyed(&camera, &config, &rain, keys, 0.02, 0, SIZE)
+            .map(RainSetup::pack)
+            .expect("rain");
     (camera, setup)
 }
 
@@ -341,7 +344,7 @@ fn report_moving_camera_costs() {
             ..Keyframes::default()
         };
         let start = Instant::now();
-        let setup = emitter::build_keyed(
+        let setup = rain_composite::shot::rain::plan_keyed(
             &camera,
             &CameraConfig::default(),
             &rain,
@@ -350,6 +353,7 @@ fn report_moving_camera_costs() {
             0,
             (1280, 720),
         )
+        .map(RainSetup::pack)
         .expect("rain");
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let poses = if keys.moves_camera() {
@@ -496,10 +500,19 @@ fn a_camera_that_turns_far_is_planned_for_bounded_poses() {
     };
     let config = CameraConfig::default();
     let camera = config.camera(SIZE.0, SIZE.1);
-    let e = emitter::build_keyed(&camera, &config, &light_rain(), &spinning, 0.02, 0, SIZE)
-        .map(|_| ())
-        .expect_err("a spin of 30 turns is refused")
-        .to_string();
+    let e = rain_composite::shot::rain::plan_keyed(
+        &camera,
+        &config,
+        &light_rain(),
+        &spinning,
+        0.02,
+        0,
+        SIZE,
+    )
+    .map(RainSetup::pack)
+    .map(|_| ())
+    .expect_err("a spin of 30 turns is refused")
+    .to_string();
     assert!(e.contains("camera keys") && e.contains("3600"), "{e}");
     assert!(started.elapsed().as_secs() < 60, "{:?}", started.elapsed());
 }

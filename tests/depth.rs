@@ -13,7 +13,7 @@ use rain_composite::gpu::GpuContext;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::probe::probe_streaks;
 use rain_composite::gpu::types::{LightList, RainParams};
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::scene::depth::DepthSource;
 use rain_composite::scene::{Camera, DepthMap};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
@@ -83,7 +83,7 @@ fn rain(near_m: f64, far_m: f64, rotation_deg: i32) -> RainSetup {
         scene_depth_m: 0.0,
         ..RainConfig::default()
     };
-    uniforms::build(
+    rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -91,6 +91,7 @@ fn rain(near_m: f64, far_m: f64, rotation_deg: i32) -> RainSetup {
         rotation_deg,
         (f.width, f.height),
     )
+    .map(RainSetup::pack)
     .expect("rain")
     .with_scene_depth(true)
 }

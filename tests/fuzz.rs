@@ -9,6 +9,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use rain_composite::config::RenderConfig;
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rng::SplitMix64;
 use rain_composite::video::{Source, SourceItem};
 
@@ -148,14 +149,15 @@ fn exercise_config(text: &str) {
     else {
         return;
     };
-    let _ = rain_composite::gpu::uniforms::build(
+    let _ = rain_composite::shot::rain::plan(
         &camera,
         &config.camera,
         &config.rain,
         exposure,
         0,
         (64, 48),
-    );
+    )
+    .map(RainSetup::pack);
 }
 
 #[test]

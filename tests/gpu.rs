@@ -6,7 +6,7 @@ use std::sync::Arc;
 use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::types::RainParams;
-use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext, probe::probe_drops};
 use rain_composite::lighting::{EnvironmentSh, FrameLight, RtfSh};
 use rain_composite::rain::physics::streak_width_factor;
@@ -69,7 +69,7 @@ fn no_rain(format: &FrameFormat) -> RainSetup {
         rate_mm_per_h: 0.0,
         ..RainConfig::default()
     };
-    emitter::build(
+    rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -77,6 +77,7 @@ fn no_rain(format: &FrameFormat) -> RainSetup {
         0,
         (format.width, format.height),
     )
+    .map(RainSetup::pack)
     .expect("rain")
 }
 
@@ -191,7 +192,7 @@ fn gpu_drops_match_the_cpu_reference() {
         seed: 7,
         ..RainConfig::default()
     };
-    let setup = emitter::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -199,6 +200,7 @@ fn gpu_drops_match_the_cpu_reference() {
         0,
         (640, 360),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     assert!(setup.drop_count() > 1000);
     for t in [0.0f64, 0.7, 13.25] {
@@ -246,7 +248,7 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
         far_m: 6.0,
         ..RainConfig::default()
     };
-    let setup = emitter::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -254,6 +256,7 @@ fn rain_brightens_a_dark_frame_and_falls_down_the_picture() {
         0,
         (160, 120),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
     let a = comp.render_one(&dark, &lit(&setup, 1.0)).expect("render");
@@ -303,7 +306,7 @@ fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32,
     let color = ColorParams::bt709(8);
     let dark = YuvFrame::filled(format, color, [30, 128, 128]);
     let camera = Camera::new(w, h, 1.0, 1.6, 0.0, 0.0);
-    let setup = emitter::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -311,6 +314,7 @@ fn rain_luma(ctx: &Arc<GpuContext>, rain: RainConfig, time_s: f64) -> (u32, u32,
         0,
         (w, h),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let mut comp = Compositor::new(ctx.clone(), format, &color, &setup).expect("compositor");
     let out = comp
@@ -421,7 +425,7 @@ fn hard_cameras_render_finite_local_streaks() {
             scene_depth_m: 0.0,
             ..RainConfig::default()
         };
-        let setup = emitter::build(
+        let setup = rain_composite::shot::rain::plan(
             &camera,
             &CameraConfig::default(),
             &rain,
@@ -429,6 +433,7 @@ fn hard_cameras_render_finite_local_streaks() {
             0,
             (w, h),
         )
+        .map(RainSetup::pack)
         .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(
             setup.params.drop_weight.is_finite() && setup.params.drop_weight > 0.0,
@@ -488,7 +493,9 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
         seed: 11,
         ..RainConfig::default()
     };
-    let setup = emitter::build(&camera, &lens, &rain, 0.01, 0, (640, 360)).expect("rain");
+    let setup = rain_composite::shot::rain::plan(&camera, &lens, &rain, 0.01, 0, (640, 360))
+        .map(RainSetup::pack)
+        .expect("rain");
     let optics =
         channel_optics(ChannelIndices(WATER_RHO_RGB), 9, Polarisation::default()).expect("optics");
     let tables = optics.map(|o| o.tabulate(1024).expect("table"));
@@ -634,7 +641,7 @@ fn direct_light_cost() {
 
     let Some(ctx) = gpu() else { return };
     let camera = CameraConfig::default().camera(1280, 720);
-    let setup = emitter::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &RainConfig::default(),
@@ -642,6 +649,7 @@ fn direct_light_cost() {
         0,
         (1280, 720),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let lighting = LightEstimator::new(&camera, 0, &LightConfig::default()).expect("lighting");
     let probe = SimulateProbe::new(&ctx, &setup, setup.drop_count(), lighting.transfer_tables());
@@ -696,7 +704,7 @@ fn haze_in_scatter_follows_each_pixels_ray() {
         scene_depth_m: 5000.0,
         ..RainConfig::default()
     };
-    let setup = emitter::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -704,6 +712,7 @@ fn haze_in_scatter_follows_each_pixels_ray() {
         90,
         (cw, ch),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     assert!(setup.haze_alpha > 0.01, "haze {}", setup.haze_alpha);
     // An environment brighter up and to the right of the view.

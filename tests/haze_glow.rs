@@ -6,7 +6,7 @@ use glam::{DVec2, DVec3};
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::types::{LightList, RainParams};
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::LightSource;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
@@ -55,7 +55,7 @@ fn lamps(cam: &Camera) -> Vec<LightSource> {
 
 /// No drops; a dim environment; the haze given by the constants above.
 fn setup_and_params(cam: &Camera) -> (RainSetup, RainParams) {
-    let setup = uniforms::build(
+    let setup = rain_composite::shot::rain::plan(
         cam,
         &CameraConfig::default(),
         &RainConfig {
@@ -66,6 +66,7 @@ fn setup_and_params(cam: &Camera) -> (RainSetup, RainParams) {
         0,
         (W, H),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let mut p = lit(&setup, 0.0, &[(0, [0.05, 0.05, 0.08])], None);
     p.haze = [HAZE_NEAR_M as f32, HAZE_FAR_M as f32, 0.0, HAZE_T as f32];

@@ -6,6 +6,7 @@
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::yuv_to_rgb::{haze_transmittance, yuv_to_rgb};
 use rain_composite::gpu::types::RainParams;
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
@@ -24,7 +25,7 @@ fn params(ground: bool) -> (Camera, RainParams) {
         ..CameraConfig::default()
     };
     let camera = config.camera(W, H);
-    let setup = rain_composite::gpu::uniforms::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &config,
         &RainConfig {
@@ -35,6 +36,7 @@ fn params(ground: bool) -> (Camera, RainParams) {
         0,
         (W, H),
     )
+    .map(RainSetup::pack)
     .expect("setup")
     .with_ground(ground);
     let mut env = EnvironmentSh::zeros(4);

@@ -6,7 +6,7 @@
 use glam::{DVec2, DVec3};
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::probe::probe_drops;
-use rain_composite::gpu::uniforms::{self as emitter, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::keyframes::{Curve, Keyframes};
 use rain_composite::lighting::wetness::{RainHistory, SurfaceStore};
 use rain_composite::rain::physics::{DropSizeDistribution, RainRate};
@@ -28,7 +28,7 @@ fn ramp(keys: &[(f64, f64)]) -> Curve<f64> {
 /// The rain of `rain` with `keys`, seen by a level 960×540 camera.
 fn keyed(rain: RainConfig, keys: Keyframes) -> (Camera, RainSetup) {
     let camera = Camera::new(960, 540, 1.0, 1.6, 0.0, 0.0);
-    let setup = emitter::build_keyed(
+    let setup = rain_composite::shot::rain::plan_keyed(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -37,6 +37,7 @@ fn keyed(rain: RainConfig, keys: Keyframes) -> (Camera, RainSetup) {
         0,
         (960, 540),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     (camera, setup)
 }

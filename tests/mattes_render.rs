@@ -16,7 +16,7 @@ use rain_composite::gpu::probe::{probe_drops_with, probe_streaks, probe_streaks_
 use rain_composite::gpu::types::{
     DirectLight, GLINTS_PER_DROP, Glint, LightList, RainParams, Streak,
 };
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::rtf::RtfTable;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
@@ -306,7 +306,7 @@ fn setup_for(format: FrameFormat) -> RainSetup {
         max_drops: 3000,
         ..RainConfig::default()
     };
-    uniforms::build(
+    rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -314,6 +314,7 @@ fn setup_for(format: FrameFormat) -> RainSetup {
         0,
         (format.width, format.height),
     )
+    .map(RainSetup::pack)
     .expect("rain")
 }
 

@@ -5,6 +5,7 @@
 use glam::{DVec2, DVec3, Vec2};
 use rain_composite::config::RenderConfig;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::volume::{GroundRain, Impact};
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
@@ -204,7 +205,7 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
     let (mut config, camera) = street(60.0, 10.0, 0.004);
     let r = &mut config.rain;
     (r.far_m, r.max_drops, r.drop_scale) = (6.0, 100_000, 3.0);
-    let rain = rain_composite::gpu::uniforms::build(
+    let rain = rain_composite::shot::rain::plan(
         &camera,
         &config.camera,
         &config.rain,
@@ -212,6 +213,7 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
         0,
         (camera.width_px, camera.height_px),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let every_other = PuddleSettings {
         step_every_frames: 2,

@@ -5,7 +5,7 @@
 use rain_composite::config::RenderConfig;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
 use rain_composite::fluid::ripples::{MAX_RINGS, RING_POOL, keep_resolved_rings, rings_on_water};
-use rain_composite::gpu::uniforms;
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::volume::{GroundRain, Impact};
 
 /// Frames per second of the test clip: few, the memory is per frame, not per second.
@@ -43,7 +43,9 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     let mut sim = PuddleSim::new(&c, &camera, None, FPS, &settings)
         .expect("valid")
         .expect("ground in view");
-    let rain = uniforms::build(&camera, &c.camera, &c.rain, 0.02, 0, (1280, 720)).expect("rain");
+    let rain = rain_composite::shot::rain::plan(&camera, &c.camera, &c.rain, 0.02, 0, (1280, 720))
+        .map(RainSetup::pack)
+        .expect("rain");
     let ground = GroundRain::new(rain.rainfall());
     let mut rings: Vec<Impact> = Vec::new();
     let (mut landed, mut drawn_most) = (0u64, 0usize);

@@ -13,7 +13,7 @@ use rain_composite::gpu::cpu::{
 use rain_composite::gpu::probe::{probe_drops, probe_splashes, probe_streaks};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{LightList, RainParams};
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
@@ -97,7 +97,7 @@ fn rain_for(case: &Case, rain: &RainConfig) -> RainSetup {
     let f = case.format;
     let (w, h) = rain_composite::video::frame::display_size(case.rotation_deg, f.width, f.height);
     let camera = Camera::new(w, h, 1.0, 1.6, 0.05, 0.0);
-    uniforms::build(
+    rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         rain,
@@ -105,6 +105,7 @@ fn rain_for(case: &Case, rain: &RainConfig) -> RainSetup {
         case.rotation_deg,
         (f.width, f.height),
     )
+    .map(RainSetup::pack)
     .expect("rain")
 }
 
@@ -292,7 +293,7 @@ fn every_stage_matches_its_cpu_twin() {
                         max_drops: 50_000,
                         ..heavy_rain()
                     };
-                    let setup = uniforms::build(
+                    let setup = rain_composite::shot::rain::plan(
                         &Camera::new(w, h, 1.0, 1.6, -0.7, 0.0),
                         &CameraConfig::default(),
                         &rain,
@@ -300,6 +301,7 @@ fn every_stage_matches_its_cpu_twin() {
                         case.rotation_deg,
                         (f.width, f.height),
                     )
+                    .map(RainSetup::pack)
                     .expect("rain")
                     .with_ground(true);
                     let t = 1.3;
@@ -470,8 +472,16 @@ fn drops_match_the_cpu_twin_under_swept_settings() {
     for (what, rain, camera_config, rotation) in sweeps {
         let (w, h) = rain_composite::video::frame::display_size(rotation, 320, 180);
         let camera = Camera::new(w, h, 1.0, 1.6, 0.05, 0.0);
-        let setup = uniforms::build(&camera, &camera_config, &rain, 0.02, rotation, (320, 180))
-            .expect("rain");
+        let setup = rain_composite::shot::rain::plan(
+            &camera,
+            &camera_config,
+            &rain,
+            0.02,
+            rotation,
+            (320, 180),
+        )
+        .map(RainSetup::pack)
+        .expect("rain");
         assert_eq!(
             setup.volume.motion.diameter_scale, rain.drop_scale,
             "{what}"
@@ -499,7 +509,7 @@ fn a_drop_ten_hours_in_is_placed_as_precisely_as_ten_seconds_in() {
         seed: 7,
         ..RainConfig::default()
     };
-    let setup = uniforms::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         &rain,
@@ -507,6 +517,7 @@ fn a_drop_ten_hours_in_is_placed_as_precisely_as_ten_seconds_in() {
         0,
         (640, 360),
     )
+    .map(RainSetup::pack)
     .expect("rain");
     let (short, short_wrapped) = drop_errors(&ctx, &setup, 10.25, "t = 10 s");
     let (long, long_wrapped) = drop_errors(&ctx, &setup, 36_000.25, "t = 10 h");

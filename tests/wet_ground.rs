@@ -8,7 +8,7 @@ use glam::DVec2;
 use rain_composite::config::{CameraConfig, GroundConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, wet_ground, yuv_to_rgb};
 use rain_composite::gpu::types::WetParams;
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::wetness::{
     FilmOptics, RainHistory, SurfaceStore, WATER_INDEX, Wetting, water_reflectance,
@@ -396,8 +396,16 @@ fn without_a_ground_the_frame_is_bit_identical() {
         ..GroundConfig::default()
     };
     let rain = RainConfig::default();
-    let plain =
-        uniforms::build(&camera, &CameraConfig::default(), &rain, 0.01, 0, (32, 24)).expect("rain");
+    let plain = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &rain,
+        0.01,
+        0,
+        (32, 24),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
     let with_none = plain
         .clone()
         .with_ground(none.is_given())

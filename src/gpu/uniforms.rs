@@ -12,9 +12,7 @@
 use glam::DVec2;
 
 use super::types::{Column, GUSTS, LightList, RainParams};
-use crate::Result;
-use crate::config::{CameraConfig, RainConfig};
-use crate::keyframes::{Keyframes, MAX_KEYS};
+use crate::keyframes::MAX_KEYS;
 use crate::lighting::FrameLight;
 use crate::rain::physics::{G_MPS2, ThinLens};
 use crate::rain::volume::drop::inv_height_q;
@@ -48,49 +46,6 @@ pub fn coded_from_display(rotation_deg: i32, coded_w: f32, coded_h: f32) -> ([f3
     let (m, o) =
         crate::video::frame::coded_from_display(rotation_deg, coded_w as f64, coded_h as f64);
     (m.map(|v| v as f32), o.map(|v| v as f32))
-}
-
-/// Plans the rain of a shot ([`crate::shot::rain::plan`]) and packs it.
-pub fn build(
-    camera: &Camera,
-    camera_config: &CameraConfig,
-    rain: &RainConfig,
-    exposure_s: f64,
-    rotation_deg: i32,
-    coded_size_px: (u32, u32),
-) -> Result<RainSetup> {
-    let plan = crate::shot::rain::plan(
-        camera,
-        camera_config,
-        rain,
-        exposure_s,
-        rotation_deg,
-        coded_size_px,
-    )?;
-    Ok(RainSetup::pack(plan))
-}
-
-/// Plans the rain of a shot with keyed settings ([`crate::shot::rain::plan_keyed`]) and packs
-/// it.
-pub fn build_keyed(
-    camera: &Camera,
-    camera_config: &CameraConfig,
-    rain: &RainConfig,
-    keys: &Keyframes,
-    exposure_s: f64,
-    rotation_deg: i32,
-    coded_size_px: (u32, u32),
-) -> Result<RainSetup> {
-    let plan = crate::shot::rain::plan_keyed(
-        camera,
-        camera_config,
-        rain,
-        keys,
-        exposure_s,
-        rotation_deg,
-        coded_size_px,
-    )?;
-    Ok(RainSetup::pack(plan))
 }
 
 impl RainSetup {

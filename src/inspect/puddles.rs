@@ -74,7 +74,7 @@ pub fn report(
         }));
     };
     let build_s = built.elapsed().as_secs_f64();
-    let setup = crate::gpu::uniforms::build_keyed(
+    let plan = crate::shot::rain::plan_keyed(
         &camera,
         &config.camera,
         &config.rain,
@@ -84,7 +84,7 @@ pub fn report(
         (info.format.width, info.format.height),
     )?;
     let run = Instant::now();
-    let rain = crate::rain::volume::GroundRain::new(setup.rainfall());
+    let rain = crate::rain::volume::GroundRain::new(plan.rainfall());
     let steps = match keep.filter(|k| k.every_frames > 0) {
         // Frame by frame, keeping the water after every N-th as a render would: a farm's
         // simulation pass before its chunks.

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use rain_composite::config::{CameraConfig, RainConfig, RenderConfig};
 use rain_composite::gpu::types::RainParams;
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
@@ -91,7 +91,7 @@ pub fn dry_ground(camera: &Camera, rotation_deg: i32) -> RainSetup {
         rate_mm_per_h: 0.0,
         ..RainConfig::default()
     };
-    uniforms::build(
+    rain_composite::shot::rain::plan(
         camera,
         &CameraConfig::default(),
         &rain,
@@ -99,6 +99,7 @@ pub fn dry_ground(camera: &Camera, rotation_deg: i32) -> RainSetup {
         rotation_deg,
         coded,
     )
+    .map(RainSetup::pack)
     .expect("rain")
     .with_ground(true)
 }
@@ -123,7 +124,7 @@ pub fn rain_seen_by(
     ground: bool,
 ) -> (Camera, RainSetup) {
     let camera = config.camera(w, h).expect("camera");
-    let setup = uniforms::build(
+    let setup = rain_composite::shot::rain::plan(
         &camera,
         &CameraConfig::default(),
         rain,
@@ -131,6 +132,7 @@ pub fn rain_seen_by(
         0,
         (w, h),
     )
+    .map(RainSetup::pack)
     .expect("rain")
     .with_ground(ground);
     (camera, setup)

@@ -273,7 +273,6 @@ pub fn take_glints(
 mod tests {
     use super::*;
     use crate::config::{CameraConfig, RainConfig};
-    use crate::gpu::uniforms as emitter;
     use crate::scene::Camera;
 
     /// Σ alpha over the picture plane (0.5 px grid over the streak's footprint), px².
@@ -305,8 +304,10 @@ mod tests {
             focus_m: 10.0,
             ..CameraConfig::default()
         };
-        let setup = emitter::build(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
-            .expect("rain");
+        let setup =
+            crate::shot::rain::plan(&camera, &lens, &RainConfig::default(), 0.01, 0, (1280, 720))
+                .map(crate::gpu::uniforms::RainSetup::pack)
+                .expect("rain");
         let mut p = setup.motion_at(0.0);
         p.drop_weight = 1.0;
         let pos = camera.position_m + camera.world_from_camera * DVec3::new(0.0, 0.0, z_m);
