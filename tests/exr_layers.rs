@@ -511,35 +511,44 @@ fn bad_exr_outputs_fail_cleanly() {
     assert_eq!(std::fs::read(&existing).unwrap(), b"kept");
 }
 
-/// The numbers of `docs/measurements.md` ("Rain as a layer"): a sample clip
-/// (`RAIN_COMPOSITE_MEASURE_CLIP`, default `city`) from `RAIN_COMPOSITE_MEASURE_FROM` seconds
-/// (default 0), `RAIN_COMPOSITE_MEASURE_FRAMES` frames (default 10), at the defaults: the 16-bit
-/// PNG and the EXR layer over the plate against the render.
+/// The numbers of `docs/measurements.md` ("Rain as a layer"): the 16-bit PNG and the EXR layer
+/// over the plate against the render. `RAIN_COMPOSITE_MEASURE_CLIP` names a sample clip
+/// (`city`, the default) or `testsrc2:WxH`; `RAIN_COMPOSITE_MEASURE_FROM` the start in seconds
+/// (0), `RAIN_COMPOSITE_MEASURE_FRAMES` the frames (10), `RAIN_COMPOSITE_MEASURE_ARGS` the
+/// render's flags (none: the defaults).
 /// `cargo test --release --test exr_layers -- --ignored --nocapture`
 #[test]
 #[ignore = "a measurement: seconds a frame on lavapipe"]
-fn measure_sample_layers() {
+fn measure_layers() {
     let var = |name: &str, default: &str| std::env::var(name).unwrap_or_else(|_| default.into());
     let name = var("RAIN_COMPOSITE_MEASURE_CLIP", "city");
     let from = var("RAIN_COMPOSITE_MEASURE_FROM", "0");
     let count = var("RAIN_COMPOSITE_MEASURE_FRAMES", "10");
+    let args = var("RAIN_COMPOSITE_MEASURE_ARGS", "");
+    let look: Vec<&str> = args.split_whitespace().collect();
     let dir = TempDir::new().unwrap();
-    let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("samples/{name}.mp4"));
-    let input = dir.path().join("clip.mkv");
-    // The frames losslessly (tags kept), so that the plate is exactly what the render decodes.
-    fixtures::ffmpeg(&[
-        "-ss",
-        &from,
-        "-i",
-        fixtures::s(&clip),
-        "-frames:v",
-        &count,
-        "-an",
-        "-c:v",
-        "ffv1",
-        fixtures::s(&input),
-    ]);
-    let (exr, png, layers) = compare(&input, dir.path(), &[]);
+    let input = match name.strip_prefix("testsrc2:") {
+        Some(size) => sized_source(dir.path(), size, "yuv420p", "bt709"),
+        None => {
+            let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("samples/{name}.mp4"));
+            let input = dir.path().join("clip.mkv");
+            // The frames losslessly (tags kept): the plate is exactly what the render decodes.
+            fixtures::ffmpeg(&[
+                "-ss",
+                &from,
+                "-i",
+                fixtures::s(&clip),
+                "-frames:v",
+                &count,
+                "-an",
+                "-c:v",
+                "ffv1",
+                fixtures::s(&input),
+            ]);
+            input
+        }
+    };
+    let (exr, png, layers) = compare(&input, dir.path(), &look);
     let brightest = layers
         .iter()
         .flatten()
@@ -550,8 +559,9 @@ fn measure_sample_layers() {
         .flatten()
         .filter(|p| p[..3].iter().any(|&c| c > 1.0))
         .count();
-    let what = format!("{name}.mp4 from {from} s, {count} frames");
+    let pixels: usize = layers.iter().map(Vec::len).sum();
+    let what = format!("{name} from {from} s, {} frames, '{args}'", layers.len());
     println!("{what}, 16-bit PNG layer over the plate: {}", png.report());
     println!("{what}, EXR layer over the plate: {}", exr.report());
-    println!("brightest EXR colour {brightest}, {above_white} pixels above 1.0");
+    println!("brightest EXR colour {brightest}; {above_white} of {pixels} pixels above 1.0");
 }

@@ -128,12 +128,14 @@ impl ExrSequence {
             let s = |k: usize| f16::from_bits(frame.rgba[at + k]);
             (s(0), s(1), s(2), s(3))
         });
-        let mut attributes = x::LayerAttributes::default();
-        attributes.software_name = Some(x::Text::from(concat!(
-            "rain-composite ",
-            env!("CARGO_PKG_VERSION")
-        )));
-        attributes.frames_per_second = self.frames_per_second;
+        let attributes = x::LayerAttributes {
+            software_name: Some(x::Text::from(concat!(
+                "rain-composite ",
+                env!("CARGO_PKG_VERSION")
+            ))),
+            frames_per_second: self.frames_per_second,
+            ..Default::default()
+        };
         // Lossless, in blocks of 16 rows: what Nuke writes by default, and every reader takes.
         let layer = x::Layer::new(
             (width, h as usize),
