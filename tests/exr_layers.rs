@@ -380,6 +380,27 @@ fn exr_layer_over_the_plate_is_the_render_glow_included() {
     }
 }
 
+/// Heavy rain thickens the haze, and the glow of `testsrc2`'s bars (recovered as a sun) passes
+/// white over much of the picture: the 16-bit layer clips it far from the render, the EXR layer
+/// over the plate stays within one code value.
+#[test]
+fn exr_layer_keeps_a_glow_far_above_white() {
+    let dir = TempDir::new().unwrap();
+    let input = sized_source(dir.path(), "320x240", "yuv420p", "bt709");
+    let (exr, png, layers) = compare(&input, dir.path(), &["--rain", "60", "--seed", "7"]);
+    eprintln!("60 mm/h, EXR layer over the plate: {}", exr.report());
+    eprintln!("60 mm/h, 16-bit PNG layer over the plate: {}", png.report());
+    assert_eq!(exr.within_one, exr.samples, "{}", exr.report());
+    assert!(png.psnr_db() < 45.0, "{}", png.report());
+    let pixels: usize = layers.iter().map(Vec::len).sum();
+    let above = layers
+        .iter()
+        .flatten()
+        .filter(|p| p[..3].iter().any(|&c| c > 1.0))
+        .count();
+    assert!(above * 10 > pixels, "{above} of {pixels} pixels above 1.0");
+}
+
 /// The wet ground is in the EXR layer too (its darkening as alpha, its tint and sheen as
 /// colour): over the plate it is the render.
 #[test]
