@@ -3,7 +3,9 @@
 // coded orientation. Colour is encoded with the frame's own transfer, so the layer shares
 // the video's primaries and transfer; alpha is linear. Entry points: `premultiplied` writes
 // the transfer of the premultiplied linear colour (premultiplication in linear light),
-// `straight` the transfer of colour / alpha, `matte` the coverage alone as opaque grey.
+// `straight` the transfer of colour / alpha, `matte` the coverage alone as opaque grey, and
+// `linear` the canvas itself as half floats (an OpenEXR layer: scene-linear, premultiplied,
+// nothing clipped, so the light above white that the haze's glow adds is kept).
 // Includes: common/types.wgsl, common/color.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
@@ -43,4 +45,14 @@ fn matte(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.width || id.y >= frame.height { return; }
     let a = textureLoad(canvas, id.xy, 0).a;
     store(id.xy, vec4<f32>(a, a, a, 1.0));
+}
+
+@compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
+fn linear(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.width || id.y >= frame.height { return; }
+    // The canvas is Rgba16Float: each texel widens to f32 exactly and packs back exactly.
+    let c = textureLoad(canvas, id.xy, 0);
+    let i = 2u * (id.y * frame.width + id.x);
+    out_words[i] = pack2x16float(c.rg);
+    out_words[i + 1u] = pack2x16float(c.ba);
 }

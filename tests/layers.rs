@@ -474,7 +474,8 @@ fn f16_bits(v: f32) -> u16 {
 }
 
 /// The GPU stage `rgba_out` against its CPU twin, every mode, on a canvas of exact `f16`
-/// values: dark and bright colour, α from 0 to 1, colour above α (superluminous) and above 1.
+/// values: dark and bright colour, α from 0 to 1, colour above α (superluminous) and above 1
+/// (which the scene-linear layer keeps bit for bit).
 #[test]
 fn rgba_out_matches_its_cpu_twin() {
     use rain_composite::gpu::cpu::rgba_out::rgba_out;
@@ -560,6 +561,7 @@ fn rgba_out_matches_its_cpu_twin() {
             Layer::Alpha(AlphaMode::Premultiplied),
             Layer::Alpha(AlphaMode::Straight),
             Layer::Matte,
+            Layer::SceneLinear,
         ] {
             let stage = RgbaOut::with_buffers(device, &params, (w, h), &view, &out, layer);
             let mut encoder = device.create_command_encoder(&Default::default());
@@ -578,6 +580,12 @@ fn rgba_out_matches_its_cpu_twin() {
                 bytemuck::pod_collect_to_vec(&read.slice(..).get_mapped_range().expect("mapped"));
             read.unmap();
             let cpu = rgba_out(&canvas, transfer, layer);
+            if layer == Layer::SceneLinear {
+                // The canvas's half floats, unchanged, bit for bit.
+                assert_eq!(gpu, cpu, "{transfer:?} {layer:?}");
+                assert_eq!(cpu, texels, "{transfer:?} {layer:?}: the canvas itself");
+                continue;
+            }
             // f32 against f64 transfer: a rounding may land on the other side of a half.
             let worst = gpu.iter().zip(&cpu).map(|(g, c)| g.abs_diff(*c)).max();
             assert!(worst <= Some(1), "{transfer:?} {layer:?}: off by {worst:?}");

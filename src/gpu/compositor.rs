@@ -9,7 +9,8 @@
 //! rotation is applied to the streaks' vertices, not to the pixels, so a frame without rain
 //! comes back bit for bit). For the rain as a layer ([`Layer`]) the canvas starts transparent
 //! (the haze alone) instead of the frame, the same stages draw over it, and `rgba_out` packs
-//! R'G'B'A in place of `rgb_to_yuv` (the layer over black keeps `rgb_to_yuv`). `submit` records one frame and returns the frame
+//! R'G'B'A in place of `rgb_to_yuv` (codes, or for a scene-linear layer the canvas's half
+//! floats; the layer over black keeps `rgb_to_yuv`). `submit` records one frame and returns the frame
 //! submitted `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame
 //! it just submitted, so upload, GPU work and readback of consecutive frames overlap. `flush`
 //! drains the ring at the end.
@@ -29,7 +30,7 @@ use super::stages::{
 };
 use super::types::{FrameParams, LightList, RainParams, Streak};
 use super::uniforms::RainSetup;
-use crate::video::{FrameFormat, Layer, LayerFrame, Plane, YuvFrame};
+use crate::video::{FrameFormat, Layer, LayerFrame, LayerSamples, Plane, YuvFrame};
 use crate::{Error, Result};
 
 /// Frames in flight (readback slots).
@@ -89,8 +90,8 @@ pub use crate::video::Rendered;
 pub struct Compositor {
     ctx: Arc<GpuContext>,
     format: FrameFormat,
-    /// Whether frames come back as R'G'B'A layers.
-    rgba: bool,
+    /// What the samples of the frames are, where they come back as R'G'B'A layers.
+    rgba: Option<LayerSamples>,
     frame_params: FrameParams,
     planes: [wgpu::Texture; 3],
     rain_buffer: wgpu::Buffer,
@@ -142,7 +143,7 @@ impl Compositor {
         rain: &RainSetup,
         layer: Option<Layer>,
     ) -> Result<Compositor> {
-        let rgba = layer.is_some_and(Layer::is_rgba);
+        let rgba = layer.filter(|l| l.is_rgba()).map(Layer::samples);
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
             return Err(Error::Unsupported(format!(
@@ -159,7 +160,7 @@ impl Compositor {
         });
         let planes = plane_textures(device, &format);
         let canvas = canvas_texture(device, &format);
-        let out_words = if rgba {
+        let out_words = if rgba.is_some() {
             u64::from(format.width)
                 * u64::from(format.height)
                 * u64::from(super::stages::rgba_out::WORDS_PER_PIXEL)
@@ -465,13 +466,14 @@ impl Compositor {
                 .get_mapped_range(..)
                 .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
             let fp = &self.frame_params;
-            if self.rgba {
+            if let Some(samples) = self.rgba {
                 layer = Some(LayerFrame {
                     width: fp.width,
                     height: fp.height,
                     rgba: bytemuck::pod_collect_to_vec(&view[..self.out_bytes as usize]),
                     pts: out.pts,
                     index: out.index,
+                    samples,
                 });
             }
             let y_len = (fp.y_row_words * fp.height) as usize * 4;
@@ -486,7 +488,7 @@ impl Compositor {
                 fp.c_row_words as usize * 4,
                 fp.c_row_words as usize * 4,
             ];
-            for i in (0..3).filter(|_| !self.rgba) {
+            for i in (0..3).filter(|_| self.rgba.is_none()) {
                 out.planes[i] = Plane {
                     data: view[bounds[i].0..bounds[i].1].to_vec(),
                     stride: strides[i],

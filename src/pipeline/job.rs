@@ -98,12 +98,14 @@ pub fn render(
     job.encode.validate()?;
     job.frames.validate()?;
     crate::video::check_output(&job.output, &[&job.input], job.encode.overwrite)?;
+    // An OpenEXR sequence holds the layer scene-linear, as the canvas has it.
+    let layer = job.encode.layer_for(&job.output)?;
     let started = Instant::now();
     let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
     let config = super::ground::resolve(&job.render, &job.input)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
-    let rain = Renderer::with_layer(&config, &Footage::of(&info), &job.adapter, job.encode.layer)?;
+    let rain = Renderer::with_layer(&config, &Footage::of(&info), &job.adapter, layer)?;
     let rain = match &job.checkpoints {
         Some(c) => rain.with_checkpoints(c.clone()),
         None => rain,

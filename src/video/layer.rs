@@ -1,5 +1,6 @@
 //! The rain as a layer for editors: what a layer render writes ([`Layer`]), the frames it
-//! carries ([`LayerFrame`]), and how each container stores them.
+//! carries ([`LayerFrame`]), which layer an output holds ([`for_output`]) and how each
+//! container stores them.
 //!
 //! Every effect on the canvas is an *over* in linear light with premultiplied colour,
 //! `out = effect.rgb + background · (1 − effect.α)`; a layer render starts from a transparent
@@ -36,6 +37,10 @@ impl AlphaMode {
 pub enum Layer {
     /// The rain with its alpha (R'G'B'A).
     Alpha(AlphaMode),
+    /// The rain with its alpha as the canvas holds it: scene-linear, premultiplied, in half
+    /// floats, nothing clipped (an OpenEXR sequence; [`Layer::Alpha`] premultiplied asked of an
+    /// `.exr` output becomes this, see [`for_output`]).
+    SceneLinear,
     /// The rain over black, an ordinary video (for a screen or add blend).
     OverBlack,
     /// The coverage alpha alone, as grey.
@@ -47,10 +52,94 @@ impl Layer {
     pub fn is_rgba(self) -> bool {
         !matches!(self, Layer::OverBlack)
     }
+
+    /// What the samples of this layer's frames are.
+    pub fn samples(self) -> LayerSamples {
+        match self {
+            Layer::SceneLinear => LayerSamples::Half,
+            _ => LayerSamples::Codes,
+        }
+    }
 }
 
-/// A rendered layer: 16-bit full-range code values R'G'B'A, row-major in the coded orientation
-/// (colour encoded with the video's transfer; alpha, and the matte's grey, linear).
+/// Whether `output` names an OpenEXR sequence: its extension is `.exr` and no container is
+/// forced on it.
+pub fn is_exr(output: &str, container: Option<&str>) -> bool {
+    container.is_none()
+        && std::path::Path::new(output)
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// The layer a render to `output` writes when `layer` is asked for (`codec` asked for, and
+/// `container` forced on the output, if any): an OpenEXR sequence holds the scene-linear
+/// layer, so the premultiplied layer becomes [`Layer::SceneLinear`] there; what an EXR cannot
+/// hold, or only an EXR can, is refused.
+pub fn for_output(
+    output: &str,
+    container: Option<&str>,
+    codec: VideoCodec,
+    layer: Option<Layer>,
+) -> Result<Option<Layer>> {
+    if !is_exr(output, container) {
+        return match layer {
+            Some(Layer::SceneLinear) => Err(Error::Unsupported(
+                "a scene-linear layer is written as an OpenEXR sequence (out_%05d.exr)".into(),
+            )),
+            l => Ok(l),
+        };
+    }
+    if codec != VideoCodec::H264 {
+        return Err(Error::Unsupported(format!(
+            "an OpenEXR sequence is written as half-float OpenEXR images, not with \
+             encode.codec {}: leave encode.codec out",
+            codec.encoder_name()
+        )));
+    }
+    match layer {
+        Some(Layer::Alpha(AlphaMode::Premultiplied) | Layer::SceneLinear) => {
+            Ok(Some(Layer::SceneLinear))
+        }
+        Some(Layer::Alpha(AlphaMode::Straight)) => Err(Error::Parameter {
+            name: "encode.alpha",
+            value: "straight".into(),
+            expected: "premultiplied for an OpenEXR sequence: OpenEXR defines its colour as \
+                       premultiplied"
+                .into(),
+        }),
+        Some(Layer::Matte) => Err(Error::Unsupported(
+            "encode.matte is written to .mkv, .mov or a PNG sequence; an OpenEXR sequence \
+             holds the layer with alpha (encode.layer)"
+                .into(),
+        )),
+        Some(Layer::OverBlack) => Err(Error::Unsupported(
+            "the layer over black is a video; an OpenEXR sequence holds the layer with alpha \
+             (encode.layer alpha)"
+                .into(),
+        )),
+        None => Err(Error::Parameter {
+            name: "job.output",
+            value: output.to_owned(),
+            expected: "a video file; image sequences are written for encode.layer or \
+                       encode.matte"
+                .into(),
+        }),
+    }
+}
+
+/// What the 16 bits of a layer's sample are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LayerSamples {
+    /// Full-range code values: colour encoded with the video's transfer, alpha (and the
+    /// matte's grey) linear, all clipped to \[0, 1\].
+    Codes,
+    /// IEEE 754 half floats, linear light, premultiplied: the canvas itself
+    /// ([`Layer::SceneLinear`]).
+    Half,
+}
+
+/// A rendered layer: four 16-bit samples R, G, B, A a pixel, row-major in the coded
+/// orientation, as `samples` says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LayerFrame {
     /// Width in pixels.
@@ -59,6 +148,8 @@ pub struct LayerFrame {
     pub height: u32,
     /// Four samples per pixel: R, G, B, A.
     pub rgba: Vec<u16>,
+    /// What the samples are.
+    pub samples: LayerSamples,
     /// Presentation time, input time base.
     pub pts: i64,
     /// Zero-based index in the stream.
@@ -117,15 +208,15 @@ pub fn layer_encoding(muxer: &str, codec: VideoCodec, layer: Layer) -> Result<La
             VideoCodec::H264 => String::new(),
             c => format!(" with encode.codec {}", c.encoder_name()),
         };
+        let (name, exr) = if matte {
+            ("encode.matte", "")
+        } else {
+            ("encode.layer", ", an OpenEXR sequence (out_%05d.exr)")
+        };
         return Err(Error::Unsupported(format!(
-            "{} writes an alpha layer, which {muxer} output{with_codec} cannot hold: write \
-             .mov (ProRes 4444), .mkv (FFV1) or a PNG sequence (out_%05d.png), and leave \
-             encode.codec out",
-            if matte {
-                "encode.matte"
-            } else {
-                "encode.layer"
-            },
+            "{name} writes an alpha layer, which {muxer} output{with_codec} cannot hold: write \
+             .mov (ProRes 4444), .mkv (FFV1), a PNG sequence (out_%05d.png){exr}, and leave \
+             encode.codec out"
         )));
     };
     let pixel = match (chosen, matte) {

@@ -29,7 +29,7 @@ pub use encode::{
 };
 pub use frame::{Chroma, FrameFormat, Plane, YuvFrame};
 pub use info::{ColorTags, StreamAction, StreamInfo, StreamKind, VideoInfo};
-pub use layer::{AlphaMode, Layer, LayerFrame};
+pub use layer::{AlphaMode, Layer, LayerFrame, LayerSamples};
 pub use pixfmt::RGB_SOURCE_COLOR;
 pub use probe::{ProbeReport, probe};
 pub use rendered::Rendered;

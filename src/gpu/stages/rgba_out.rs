@@ -1,5 +1,6 @@
 //! Stage `rgba_out`: the layer's canvas → packed 16-bit R'G'B'A, premultiplied, straight or
-//! the matte (`shaders/rgba_out.wgsl`; CPU twin [`crate::gpu::cpu::rgba_out`]).
+//! the matte, or the canvas as half floats for a scene-linear layer (`shaders/rgba_out.wgsl`;
+//! CPU twin [`crate::gpu::cpu::rgba_out`]).
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::gpu::bind::{bind_group, buffer, view};
@@ -43,6 +44,7 @@ impl RgbaOut {
         let entry = match layer {
             Layer::Alpha(AlphaMode::Straight) => "straight",
             Layer::Matte => "matte",
+            Layer::SceneLinear => "linear",
             Layer::Alpha(AlphaMode::Premultiplied) | Layer::OverBlack => "premultiplied",
         };
         let pipeline = super::compute_pipeline(device, Stage::RgbaOut, entry);

@@ -6,14 +6,16 @@
 //! frame's pts passes through unchanged, CFR or VFR), adds the copied streams, and writes the
 //! header, all into a hidden temporary file beside the output. [`Sink::finish`] flushes and
 //! renames it onto the output; dropping an unfinished sink deletes it, so a failed or
-//! interrupted job never leaves a half-written output. A PNG sequence is written into a hidden
-//! temporary directory whose files are moved beside the output pattern at the end.
+//! interrupted job never leaves a half-written output. A PNG or OpenEXR sequence is written into a
+//! hidden temporary directory whose files are moved beside the output pattern at the end.
 //!
 //! One file a step: `options` (what to write), `streams` (the container and the fate of each
 //! input stream), `video_out` and `pixel` (the video encoder and the layout it takes),
-//! `header` (the container's tags and header), `temp` (the temporary output until it is
-//! published) and `sink` (the [`Sink`] tying them together).
+//! `header` (the container's tags and header), `exr` (OpenEXR sequences, written without
+//! FFmpeg), `temp` (the temporary output until it is published) and `sink` (the [`Sink`]
+//! tying them together).
 
+mod exr;
 mod header;
 mod options;
 mod pixel;
@@ -24,6 +26,7 @@ mod video_out;
 
 use ffmpeg_next::{self as ff, Rational};
 
+pub use exr::{Chromaticities, chromaticities};
 pub use options::{AudioMode, EncodeOptions, STREAK_PARAMS, VideoCodec, X26X_PRESETS};
 pub use sink::Sink;
 pub use streams::{output_format, plan_streams};

@@ -99,6 +99,13 @@ pub const X26X_PRESETS: [&str; 10] = [
 ];
 
 impl EncodeOptions {
+    /// The layer a render to `output` writes: [`Layer::SceneLinear`] for the premultiplied
+    /// layer asked of an OpenEXR sequence, else the one asked for; refused where the output
+    /// cannot hold it (see [`crate::video::layer::for_output`]).
+    pub fn layer_for(&self, output: &str) -> Result<Option<Layer>> {
+        crate::video::layer::for_output(output, self.container.as_deref(), self.codec, self.layer)
+    }
+
     /// Checks the options before any work is done (the encoders' own messages for a bad preset
     /// or CRF name neither the option nor the choices).
     pub fn validate(&self) -> Result<()> {

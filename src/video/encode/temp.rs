@@ -1,5 +1,6 @@
-//! Where the sink writes until it finishes: a hidden file beside the output, or for a PNG
-//! sequence a hidden directory whose images are moved beside the output pattern at the end.
+//! Where the sink writes until it finishes: a hidden file beside the output, or for an image
+//! sequence (PNG, OpenEXR) a hidden directory whose images are moved beside the output pattern
+//! at the end.
 //! Whatever happens before [`publish`], the temporary output is removed and the output's path is
 //! left as it was.
 
@@ -24,13 +25,23 @@ fn sink_temp_path(output: &str, sequence: bool) -> PathBuf {
     t.with_file_name(name.replace('%', "_"))
 }
 
-/// Removes a temporary output: a file, or a PNG sequence's directory.
+/// Removes a temporary output: a file, or an image sequence's directory.
 pub(super) fn discard(temp: &Path) {
     if temp.is_dir() {
         let _ = std::fs::remove_dir_all(temp);
     } else {
         let _ = std::fs::remove_file(temp);
     }
+}
+
+/// Creates the hidden directory an image sequence named like `output` is written into.
+pub(super) fn sequence_dir(output: &str) -> Result<PathBuf> {
+    let dir = sink_temp_path(output, true);
+    std::fs::create_dir(&dir).map_err(|e| Error::OutputWrite {
+        path: output.to_owned(),
+        reason: e.to_string(),
+    })?;
+    Ok(dir)
 }
 
 /// The output context of a sink being created, and its temporary output, removed if
@@ -41,7 +52,7 @@ pub(super) struct TempGuard {
 }
 
 impl TempGuard {
-    /// Opens `muxer` on a temporary output beside `output` (stdout for `"-"`); a PNG sequence
+    /// Opens `muxer` on a temporary output beside `output` (stdout for `"-"`); an image sequence
     /// gets a temporary directory, its images named like `output`.
     pub(super) fn open(output: &str, muxer: &str, sequence: bool) -> Result<TempGuard> {
         let write_err = |reason: String| Error::OutputWrite {
@@ -86,9 +97,9 @@ impl Drop for TempGuard {
     }
 }
 
-/// Refuses a PNG sequence that could not be written: a layer is required (PNG holds R'G'B'A
-/// layers only), the name needs a frame-number pattern, and an existing first image needs
-/// `overwrite`.
+/// Refuses an image sequence (PNG, OpenEXR) that could not be written: a layer is required
+/// (images hold R'G'B'A layers only), the name needs a frame-number pattern, and an existing
+/// first image needs `overwrite`.
 pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
     if !opts.layer.is_some_and(Layer::is_rgba) {
         return Err(Error::Parameter {
@@ -102,12 +113,16 @@ pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    let ext = Path::new(output)
+        .extension()
+        .map_or("png".into(), |e| e.to_string_lossy().to_ascii_lowercase());
     let Some(first) = ffi::sequence_file_name(&name, 1) else {
         return Err(Error::Parameter {
             name: "job.output",
             value: output.to_owned(),
-            expected: "an image-sequence name with a frame number pattern, e.g. out_%05d.png"
-                .into(),
+            expected: format!(
+                "an image-sequence name with a frame number pattern, e.g. out_%05d.{ext}"
+            ),
         });
     };
     // FFmpeg formats the number in a buffer of 19 digits: a wider pattern names every image
@@ -116,7 +131,7 @@ pub(super) fn check_sequence(output: &str, opts: &EncodeOptions) -> Result<()> {
         return Err(Error::Parameter {
             name: "job.output",
             value: output.to_owned(),
-            expected: "a frame number pattern of at most 19 digits, e.g. out_%05d.png".into(),
+            expected: format!("a frame number pattern of at most 19 digits, e.g. out_%05d.{ext}"),
         });
     }
     let first = Path::new(output).with_file_name(first);

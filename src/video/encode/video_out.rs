@@ -367,6 +367,13 @@ impl VideoOut {
                 "this output was opened for pictures, not layers".into(),
             ));
         };
+        if frame.samples != layer.samples() {
+            return Err(Error::Unsupported(format!(
+                "this output was opened for {:?} layer samples, not {:?}",
+                layer.samples(),
+                frame.samples
+            )));
+        }
         let (w, h) = (self.format.width, self.format.height);
         if (frame.width, frame.height) != (w, h) || frame.rgba.len() != 4 * (w * h) as usize {
             return Err(Error::Parameter {

@@ -24,7 +24,7 @@ pub struct EncodeArgs {
     /// What to do with audio and other streams.
     #[arg(long, value_enum, default_value_t = AudioArg::from(EncodeOptions::default().audio))]
     pub audio: AudioArg,
-    /// Write the rain alone: `alpha` (the default) with its alpha to .mov (ProRes 4444), .mkv (FFV1) or a 16-bit PNG sequence (out_%05d.png); `black` over black, an ordinary video for a screen blend.
+    /// Write the rain alone: `alpha` (the default) with its alpha to .mov (ProRes 4444), .mkv (FFV1), a 16-bit PNG sequence (out_%05d.png) or a scene-linear half-float OpenEXR sequence (out_%05d.exr, nothing clipped); `black` over black, an ordinary video for a screen blend.
     #[arg(long, value_enum, num_args = 0..=1, require_equals = true, default_missing_value = "alpha", value_name = "MODE")]
     pub layer_only: Option<LayerArg>,
     /// Colour of the layer relative to its alpha [default: premultiplied].
@@ -129,7 +129,7 @@ pub fn encode_options(e: &EncodeArgs, overwrite: bool) -> anyhow::Result<EncodeO
     if rgba_layer && e.codec == Some(CodecArg::H264) {
         bail!(
             "--codec h264 cannot hold {}: leave --codec out (FFV1 in .mkv, ProRes 4444 in \
-             .mov, 16-bit PNG in a sequence)",
+             .mov, 16-bit PNG or half-float OpenEXR in a sequence)",
             if e.matte {
                 "the matte"
             } else {
