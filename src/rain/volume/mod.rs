@@ -237,8 +237,8 @@ pub struct Band {
     pub volume_m3: f64,
     /// Real drops expected in the band (density × volume).
     pub expected: f64,
-    /// Simulated drops expected in the band (the columns' counts shared by depth, so
-    /// approximate; expected ÷ weight without the size cut).
+    /// Simulated drops expected in the band: expected × the columns' mean size share there
+    /// (spread by depth, so approximate with the size cut) ÷ weight.
     pub simulated: f64,
 }
 
@@ -456,11 +456,7 @@ impl RainVolume {
                     far_m: w[1],
                     volume_m3: vol,
                     expected: density * vol,
-                    simulated: if params.visible_sizes {
-                        share
-                    } else {
-                        density * vol / weight
-                    },
+                    simulated: density * vol * share / weight,
                 }
             })
             .collect();
@@ -551,11 +547,13 @@ impl RainVolume {
     }
 }
 
-/// The columns' drops per band of `edges` (depths of `camera`): each column's count shared
-/// over its depth range [nearest, farthest corner] in proportion to the overlap.
+/// The mean size share of the columns in each band of `edges` (depths of `camera`), weighted
+/// by volume: each column's volume is spread over its depth range [nearest, farthest corner]
+/// in proportion to the overlap (1 where no column reaches a band).
 fn band_shares(camera: &Camera, grid: &ColumnGrid, edges: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; edges.len().saturating_sub(1)];
-    for c in &grid.columns {
+    let n = edges.len().saturating_sub(1);
+    let (mut kept, mut all) = (vec![0.0; n], vec![0.0; n]);
+    for (i, c) in grid.columns.iter().enumerate() {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (u, v, z) in [0.0, 1.0]
             .into_iter()
@@ -567,12 +565,17 @@ fn band_shares(camera: &Camera, grid: &ColumnGrid, edges: &[f64]) -> Vec<f64> {
             hi = hi.max(d);
         }
         let span = (hi - lo).max(1e-9);
-        for (b, w) in out.iter_mut().zip(edges.windows(2)) {
-            let overlap = (hi.min(w[1]) - lo.max(w[0])).max(0.0);
-            *b += c.count as f64 * overlap / span;
+        let vol = grid.column_volume_m3(i);
+        for ((k, a), w) in kept.iter_mut().zip(all.iter_mut()).zip(edges.windows(2)) {
+            let part = vol * (hi.min(w[1]) - lo.max(w[0])).max(0.0) / span;
+            *k += part * c.size_share();
+            *a += part;
         }
     }
-    out
+    kept.iter()
+        .zip(&all)
+        .map(|(k, a)| if *a > 0.0 { k / a } else { 1.0 })
+        .collect()
 }
 
 /// Band edges: near, 1, 2, 4, 8 … m, far.
