@@ -253,6 +253,74 @@ fn the_ground_gets_all_the_rain_with_only_the_visible_sizes() {
     assert!((w1 / w0 - 1.0).abs() < 0.03, "water {w1} vs {w0}");
 }
 
+/// The splashes are the same too: a drop left out is one whose crown could not be drawn
+/// either (1080p, 10 mm/h, with a ground; 8 seeds × 6 frames): splash streaks drawn, and their
+/// coverage, agree within Poisson noise (4σ), and no drawn splash comes from a drop below its
+/// column's cut in the old sampling.
+#[test]
+fn the_splashes_are_the_same_with_only_the_visible_sizes() {
+    use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
+    use rain_composite::rain::volume::landing_columns;
+    let count = |setup: &RainSetup, t: f64, cuts: Option<&[f64]>| {
+        let p = setup.motion_at(t);
+        let (mut n, mut cover) = (0.0, 0.0);
+        for ci in landing_columns(&setup.volume) {
+            let c = &setup.volume.grid.columns[ci];
+            for id in c.first_id..c.first_id + c.count as u64 {
+                let (hit, streaks) = splash_streaks(setup, &p, id, t);
+                if let (Some(cuts), Some(hit), false) = (cuts, hit, streaks.is_empty()) {
+                    assert!(hit.diameter_mm >= cuts[ci], "drop {id}: {hit:?}");
+                }
+                for st in streaks {
+                    n += 1.0;
+                    let s = st.shape;
+                    cover += s.alpha_scale * std::f64::consts::PI * s.r_eff_px * s.r_eff_px;
+                }
+            }
+        }
+        (n, cover)
+    };
+    let (mut a, mut b) = ((0.0, 0.0), (0.0, 0.0));
+    for seed in 1..=8 {
+        let (new, old) = seeded(10.0, 1920, 1080, 4_000_000, true, seed);
+        let cuts: Vec<f64> = old
+            .volume
+            .grid
+            .columns
+            .iter()
+            .map(|c| {
+                new.volume
+                    .grid
+                    .columns
+                    .iter()
+                    .find(|n| (n.cell_min_m - c.cell_min_m).length() < 1e-9)
+                    .map_or(f64::INFINITY, |n| {
+                        rain_composite::rain::volume::visible::cut_mm(
+                            &new.plan.model,
+                            n.size_keep_q,
+                        )
+                    })
+            })
+            .collect();
+        for k in 0..6 {
+            let t = 0.5 + 0.73 * k as f64 + 0.01 * seed as f64;
+            let (x, y) = (count(&new, t, None), count(&old, t, Some(&cuts)));
+            a = (a.0 + x.0, a.1 + x.1);
+            b = (b.0 + y.0, b.1 + y.1);
+        }
+    }
+    eprintln!(
+        "splash streaks: {} vs {}; coverage {:.1} vs {:.1} px²",
+        a.0, b.0, a.1, b.1
+    );
+    let (d, sigma) = rel(a.0, b.0);
+    assert!(b.0 > 1000.0 && d.abs() < 4.0 * sigma, "{a:?} vs {b:?}");
+    assert!(
+        (a.1 / b.1 - 1.0).abs() < 4.0 * sigma.max(0.02),
+        "{a:?} vs {b:?}"
+    );
+}
+
 /// Simulated vs drawn drops per rain rate, before and after the size cut, at 720p and 1080p
 /// (the defaults: budget 300 000, 60° lens, f/8 focused at 6 m, 1/50 s). Run with
 /// `cargo test --release --test visible_sizes -- --ignored --nocapture`.

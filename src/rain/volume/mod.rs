@@ -26,7 +26,7 @@
 //!    large to show: each column simulates only the diameters whose streak can pass the
 //!    renderer's cull there ([`visible`]), sampled from the distribution truncated below that
 //!    cut, and holds that share S of the drops of every size. The drawn drops are statistically
-//!    the same, for a fraction of the work (at 10 mm/h, 1080p, about a fifteenth).
+//!    the same, for a fraction of the work (at 10 mm/h, 1080p, a third of the drops).
 //! 6. **Columns.** The stateless emitter fills the volume with prisms along the mean fall
 //!    direction (vertical in still air, sheared along the wind): x = u + kₓ z, y = v + k_y z
 //!    with k = −W̄/v_t(Dm). A horizontal grid of cells in (u, v) covers the slab's footprint;
