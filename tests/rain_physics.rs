@@ -739,7 +739,7 @@ fn overhang_against_cell_count() {
 fn the_drop_twin_equals_its_closed_form_at_any_time() {
     use rain_composite::rain::volume::cycle_uniform;
     use rain_composite::rain::volume::drop::{
-        DRIFT_PHASE_BITS, FALL_RATE_BITS, SPEED_BITS, drop_bits, fall_rate_q, inv_height_q,
+        DRIFT_PHASE_BITS, FALL_RATE_BITS, SPEED_BITS, fall_rate_q, inv_height_q, size_bits,
     };
     let cam = camera_1080(60.0, 0.0);
     let model = RainModel::marshall_palmer(rate(12.0));
@@ -759,7 +759,13 @@ fn the_drop_twin_equals_its_closed_form_at_any_time() {
             let d = sample_drop(Rainfall::new(&vol, &model, &wind, seed), id, t).expect("drop");
             let col = &grid.columns[d.column];
             let id32 = id as u32;
-            let speed_q = vol.motion.fall_speed_q(drop_bits(seed, id32, 3));
+            // The size quantile mapped onto the column's share of the sizes' top.
+            let q = size_bits(seed, id32, col.size_keep_q);
+            let share = col.size_keep_q as f64 / 16_777_216.0;
+            assert!(q as f64 / 16_777_216.0 >= 1.0 - share - 1e-7);
+            let d_want = model.dsd.diameter_from_uniform_mm(q as f64 / 16_777_216.0);
+            assert!((d.diameter_mm - d_want).abs() < 1e-12);
+            let speed_q = vol.motion.fall_speed_q(q);
             let vt = speed_q as f64 / (1u32 << SPEED_BITS) as f64;
             let rate = fall_rate_q(speed_q, inv_height_q(col.height_m())) as f64
                 / (1u32 << FALL_RATE_BITS) as f64;
