@@ -31,8 +31,8 @@
 // main_mattes only.
 @group(0) @binding(5) var<storage, read_write> glints: array<Glint>;
 
-// Largest drawn radius, as a fraction of the picture height (near-field drops).
-const NEAR_FIELD_MAX_RADIUS: f32 = 0.25;
+// NEAR_FIELD_MAX_RADIUS (the largest drawn radius over the picture height) comes from
+// rain::physics.
 
 // What picks a drop's streak matte: its diameter and the camera's elevation over the plane
 // normal to its fall (asin |view · fall|, 0 = seen side-on), for `view_cam` (camera axes, any

@@ -230,10 +230,12 @@ fn simulated_number_density_matches_marshall_palmer() {
     let cam = Camera::new(1280, 720, 60f64.to_radians(), 1.6, -0.1, 0.0);
     let model = RainModel::marshall_palmer(rate(r));
     let wind = Wind::new(DVec2::new(4.0, 1.0), 2.0, 3).expect("wind");
-    // Free run, then with the budget binding (weights > 1).
+    // Free run, then with the budget binding (weights > 1); every size simulated (the size
+    // cut's own rain is held to this one in tests/visible_sizes.rs).
     for budget in [1 << 22, 20_000] {
         let params = VolumeParams {
             budget,
+            visible_sizes: false,
             ..VolumeParams::default()
         };
         let rho = measured_density(&cam, &model, &wind, &params);
@@ -266,6 +268,7 @@ fn halving_far_scales_the_count_with_the_frustum_volume() {
             alpha_min: 1e-6, // visible to the cap
             ground_z_m: None,
             budget: 1 << 30,
+            visible_sizes: false,
             ..VolumeParams::default()
         };
         RainVolume::plan(&cam, &model, &Wind::still(), &params).expect("plan")
@@ -736,7 +739,7 @@ fn overhang_against_cell_count() {
 fn the_drop_twin_equals_its_closed_form_at_any_time() {
     use rain_composite::rain::volume::cycle_uniform;
     use rain_composite::rain::volume::drop::{
-        DRIFT_PHASE_BITS, FALL_RATE_BITS, SPEED_BITS, drop_bits, fall_rate_q, inv_height_q,
+        DRIFT_PHASE_BITS, FALL_RATE_BITS, SPEED_BITS, fall_rate_q, inv_height_q, size_bits,
     };
     let cam = camera_1080(60.0, 0.0);
     let model = RainModel::marshall_palmer(rate(12.0));
@@ -756,7 +759,13 @@ fn the_drop_twin_equals_its_closed_form_at_any_time() {
             let d = sample_drop(Rainfall::new(&vol, &model, &wind, seed), id, t).expect("drop");
             let col = &grid.columns[d.column];
             let id32 = id as u32;
-            let speed_q = vol.motion.fall_speed_q(drop_bits(seed, id32, 3));
+            // The size quantile mapped onto the column's share of the sizes' top.
+            let q = size_bits(seed, id32, col.size_keep_q);
+            let share = col.size_keep_q as f64 / 16_777_216.0;
+            assert!(q as f64 / 16_777_216.0 >= 1.0 - share - 1e-7);
+            let d_want = model.dsd.diameter_from_uniform_mm(q as f64 / 16_777_216.0);
+            assert!((d.diameter_mm - d_want).abs() < 1e-12);
+            let speed_q = vol.motion.fall_speed_q(q);
             let vt = speed_q as f64 / (1u32 << SPEED_BITS) as f64;
             let rate = fall_rate_q(speed_q, inv_height_q(col.height_m())) as f64
                 / (1u32 << FALL_RATE_BITS) as f64;

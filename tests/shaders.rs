@@ -174,7 +174,7 @@ fn rust_twins_match_wgsl_layouts() {
             first_drop,
             drop_count,
             inv_height_q,
-            _pad
+            size_keep_q
         ]
     );
     let m = module(Stage::RainSimulate);

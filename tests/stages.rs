@@ -336,7 +336,13 @@ fn every_stage_matches_its_cpu_twin() {
                     );
                 }
                 Stage::RainStreaks => {
-                    let setup = rain_for(&case, &heavy_rain());
+                    // At most 1500 drops on these tiny frames: the f16 canvas's rounding grows
+                    // with the opaque streaks piled on one pixel.
+                    let rain = RainConfig {
+                        max_drops: 1500,
+                        ..heavy_rain()
+                    };
+                    let setup = rain_for(&case, &rain);
                     let params = lit(&setup, 2.1);
                     let (gpu, cpu, drawn) = both_frames(&ctx, &case, &setup, &params);
                     assert!(drawn > 20, "{what}: {drawn} streaks");
@@ -398,8 +404,10 @@ fn drop_errors(ctx: &GpuContext, setup: &RainSetup, t_s: f64, what: &str) -> (f6
 #[test]
 fn drops_match_the_cpu_twin_under_swept_settings() {
     let Some(ctx) = gpu() else { return };
+    // Heavy rain: where long or blurred streaks leave only the large drops visible at 320×180
+    // (the plan simulates only those), still several hundred drops.
     let base = RainConfig {
-        rate_mm_per_h: 20.0,
+        rate_mm_per_h: 150.0,
         seed: 5,
         ..RainConfig::default()
     };

@@ -10,6 +10,7 @@
 // time the drop wraps through the bottom it is reborn with a new lateral offset.
 //
 // A keyed rate thins the drops per pass (falls); a keyed wind adds each drop's lag (wind_lag).
+// A column simulates only the sizes that can show in it (size_bits; rain::volume::visible).
 //
 // Needs, declared by the stage that includes it:
 //   var<uniform> rain: RainParams;  var<storage, read> columns: array<Column>;
@@ -121,6 +122,15 @@ fn diameter_from_unit(u: f32) -> f32 {
     return rain.d_min_mm - log(1.0 - u * tail) / rain.lambda_per_mm;
 }
 
+// The 24-bit size quantile of drop `id` in a column keeping the share `keep_q` (2^-24) of the
+// sizes' top: 1 − u' = (1 − u)·keep, so the diameter is drawn from the distribution truncated
+// below the column's smallest visible size (rain::volume::drop::size_bits, bit-identical).
+fn size_bits(seed: u32, id: u32, keep_q: u32) -> u32 {
+    let r = 0xFFFFFFu - drop_bits(seed, id, 3u);
+    let p = mul_wide(r, min(keep_q, 1u << 24u));
+    return 0xFFFFFFu - ((p.x >> 24u) | (p.y << 8u));
+}
+
 // The column holding drop `id`: the last one whose first_drop ≤ id.
 fn column_of(id: u32) -> u32 {
     var lo = 0u;
@@ -150,8 +160,9 @@ struct DropPhase {
 fn drop_phase(id: u32) -> DropPhase {
     let col = columns[column_of(id)];
     let seed = rain.seed;
-    let d_mm = diameter_from_unit(drop_uniform(seed, id, 3u));
-    let speed_q = fall_speed_q(drop_bits(seed, id, 3u));
+    let q = size_bits(seed, id, col.size_keep_q);
+    let d_mm = diameter_from_unit(f32(q) * (1.0 / 16777216.0));
+    let speed_q = fall_speed_q(q);
     let vt = f32(speed_q) * (1.0 / f32(1u << SPEED_BITS));
     let wt_per_omega = vt / rain.gravity_mps2;  // τ
     // Steady-state response to the gusts (src/rain/wind.rs): velocity and displacement.

@@ -4,8 +4,8 @@
 // function for the drops (rain_simulate) and the splash droplets (rain_splashes).
 // Needs common/camera.wgsl (to_camera) and common/lights.wgsl (drop_radiance).
 
-const MIN_RADIUS_PX: f32 = 0.7;
-const MIN_PEAK_ALPHA: f32 = 0.5 / 255.0;
+// MIN_RADIUS_PX and MIN_PEAK_ALPHA come from rain::physics (gpu::shaders::constants): the rain
+// plan bounds the sizes it simulates by the same cull (rain::volume::visible).
 
 // A streak that is not drawn (rain_streaks skips len_px < 0).
 fn hidden() -> Streak {

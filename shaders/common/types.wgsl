@@ -84,7 +84,7 @@ struct Column {
     first_drop: u32,
     drop_count: u32,
     inv_height_q: u32,      // 1 / height_m, 2^-INV_HEIGHT_BITS m^-1 (the fall rate's grid)
-    _pad: u32,
+    size_keep_q: u32,       // share of the sizes it simulates, 1 - F(D_cut), 2^-24 (drops.wgsl: size_bits)
 }
 
 // One drop's streak for the frame (rain_simulate → rain_streaks), in the displayed picture.

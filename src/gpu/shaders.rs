@@ -115,9 +115,23 @@ pub fn constants() -> String {
     ]
     .iter()
     .map(|(name, v)| format!("const {name}: u32 = {v}u;\n"))
+    .chain(cull_constants())
     .chain(splash_constants())
     .chain(keyframe_constants())
     .collect()
+}
+
+/// The streaks' widening and cull (`rain::physics`), which the rain plan's size bound reads
+/// too (`rain::volume::visible`).
+fn cull_constants() -> impl Iterator<Item = String> {
+    use crate::rain::physics as p;
+    [
+        ("MIN_RADIUS_PX", p::MIN_RADIUS_PX),
+        ("MIN_PEAK_ALPHA", p::MIN_PEAK_ALPHA),
+        ("NEAR_FIELD_MAX_RADIUS", p::NEAR_FIELD_MAX_RADIUS),
+    ]
+    .into_iter()
+    .map(|(name, v)| format!("const {name}: f32 = {:?};\n", v as f32))
 }
 
 /// What a keyed rate and wind need on the GPU (`keyframes`, `rain::volume::drop::falls`).

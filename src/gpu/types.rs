@@ -164,7 +164,8 @@ pub struct Column {
     pub drop_count: u32,
     /// 1 / height, 2⁻²² m⁻¹ (`rain::volume::drop::inv_height_q`).
     pub inv_height_q: u32,
-    pub _pad: u32,
+    /// The share of sizes the column simulates, 2⁻²⁴ (`rain::volume::drop::size_bits`).
+    pub size_keep_q: u32,
 }
 
 /// WGSL `Streak`: one drop's streak for the frame (`rain_simulate` → `rain_streaks`).

@@ -16,7 +16,7 @@ use crate::keyframes::MAX_KEYS;
 use crate::lighting::FrameLight;
 use crate::rain::physics::{G_MPS2, ThinLens};
 use crate::rain::volume::drop::inv_height_q;
-use crate::rain::volume::{SplitTime, mean_travel_cells};
+use crate::rain::volume::{SplitTime, mean_travel_cells, near_clip_m};
 use crate::scene::Camera;
 use crate::shot::RainPlan;
 
@@ -64,7 +64,7 @@ impl RainSetup {
                 first_drop: c.first_id as u32,
                 drop_count: c.count,
                 inv_height_q: inv_height_q(c.height_m()),
-                _pad: 0,
+                size_keep_q: c.size_keep_q,
             })
             .collect();
         if columns.is_empty() {
@@ -119,7 +119,7 @@ impl RainSetup {
             drop_count: plan.drop_count(),
             column_count: columns.len() as u32,
             opacity: plan.opacity as f32,
-            near_clip_m: (0.5 * plan.near_m).max(0.02) as f32,
+            near_clip_m: near_clip_m(plan.near_m) as f32,
             drop_weight: volume.weight as f32,
             d_min_mm: d_min as f32,
             d_max_mm: d_max as f32,

@@ -83,6 +83,7 @@ pub fn plan_params(
         ground_z_m: Some(0.0),
         diameter_scale: rain.drop_scale,
         fall_speed_scale: rain.fall_speed_scale,
+        opacity_max: rain.opacity,
         ..VolumeParams::default()
     })
 }
@@ -105,6 +106,7 @@ pub fn plan(
         path,
         camera_config,
         rain,
+        &Keyframes::default(),
         exposure_s,
         rotation_deg,
         coded_size_px,
@@ -158,11 +160,13 @@ fn path_step_deg(keys: &Keyframes) -> Result<f64> {
 }
 
 /// [`plan`] for the camera path `path`: the volume is planned for all its poses, the shot
-/// starts at the first.
+/// starts at the first; the sizes it simulates are those that can show under any of `keys`'
+/// opacities, winds and lenses.
 fn plan_on(
     path: CameraPath,
     camera_config: &CameraConfig,
     rain: &RainConfig,
+    keys: &Keyframes,
     exposure_s: f64,
     rotation_deg: i32,
     coded_size_px: (u32, u32),
@@ -174,7 +178,15 @@ fn plan_on(
         rain.altitude_m,
     )?;
     let wind = Wind::new(DVec2::from(rain.wind_mps), rain.gust_mps, rain.seed as u64)?;
-    let params = plan_params(camera_config, rain, exposure_s)?;
+    let mut params = plan_params(camera_config, rain, exposure_s)?;
+    if let Some(k) = &keys.opacity {
+        params.opacity_max = params.opacity_max.max(k.max());
+    }
+    if let Some(k) = &keys.wind_mps {
+        let top = k.keys().iter().map(|k| k.1.length()).fold(0.0, f64::max);
+        params.wind_max_mps = Some(top);
+    }
+    params.lens_keyed = keys.focus_m.is_some() || keys.f_number.is_some();
     let lens = params.lens;
     let volume = RainVolume::plan_moving(path.cameras, path.step_rad, &model, &wind, &params)?;
     // Rain between the farthest drawn drop and the scene veils it (Weber et al. extinction).
@@ -290,6 +302,7 @@ pub fn plan_keyed(
             path,
             &at.camera,
             &at.rain,
+            keys,
             exposure_s,
             rotation_deg,
             coded_size_px,

@@ -26,12 +26,8 @@ use crate::gpu::types::{DirectLight, GLINTS_PER_DROP, Glint, LightList, RainPara
 use crate::lighting::RtfTable;
 use crate::lighting::sources::angle_between_rad;
 
-/// Drops thinner than this (px) are drawn this wide, their alpha scaled down.
-pub const MIN_RADIUS_PX: f64 = 0.7;
-/// Streaks whose peak alpha is below half an 8-bit code value are not drawn.
-pub const MIN_PEAK_ALPHA: f64 = 0.5 / 255.0;
-/// Largest drawn radius, as a fraction of the picture height (near-field drops).
-pub const NEAR_FIELD_MAX_RADIUS: f64 = 0.25;
+/// The renderer's cull and widening, defined with the physics the rain plan bounds them by.
+pub use crate::rain::physics::{MIN_PEAK_ALPHA, MIN_RADIUS_PX, NEAR_FIELD_MAX_RADIUS};
 
 /// One drop's streak in the displayed picture.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -209,6 +209,28 @@ pub fn streak_alpha(diameter_px: f64, length_px: f64, blur_px: f64) -> f64 {
     (std::f64::consts::FRAC_PI_4 * d * d / (w * l)).min(1.0)
 }
 
+/// Drops thinner than this (px) are drawn this wide, their alpha scaled down (the renderer's
+/// `segment_streak`, `shaders/common/streak.wgsl`).
+pub const MIN_RADIUS_PX: f64 = 0.7;
+/// The renderer's cull: a streak whose peak alpha is below half an 8-bit code value is not
+/// drawn. The rain plan leaves out the drop sizes that cannot reach it (`rain::volume::visible`).
+pub const MIN_PEAK_ALPHA: f64 = 0.5 / 255.0;
+/// Largest drawn radius of a drop, as a fraction of the picture height (near-field drops).
+pub const NEAR_FIELD_MAX_RADIUS: f64 = 0.25;
+
+/// Peak alpha on a streak's axis as the renderer draws it: a disc of radius `r_px` blurred by
+/// `blur_px` (radius) drawn `r_eff = min(max(√(r² + b²), MIN_RADIUS_PX), max_radius_px)` wide
+/// with coverage `r²/r_eff²` (conserved), swept `len_px`: the chord 2 r_eff over the path.
+/// It grows with `r_px` and falls with `blur_px` and `len_px`, which is what makes the plan's
+/// size bound conservative when fed an upper bound of r and lower bounds of b and ℓ.
+pub fn streak_peak_alpha(r_px: f64, blur_px: f64, len_px: f64, max_radius_px: f64) -> f64 {
+    let r_eff = (r_px * r_px + blur_px * blur_px)
+        .sqrt()
+        .max(MIN_RADIUS_PX)
+        .min(max_radius_px);
+    r_px * r_px / (r_eff * r_eff) * (2.0 * r_eff / len_px.max(1e-3)).min(1.0)
+}
+
 /// Time a drop of image diameter `diameter_px` moving at `image_speed_pxps` stays over one
 /// pixel, s (Garg & Nayar's τ ≈ d/s; at most ≈ 1.2 ms for real drops, far below an exposure).
 pub fn pixel_dwell_time_s(diameter_px: f64, image_speed_pxps: f64) -> f64 {

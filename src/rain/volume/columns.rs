@@ -3,6 +3,7 @@
 
 use glam::{DMat3, DVec2, DVec3};
 
+use super::drop::{SIZE_KEEP_ALL, SIZE_KEEP_BITS};
 use super::geometry::{HalfSpace, polytope_vertices, slab_half_spaces};
 use crate::scene::Camera;
 
@@ -20,9 +21,18 @@ pub struct Column {
     pub first_id: u64,
     /// Drops in this column.
     pub count: u32,
+    /// Share of the size distribution the column simulates, 2⁻²⁴ ([`super::drop::size_bits`]):
+    /// 1 − F(D_cut), D_cut the smallest diameter whose streak (or splash) can show in it
+    /// ([`super::visible`]); [`SIZE_KEEP_ALL`] simulates every size.
+    pub size_keep_q: u32,
 }
 
 impl Column {
+    /// The share of the size distribution the column simulates, S = 1 − F(D_cut).
+    pub fn size_share(&self) -> f64 {
+        self.size_keep_q.min(SIZE_KEEP_ALL) as f64 / (1u64 << SIZE_KEEP_BITS) as f64
+    }
+
     /// The column's height, m (> 0).
     pub fn height_m(&self) -> f64 {
         self.z_hi_m - self.z_lo_m
@@ -141,6 +151,7 @@ impl ColumnGrid {
                         z_hi_m: z_hi,
                         first_id: 0,
                         count: 0,
+                        size_keep_q: SIZE_KEEP_ALL,
                     });
                     grid.volumes.push(vol);
                 }
@@ -150,11 +161,21 @@ impl ColumnGrid {
         grid
     }
 
-    /// Shares `total` drops among the columns in proportion to their volumes (cumulative
-    /// rounding: the counts sum to `total` and each column is within one drop of its share),
-    /// then drops the columns left empty.
+    /// The volume the columns simulate, m³: each column's volume times its size share (drops
+    /// per m³ of every size × this = the drops to simulate).
+    pub fn simulated_volume_m3(&self) -> f64 {
+        self.columns
+            .iter()
+            .zip(&self.volumes)
+            .map(|(c, v)| v * c.size_share())
+            .sum()
+    }
+
+    /// Shares `total` drops among the columns in proportion to their volumes times their size
+    /// shares (cumulative rounding: the counts sum to `total` and each column is within one drop
+    /// of its share), then drops the columns left empty.
     pub fn allot(&mut self, total: u64) {
-        let v = self.volume_m3;
+        let v = self.simulated_volume_m3();
         if v <= 0.0 || total == 0 {
             self.columns.clear();
             self.volumes.clear();
@@ -164,7 +185,7 @@ impl ColumnGrid {
         let mut acc = 0.0;
         let mut prev = 0u64;
         for (c, vol) in self.columns.iter_mut().zip(&self.volumes) {
-            acc += vol;
+            acc += vol * c.size_share();
             let next = ((total as f64 * acc / v).round() as u64).min(total);
             c.first_id = prev;
             c.count = u32::try_from(next - prev).unwrap_or(u32::MAX);

@@ -190,6 +190,24 @@ pub fn pcg_hash(x: u32) -> u32 {
     (word >> 22) ^ word
 }
 
+/// Bits of a column's size share ([`Column::size_keep_q`](super::Column)): the survival
+/// 1 − F(D_cut) of the sizes it simulates, in units of 2⁻²⁴.
+pub const SIZE_KEEP_BITS: u32 = 24;
+/// The share of a column that simulates every size.
+pub const SIZE_KEEP_ALL: u32 = 1 << SIZE_KEEP_BITS;
+
+/// The 24-bit size quantile of drop `id` in a column that keeps the share `keep_q` (2⁻²⁴) of
+/// the size distribution's top: its uniform bits q (stream 3) mapped onto the top, so that
+/// 1 − u' = (1 − u)·S with S = keep_q/2²⁴ and u' is uniform on [1 − S, 1). The diameter
+/// D(u') is then drawn from the distribution truncated below D_cut = F⁻¹(1 − S), and the fall
+/// speed table is read at u' too. Integer arithmetic (a 48-bit product), so the GPU's twin in
+/// `drops.wgsl` (`size_bits`) agrees to the bit; `keep_q` = 2²⁴ gives q itself.
+pub fn size_bits(seed: u32, id: u32, keep_q: u32) -> u32 {
+    let r = 0x00FF_FFFF - drop_bits(seed, id, 3);
+    let kept = (r as u64 * keep_q.min(SIZE_KEEP_ALL) as u64) >> SIZE_KEEP_BITS;
+    0x00FF_FFFF - kept as u32
+}
+
 /// Uniform in [0, 1) for drop `id`, random stream `stream` (0–2 position, 3 diameter, …) and
 /// `seed`: 24 bits, exact in `f32`.
 pub fn drop_uniform(seed: u32, id: u32, stream: u32) -> f64 {
@@ -229,8 +247,10 @@ pub fn cycle_uniform(seed: u32, id: u32, cycle: u32, stream: u32) -> f64 {
 }
 
 /// The plain CPU reference of the stateless emitter (`shaders/common/drops.wgsl`): drop `id`
-/// at time `t_s` (`None` outside the columns, or where a keyed rate leaves this pass out). Diameter by inverse CDF of stream 3; vertical velocity the fall speed of
-/// its size quantile ([`DropMotion::fall_speed_q`]); horizontal velocity the wind's
+/// at time `t_s` (`None` outside the columns, or where a keyed rate leaves this pass out).
+/// Diameter by inverse CDF of stream 3, truncated below the column's smallest visible size
+/// ([`size_bits`]); vertical velocity the fall speed of its size quantile
+/// ([`DropMotion::fall_speed_q`]); horizontal velocity the wind's
 /// steady-state response with τ = v_t/g; position the column point of streams 0–2 moved by
 /// the fall and the drift (fixed-point phases, see the module notes) and the wind, wrapped
 /// modulo the column, with a new lateral offset (streams 4, 5 of the pass number) each time
@@ -249,8 +269,11 @@ pub fn sample_drop(rain: Rainfall, id: u64, t_s: f64) -> Option<SampledDrop> {
     let id32 = id as u32;
     let u = |s| drop_uniform(seed, id32, s);
     let t = SplitTime::new(t_s);
-    let d = model.dsd.diameter_from_uniform_mm(u(3));
-    let speed_q = motion.fall_speed_q(drop_bits(seed, id32, 3));
+    let q = size_bits(seed, id32, col.size_keep_q);
+    let d = model
+        .dsd
+        .diameter_from_uniform_mm(q as f64 * (1.0 / 16_777_216.0));
+    let speed_q = motion.fall_speed_q(q);
     let vt = speed_q as f64 / (1u32 << SPEED_BITS) as f64;
     let tau = vt / G_MPS2;
     let vh = wind.drop_velocity_mps(t.seconds(), tau);

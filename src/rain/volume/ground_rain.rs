@@ -20,19 +20,25 @@
 //! The drawn volume's landing columns cover whole cells of its (u, v) grid at z = 0 (a drop is
 //! wrapped inside its prism, so it lands uniformly over the column's cell): there its own
 //! impacts are used, so a drawn drop's splash and its ring coincide, and the stream leaves them
-//! out. Where the drop budget thinned the drawn drops (weight w > 1), the stream adds the
-//! missing 1 − 1/w of the flux there. No area is counted twice, none is missed.
+//! out — but for the sizes the column does not simulate: a column simulates only diameters
+//! from its cut D_c up (those whose streak or splash can show, [`super::visible`]), so in its
+//! cell the stream keeps its impacts of D < D_c, and drops those of D ≥ D_c. The drawn drops
+//! land N(D) v(D) for D ≥ D_c (the truncated sampling keeps the count of every size above the
+//! cut), the stream the rest, so the water's mass balance is the full flux's. Where the drop
+//! budget thinned the drawn drops (weight w > 1), the stream adds the missing 1 − 1/w of the
+//! flux of D ≥ D_c there. No area or size is counted twice, none is missed.
 //!
 //! Everything is stateless: any interval (t0, t1] gives the impacts whose times fall in it,
 //! whatever the intervals asked before, so a preview's fast-forward and a render's frames feed
 //! the water the same drops.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 use glam::{DVec2, DVec3};
 
-use super::drop::pcg_hash;
+use super::drop::{SIZE_KEEP_ALL, pcg_hash};
 use super::impacts::{Impact, impacts_between, landing_columns};
+use super::visible::cut_mm;
 use super::{RainVolume, Rainfall};
 use crate::rain::physics::RainModel;
 use crate::rain::wind::Wind;
@@ -71,30 +77,42 @@ impl GroundRect {
     }
 }
 
-/// The cells of the drawn volume's grid whose columns stand on the ground.
+/// The cells of the drawn volume's grid whose columns stand on the ground, with the smallest
+/// diameter each simulates, mm.
 #[derive(Debug, Clone, Default, PartialEq)]
 struct DrawnCells {
     origin_m: DVec2,
     cell_m: DVec2,
-    cells: HashSet<(i64, i64)>,
+    cells: HashMap<(i64, i64), f64>,
 }
 
 impl DrawnCells {
     /// The landing columns' cells, indexed from the first one's corner (the grid's cells are
     /// whole steps apart, so rounding recovers their indices).
-    fn of(volume: &RainVolume) -> DrawnCells {
+    fn of(volume: &RainVolume, model: &RainModel) -> DrawnCells {
         let grid = &volume.grid;
-        let mut landing = landing_columns(volume).map(|i| grid.columns[i].cell_min_m);
-        let Some(origin_m) = landing.next() else {
+        let landing: Vec<_> = landing_columns(volume).map(|i| &grid.columns[i]).collect();
+        let Some(first) = landing.first() else {
             return DrawnCells::default();
         };
+        let origin_m = first.cell_min_m;
         let cell_m = grid.cell_size_m.max(DVec2::splat(1e-9));
         let index = |c: DVec2| {
             let i = ((c - origin_m) / cell_m).round();
             (i.x as i64, i.y as i64)
         };
-        let mut cells: HashSet<(i64, i64)> = landing.map(index).collect();
-        cells.insert((0, 0)); // the first one's own
+        let (d_min, _) = model.dsd.range_mm();
+        let cells = landing
+            .iter()
+            .map(|c| {
+                let cut = if c.size_keep_q >= SIZE_KEEP_ALL {
+                    d_min
+                } else {
+                    cut_mm(model, c.size_keep_q)
+                };
+                (index(c.cell_min_m), cut)
+            })
+            .collect();
         DrawnCells {
             origin_m,
             cell_m,
@@ -102,13 +120,14 @@ impl DrawnCells {
         }
     }
 
-    /// Whether world point `p` on z = 0 lies in a landing column's cell.
-    fn covers(&self, p: DVec2) -> bool {
+    /// The smallest diameter the drawn drops bring at world point `p` on z = 0, mm: `None`
+    /// outside the landing columns' cells.
+    fn cut_at(&self, p: DVec2) -> Option<f64> {
         if self.cells.is_empty() {
-            return false;
+            return None;
         }
         let i = ((p - self.origin_m) / self.cell_m).floor();
-        self.cells.contains(&(i.x as i64, i.y as i64))
+        self.cells.get(&(i.x as i64, i.y as i64)).copied()
     }
 }
 
@@ -173,7 +192,7 @@ impl GroundRain {
             model: model.clone(),
             wind: wind.clone(),
             seed,
-            drawn: DrawnCells::of(volume),
+            drawn: DrawnCells::of(volume, model),
             flux_per_m2_s,
             cell_m,
             size_cdf,
@@ -212,7 +231,13 @@ impl GroundRain {
 
     /// Whether the drawn volume's own drops land at `p` (world x, y on z = 0).
     pub fn drawn_at(&self, p: DVec2) -> bool {
-        self.drawn.covers(p)
+        self.drawn.cut_at(p).is_some()
+    }
+
+    /// The smallest diameter the drawn drops bring at `p` (world x, y on z = 0), mm; the stream
+    /// brings the smaller ones there. `None` where the drawn drops do not land.
+    pub fn drawn_cut_mm(&self, p: DVec2) -> Option<f64> {
+        self.drawn.cut_at(p)
     }
 
     /// The rain that falls, as the drawn drops see it.
@@ -267,12 +292,17 @@ impl GroundRain {
                             (ix as f64 + unit(key, k + 1)) * self.cell_m,
                             (iy as f64 + unit(key, k + 2)) * self.cell_m,
                         );
-                        if !rect.contains(p)
-                            || (self.drawn.covers(p) && unit(key, k + 3) >= supplement)
-                        {
+                        if !rect.contains(p) {
                             continue;
                         }
                         let d_mm = self.diameter_mm(unit(key, k + 4));
+                        // In a drawn cell: the sizes its drops leave out, and the budget's
+                        // supplement of the others.
+                        if self.drawn.cut_at(p).is_some_and(|cut| d_mm >= cut)
+                            && unit(key, k + 3) >= supplement
+                        {
+                            continue;
+                        }
                         if let Some(keys) = &self.model.rate_keys
                             && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), d_mm)
                         {

@@ -15,8 +15,8 @@ use glam::DVec3;
 
 use super::RainVolume;
 use super::drop::{
-    FALL_RATE_BITS, SPEED_BITS, SplitTime, drift_cells, drop_bits, drop_uniform, fall_rate_q,
-    falls, inv_height_q, lateral_fractions,
+    FALL_RATE_BITS, SPEED_BITS, SplitTime, drift_cells, drop_uniform, fall_rate_q, falls,
+    inv_height_q, lateral_fractions, size_bits,
 };
 use super::rainfall::Rainfall;
 use crate::rain::physics::G_MPS2;
@@ -59,10 +59,23 @@ pub fn landing_columns(volume: &RainVolume) -> impl Iterator<Item = usize> + '_ 
         .map(|(i, _)| i)
 }
 
+/// The size quantile (24 bits) of drop `id` in column `ci`, truncated to the column's sizes.
+fn size_q(volume: &RainVolume, seed: u32, ci: usize, id: u64) -> u32 {
+    size_bits(seed, id as u32, volume.grid.columns[ci].size_keep_q)
+}
+
+/// The diameter of drop `id` in column `ci`, mm (physical).
+fn diameter_mm(rain: Rainfall, ci: usize, id: u64) -> f64 {
+    let q = size_q(rain.volume, rain.seed, ci, id);
+    rain.model
+        .dsd
+        .diameter_from_uniform_mm(q as f64 * (1.0 / 16_777_216.0))
+}
+
 /// The fall of drop `id` in column `ci`: (u₂, rate in column heights per second, speed_q).
 fn fall(volume: &RainVolume, seed: u32, ci: usize, id: u64) -> (f64, f64, u32) {
     let col = &volume.grid.columns[ci];
-    let speed_q = volume.motion.fall_speed_q(drop_bits(seed, id as u32, 3));
+    let speed_q = volume.motion.fall_speed_q(size_q(volume, seed, ci, id));
     let rate_q = fall_rate_q(speed_q, inv_height_q(col.height_m()));
     (
         drop_uniform(seed, id as u32, 2),
@@ -74,10 +87,7 @@ fn fall(volume: &RainVolume, seed: u32, ci: usize, id: u64) -> (f64, f64, u32) {
 /// The impact of drop `id` (in column `ci`) when its height fraction crosses the integer `c`.
 fn impact(rain: Rainfall, ci: usize, id: u64, c: i64) -> Impact {
     let Rainfall {
-        volume,
-        model,
-        wind,
-        seed,
+        volume, wind, seed, ..
     } = rain;
     let (u2, rate, speed_q) = fall(volume, seed, ci, id);
     let time_s = (u2 - c as f64) / rate;
@@ -95,9 +105,7 @@ fn impact(rain: Rainfall, ci: usize, id: u64, c: i64) -> Impact {
         pass,
         time_s,
         position_m,
-        diameter_mm: model
-            .dsd
-            .diameter_from_uniform_mm(drop_uniform(seed, id32, 3)),
+        diameter_mm: diameter_mm(rain, ci, id),
         velocity_mps: DVec3::new(vh.x, vh.y, -vt),
     }
 }
@@ -113,10 +121,14 @@ fn pass_falls(rain: Rainfall, ci: usize, id: u64, c: i64) -> bool {
     } = rain;
     let (u2, rate, _) = fall(volume, seed, ci, id);
     let birth_s = (u2 - c as f64 - 1.0) / rate;
-    let d_mm = model
-        .dsd
-        .diameter_from_uniform_mm(drop_uniform(seed, id as u32, 3));
-    falls(model, seed, id as u32, c as u32, birth_s, d_mm)
+    falls(
+        model,
+        seed,
+        id as u32,
+        c as u32,
+        birth_s,
+        diameter_mm(rain, ci, id),
+    )
 }
 
 /// Every impact on the ground in (t0_s, t1_s], 0 ≤ t0_s, in drop order then time order.
