@@ -7,7 +7,7 @@
 
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
-use rain_composite::gpu::uniforms::{self, RainSetup};
+use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::rain::volume::{GroundRain, GroundRect, RainVolume, sample_drop};
 use rain_composite::shot::rain::plan_params;
 
@@ -37,7 +37,8 @@ fn seeded(
         ..RainConfig::default()
     };
     let camera = lens.camera(w, h);
-    let new = uniforms::build(&camera, &lens, &rain, EXPOSURE_S, 0, (w, h))
+    let new = rain_composite::shot::rain::plan(&camera, &lens, &rain, EXPOSURE_S, 0, (w, h))
+        .map(RainSetup::pack)
         .expect("plan")
         .with_ground(ground);
     let mut plan = new.plan.clone();
