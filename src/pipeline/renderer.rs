@@ -91,6 +91,14 @@ impl Renderer {
         self
     }
 
+    /// The frames carry pictures quantised to `bits` bits, fewer than their code values hold
+    /// (an editor's 8-bit RGBA converted losslessly to 16-bit planes): the light's recovery
+    /// judges clipping at that depth, as for the same picture decoded at its own depth.
+    pub fn with_source_bits(mut self, bits: u8) -> Renderer {
+        self.lighting.set_source_bits(bits);
+        self
+    }
+
     /// Stops the long work inside a frame (the water's fast-forward to the first frame) with
     /// [`Error::Interrupted`] once `cancel` is set: the flag the caller's frame loop polls.
     pub fn with_cancel(mut self, cancel: &'static AtomicBool) -> Renderer {
