@@ -33,6 +33,12 @@ pub struct Renderer {
     adapter: String,
 }
 
+// A host may build a renderer on one thread and render or drop it on another.
+const _: fn() = || {
+    fn send<T: Send>() {}
+    send::<Renderer>();
+};
+
 impl Renderer {
     /// The renderer of `footage` under `config` (validated), on the adapter `adapter` asks for.
     pub fn new(
