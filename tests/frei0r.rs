@@ -96,6 +96,19 @@ fn ok(cmd: &mut Command) -> Output {
 /// `n` frames of RGBA: colour bars, a bright sky band (where rain shows), and an alpha ramp,
 /// the same picture in every frame so that only the rain tells frames apart.
 fn rgba_frames(n: usize) -> Vec<u8> {
+    (0..n).flat_map(|_| picture(1.0)).collect()
+}
+
+/// `n` frames whose light changes from frame to frame (the picture dims and brightens), so a
+/// frame's light estimated from the frames before it would tell the order they came in.
+fn changing_frames(n: usize) -> Vec<u8> {
+    (0..n)
+        .flat_map(|i| picture(0.8 + 0.2 * (i as f64 * 0.3).cos()))
+        .collect()
+}
+
+/// The picture of [`rgba_frames`] with its colours times `level`.
+fn picture(level: f64) -> Vec<u8> {
     let mut frame = vec![0u8; FRAME];
     for y in 0..H {
         for x in 0..W {
@@ -107,11 +120,12 @@ fn rgba_frames(n: usize) -> Vec<u8> {
                 let on = |bit: usize| if (bar + 1) & bit != 0 { 190 } else { 30 };
                 [on(4), on(2), on(1)]
             };
+            let px = px.map(|v| (f64::from(v) * level).round() as u8);
             frame[at..at + 3].copy_from_slice(&px);
             frame[at + 3] = (x * 255 / (W - 1)) as u8;
         }
     }
-    frame.repeat(n)
+    frame
 }
 
 /// Writes `frames` as a raw RGBA file in `dir`.
@@ -334,9 +348,9 @@ fn melt_raw(work: &Path, project: &Path, extra: &[&str], trace: bool) -> (Vec<u8
     )
 }
 
-/// An FFV1 RGBA clip of `rgba_frames` for MLT to read.
-fn rgba_clip(dir: &Path, n: usize) -> PathBuf {
-    let input = raw_input(dir, &rgba_frames(n));
+/// An FFV1 RGBA clip of `frames` for MLT to read.
+fn rgba_clip(dir: &Path, frames: &[u8]) -> PathBuf {
+    let input = raw_input(dir, frames);
     let path = dir.join("clip.mkv");
     let size = format!("{W}x{H}");
     ok(host("ffmpeg", dir)
@@ -367,7 +381,7 @@ fn melt_renders_a_kdenlive_project_and_the_command_line() {
     }
     let work = TempDir::new().unwrap();
     let dir = work.path();
-    let clip = rgba_clip(dir, 25);
+    let clip = rgba_clip(dir, &rgba_frames(25));
     let project = |name: &str, rate: &str| -> PathBuf {
         let xml = format!(
             r#"<?xml version="1.0" encoding="utf-8"?>
@@ -452,7 +466,8 @@ fn melt_renders_a_kdenlive_project_and_the_command_line() {
 
 /// MLT hands one instance frames out of order (a playlist playing the clip's second part
 /// first) and splits frames between instances (`real_time=-2`: two render threads, each with
-/// its own instance): every frame is the same picture as in order on one instance.
+/// its own instance): every frame is the same picture as in order on one instance, though the
+/// light changes from frame to frame.
 #[test]
 fn melt_frames_out_of_order_and_in_parallel_are_the_same() {
     if gpu::gpu().is_none() {
@@ -460,7 +475,7 @@ fn melt_frames_out_of_order_and_in_parallel_are_the_same() {
     }
     let work = TempDir::new().unwrap();
     let dir = work.path();
-    rgba_clip(dir, 25);
+    rgba_clip(dir, &changing_frames(25));
     // The effect on the producer: it sees the clip's own positions, whatever the playlist.
     let project = |name: &str, entries: &[(u32, u32)]| -> PathBuf {
         let entries: String = entries
