@@ -21,10 +21,10 @@ use super::rtf::{ChannelIndices, Polarisation, RtfTable};
 use super::sources::{LightSource, UserLight};
 use super::tracker::LightTracker;
 use crate::scene::Camera;
-use crate::video::Transfer;
 use crate::video::YuvFrame;
 use crate::video::color::eotf_signed;
 use crate::video::frame::coded_pixel;
+use crate::video::{ColorParams, Transfer};
 use crate::{Error, Result};
 
 /// SH bands used on the GPU.
@@ -162,6 +162,10 @@ pub struct LightEstimator {
     tables: [RtfTable; 3],
     user_lights: Vec<LightSource>,
     frames_seen: u64,
+    /// Bits the pictures were quantised to before they became these code values, when fewer
+    /// than the codes carry (an editor's 8-bit RGBA in 16-bit planes): clipping is judged at
+    /// that precision.
+    source_bits: Option<u8>,
 }
 
 /// The drop's exact transfer table per channel (R, G, B) for `config`, [`GPU_RTF_BINS`] bins:
@@ -205,7 +209,15 @@ impl LightEstimator {
             tables,
             user_lights,
             frames_seen: 0,
+            source_bits: None,
         })
+    }
+
+    /// The frames carry pictures quantised to `bits` bits (see [`Self::update`]): a sample
+    /// counts as clipped within [`super::recovery::CLIP_TOLERANCE_CODES`] of the ceiling at
+    /// that depth, as the same picture decoded at its own depth would.
+    pub fn set_source_bits(&mut self, bits: u8) {
+        self.source_bits = Some(bits.clamp(8, 16));
     }
 
     /// Frames from now on are seen through `camera` (a moving camera's pose and zoom at the
@@ -335,10 +347,18 @@ impl LightEstimator {
         let (sx, sy) = f.chroma.shift();
         let rotation = self.rotation_deg.rem_euclid(360);
         let transfer = frame.color.transfer;
-        let clip = ClipLevel::from_eotf(
-            |e| eotf_signed(transfer, e),
-            frame.color.range_scale().y_scale,
-        );
+        let codes_per_unit = match self.source_bits {
+            Some(bit_depth) if bit_depth < frame.color.bit_depth => {
+                ColorParams {
+                    bit_depth,
+                    ..frame.color
+                }
+                .range_scale()
+                .y_scale
+            }
+            _ => frame.color.range_scale().y_scale,
+        };
+        let clip = ClipLevel::from_eotf(|e| eotf_signed(transfer, e), codes_per_unit);
         BlockStats::build(
             (dw, dh),
             self.mapper.block_px(),

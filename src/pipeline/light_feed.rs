@@ -46,6 +46,13 @@ impl LightFeed {
             .filter(|&w| w > 0.0)
     }
 
+    /// Clipping judged at `bits` bits (see `LightEstimator::set_source_bits`).
+    pub(super) fn set_source_bits(&mut self, bits: u8) {
+        if let Some(l) = &mut self.estimator {
+            l.set_source_bits(bits);
+        }
+    }
+
     /// The drop's transfer table for the direct light term, once per job.
     pub(super) fn upload_table(&self, compositor: &mut Compositor) {
         if let Some(l) = &self.estimator {

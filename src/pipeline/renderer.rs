@@ -33,6 +33,12 @@ pub struct Renderer {
     adapter: String,
 }
 
+// A host may build a renderer on one thread and render or drop it on another.
+const _: fn() = || {
+    fn send<T: Send>() {}
+    send::<Renderer>();
+};
+
 impl Renderer {
     /// The renderer of `footage` under `config` (validated), on the adapter `adapter` asks for.
     pub fn new(
@@ -90,6 +96,14 @@ impl Renderer {
         if let PuddleFeed::Pending(plan) = &mut self.puddles {
             plan.checkpoints = Some(checkpoints);
         }
+        self
+    }
+
+    /// The frames carry pictures quantised to `bits` bits, fewer than their code values hold
+    /// (an editor's 8-bit RGBA converted losslessly to 16-bit planes): the light's recovery
+    /// judges clipping at that depth, as for the same picture decoded at its own depth.
+    pub fn with_source_bits(mut self, bits: u8) -> Renderer {
+        self.lighting.set_source_bits(bits);
         self
     }
 

@@ -19,6 +19,7 @@ pub mod layer;
 pub mod pixfmt;
 pub mod probe;
 mod rendered;
+pub mod rgba;
 pub mod still;
 
 pub use crate::files::{TempFile, check_output, same_file};

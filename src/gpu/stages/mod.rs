@@ -81,8 +81,9 @@ impl<'a> TimestampSlot<'a> {
     }
 }
 
-/// One stage of a frame (`Any`, so the compositor can reach a stage's own setters).
-pub trait FrameStage: std::any::Any {
+/// One stage of a frame (`Any`, so the compositor can reach a stage's own setters; `Send`, so a
+/// `Renderer` may move to the thread a host renders on).
+pub trait FrameStage: std::any::Any + Send {
     /// The stage's name (its WGSL file, pipeline label and timing key).
     fn name(&self) -> &'static str;
     /// Whether the stage has work this job (a rain stage without drops has none).
