@@ -264,8 +264,13 @@ fn round_trip(pix_fmt: &str, look: &[&str]) -> Vec<Vec<u16>> {
                 covered_fraction(l)
             );
             let (worst, differ) = max_diff(&over(frame, l, *straight), out, &skip);
+            // The canvas is f16 (11 bits of mantissa): near white a value carries 2^-11, about
+            // half a code at 10 bits. The render blends each streak over the plate, the layer
+            // over black and `over` here in f64, so where several streaks overlap the two
+            // roundings part by up to two 10-bit codes; an 8-bit code is four times coarser.
+            let tolerance = if frame.format.bit_depth > 8 { 2 } else { 1 };
             assert!(
-                worst <= 1,
+                worst <= tolerance,
                 "{pix_fmt} {name}, frame {}: off by {worst} code values ({differ} samples \
                  differ; {skipped} superluminous pixels left out)",
                 frame.index
