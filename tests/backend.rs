@@ -268,6 +268,37 @@ fn cpu_back_end_matches_the_twins() {
     }
 }
 
+/// The veil on the coarse grid (the SH in-scatter and the glow interpolated bilinearly between
+/// rays 8 px apart) against the twins' per-pixel in-scatter, on the linear canvas: within the
+/// f16 canvas's own step (2⁻¹¹ relative) and a small absolute floor for the dark pixels.
+#[test]
+fn the_veil_on_its_grid_is_close_to_per_pixel() {
+    let tables = water_tables(1024);
+    let (_, format, color) = formats().remove(0);
+    let frame = picture(format, color);
+    for haze in [Haze::Scene, Haze::Ground, Haze::Lamps] {
+        let p = params(&dry(format), haze);
+        let mut host = HostColour::new(format, &color);
+        let list = lamps(format);
+        let twin = if haze == Haze::Lamps {
+            host.set_transfer_table(&tables);
+            host.set_lights(&list);
+            yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, &list, &tables)
+        } else {
+            yuv_to_rgb::yuv_to_rgb(&frame, &p)
+        };
+        let canvas = host.decode(&frame, &p);
+        let worst = twin
+            .iter()
+            .zip(canvas.chunks_exact(4))
+            .flat_map(|(t, c)| (0..3).map(move |k| (t[k], c[k].to_f64())))
+            .map(|(t, c)| (c - t).abs() / t.abs().max(0.01))
+            .fold(0.0, f64::max);
+        eprintln!("haze {haze:?}: worst error {worst:.2e} of the linear value");
+        assert!(worst < 1.5e-3, "haze {haze:?}: {worst}");
+    }
+}
+
 /// Two runs of the CPU back end give the same bits (the bands are independent of the threads).
 #[test]
 fn cpu_back_end_is_deterministic() {
@@ -291,15 +322,9 @@ fn compositor_on_the_cpu_back_end() {
         let setup = dry(format);
         for haze in [Haze::None, Haze::Ground, Haze::Lamps] {
             let p = params(&setup, haze);
-            let mut comp = Compositor::with_backend(
-                ctx.clone(),
-                format,
-                &color,
-                &setup,
-                None,
-                Backend::Cpu,
-            )
-            .expect("compositor");
+            let mut comp =
+                Compositor::with_backend(ctx.clone(), format, &color, &setup, None, Backend::Cpu)
+                    .expect("compositor");
             assert_eq!(comp.backend(), Backend::Cpu);
             comp.set_transfer_table(&tables);
             if haze == Haze::Lamps {
@@ -403,7 +428,15 @@ fn preview_is_the_render_on_both_back_ends() {
         ];
         let full = dir.path().join(format!("{backend}.mkv"));
         ok(bin()
-            .args([s(&input), "-o", s(&full), "--codec", "ffv1", "--frames", "0..12"])
+            .args([
+                s(&input),
+                "-o",
+                s(&full),
+                "--codec",
+                "ffv1",
+                "--frames",
+                "0..12",
+            ])
             .args(look));
         let preview = dir.path().join(format!("{backend}-preview.png"));
         ok(bin()

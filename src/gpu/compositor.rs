@@ -25,9 +25,9 @@ use std::sync::mpsc;
 
 use wgpu::util::DeviceExt;
 
+use super::GpuContext;
 use super::context::Backend;
 use super::host::HostColour;
-use super::GpuContext;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, puddles::Puddles, rain_simulate::RainSimulate,

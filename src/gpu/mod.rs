@@ -12,4 +12,4 @@ pub mod types;
 pub mod uniforms;
 
 pub use compositor::{Compositor, GpuStageTimes, Rendered, max_drops};
-pub use context::{AdapterRequest, Backend, AdapterSummary, GpuContext, list_adapters};
+pub use context::{AdapterRequest, AdapterSummary, Backend, GpuContext, list_adapters};

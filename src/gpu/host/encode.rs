@@ -104,8 +104,9 @@ impl Encoder {
         for (cx, s) in sums.iter().enumerate() {
             let x0 = cx << sx;
             let n = rows * (((x0 + (1 << sx)).min(w) - x0) as f32);
-            put(cb, cx, bytes, self.code(s[0] * self.cb_per / n + self.c_offset));
-            put(cr, cx, bytes, self.code(s[1] * self.cr_per / n + self.c_offset));
+            let [b, r] = [s[0] * self.cb_per, s[1] * self.cr_per].map(|v| v / n + self.c_offset);
+            put(cb, cx, bytes, self.code(b));
+            put(cr, cx, bytes, self.code(r));
         }
     }
 

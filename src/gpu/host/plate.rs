@@ -125,7 +125,11 @@ impl Decoder {
         s.chroma.clear();
         s.chroma.extend(s.cb.iter().zip(&s.cr).map(|(&cb, &cr)| {
             let (cb, cr) = (self.chroma[cb as usize], self.chroma[cr as usize]);
-            [self.cr_r * cr, -(self.cb_g * cb + self.cr_g * cr), self.cb_b * cb]
+            [
+                self.cr_r * cr,
+                -(self.cb_g * cb + self.cr_g * cr),
+                self.cb_b * cb,
+            ]
         }));
         for (x, (px, &code)) in rgba.chunks_exact_mut(4).zip(&s.y).enumerate() {
             let luma = self.luma[code as usize];
