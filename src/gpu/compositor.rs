@@ -14,6 +14,11 @@
 //! submitted `RING - 1` calls earlier once the ring is full: the CPU never waits on the frame
 //! it just submitted, so upload, GPU work and readback of consecutive frames overlap. `flush`
 //! drains the ring at the end.
+//!
+//! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) the
+//! first and last stages run on the CPU ([`super::host`]): the hazed canvas goes up once
+//! (`write_texture`) for the stages between, and comes back once (copied into the ring's
+//! buffer), to be packed into code values when it is read back.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -22,6 +27,8 @@ use std::sync::mpsc;
 use wgpu::util::DeviceExt;
 
 use super::GpuContext;
+use super::context::Backend;
+use super::host::HostColour;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, puddles::Puddles, rain_simulate::RainSimulate,
@@ -109,6 +116,8 @@ pub struct Compositor {
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     out_bytes: u64,
     gpu_times: GpuStageTimes,
+    /// The colour passes on the CPU (the CPU back end), with the canvas they write and read.
+    host: Option<(HostColour, wgpu::Texture)>,
 }
 
 /// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
@@ -143,6 +152,20 @@ impl Compositor {
         rain: &RainSetup,
         layer: Option<Layer>,
     ) -> Result<Compositor> {
+        Compositor::with_backend(ctx, format, color, rain, layer, Backend::Gpu)
+    }
+
+    /// As [`Compositor::with_layer`], the colour passes on `backend` (resolved for the
+    /// adapter; a layer's stay on the GPU).
+    pub fn with_backend(
+        ctx: Arc<GpuContext>,
+        format: FrameFormat,
+        color: &crate::video::ColorParams,
+        rain: &RainSetup,
+        layer: Option<Layer>,
+        backend: Backend,
+    ) -> Result<Compositor> {
+        let on_cpu = layer.is_none() && ctx.backend(backend) == Backend::Cpu;
         let rgba = layer.filter(|l| l.is_rgba()).map(Layer::samples);
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
@@ -167,7 +190,11 @@ impl Compositor {
         } else {
             frame_params.total_words() as u64
         };
-        let out_bytes = out_words * 4;
+        let out_bytes = if on_cpu {
+            canvas_row_bytes(format.width) * u64::from(format.height)
+        } else {
+            out_words * 4
+        };
         let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("packed_planes"),
             size: out_bytes,
@@ -239,7 +266,7 @@ impl Compositor {
             .wetting
             .as_ref()
             .filter(|_| layer != Some(Layer::Matte));
-        let stages = frame_stages(device, &resources, rain, layer, wetting);
+        let stages = frame_stages(device, &resources, rain, layer, wetting, on_cpu);
         let timed = stages.len() as u64;
         let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
@@ -264,10 +291,21 @@ impl Compositor {
             timestamps,
             out_bytes,
             gpu_times: GpuStageTimes::default(),
+            host: on_cpu.then(|| (HostColour::new(format, color), canvas)),
         })
     }
 
-    /// GPU time per stage over the frames read back so far.
+    /// Where the colour passes run: [`Backend::Gpu`] or [`Backend::Cpu`].
+    pub fn backend(&self) -> Backend {
+        if self.host.is_some() {
+            Backend::Cpu
+        } else {
+            Backend::Gpu
+        }
+    }
+
+    /// GPU time per stage over the frames read back so far (on the CPU back end, the colour
+    /// passes' CPU time in their place).
     pub fn gpu_times(&self) -> GpuStageTimes {
         self.gpu_times
     }
@@ -281,11 +319,17 @@ impl Compositor {
     /// (see `LightEstimator::transfer_tables`). Until then the lights add nothing.
     pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
         self.direct_lights.upload_table(&self.ctx.queue, tables);
+        if let Some((host, _)) = &mut self.host {
+            host.set_transfer_table(tables);
+        }
     }
 
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
         self.direct_lights.upload_lights(&self.ctx.queue, lights);
+        if let Some((host, _)) = &mut self.host {
+            host.set_lights(lights);
+        }
     }
 
     /// Sets the scene's depth for the frames submitted from now on: drops behind it are hidden.
@@ -307,6 +351,9 @@ impl Compositor {
         self.ctx
             .queue
             .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
+        if let Some((host, _)) = &mut self.host {
+            host.set_scene_depth(metres);
+        }
         Ok(())
     }
 
@@ -393,6 +440,21 @@ impl Compositor {
             );
         }
         queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
+        if let Some((host, canvas)) = &mut self.host {
+            let started = std::time::Instant::now();
+            let texels = host.decode(frame, rain);
+            queue.write_texture(
+                canvas.as_image_copy(),
+                bytemuck::cast_slice(texels),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(8 * self.format.width),
+                    rows_per_image: Some(self.format.height),
+                },
+                canvas.size(),
+            );
+            self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64();
+        }
 
         let device = &self.ctx.device;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -410,7 +472,27 @@ impl Compositor {
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
-        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_bytes);
+        match &self.host {
+            Some((_, canvas)) => encoder.copy_texture_to_buffer(
+                canvas.as_image_copy(),
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &self.staging[slot],
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(canvas_row_bytes(self.format.width) as u32),
+                        rows_per_image: Some(self.format.height),
+                    },
+                },
+                canvas.size(),
+            ),
+            None => encoder.copy_buffer_to_buffer(
+                &self.out_buffer,
+                0,
+                &self.staging[slot],
+                0,
+                self.out_bytes,
+            ),
+        }
         if let Some((set, resolve)) = &self.timestamps {
             encoder.resolve_query_set(set, 0..2 * self.stages.len() as u32, resolve, 0);
             encoder.copy_buffer_to_buffer(
@@ -488,7 +570,13 @@ impl Compositor {
                 fp.c_row_words as usize * 4,
                 fp.c_row_words as usize * 4,
             ];
-            for i in (0..3).filter(|_| self.rgba.is_none()) {
+            if let Some((host, _)) = &self.host {
+                let started = std::time::Instant::now();
+                let texels: &[u16] = bytemuck::cast_slice(&view[..self.out_bytes as usize]);
+                out.planes = host.encode(texels, canvas_row_bytes(fp.width) as usize / 8);
+                self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
+            }
+            for i in (0..3).filter(|_| self.rgba.is_none() && self.host.is_none()) {
                 out.planes[i] = Plane {
                     data: view[bounds[i].0..bounds[i].1].to_vec(),
                     stride: strides[i],
@@ -577,8 +665,13 @@ fn plane_textures(device: &wgpu::Device, format: &FrameFormat) -> [wgpu::Texture
     })
 }
 
+/// Bytes a row of the canvas takes in the readback buffer: 8 a texel, padded as copies need.
+fn canvas_row_bytes(width: u32) -> u64 {
+    u64::from(width * 8).next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT))
+}
+
 /// The canvas: linear RGB of the frame that every stage between the first and the last reads
-/// and writes.
+/// and writes (written and read whole by the CPU back end).
 fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some("canvas"),
@@ -594,20 +687,33 @@ fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture 
         usage: wgpu::TextureUsages::STORAGE_BINDING
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::COPY_SRC,
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     })
 }
 
 /// The frame's stages, in order: colour in (the frame, or a layer's transparent start), the
-/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out.
+/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out; the colour
+/// passes left out where the CPU runs them (`on_cpu`).
 fn frame_stages(
     device: &wgpu::Device,
     resources: &FrameResources,
     rain: &RainSetup,
     layer: Option<Layer>,
     wetting: Option<&crate::lighting::wetness::Wetting>,
+    on_cpu: bool,
 ) -> Vec<Box<dyn FrameStage>> {
+    let between: [Box<dyn FrameStage>; 5] = [
+        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
+        Box::new(Puddles::new(device, resources, layer.is_none())),
+        Box::new(RainSimulate::new(device, resources)),
+        Box::new(RainSplashes::new(device, resources, rain)),
+        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
+    ];
+    if on_cpu {
+        return between.into_iter().collect();
+    }
     let rgba = layer.is_some_and(Layer::is_rgba);
     let start = match layer {
         None => YuvToRgb::new(device, resources),
@@ -617,15 +723,10 @@ fn frame_stages(
         Some(l) if rgba => Box::new(RgbaOut::new(device, resources, l)),
         _ => Box::new(RgbToYuv::new(device, resources)),
     };
-    vec![
-        Box::new(start),
-        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
-        Box::new(Puddles::new(device, resources, layer.is_none())),
-        Box::new(RainSimulate::new(device, resources)),
-        Box::new(RainSplashes::new(device, resources, rain)),
-        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
-        out,
-    ]
+    std::iter::once(Box::new(start) as Box<dyn FrameStage>)
+        .chain(between)
+        .chain([out])
+        .collect()
 }
 
 /// A query set of two timestamps per stage and the buffer they resolve into, where the device

@@ -13,6 +13,44 @@ pub struct AdapterRequest {
     pub name: Option<String>,
     /// Only software (CPU) adapters.
     pub cpu_only: bool,
+    /// Where the per-pixel colour passes run.
+    pub backend: Backend,
+}
+
+/// Where the per-pixel colour passes (planes → hazed canvas, canvas → code values) run. On a
+/// CPU adapter the GPU's shaders are JIT code on the same cores, at about 100 ns a pixel for a
+/// conversion that plain vectorised Rust does in a few: there the CPU back end
+/// ([`crate::gpu::host`]) runs them and the canvas goes up and comes back once per frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// The CPU on a CPU adapter (lavapipe, llvmpipe, WARP, SwiftShader), else the GPU.
+    #[default]
+    Auto,
+    /// The GPU's shaders.
+    Gpu,
+    /// The CPU back end.
+    Cpu,
+}
+
+impl Backend {
+    /// `Gpu` or `Cpu`: `Auto` resolved for an adapter of type `device`.
+    pub fn resolve(self, device: wgpu::DeviceType) -> Backend {
+        match self {
+            Backend::Auto if device == wgpu::DeviceType::Cpu => Backend::Cpu,
+            Backend::Auto => Backend::Gpu,
+            b => b,
+        }
+    }
+
+    /// The name the command line and the reports use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Auto => "auto",
+            Backend::Gpu => "gpu",
+            Backend::Cpu => "cpu",
+        }
+    }
 }
 
 /// One adapter as `rain-composite adapters` lists it.
@@ -157,6 +195,11 @@ impl GpuContext {
     /// The chosen adapter, for logs and benchmark tables.
     pub fn summary(&self) -> AdapterSummary {
         summary(&self.adapter.get_info())
+    }
+
+    /// The back end `requested` resolves to on this adapter (see [`Backend::resolve`]).
+    pub fn backend(&self, requested: Backend) -> Backend {
+        requested.resolve(self.adapter.get_info().device_type)
     }
 
     /// Largest 2D texture side this device accepts.

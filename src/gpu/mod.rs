@@ -3,6 +3,7 @@ pub mod bind;
 pub mod compositor;
 pub mod context;
 pub mod cpu;
+pub mod host;
 pub mod lights;
 pub mod probe;
 pub mod shaders;
@@ -11,4 +12,4 @@ pub mod types;
 pub mod uniforms;
 
 pub use compositor::{Compositor, GpuStageTimes, Rendered, max_drops};
-pub use context::{AdapterRequest, AdapterSummary, GpuContext, list_adapters};
+pub use context::{AdapterRequest, AdapterSummary, Backend, GpuContext, list_adapters};

@@ -57,6 +57,8 @@ pub struct Summary {
     pub drops: u32,
     /// The adapter used.
     pub adapter: String,
+    /// Where the colour passes ran.
+    pub backend: crate::gpu::Backend,
 }
 
 /// A full render: `input` → rain → `output`.
@@ -167,6 +169,7 @@ pub fn render(
         stages,
         drops: rain.drop_count(),
         adapter: rain.adapter().to_string(),
+        backend: rain.backend(),
     })
 }
 

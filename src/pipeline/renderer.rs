@@ -76,8 +76,14 @@ impl Renderer {
         let lighting = LightFeed::new(&shot)?;
         let puddles = PuddleFeed::new(&shot, layer);
         let rain = RainSetup::pack(shot.rain);
-        let mut compositor =
-            Compositor::with_layer(ctx.clone(), footage.format, &footage.color, &rain, layer)?;
+        let mut compositor = Compositor::with_backend(
+            ctx.clone(),
+            footage.format,
+            &footage.color,
+            &rain,
+            layer,
+            adapter.backend,
+        )?;
         lighting.upload_table(&mut compositor);
         Ok(Renderer {
             rain,
@@ -186,5 +192,10 @@ impl Renderer {
     /// The adapter's name.
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// Where the colour passes run (see [`crate::gpu::Backend`]).
+    pub fn backend(&self) -> crate::gpu::Backend {
+        self.compositor.backend()
     }
 }

@@ -1,5 +1,7 @@
 //! `rain-composite bench`: speed of a full render against a plain `ffmpeg` transcode of the
-//! same clip with the same codec settings, measured side by side in one run (medians).
+//! same clip with the same codec settings, measured side by side in one run (medians). The
+//! colour passes' columns are GPU time on the GPU back end and CPU time on the CPU back end
+//! (the back end column says which).
 
 use std::path::Path;
 use std::process::Command;
@@ -75,9 +77,9 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
     std::fs::create_dir_all(&dir)?;
     let result = (|| -> anyhow::Result<()> {
         println!(
-            "| size | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | GPU yuv→rgb | GPU rain | GPU rgb→yuv | wait+readback | encode | ms/frame total |"
+            "| size | back end | frames | drops | rain-composite wall (s) | ffmpeg transcode wall (s) | ratio | decode | upload+record | yuv→rgb | GPU rain | rgb→yuv | wait+readback | encode | ms/frame total |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         for &h in heights {
             let clip = dir.join(format!("in-{h}.mp4"));
             let scale = format!("scale=-2:{h}");
@@ -93,6 +95,7 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
             let mut frames = 0;
             let mut drops = 0;
             let mut adapter = String::new();
+            let mut backend = rain_composite::gpu::Backend::Auto;
             for _ in 0..runs {
                 // Interleave the two so both see the same machine load.
                 let mut job = Job {
@@ -107,6 +110,7 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                 frames = s.frames;
                 drops = s.drops;
                 adapter = s.adapter;
+                backend = s.backend;
                 let crf = job.encode.crf.to_string();
                 let mut args = vec!["-i", clip_s, "-c:v", "libx264", "-crf", &crf];
                 args.extend(["-preset", &job.encode.preset]);
@@ -124,7 +128,8 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
             };
             let (a, b) = (median(ours), median(theirs));
             println!(
-                "| {h}p | {frames} | {drops} | {a:.2} | {b:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                "| {h}p | {} | {frames} | {drops} | {a:.2} | {b:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                backend.name(),
                 a / b,
                 per_frame(|s| s.decode_s),
                 per_frame(|s| s.submit_s),

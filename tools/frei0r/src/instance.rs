@@ -147,7 +147,7 @@ impl Instance {
             Footage::picture(rgba8_format(self.width, self.height), RGBA8_COLOR, plan.fps);
         let adapter = AdapterRequest {
             name: std::env::var("RAIN_COMPOSITE_ADAPTER").ok(),
-            cpu_only: false,
+            ..AdapterRequest::default()
         };
         // The frames are 8-bit pictures in 16-bit planes: clipping is judged in 8-bit codes.
         Ok(Renderer::new(&plan.config, &footage, &adapter)?.with_source_bits(8))

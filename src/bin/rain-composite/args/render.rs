@@ -2,7 +2,7 @@
 //! the GPU.
 
 use clap::{Args, ValueEnum};
-use rain_composite::gpu::AdapterRequest;
+use rain_composite::gpu::{AdapterRequest, Backend};
 use rain_composite::pipeline::FrameRange;
 
 use super::encode::EncodeArgs;
@@ -77,6 +77,20 @@ pub struct GpuArgs {
     /// Use a CPU (software) adapter only.
     #[arg(long)]
     pub cpu: bool,
+    /// Where the colour passes (planes → linear with the haze, linear → code values) run: auto (the CPU on a CPU adapter such as lavapipe, else the GPU), gpu or cpu. The rain stays on the GPU.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+}
+
+/// `--backend`'s values (the library's [`Backend`]).
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum BackendArg {
+    /// The CPU on a CPU adapter, else the GPU.
+    Auto,
+    /// The GPU's shaders.
+    Gpu,
+    /// The CPU back end.
+    Cpu,
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
@@ -166,6 +180,11 @@ pub fn adapter(g: &GpuArgs) -> AdapterRequest {
     AdapterRequest {
         name: g.adapter.clone(),
         cpu_only: g.cpu,
+        backend: match g.backend {
+            BackendArg::Auto => Backend::Auto,
+            BackendArg::Gpu => Backend::Gpu,
+            BackendArg::Cpu => Backend::Cpu,
+        },
     }
 }
 

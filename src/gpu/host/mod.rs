@@ -1,0 +1,77 @@
+//! The CPU back end of the per-pixel colour passes ([`super::Backend::Cpu`]): the planes → the
+//! hazed linear canvas in f16 ([`plate`], veiled by [`veil`]) and the canvas → packed code
+//! values ([`encode`]), in bands of rows spread over rayon's threads. On a CPU adapter the GPU's
+//! shaders run as JIT code on the same cores at about 100 ns a pixel; these loops do the same
+//! work in a few. The plain `f64` twins of [`super::cpu`] are their references
+//! (`tests/backend.rs`).
+
+pub mod encode;
+pub mod plate;
+pub mod veil;
+
+use half::f16;
+
+use crate::gpu::types::{LightList, RainParams};
+use crate::lighting::RtfTable;
+use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
+
+/// The colour passes of one picture format on the CPU, with what the haze needs between
+/// frames (the lamps, the drop's transfer table, the scene's depth).
+pub struct HostColour {
+    format: FrameFormat,
+    decoder: plate::Decoder,
+    encoder: encode::Encoder,
+    lights: LightList,
+    tables: Option<Box<[RtfTable; 3]>>,
+    /// The scene's depth per displayed pixel, metres, 0 where unknown.
+    depth: Option<Vec<f32>>,
+    canvas: Vec<f16>,
+}
+
+impl HostColour {
+    /// The passes for frames of `format` coded in `color`.
+    pub fn new(format: FrameFormat, color: &ColorParams) -> HostColour {
+        HostColour {
+            format,
+            decoder: plate::Decoder::new(format, color),
+            encoder: encode::Encoder::new(format, color),
+            lights: LightList::new(&[]),
+            tables: None,
+            depth: None,
+            canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
+        }
+    }
+
+    /// The compact lights whose glow the haze shows from the next frame on.
+    pub fn set_lights(&mut self, lights: &LightList) {
+        self.lights = *lights;
+    }
+
+    /// The drop's transfer table the glow is seen through; until it is set the lamps add
+    /// nothing (as on the GPU).
+    pub fn set_transfer_table(&mut self, tables: &[RtfTable; 3]) {
+        self.tables = Some(Box::new(tables.clone()));
+    }
+
+    /// The scene's depth per displayed pixel (row-major, metres, 0 where unknown), as the GPU's
+    /// `scene_depth` buffer holds it.
+    pub fn set_scene_depth(&mut self, metres: Vec<f32>) {
+        self.depth = Some(metres);
+    }
+
+    /// The hazed linear canvas of `frame` under `p`: RGBA f16, row-major, `width` texels a row
+    /// (what `yuv_to_rgb` writes on the GPU).
+    pub fn decode(&mut self, frame: &YuvFrame, p: &RainParams) -> &[f16] {
+        let lit = self.tables.as_deref().map(|t| (&self.lights, t));
+        let size = (self.format.width, self.format.height);
+        let veil = veil::Veil::new(p, lit, self.depth.as_deref(), size);
+        self.decoder.decode(frame, veil.as_ref(), &mut self.canvas);
+        &self.canvas
+    }
+
+    /// The code planes of the canvas `canvas` (RGBA f16 bits, rows `stride_texels` apart), laid
+    /// out as the GPU's `rgb_to_yuv` packs them (rows padded to whole 32-bit words).
+    pub fn encode(&self, canvas: &[u16], stride_texels: usize) -> [Plane; 3] {
+        self.encoder.encode(canvas, stride_texels)
+    }
+}

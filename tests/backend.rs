@@ -1,0 +1,468 @@
+//! The CPU back end of the colour passes (`gpu::host`) against the plain `f64` twins
+//! (`gpu::cpu::yuv_to_rgb` → `gpu::cpu::rgb_to_yuv`) on 8-bit limited, full-range and 10-bit
+//! pictures, with the haze to the scene, to the ground and to a depth map, and with a lamp's
+//! glow; its determinism; the identity of a frame with nothing drawn; and the two back ends'
+//! renders, previews and frames against each other.
+//! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
+
+use std::path::Path;
+
+use glam::DVec2;
+use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
+use rain_composite::gpu::host::HostColour;
+use rain_composite::gpu::types::{LightList, RainParams};
+use rain_composite::gpu::uniforms::RainSetup;
+use rain_composite::gpu::{Backend, Compositor};
+use rain_composite::lighting::{LightSource, RtfTable};
+use rain_composite::scene::{Camera, DepthMap};
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
+use tempfile::TempDir;
+
+#[path = "common/gpu.rs"]
+mod shared_gpu;
+use shared_gpu::gpu;
+
+#[path = "common/render.rs"]
+mod render;
+use render::{BLUISH_SKY, water_tables};
+
+#[path = "common/pictures.rs"]
+mod pictures;
+use pictures::{codes, scatter};
+
+#[path = "common/fixtures.rs"]
+mod fixtures;
+use fixtures::s;
+
+#[path = "common/binary.rs"]
+mod binary;
+use binary::{bin, ok};
+
+const W: u32 = 96;
+const H: u32 = 64;
+
+/// The pictures: 8-bit BT.709 limited range 4:2:0, 8-bit full-range BT.601 sRGB 4:2:2 and
+/// 10-bit BT.2020 limited 4:2:0 (odd-sized, so the last chroma blocks are partial).
+fn formats() -> Vec<(&'static str, FrameFormat, ColorParams)> {
+    let format = |width, height, chroma, bit_depth| FrameFormat {
+        width,
+        height,
+        chroma,
+        bit_depth,
+    };
+    vec![
+        (
+            "8-bit BT.709 limited",
+            format(W, H, Chroma::Cs420, 8),
+            ColorParams::bt709(8),
+        ),
+        (
+            "8-bit full range",
+            format(W, H, Chroma::Cs422, 8),
+            ColorParams {
+                matrix: Matrix::Bt601,
+                full_range: true,
+                transfer: Transfer::Srgb,
+                bit_depth: 8,
+            },
+        ),
+        (
+            "10-bit",
+            format(W - 1, H - 1, Chroma::Cs420, 10),
+            ColorParams {
+                matrix: Matrix::Bt2020Ncl,
+                full_range: false,
+                transfer: Transfer::Bt709,
+                bit_depth: 10,
+            },
+        ),
+    ]
+}
+
+/// Scattered, mildly saturated code values over the whole range.
+fn picture(format: FrameFormat, color: ColorParams) -> YuvFrame {
+    let max = (1u32 << format.bit_depth) - 1;
+    let mid = (max + 1) as f64 / 2.0;
+    pictures::picture(format, color, |i, x, y| {
+        let v = scatter(i, x, y) % (max + 1);
+        if i > 0 {
+            (mid + (v as f64 - mid) * 0.4).round() as u16
+        } else {
+            v as u16
+        }
+    })
+}
+
+fn camera(format: FrameFormat) -> Camera {
+    Camera::new(format.width, format.height, 1.0, 1.6, 0.1, 0.0)
+}
+
+/// No drops over `format`'s picture.
+fn dry(format: FrameFormat) -> RainSetup {
+    rain_composite::shot::rain::plan(
+        &camera(format),
+        &CameraConfig::default(),
+        &RainConfig {
+            rate_mm_per_h: 0.0,
+            ..RainConfig::default()
+        },
+        1.0 / 50.0,
+        0,
+        (format.width, format.height),
+    )
+    .map(RainSetup::pack)
+    .expect("rain")
+}
+
+/// How the haze is laid: none, to the scene, to the ground, to a depth map, with lamps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Haze {
+    None,
+    Scene,
+    Ground,
+    DepthMap,
+    Lamps,
+}
+
+const HAZES: [Haze; 5] = [
+    Haze::None,
+    Haze::Scene,
+    Haze::Ground,
+    Haze::DepthMap,
+    Haze::Lamps,
+];
+
+/// The uniforms of `haze` under a bluish sky brighter to one side: the haze from 2 m,
+/// β = 0.05/m, the scene at 60 m.
+fn params(setup: &RainSetup, haze: Haze) -> RainParams {
+    let mut p = render::lit(setup, 0.0, &BLUISH_SKY, None);
+    p.env_sh[3] = [0.4, 0.3, 0.2, 0.0];
+    p.haze = match haze {
+        Haze::None => [0.0, 0.0, 0.0, 1.0],
+        _ => [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()],
+    };
+    p.ground_clip = u32::from(haze == Haze::Ground);
+    p
+}
+
+/// A depth map with a near box, a far band and holes (unknown depth).
+fn depth_map(format: FrameFormat) -> DepthMap {
+    let (w, h) = (format.width as usize, format.height as usize);
+    let values: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if (20..50).contains(&x) && (10..40).contains(&y) {
+                4.0
+            } else if y > h * 2 / 3 {
+                25.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    DepthMap::from_values(w, h, &values, 1.0).expect("depth")
+}
+
+/// A lamp at infinity and one 12 m away, both in the picture.
+fn lamps(format: FrameFormat) -> LightList {
+    let cam = camera(format);
+    let at = |x: f64, y: f64| cam.ray_world(DVec2::new(x, y)).normalize();
+    LightList::new(&[
+        LightSource {
+            direction_world: at(70.0, 30.0),
+            solid_angle_sr: 2e-4,
+            radiance_rgb: [1600.0, 1200.0, 600.0],
+            distance_m: None,
+        },
+        LightSource {
+            direction_world: at(25.0, 15.0),
+            solid_angle_sr: 1e-4,
+            radiance_rgb: [300.0, 300.0, 350.0],
+            distance_m: Some(12.0),
+        },
+    ])
+}
+
+/// The depth map as the compositor hands it over: metres per displayed pixel, 0 unknown.
+fn metres(map: &DepthMap) -> Vec<f32> {
+    map.depth_m
+        .iter()
+        .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
+        .collect()
+}
+
+/// The code planes of `frame` under `haze`: the CPU back end's and the twins'.
+fn both(frame: &YuvFrame, haze: Haze, tables: &[RtfTable; 3]) -> ([Vec<u16>; 3], [Vec<u16>; 3]) {
+    let f = frame.format;
+    let p = params(&dry(f), haze);
+    let mut host = HostColour::new(f, &frame.color);
+    let map = depth_map(f);
+    let list = lamps(f);
+    let canvas = match haze {
+        Haze::DepthMap => {
+            host.set_scene_depth(metres(&map));
+            yuv_to_rgb::yuv_to_rgb_with_depth(frame, &p, Some(&map))
+        }
+        Haze::Lamps => {
+            host.set_transfer_table(tables);
+            host.set_lights(&list);
+            yuv_to_rgb::yuv_to_rgb_lit(frame, &p, &list, tables)
+        }
+        _ => yuv_to_rgb::yuv_to_rgb(frame, &p),
+    };
+    let twin = rgb_to_yuv::rgb_to_yuv(&canvas, f, &frame.color);
+    let texels: Vec<u16> = host.decode(frame, &p).iter().map(|v| v.to_bits()).collect();
+    let planes = host.encode(&texels, f.width as usize);
+    (codes(&with_planes(frame, planes)), twin)
+}
+
+/// `frame` with `planes` in place of its own.
+fn with_planes(frame: &YuvFrame, planes: [rain_composite::video::Plane; 3]) -> YuvFrame {
+    YuvFrame {
+        format: frame.format,
+        color: frame.color,
+        planes,
+        pts: frame.pts,
+        index: frame.index,
+    }
+}
+
+/// Largest code difference and the share of samples more than one code off.
+fn compare(a: &[Vec<u16>; 3], b: &[Vec<u16>; 3]) -> (u16, f64) {
+    let (mut worst, mut off, mut n) = (0u16, 0usize, 0usize);
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!(x.len(), y.len());
+        for (u, v) in x.iter().zip(y) {
+            let d = u.abs_diff(*v);
+            worst = worst.max(d);
+            off += usize::from(d > 1);
+            n += 1;
+        }
+    }
+    (worst, off as f64 / n as f64)
+}
+
+/// The CPU back end is within one code of the twins on 99.9 % of the samples, for every
+/// picture and every haze; without haze it is the frame itself.
+#[test]
+fn cpu_back_end_matches_the_twins() {
+    let tables = water_tables(1024);
+    for (name, format, color) in formats() {
+        let frame = picture(format, color);
+        for haze in HAZES {
+            let (host, twin) = both(&frame, haze, &tables);
+            let (worst, share) = compare(&host, &twin);
+            eprintln!(
+                "{name}, haze {haze:?}: worst {worst} codes, {:.4} % over one",
+                100.0 * share
+            );
+            assert!(share <= 1e-3, "{name}, haze {haze:?}: {share}");
+            assert!(worst <= 2, "{name}, haze {haze:?}: {worst} codes off");
+            if haze == Haze::None {
+                assert_eq!(host, codes(&frame), "{name}: not the frame itself");
+            }
+        }
+        // The haze does change the picture (the cases above test something).
+        let (hazy, _) = both(&frame, Haze::Lamps, &tables);
+        assert_ne!(hazy, codes(&frame), "{name}");
+    }
+}
+
+/// The veil on the coarse grid (the SH in-scatter and the glow interpolated bilinearly between
+/// rays 8 px apart) against the twins' per-pixel in-scatter, on the linear canvas: within the
+/// f16 canvas's own step (2⁻¹¹ relative) and a small absolute floor for the dark pixels.
+#[test]
+fn the_veil_on_its_grid_is_close_to_per_pixel() {
+    let tables = water_tables(1024);
+    let (_, format, color) = formats().remove(0);
+    let frame = picture(format, color);
+    for haze in [Haze::Scene, Haze::Ground, Haze::Lamps] {
+        let p = params(&dry(format), haze);
+        let mut host = HostColour::new(format, &color);
+        let list = lamps(format);
+        let twin = if haze == Haze::Lamps {
+            host.set_transfer_table(&tables);
+            host.set_lights(&list);
+            yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, &list, &tables)
+        } else {
+            yuv_to_rgb::yuv_to_rgb(&frame, &p)
+        };
+        let canvas = host.decode(&frame, &p);
+        let worst = twin
+            .iter()
+            .zip(canvas.chunks_exact(4))
+            .flat_map(|(t, c)| (0..3).map(move |k| (t[k], c[k].to_f64())))
+            .map(|(t, c)| (c - t).abs() / t.abs().max(0.01))
+            .fold(0.0, f64::max);
+        eprintln!("haze {haze:?}: worst error {worst:.2e} of the linear value");
+        assert!(worst < 1.5e-3, "haze {haze:?}: {worst}");
+    }
+}
+
+/// Two runs of the CPU back end give the same bits (the bands are independent of the threads).
+#[test]
+fn cpu_back_end_is_deterministic() {
+    let tables = water_tables(1024);
+    let (_, format, color) = formats().remove(2);
+    let frame = picture(format, color);
+    for haze in [Haze::Ground, Haze::Lamps] {
+        let runs: Vec<_> = (0..2).map(|_| both(&frame, haze, &tables).0).collect();
+        assert_eq!(runs[0], runs[1], "{haze:?}");
+    }
+}
+
+/// Through the compositor on the CPU back end (the canvas up to the GPU and back): a frame with
+/// nothing drawn and no haze comes back bit for bit, the haze as the twins lay it, twice alike.
+#[test]
+fn compositor_on_the_cpu_back_end() {
+    let Some(ctx) = gpu() else { return };
+    let tables = water_tables(1024);
+    for (name, format, color) in formats() {
+        let frame = picture(format, color);
+        let setup = dry(format);
+        for haze in [Haze::None, Haze::Ground, Haze::Lamps] {
+            let p = params(&setup, haze);
+            let mut comp =
+                Compositor::with_backend(ctx.clone(), format, &color, &setup, None, Backend::Cpu)
+                    .expect("compositor");
+            assert_eq!(comp.backend(), Backend::Cpu);
+            comp.set_transfer_table(&tables);
+            if haze == Haze::Lamps {
+                comp.set_lights(&lamps(format));
+            }
+            let out: Vec<_> = (0..2)
+                .map(|_| codes(&comp.render_one(&frame, &p).expect("render")))
+                .collect();
+            assert_eq!(out[0], out[1], "{name}, {haze:?}: two runs differ");
+            if haze == Haze::None {
+                assert_eq!(out[0], codes(&frame), "{name}: a dry frame changed");
+            } else {
+                let (_, twin) = both(&frame, haze, &tables);
+                let (worst, share) = compare(&out[0], &twin);
+                assert!(share <= 1e-3 && worst <= 2, "{name}, {haze:?}: {worst}");
+            }
+        }
+    }
+}
+
+/// Decoded frames of `video` (8-bit 4:2:0), as raw planes one after the other.
+fn raw_frames(video: &Path, dir: &Path, tag: &str) -> Vec<u8> {
+    let raw = dir.join(format!("{tag}.yuv"));
+    fixtures::ffmpeg(&[
+        "-i",
+        s(video),
+        "-f",
+        "rawvideo",
+        "-pix_fmt",
+        "yuv420p",
+        s(&raw),
+    ]);
+    std::fs::read(&raw).expect("raw")
+}
+
+/// Within one code on 99.9 % of the samples, and never more than `worst`.
+fn agree(a: &[u8], b: &[u8], worst: u8, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    assert!(!a.is_empty(), "{what}");
+    let off = a.iter().zip(b).filter(|(x, y)| x.abs_diff(**y) > 1).count();
+    let max = a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)).max();
+    eprintln!(
+        "{what}: {off} of {} samples more than one code apart, worst {max:?}",
+        a.len()
+    );
+    assert!(off as f64 <= 1e-3 * a.len() as f64, "{what}: {off} samples");
+    assert!(max <= Some(worst), "{what}: {max:?}");
+}
+
+/// The night skyline sample rendered with its preset (haze, lamps) on each back end, losslessly:
+/// the two agree within a code on 99.9 % of the samples.
+#[test]
+fn cpu_and_gpu_renders_of_the_city_agree() {
+    if gpu().is_none() {
+        return;
+    }
+    let dir = TempDir::new().expect("tmp");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("samples/city.mp4");
+    let frames: Vec<Vec<u8>> = ["gpu", "cpu"]
+        .iter()
+        .map(|backend| {
+            let out = dir.path().join(format!("{backend}.mkv"));
+            ok(bin().args([
+                s(&sample),
+                "-o",
+                s(&out),
+                "--config",
+                "city",
+                "--codec",
+                "ffv1",
+                "--frames",
+                "0..4",
+                "--backend",
+                backend,
+            ]));
+            raw_frames(&out, dir.path(), backend)
+        })
+        .collect();
+    agree(&frames[0], &frames[1], 4, "city, --backend gpu vs cpu");
+}
+
+/// A preview is the frame the full render writes, on either back end (with haze over a ground
+/// and rain drawn).
+#[test]
+fn preview_is_the_render_on_both_back_ends() {
+    if gpu().is_none() {
+        return;
+    }
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::quick_clip(dir.path(), "in.mp4", "160x120", 1.0);
+    for backend in ["gpu", "cpu"] {
+        let look = [
+            "--rain",
+            "40",
+            "--seed",
+            "5",
+            "--ground",
+            "horizon=0.4",
+            "--backend",
+            backend,
+        ];
+        let full = dir.path().join(format!("{backend}.mkv"));
+        ok(bin()
+            .args([
+                s(&input),
+                "-o",
+                s(&full),
+                "--codec",
+                "ffv1",
+                "--frames",
+                "0..12",
+            ])
+            .args(look));
+        let preview = dir.path().join(format!("{backend}-preview.png"));
+        ok(bin()
+            .args(["preview", s(&input), "--frame", "9", "-o", s(&preview)])
+            .args(["--bits", "16"])
+            .args(look));
+        // The render's frame through the same still conversion (no rain, no haze added).
+        let from_full = dir.path().join(format!("{backend}-full.png"));
+        ok(bin().args([
+            "preview",
+            s(&full),
+            "--frame",
+            "9",
+            "-o",
+            s(&from_full),
+            "--bits",
+            "16",
+            "--rain",
+            "0",
+            "--backend",
+            backend,
+        ]));
+        assert!(
+            std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
+            "--backend {backend}: the preview differs from the render's frame"
+        );
+    }
+}
