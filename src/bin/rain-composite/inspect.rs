@@ -146,10 +146,8 @@ pub enum InspectCommand {
         /// Instead of the plan, draw a labelled contact sheet of the streak mattes to this PNG.
         #[arg(long, value_name = "PNG")]
         mattes: Option<PathBuf>,
-        /// Streak database for --mattes: ours (index.json) or a copy of Garg & Nayar's
-        /// [default: the one the render uses, installed beside the program].
-        #[arg(long, value_name = "PATH")]
-        streak_db: Option<PathBuf>,
+        /// The render's flags; `--streak-db` also names the database `--mattes` draws (ours,
+        /// with index.json, or a copy of Garg & Nayar's) [default: the one the render uses].
         #[command(flatten)]
         look: Box<LookArgs>,
     },
@@ -292,12 +290,11 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             fps,
             look,
             mattes,
-            streak_db,
             ..
         } => {
             if let Some(sheet) = mattes {
-                let db = match streak_db {
-                    Some(db) => db.clone(),
+                let db = match &look.streak_db {
+                    Some(db) => PathBuf::from(db),
                     None => rain_composite::shot::default_streak_db().context(
                         "no streak database is installed beside the program \
                          (../share/rain-composite/drops, or drops/ next to it): pass --streak-db DIR",
