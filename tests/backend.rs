@@ -7,14 +7,13 @@
 
 use std::path::Path;
 
-use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::HostColour;
 use rain_composite::gpu::types::{LightList, RainParams};
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Backend, Compositor};
-use rain_composite::lighting::{LightSource, RtfTable};
+use rain_composite::lighting::RtfTable;
 use rain_composite::scene::{Camera, DepthMap};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
 use tempfile::TempDir;
@@ -164,24 +163,9 @@ fn depth_map(format: FrameFormat) -> DepthMap {
     DepthMap::from_values(w, h, &values, 1.0).expect("depth")
 }
 
-/// A lamp at infinity and one 12 m away, both in the picture.
+/// The two lamps of the glow test, over `format`'s picture.
 fn lamps(format: FrameFormat) -> LightList {
-    let cam = camera(format);
-    let at = |x: f64, y: f64| cam.ray_world(DVec2::new(x, y)).normalize();
-    LightList::new(&[
-        LightSource {
-            direction_world: at(70.0, 30.0),
-            solid_angle_sr: 2e-4,
-            radiance_rgb: [1600.0, 1200.0, 600.0],
-            distance_m: None,
-        },
-        LightSource {
-            direction_world: at(25.0, 15.0),
-            solid_angle_sr: 1e-4,
-            radiance_rgb: [300.0, 300.0, 350.0],
-            distance_m: Some(12.0),
-        },
-    ])
+    LightList::new(&render::lamps(&camera(format)))
 }
 
 /// The depth map as the compositor hands it over: metres per displayed pixel, 0 unknown.

@@ -12,13 +12,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use rain_composite::gpu::cpu::rgb_to_yuv::rgb_to_yuv;
+use rain_composite::video::YuvFrame;
 use rain_composite::video::color::eotf_signed;
-use rain_composite::video::{Source, YuvFrame};
 use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
-use fixtures::{clip, files_in};
+use fixtures::{decoded_frames, files_in, lossless_clip};
 
 #[path = "common/binary.rs"]
 mod binary;
@@ -57,48 +57,6 @@ fn render_ok(input: &Path, output: &Path, extra: &[&str]) {
         output.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-/// A small `testsrc2` clip of `pix_fmt` tagged with `primaries` (BT.709 matrix and transfer,
-/// limited range), losslessly coded so the decoded source is exact.
-fn source(dir: &Path, pix_fmt: &str, primaries: &str) -> PathBuf {
-    sized_source(dir, "96x64", pix_fmt, primaries)
-}
-
-/// As [`source`], `size` pixels. From about 640×360 up, `testsrc2`'s clipped colour bars are
-/// recovered at the defaults as a sun hundreds of times the frame's white, whose glow in the
-/// haze is brighter than white around it.
-fn sized_source(dir: &Path, size: &str, pix_fmt: &str, primaries: &str) -> PathBuf {
-    clip(
-        dir,
-        &format!("in_{size}_{pix_fmt}_{primaries}.mkv"),
-        size,
-        25,
-        0.12,
-        &[
-            "-c:v",
-            "ffv1",
-            "-pix_fmt",
-            pix_fmt,
-            "-color_primaries",
-            primaries,
-            "-color_trc",
-            "bt709",
-            "-colorspace",
-            "bt709",
-            "-color_range",
-            "tv",
-        ],
-    )
-}
-
-fn frames(path: &Path) -> Vec<YuvFrame> {
-    let mut s = Source::open(path.to_str().unwrap()).expect("open");
-    let mut out = Vec::new();
-    while let Some(f) = s.next_frame().expect("decode") {
-        out.push(f);
-    }
-    out
 }
 
 /// The images of a sequence in `dir` whose names start with `prefix`, in name order.
@@ -306,8 +264,8 @@ fn compare(input: &Path, dir: &Path, look: &[&str]) -> (Agreement, Agreement, Ve
     render_ok(input, &normal, &with(&["--codec", "ffv1"]));
     render_ok(input, &dir.join("rain_%05d.exr"), &with(&["--layer-only"]));
     render_ok(input, &dir.join("rain_%05d.png"), &with(&["--layer-only"]));
-    let originals = frames(input);
-    let rendered = frames(&normal);
+    let originals = decoded_frames(input);
+    let rendered = decoded_frames(&normal);
     let exrs = images(dir, "rain_", ".exr");
     let pngs = images(dir, "rain_", ".png");
     assert_eq!(exrs.len(), originals.len(), "one EXR a frame");
@@ -336,7 +294,9 @@ fn compare(input: &Path, dir: &Path, look: &[&str]) -> (Agreement, Agreement, Ve
 fn exr_layer_over_the_plate_is_the_render_glow_included() {
     for (pix_fmt, within_one) in [("yuv420p", 1.0), ("yuv422p10le", 0.99999)] {
         let dir = TempDir::new().unwrap();
-        let input = sized_source(dir.path(), "640x360", pix_fmt, "bt709");
+        // From about 640×360 up, testsrc2's clipped colour bars are recovered at the defaults as
+        // a sun hundreds of times the frame's white, whose glow in the haze is brighter than white.
+        let input = lossless_clip(dir.path(), "640x360", pix_fmt, "bt709");
         let (exr, png, layers) = compare(&input, dir.path(), &[]);
         eprintln!("{pix_fmt} EXR layer over the plate: {}", exr.report());
         eprintln!(
@@ -386,7 +346,7 @@ fn exr_layer_over_the_plate_is_the_render_glow_included() {
 #[test]
 fn exr_layer_keeps_a_glow_far_above_white() {
     let dir = TempDir::new().unwrap();
-    let input = sized_source(dir.path(), "320x240", "yuv420p", "bt709");
+    let input = lossless_clip(dir.path(), "320x240", "yuv420p", "bt709");
     let (exr, png, layers) = compare(&input, dir.path(), &["--rain", "60", "--seed", "7"]);
     eprintln!("60 mm/h, EXR layer over the plate: {}", exr.report());
     eprintln!("60 mm/h, 16-bit PNG layer over the plate: {}", png.report());
@@ -406,7 +366,7 @@ fn exr_layer_keeps_a_glow_far_above_white() {
 #[test]
 fn exr_layer_carries_the_wet_ground() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p", "bt709");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let ground = ["--ground", "horizon=0.3", "--pre-rain", "30"];
     let (exr, png, _) = compare(&input, dir.path(), &ground);
     eprintln!("wet ground, EXR layer over the plate: {}", exr.report());
@@ -426,7 +386,7 @@ fn exr_header_holds_the_inputs_primaries() {
         ("smpte170m", SMPTE170M_XY),
         ("unknown", BT709_XY),
     ] {
-        let input = source(dir.path(), "yuv420p", primaries);
+        let input = lossless_clip(dir.path(), "96x64", "yuv420p", primaries);
         let prefix = format!("p_{primaries}_");
         render_ok(
             &input,
@@ -447,7 +407,7 @@ fn exr_header_holds_the_inputs_primaries() {
 #[test]
 fn exr_images_are_numbered_by_source_frame() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p", "bt709");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let seq = dir.path().join("seq");
     std::fs::create_dir(&seq).unwrap();
     let pattern = seq.join("c_%04d.exr");
@@ -462,7 +422,7 @@ fn exr_images_are_numbered_by_source_frame() {
 #[test]
 fn bad_exr_outputs_fail_cleanly() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p", "bt709");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let out_dir = dir.path().join("out");
     std::fs::create_dir(&out_dir).unwrap();
     // A folder that is a file: no image can be written in it, not even by root.
@@ -549,7 +509,7 @@ fn measure_layers() {
     let look: Vec<&str> = args.split_whitespace().collect();
     let dir = TempDir::new().unwrap();
     let input = match name.strip_prefix("testsrc2:") {
-        Some(size) => sized_source(dir.path(), size, "yuv420p", "bt709"),
+        Some(size) => lossless_clip(dir.path(), size, "yuv420p", "bt709"),
         None => {
             let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("samples/{name}.mp4"));
             let input = dir.path().join("clip.mkv");

@@ -2,7 +2,7 @@
 //! against a brute-force integral along the ray, and no lights adding nothing.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::types::{LightList, RainParams};
@@ -32,25 +32,6 @@ const HAZE_T: f64 = 0.85;
 
 fn camera() -> Camera {
     Camera::new(W, H, 60f64.to_radians(), 1.6, 0.0, 0.0)
-}
-
-/// A lamp at infinity right of centre and one 12 m away up to the left.
-fn lamps(cam: &Camera) -> Vec<LightSource> {
-    let at = |x: f64, y: f64| cam.ray_world(DVec2::new(x, y)).normalize();
-    vec![
-        LightSource {
-            direction_world: at(70.0, 30.0),
-            solid_angle_sr: 2e-4,
-            radiance_rgb: [1600.0, 1200.0, 600.0],
-            distance_m: None,
-        },
-        LightSource {
-            direction_world: at(25.0, 15.0),
-            solid_angle_sr: 1e-4,
-            radiance_rgb: [300.0, 300.0, 350.0],
-            distance_m: Some(12.0),
-        },
-    ]
 }
 
 /// No drops; a dim environment; the haze given by the constants above.
@@ -110,7 +91,7 @@ fn gpu_glow_matches_the_cpu_twin() {
         return;
     }
     let cam = camera();
-    let (gpu, cpu) = both(&lamps(&cam));
+    let (gpu, cpu) = both(&render::lamps(&cam));
     let mut worst = 0;
     for (g, c) in gpu[0].iter().zip(&cpu[0]) {
         worst = worst.max(g.abs_diff(*c));
@@ -167,7 +148,7 @@ fn glow_follows_the_single_scattering_integral() {
     let coarse = water_tables(1024);
     let fine = water_tables(8192);
     let beta = -HAZE_T.ln() / (HAZE_FAR_M - HAZE_NEAR_M);
-    for lamp in lamps(&cam) {
+    for lamp in render::lamps(&cam) {
         let list = LightList::new(std::slice::from_ref(&lamp));
         let lamp_px = {
             let mut best = (0, 0, -2.0);

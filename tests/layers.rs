@@ -3,17 +3,17 @@
 //! renderer), gives back the normal render; the matte is the layer's alpha; the black variant
 //! is the layer over black; outputs that cannot hold the layer are refused before any work.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 use rain_composite::gpu::cpu::rgb_to_yuv::rgb_to_yuv;
+use rain_composite::video::YuvFrame;
 use rain_composite::video::color::eotf_signed;
-use rain_composite::video::{Source, YuvFrame};
 use tempfile::TempDir;
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
-use fixtures::{clip, files_in, stream};
+use fixtures::{decoded_frames, files_in, lossless_clip, stream};
 
 #[path = "common/binary.rs"]
 mod binary;
@@ -46,40 +46,6 @@ fn render_ok(input: &Path, output: &Path, extra: &[&str]) {
         output.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-/// A BT.709-tagged test clip of `pix_fmt`, losslessly coded so the decoded source is exact.
-fn source(dir: &Path, pix_fmt: &str) -> PathBuf {
-    clip(
-        dir,
-        &format!("in_{pix_fmt}.mkv"),
-        "96x64",
-        25,
-        0.12,
-        &[
-            "-c:v",
-            "ffv1",
-            "-pix_fmt",
-            pix_fmt,
-            "-color_primaries",
-            "bt709",
-            "-color_trc",
-            "bt709",
-            "-colorspace",
-            "bt709",
-            "-color_range",
-            "tv",
-        ],
-    )
-}
-
-fn frames(path: &Path) -> Vec<YuvFrame> {
-    let mut s = Source::open(path.to_str().unwrap()).expect("open");
-    let mut out = Vec::new();
-    while let Some(f) = s.next_frame().expect("decode") {
-        out.push(f);
-    }
-    out
 }
 
 /// A layer's R'G'B'A samples, 16 bits, frame by frame, whatever it was written as.
@@ -211,7 +177,7 @@ fn covered_fraction(layer: &[u16]) -> f64 {
 /// the normal render. Returns the premultiplied layers.
 fn round_trip(pix_fmt: &str, look: &[&str]) -> Vec<Vec<u16>> {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), pix_fmt);
+    let input = lossless_clip(dir.path(), "96x64", pix_fmt, "bt709");
     let with = |args: &[&'static str]| -> Vec<&str> { args.iter().chain(look).copied().collect() };
     let normal = dir.path().join("normal.mkv");
     render_ok(&input, &normal, &with(&["--codec", "ffv1"]));
@@ -226,8 +192,8 @@ fn round_trip(pix_fmt: &str, look: &[&str]) -> Vec<Vec<u16>> {
     let premult_png = dir.path().join("premult_%05d.png");
     render_ok(&input, &premult_png, &with(&["--layer-only"]));
 
-    let originals = frames(&input);
-    let rendered = frames(&normal);
+    let originals = decoded_frames(&input);
+    let rendered = decoded_frames(&normal);
     let (w, h) = (originals[0].format.width, originals[0].format.height);
     let layers = [
         (
@@ -336,7 +302,7 @@ fn the_layer_carries_the_wet_ground() {
 #[test]
 fn matte_is_the_alpha_and_black_is_the_layer_over_black() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p10le");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p10le", "bt709");
     let layer_path = dir.path().join("layer.mkv");
     render_ok(&input, &layer_path, &["--layer-only"]);
     let matte_path = dir.path().join("matte.mkv");
@@ -348,7 +314,7 @@ fn matte_is_the_alpha_and_black_is_the_layer_over_black() {
         &["--layer-only=black", "--codec", "ffv1"],
     );
 
-    let originals = frames(&input);
+    let originals = decoded_frames(&input);
     let (w, h) = (originals[0].format.width, originals[0].format.height);
     let layer = layer_samples(&layer_path, w, h);
     let matte = layer_samples(&matte_path, w, h);
@@ -364,7 +330,7 @@ fn matte_is_the_alpha_and_black_is_the_layer_over_black() {
     }
 
     // Over black: a black frame of the same layout as background.
-    let black = frames(&black_path);
+    let black = decoded_frames(&black_path);
     assert_eq!(black.len(), originals.len());
     for ((frame, l), out) in originals.iter().zip(&layer).zip(&black) {
         let mut dark = frame.clone();
@@ -386,7 +352,7 @@ fn matte_is_the_alpha_and_black_is_the_layer_over_black() {
 #[test]
 fn prores_layer_has_alpha_and_says_premultiplied() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let out = dir.path().join("layer.mov");
     render_ok(&input, &out, &["--layer-only"]);
     let v = stream(&out, "v:0");
@@ -414,7 +380,7 @@ fn prores_layer_has_alpha_and_says_premultiplied() {
 #[test]
 fn outputs_that_cannot_hold_the_layer_are_refused_before_any_work() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let cases: [(&str, &[&str], &str); 11] = [
         ("out.mp4", &["--layer-only"], "cannot hold"),
         ("out.mp4", &["--matte"], "cannot hold"),
@@ -604,7 +570,7 @@ fn rgba_out_matches_its_cpu_twin() {
 #[test]
 fn a_sequence_pattern_of_19_digits_names_every_frame() {
     let dir = TempDir::new().unwrap();
-    let input = source(dir.path(), "yuv420p");
+    let input = lossless_clip(dir.path(), "96x64", "yuv420p", "bt709");
     let seq = dir.path().join("seq");
     std::fs::create_dir(&seq).unwrap();
     render_ok(

@@ -157,6 +157,44 @@ pub fn clip(dir: &Path, name: &str, size: &str, rate: u32, secs: f64, vargs: &[&
     path
 }
 
+/// A `testsrc2` clip of `size` and `pix_fmt` at 25 fps for 0.12 s, tagged with `primaries`
+/// (BT.709 matrix and transfer, limited range), losslessly coded (FFV1) so the decoded source
+/// is exact.
+pub fn lossless_clip(dir: &Path, size: &str, pix_fmt: &str, primaries: &str) -> PathBuf {
+    clip(
+        dir,
+        &format!("in_{size}_{pix_fmt}_{primaries}.mkv"),
+        size,
+        25,
+        0.12,
+        &[
+            "-c:v",
+            "ffv1",
+            "-pix_fmt",
+            pix_fmt,
+            "-color_primaries",
+            primaries,
+            "-color_trc",
+            "bt709",
+            "-colorspace",
+            "bt709",
+            "-color_range",
+            "tv",
+        ],
+    )
+}
+
+/// Every frame of `path`, decoded by the library.
+pub fn decoded_frames(path: &Path) -> Vec<rain_composite::video::YuvFrame> {
+    let mut source =
+        rain_composite::video::Source::open(path.to_str().expect("utf-8 path")).expect("open");
+    let mut out = Vec::new();
+    while let Some(f) = source.next_frame().expect("decode") {
+        out.push(f);
+    }
+    out
+}
+
 /// A quickly encoded H.264 4:2:0 `testsrc2` clip at 25 fps (for tests about anything but the
 /// encoding).
 pub fn quick_clip(dir: &Path, name: &str, size: &str, secs: f64) -> PathBuf {

@@ -10,7 +10,7 @@ use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext};
 use rain_composite::lighting::prt::channel_optics;
 use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, RtfTable, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::lighting::{EnvironmentSh, FrameLight, LightSource};
 use rain_composite::scene::Camera;
 use rain_composite::video::YuvFrame;
 
@@ -136,4 +136,23 @@ pub fn rain_seen_by(
     .expect("rain")
     .with_ground(ground);
     (camera, setup)
+}
+
+/// A lamp at infinity right of centre and one 12 m away up to the left.
+pub fn lamps(cam: &Camera) -> Vec<LightSource> {
+    let at = |x: f64, y: f64| cam.ray_world(glam::DVec2::new(x, y)).normalize();
+    vec![
+        LightSource {
+            direction_world: at(70.0, 30.0),
+            solid_angle_sr: 2e-4,
+            radiance_rgb: [1600.0, 1200.0, 600.0],
+            distance_m: None,
+        },
+        LightSource {
+            direction_world: at(25.0, 15.0),
+            solid_angle_sr: 1e-4,
+            radiance_rgb: [300.0, 300.0, 350.0],
+            distance_m: Some(12.0),
+        },
+    ]
 }
