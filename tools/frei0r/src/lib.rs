@@ -127,7 +127,7 @@ pub unsafe extern "C" fn f0r_get_param_info(info: *mut ParamInfo, param_index: c
         let Some(info) = (unsafe { info.as_mut() }) else {
             return;
         };
-        let Some(spec) = usize::try_from(param_index).ok().and_then(|i| SPECS.get(i)) else {
+        let Some((_, spec)) = spec_of(param_index) else {
             return;
         };
         *info = ParamInfo {
@@ -161,6 +161,12 @@ pub unsafe extern "C" fn f0r_destruct(instance: *mut c_void) {
     });
 }
 
+/// The parameter a host names by `param_index`, with its index; `None` outside the table.
+fn spec_of(param_index: c_int) -> Option<(usize, &'static params::Spec)> {
+    let i = usize::try_from(param_index).ok()?;
+    SPECS.get(i).map(|s| (i, s))
+}
+
 /// `f0r_set_param_value`. A number that is not finite, or a null string, is ignored.
 ///
 /// # Safety
@@ -177,10 +183,7 @@ pub unsafe extern "C" fn f0r_set_param_value(
         let Some(mut inst) = (unsafe { self::instance(instance) }) else {
             return;
         };
-        let Some((i, spec)) = usize::try_from(param_index)
-            .ok()
-            .and_then(|i| SPECS.get(i).map(|s| (i, s)))
-        else {
+        let Some((i, spec)) = spec_of(param_index) else {
             return;
         };
         if param.is_null() {
@@ -237,10 +240,7 @@ pub unsafe extern "C" fn f0r_get_param_value(
         let Some(inst) = (unsafe { self::instance(instance) }) else {
             return;
         };
-        let Some((i, spec)) = usize::try_from(param_index)
-            .ok()
-            .and_then(|i| SPECS.get(i).map(|s| (i, s)))
-        else {
+        let Some((i, spec)) = spec_of(param_index) else {
             return;
         };
         if param.is_null() {
