@@ -6,16 +6,18 @@
 //
 // Needs, declared by the stage that includes it: var<uniform> rain: RainParams;
 // var<storage, read> sky_mask: array<f32>; and those of common/depth.wgsl. Uses
-// common/glow.wgsl (the grid's width) and common/depth.wgsl.
+// common/glow.wgsl (the grid's width), common/camera.wgsl and common/depth.wgsl.
 
 // The sky's weight at coded pixel `p`, bilinear between the grid points around its centre; 0
-// where the depth map knows the pixel (a finite depth wins) or there is no mask.
+// where the pixel's distance is known finite (the depth map knows it, or a given ground lies
+// below its ray) or there is no mask.
 fn sky_weight(p: vec2<u32>) -> f32 {
     let w = glow_grid_width();
     let h = (u32(rain.coded_size_px.y) + GLOW_CELL_PX - 1u) / GLOW_CELL_PX + 1u;
     if arrayLength(&sky_mask) < w * h { return 0.0; }
     let centre = vec2<f32>(p) + vec2<f32>(0.5);
     if scene_depth_m(centre) > 0.0 { return 0.0; }
+    if rain.ground_clip != 0u && rain.camera_pos_m.z > 0.0 && view_ray(p).z < 0.0 { return 0.0; }
     let u = centre / f32(GLOW_CELL_PX);
     let g = vec2<u32>(floor(u));
     let f = u - floor(u);

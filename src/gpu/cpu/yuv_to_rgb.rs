@@ -83,8 +83,8 @@ pub fn scene_depth_at(p: &RainParams, map: &DepthMap, coded_px: DVec2) -> Option
 
 /// The open sky's weight at coded pixel (`x`, `y`) (twin of `sky_weight` in common/sky.wgsl):
 /// the mask `sky` (weights at the glow's grid points of a coded picture of `size`) bilinear at
-/// the pixel's centre; 0 where the depth map `depth` knows the pixel or the mask is not the
-/// grid's size.
+/// the pixel's centre; 0 where the pixel's distance is known finite (the depth map `depth`
+/// knows it, or a given ground lies below its ray) or the mask is not the grid's size.
 pub fn sky_weight(
     p: &RainParams,
     depth: Option<&DepthMap>,
@@ -97,6 +97,7 @@ pub fn sky_weight(
     let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
     if sky.len() < (gw * gh) as usize
         || depth.is_some_and(|map| scene_depth_at(p, map, centre).is_some())
+        || (p.ground_clip != 0 && p.camera_pos_m[2] > 0.0 && view_ray(p, x, y).z < 0.0)
     {
         return 0.0;
     }

@@ -150,7 +150,7 @@ struct RowScratch {
     cr: Vec<u16>,
     chroma: Vec<[f32; 3]>,
     transmittance: Vec<f32>,
-    mapped: Vec<bool>,
+    finite: Vec<bool>,
     grid: Vec<super::veil::GridPoint>,
 }
 
@@ -172,20 +172,20 @@ fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
 }
 
 /// `plate · T' + (1 − T') · S + (1 − T) · L` along row `y`, T' = T + (1 − T) · sky where the
-/// depth map does not know the pixel (see [`super::veil`]).
+/// pixel's distance is not known finite (see [`super::veil`]).
 fn veil_row(v: &Veil, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
     let w = rgba.len() / 4;
     s.transmittance.resize(w, 0.0);
-    s.mapped.resize(w, false);
-    v.transmittance_row(y, &mut s.transmittance, &mut s.mapped);
+    s.finite.resize(w, false);
+    v.transmittance_row(y, &mut s.transmittance, &mut s.finite);
     v.grid_row(y, &mut s.grid);
     let cell = crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX as usize;
-    let pixels = rgba.chunks_exact_mut(4).zip(&s.transmittance).zip(&s.mapped);
-    for (x, ((px, &t), &mapped)) in pixels.enumerate() {
+    let pixels = rgba.chunks_exact_mut(4).zip(&s.transmittance).zip(&s.finite);
+    for (x, ((px, &t), &finite)) in pixels.enumerate() {
         let (g, f) = (x / cell, ((x % cell) as f32 + 0.5) / cell as f32);
         let (a, b) = (s.grid[g], s.grid[g + 1]);
         let at = |c: usize| a[c] + (b[c] - a[c]) * f;
-        let sky = if mapped { 0.0 } else { at(6) };
+        let sky = if finite { 0.0 } else { at(6) };
         let veil = t + (1.0 - t) * sky;
         for c in 0..3 {
             px[c] = px[c] * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);

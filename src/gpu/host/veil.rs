@@ -117,12 +117,13 @@ impl<'a> Veil<'a> {
     }
 
     /// The transmittance of each pixel of row `y` into `out` (`out.len()` pixels), and into
-    /// `mapped` whether the depth map knows the pixel (its depth wins over the sky).
-    pub fn transmittance_row(&self, y: u32, out: &mut [f32], mapped: &mut [bool]) {
-        mapped.fill(false);
+    /// `finite` whether the pixel's distance is known finite (the depth map knows it, or a given
+    /// ground lies below its ray): there the sky's mask does not apply.
+    pub fn transmittance_row(&self, y: u32, out: &mut [f32], finite: &mut [bool]) {
+        finite.fill(false);
         match &self.along {
             Along::Scene(t) => out.fill(*t),
-            Along::Rays(r) => r.row(y, out, mapped),
+            Along::Rays(r) => r.row(y, out, finite),
         }
     }
 }
@@ -170,7 +171,7 @@ impl Rays<'_> {
             let r: [f32; 3] = std::array::from_fn(|k| base[k] + self.dx[k] * xc);
             let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
             let mapped = self.depth.as_ref().map_or(0.0, |d| d.at(xc, yc));
-            *known = mapped > 0.0;
+            *known = mapped > 0.0 || (self.ground_h_m.is_some() && r[2] < 0.0);
             let along_m = if mapped > 0.0 {
                 // The ray has unit camera depth: a camera z of z metres lies z · |ray| along it.
                 mapped * len
