@@ -151,7 +151,8 @@ fn params(setup: &RainSetup, haze: Haze) -> RainParams {
 /// A sky mask on the glow's grid of `format`'s picture: weights from 0 to 1 across it, whole
 /// in the upper left, none in a band.
 fn sky_mask(format: FrameFormat) -> Vec<f32> {
-    let (gw, gh) = rain_composite::gpu::stages::yuv_to_rgb::glow_grid_size((format.width, format.height));
+    let (gw, gh) =
+        rain_composite::gpu::stages::yuv_to_rgb::glow_grid_size((format.width, format.height));
     (0..gw * gh)
         .map(|k| {
             let (i, j) = (k % gw, k / gw);

@@ -14,8 +14,8 @@ use rain_composite::gpu::types::RainParams;
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::rng::splitmix64;
-use rain_composite::scene::sky::{SkyGrid, SkyTracker, TopEdge, detect};
 use rain_composite::scene::DepthMap;
+use rain_composite::scene::sky::{SkyGrid, SkyTracker, TopEdge, detect};
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
 #[path = "common/gpu.rs"]
@@ -75,7 +75,8 @@ fn skyline(seed: u64, roof_range: (f64, f64), horizon_row: u32) -> Scene {
     while x < W {
         let width = 24 + (uniform(seed, 100 + k) * 50.0) as u32;
         let gap = uniform(seed, 200 + k) < 0.2;
-        let roof = H as f64 * (roof_range.0 + (roof_range.1 - roof_range.0) * uniform(seed, 300 + k));
+        let roof =
+            H as f64 * (roof_range.0 + (roof_range.1 - roof_range.0) * uniform(seed, 300 + k));
         let grey = 0.35 + 0.4 * uniform(seed, 400 + k);
         let base = [grey * 1.05, grey, grey * 0.9];
         for c in x..(x + width).min(W) {
@@ -165,7 +166,10 @@ fn the_mask_follows_the_true_sky_boundary() {
         let mask = detect(&frame(&scene), grid(), TopEdge::Top, None);
         let score = iou(&weights_px(&grid(), &mask), &scene.sky);
         let sky_share = scene.sky.iter().filter(|&&s| s).count() as f64 / scene.sky.len() as f64;
-        eprintln!("scene {seed}: sky {:.0} % of the frame, IoU {score:.3}", 100.0 * sky_share);
+        eprintln!(
+            "scene {seed}: sky {:.0} % of the frame, IoU {score:.3}",
+            100.0 * sky_share
+        );
         assert!(score >= 0.9, "scene {seed}: IoU {score:.3}");
     }
 }
@@ -186,7 +190,10 @@ fn the_top_edge_follows_the_rotation() {
     // Seeded from the wrong edge (the ground's), nothing is sky.
     let scene = skyline(3, (0.2, 0.5), 130);
     let mask = detect(&frame(&scene), grid(), TopEdge::Bottom, None);
-    assert!(mask.iter().all(|&w| w < 0.5), "sky found from the ground's edge");
+    assert!(
+        mask.iter().all(|&w| w < 0.5),
+        "sky found from the ground's edge"
+    );
 }
 
 /// A bright façade of white panels and windows fills the right two thirds up to the top edge
@@ -209,7 +216,8 @@ fn a_bright_textured_wall_at_the_top_is_not_sky() {
                     let (u, v) = ((x - wall_from) % panel, y % panel);
                     let groove = u < 3 || v < 3;
                     let window = u > panel / 2 && v > panel / 3 && v < panel - 4 && seed != 2;
-                    let grain = (uniform(seed, 11 * (y as u64 * 4096 + x as u64)) - 0.5) * 3.0 / 255.0;
+                    let grain =
+                        (uniform(seed, 11 * (y as u64 * 4096 + x as u64)) - 0.5) * 3.0 / 255.0;
                     let c = if groove {
                         [0.45, 0.43, 0.4]
                     } else if window {
@@ -230,9 +238,17 @@ fn a_bright_textured_wall_at_the_top_is_not_sky() {
         };
         let w = weights_px(&grid(), &detect(&frame(&scene), grid(), TopEdge::Top, None));
         let on_wall = wall.iter().filter(|&&b| b).count();
-        let wall_sky = w.iter().zip(&wall).filter(|(v, b)| **b && **v >= 0.5).count();
+        let wall_sky = w
+            .iter()
+            .zip(&wall)
+            .filter(|(v, b)| **b && **v >= 0.5)
+            .count();
         let share = wall_sky as f64 / on_wall as f64;
-        let sky_found = w.iter().zip(&scene.sky).filter(|(v, s)| **s && **v >= 0.5).count() as f64
+        let sky_found = w
+            .iter()
+            .zip(&scene.sky)
+            .filter(|(v, s)| **s && **v >= 0.5)
+            .count() as f64
             / scene.sky.iter().filter(|&&s| s).count() as f64;
         eprintln!(
             "panels of {panel} px: {:.2} % of the wall taken as sky, {:.0} % of the sky found",
@@ -240,7 +256,10 @@ fn a_bright_textured_wall_at_the_top_is_not_sky() {
             100.0 * sky_found
         );
         assert!(share <= 0.01, "panels of {panel} px: {share}");
-        assert!(sky_found >= 0.8, "panels of {panel} px: sky found {sky_found}");
+        assert!(
+            sky_found >= 0.8,
+            "panels of {panel} px: sky found {sky_found}"
+        );
     }
 }
 
@@ -299,7 +318,11 @@ fn interior(sky: &[bool], margin: i64) -> Vec<bool> {
             (-margin..=margin).all(|dy| {
                 (-margin..=margin).all(|dx| {
                     let (u, v) = (x + dx, y + dy);
-                    u < 0 || v < 0 || u >= W as i64 || v >= H as i64 || sky[(v as u32 * W + u as u32) as usize] == sky[i]
+                    u < 0
+                        || v < 0
+                        || u >= W as i64
+                        || v >= H as i64
+                        || sky[(v as u32 * W + u as u32) as usize] == sky[i]
                 })
             })
         })
@@ -322,7 +345,13 @@ fn the_sky_keeps_its_radiance_and_the_ground_still_veils() {
         q.haze[3] = 1.0;
         codes(&yuv_to_rgb::yuv_to_rgb(&f, &q))
     };
-    let with_sky = codes(&yuv_to_rgb::yuv_to_rgb_in_scene(&f, &p, None, None, Some(&mask)));
+    let with_sky = codes(&yuv_to_rgb::yuv_to_rgb_in_scene(
+        &f,
+        &p,
+        None,
+        None,
+        Some(&mask),
+    ));
     let without = codes(&yuv_to_rgb::yuv_to_rgb(&f, &p));
     let inside = interior(&scene.sky, 12);
     let (mut sky_worst, mut sky_n, mut ground_n, mut ground_veiled) = (0u16, 0, 0, 0);
@@ -349,7 +378,10 @@ fn the_sky_keeps_its_radiance_and_the_ground_still_veils() {
     );
     assert!(sky_n > 1000, "{sky_n} sky pixels tested");
     assert!(sky_worst <= 1, "the sky moved by {sky_worst} codes");
-    assert!(ground_veiled * 5 >= ground_n, "{ground_veiled} of {ground_n}");
+    assert!(
+        ground_veiled * 5 >= ground_n,
+        "{ground_veiled} of {ground_n}"
+    );
 }
 
 /// The GPU stage with a mask (and a depth map over part of the sky, which wins) against the
@@ -367,7 +399,11 @@ fn the_gpu_stage_matches_its_twin_with_a_mask() {
     let values: Vec<f32> = (0..W * H)
         .map(|i| {
             let (x, y) = (i % W, i / W);
-            if (40..120).contains(&x) && (4..40).contains(&y) { 20.0 } else { 0.0 }
+            if (40..120).contains(&x) && (4..40).contains(&y) {
+                20.0
+            } else {
+                0.0
+            }
         })
         .collect();
     let map = DepthMap::from_values(W as usize, H as usize, &values, 1.0).expect("depth");
@@ -395,8 +431,14 @@ fn the_gpu_stage_matches_its_twin_with_a_mask() {
     let at = |x: u32, y: u32| (y * W + x) as usize;
     let (in_box, beside) = (at(80, 20), at(160, 10));
     assert!(scene.sky[in_box] && scene.sky[beside]);
-    assert!(gpu_luma[in_box].abs_diff(clear[in_box]) >= 2, "the box is not veiled");
-    assert!(gpu_luma[beside].abs_diff(clear[beside]) <= 1, "the sky is veiled");
+    assert!(
+        gpu_luma[in_box].abs_diff(clear[in_box]) >= 2,
+        "the box is not veiled"
+    );
+    assert!(
+        gpu_luma[beside].abs_diff(clear[beside]) <= 1,
+        "the sky is veiled"
+    );
     // A mask of another size is refused.
     let mut comp = rain_composite::gpu::Compositor::new(ctx.clone(), f.format, &f.color, &setup)
         .expect("compositor");
@@ -417,7 +459,10 @@ fn the_mask_over_time_is_smooth_and_depends_on_its_window_alone() {
     for k in 30..100 {
         assert!((seen[k][0] - 1.0).abs() < 1e-5, "frame {k}: {}", seen[k][0]);
         assert!((seen[k][1] - 0.5).abs() < 0.1, "frame {k}: {}", seen[k][1]);
-        assert!((seen[k][2] - seen[k - 1][2]).abs() < 0.2, "frame {k}: a jump");
+        assert!(
+            (seen[k][2] - seen[k - 1][2]).abs() < 0.2,
+            "frame {k}: a jump"
+        );
     }
     assert!(seen[99][2] > 0.99, "the region never came: {}", seen[99][2]);
     // Started one window before frame 80, the tracker agrees with the one that saw it all.

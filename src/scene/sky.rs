@@ -100,7 +100,8 @@ impl TopEdge {
         } else {
             (coded.1, coded.0)
         };
-        let at = |y: u32| crate::video::frame::coded_pixel(rotation_deg, coded.0, coded.1, dw / 2, y);
+        let at =
+            |y: u32| crate::video::frame::coded_pixel(rotation_deg, coded.0, coded.1, dw / 2, y);
         let (top, bottom) = (at(0), at(dh.saturating_sub(1)));
         TopEdge::from_up([
             f64::from(top.0) - f64::from(bottom.0),
@@ -164,7 +165,8 @@ impl SkyGrid {
         let (u, v) = ((x as f32 + 0.5) / c, (y as f32 + 0.5) / c);
         let (i, j) = (u as usize, v as usize);
         let (fx, fy) = (u.fract(), v.fract());
-        let at = |i: usize, j: usize| mask[j.min(self.height - 1) * self.width + i.min(self.width - 1)];
+        let at =
+            |i: usize, j: usize| mask[j.min(self.height - 1) * self.width + i.min(self.width - 1)];
         let top = at(i, j) + (at(i + 1, j) - at(i, j)) * fx;
         let bottom = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * fx;
         top + (bottom - top) * fy
@@ -249,7 +251,9 @@ fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
 
 /// Largest R'G'B' difference between two cells, 8-bit codes.
 fn step(a: &Cell, b: &Cell) -> f32 {
-    (0..3).map(|c| (a.rgb[c] - b.rgb[c]).abs()).fold(0.0, f32::max)
+    (0..3)
+        .map(|c| (a.rgb[c] - b.rgb[c]).abs())
+        .fold(0.0, f32::max)
 }
 
 /// The sky weight of each grid point of `frame` (row-major over `grid`, in [0, 1]): 1 where the
@@ -320,8 +324,7 @@ pub fn detect(
         let [r, g, b] = c.rgb;
         b - r >= BLUE_CODES && b >= g - STEP_CODES && c.luma >= BLUE_LUMA_CODES
     };
-    let blue_seeds =
-        (0..n).filter(|&k| core[k] && depth_down(k) <= 1.0 / 3.0 && blue(&cells[k]));
+    let blue_seeds = (0..n).filter(|&k| core[k] && depth_down(k) <= 1.0 / 3.0 && blue(&cells[k]));
     let seeds: Vec<(usize, bool)> = edge
         .into_iter()
         .map(|k| (k, true))
@@ -420,7 +423,12 @@ impl SkyTracker {
     /// new scene), and returns the mask to use for it.
     pub fn update(&mut self, detected: Vec<f32>, t_s: f64, cut: bool) -> &[f32] {
         let size = detected.len();
-        if cut || self.window.back().is_some_and(|(t, w)| *t >= t_s || w.len() != size) {
+        if cut
+            || self
+                .window
+                .back()
+                .is_some_and(|(t, w)| *t >= t_s || w.len() != size)
+        {
             self.window.clear();
         }
         self.window.push_back((t_s, detected));

@@ -300,7 +300,9 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             let at_s = crate::args::parse_time_s(at)?;
             inspect::ground(video, at_s, &camera, plot.as_deref())?
         }
-        InspectCommand::Sky { video, at, mask, .. } => {
+        InspectCommand::Sky {
+            video, at, mask, ..
+        } => {
             let at_s = crate::args::parse_time_s(at)?;
             inspect::sky(video, at_s, mask.as_deref())?
         }

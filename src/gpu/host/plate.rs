@@ -180,15 +180,18 @@ fn veil_row(v: &Veil, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
     v.transmittance_row(y, &mut s.transmittance, &mut s.finite);
     v.grid_row(y, &mut s.grid);
     let cell = crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX as usize;
-    let pixels = rgba.chunks_exact_mut(4).zip(&s.transmittance).zip(&s.finite);
+    let pixels = rgba
+        .chunks_exact_mut(4)
+        .zip(&s.transmittance)
+        .zip(&s.finite);
     for (x, ((px, &t), &finite)) in pixels.enumerate() {
         let (g, f) = (x / cell, ((x % cell) as f32 + 0.5) / cell as f32);
         let (a, b) = (s.grid[g], s.grid[g + 1]);
         let at = |c: usize| a[c] + (b[c] - a[c]) * f;
         let sky = if finite { 0.0 } else { at(6) };
         let veil = t + (1.0 - t) * sky;
-        for c in 0..3 {
-            px[c] = px[c] * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);
+        for (c, v) in px[..3].iter_mut().enumerate() {
+            *v = *v * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);
         }
     }
 }
