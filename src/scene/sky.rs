@@ -196,57 +196,95 @@ struct Cell {
     texture: f32,
 }
 
-/// Each grid point's block of `frame`.
+/// Row `y` of plane `i` of `frame` as codes into `out` (`n` samples).
+fn row_codes(frame: &YuvFrame, i: usize, y: u32, n: usize, out: &mut Vec<f32>) {
+    let p = &frame.planes[i];
+    let start = y as usize * p.stride;
+    out.clear();
+    if frame.format.bytes_per_sample() == 1 {
+        out.extend(p.data[start..][..n].iter().map(|&v| f32::from(v)));
+    } else {
+        out.extend(
+            p.data[start..][..2 * n]
+                .chunks_exact(2)
+                .map(|b| f32::from(u16::from_le_bytes([b[0], b[1]]))),
+        );
+    }
+}
+
+/// Each grid point's block of `frame`: the pixels nearer to it than to any other point (a
+/// point past the picture's edge, whose block is empty, copies its neighbour's). One pass over
+/// the rows, in memory order.
 fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
     let f = frame.format;
-    let size = (f.width, f.height);
+    let (w, h) = (f.width as usize, f.height as usize);
     let (sx, sy) = f.chroma.shift();
+    let (cw, _) = f.plane_size(1);
+    let c = grid.cell_px as usize;
+    let point = |x: usize| (x + c / 2) / c;
+    // Per point: luma, Cb and Cr sums, pixels, luma steps and their count.
+    let mut sums = vec![[0.0f32; 6]; grid.len()];
+    let (mut above, mut row, mut cb, mut cr): (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for y in 0..h {
+        let j = point(y).min(grid.height - 1);
+        row_codes(frame, 0, y as u32, w, &mut row);
+        row_codes(frame, 1, (y >> sy) as u32, cw as usize, &mut cb);
+        row_codes(frame, 2, (y >> sy) as u32, cw as usize, &mut cr);
+        let same_block_above = y > 0 && point(y - 1) == point(y);
+        for x in 0..w {
+            let i = point(x).min(grid.width - 1);
+            let s = &mut sums[j * grid.width + i];
+            let v = row[x];
+            s[0] += v;
+            s[1] += cb[x >> sx];
+            s[2] += cr[x >> sx];
+            s[3] += 1.0;
+            if x + 1 < w && point(x + 1) == point(x) {
+                s[4] += (row[x + 1] - v).abs();
+                s[5] += 1.0;
+            }
+            if same_block_above {
+                s[4] += (v - above[x]).abs();
+                s[5] += 1.0;
+            }
+        }
+        std::mem::swap(&mut above, &mut row);
+    }
+    // Empty blocks past the right and bottom edges copy their neighbours.
+    for k in 0..sums.len() {
+        if sums[k][3] == 0.0 {
+            let from = if k % grid.width > 0 {
+                k - 1
+            } else {
+                k.saturating_sub(grid.width)
+            };
+            sums[k] = sums[from];
+        }
+    }
     let range = frame.color.range_scale();
     let (kr, kb) = frame.color.matrix.kr_kb();
     let (kr, kb) = (kr as f32, kb as f32);
     let kg = 1.0 - kr - kb;
     let to_8bit = 255.0 / ((1u32 << f.bit_depth) - 1) as f32;
-    let mut out = Vec::with_capacity(grid.len());
-    for j in 0..grid.height {
-        for i in 0..grid.width {
-            let ([x0, x1], [y0, y1]) = grid.block(i, j, size);
-            let (mut y_sum, mut cb_sum, mut cr_sum, mut steps, mut step_n) =
-                (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0u32);
-            for y in y0..y1 {
-                let mut left: Option<f32> = None;
-                for x in x0..x1 {
-                    let v = f32::from(frame.sample(0, x, y));
-                    y_sum += v;
-                    cb_sum += f32::from(frame.sample(1, x >> sx, y >> sy));
-                    cr_sum += f32::from(frame.sample(2, x >> sx, y >> sy));
-                    if let Some(l) = left {
-                        steps += (v - l).abs();
-                        step_n += 1;
-                    }
-                    if y + 1 < y1 {
-                        steps += (f32::from(frame.sample(0, x, y + 1)) - v).abs();
-                        step_n += 1;
-                    }
-                    left = Some(v);
-                }
-            }
-            let n = ((x1 - x0) * (y1 - y0)) as f32;
-            let luma = (y_sum / n - range.y_offset as f32) / range.y_scale as f32;
-            let cb = (cb_sum / n - range.c_offset as f32) / range.c_scale as f32;
-            let cr = (cr_sum / n - range.c_offset as f32) / range.c_scale as f32;
+    sums.iter()
+        .map(|s| {
+            let n = s[3].max(1.0);
+            let luma = (s[0] / n - range.y_offset as f32) / range.y_scale as f32;
+            let cb = (s[1] / n - range.c_offset as f32) / range.c_scale as f32;
+            let cr = (s[2] / n - range.c_offset as f32) / range.c_scale as f32;
             let rgb = [
                 luma + 2.0 * (1.0 - kr) * cr,
                 luma - (2.0 * kb * (1.0 - kb) * cb + 2.0 * kr * (1.0 - kr) * cr) / kg,
                 luma + 2.0 * (1.0 - kb) * cb,
             ];
-            out.push(Cell {
+            Cell {
                 rgb: rgb.map(|v| 255.0 * v),
                 luma: 255.0 * luma,
-                texture: steps / step_n.max(1) as f32 * to_8bit,
-            });
-        }
-    }
-    out
+                texture: s[4] / s[5].max(1.0) * to_8bit,
+            }
+        })
+        .collect()
 }
 
 /// Largest R'G'B' difference between two cells, 8-bit codes.
