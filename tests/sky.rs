@@ -196,6 +196,36 @@ fn the_top_edge_follows_the_rotation() {
     );
 }
 
+/// The render's uniforms say which stored edge is shown at the top as the rotation does: the
+/// display's "up" through `coded_from_display` (display = M · coded, so up is Mᵀ (0, −1)).
+#[test]
+fn the_uniforms_and_the_rotation_agree_on_the_top_edge() {
+    for rotation in [0, 90, 180, 270] {
+        let coded = if rotation % 180 == 0 { (W, H) } else { (H, W) };
+        let camera = CameraConfig::default().camera(W, H);
+        let setup = rain_composite::shot::rain::plan(
+            &camera,
+            &CameraConfig::default(),
+            &RainConfig {
+                rate_mm_per_h: 0.0,
+                ..RainConfig::default()
+            },
+            0.01,
+            rotation,
+            coded,
+        )
+        .map(RainSetup::pack)
+        .expect("rain");
+        let m = setup.params.coded_from_display;
+        let from_uniforms = TopEdge::from_up([-f64::from(m[2]), -f64::from(m[3])]);
+        assert_eq!(
+            from_uniforms,
+            TopEdge::of_rotation(rotation, coded),
+            "rotation {rotation}"
+        );
+    }
+}
+
 /// A bright façade of white panels and windows fills the right two thirds up to the top edge
 /// (as a facade seen from below in the sun): at most 1 % of its pixels are taken as sky, while
 /// the blue sky beside it is.
