@@ -31,6 +31,8 @@
 
 use std::collections::VecDeque;
 
+use rayon::prelude::*;
+
 use crate::video::YuvFrame;
 
 /// Largest mean absolute luma step between neighbouring pixels, 8-bit codes, of a sky point
@@ -214,7 +216,7 @@ fn row_codes(frame: &YuvFrame, i: usize, y: u32, n: usize, out: &mut Vec<f32>) {
 
 /// Each grid point's block of `frame`: the pixels nearer to it than to any other point (a
 /// point past the picture's edge, whose block is empty, copies its neighbour's). One pass over
-/// the rows, in memory order.
+/// the rows, in memory order, each row of points' band of rows on its own thread.
 fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
@@ -224,33 +226,36 @@ fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
     let point = |x: usize| (x + c / 2) / c;
     // Per point: luma, Cb and Cr sums, pixels, luma steps and their count.
     let mut sums = vec![[0.0f32; 6]; grid.len()];
-    let (mut above, mut row, mut cb, mut cr): (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for y in 0..h {
-        let j = point(y).min(grid.height - 1);
-        row_codes(frame, 0, y as u32, w, &mut row);
-        row_codes(frame, 1, (y >> sy) as u32, cw as usize, &mut cb);
-        row_codes(frame, 2, (y >> sy) as u32, cw as usize, &mut cr);
-        let same_block_above = y > 0 && point(y - 1) == point(y);
-        for x in 0..w {
-            let i = point(x).min(grid.width - 1);
-            let s = &mut sums[j * grid.width + i];
-            let v = row[x];
-            s[0] += v;
-            s[1] += cb[x >> sx];
-            s[2] += cr[x >> sx];
-            s[3] += 1.0;
-            if x + 1 < w && point(x + 1) == point(x) {
-                s[4] += (row[x + 1] - v).abs();
-                s[5] += 1.0;
+    // Each row of points sums its own band of pixel rows: the bands run in parallel.
+    sums.par_chunks_mut(grid.width)
+        .enumerate()
+        .for_each(|(j, points)| {
+            let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
+            let (mut above, mut row): (Vec<f32>, Vec<f32>) = (Vec::new(), Vec::new());
+            let (mut cb, mut cr) = (Vec::new(), Vec::new());
+            for y in lo..hi {
+                row_codes(frame, 0, y as u32, w, &mut row);
+                row_codes(frame, 1, (y >> sy) as u32, cw as usize, &mut cb);
+                row_codes(frame, 2, (y >> sy) as u32, cw as usize, &mut cr);
+                for x in 0..w {
+                    let s = &mut points[point(x).min(grid.width - 1)];
+                    let v = row[x];
+                    s[0] += v;
+                    s[1] += cb[x >> sx];
+                    s[2] += cr[x >> sx];
+                    s[3] += 1.0;
+                    if x + 1 < w && point(x + 1) == point(x) {
+                        s[4] += (row[x + 1] - v).abs();
+                        s[5] += 1.0;
+                    }
+                    if y > lo {
+                        s[4] += (v - above[x]).abs();
+                        s[5] += 1.0;
+                    }
+                }
+                std::mem::swap(&mut above, &mut row);
             }
-            if same_block_above {
-                s[4] += (v - above[x]).abs();
-                s[5] += 1.0;
-            }
-        }
-        std::mem::swap(&mut above, &mut row);
-    }
+        });
     // Empty blocks past the right and bottom edges copy their neighbours.
     for k in 0..sums.len() {
         if sums[k][3] == 0.0 {
