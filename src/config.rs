@@ -180,6 +180,9 @@ pub struct GroundConfig {
     /// Factor on the depth file's values, which are millimetres times this: 1 for a metric map,
     /// the right factor for a relative one.
     pub depth_scale: f64,
+    /// The open sky, found in the frames (`auto`) or not (`off`): where it is, the scene is
+    /// infinitely far and the haze leaves the sky its own radiance (see [`crate::scene::sky`]).
+    pub sky: crate::scene::sky::SkyMode,
     /// Standard deviation of the fractal micro-relief the puddle simulation adds over the
     /// ground, m (0: none); the ground's image is not displaced (see [`crate::fluid::puddles`]).
     pub relief_m: f64,
@@ -200,6 +203,7 @@ impl Default for GroundConfig {
             pre_rain_min: 10.0,
             depth: None,
             depth_scale: 1.0,
+            sky: crate::scene::sky::SkyMode::Auto,
             relief_m: 0.004,
             relief_seed: 1,
             puddles: false,
@@ -380,6 +384,7 @@ impl RenderConfig {
             ("ground.mode", g.mode.to_string()),
             ("ground.pre_rain_min", g.pre_rain_min.to_string()),
             ("ground.depth_scale", g.depth_scale.to_string()),
+            ("ground.sky", g.sky.name().to_string()),
             ("ground.relief_m", g.relief_m.to_string()),
             ("ground.relief_seed", g.relief_seed.to_string()),
             ("ground.puddle_particles", g.puddle_particles.to_string()),

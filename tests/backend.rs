@@ -114,7 +114,8 @@ fn dry(format: FrameFormat) -> RainSetup {
     .expect("rain")
 }
 
-/// How the haze is laid: none, to the scene, to the ground, to a depth map, with lamps.
+/// How the haze is laid: none, to the scene, to the ground, to a depth map, with lamps; with
+/// an open sky's mask over the ground, the depth map and the lamps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Haze {
     None,
@@ -122,14 +123,16 @@ enum Haze {
     Ground,
     DepthMap,
     Lamps,
+    Sky,
 }
 
-const HAZES: [Haze; 5] = [
+const HAZES: [Haze; 6] = [
     Haze::None,
     Haze::Scene,
     Haze::Ground,
     Haze::DepthMap,
     Haze::Lamps,
+    Haze::Sky,
 ];
 
 /// The uniforms of `haze` under a bluish sky brighter to one side: the haze from 2 m,
@@ -141,8 +144,25 @@ fn params(setup: &RainSetup, haze: Haze) -> RainParams {
         Haze::None => [0.0, 0.0, 0.0, 1.0],
         _ => [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()],
     };
-    p.ground_clip = u32::from(haze == Haze::Ground);
+    p.ground_clip = u32::from(matches!(haze, Haze::Ground | Haze::Sky));
     p
+}
+
+/// A sky mask on the glow's grid of `format`'s picture: weights from 0 to 1 across it, whole
+/// in the upper left, none in a band.
+fn sky_mask(format: FrameFormat) -> Vec<f32> {
+    let (gw, gh) =
+        rain_composite::gpu::stages::yuv_to_rgb::glow_grid_size((format.width, format.height));
+    (0..gw * gh)
+        .map(|k| {
+            let (i, j) = (k % gw, k / gw);
+            if j == gh / 2 {
+                0.0
+            } else {
+                (1.0 - (i + j) as f32 / (gw + gh) as f32 * 1.5).clamp(0.0, 1.0)
+            }
+        })
+        .collect()
 }
 
 /// A depth map with a near box, a far band and holes (unknown depth).
@@ -192,6 +212,15 @@ fn both(frame: &YuvFrame, haze: Haze, tables: &[RtfTable; 3]) -> ([Vec<u16>; 3],
             host.set_transfer_table(tables);
             host.set_lights(&list);
             yuv_to_rgb::yuv_to_rgb_lit(frame, &p, &list, tables)
+        }
+        Haze::Sky => {
+            let mask = sky_mask(f);
+            host.set_scene_depth(metres(&map));
+            host.set_transfer_table(tables);
+            host.set_lights(&list);
+            host.set_sky_mask(mask.clone());
+            let lit = Some((&list, tables));
+            yuv_to_rgb::yuv_to_rgb_in_scene(frame, &p, lit, Some(&map), Some(&mask))
         }
         _ => yuv_to_rgb::yuv_to_rgb(frame, &p),
     };

@@ -106,6 +106,8 @@ pub struct Compositor {
     direct_lights: DirectLightBuffers,
     /// The scene's depth per displayed pixel (see `set_scene_depth`).
     scene_depth: wgpu::Buffer,
+    /// The open sky's weight at the glow's grid points (see `set_sky_mask`).
+    sky_mask: wgpu::Buffer,
     display_size: (u32, u32),
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
@@ -224,6 +226,14 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        // Zeros: no sky until a mask is set.
+        let (gw, gh) = super::stages::yuv_to_rgb::glow_grid_size((format.width, format.height));
+        let sky_mask = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sky_mask"),
+            size: 4 * u64::from(gw) * u64::from(gh),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -259,6 +269,7 @@ impl Compositor {
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),
             scene_depth: scene_depth.clone(),
+            sky_mask: sky_mask.clone(),
         };
         // The frame, in order. A layer carries the wet ground as colour and alpha over the
         // frame it was made from; the matte is the rain's coverage alone.
@@ -282,6 +293,7 @@ impl Compositor {
             rain_drops: rain.params.drop_count,
             direct_lights,
             scene_depth,
+            sky_mask,
             display_size: (dw, dh),
             out_buffer,
             staging,
@@ -353,6 +365,27 @@ impl Compositor {
             .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
         if let Some((host, _)) = &mut self.host {
             host.set_scene_depth(metres);
+        }
+        Ok(())
+    }
+
+    /// Sets the open sky's weight (in [0, 1]) at the glow's grid points
+    /// (`stages::yuv_to_rgb::glow_grid_size` of the coded picture, row-major) for the frames
+    /// submitted from now on: the haze leaves the sky its own radiance (`scene::sky`). A mask of
+    /// another size is refused.
+    pub fn set_sky_mask(&mut self, weights: &[f32]) -> Result<()> {
+        if 4 * weights.len() as u64 != self.sky_mask.size() {
+            return Err(Error::Gpu(format!(
+                "a sky mask of {} points for a grid of {}",
+                weights.len(),
+                self.sky_mask.size() / 4
+            )));
+        }
+        self.ctx
+            .queue
+            .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights));
+        if let Some((host, _)) = &mut self.host {
+            host.set_sky_mask(weights.to_vec());
         }
         Ok(())
     }

@@ -34,7 +34,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 12] = [
+const COMMON: [(&str, &str); 13] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -82,6 +82,10 @@ const COMMON: [(&str, &str); 12] = [
     (
         "common/glow.wgsl",
         include_str!("../../shaders/common/glow.wgsl"),
+    ),
+    (
+        "common/sky.wgsl",
+        include_str!("../../shaders/common/sky.wgsl"),
     ),
 ];
 

@@ -9,6 +9,7 @@
 
 pub mod ground;
 pub mod puddles;
+pub mod sky;
 
 use std::path::Path;
 
@@ -141,6 +142,13 @@ pub fn drops(
 pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>) -> Result<Value> {
     check_plot(plot)?;
     ground::report(input, at_s, camera, plot)
+}
+
+/// `inspect sky`: the open sky the haze finds in the frame of `input` at `at_s`, with its
+/// mask written to `mask`.
+pub fn sky(input: &str, at_s: f64, mask: Option<&Path>) -> Result<Value> {
+    check_plot(mask)?;
+    sky::report(input, at_s, mask)
 }
 
 /// `inspect puddles`: the water a render of `input` under `config` has on its ground at

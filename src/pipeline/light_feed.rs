@@ -53,6 +53,11 @@ impl LightFeed {
         }
     }
 
+    /// Whether the last frame's light started a new scene.
+    pub(super) fn last_was_cut(&self) -> bool {
+        self.estimator.as_ref().is_some_and(|l| l.last_was_cut())
+    }
+
     /// The drop's transfer table for the direct light term, once per job.
     pub(super) fn upload_table(&self, compositor: &mut Compositor) {
         if let Some(l) = &self.estimator {

@@ -7,7 +7,7 @@
 //! - [`ground`]: `--ground auto`'s pre-pass, resolved into the configuration before the shot
 //!   is planned.
 //! - [`renderer`]: the frame renderer every front end uses; it drives the compositor with
-//!   one feed per input a frame needs: `light_feed`, `water_feed` and `depth_feed`.
+//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`.
 //!
 //! The rain at a frame is a pure function of the frame's time `t = (pts − start) · time_base`
 //! and of that frame alone, so [`preview()`] renders exactly what [`render`] writes at the same
@@ -20,6 +20,7 @@ pub mod job;
 mod light_feed;
 pub mod preview;
 pub mod renderer;
+mod sky_feed;
 mod water_feed;
 
 pub use chunk::FrameRange;

@@ -6,6 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 use super::depth_feed::DepthFeed;
 use super::light_feed::LightFeed;
+use super::sky_feed::SkyFeed;
 use super::water_feed::PuddleFeed;
 use crate::config::RenderConfig;
 use crate::fluid::puddles::checkpoint::Checkpoints;
@@ -29,6 +30,7 @@ pub struct Renderer {
     compositor: Compositor,
     lighting: LightFeed,
     depth: DepthFeed,
+    sky: SkyFeed,
     puddles: PuddleFeed,
     adapter: String,
 }
@@ -74,6 +76,7 @@ impl Renderer {
         let shot = Shot::plan(footage, config, Some(cap))?;
         log::info!("{}", shot.rain.summary());
         let lighting = LightFeed::new(&shot)?;
+        let sky = SkyFeed::new(&shot);
         let puddles = PuddleFeed::new(&shot, layer);
         let rain = RainSetup::pack(shot.rain);
         let mut compositor = Compositor::with_backend(
@@ -90,6 +93,7 @@ impl Renderer {
             compositor,
             lighting,
             depth,
+            sky,
             puddles,
             adapter: ctx.summary().name,
         })
@@ -143,6 +147,9 @@ impl Renderer {
         let mut hits = water.map_err(|_| Error::Gpu("the water's thread panicked".into()))??;
         self.compositor.set_lights(&lights);
         self.depth.feed(&mut self.compositor, frame.index)?;
+        let cut = self.lighting.last_was_cut();
+        self.sky
+            .feed(&mut self.compositor, frame, &params, t_s, cut)?;
         hits.extend(
             self.puddles
                 .start(&self.rain, &mut self.depth.source, frame.index, t_s)?,
@@ -151,14 +158,21 @@ impl Renderer {
         Ok(params)
     }
 
-    /// How far back, seconds, earlier frames change the light of a frame (0 without light).
+    /// How far back, seconds, earlier frames change the light and the sky of a frame (0 without
+    /// light).
     pub fn light_window_s(&self) -> f64 {
-        self.lighting.window_secs().unwrap_or(0.0)
+        self.lighting
+            .window_secs()
+            .unwrap_or(0.0)
+            .max(self.sky.window_s())
     }
 
-    /// Takes the light of a frame shown at `t_s` into account without rendering it.
+    /// Takes the light and the sky of a frame shown at `t_s` into account without rendering
+    /// it.
     pub fn observe(&mut self, frame: &YuvFrame, t_s: f64) {
-        self.lighting.params(&self.rain, frame, t_s);
+        let (params, _) = self.lighting.params(&self.rain, frame, t_s);
+        let cut = self.lighting.last_was_cut();
+        self.sky.observe(frame, &params, t_s, cut);
     }
 
     /// The frame shown at `t_s` with rain, waiting for the GPU.

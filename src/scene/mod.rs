@@ -1,4 +1,4 @@
-//! The scene around the camera: the pinhole camera model, the ground and depth maps.
+//! The scene around the camera: the pinhole camera model, the ground, depth maps and the sky.
 //!
 //! World frame: right-handed, **z up**, metres. With zero tilt and roll the camera stands at
 //! `(0, 0, height_m)` looking along +y, with +x to the right of the picture. This is the frame the
@@ -7,6 +7,7 @@ pub mod camera;
 pub mod depth;
 pub mod ground;
 pub mod horizon;
+pub mod sky;
 
 pub use camera::Camera;
 pub use depth::DepthMap;

@@ -92,6 +92,7 @@ pub const FLAGS: &[Flag] = &[
     row("ground.pre_rain_min", "--pre-rain", "MIN"),
     row("ground.depth", "--depth", "PATH"),
     row("ground.depth_scale", "--depth-scale", "DEPTH_SCALE"),
+    row("ground.sky", "--sky", "MODE"),
     row("ground.relief_m", "--relief", "M"),
     row("ground.relief_seed", "--relief-seed", "N"),
     row("ground.puddles", "--puddles", ""),

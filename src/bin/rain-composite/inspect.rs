@@ -125,6 +125,23 @@ pub enum InspectCommand {
         #[arg(long, value_name = "PNG")]
         plot: Option<PathBuf>,
     },
+    /// The open sky the haze finds at a time of a clip (where the scene is infinitely far and
+    /// the haze leaves the sky its own radiance; --sky): sky_share (of the picture) and the
+    /// mask's grid.
+    Sky {
+        /// Input video.
+        video: String,
+        /// Time of the frame: seconds, or with a unit (2.5s, 1500ms, 00:01:02.5).
+        #[arg(long, default_value = "0")]
+        at: String,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+        /// Also write the mask to this PNG: each displayed pixel's sky weight as the haze reads
+        /// it (white = sky).
+        #[arg(long, value_name = "PNG")]
+        mask: Option<PathBuf>,
+    },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
     #[command(allow_negative_numbers = true)]
     Drops {
@@ -282,6 +299,12 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
             }
             let at_s = crate::args::parse_time_s(at)?;
             inspect::ground(video, at_s, &camera, plot.as_deref())?
+        }
+        InspectCommand::Sky {
+            video, at, mask, ..
+        } => {
+            let at_s = crate::args::parse_time_s(at)?;
+            inspect::sky(video, at_s, mask.as_deref())?
         }
         InspectCommand::Drops {
             size,

@@ -3,6 +3,8 @@
 //! haze: `background · T + (1 − T) · in-scatter`, the in-scatter the PRT colour of the
 //! environment (`RainParams::env_sh`, what the drawn drops show too) for the pixel's view ray
 //! ([`crate::lighting::prt::prt_colour_f64`]), plus the compact lights' glow ([`haze_glow`]).
+//! On the open sky ([`sky_weight`]) the background and the in-scatter see T toward 1, the
+//! glow keeping the ray's T (twin of common/sky.wgsl).
 
 use glam::{DVec2, DVec3};
 
@@ -77,6 +79,35 @@ pub fn scene_depth_at(p: &RainParams, map: &DepthMap, coded_px: DVec2) -> Option
     let x = (shown.x.max(0.0) as usize).min(map.width - 1);
     let y = (shown.y.max(0.0) as usize).min(map.height - 1);
     map.at(x, y).map(f64::from).filter(|d| *d > 0.0)
+}
+
+/// The open sky's weight at coded pixel (`x`, `y`) (twin of `sky_weight` in common/sky.wgsl):
+/// the mask `sky` (weights at the glow's grid points of a coded picture of `size`) bilinear at
+/// the pixel's centre; 0 where the pixel's distance is known finite (the depth map `depth`
+/// knows it, or a given ground lies below its ray) or the mask is not the grid's size.
+pub fn sky_weight(
+    p: &RainParams,
+    depth: Option<&DepthMap>,
+    sky: &[f32],
+    size: (u32, u32),
+    x: u32,
+    y: u32,
+) -> f64 {
+    let (gw, gh) = glow_grid_size(size);
+    let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+    if sky.len() < (gw * gh) as usize
+        || depth.is_some_and(|map| scene_depth_at(p, map, centre).is_some())
+        || (p.ground_clip != 0 && p.camera_pos_m[2] > 0.0 && view_ray(p, x, y).z < 0.0)
+    {
+        return 0.0;
+    }
+    let u = centre / GLOW_CELL_PX as f64;
+    let (g, f) = (u.floor(), u - u.floor());
+    let i = g.y as usize * gw as usize + g.x as usize;
+    let at = |k: usize| f64::from(sky[k]);
+    let top = at(i) + (at(i + 1) - at(i)) * f.x;
+    let bottom = at(i + gw as usize) + (at(i + gw as usize + 1) - at(i + gw as usize)) * f.x;
+    top + (bottom - top) * f.y
 }
 
 /// The frame's environment (SH coefficients, `f64`) and the drop's zonal transfer, from the
@@ -188,7 +219,7 @@ pub fn haze_glow(
 
 /// The linear canvas of `frame` (coded orientation, row-major RGB) veiled by the haze of `p`.
 pub fn yuv_to_rgb(frame: &YuvFrame, p: &RainParams) -> Vec<[f64; 3]> {
-    canvas(frame, p, None, None)
+    canvas(frame, p, None, None, None)
 }
 
 /// [`yuv_to_rgb`] with the scene's depth map: the haze of each pixel the map knows ends at its
@@ -198,7 +229,7 @@ pub fn yuv_to_rgb_with_depth(
     p: &RainParams,
     depth: Option<&DepthMap>,
 ) -> Vec<[f64; 3]> {
-    canvas(frame, p, None, depth)
+    canvas(frame, p, None, depth, None)
 }
 
 /// [`yuv_to_rgb`] with the compact lights' glow in the haze (`lights` and the transfer tables
@@ -209,7 +240,19 @@ pub fn yuv_to_rgb_lit(
     lights: &LightList,
     tables: &[RtfTable; 3],
 ) -> Vec<[f64; 3]> {
-    canvas(frame, p, Some((lights, tables)), None)
+    canvas(frame, p, Some((lights, tables)), None, None)
+}
+
+/// [`yuv_to_rgb`] with all the haze knows: the lamps (`lit`: lights and transfer tables), the
+/// scene's depth map and the open sky's weights at the glow's grid points (`sky`).
+pub fn yuv_to_rgb_in_scene(
+    frame: &YuvFrame,
+    p: &RainParams,
+    lit: Option<(&LightList, &[RtfTable; 3])>,
+    depth: Option<&DepthMap>,
+    sky: Option<&[f32]>,
+) -> Vec<[f64; 3]> {
+    canvas(frame, p, lit, depth, sky)
 }
 
 fn canvas(
@@ -217,6 +260,7 @@ fn canvas(
     p: &RainParams,
     lit: Option<(&LightList, &[RtfTable; 3])>,
     depth: Option<&DepthMap>,
+    sky: Option<&[f32]>,
 ) -> Vec<[f64; 3]> {
     let f = frame.format;
     let (sx, sy) = f.chroma.shift();
@@ -232,9 +276,13 @@ fn canvas(
             ];
             let rgb = frame.color.code_to_linear(code);
             let transmittance = haze_transmittance(p, depth, x, y);
-            let in_scatter = if transmittance < 1.0 {
+            let veil = sky.map_or(transmittance, |w| {
+                let weight = sky_weight(p, depth, w, (f.width, f.height), x, y);
+                transmittance + (1.0 - transmittance) * weight
+            });
+            let in_scatter = if veil < 1.0 {
                 prt_colour_f64(&haze_env, &drop, view_ray(p, x, y))
-                    .map(|v| (1.0 - transmittance) * v.max(0.0))
+                    .map(|v| (1.0 - veil) * v.max(0.0))
             } else {
                 [0.0; 3]
             };
@@ -245,7 +293,7 @@ fn canvas(
                 g[(y * f.width + x) as usize].map(|v| v * share)
             });
             out.push(std::array::from_fn(|k| {
-                rgb[k] * transmittance + in_scatter[k] + glow_px[k]
+                rgb[k] * veil + in_scatter[k] + glow_px[k]
             }));
         }
     }

@@ -16,7 +16,7 @@ use crate::lighting::RtfTable;
 use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
 
 /// The colour passes of one picture format on the CPU, with what the haze needs between
-/// frames (the lamps, the drop's transfer table, the scene's depth).
+/// frames (the lamps, the drop's transfer table, the scene's depth, the sky).
 pub struct HostColour {
     format: FrameFormat,
     decoder: plate::Decoder,
@@ -25,6 +25,8 @@ pub struct HostColour {
     tables: Option<Box<[RtfTable; 3]>>,
     /// The scene's depth per displayed pixel, metres, 0 where unknown.
     depth: Option<Vec<f32>>,
+    /// The open sky's weight at the glow's grid points.
+    sky: Option<Vec<f32>>,
     canvas: Vec<f16>,
 }
 
@@ -38,6 +40,7 @@ impl HostColour {
             lights: LightList::new(&[]),
             tables: None,
             depth: None,
+            sky: None,
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
         }
     }
@@ -59,12 +62,17 @@ impl HostColour {
         self.depth = Some(metres);
     }
 
+    /// The open sky's weight at the glow's grid points, as the GPU's `sky_mask` buffer holds it.
+    pub fn set_sky_mask(&mut self, weights: Vec<f32>) {
+        self.sky = Some(weights);
+    }
+
     /// The hazed linear canvas of `frame` under `p`: RGBA f16, row-major, `width` texels a row
     /// (what `yuv_to_rgb` writes on the GPU).
     pub fn decode(&mut self, frame: &YuvFrame, p: &RainParams) -> &[f16] {
         let lit = self.tables.as_deref().map(|t| (&self.lights, t));
         let size = (self.format.width, self.format.height);
-        let veil = veil::Veil::new(p, lit, self.depth.as_deref(), size);
+        let veil = veil::Veil::new(p, lit, self.depth.as_deref(), self.sky.as_deref(), size);
         self.decoder.decode(frame, veil.as_ref(), &mut self.canvas);
         &self.canvas
     }

@@ -150,7 +150,8 @@ struct RowScratch {
     cr: Vec<u16>,
     chroma: Vec<[f32; 3]>,
     transmittance: Vec<f32>,
-    grid: Vec<[f32; 3]>,
+    finite: Vec<bool>,
+    grid: Vec<super::veil::GridPoint>,
 }
 
 /// The first `n` codes of row `y` of plane `i` into `out`, clamped to the depth's largest code
@@ -170,19 +171,27 @@ fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
     }
 }
 
-/// `plate · T + (1 − T) · G` along row `y` (see [`super::veil`]).
+/// `plate · T' + (1 − T') · S + (1 − T) · L` along row `y`, T' = T + (1 − T) · sky where the
+/// pixel's distance is not known finite (see [`super::veil`]).
 fn veil_row(v: &Veil, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
     let w = rgba.len() / 4;
     s.transmittance.resize(w, 0.0);
-    v.transmittance_row(y, &mut s.transmittance);
+    s.finite.resize(w, false);
+    v.transmittance_row(y, &mut s.transmittance, &mut s.finite);
     v.grid_row(y, &mut s.grid);
     let cell = crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX as usize;
-    for (x, (px, &t)) in rgba.chunks_exact_mut(4).zip(&s.transmittance).enumerate() {
+    let pixels = rgba
+        .chunks_exact_mut(4)
+        .zip(&s.transmittance)
+        .zip(&s.finite);
+    for (x, ((px, &t), &finite)) in pixels.enumerate() {
         let (g, f) = (x / cell, ((x % cell) as f32 + 0.5) / cell as f32);
         let (a, b) = (s.grid[g], s.grid[g + 1]);
-        for c in 0..3 {
-            let add = a[c] + (b[c] - a[c]) * f;
-            px[c] = px[c] * t + (1.0 - t) * add;
+        let at = |c: usize| a[c] + (b[c] - a[c]) * f;
+        let sky = if finite { 0.0 } else { at(6) };
+        let veil = t + (1.0 - t) * sky;
+        for (c, v) in px[..3].iter_mut().enumerate() {
+            *v = *v * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);
         }
     }
 }

@@ -1,8 +1,9 @@
-//! The haze as the CPU back end lays it over the plate: `plate · T + (1 − T) · G`, with the
-//! transmittance T per pixel (it has the depth map's and the horizon's edges) and G, what the
-//! haze adds per unit of opacity (the SH in-scatter plus the lamps' glow), on the glow's coarse
-//! grid (every [`GLOW_CELL_PX`] pixels) interpolated bilinearly, as the GPU already does for the
-//! glow: both are as smooth as the drop's transfer (the SH's four bands; the forward lobe).
+//! The haze as the CPU back end lays it over the plate: `plate · T' + (1 − T') · S + (1 − T) · L`,
+//! with the transmittance T per pixel (it has the depth map's and the horizon's edges), T' the
+//! same toward 1 on the open sky (`common/sky.wgsl`), S the SH in-scatter and L the lamps' glow
+//! per unit of opacity; S, L and the sky's weight lie on the glow's coarse grid (every
+//! [`GLOW_CELL_PX`] pixels) interpolated bilinearly, as the GPU already does for the glow and the
+//! sky: S and L are as smooth as the drop's transfer (the SH's four bands; the forward lobe).
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -13,10 +14,14 @@ use crate::gpu::types::{LightList, RainParams};
 use crate::lighting::RtfTable;
 use crate::lighting::prt::prt_colour_f64;
 
+/// What the haze adds at a grid point: S (RGB), L (RGB) and the sky's weight.
+pub type GridPoint = [f32; 7];
+
 /// The haze of one frame over a coded picture.
 pub struct Veil<'a> {
-    /// G at the grid points (coded position `GLOW_CELL_PX · (i, j)`), row-major.
-    grid: Vec<[f32; 3]>,
+    /// S, L and the sky's weight at the grid points (coded position `GLOW_CELL_PX · (i, j)`),
+    /// row-major.
+    grid: Vec<GridPoint>,
     grid_width: usize,
     along: Along<'a>,
 }
@@ -54,12 +59,14 @@ struct Depth<'a> {
 
 impl<'a> Veil<'a> {
     /// The veil of the uniforms `p` over a coded picture of `size`, the lamps' glow with `lit`
-    /// (lights and the drop's transfer tables) and the depth map `depth` (per displayed pixel,
-    /// 0 unknown); `None` where there is no haze (then the plate is the canvas, bit for bit).
+    /// (lights and the drop's transfer tables), the depth map `depth` (per displayed pixel,
+    /// 0 unknown) and the open sky's weight at the grid points `sky`; `None` where there is no
+    /// haze (then the plate is the canvas, bit for bit).
     pub fn new(
         p: &RainParams,
         lit: Option<(&LightList, &[RtfTable; 3])>,
         depth: Option<&'a [f32]>,
+        sky: Option<&[f32]>,
         size: (u32, u32),
     ) -> Option<Veil<'a>> {
         let scene_t = p.haze[3];
@@ -71,6 +78,7 @@ impl<'a> Veil<'a> {
         let glows = lit.filter(|(l, _)| l.count > 0);
         let cell = f64::from(GLOW_CELL_PX);
         let per_opacity = 1.0 / (1.0 - f64::from(scene_t));
+        let sky = sky.filter(|w| w.len() == (gw * gh) as usize);
         let grid = (0..gw * gh)
             .into_par_iter()
             .map(|k| {
@@ -78,7 +86,12 @@ impl<'a> Veil<'a> {
                 let v = view_ray_at(p, at).normalize();
                 let scatter = prt_colour_f64(&env, &drop, v).map(|c| c.max(0.0));
                 let glow = glows.map_or([0.0; 3], |(l, t)| haze_glow_along(p, l, t, v));
-                std::array::from_fn(|c| (scatter[c] + glow[c] * per_opacity) as f32)
+                let weight = sky.map_or(0.0, |w| w[k as usize]);
+                std::array::from_fn(|c| match c {
+                    0..3 => scatter[c] as f32,
+                    3..6 => (glow[c - 3] * per_opacity) as f32,
+                    _ => weight,
+                })
             })
             .collect();
         Some(Veil {
@@ -88,9 +101,9 @@ impl<'a> Veil<'a> {
         })
     }
 
-    /// G along row `y`, interpolated between grid rows: the row the pixels of `y` interpolate
-    /// along x (`out` holds one entry per grid column).
-    pub fn grid_row(&self, y: u32, out: &mut Vec<[f32; 3]>) {
+    /// S, L and the sky's weight along row `y`, interpolated between grid rows: the row the
+    /// pixels of `y` interpolate along x (`out` holds one entry per grid column).
+    pub fn grid_row(&self, y: u32, out: &mut Vec<GridPoint>) {
         let u = (y as f32 + 0.5) / GLOW_CELL_PX as f32;
         let (j, f) = (u as usize, u.fract());
         let w = self.grid_width;
@@ -103,11 +116,14 @@ impl<'a> Veil<'a> {
         );
     }
 
-    /// The transmittance of each pixel of row `y` into `out` (`out.len()` pixels).
-    pub fn transmittance_row(&self, y: u32, out: &mut [f32]) {
+    /// The transmittance of each pixel of row `y` into `out` (`out.len()` pixels), and into
+    /// `finite` whether the pixel's distance is known finite (the depth map knows it, or a given
+    /// ground lies below its ray): there the sky's mask does not apply.
+    pub fn transmittance_row(&self, y: u32, out: &mut [f32], finite: &mut [bool]) {
+        finite.fill(false);
         match &self.along {
             Along::Scene(t) => out.fill(*t),
-            Along::Rays(r) => r.row(y, out),
+            Along::Rays(r) => r.row(y, out, finite),
         }
     }
 }
@@ -147,14 +163,15 @@ fn along<'a>(p: &RainParams, depth: Option<&'a [f32]>) -> Along<'a> {
 }
 
 impl Rays<'_> {
-    fn row(&self, y: u32, out: &mut [f32]) {
+    fn row(&self, y: u32, out: &mut [f32], known: &mut [bool]) {
         let yc = y as f32 + 0.5;
         let base: [f32; 3] = std::array::from_fn(|k| self.origin[k] + self.dy[k] * yc);
-        for (x, t) in out.iter_mut().enumerate() {
+        for (x, (t, known)) in out.iter_mut().zip(known).enumerate() {
             let xc = x as f32 + 0.5;
             let r: [f32; 3] = std::array::from_fn(|k| base[k] + self.dx[k] * xc);
             let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
             let mapped = self.depth.as_ref().map_or(0.0, |d| d.at(xc, yc));
+            *known = mapped > 0.0 || (self.ground_h_m.is_some() && r[2] < 0.0);
             let along_m = if mapped > 0.0 {
                 // The ray has unit camera depth: a camera z of z metres lies z · |ray| along it.
                 mapped * len

@@ -46,6 +46,8 @@ pub struct FrameResources {
     /// The scene's depth per displayed pixel, metres (0 = unknown), for `rain_streaks`; one
     /// element when the job has no depth map.
     pub scene_depth: wgpu::Buffer,
+    /// The open sky's weight at the glow's grid points, for `yuv_to_rgb` (zeros: no sky).
+    pub sky_mask: wgpu::Buffer,
     /// The direct light term's inputs.
     pub lights: DirectLightBuffers,
     /// The packed output planes (`rgb_to_yuv` → readback), or the packed layer (`rgba_out`).

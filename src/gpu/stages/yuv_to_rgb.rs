@@ -64,7 +64,7 @@ impl YuvToRgb {
     }
 
     /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
-    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6, 8 and 9 only).
+    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6, 8, 9 and 10 only).
     pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
         YuvToRgb::with_entry(device, r, "layer")
     }
@@ -86,6 +86,7 @@ impl YuvToRgb {
             (6, buffer(&r.lights.list)),
             (8, buffer(&grid)),
             (9, buffer(&r.scene_depth)),
+            (10, buffer(&r.sky_mask)),
         ]
         .into_iter()
         .chain(planes.into_iter().filter(|_| entry == "main"))

@@ -108,6 +108,9 @@ pub struct LookArgs {
     /// Factor on the depth file's values (1: millimetres; the right factor makes a relative depth map millimetres).
     #[arg(long)]
     pub depth_scale: Option<f64>,
+    /// The open sky: auto (found in each frame: smooth, sky-coloured regions reaching the picture's top edge, above a given ground's horizon; there the scene is infinitely far and the haze leaves the sky its own radiance) or off (veil every pixel without a depth to the ground or --scene-depth, for footage whose sky is found wrongly).
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub sky: Option<SkyArg>,
     /// Standard deviation of the seeded fractal micro-relief the puddle simulation lays over the ground, metres (0: none); the ground's image is not displaced.
     #[arg(long, value_name = "M")]
     pub relief: Option<f64>,
@@ -146,6 +149,24 @@ impl From<HdrInputArg> for HdrInput {
             HdrInputArg::Auto => HdrInput::Auto,
             HdrInputArg::On => HdrInput::On,
             HdrInputArg::Off => HdrInput::Off,
+        }
+    }
+}
+
+/// `--sky`'s values.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum SkyArg {
+    /// Found in each frame.
+    Auto,
+    /// Not looked for.
+    Off,
+}
+
+impl From<SkyArg> for rain_composite::scene::sky::SkyMode {
+    fn from(a: SkyArg) -> Self {
+        match a {
+            SkyArg::Auto => Self::Auto,
+            SkyArg::Off => Self::Off,
         }
     }
 }
@@ -199,6 +220,9 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     }
     if let Some(k) = look.depth_scale {
         c.ground.depth_scale = k;
+    }
+    if let Some(s) = look.sky {
+        c.ground.sky = s.into();
     }
     if let Some(g) = &look.ground {
         c.ground.mode = g.parse()?;
