@@ -45,6 +45,7 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
 /// prints the weights to paste.
 #[test]
 #[ignore = "refits the confidence model (minutes); run by hand after changing the estimator"]
+#[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
 fn fit_confidence_weights() {
     const N: usize = horizon::CONFIDENCE_INPUTS;
     let shots: u64 = std::env::var("SHOTS")
