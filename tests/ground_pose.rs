@@ -116,9 +116,11 @@ const BINS: [(f64, f64); 6] = [
     (0.95, 1.01),
 ];
 
-/// The confidence is calibrated (in each bin of the reliability table with at least 10 shots,
-/// the fraction right is within 0.15 of the mean confidence), no confident estimate is wrong,
-/// and `auto` engages on most shots — on 120 shots of a seed the model was not fitted on.
+/// The confidence is calibrated — the expected calibration error (the shots' mean distance
+/// between a bin's fraction right and its mean confidence) is at most 0.1, and in each bin of
+/// at least 10 shots the fraction right is within two binomial standard deviations (plus 0.05)
+/// of the mean confidence — few confident estimates are wrong, and `auto` engages on most
+/// shots: on 120 shots of a seed the model was not fitted on.
 #[test]
 fn confidence_is_calibrated_on_random_poses() {
     let shots: u64 = std::env::var("SHOTS")
@@ -133,6 +135,7 @@ fn confidence_is_calibrated_on_random_poses() {
     println!("| confidence | shots | mean confidence | fraction right |");
     println!("|---|---|---|---|");
     let mut worst: f64 = 0.0;
+    let mut ece = 0.0;
     for (lo, hi) in BINS {
         let inside: Vec<_> = judged
             .iter()
@@ -149,8 +152,10 @@ fn confidence_is_calibrated_on_random_poses() {
             hi.min(1.0),
             inside.len()
         );
+        ece += n * (right - mean).abs() / shots as f64;
         if inside.len() >= 10 {
-            worst = worst.max((right - mean).abs());
+            let sigma = (mean * (1.0 - mean) / n).sqrt();
+            worst = worst.max((right - mean).abs() - 2.0 * sigma);
         }
     }
     let confident: Vec<_> = judged
@@ -170,7 +175,12 @@ fn confidence_is_calibrated_on_random_poses() {
         100.0 * confident.len() as f64 / shots as f64,
         100.0 * near_engaged as f64 / near_n.max(1) as f64
     );
-    assert!(worst <= 0.15, "miscalibrated by {worst:.2}");
+    println!("expected calibration error {ece:.3}");
+    assert!(ece <= 0.1, "expected calibration error {ece:.3}");
+    assert!(
+        worst <= 0.05,
+        "a bin off by {worst:.2} beyond two standard deviations"
+    );
     // The confidence is a probability: at the threshold of 0.9 about one confident estimate in
     // twenty may be wrong, and is allowed to be; more would mean the model lies.
     assert!(
@@ -368,5 +378,77 @@ fn floating_poles_veto_a_rail_taken_for_the_horizon() {
     );
     if e.horizon_row.is_some_and(|r| (r - rail).abs() < 0.03) {
         assert!(horizon::floats(&e) && e.confidence == 0.0, "{e:?}");
+    }
+}
+
+/// Segments projected exactly from known 3D lines (posts and three families of level lines)
+/// through cameras at random poses: the least-squares refinement recovers the tilt and roll to
+/// within 0.02° (the search alone stops at its 0.1° grid).
+#[test]
+fn exact_segments_give_the_pose_to_a_fiftieth_of_a_degree() {
+    use glam::DVec3;
+    use rain_composite::rng::SplitMix64;
+    use rain_composite::scene::horizon::Segment;
+    let mut rng = SplitMix64(77);
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_f64();
+    for _ in 0..8 {
+        let pose = street::Pose {
+            tilt_deg: u(-30.0, 15.0),
+            roll_deg: u(-15.0, 15.0),
+            fov_deg: u(45.0, 85.0),
+            height_m: 1.6,
+        };
+        let cam = pose.camera();
+        let inside = |p: DVec3| {
+            cam.project_world(p).filter(|q| {
+                q.x > 1.0
+                    && q.y > 1.0
+                    && q.x < street::W as f64 - 1.0
+                    && q.y < street::H as f64 - 1.0
+            })
+        };
+        let mut segments = Vec::new();
+        let mut push = |a: DVec3, b: DVec3| {
+            if let (Some(a), Some(b)) = (inside(a), inside(b))
+                && (a - b).length() > 25.0
+            {
+                segments.push(Segment {
+                    a: a.to_array(),
+                    b: b.to_array(),
+                });
+            }
+        };
+        let headings = [u(0.0, 180.0), u(0.0, 180.0), u(0.0, 180.0)];
+        for k in 0..200 {
+            // A point seen at a random pixel: on the ground, or in the air 4–20 m away.
+            let q = glam::DVec2::new(u(0.0, street::W as f64), u(0.0, street::H as f64));
+            let d = cam.ray_world(q);
+            let o = cam.position_m;
+            let p = if d.z < -0.05 {
+                o + d * (-o.z / d.z)
+            } else {
+                o + d * u(4.0, 20.0)
+            };
+            let len = u(0.2, 0.6) * (p - o).length();
+            if k % 4 == 0 {
+                push(p, p + DVec3::Z * len);
+            } else {
+                let (s, c) = f64::to_radians(headings[k % 3]).sin_cos();
+                push(p, p + DVec3::new(c, s, 0.0) * len);
+            }
+        }
+        let e = horizon::estimate_from_segments(&segments, &pose.intrinsics());
+        eprintln!(
+            "tilt {:.3} roll {:.3}: {:.3} {:.3} ({} segments)",
+            pose.tilt_deg,
+            pose.roll_deg,
+            e.tilt_deg,
+            e.roll_deg,
+            segments.len()
+        );
+        assert!(
+            (e.tilt_deg - pose.tilt_deg).abs() < 0.02 && (e.roll_deg - pose.roll_deg).abs() < 0.02,
+            "{e:?}"
+        );
     }
 }

@@ -646,7 +646,7 @@ pub fn confidence_inputs(e: &HorizonEstimate) -> [f64; CONFIDENCE_INPUTS] {
 /// within 1°" on synthetic streets at random poses (`tests/ground_pose.rs` refits them), so
 /// that the confidence is the probability of being right on such shots.
 pub const CONFIDENCE_WEIGHTS: [f64; CONFIDENCE_INPUTS] =
-    [-2.164, -0.852, 1.679, 3.437, 0.090, -2.492, -2.528, -1.689];
+    [-2.174, -0.506, 1.586, 3.895, 1.180, -2.327, -4.086, -1.568];
 
 /// A vertical structure of at least this length (frame diagonals) rising above the horizon
 /// with its foot above it, and under [`STANDING_SHARE`] of that length standing on the ground,

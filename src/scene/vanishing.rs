@@ -53,6 +53,10 @@ pub const INLIER_DEG: f64 = 1.0;
 /// cross streets').
 pub const MAX_FAMILIES: usize = 4;
 
+/// The share of the inlier tolerance an edge along the horizon must meet: short level edges
+/// far away lie near the horizon without being on it, and pull a fit that takes them for it.
+pub const HORIZON_TOL_SHARE: f64 = 0.3;
+
 /// Fewest edges a family of horizontal edges has (two lines always meet somewhere).
 pub const MIN_FAMILY: usize = 3;
 
@@ -107,7 +111,7 @@ pub fn classify(edges: &[Edge], n: DVec3, tol_rad: f64) -> Inliers {
     for (i, e) in edges.iter().enumerate() {
         if vertical_angle(e, n) < tol_rad {
             out.vertical.push(i);
-        } else if horizon_angle(e, n) < tol_rad {
+        } else if horizon_angle(e, n) < HORIZON_TOL_SHARE * tol_rad {
             out.horizon.push(i);
         } else if let Some(phi) = azimuth(e, n) {
             rest.push((phi, i));
