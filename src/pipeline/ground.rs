@@ -6,18 +6,17 @@
 //! frame without moving every drop. Instead the render, and the preview the same way, read the
 //! clip's first [`PREPASS_S`] seconds up to the first cut (the cut detector of
 //! [`horizon::GroundTracker`]), estimate the horizon on at most [`PREPASS_FRAMES`] frames evenly
-//! spread over them, and combine the readings robustly: the confidence-weighted median of tilt
-//! and of roll (one frame misread — a passing truck, a Manhattan flip — does not move it). The
-//! combined confidence is the readings' mean confidence times the share of their weight within
-//! [`AGREE_DEG`] of the median: frames that disagree lower it. Below
-//! [`horizon::MIN_CONFIDENCE`] the render falls back to no ground, with one warning. The
+//! spread over them, and combine the readings with [`horizon::aggregate`]: the mode of their up
+//! directions (one frame misread — a passing truck, a Manhattan flip — does not move it), with
+//! the mean confidence of the readings that agree with it (a steady estimate keeps its own).
+//! Below [`horizon::MIN_CONFIDENCE`] the render falls back to no ground, with one warning; a
+//! confident pose whose horizon is too far off the picture to pass as `horizon=` still sets
+//! the camera's tilt and roll, without a ground. The
 //! result depends on the clip alone, never on the frame previewed, so preview equals render.
-
-use glam::DVec3;
 
 use crate::config::RenderConfig;
 use crate::scene::Camera;
-use crate::scene::ground::{GroundMode, horizon_row_of_up, up_from_tilt_roll};
+use crate::scene::ground::GroundMode;
 use crate::scene::horizon::{self, CUT_THRESHOLD, HorizonEstimate, Luma};
 use crate::video::Source;
 use crate::{Error, Result};
@@ -27,9 +26,6 @@ pub const PREPASS_S: f64 = 2.0;
 
 /// Most frames the pre-pass estimates (spread evenly over what it reads).
 pub const PREPASS_FRAMES: usize = 24;
-
-/// Readings within this angle of the median's up direction agree with it, degrees.
-pub const AGREE_DEG: f64 = 2.0;
 
 /// The ground of a clip, as the pre-pass found it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,42 +57,9 @@ pub fn weighted_median(values: &[(f64, f64)]) -> Option<f64> {
     None
 }
 
-/// Combines per-frame readings through `camera` (see the module doc); `None` without any, no
-/// confidence where none has any.
+/// Combines per-frame readings through `camera` ([`horizon::aggregate`]); `None` without any.
 pub fn combine(readings: &[HorizonEstimate], camera: &Camera) -> Option<HorizonEstimate> {
-    let first = readings.first()?;
-    let median = |value: fn(&HorizonEstimate) -> f64| {
-        weighted_median(
-            &readings
-                .iter()
-                .map(|e| (value(e), e.confidence))
-                .collect::<Vec<_>>(),
-        )
-    };
-    let (Some(tilt), Some(roll)) = (median(|e| e.tilt_deg), median(|e| e.roll_deg)) else {
-        return Some(HorizonEstimate {
-            confidence: 0.0,
-            ..*first
-        });
-    };
-    let up_cam: DVec3 = up_from_tilt_roll(tilt.to_radians(), roll.to_radians());
-    let cos_agree = AGREE_DEG.to_radians().cos();
-    let (mut agree, mut weight) = (0.0, 0.0);
-    for e in readings {
-        weight += e.confidence;
-        if e.up_cam.dot(up_cam) >= cos_agree {
-            agree += e.confidence;
-        }
-    }
-    Some(HorizonEstimate {
-        up_cam,
-        tilt_deg: tilt,
-        roll_deg: roll,
-        horizon_row: horizon_row_of_up(up_cam, camera),
-        confidence: weight / readings.len() as f64 * (agree / weight),
-        ambiguity: readings.iter().map(|e| e.ambiguity).fold(0.0, f64::max),
-        ..*first
-    })
+    horizon::aggregate(readings, camera)
 }
 
 /// The pre-pass over `input` with `config`'s lens (its tilt and roll are what is estimated).
@@ -191,10 +154,16 @@ pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
             mode
         }
         None if e.confidence >= horizon::MIN_CONFIDENCE => {
+            // The pose is known even where the ground is not usable: the rain still follows
+            // the camera's tilt and roll.
             log::warn!(
-                "ground: the horizon found (tilt {:.1}°) is too far off the picture: no ground",
-                e.tilt_deg
+                "ground: the horizon found (tilt {:.1}°, roll {:.1}°) is too far off the \
+                 picture: no ground, the camera posed at that tilt and roll",
+                e.tilt_deg,
+                e.roll_deg
             );
+            out.camera.tilt_deg = e.tilt_deg;
+            out.camera.roll_deg = e.roll_deg;
             GroundMode::None
         }
         None => {

@@ -43,21 +43,29 @@
 //! 2010); a region is kept as a segment when its principal axis is at least 12 pixels long and
 //! it is thin (width under a fifth of the length). At most the 400 longest segments are used.
 //!
+//! The chosen reading is then refined by least squares on its own inliers
+//! ([`vanishing::refine`]: the vertical vanishing point and up to four fitted horizontal ones),
+//! which the kernel counts above only bracket to a few tenths of a degree.
+//!
 //! # Confidence
 //!
-//! `confidence = (1 − exp(−S/0.5)) · (1 − exp(−max(0, k − 2)/3))`, where `S` is the support
-//! (inlier segment length in frame diagonals, kernel-weighted) and `k` the number of inlier
-//! segments (a horizon line counts 4): two segments always meet somewhere, so two inliers
-//! prove nothing, and the confidence rises with each independent one. Below
+//! `confidence` is a probability: that the horizon is within 2 % of the picture's height and
+//! the roll within 1°. It is a logistic model ([`calibrated_confidence`]) of the estimate's
+//! evidence — the ambiguity, the number of fitted inliers, the vertical inliers, the sky's
+//! correlation with elevation, how far off the picture the horizon lies, the share of rising
+//! vertical length whose foot floats, the kernel support — fitted on synthetic streets at random
+//! poses and checked for calibration on others (`tests/ground_pose.rs`). A reading that leaves
+//! strong vertical structure floating above its horizon with nothing standing through it
+//! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0. Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
 //!
-//! [`GroundTracker`] averages the per-frame upward normals over a window of past frames,
-//! weighted by confidence, after the last scene cut in the window (a cut: the mean absolute
-//! change of a 16×9 thumbnail of the luma above 0.12) — a pure function of the window's
-//! frames, so a preview of frame *t* that feeds the same window gets the same answer as the
-//! render.
+//! [`GroundTracker`] combines the per-frame estimates of a window of past frames after the
+//! last scene cut in the window (a cut: the mean absolute change of a 16×9 thumbnail of the
+//! luma above 0.12) with [`aggregate`]: the mode of their up directions, with the mean
+//! confidence of the readings that agree with it — a pure function of the window's frames, so a
+//! preview of frame *t* that feeds the same window gets the same answer as the render.
 
 use std::collections::VecDeque;
 
@@ -65,11 +73,13 @@ use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
 use crate::video::frame::coded_pixel;
 
-/// Below this confidence `auto` falls back to no ground.
-pub const MIN_CONFIDENCE: f64 = 0.3;
+/// Below this confidence `auto` falls back to no ground: on the synthetic streets about one
+/// estimate in twenty above it is off by more than 2 % of the height or 1° of roll.
+pub const MIN_CONFIDENCE: f64 = 0.9;
 
 /// Width of the luma the segments are detected on, pixels (about; an integer factor of the
 /// frame's width).
@@ -282,11 +292,14 @@ pub struct HorizonEstimate {
     /// Where the horizon crosses the vertical centre line, fraction of the height from the
     /// top; `None` when it does not.
     pub horizon_row: Option<f64>,
-    /// In [0, 1]; see the module doc.
+    /// The probability that the horizon is within 2 % of the height and the roll within 1°
+    /// (see [`calibrated_confidence`]).
     pub confidence: f64,
+    /// Evidence: the kernel support, `(1 − exp(−S/0.5)) · (1 − exp(−max(0, k − 2)/3))`.
+    pub support: f64,
     /// The score of the best other reading (at least [`DISTINCT_READING_DEG`] away) over the
-    /// chosen one's, priors included: near 1, the picture reads two ways and the choice is a
-    /// guess (the confidence falls by [`ambiguity_factor`]).
+    /// chosen one's, priors included: near 1, the picture reads two ways and the choice may be
+    /// a guess (an input of the confidence model).
     pub ambiguity: f64,
     /// Evidence: segments found.
     pub segments: usize,
@@ -296,16 +309,17 @@ pub struct HorizonEstimate {
     pub horizontal_inliers: usize,
     /// Evidence: segments along the horizon itself.
     pub horizon_inliers: usize,
-}
-
-/// A segment on the Gaussian sphere.
-struct Edge {
-    /// Interpretation-plane normal.
-    l: DVec3,
-    /// Unit ray through the midpoint.
-    m: DVec3,
-    /// Length in frame diagonals.
-    w: f64,
+    /// Evidence: families of horizontal edges in the least-squares fit.
+    pub families: usize,
+    /// Evidence: inliers of the least-squares fit (a horizon edge counts 4).
+    pub fitted_inliers: usize,
+    /// Evidence: length (frame diagonals) of vertical edges rising above the horizon from a
+    /// foot below it (see [`vanishing::standing_check`]).
+    pub standing_len: f64,
+    /// Evidence: length of vertical edges rising above the horizon from a foot above it.
+    pub floating_len: f64,
+    /// Evidence: correlation of brightness with elevation above the horizon (the sky).
+    pub sky_correlation: f64,
 }
 
 struct Score {
@@ -482,6 +496,11 @@ fn estimate_with(
     let c = camera.principal_px();
     let diag = (camera.width_px as f64).hypot(camera.height_px as f64);
     let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
+    let (wpx, hpx) = (camera.width_px as f64, camera.height_px as f64);
+    // An end within 1 % of the width of the border may be where the picture cuts the edge.
+    let border = 0.01 * wpx;
+    let cut =
+        |p: [f64; 2]| p[0] < border || p[1] < border || p[0] > wpx - border || p[1] > hpx - border;
     let edges: Vec<Edge> = segments
         .iter()
         .filter_map(|s| {
@@ -490,6 +509,8 @@ fn estimate_with(
             Some(Edge {
                 l,
                 m: (a + b).normalize(),
+                ends: [a.normalize(), b.normalize()],
+                cut: [cut(s.a), cut(s.b)],
                 w: s.length() / diag,
             })
         })
@@ -567,38 +588,140 @@ fn estimate_with(
     let ambiguity = ambiguity(&readings, best);
     let (_, t, r) = refine((best.1, best.2), 0.6, 0.1, 0.4, &mut hist);
     let fin = eval(t, r, 0.4, &mut hist);
-    let up_cam = crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians());
+    let (up_cam, inliers) = vanishing::refine(
+        &edges,
+        crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians()),
+    );
+    let (t, r) = tilt_roll_from_up(up_cam);
+    let (t, r) = (t.to_degrees(), r.to_degrees());
+    let (standing, floating) = vanishing::standing_check(&edges, &inliers.vertical, up_cam);
     let k = fin.vertical + fin.horizontal + 4 * fin.horizon;
     let support =
         (1.0 - (-fin.total / 0.5).exp()) * (1.0 - (-((k as f64 - 2.0).max(0.0)) / 3.0).exp());
-    HorizonEstimate {
+    let mut est = HorizonEstimate {
         up_cam,
         tilt_deg: t,
         roll_deg: r,
         horizon_row: horizon_row_of_up(up_cam, camera),
-        confidence: if edges.is_empty() {
-            0.0
-        } else {
-            support.clamp(0.0, 1.0) * ambiguity_factor(ambiguity)
-        },
+        confidence: 0.0,
+        support: support.clamp(0.0, 1.0),
         ambiguity,
         segments: edges.len(),
         vertical_inliers: fin.vertical,
         horizontal_inliers: fin.horizontal,
         horizon_inliers: fin.horizon,
+        families: inliers.families.len(),
+        fitted_inliers: inliers.count(),
+        standing_len: standing,
+        floating_len: floating,
+        sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
+    };
+    est.confidence = calibrated_confidence(&est);
+    est
+}
+
+/// Number of inputs of the confidence model.
+pub const CONFIDENCE_INPUTS: usize = 8;
+
+/// The inputs of the confidence model of an estimate: 1, the ambiguity, ln(1 + fitted
+/// inliers), the vertical inliers (saturating at 10), the sky's correlation, how far the
+/// horizon is from the picture's middle (heights, at most 2), the share of rising vertical
+/// length that floats, and the kernel support.
+pub fn confidence_inputs(e: &HorizonEstimate) -> [f64; CONFIDENCE_INPUTS] {
+    let off = e.horizon_row.map_or(2.0, |r| (r - 0.5).abs().min(2.0));
+    [
+        1.0,
+        e.ambiguity,
+        (e.fitted_inliers as f64 + 1.0).ln(),
+        e.vertical_inliers.min(10) as f64 / 10.0,
+        e.sky_correlation,
+        off,
+        e.floating_len / (e.standing_len + e.floating_len + 0.05),
+        e.support,
+    ]
+}
+
+/// Weights of the confidence model, `confidence = 1 / (1 + exp(−w · x))` with `x` the
+/// [`confidence_inputs`]: a logistic regression of "horizon within 2 % of the height and roll
+/// within 1°" on synthetic streets at random poses (`tests/ground_pose.rs` refits them), so
+/// that the confidence is the probability of being right on such shots.
+pub const CONFIDENCE_WEIGHTS: [f64; CONFIDENCE_INPUTS] =
+    [-2.174, -0.506, 1.586, 3.895, 1.180, -2.327, -4.086, -1.568];
+
+/// A vertical structure of at least this length (frame diagonals) rising above the horizon
+/// with its foot above it, and under [`STANDING_SHARE`] of that length standing on the ground,
+/// vetoes a reading: the horizon is too low (a rail taken for it).
+pub const FLOATING_MIN_LEN: f64 = 0.08;
+
+/// See [`FLOATING_MIN_LEN`].
+pub const STANDING_SHARE: f64 = 0.15;
+
+/// Whether the estimate leaves strong vertical structure floating above its horizon with
+/// nothing standing through it (see [`vanishing::standing_check`]).
+pub fn floats(e: &HorizonEstimate) -> bool {
+    e.floating_len >= FLOATING_MIN_LEN && e.standing_len < STANDING_SHARE * e.floating_len
+}
+
+/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 without segments or
+/// where the reading [`floats`].
+pub fn calibrated_confidence(e: &HorizonEstimate) -> f64 {
+    if e.segments == 0 || floats(e) {
+        return 0.0;
     }
+    let x = confidence_inputs(e);
+    let z: f64 = x.iter().zip(CONFIDENCE_WEIGHTS).map(|(x, w)| x * w).sum();
+    1.0 / (1.0 + (-z).exp())
+}
+
+/// Readings within this angle of each other agree, degrees.
+pub const AGREE_DEG: f64 = 2.0;
+
+/// Combines per-frame readings of one shot through `camera`: the mode (the reading with the
+/// most confidence within [`AGREE_DEG`] of it), refined as the confidence-weighted mean up
+/// direction of the readings that agree with it. The confidence is the mean over all readings
+/// of the confidence of those that agree (a steady estimate keeps its own; a misread frame
+/// takes its share away). `None` without readings.
+pub fn aggregate(readings: &[HorizonEstimate], camera: &Camera) -> Option<HorizonEstimate> {
+    let first = readings.first()?;
+    let cos_agree = AGREE_DEG.to_radians().cos();
+    let agree_weight = |n: DVec3| {
+        readings
+            .iter()
+            .filter(|e| e.up_cam.dot(n) >= cos_agree)
+            .map(|e| e.confidence)
+            .sum::<f64>()
+    };
+    let mode = readings
+        .iter()
+        .map(|e| (agree_weight(e.up_cam), e))
+        .fold((f64::MIN, first), |a, b| if b.0 > a.0 { b } else { a })
+        .1;
+    if agree_weight(mode.up_cam) <= 0.0 {
+        return Some(HorizonEstimate {
+            confidence: 0.0,
+            ..*first
+        });
+    }
+    let sum: DVec3 = readings
+        .iter()
+        .filter(|e| e.up_cam.dot(mode.up_cam) >= cos_agree)
+        .map(|e| e.up_cam * e.confidence)
+        .sum();
+    let up_cam = sum.normalize_or(mode.up_cam);
+    let (t, r) = tilt_roll_from_up(up_cam);
+    Some(HorizonEstimate {
+        up_cam,
+        tilt_deg: t.to_degrees(),
+        roll_deg: r.to_degrees(),
+        horizon_row: horizon_row_of_up(up_cam, camera),
+        confidence: agree_weight(up_cam) / readings.len() as f64,
+        ..*mode
+    })
 }
 
 /// Readings whose up directions differ by more than this are distinct, degrees (the Manhattan
 /// alternative of a reading lies tens of degrees away; refinement noise within a few).
 pub const DISTINCT_READING_DEG: f64 = 10.0;
-
-/// Score ratio of the best distinct alternative reading at and beyond which the estimate has no
-/// confidence left; below [`AMBIGUITY_CLEAR`] it keeps all of it.
-pub const AMBIGUITY_TIE: f64 = 0.9;
-
-/// Score ratio below which the alternative is clearly worse (no loss of confidence).
-pub const AMBIGUITY_CLEAR: f64 = 0.6;
 
 /// The best distinct reading's score over `best`'s, 0 when there is none.
 fn ambiguity(readings: &[(f64, f64, f64)], best: (f64, f64, f64)) -> f64 {
@@ -612,13 +735,6 @@ fn ambiguity(readings: &[(f64, f64, f64)], best: (f64, f64, f64)) -> f64 {
         .map(|(s, _, _)| s / best.0)
         .fold(0.0, f64::max)
         .clamp(0.0, 1.0)
-}
-
-/// The share of the confidence an estimate keeps at `ambiguity`: 1 below [`AMBIGUITY_CLEAR`],
-/// 0 from [`AMBIGUITY_TIE`] on, smoothstep between.
-pub fn ambiguity_factor(ambiguity: f64) -> f64 {
-    let x = ((AMBIGUITY_TIE - ambiguity) / (AMBIGUITY_TIE - AMBIGUITY_CLEAR)).clamp(0.0, 1.0);
-    x * x * (3.0 - 2.0 * x)
 }
 
 /// Weight of the texture prior: the support is scaled by `1 − w/2 + w g`, `g` the fraction of
@@ -658,6 +774,13 @@ pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
         Brightness::new(luma, camera).as_ref(),
         camera,
     )
+}
+
+/// The camera's tilt and roll from one decoded frame (displayed after `rotation_deg`) seen
+/// through `camera`'s intrinsics (its own tilt and roll are ignored): [`estimate`] on the
+/// frame's luma at [`WORK_WIDTH`].
+pub fn estimate_frame(frame: &YuvFrame, rotation_deg: i32, camera: &Camera) -> HorizonEstimate {
+    estimate(&Luma::from_frame(frame, rotation_deg, WORK_WIDTH), camera)
 }
 
 /// Smoothing of the per-frame estimates over a window of past frames, reset at cuts (see the
@@ -703,25 +826,7 @@ impl GroundTracker {
         while self.frames.len() > self.window {
             self.frames.pop_front();
         }
-        let (mut sum, mut wsum) = (DVec3::ZERO, 0.0);
-        for (e, _) in &self.frames {
-            sum += e.up_cam * e.confidence;
-            wsum += e.confidence;
-        }
-        if wsum <= 0.0 {
-            return est;
-        }
-        let up_cam = sum.normalize_or(est.up_cam);
-        // Agreement: the mean vector's length (1 when all frames agree).
-        let agreement = (sum.length() / wsum).clamp(0.0, 1.0);
-        let (t, r) = tilt_roll_from_up(up_cam);
-        HorizonEstimate {
-            up_cam,
-            tilt_deg: t.to_degrees(),
-            roll_deg: r.to_degrees(),
-            horizon_row: horizon_row_of_up(up_cam, camera),
-            confidence: (wsum / self.frames.len() as f64) * agreement.powi(50),
-            ..est
-        }
+        let readings: Vec<HorizonEstimate> = self.frames.iter().map(|f| f.0).collect();
+        aggregate(&readings, camera).unwrap_or(est)
     }
 }

@@ -48,10 +48,10 @@ pub struct LookArgs {
     /// Camera height above the ground, metres.
     #[arg(long)]
     pub camera_height: Option<f64>,
-    /// Camera pitch, degrees up (negative: down).
+    /// Camera pitch, degrees up (negative: down): looking up moves the horizon down the picture.
     #[arg(long, allow_hyphen_values = true)]
     pub tilt: Option<f64>,
-    /// Camera roll, degrees clockwise.
+    /// Camera roll, degrees clockwise seen from behind the camera (its right side down): the horizon in the picture rises to the right.
     #[arg(long, allow_hyphen_values = true)]
     pub roll: Option<f64>,
     /// Shutter angle, degrees (exposure = angle/360 of a frame).

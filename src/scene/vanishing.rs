@@ -1,0 +1,237 @@
+//! The up direction refined by least squares on the segments that support a reading, and the
+//! check that nothing standing floats above the horizon.
+//!
+//! The search of [`crate::scene::horizon`] scores a candidate up direction `n` by kernel
+//! counts, which pick the reading but not its last tenth of a degree: a family of horizontal
+//! edges is a histogram peak, not a fitted vanishing point. Here the reading's inliers are
+//! fixed (vertical edges within [`INLIER_DEG`] of the great circle through `n`, edges along the
+//! horizon, and up to [`MAX_FAMILIES`] families of horizontal edges sharing a vanishing point)
+//! and `n` minimises
+//!
+//! ```text
+//! J(n) = Σ_vertical w sin²α + Σ_horizon w |l × n|² + Σ_families λ_min(Pₙᵀ M_k Pₙ)
+//! ```
+//!
+//! with `α` the angle between a vertical edge and the great circle through its midpoint and `n`,
+//! `M_k = Σ w l lᵀ` over a family's interpretation-plane normals and `Pₙ` a basis of the plane
+//! normal to `n`: the smallest eigenvalue is the family's residual at its best vanishing point
+//! on the horizon of `n` (Kosecka & Zhang 2002 fit vanishing points the same way, as the
+//! direction most orthogonal to the family's normals). The minimum is found by nested grid
+//! search in tilt and roll, classified again at the result and fitted once more.
+//!
+//! **Floating verticals.** A thing standing on the ground has its foot below the horizon
+//! (the camera is above the ground), so a vertical edge whose lower end shows, inside the
+//! picture, clearly above the horizon is either high on a wall (a window frame) or the
+//! horizon is too low: a fence rail or a guardrail taken for the horizon leaves the poles and
+//! trees beyond it floating. [`standing_check`] weighs the vertical edges rising above the
+//! horizon: those whose foot is below it (or cut by the picture's border) against those whose
+//! foot floats.
+
+use glam::DVec3;
+
+use crate::scene::ground::{tilt_roll_from_up, up_from_tilt_roll};
+
+/// A segment on the Gaussian sphere.
+#[derive(Debug, Clone, Copy)]
+pub struct Edge {
+    /// Interpretation-plane normal (unit).
+    pub l: DVec3,
+    /// Unit ray through the midpoint.
+    pub m: DVec3,
+    /// Unit rays through the two ends.
+    pub ends: [DVec3; 2],
+    /// Whether each end lies on the picture's border (the segment may go on beyond it).
+    pub cut: [bool; 2],
+    /// Length in frame diagonals.
+    pub w: f64,
+}
+
+/// Inlier tolerance of the least-squares fit, degrees.
+pub const INLIER_DEG: f64 = 1.0;
+
+/// Most families of horizontal edges fitted (a street has the kerbs', the paving's two and the
+/// cross streets').
+pub const MAX_FAMILIES: usize = 4;
+
+/// The share of the inlier tolerance an edge along the horizon must meet: short level edges
+/// far away lie near the horizon without being on it, and pull a fit that takes them for it.
+pub const HORIZON_TOL_SHARE: f64 = 0.3;
+
+/// Fewest edges a family of horizontal edges has (two lines always meet somewhere).
+pub const MIN_FAMILY: usize = 3;
+
+/// The angle between a segment and the great circle through its midpoint and `n`, radians.
+pub fn vertical_angle(e: &Edge, n: DVec3) -> f64 {
+    let mxn = e.m.cross(n).length().max(1e-9);
+    (e.l.dot(n).abs() / mxn).min(1.0).asin()
+}
+
+/// The angle between a segment's interpretation plane and the horizon of `n`, radians.
+pub fn horizon_angle(e: &Edge, n: DVec3) -> f64 {
+    e.l.cross(n).length().min(1.0).asin()
+}
+
+/// Azimuth along the horizon of `n` of the vanishing point a segment would have if horizontal,
+/// radians in [0, π).
+pub fn azimuth(e: &Edge, n: DVec3) -> Option<f64> {
+    let d = e.l.cross(n).try_normalize()?;
+    let (e1, e2) = horizon_basis(n);
+    Some(d.dot(e2).atan2(d.dot(e1)).rem_euclid(std::f64::consts::PI))
+}
+
+fn horizon_basis(n: DVec3) -> (DVec3, DVec3) {
+    let e1 = (DVec3::X - n * n.x).normalize_or(DVec3::Z);
+    (e1, n.cross(e1))
+}
+
+/// The inliers of a reading.
+#[derive(Debug, Clone, Default)]
+pub struct Inliers {
+    /// Vertical edges.
+    pub vertical: Vec<usize>,
+    /// Edges along the horizon.
+    pub horizon: Vec<usize>,
+    /// Families of horizontal edges sharing a vanishing point (each of at least 2).
+    pub families: Vec<Vec<usize>>,
+}
+
+impl Inliers {
+    /// Number of independent inlier segments (a horizon edge counts 4, as in the confidence).
+    pub fn count(&self) -> usize {
+        self.vertical.len()
+            + 4 * self.horizon.len()
+            + self.families.iter().map(Vec::len).sum::<usize>()
+    }
+}
+
+/// Classifies `edges` at `n` with tolerance `tol_rad`.
+pub fn classify(edges: &[Edge], n: DVec3, tol_rad: f64) -> Inliers {
+    let mut out = Inliers::default();
+    let mut rest: Vec<(f64, usize)> = Vec::new();
+    for (i, e) in edges.iter().enumerate() {
+        if vertical_angle(e, n) < tol_rad {
+            out.vertical.push(i);
+        } else if horizon_angle(e, n) < HORIZON_TOL_SHARE * tol_rad {
+            out.horizon.push(i);
+        } else if let Some(phi) = azimuth(e, n) {
+            rest.push((phi, i));
+        }
+    }
+    // Families: the heaviest window of ±tol along the horizon's azimuth, greedily.
+    let pi = std::f64::consts::PI;
+    let mut taken = vec![false; rest.len()];
+    for _ in 0..MAX_FAMILIES {
+        let mut best: (f64, Vec<usize>) = (0.0, Vec::new());
+        for &(phi0, _) in &rest {
+            let mut sum = 0.0;
+            let mut members = Vec::new();
+            for (k, &(phi, i)) in rest.iter().enumerate() {
+                let d = (phi - phi0).rem_euclid(pi);
+                if !taken[k] && d.min(pi - d) < tol_rad {
+                    sum += edges[i].w;
+                    members.push(k);
+                }
+            }
+            if members.len() >= MIN_FAMILY && sum > best.0 {
+                best = (sum, members);
+            }
+        }
+        if best.1.is_empty() {
+            break;
+        }
+        for &k in &best.1 {
+            taken[k] = true;
+        }
+        out.families
+            .push(best.1.iter().map(|&k| rest[k].1).collect());
+    }
+    out
+}
+
+/// `J(n)` of the module doc for fixed inliers.
+pub fn residual(edges: &[Edge], inliers: &Inliers, n: DVec3) -> f64 {
+    let mut j = 0.0;
+    for &i in &inliers.vertical {
+        let a = vertical_angle(&edges[i], n).sin();
+        j += edges[i].w * a * a;
+    }
+    for &i in &inliers.horizon {
+        j += edges[i].w * edges[i].l.cross(n).length_squared();
+    }
+    let (e1, e2) = horizon_basis(n);
+    for fam in &inliers.families {
+        let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+        for &i in fam {
+            let (p, q) = (edges[i].l.dot(e1), edges[i].l.dot(e2));
+            a += edges[i].w * p * p;
+            b += edges[i].w * p * q;
+            c += edges[i].w * q * q;
+        }
+        // Smallest eigenvalue of [[a, b], [b, c]].
+        j += 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    }
+    j
+}
+
+/// The least-squares up direction near `n0` (see the module doc), with its inliers.
+pub fn refine(edges: &[Edge], n0: DVec3) -> (DVec3, Inliers) {
+    let mut n = n0;
+    // Wide inliers first (the start may be a degree off), then narrower ones.
+    for (tol_deg, first) in [
+        (2.5, (2.0f64, 0.25f64)),
+        (1.5, (0.6, 0.1)),
+        (INLIER_DEG, (0.3, 0.05)),
+    ] {
+        let inliers = classify(edges, n, f64::to_radians(tol_deg));
+        let (t0, r0) = tilt_roll_from_up(n);
+        let (mut t, mut r) = (t0.to_degrees(), r0.to_degrees());
+        for (half, step) in [
+            first,
+            (first.1 * 1.2, first.1 / 5.0),
+            (first.1 / 4.0, first.1 / 20.0),
+        ] {
+            let k = (half / step).round() as i32;
+            let mut best = (f64::MAX, t, r);
+            for i in -k..=k {
+                for j in -k..=k {
+                    let (tt, rr) = (t + i as f64 * step, r + j as f64 * step);
+                    let cand = up_from_tilt_roll(tt.to_radians(), rr.to_radians());
+                    let v = residual(edges, &inliers, cand);
+                    if v < best.0 {
+                        best = (v, tt, rr);
+                    }
+                }
+            }
+            (t, r) = (best.1, best.2);
+        }
+        n = up_from_tilt_roll(t.to_radians(), r.to_radians());
+    }
+    let inliers = classify(edges, n, INLIER_DEG.to_radians());
+    (n, inliers)
+}
+
+/// Below this elevation a vertical edge's foot stands on the ground, radians of elevation
+/// above the horizon (the tolerance of a right reading).
+pub const FOOT_MARGIN_DEG: f64 = 1.0;
+
+/// The vertical edges rising above the horizon of `n`: length (frame diagonals) of those whose
+/// foot is at or below the horizon or cut by the picture's border, and of those whose foot
+/// floats above it (see the module doc).
+pub fn standing_check(edges: &[Edge], vertical: &[usize], n: DVec3) -> (f64, f64) {
+    let margin = FOOT_MARGIN_DEG.to_radians().sin();
+    let (mut standing, mut floating) = (0.0, 0.0);
+    for &i in vertical {
+        let e = &edges[i];
+        let el = [e.ends[0].dot(n), e.ends[1].dot(n)];
+        let (lo, hi) = if el[0] < el[1] { (0, 1) } else { (1, 0) };
+        if el[hi] < margin {
+            continue;
+        }
+        if el[lo] < margin || e.cut[lo] {
+            standing += e.w;
+        } else {
+            floating += e.w;
+        }
+    }
+    (standing, floating)
+}
