@@ -457,6 +457,7 @@ fn place_particles(
             water[j * cx + i] += d as f64 * area;
         }
     }
+    resample(&mut water, filled, (nx, cell, origin), (cx, lo, spacing));
     let volume = (spacing as f64).powi(3);
     let (mut carry, mut outside) = (0.0, 0.0);
     for (c, &w) in water.iter().enumerate() {
@@ -477,24 +478,67 @@ fn place_particles(
             outside += carry;
             carry = 0.0;
         }
-        // At rest, a column hangs from the fill's level L (its top at L, where the carpet puts
-        // the surface a particle radius above the highest centre) unless that would take it
-        // below the ground: a pool's surface is level to the rounding of its column counts,
-        // not stepped by the ground under each column. Stepped, it stands on the ground.
-        let level = ground + (w / (spacing as f64).powi(2)) as f32;
+        // At rest, a column of k particles hangs from the fill's level L (the carpet puts the
+        // surface a particle radius above the highest centre) at a pitch of (L − ground)/k,
+        // at least half a spacing and at most one: a pool's surface stays level whatever the
+        // rounding of its counts, within a quarter spacing for k ≥ 2. Stepped, the columns
+        // stand on the ground at the spacing.
+        let depth = (w / (spacing as f64).powi(2)) as f32;
+        let pitch = (depth / k.max(1.0) as f32).clamp(0.5 * spacing, spacing);
         for m in 0..k as usize {
-            let stacked = ground + (m as f32 + 0.5) * spacing;
+            let m = m as f32;
             if settled_start {
-                let hung = level - (k as f32 - m as f32 - 0.5) * spacing;
-                let p = Vec3::new(xy.x, xy.y, stacked.max(hung));
-                flow.sph.add_resting_particle(p)?;
+                let hung = ground + depth - (k as f32 - m - 0.5) * pitch;
+                let z = hung.max(ground + (m + 0.5) * pitch);
+                flow.sph.add_resting_particle(Vec3::new(xy.x, xy.y, z))?;
             } else {
+                let z = ground + (m + 0.5) * spacing;
                 flow.sph
-                    .add_particle(Vec3::new(xy.x, xy.y, stacked), Vec3::ZERO)?;
+                    .add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
             }
         }
     }
     Ok((carry, outside))
+}
+
+/// Replaces each column's binned water by the fill's depth at its centre (bilinear between
+/// the fill's vertices) times its area, scaled so the total stays the binned total. Binning
+/// vertices into columns of another spacing aliases (columns of one, two or no vertices), a
+/// pattern of spikes and holes the stepped water smooths out but water at rest would keep.
+fn resample(
+    water: &mut [f64],
+    filled: &FilledWater,
+    (nx, cell, origin): (usize, f32, Vec2),
+    (cx, lo, spacing): (usize, Vec2, f32),
+) {
+    let d = &filled.depth_m;
+    let ny = d.len() / nx.max(1);
+    if nx < 2 || ny < 2 {
+        return;
+    }
+    let depth_at = |p: Vec2| -> f64 {
+        let g =
+            ((p - origin) / cell).clamp(Vec2::ZERO, Vec2::new((nx - 1) as f32, (ny - 1) as f32));
+        let (i, j) = ((g.x as usize).min(nx - 2), (g.y as usize).min(ny - 2));
+        let (u, v) = ((g.x - i as f32) as f64, (g.y - j as f32) as f64);
+        let at = |i: usize, j: usize| d[j * nx + i] as f64;
+        (1.0 - v) * ((1.0 - u) * at(i, j) + u * at(i + 1, j))
+            + v * ((1.0 - u) * at(i, j + 1) + u * at(i + 1, j + 1))
+    };
+    let area = (spacing as f64).powi(2);
+    let sampled: Vec<f64> = (0..water.len())
+        .map(|c| {
+            let xy = lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
+            depth_at(xy) * area
+        })
+        .collect();
+    let (total, total_sampled) = (water.iter().sum::<f64>(), sampled.iter().sum::<f64>());
+    if total_sampled > 0.0 {
+        let scale = total / total_sampled;
+        for (w, s) in water.iter_mut().zip(sampled) {
+            *w = s * scale;
+        }
+    }
 }
 
 /// `field` convolved with the binomial kernel 1-4-6-4-1 along x, then along y, the weights
