@@ -23,7 +23,7 @@ fn street() -> (RenderConfig, Camera) {
     c.camera.fov_deg = 90.0;
     c.rain.rate_mm_per_h = 20.0;
     c.ground.pre_rain_min = 120.0;
-    c.ground.relief_m = 0.01;
+    c.ground.relief_m = 0.02;
     let camera = c.camera(320, 240).expect("camera");
     (c, camera)
 }
