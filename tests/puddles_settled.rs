@@ -252,6 +252,13 @@ fn report() {
         shown.push(sim.shown_depth());
     }
     let (dv, wet_m2, max_m, rms_m) = compare(&shown[0], &shown[1]);
+    let volume =
+        |f: &Field2| f.values.iter().map(|&d| d as f64).sum::<f64>() * (f.cell_m as f64).powi(2);
+    println!(
+        "shown volume settled {:.4} m³, stepped {:.4} m³",
+        volume(&shown[0]),
+        volume(&shown[1])
+    );
     println!(
         "at {:.2} s: volume difference {dv:.3e} m³, wet {wet_m2:.2} m², depth difference max \
          {:.2} mm, RMS {:.3} mm",
