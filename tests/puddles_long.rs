@@ -50,7 +50,7 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     let mut rings: Vec<Impact> = Vec::new();
     let (mut landed, mut drawn_most) = (0u64, 0usize);
     let held = |sim: &PuddleSim, rings: &Vec<Impact>| Held {
-        particles: sim.flow().sph.particles().len(),
+        particles: sim.flow().sph.particle_count(),
         queued: sim.flow().precipitation.queued(),
         counters: sim.flow().precipitation.counters().len(),
         rings: rings.len(),

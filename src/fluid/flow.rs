@@ -71,6 +71,9 @@ pub struct SurfaceFlow {
     pub carpet: Carpet,
     precipitation_cell_m: f32,
     drained: Vec<NewParticle>,
+    /// Every particle's position, moving and at rest, for the carpet.
+    #[serde(skip)]
+    positions: Vec<Vec3>,
 }
 
 impl SurfaceFlow {
@@ -141,6 +144,7 @@ impl SurfaceFlow {
             carpet,
             precipitation_cell_m: s.precipitation_cell_m,
             drained: Vec::new(),
+            positions: Vec::new(),
         })
     }
 
@@ -183,9 +187,15 @@ impl SurfaceFlow {
         );
         self.sph.queue(&self.drained)?;
         let steps = self.sph.advance(dt_s)?;
-        self.carpet
-            .update(self.sph.particles().positions_m(), dt_s as f32);
+        self.update_carpet(dt_s as f32);
         Ok(steps)
+    }
+
+    /// Rebuilds the carpet from every particle, moving and at rest, `dt_s` after the last.
+    pub fn update_carpet(&mut self, dt_s: f32) {
+        self.positions.clear();
+        self.positions.extend(self.sph.all_positions_m());
+        self.carpet.update(&self.positions, dt_s);
     }
 
     /// Water depth above the terrain on the carpet grid, m.

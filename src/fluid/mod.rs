@@ -22,7 +22,8 @@
 //! Modules: [`kernels`] (poly6, spiky, viscosity as types; lattice moments), [`eos`] (pressure
 //! laws and the stiffness rule), [`grid`] (counting-sort neighbour search, neighbour lists),
 //! [`particles`] (SoA storage), [`boundary`] (box and terrain: mirror ghosts and collisions),
-//! [`terrain`] (height fields), [`settings`] (parameters), [`sph`] (the solver), [`sources`]
+//! [`terrain`] (height fields), [`settings`] (parameters), [`sph`] (the solver), [`resting`] (water placed at rest, not
+//! stepped), [`sources`]
 //! (precipitation, emitters, mass ledger), [`carpet`] (free surface and wetness), [`flow`]
 //! (the rain-fed chain), [`scenes`] (validation), [`puddles`] (the water on a shot's ground).
 //!
@@ -35,6 +36,7 @@ pub mod grid;
 pub mod kernels;
 pub mod particles;
 pub mod puddles;
+pub mod resting;
 pub mod ripples;
 pub mod scenes;
 pub mod settings;
@@ -49,6 +51,7 @@ pub use flow::{SurfaceFlow, SurfaceFlowSettings};
 pub use grid::UniformGrid;
 pub use kernels::{Kernel, Poly6, Spiky, Viscosity};
 pub use particles::Particles;
+pub use resting::RestingWater;
 pub use scenes::{SceneOptions, inspect_sph, inspect_sph_with};
 pub use settings::{SphSettings, TimeStep};
 pub use sources::{Emitter, MassLedger, NewParticle, PrecipitationGrid};

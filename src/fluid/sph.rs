@@ -56,6 +56,7 @@ use super::boundary::{Boundaries, Fate};
 use super::grid::{NeighbourLists, UniformGrid, neighbour_capacity};
 use super::kernels::{Kernel, LatticeMoments, Poly6, Spiky, Viscosity};
 use super::particles::{Particles, PermuteScratch};
+use super::resting::RestingWater;
 use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
 use super::sources::{Emitter, MassLedger, NewParticle, unit_from_hash};
 use crate::{Error, Result};
@@ -72,6 +73,9 @@ pub struct Muller2003 {
     moments: LatticeMoments,
     boundaries: Boundaries,
     particles: Particles,
+    /// Water placed at rest, never stepped ([`super::resting`]).
+    #[serde(default)]
+    resting: RestingWater,
     // Scratch, rebuilt before each use: left out of checkpoints.
     #[serde(skip)]
     grid: UniformGrid,
@@ -83,6 +87,9 @@ pub struct Muller2003 {
     pair_terms: Vec<[f32; 2]>,
     #[serde(skip)]
     column_best: Vec<u32>,
+    /// Whether resting water lies above the particle in its column (it is no surface).
+    #[serde(skip)]
+    covered: Vec<bool>,
     #[serde(skip)]
     keep: Vec<bool>,
     #[serde(skip)]
@@ -112,11 +119,13 @@ impl Muller2003 {
             moments: LatticeMoments::new(settings.particle_spacing_m, settings.smoothing_length_m),
             boundaries,
             particles: Particles::default(),
+            resting: RestingWater::default(),
             grid: UniformGrid::new(),
             permute_scratch: PermuteScratch::default(),
             neighbours: NeighbourLists::default(),
             pair_terms: Vec::new(),
             column_best: Vec::new(),
+            covered: Vec::new(),
             keep: Vec::new(),
             fate: Vec::new(),
             emitters: Vec::new(),
@@ -152,6 +161,24 @@ impl Muller2003 {
     /// The particles (in grid order, which changes every step; follow `ids`).
     pub fn particles(&self) -> &Particles {
         &self.particles
+    }
+
+    /// The water held at rest (not stepped).
+    pub fn resting(&self) -> &RestingWater {
+        &self.resting
+    }
+
+    /// All particles: moving and at rest.
+    pub fn particle_count(&self) -> usize {
+        self.particles.len() + self.resting.len()
+    }
+
+    /// Every particle's position, moving ones first, m.
+    pub fn all_positions_m(&self) -> impl Iterator<Item = &Vec3> {
+        self.particles
+            .position_m
+            .iter()
+            .chain(self.resting.positions_m())
     }
 
     /// Particle counts in and out.
@@ -208,6 +235,32 @@ impl Muller2003 {
             });
         }
         self.push_particle(position_m, velocity_mps);
+        Ok(())
+    }
+
+    /// Adds one particle held at rest from now on ([`super::resting`]): the moving water meets
+    /// it, it never moves; it soaks in if it touches the terrain. It must be finite and inside
+    /// the box.
+    pub fn add_resting_particle(&mut self, position_m: Vec3) -> Result<()> {
+        if !(position_m.is_finite() && self.boundaries.domain.contains(position_m)) {
+            return Err(Error::Parameter {
+                name: "sph.resting_particle",
+                value: format!("at {position_m}"),
+                expected: "a finite position inside the simulation box".into(),
+            });
+        }
+        let id = self.next_id;
+        self.next_id += 1;
+        let s = &self.settings;
+        let soaked = unit_from_hash(id ^ 0x5EED) * s.particle_volume_m3();
+        // The contact rule of the step's infiltration.
+        let contact = self.boundaries.terrain.as_ref().is_some_and(|t| {
+            let ts = t.sample(position_m.x, position_m.y);
+            (position_m.z - ts.height_m) * ts.normal.z < 0.75 * s.particle_spacing_m
+        });
+        self.resting.push(position_m, id, soaked, contact);
+        self.ledger.inserted += 1;
+        self.forces_current = false;
         Ok(())
     }
 
@@ -328,6 +381,15 @@ impl Muller2003 {
                 });
         }
         self.remove_marked();
+        if self.boundaries.terrain.is_some() {
+            let s = &self.settings;
+            let per_particle = s.infiltration_rate_mps * dt * s.particle_spacing_m.powi(2);
+            let gone = self.resting.soak(per_particle, s.particle_volume_m3());
+            if gone > 0 {
+                self.ledger.soaked += gone;
+                self.forces_current = false;
+            }
+        }
         for e in &mut self.emitters {
             e.emit(dt, &mut self.pending);
         }
@@ -495,6 +557,7 @@ impl Muller2003 {
             }
             eat(*id);
         }
+        self.resting.digest(&mut eat);
         h
     }
 
@@ -509,6 +572,8 @@ impl Muller2003 {
             .rebuild(&self.particles.position_m, h, 0.5 * h, budget);
         self.particles
             .permute(self.grid.order(), &mut self.permute_scratch);
+        self.resting
+            .prepare(&self.settings, &self.moments, &self.boundaries);
         self.density_pass();
         self.surface_pass();
         self.force_pass();
@@ -532,8 +597,11 @@ impl Muller2003 {
         self.neighbours.list.resize(n * cap, 0);
         self.neighbours.count.resize(n, 0);
         self.pair_terms.resize(n, [0.0; 2]);
+        self.covered.resize(n, false);
         let grid = &self.grid;
         let bounds = &self.boundaries;
+        let resting = &self.resting;
+        let half_dx2 = (0.5 * s.particle_spacing_m).powi(2);
         let Particles {
             position_m,
             density_kg_m3,
@@ -550,9 +618,10 @@ impl Muller2003 {
             .zip(self.pair_terms.par_iter_mut())
             .zip(self.neighbours.list.par_chunks_mut(cap))
             .zip(self.neighbours.count.par_iter_mut())
+            .zip(self.covered.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
-            .for_each(|(i, ((((rho, p), terms), list), count))| {
+            .for_each(|(i, (((((rho, p), terms), list), count), covered))| {
                 let xi = pos[i];
                 // Friction only changes ghost velocities, unused here.
                 let mirrors = bounds.mirrors(xi, h, 0.0);
@@ -584,6 +653,14 @@ impl Muller2003 {
                     }
                 });
                 *count = c as u32;
+                // Water at rest around: its density and its ghosts'; above in the column, it
+                // is the surface there.
+                let mut above = false;
+                resting.for_each_near(xi, h2, |xj, _| {
+                    sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
+                    above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
+                });
+                *covered = above;
                 let r = self_density + m_sum * sum;
                 *rho = r;
                 let pr = eos.pressure_pa(r, rho0);
@@ -631,7 +708,7 @@ impl Muller2003 {
         surface.fill(false);
         for &b in &self.column_best {
             if b != u32::MAX {
-                surface[b as usize] = true;
+                surface[b as usize] = !self.covered[b as usize];
             }
         }
     }
@@ -652,6 +729,7 @@ impl Muller2003 {
         let bounds = &self.boundaries;
         let neighbours = &self.neighbours;
         let terms = &self.pair_terms;
+        let resting = &self.resting;
         let lattice = self.moments;
         let Particles {
             position_m,
@@ -697,19 +775,24 @@ impl Muller2003 {
                         lap_colour += vol_j * Poly6::laplacian(r, h);
                     }
                 };
-                let mut with_ghosts = |j: usize, real: bool| {
-                    let xj = pos[j];
+                let mut with_ghosts = |xj: Vec3, terms_j: [f32; 2], vj: Vec3, real: bool| {
                     if real {
-                        add(xi - xj, terms[j], vel[j]);
+                        add(xi - xj, terms_j, vj);
                     }
                     for mirror in mirrors {
                         if let Some(ghost) = mirror.point(xj) {
-                            add(xi - ghost, terms[j], mirror.velocity(vel[j]));
+                            add(xi - ghost, terms_j, mirror.velocity(vj));
                         }
                     }
                 };
-                with_ghosts(i, false);
-                neighbours.for_each(i, grid, pos, h2, |j| with_ghosts(j, true));
+                with_ghosts(xi, terms[i], vi, false);
+                neighbours.for_each(i, grid, pos, h2, |j| {
+                    with_ghosts(pos[j], terms[j], vel[j], true)
+                });
+                // Water at rest: a neighbour with zero velocity.
+                resting.for_each_near(xi, h2, |xj, terms_j| {
+                    with_ghosts(xj, terms_j, Vec3::ZERO, true)
+                });
                 let mut f = lap_v * (mu / lattice.laplacian);
                 if at_surface {
                     let n_len = normal.length();

@@ -12,6 +12,7 @@
 //! to the standard deviation asked for over the simulated ground.
 
 use glam::{DVec2, Vec2};
+use rayon::prelude::*;
 
 use crate::fluid::terrain::HeightField;
 use crate::rng::splitmix64;
@@ -114,7 +115,10 @@ pub fn micro_relief(
         .take_while(|&(k, lambda)| k == 0 || lambda >= 2.0 * spacing)
         .map(|(k, lambda)| (k, lambda, lambda.powf(HURST)))
         .collect();
+    // Each vertex on its own (collected in order): the same values whatever the threads.
     let raw: Vec<f64> = (0..nx * ny)
+        .into_par_iter()
+        .with_min_len(4096)
         .map(|v| {
             let x = origin_m.x as f64 + (v % nx) as f64 * spacing;
             let y = origin_m.y as f64 + (v / nx) as f64 * spacing;

@@ -6,10 +6,13 @@
 //! `max_distance_m` ([`super::relief::ground_footprint`]), lays the micro-relief over the
 //! plane z = 0 (or over a depth map's relief), fills it with the pre-rain water
 //! ([`super::fill`], [`super::ledger`]) and turns the depressions' water into SPH particles on
-//! a lattice, column by column, so the solver starts near rest: each column of the particle
-//! spacing gets ⌊(its water + carry)/V⌋ particles stacked from the relief up, the remainder
-//! carried to the next column (error diffusion, so the total is exact to less than one
-//! particle). Only the columns the picture shows get particles (the footprint is the
+//! a lattice, column by column: each column of the particle spacing gets ⌊(its water +
+//! carry)/V⌋ particles, the remainder carried to the next column (error diffusion, so the
+//! total is exact to less than one particle). The settled start (the default,
+//! `settled_start`) places them at rest ([`crate::fluid::resting`]), each column hanging from
+//! the fill's level: water at rest in its hollows is not stepped, only the rain's particles
+//! are, which makes a seek to 1.5 s some 30 times cheaper (docs/measurements.md, "The settled
+//! start"). Without it they stand on the relief and are all stepped. Only the columns the picture shows get particles (the footprint is the
 //! bounding box of a wedge): the water of the others is counted, not simulated. The spacing is
 //! the configured one unless the water would need more particles than `max_particles`; then
 //! it grows to (water / cap)^⅓ and [`PuddleSim::particle_cap`] says so. [`PuddleSim::advance_to`] feeds impacts to the precipitation counters (5.29–5.31) and
@@ -55,6 +58,9 @@ pub struct PuddleSettings {
     pub infiltration_mm_per_h: f64,
     /// Raindrops per new particle (S of 5.31).
     pub precipitation_scale: u32,
+    /// Place the filled water at rest, not stepped (the settled start): only the rain's
+    /// particles move. Off: every particle is stepped from the start.
+    pub settled_start: bool,
 }
 
 impl Default for PuddleSettings {
@@ -71,6 +77,7 @@ impl Default for PuddleSettings {
             step_every_frames: 1,
             infiltration_mm_per_h: DEFAULT_INFILTRATION_MM_PER_H,
             precipitation_scale: 4,
+            settled_start: true,
         }
     }
 }
@@ -220,10 +227,10 @@ impl PuddleSim {
             &filled,
             (nx, cell, origin),
             spacing,
-            s.max_particles,
+            (s.max_particles, s.settled_start),
             in_view,
         )?;
-        flow.carpet.update(flow.sph.particles().positions_m(), 0.0);
+        flow.update_carpet(0.0);
 
         let particle_volume_m3 = (spacing as f64).powi(3);
         let initial_particles = flow.sph.ledger().inserted;
@@ -244,7 +251,7 @@ impl PuddleSim {
             rain_drop_volume_m3: 0.0,
             rain_particles: 0,
             particles: flow.sph.ledger(),
-            particles_present: flow.sph.particles().len() as u64,
+            particles_present: flow.sph.particle_count() as u64,
         };
         let initial = Field2 {
             nx,
@@ -271,7 +278,7 @@ impl PuddleSim {
     pub fn advance_to(&mut self, t_s: f64, impacts: &[Impact]) -> Result<usize> {
         let mut room = self
             .max_particles
-            .saturating_sub(self.flow.sph.particles().len() + self.flow.precipitation.queued());
+            .saturating_sub(self.flow.sph.particle_count() + self.flow.precipitation.queued());
         for hit in impacts {
             let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
             let inside = self.footprint_contains(x, y);
@@ -314,12 +321,13 @@ impl PuddleSim {
         cancel: &std::sync::atomic::AtomicBool,
     ) -> Result<usize> {
         let mut steps = 0;
+        let mut hits = Vec::new();
         while self.time_s + self.step_s <= t_s + 1e-9 {
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return Err(Error::Interrupted);
             }
             let (t0, t1) = (self.time_s, self.time_s + self.step_s);
-            let hits = rain.impacts_between(&self.ground_rect(), t0, t1);
+            rain.impacts_between_into(&self.ground_rect(), t0, t1, &mut hits);
             steps += self.advance_to(t1, &hits)?;
         }
         Ok(steps)
@@ -396,7 +404,7 @@ impl PuddleSim {
         let mut l = self.ledger;
         l.particles = self.flow.sph.ledger();
         l.rain_particles = l.particles.inserted - l.initial_particles;
-        l.particles_present = self.flow.sph.particles().len() as u64;
+        l.particles_present = self.flow.sph.particle_count() as u64;
         l
     }
 
@@ -428,11 +436,12 @@ fn place_particles(
     filled: &FilledWater,
     (nx, cell, origin): (usize, f32, Vec2),
     spacing: f32,
-    max_particles: usize,
+    (max_particles, settled_start): (usize, bool),
     in_view: impl Fn(f32, f32, f32) -> bool,
 ) -> Result<(f64, f64)> {
     let b = flow.sph.boundaries();
     let (lo, hi) = (b.domain.min_m.truncate(), b.domain.max_m.truncate());
+
     let cols = ((hi - lo) / spacing).floor().max(Vec2::ONE);
     let (cx, cy) = (cols.x as usize, cols.y as usize);
     let mut water = vec![0.0f64; cx * cy];
@@ -448,6 +457,7 @@ fn place_particles(
             water[j * cx + i] += d as f64 * area;
         }
     }
+    resample(&mut water, filled, (nx, cell, origin), (cx, lo, spacing));
     let volume = (spacing as f64).powi(3);
     let (mut carry, mut outside) = (0.0, 0.0);
     for (c, &w) in water.iter().enumerate() {
@@ -456,7 +466,7 @@ fn place_particles(
         }
         let xy = lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
         let ground = flow.sph.boundaries().ground_m(xy.x, xy.y);
-        let room = max_particles.saturating_sub(flow.sph.particles().len()) as f64;
+        let room = max_particles.saturating_sub(flow.sph.particle_count()) as f64;
         if !in_view(xy.x, xy.y, ground) || room == 0.0 {
             outside += w;
             continue;
@@ -468,13 +478,67 @@ fn place_particles(
             outside += carry;
             carry = 0.0;
         }
+        // At rest, a column of k particles hangs from the fill's level L (the carpet puts the
+        // surface a particle radius above the highest centre) at a pitch of (L − ground)/k,
+        // at least half a spacing and at most one: a pool's surface stays level whatever the
+        // rounding of its counts, within a quarter spacing for k ≥ 2. Stepped, the columns
+        // stand on the ground at the spacing.
+        let depth = (w / (spacing as f64).powi(2)) as f32;
+        let pitch = (depth / k.max(1.0) as f32).clamp(0.5 * spacing, spacing);
         for m in 0..k as usize {
-            let z = ground + (m as f32 + 0.5) * spacing;
-            flow.sph
-                .add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
+            let m = m as f32;
+            if settled_start {
+                let hung = ground + depth - (k as f32 - m - 0.5) * pitch;
+                let z = hung.max(ground + (m + 0.5) * pitch);
+                flow.sph.add_resting_particle(Vec3::new(xy.x, xy.y, z))?;
+            } else {
+                let z = ground + (m + 0.5) * spacing;
+                flow.sph
+                    .add_particle(Vec3::new(xy.x, xy.y, z), Vec3::ZERO)?;
+            }
         }
     }
     Ok((carry, outside))
+}
+
+/// Replaces each column's binned water by the fill's depth at its centre (bilinear between
+/// the fill's vertices) times its area, scaled so the total stays the binned total. Binning
+/// vertices into columns of another spacing aliases (columns of one, two or no vertices), a
+/// pattern of spikes and holes the stepped water smooths out but water at rest would keep.
+fn resample(
+    water: &mut [f64],
+    filled: &FilledWater,
+    (nx, cell, origin): (usize, f32, Vec2),
+    (cx, lo, spacing): (usize, Vec2, f32),
+) {
+    let d = &filled.depth_m;
+    let ny = d.len() / nx.max(1);
+    if nx < 2 || ny < 2 {
+        return;
+    }
+    let depth_at = |p: Vec2| -> f64 {
+        let g =
+            ((p - origin) / cell).clamp(Vec2::ZERO, Vec2::new((nx - 1) as f32, (ny - 1) as f32));
+        let (i, j) = ((g.x as usize).min(nx - 2), (g.y as usize).min(ny - 2));
+        let (u, v) = ((g.x - i as f32) as f64, (g.y - j as f32) as f64);
+        let at = |i: usize, j: usize| d[j * nx + i] as f64;
+        (1.0 - v) * ((1.0 - u) * at(i, j) + u * at(i + 1, j))
+            + v * ((1.0 - u) * at(i, j + 1) + u * at(i + 1, j + 1))
+    };
+    let area = (spacing as f64).powi(2);
+    let sampled: Vec<f64> = (0..water.len())
+        .map(|c| {
+            let xy = lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
+            depth_at(xy) * area
+        })
+        .collect();
+    let (total, total_sampled) = (water.iter().sum::<f64>(), sampled.iter().sum::<f64>());
+    if total_sampled > 0.0 {
+        let scale = total / total_sampled;
+        for (w, s) in water.iter_mut().zip(sampled) {
+            *w = s * scale;
+        }
+    }
 }
 
 /// `field` convolved with the binomial kernel 1-4-6-4-1 along x, then along y, the weights

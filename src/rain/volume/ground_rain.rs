@@ -253,6 +253,20 @@ impl GroundRain {
         out
     }
 
+    /// [`GroundRain::impacts_between`] into `out` (cleared first): a caller asking step after
+    /// step reuses one buffer instead of faulting in a fresh one of megabytes each time.
+    pub fn impacts_between_into(
+        &self,
+        rect: &GroundRect,
+        t0_s: f64,
+        t1_s: f64,
+        out: &mut Vec<Impact>,
+    ) {
+        out.clear();
+        out.extend(impacts_between(self.rainfall(), t0_s, t1_s));
+        self.stream_between(rect, t0_s, t1_s, out);
+    }
+
     /// The stream's impacts in `rect` with time in (t0_s, t1_s], appended to `out`: cell by
     /// cell (x, then y), slot by slot.
     pub fn stream_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64, out: &mut Vec<Impact>) {

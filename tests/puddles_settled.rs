@@ -1,0 +1,269 @@
+//! The settled start: the filled water is placed at rest and only the rain's particles are
+//! stepped. It keeps the ledger to the particle and the water at rest where it was placed, and
+//! the picture's water within a stated bound of the water whose every particle is stepped (a
+//! seek equal to the frame-by-frame run, and checkpoints, are tested in tests/puddles.rs and
+//! tests/puddle_checkpoints.rs, which run from the settled start).
+
+use glam::{DVec2, DVec3};
+use rain_composite::config::RenderConfig;
+use rain_composite::fluid::Field2;
+use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
+use rain_composite::gpu::uniforms::RainSetup;
+use rain_composite::rain::volume::{GroundRain, Impact};
+use rain_composite::rng::SplitMix64;
+use rain_composite::scene::Camera;
+use std::time::Instant;
+
+const FPS: f64 = 25.0;
+
+/// A street seen from 1.6 m with a 90° lens, two hours of 20 mm/h before the clip.
+fn street() -> (RenderConfig, Camera) {
+    let mut c = RenderConfig::default();
+    c.ground.mode = "horizon=0.1".parse().expect("mode");
+    c.camera.fov_deg = 90.0;
+    c.rain.rate_mm_per_h = 20.0;
+    c.ground.pre_rain_min = 120.0;
+    c.ground.relief_m = 0.02;
+    let camera = c.camera(320, 240).expect("camera");
+    (c, camera)
+}
+
+fn small(settled_start: bool) -> PuddleSettings {
+    PuddleSettings {
+        max_distance_m: 3.0,
+        particle_spacing_m: 0.015,
+        max_particles: 20_000,
+        settled_start,
+        ..PuddleSettings::default()
+    }
+}
+
+/// `n` drops of 2 mm landing during frame `frame` over the rectangle `min_m..max_m`.
+fn rain_of_frame(frame: u64, n: usize, min_m: DVec2, max_m: DVec2) -> Vec<Impact> {
+    let mut rng = SplitMix64(frame);
+    (0..n)
+        .map(|k| {
+            let p = min_m + DVec2::new(rng.next_f64(), rng.next_f64()) * (max_m - min_m);
+            Impact {
+                id: k as u64,
+                pass: frame as u32,
+                time_s: (frame as f64 - rng.next_f64()) / FPS,
+                position_m: DVec3::new(p.x, p.y, 0.0),
+                diameter_mm: 2.0,
+                velocity_mps: DVec3::new(0.0, 0.0, -6.5),
+            }
+        })
+        .collect()
+}
+
+/// A patch of `half_m` either side of the deepest point of the water at the start.
+fn patch_over_the_deepest_water(sim: &PuddleSim, half_m: f64) -> (DVec2, DVec2) {
+    let f = sim.initial_depth();
+    let (k, _) = f
+        .values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+    let c = f.origin_m + (glam::Vec2::new((k % f.nx) as f32, (k / f.nx) as f32) + 0.5) * f.cell_m;
+    let c = c.as_dvec2();
+    (c - half_m, c + half_m)
+}
+
+/// `drops` drops a frame on a patch over the deepest water (enough for every precipitation
+/// cell there to fill: S drops make a particle), frames `frames`.
+fn run(sim: &mut PuddleSim, frames: std::ops::RangeInclusive<u64>, drops: usize) {
+    let (lo, hi) = patch_over_the_deepest_water(sim, 0.2);
+    for frame in frames {
+        let hits = rain_of_frame(frame, drops, lo, hi);
+        sim.advance_to(frame as f64 / FPS, &hits).expect("step");
+    }
+}
+
+/// Volume (m³) and wet area (m²) of a depth field, and the largest and RMS difference to
+/// another on the same grid, m.
+fn compare(a: &Field2, b: &Field2) -> (f64, f64, f64, f64) {
+    assert_eq!((a.nx, a.ny, a.cell_m), (b.nx, b.ny, b.cell_m));
+    let cell2 = (a.cell_m as f64).powi(2);
+    let volume = |f: &Field2| f.values.iter().map(|&d| d as f64).sum::<f64>() * cell2;
+    let (mut max, mut sq, mut wet) = (0.0f64, 0.0f64, 0usize);
+    for (&x, &y) in a.values.iter().zip(&b.values) {
+        if x > 0.0 || y > 0.0 {
+            let d = (x - y).abs() as f64;
+            max = max.max(d);
+            sq += d * d;
+            wet += 1;
+        }
+    }
+    let rms = (sq / wet.max(1) as f64).sqrt();
+    (volume(a) - volume(b), wet as f64 * cell2, max, rms)
+}
+
+#[test]
+fn water_at_rest_stays_put_while_the_rain_moves_and_the_ledger_balances() {
+    let (config, camera) = street();
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &small(true))
+        .expect("valid")
+        .expect("ground in view");
+    let sph = &sim.flow().sph;
+    let (at_rest, moving) = (sph.resting().len(), sph.particles().len());
+    assert!(at_rest > 1000, "{at_rest} particles at rest");
+    assert_eq!(moving, 0, "the filled water is all at rest");
+    let placed: std::collections::HashMap<u64, glam::Vec3> = sph
+        .resting()
+        .ids()
+        .iter()
+        .copied()
+        .zip(sph.resting().positions_m().iter().copied())
+        .collect();
+    run(&mut sim, 1..=6, 3000);
+    let sph = &sim.flow().sph;
+    assert!(
+        sph.particles().len() > 100,
+        "the rain's particles move: {:?}",
+        sim.ledger()
+    );
+    for (id, p) in sph.resting().ids().iter().zip(sph.resting().positions_m()) {
+        assert_eq!(placed[id], *p, "a particle at rest moved");
+    }
+    let l = sim.ledger();
+    let p = l.particles;
+    assert_eq!(l.particles_present, sph.particle_count() as u64);
+    assert_eq!(
+        p.inserted - p.outflow - p.soaked - p.discarded,
+        l.particles_present
+    );
+    assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
+    assert!(l.rain_particles > 0);
+}
+
+/// Rain landing on water at rest stays on it: the moving particles that end up over a column
+/// of resting water lie above that column's top (less half a spacing, the kernel's overlap),
+/// so the water at rest acts as fluid on them; were its density or pressure left out they
+/// would sink through it to the ground.
+#[test]
+fn rain_on_water_at_rest_lies_on_it_not_in_it() {
+    let (config, camera) = street();
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &small(true))
+        .expect("valid")
+        .expect("ground in view");
+    // A cloudburst on the deepest pool for 0.4 s, then 0.2 s to land.
+    run(&mut sim, 1..=10, 3000);
+    sim.advance_to(0.6, &[]).expect("steps");
+    let sph = &sim.flow().sph;
+    let dx = sim.particle_spacing_m();
+    // Resting columns stand on a lattice of spacing dx: a column is a lattice point; a moving
+    // particle counts as over it within 0.3 dx of its axis.
+    let corner = sph.resting().positions_m()[0];
+    let column = |p: &glam::Vec3| {
+        let g = (p.truncate() - corner.truncate()) / dx;
+        let c = g.round();
+        ((g - c).abs().max_element() < 0.3).then_some((c.x as i64, c.y as i64))
+    };
+    let mut top = std::collections::HashMap::new();
+    for p in sph.resting().positions_m() {
+        let t = top
+            .entry(column(p).expect("on the lattice"))
+            .or_insert(f32::NEG_INFINITY);
+        *t = t.max(p.z);
+    }
+    // Only columns two particles deep or more (a particle sunk to the ground under a single
+    // one would still look level with it).
+    let ground = |c: &(i64, i64)| {
+        let p = corner.truncate() + glam::Vec2::new(c.0 as f32, c.1 as f32) * dx;
+        sph.boundaries().ground_m(p.x, p.y)
+    };
+    top.retain(|c, t| *t - ground(c) > dx);
+    let over: Vec<f32> = sph
+        .particles()
+        .positions_m()
+        .iter()
+        .filter_map(|p| column(p).and_then(|c| top.get(&c)).map(|t| p.z - t))
+        .collect();
+    assert!(
+        over.len() > 20,
+        "{} moving particles over water at rest",
+        over.len()
+    );
+    let inside = over.iter().filter(|&&dz| dz < -0.5 * dx).count();
+    assert!(
+        inside * 50 <= over.len(),
+        "{inside} of {} sank into the water at rest",
+        over.len()
+    );
+}
+
+/// Cost of the preview's fast-forward on the street sample's ground (640×360, horizon 0.48,
+/// 30 m scene, 20 mm/h after two hours): build, the ground's stream of impacts, feeding them,
+/// the solver, with and without the settled start; and the difference of the water shown at
+/// 1.52 s. `cargo test --release --test puddles_settled report -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn report() {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.48".parse().expect("mode");
+    config.rain.rate_mm_per_h = 20.0;
+    config.rain.scene_depth_m = 30.0;
+    config.ground.pre_rain_min = 120.0;
+    let camera = config.camera(640, 360).expect("camera");
+    let rain = rain_composite::shot::rain::plan(
+        &camera,
+        &config.camera,
+        &config.rain,
+        0.02,
+        0,
+        (camera.width_px, camera.height_px),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let ground = GroundRain::new(rain.rainfall());
+    let frames = 38;
+    println!("| start | build s | impacts s | feed s | solver + carpet s | steps | moving |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut shown = Vec::new();
+    for settled_start in [true, false] {
+        let settings = PuddleSettings {
+            settled_start,
+            ..PuddleSettings::of(&config)
+        };
+        let t = Instant::now();
+        let mut sim = PuddleSim::new(&config, &camera, None, FPS, &settings)
+            .expect("valid")
+            .expect("ground");
+        let build = t.elapsed().as_secs_f64();
+        let (mut impacts, mut feed, mut solve) = (0.0, 0.0, 0.0);
+        for k in 1..=frames {
+            let (t0, t1) = ((k - 1) as f64 / FPS, k as f64 / FPS);
+            let t = Instant::now();
+            let hits = ground.impacts_between(&sim.ground_rect(), t0, t1);
+            impacts += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            sim.advance_to(t0, &hits).expect("feed");
+            feed += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            sim.advance_to(t1, &[]).expect("steps");
+            solve += t.elapsed().as_secs_f64();
+        }
+        println!(
+            "| {} | {build:.2} | {impacts:.2} | {feed:.2} | {solve:.2} | {} | {} |",
+            if settled_start { "settled" } else { "stepped" },
+            sim.steps(),
+            sim.flow().sph.particles().len()
+        );
+        shown.push(sim.shown_depth());
+    }
+    let (dv, wet_m2, max_m, rms_m) = compare(&shown[0], &shown[1]);
+    let volume =
+        |f: &Field2| f.values.iter().map(|&d| d as f64).sum::<f64>() * (f.cell_m as f64).powi(2);
+    println!(
+        "shown volume settled {:.4} m³, stepped {:.4} m³",
+        volume(&shown[0]),
+        volume(&shown[1])
+    );
+    println!(
+        "at {:.2} s: volume difference {dv:.3e} m³, wet {wet_m2:.2} m², depth difference max \
+         {:.2} mm, RMS {:.3} mm",
+        frames as f64 / FPS,
+        1e3 * max_m,
+        1e3 * rms_m
+    );
+}
