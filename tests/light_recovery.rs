@@ -287,14 +287,17 @@ fn report_recovery_accuracy() {
 }
 
 /// The goal is a median within a factor of 2 (|log₂| ≤ 1). Most of a drop's true radiance comes
-/// from light the view does not show: looking toward `courtyard`'s brightest light the sun is
-/// above the frame, looking away 94 % of it is behind the camera; on `city` and `interior` more
+/// from light the view does not show: looking away from `courtyard`'s sun 94 % of it is behind
+/// the camera (looking toward it, the sun is in view, 3.5° above the horizon); on `city` and `interior` more
 /// than 99 % (the city's sun at 47° elevation, the interior's brightest source at 57°); on
 /// `studio` the lamps are 10⁸ times the median texel (black cloth), far beyond the
 /// exposure-anchored prior. Recovery used to reach 0.9 and 1.4 stops on `courtyard` only by
 /// inflating the sunlit walls in view into lamps 10⁴ times white, which is what fogged daylight
 /// footage; bounding surfaces by the light that can fall on them costs those views about a stop
-/// and a half, which no frame-only estimate can honestly recover. The bound is what recovery
+/// and a half, which no frame-only estimate can honestly recover. Looking toward `interior`'s
+/// brightest source, recovery reached 12.1 only by taking the lamp-lit wall in view for the sun
+/// (its red-only clip is no sun's): all of the truth comes from outside the view, where an
+/// ideal in-frame recovery reaches 15.1. The bound is what recovery
 /// reaches, with a little margin; recovery must never make the median worse than the frame as
 /// it is.
 #[test]
@@ -305,7 +308,7 @@ fn recovery_brings_drop_radiance_toward_the_hdr_truth() {
         ("courtyard", "away", 3.7),
         ("city", "toward", 14.4),
         ("city", "away", 12.5),
-        ("interior", "toward", 12.7),
+        ("interior", "toward", 15.0),
         ("interior", "away", 8.5),
         ("studio", "toward", 16.1),
         ("studio", "away", 10.7),
@@ -324,9 +327,10 @@ fn recovery_brings_drop_radiance_toward_the_hdr_truth() {
             after <= bound,
             "{name} {label}: median |log2| {after:.2} > {bound}"
         );
-        // Looking toward `courtyard`'s sun, the sunlit wall and sky above the horizon are taken
-        // for the sun's glare (the region table in docs/method.md): a stop over the frame as it
-        // is, where the sun's true flux is out of view.
+        // Looking toward `courtyard`'s sun (in view, 3.5° above the horizon), the exposure's
+        // prior gives it 3.6–3.9 times the clipped region's true flux and puts it at the region's
+        // core, 9° above and 10° beside it: drops 1.7–2.4 stops too bright, where the frame as
+        // it is leaves them 0.8–1.3 stops too dark.
         let worse_by = if (name.as_str(), label) == ("courtyard", "toward") {
             1.1
         } else {
@@ -1344,18 +1348,20 @@ fn report_regions() {
 /// brightest source; exposed for mid-grey and one stop over) against the mean exposed HDR
 /// luminance behind its clipped pixels. Goals: the area-weighted median |log₂| within one
 /// stop, and no surface inflated (95th percentile of log₂ over regions truly below 20× white at
-/// most log₂ 3). The second is met by every region recovery calls a surface or sky; it is
-/// missed, at 1.9, by the bright regions above the horizon taken for the sun's (a facade and a
-/// window of `city` and `interior`, up to 6 stops over; table in docs/method.md), so the bound
-/// here is 2: a regression past it means surfaces are being inflated again.
+/// most log₂ 3), over all regions and over those recovery calls a surface or sky. Four regions
+/// still sit above the percentile, within its 5 % of ≈ 85: the sunlit facade of `city` looking
+/// away from the sun, taken for the sun (+4.5 and +4.9 stops: its core clips white and its
+/// surroundings are the scene's), and the region that holds `courtyard`'s sun, whose flux the
+/// exposure's prior sets 3.6–3.9 times too high (+1.9 and +2.0); one more inflated region breaks
+/// the bound.
 #[test]
 fn clipped_regions_recover_near_the_hdr_truth_and_surfaces_are_not_inflated() {
     let checks = region_checks();
     let (median, p95) = region_metrics(&checks);
     assert!(median <= 1.0, "area-weighted median |log2| {median:.2} > 1");
     assert!(
-        p95 <= 2.0,
-        "p95 log2 over regions below 20x white {p95:.2} > 2"
+        p95 <= 3f64.log2(),
+        "p95 log2 over regions below 20x white {p95:.2} > log2 3"
     );
     let surfaces: Vec<RegionCheck> = checks
         .into_iter()

@@ -22,6 +22,7 @@
 //! `cos θ = ω·v`; θ = 0 is straight through the drop. The GPU twin lives in
 //! `shaders/common/sh.wgsl`.
 
+mod block_grid;
 pub mod envmap;
 pub mod frame_light;
 pub mod inspect;

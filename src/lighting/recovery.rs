@@ -23,8 +23,11 @@
 //!    - unless lamps light a night scene, the **sun** is in the largest clipped region above the
 //!      horizon, when that holds at least [`SUN_MIN_SR`] (its glare clips several degrees), at
 //!      least [`SUN_MIN_FILL`] of its blocks (the glare clips solidly, a facade of lit windows
-//!      does not) and its surroundings are no brighter than [`SUN_SURROUND_OVER_MEDIAN`] × the
-//!      median;
+//!      does not), its surroundings are no brighter than [`SUN_SURROUND_OVER_MEDIAN`] × the
+//!      median, and its core clips every channel ([`SUN_CORE_MIN_CHANNEL_RATIO`]: a wall lit by
+//!      a warm lamp clips red only) or, where the camera renders the clipped sun in a colour,
+//!      its surroundings fall off toward it all around like the sun's aureole
+//!      ([`SUN_MIN_AUREOLE`]);
 //!    - any other region above the horizon larger than [`COMPACT_MAX_SR`] is **sky**.
 //! 3. **Radiance.** The exposure anchors it: the camera puts a mid-grey surface near the frame's
 //!    median luminance `L_med`, so the illuminance on the scene's typical surfaces is
@@ -87,6 +90,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::block_grid::{components, distance_to_unclipped};
 use super::sources::LightSource;
 use crate::scene::Camera;
 
@@ -132,6 +136,19 @@ pub const SUN_SURROUND_OVER_MEDIAN: f64 = 2.0;
 /// clips solidly (0.8–1 on the panoramas of `tests/data`); a facade of lit windows or a field of
 /// glints clips a lattice of small patches that 1° blocks join into one sparse region.
 pub const SUN_MIN_FILL: f64 = 0.6;
+/// Least ratio of the weakest to the strongest channel of the clipped samples at the core of
+/// the sun's region. The sun is 10⁵–10⁶ times a mid-grey exposure and even low in the sky
+/// keeps a few per cent of that in its weakest channel (Rayleigh optical depth ≈ 0.2 at 450 nm,
+/// 0.05 at 650 nm), so its core clips every channel (0.75–1 on the views of `tests/data`); a
+/// wall lit by a warm lamp, a few times white, clips red only (0.19–0.28 there). A camera may
+/// render the clipped sun in a colour of its own (`samples/sunset.mp4`: (255, 240, 0), 0.12); then
+/// the aureole decides ([`SUN_MIN_AUREOLE`]).
+pub const SUN_CORE_MIN_CHANNEL_RATIO: f64 = 0.5;
+/// Least alignment of the unclipped surroundings' luminance gradient with the direction to the
+/// core that makes a region with a coloured core the sun's: its aureole falls off radially all
+/// around it (`samples/sunset.mp4` 0.54–0.56 over its frames, `studio`'s lamps 0.31–0.61),
+/// where a lamp-lit wall (0.31 and −0.29) or a sunlit facade (0.08–0.11) has structure around it.
+pub const SUN_MIN_AUREOLE: f64 = 0.45;
 /// A frame whose median luminance is at most this fraction of its white is a night (or dark
 /// interior) scene, exposed well under mid-grey: its clipped compact regions against dark
 /// surroundings are lamps whatever the median.
@@ -379,67 +396,9 @@ fn block_geometry(stats: &BlockStats, camera: &Camera) -> BlockGeometry {
     g
 }
 
-/// The 8 neighbours of block `b` of a `w × h` grid that lie inside it.
-fn neighbours(b: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = ((b % w) as isize, (b / w) as isize);
-    (-1..=1)
-        .flat_map(move |dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
-        .filter(move |&(nx, ny)| {
-            (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize
-        })
-        .map(move |(nx, ny)| ny as usize * w + nx as usize)
-}
-
-/// Connected components (8-neighbour) of the blocks where `mask` is true, in scan order.
-fn components(w: usize, h: usize, mask: &[bool]) -> Vec<Vec<usize>> {
-    let mut label = vec![usize::MAX; w * h];
-    let mut out = Vec::new();
-    for start in 0..w * h {
-        if !mask[start] || label[start] != usize::MAX {
-            continue;
-        }
-        let id = out.len();
-        let mut comp = vec![start];
-        label[start] = id;
-        let mut i = 0;
-        while i < comp.len() {
-            let b = comp[i];
-            i += 1;
-            for n in neighbours(b, w, h) {
-                if mask[n] && label[n] == usize::MAX {
-                    label[n] = id;
-                    comp.push(n);
-                }
-            }
-        }
-        comp.sort_unstable();
-        out.push(comp);
-    }
-    out
-}
-
 /// CIE standard overcast sky, relative: `(1 + 2 cos z)/3`, `cos z` = the direction's z.
 fn overcast(dir: DVec3) -> f64 {
     (1.0 + 2.0 * dir.z.max(0.0)) / 3.0
-}
-
-/// Chessboard distance, in blocks, from each block to the nearest unclipped block of the
-/// picture (the picture's border is not a boundary: a region cut by it may go on beyond it).
-fn distance_to_unclipped(w: usize, h: usize, mask: &[bool]) -> Vec<u32> {
-    let mut dist = vec![u32::MAX; w * h];
-    let mut queue: std::collections::VecDeque<usize> = (0..w * h).filter(|&b| !mask[b]).collect();
-    for &b in &queue {
-        dist[b] = 0;
-    }
-    while let Some(b) = queue.pop_front() {
-        for n in neighbours(b, w, h) {
-            if dist[n] == u32::MAX {
-                dist[n] = dist[b] + 1;
-                queue.push_back(n);
-            }
-        }
-    }
-    dist
 }
 
 /// One clipped region while it is being classified.
@@ -450,6 +409,12 @@ struct Candidate {
     omega_blocks: f64,
     centre: DVec2,
     dir: DVec3,
+    /// Direction and clipped colour (solid-angle weighted sum) of the core: the blocks
+    /// farthest from the unclipped surroundings.
+    core_dir: DVec3,
+    core_colour: [f64; 3],
+    /// How straight the ring's luminance rises toward the core ([`aureole`]).
+    aureole: f64,
     ring: Vec<usize>,
     ring_mean: Option<[f64; 3]>,
     touches_edge: bool,
@@ -458,6 +423,13 @@ struct Candidate {
 impl Candidate {
     fn ring_luminance(&self) -> f64 {
         self.ring_mean.map_or(0.0, luminance)
+    }
+
+    /// The core's weakest channel over its strongest (1 where every channel clips).
+    fn core_channel_ratio(&self) -> f64 {
+        let max = self.core_colour.into_iter().fold(0.0, f64::max);
+        let min = self.core_colour.into_iter().fold(f64::INFINITY, f64::min);
+        if max > 0.0 { min / max } else { 0.0 }
     }
 }
 
@@ -491,9 +463,9 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         surface_bound,
         surface_typical,
     } = anchor;
-    let cands = candidates(stats, &geo, &mask);
-    let kinds = Kinds::of(&cands, &anchor, settings);
     let dist = distance_to_unclipped(w, h, &mask);
+    let cands = candidates(stats, &geo, &mask, &dist);
+    let kinds = Kinds::of(&cands, &anchor, settings);
 
     let mut lights = Vec::new();
     // Lamps that did not become lights: (direction, flux).
@@ -577,7 +549,7 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
         }
         let mut radiance_rgb = rad_acc.map(|v| v / rad_w.max(1e-300));
         if kind == RegionKind::Sun {
-            let (light, sun_rgb) = sun_light(c, stats, &geo, &dist, key_flux);
+            let (light, sun_rgb) = sun_light(c, key_flux);
             lights.push(light);
             for k in 0..3 {
                 radiance_rgb[k] += sun_rgb[k] / c.omega_clip.max(1e-300);
@@ -619,29 +591,14 @@ pub fn recover(stats: &BlockStats, camera: &Camera, settings: &RecoverySettings)
     }
 }
 
-/// The sun's light, at the core of region `c`: the blocks farthest from its unclipped
-/// surroundings (`dist`), in the colour of their clipped samples, carrying the key light's
-/// flux; and that flux per colour.
-fn sun_light(
-    c: &Candidate,
-    stats: &BlockStats,
-    geo: &BlockGeometry,
-    dist: &[u32],
-    key_flux: f64,
-) -> (LightSource, [f64; 3]) {
-    let d_max = c.blocks.iter().map(|&b| dist[b]).max().unwrap_or(0);
-    let mut core_dir = DVec3::ZERO;
-    let mut colour = [0.0f64; 3];
-    for &b in c.blocks.iter().filter(|&&b| dist[b] + 1 >= d_max) {
-        let wgt = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
-        core_dir += wgt * geo.dir[b];
-        (0..3).for_each(|k| colour[k] += wgt * f64::from(stats.clipped_colour[b][k]));
-    }
-    let colour_lum = luminance(colour).max(1e-300);
+/// The sun's light at the core of region `c`, in the colour of the core's clipped samples,
+/// carrying the key light's flux; and that flux per colour.
+fn sun_light(c: &Candidate, key_flux: f64) -> (LightSource, [f64; 3]) {
+    let colour_lum = luminance(c.core_colour).max(1e-300);
     let solid_angle_sr = c.omega_clip.min(COMPACT_MAX_SR);
-    let sun_rgb = colour.map(|v| key_flux * v / colour_lum);
+    let sun_rgb = c.core_colour.map(|v| key_flux * v / colour_lum);
     let light = LightSource {
-        direction_world: core_dir.normalize_or(c.dir),
+        direction_world: c.core_dir,
         solid_angle_sr,
         radiance_rgb: sun_rgb.map(|v| v / solid_angle_sr),
         distance_m: None,
@@ -708,8 +665,14 @@ impl Anchor {
 }
 
 /// Step 1: the clipped regions (connected clipped blocks), each with its solid angle,
-/// direction and unclipped ring.
-fn candidates(stats: &BlockStats, geo: &BlockGeometry, mask: &[bool]) -> Vec<Candidate> {
+/// direction, core (the blocks farthest from the unclipped surroundings, `dist`) and unclipped
+/// ring.
+fn candidates(
+    stats: &BlockStats,
+    geo: &BlockGeometry,
+    mask: &[bool],
+    dist: &[u32],
+) -> Vec<Candidate> {
     let (w, h) = (stats.width, stats.height);
     components(w, h, mask)
         .into_iter()
@@ -730,6 +693,17 @@ fn candidates(stats: &BlockStats, geo: &BlockGeometry, mask: &[bool]) -> Vec<Can
             }
             let dir = dir.normalize_or(geo.dir[blocks[0]]);
             let centre = centre / omega_clip.max(1e-300);
+            let d_max = blocks.iter().map(|&b| dist[b]).max().unwrap_or(0);
+            let (mut core_dir, mut core_px, mut core_w) = (DVec3::ZERO, DVec2::ZERO, 0.0);
+            let mut core_colour = [0.0f64; 3];
+            for &b in blocks.iter().filter(|&&b| dist[b] + 1 >= d_max) {
+                let wgt = stats.clipped_fraction(b) * geo.solid_angle_sr[b];
+                core_dir += wgt * geo.dir[b];
+                core_px += wgt * geo.centre_px[b];
+                core_w += wgt;
+                (0..3).for_each(|k| core_colour[k] += wgt * f64::from(stats.clipped_colour[b][k]));
+            }
+            let core_px = core_px / f64::max(core_w, 1e-300);
             // The unclipped ring: blocks within three equivalent radii of the centroid (at
             // least two blocks' width), outside the region.
             let r_eq = (omega_blocks / std::f64::consts::PI).sqrt();
@@ -746,17 +720,52 @@ fn candidates(stats: &BlockStats, geo: &BlockGeometry, mask: &[bool]) -> Vec<Can
                 acc.map(|v| v / ring.len() as f64)
             });
             Candidate {
+                aureole: aureole(stats, geo, mask, &ring, core_px),
                 blocks,
                 omega_clip,
                 omega_blocks,
                 centre,
                 dir,
+                core_dir: core_dir.normalize_or(dir),
+                core_colour,
                 ring,
                 ring_mean,
                 touches_edge,
             }
         })
         .collect()
+}
+
+/// How straight the unclipped `ring`'s luminance rises toward `core_px`: `Σ ĝ·u / Σ |ĝ|` over
+/// its blocks, `ĝ` the relative luminance gradient (central differences between unclipped
+/// blocks), `u` the unit vector toward the core. 1 is a radial falloff all around (the sun's
+/// aureole, `L ∝ θ^−k`), 0 texture with no preferred direction.
+fn aureole(
+    stats: &BlockStats,
+    geo: &BlockGeometry,
+    mask: &[bool],
+    ring: &[usize],
+    core_px: DVec2,
+) -> f64 {
+    let (w, h) = (stats.width, stats.height);
+    let lum = |b: usize| luminance(stats.mean[b].map(f64::from));
+    // The luminance difference across block b along (dx, dy), where both neighbours are unclipped.
+    let diff = |b: usize, dx: usize, dy: usize| {
+        let (x, y) = (b % w, b / w);
+        (x >= dx && y >= dy && x + dx < w && y + dy < h)
+            .then(|| (b - dy * w - dx, b + dy * w + dx))
+            .filter(|&(a, c)| !mask[a] && !mask[c])
+            .map(|(a, c)| 0.5 * (lum(c) - lum(a)))
+    };
+    let (mut along, mut total) = (0.0, 0.0);
+    for &b in ring {
+        if let (Some(gx), Some(gy)) = (diff(b, 1, 0), diff(b, 0, 1)) {
+            let g = DVec2::new(gx, gy) / lum(b).max(1e-12);
+            along += g.dot((core_px - geo.centre_px[b]).normalize_or_zero());
+            total += g.length();
+        }
+    }
+    if total > 0.0 { along / total } else { 0.0 }
 }
 
 /// Step 2: what each region is, and which emitters become lights.
@@ -809,6 +818,8 @@ impl Kinds {
                         && c.omega_clip >= SUN_MIN_SR
                         && c.omega_clip >= SUN_MIN_FILL * c.omega_blocks
                         && c.ring_luminance() <= SUN_SURROUND_OVER_MEDIAN * l_med
+                        && (c.core_channel_ratio() >= SUN_CORE_MIN_CHANNEL_RATIO
+                            || c.aureole >= SUN_MIN_AUREOLE)
                 })
                 .max_by(|&a, &b| cands[a].omega_clip.total_cmp(&cands[b].omega_clip))
         } else {
