@@ -30,11 +30,18 @@ struct Matte {
     glints: Vec<(usize, bool, [f32; 3])>,
 }
 
-/// One drawn streak in the raster's terms (f32).
+/// One drawn streak in the raster's terms (f32); copied into each tile's list, so a tile reads
+/// its streaks from contiguous memory.
+#[derive(Clone, Copy, Default)]
 struct Prepared {
-    q0: [f32; 2],
-    dir: [f32; 2],
+    /// Along and across the streak (px from q0) at coded pixel (x, y)'s centre:
+    /// `f[0] + x f[1] + y f[2]` (formed in f64).
+    along: [f32; 3],
+    across: [f32; 3],
     len: f32,
+    /// 1 / len, and 1 / (len + 2 ext) (the radiance's interpolation along the quad).
+    inv_len: f32,
+    inv_quad: f32,
     r: f32,
     /// The quad's half-extent along (beyond each end) and across.
     ext: f32,
@@ -48,8 +55,12 @@ struct Prepared {
     x1: usize,
     y0: usize,
     y1: usize,
-    matte: Option<Matte>,
+    /// Its index in the raster's [`Matte`]s ([`NO_MATTE`]: a capsule).
+    matte: u32,
 }
+
+/// [`Prepared::matte`] of a capsule.
+const NO_MATTE: u32 = u32::MAX;
 
 /// The display rotation: display = mᵀ (coded − offset) for pixel centres.
 #[derive(Clone, Copy)]
@@ -113,10 +124,21 @@ pub struct Rain<'a> {
 pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
     let height = canvas.len() / (4 * width.max(1));
     let rot = Rotation::new(rain.params);
-    let prepared: Vec<Prepared> = streaks
+    let items: Vec<(Prepared, Option<Matte>)> = streaks
         .par_iter()
         .enumerate()
         .filter_map(|(id, s)| prepare(rain, &rot, id, s, width, height))
+        .collect();
+    let mut mattes = Vec::new();
+    let prepared: Vec<Prepared> = items
+        .into_iter()
+        .map(|(mut p, matte)| {
+            if let Some(m) = matte {
+                p.matte = mattes.len() as u32;
+                mattes.push(m);
+            }
+            p
+        })
         .collect();
     let tiles_x = width.div_ceil(TILE_W);
     let tiles_y = height.div_ceil(TILE_H);
@@ -140,13 +162,13 @@ pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Strea
         start[k] += start[k - 1];
     }
     let mut fill = start.clone();
-    let mut binned = vec![0u32; start[start.len() - 1] as usize];
-    for (i, p) in prepared.iter().enumerate() {
+    let mut binned = vec![Prepared::default(); start[start.len() - 1] as usize];
+    for p in &prepared {
         let (xs, ys) = tile_span(p);
         for ty in ys {
             for tx in xs.clone() {
                 let at = &mut fill[ty * tiles_x + tx];
-                binned[*at as usize] = i as u32;
+                binned[*at as usize] = *p;
                 *at += 1;
             }
         }
@@ -178,8 +200,9 @@ pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Strea
                     y0: ty * TILE_H,
                     y1: ty * TILE_H + rows - 1,
                 };
-                for &i in list {
-                    draw(rain, &rot, &prepared[i as usize], &area, &mut tile);
+                for p in list {
+                    let matte = mattes.get(p.matte as usize);
+                    draw(rain, &rot, p, matte, &area, &mut tile);
                 }
                 for r in 0..rows {
                     band[4 * (r * width + x0)..][..4 * cols]
@@ -207,7 +230,7 @@ fn prepare(
     s: &Streak,
     width: usize,
     height: usize,
-) -> Option<Prepared> {
+) -> Option<(Prepared, Option<Matte>)> {
     if !(s.len_px >= 0.0) {
         return None;
     }
@@ -238,6 +261,21 @@ fn prepare(
         return None;
     }
     let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+    // display = M (coded − offset): along = dir · (display − q0), across = n · (display − q0).
+    let m = rot.m.map(f64::from);
+    let (off, q) = (rot.offset.map(f64::from), q0.map(f64::from));
+    let form = |u: [f64; 2]| {
+        let at0 = [
+            m[0] * (0.5 - off[0]) + m[1] * (0.5 - off[1]) - q[0],
+            m[2] * (0.5 - off[0]) + m[3] * (0.5 - off[1]) - q[1],
+        ];
+        [
+            (u[0] * at0[0] + u[1] * at0[1]) as f32,
+            (u[0] * m[0] + u[1] * m[2]) as f32,
+            (u[0] * m[1] + u[1] * m[3]) as f32,
+        ]
+    };
+    let (dir64, n64) = (d.map(f64::from), n.map(f64::from));
     let matte = rain.mattes.map(|atlas| {
         let own = rain
             .glints
@@ -253,10 +291,12 @@ fn prepare(
                 .collect(),
         }
     });
-    Some(Prepared {
-        q0,
-        dir: d,
+    let prepared = Prepared {
+        along: form(dir64),
+        across: form(n64),
         len,
+        inv_len: if len >= 1e-3 { 1.0 / len } else { 0.0 },
+        inv_quad: 1.0 / (len + 2.0 * ext),
         r,
         ext,
         across_ext,
@@ -270,74 +310,189 @@ fn prepare(
         x1: clamp((hi[0] + 1.0).ceil(), width),
         y0: clamp((lo[1] - 1.0).floor(), height),
         y1: clamp((hi[1] + 1.0).ceil(), height),
-        matte,
-    })
+        matte: NO_MATTE,
+    };
+    Some((prepared, matte))
 }
 
-/// The pixel centres `x + 0.5` of a row where `value(x) = v0 + x · slope` lies in [lo, hi],
-/// as a range of x (possibly empty), a pixel wider on each side for rounding.
-fn span(v0: f32, slope: f32, lo: f32, hi: f32) -> (f32, f32) {
-    if slope.abs() < 1e-6 {
-        return if v0 >= lo - 1e-3 && v0 <= hi + 1e-3 {
+/// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
+/// slope, 0 where the slope vanishes), as a range of reals (possibly empty).
+#[inline]
+fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
+    if inv == 0.0 {
+        let inside = v0 >= lo - 1e-3 && v0 <= hi + 1e-3 && slope.abs() < 1e-6;
+        return if inside {
             (f32::NEG_INFINITY, f32::INFINITY)
         } else {
             (f32::INFINITY, f32::NEG_INFINITY)
         };
     }
-    let (a, b) = ((lo - v0) / slope, (hi - v0) / slope);
-    (a.min(b) - 1.0, a.max(b) + 1.0)
+    let (a, b) = ((lo - v0) * inv, (hi - v0) * inv);
+    (a.min(b), a.max(b))
 }
 
-/// Blends streak `p` over the part of `tile` (f32 RGBA, [`TILE_W`] texels a row) in `area`.
-fn draw(rain: &Rain, rot: &Rotation, p: &Prepared, area: &Area, tile: &mut [f32]) {
+/// 1 / `slope`, or 0 where it is too small to bound a row.
+fn inverse(slope: f32) -> f32 {
+    if slope.abs() < 1e-6 { 0.0 } else { 1.0 / slope }
+}
+
+/// The whole pixels in [lo, hi] (both ≥ 0 or the range empty), without libm's rounding.
+#[inline]
+fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
+    if !(lo <= hi) || hi < 0.0 {
+        return None;
+    }
+    let first = lo as usize + usize::from((lo as usize as f32) < lo);
+    let last = hi as usize;
+    (first <= last).then_some((first, last))
+}
+
+/// Blends streak `p` (with its `matte`) over the part of `tile` (f32 RGBA, [`TILE_W`] texels a
+/// row) in `area`: in runs along the coded picture's rows or, for a streak steeper than 45°
+/// there, along its columns, so that the runs are long. The direction is the streak's alone,
+/// so each pixel's value does not depend on the tile.
+fn draw(
+    rain: &Rain,
+    rot: &Rotation,
+    p: &Prepared,
+    matte: Option<&Matte>,
+    area: &Area,
+    tile: &mut [f32],
+) {
     let (ya, yb) = (p.y0.max(area.y0), p.y1.min(area.y1));
     let (xa, xb) = (p.x0.max(area.x0), p.x1.min(area.x1));
     if ya > yb || xa > xb {
         return;
     }
-    // Along a row, a step in coded x moves the display point by (m0, m2).
-    let step = [rot.m[0], rot.m[2]];
-    let slope_along = step[0] * p.dir[0] + step[1] * p.dir[1];
-    let slope_across = -step[0] * p.dir[1] + step[1] * p.dir[0];
-    for y in ya..=yb {
-        let yc = y as f32 + 0.5;
-        // The row's display point at coded x = 0.5, relative to q0.
-        let at = rot.display(0.5, yc);
-        let (dx, dy) = (at[0] - p.q0[0], at[1] - p.q0[1]);
-        let along0 = dx * p.dir[0] + dy * p.dir[1];
-        let across0 = -dx * p.dir[1] + dy * p.dir[0];
-        let (a0, a1) = span(along0, slope_along, -p.ext, p.len + p.ext);
-        let (c0, c1) = span(across0, slope_across, -p.across_ext, p.across_ext);
-        let (lo, hi) = (a0.max(c0).max(xa as f32), a1.min(c1).min(xb as f32));
-        if lo > hi {
+    // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
+    // a matte's colour reaches the whole quad.
+    let simple = matte.is_none() && rain.depth.is_none();
+    let (along_lo, along_hi, across_lim) = if matte.is_none() {
+        (-p.r, p.len + p.r, p.r)
+    } else {
+        (-p.ext, p.len + p.ext, p.across_ext)
+    };
+    // Runs along coordinate `u` (x or y) at each `v`: `along = along_v + u · da`.
+    let columns = p.along[2].abs() > p.along[1].abs();
+    let (da, dc, va, vc) = if columns {
+        (p.along[2], p.across[2], p.along[1], p.across[1])
+    } else {
+        (p.along[1], p.across[1], p.along[2], p.across[2])
+    };
+    let (inv_a, inv_c) = (inverse(da), inverse(dc));
+    let ((v0, v1), (u0, u1)) = if columns {
+        ((xa, xb), (ya, yb))
+    } else {
+        ((ya, yb), (xa, xb))
+    };
+    // Rounding between the bounds and the pixels' own values: the pixel decides.
+    const PAD: f32 = 0.01;
+    for v in v0..=v1 {
+        let vf = v as f32;
+        let along_v = p.along[0] + vf * va;
+        let across_v = p.across[0] + vf * vc;
+        let (a0, a1) = span(along_v, da, inv_a, along_lo, along_hi);
+        let (c0, c1) = span(across_v, dc, inv_c, -across_lim, across_lim);
+        let lo = (a0.max(c0) - PAD).max(u0 as f32);
+        let hi = (a1.min(c1) + PAD).min(u1 as f32);
+        let Some((first, last)) = whole(lo, hi) else {
             continue;
-        }
-        let row = (y - area.y0) * TILE_W;
-        for x in lo.ceil() as usize..=hi.floor() as usize {
-            pixel(rain, rot, p, x, yc, &mut tile[4 * (row + x - area.x0)..][..4]);
+        };
+        let (x, y, stride) = if columns {
+            (v, first, 4 * TILE_W)
+        } else {
+            (first, v, 4)
+        };
+        let at = 4 * ((y - area.y0) * TILE_W + x - area.x0);
+        let run = Run {
+            along: along_v,
+            across: across_v,
+            da,
+            dc,
+            first,
+            count: last - first + 1,
+            stride,
+        };
+        if simple {
+            capsule_run(p, &run, &mut tile[at..]);
+        } else {
+            for k in 0..run.count {
+                let u = first + k;
+                let (x, y) = if columns { (v, u) } else { (u, v) };
+                let px = &mut tile[at + k * stride..][..4];
+                pixel(rain, rot, p, matte, x as f32, y as f32, px);
+            }
         }
     }
 }
 
-/// Blends streak `p` over coded pixel (x, `yc` − 0.5), as the twin does.
+/// A run of pixels: at coordinate `u` along it, `along + u · da` and `across + u · dc`; from
+/// `first`, `count` pixels `stride` floats apart.
+struct Run {
+    along: f32,
+    across: f32,
+    da: f32,
+    dc: f32,
+    first: usize,
+    count: usize,
+    stride: usize,
+}
+
+/// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches: a pixel the
+/// disc misses blends with α = 0, which leaves it exactly as it was.
 #[inline]
-fn pixel(rain: &Rain, rot: &Rotation, p: &Prepared, x: usize, yc: f32, px: &mut [f32]) {
-    let at = rot.display(x as f32 + 0.5, yc);
-    let (dx, dy) = (at[0] - p.q0[0], at[1] - p.q0[1]);
-    let along = dx * p.dir[0] + dy * p.dir[1];
-    let across = -dx * p.dir[1] + dy * p.dir[0];
+fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32]) {
+    let (r2, len) = (p.r * p.r, p.len);
+    let [r0, r1] = p.radiance;
+    let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
+    let still = len < 1e-3;
+    for k in 0..run.count {
+        let uf = (run.first + k) as f32;
+        let along = run.along + uf * run.da;
+        let across = run.across + uf * run.dc;
+        let h = (r2 - across * across).max(0.0).sqrt();
+        let cover = if still {
+            if along.abs() < h { 1.0 } else { 0.0 }
+        } else {
+            ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) * p.inv_len
+        };
+        let a = (cover * p.alpha_scale).clamp(0.0, 1.0);
+        let t = (along + p.ext) * p.inv_quad;
+        let keep = 1.0 - a;
+        let px = &mut px[k * run.stride..][..4];
+        px[0] = (r0[0] + dr[0] * t) * a + px[0] * keep;
+        px[1] = (r0[1] + dr[1] * t) * a + px[1] * keep;
+        px[2] = (r0[2] + dr[2] * t) * a + px[2] * keep;
+        px[3] = a + px[3] * keep;
+    }
+}
+
+/// Blends streak `p` over coded pixel (x, y), as the twin does: behind the scene's depth,
+/// with the streak's matte.
+#[inline]
+fn pixel(
+    rain: &Rain,
+    rot: &Rotation,
+    p: &Prepared,
+    matte: Option<&Matte>,
+    xf: f32,
+    yf: f32,
+    px: &mut [f32],
+) {
+    let along = p.along[0] + xf * p.along[1] + yf * p.along[2];
+    let across = p.across[0] + xf * p.across[1] + yf * p.across[2];
     if along < -p.ext || along > p.len + p.ext || across.abs() > p.across_ext {
         return;
     }
     let shown = match rain.depth {
         None => 1.0,
-        Some(map) => visibility(rain.params, map, at, along, p),
+        Some(map) => visibility(rain.params, map, rot.display(xf + 0.5, yf + 0.5), along, p),
     };
     let a = (coverage(along, across, p.len, p.r) * p.alpha_scale).clamp(0.0, 1.0) * shown;
-    let t = (along + p.ext) / (p.len + 2.0 * p.ext);
+    let t = (along + p.ext) * p.inv_quad;
     let [r0, r1] = p.radiance;
     let rad = [0, 1, 2].map(|k| r0[k] * (1.0 - t) + r1[k] * t);
-    let light = match (&p.matte, rain.mattes) {
+    let light = match (matte, rain.mattes) {
         (Some(m), Some(atlas)) => {
             let footprint = p.len + 2.0 * p.r;
             let spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
