@@ -536,7 +536,7 @@ fn random_streaks(n: usize, w: f32, h: f32, seed: u64) -> (Vec<Streak>, Vec<Glin
         });
         let lit = (r.next() * 5.0) as usize;
         for g in 0..GLINTS_PER_DROP {
-            let (a, b) = (r.next() * 6.28, r.next() * 2.0 - 1.0);
+            let (a, b) = (r.next() * std::f32::consts::TAU, r.next() * 2.0 - 1.0);
             let s = (1.0 - b * b).sqrt();
             let c = if g < lit { r.next() } else { 0.0 };
             glints.push(Glint {
@@ -618,7 +618,10 @@ fn raster_pair(
     let depth = (draw == Draw::Occluded).then_some(&map);
     rain_streaks::rain_streaks_with(&mut canvas, &p, streaks, mattes, glints, depth);
     let count = host.draw_streaks(&p, streaks, mattes, glints);
-    assert!(count.streaks > 0 && count.tiles > 0, "{draw:?}: nothing drawn");
+    assert!(
+        count.streaks > 0 && count.tiles > 0,
+        "{draw:?}: nothing drawn"
+    );
     let ours: Vec<u16> = host.canvas().iter().map(|v| v.to_bits()).collect();
     let twin = canvas
         .iter()
@@ -721,7 +724,11 @@ fn nothing_drawn_leaves_the_canvas_untouched() {
             }
         }
         let mut host = HostColour::new(format, &color);
-        let plate: Vec<u16> = host.decode(&frame, &p).iter().map(|v| v.to_bits()).collect();
+        let plate: Vec<u16> = host
+            .decode(&frame, &p)
+            .iter()
+            .map(|v| v.to_bits())
+            .collect();
         let count = host.draw_streaks(&p, &streaks, Some(&atlas()), &glints);
         assert_eq!(count.streaks, 0, "{name}");
         assert_eq!(count.tiles, 0, "{name}");
@@ -784,7 +791,11 @@ fn compositor_rain_on_both_back_ends_agrees() {
             let mut comp =
                 Compositor::with_backend(ctx.clone(), format, &color, &dry, None, Backend::Cpu)
                     .expect("compositor");
-            codes(&comp.render_one(&frame, &params(&dry, Haze::Scene)).expect("render"))
+            codes(
+                &comp
+                    .render_one(&frame, &params(&dry, Haze::Scene))
+                    .expect("render"),
+            )
         };
         eprintln!(
             "{name}, mattes {mattes}: {drawn} streaks drawn; worst {worst} codes, {:.4} % over one",
@@ -792,6 +803,9 @@ fn compositor_rain_on_both_back_ends_agrees() {
         );
         assert!(drawn > 50, "mattes {mattes}: {drawn} streaks");
         assert_ne!(cpu, dry_cpu, "mattes {mattes}: no rain shows");
-        assert!(share <= 1e-3 && worst <= 2, "mattes {mattes}: {worst}, {share}");
+        assert!(
+            share <= 1e-3 && worst <= 2,
+            "mattes {mattes}: {worst}, {share}"
+        );
     }
 }

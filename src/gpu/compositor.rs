@@ -594,9 +594,10 @@ impl Compositor {
     /// stay on the GPU).
     fn drawn_on_host(&self) -> bool {
         self.host_rain.is_some()
-            && self.stages.iter().all(|s| {
-                !s.runs() || matches!(s.name(), "rain_simulate" | "rain_streaks")
-            })
+            && self
+                .stages
+                .iter()
+                .all(|s| !s.runs() || matches!(s.name(), "rain_simulate" | "rain_streaks"))
     }
 
     /// The frame rendered on the CPU back end with its streaks drawn on the CPU: the drops

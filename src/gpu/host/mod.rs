@@ -96,12 +96,7 @@ impl HostColour {
             glints,
             depth: self.depth.as_deref(),
         };
-        streaks::rasterise(
-            &mut self.canvas,
-            self.format.width as usize,
-            &rain,
-            streaks,
-        )
+        streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)
     }
 
     /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.

@@ -139,7 +139,8 @@ impl HostRain {
             let glints: std::borrow::Cow<[Glint]> = bytemuck::try_cast_slice(g)
                 .map_or_else(|_| bytemuck::pod_collect_to_vec(g).into(), Into::into);
             debug_assert!(glints.is_empty() || glints.len() == GLINTS_PER_DROP * streaks.len());
-            let word = |k: usize| u64::from_le_bytes(ticks[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
+            let word =
+                |k: usize| u64::from_le_bytes(ticks[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
             let span = pending.timed.then(|| word(1).saturating_sub(word(0)));
             (draw(&streaks, &glints), span)
         };

@@ -144,12 +144,7 @@ pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Strea
     let tiles_y = height.div_ceil(TILE_H);
     // Counting sort by tile, drop order kept within each tile.
     let mut start = vec![0u32; tiles_x * tiles_y + 1];
-    let tile_span = |p: &Prepared| {
-        (
-            p.x0 / TILE_W..=p.x1 / TILE_W,
-            p.y0 / TILE_H..=p.y1 / TILE_H,
-        )
-    };
+    let tile_span = |p: &Prepared| (p.x0 / TILE_W..=p.x1 / TILE_W, p.y0 / TILE_H..=p.y1 / TILE_H);
     for p in &prepared {
         let (xs, ys) = tile_span(p);
         for ty in ys {
@@ -231,7 +226,8 @@ fn prepare(
     width: usize,
     height: usize,
 ) -> Option<(Prepared, Option<Matte>)> {
-    if !(s.len_px >= 0.0) {
+    // Hidden (negative length; NaN as well).
+    if s.len_px.is_nan() || s.len_px < 0.0 {
         return None;
     }
     let (len, r) = (s.len_px, s.r_eff_px);
@@ -257,7 +253,9 @@ fn prepare(
             }
         }
     }
-    if !(hi[0] >= 0.0 && hi[1] >= 0.0 && lo[0] <= width as f32 && lo[1] <= height as f32) {
+    let on_picture =
+        hi[0] >= 0.0 && hi[1] >= 0.0 && lo[0] <= width as f32 && lo[1] <= height as f32;
+    if !on_picture {
         return None;
     }
     let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
@@ -339,7 +337,7 @@ fn inverse(slope: f32) -> f32 {
 /// The whole pixels in [lo, hi] (both ≥ 0 or the range empty), without libm's rounding.
 #[inline]
 fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
-    if !(lo <= hi) || hi < 0.0 {
+    if lo.is_nan() || hi.is_nan() || lo > hi || hi < 0.0 {
         return None;
     }
     let first = lo as usize + usize::from((lo as usize as f32) < lo);
