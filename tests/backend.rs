@@ -809,3 +809,30 @@ fn compositor_rain_on_both_back_ends_agrees() {
         );
     }
 }
+
+/// A depth map of holes (unknown everywhere) draws the streaks bit for bit as no map does.
+#[test]
+fn unknown_depth_draws_as_no_map() {
+    let (_, format, color) = formats().remove(0);
+    let format = FrameFormat {
+        width: RW,
+        height: RH,
+        ..format
+    };
+    let frame = picture(format, color);
+    let p = raster_params(format, Draw::Capsules);
+    let (streaks, _) = random_streaks(400, RW as f32, RH as f32, 5);
+    let draw = |holes: bool| {
+        let mut host = HostColour::new(format, &color);
+        if holes {
+            host.set_scene_depth(vec![0.0; (RW * RH) as usize]);
+        }
+        host.decode(&frame, &p);
+        host.draw_streaks(&p, &streaks, None, &[]);
+        host.canvas()
+            .iter()
+            .map(|v| v.to_bits())
+            .collect::<Vec<u16>>()
+    };
+    assert_eq!(draw(true), draw(false));
+}

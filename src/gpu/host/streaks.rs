@@ -364,7 +364,7 @@ fn draw(
     }
     // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
     // a matte's colour reaches the whole quad.
-    let simple = matte.is_none() && rain.depth.is_none();
+    let simple = matte.is_none();
     let (along_lo, along_hi, across_lim) = if matte.is_none() {
         (-p.r, p.len + p.r, p.r)
     } else {
@@ -412,7 +412,19 @@ fn draw(
             stride,
         };
         if simple {
-            capsule_run(p, &run, &mut tile[at..]);
+            match rain.depth {
+                None => capsule_run(p, &run, &mut tile[at..], |_, _| 1.0),
+                // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
+                Some(map) => capsule_run(p, &run, &mut tile[at..], |k, along| {
+                    let (x, y) = if columns {
+                        (v, first + k)
+                    } else {
+                        (first + k, v)
+                    };
+                    let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
+                    visibility(rain.params, map, at, along, p)
+                }),
+            }
         } else {
             for k in 0..run.count {
                 let u = first + k;
@@ -436,10 +448,11 @@ struct Run {
     stride: usize,
 }
 
-/// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches: a pixel the
-/// disc misses blends with α = 0, which leaves it exactly as it was.
+/// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
+/// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
+/// which leaves it exactly as it was.
 #[inline]
-fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32]) {
+fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f32) -> f32) {
     let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
     let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
@@ -454,7 +467,7 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32]) {
         } else {
             ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) * p.inv_len
         };
-        let a = (cover * p.alpha_scale).clamp(0.0, 1.0);
+        let a = (cover * p.alpha_scale).clamp(0.0, 1.0) * shown(k, along);
         let t = (along + p.ext) * p.inv_quad;
         let keep = 1.0 - a;
         let px = &mut px[k * run.stride..][..4];
