@@ -1,7 +1,7 @@
 //! The rain of a frame on the CPU back end: the drops are simulated on the adapter
-//! (`rain_simulate`, one invocation per drop, overlapping the plate's work on the CPU), their
-//! streaks (and glints) copied into a mapped buffer and read back while the CPU lays the plate, then
-//! rasterised on the CPU ([`super::streaks`]); the canvas never goes to the adapter.
+//! (`rain_simulate`, one invocation per drop) while the CPU lays the plate, their streaks (and
+//! glints) copied into a mapped buffer and read back, then rasterised on the CPU
+//! ([`super::streaks`]); the canvas never goes to the adapter.
 
 use std::sync::Arc;
 use std::sync::mpsc;
