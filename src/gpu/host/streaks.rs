@@ -1,13 +1,12 @@
 //! The streaks rasterised on the CPU (the `rain_streaks` stage's work, for the CPU back end):
-//! each drawn streak is binned to the 64 × 32 px tiles its quad's box reaches, in drop order;
-//! rayon's threads take bands of tiles, and each tile with streaks goes to f32 once, blends its
-//! streaks in drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend state) row by
-//! row over the span of each row the quad covers, and goes back to f16. Tiles no streak reaches
-//! are not read or written, and a pixel no streak covers keeps its bits (f16 → f32 → f16 is
-//! exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the reference
-//! (`tests/backend.rs`); every pixel is computed from its own coordinates, so the result does
-//! not depend on the tiles or the threads.
-
+//! each drawn streak is copied into the list of every 64 × 32 px tile its quad's box reaches, in
+//! drop order; rayon's threads take bands of tiles, and each tile with streaks goes to f32 once,
+//! blends its streaks in drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend
+//! state) in runs along each streak's steeper axis over the pixels it can cover, and goes back
+//! to f16. Tiles no streak reaches are not read or written, and a pixel no streak covers keeps
+//! its bits (f16 → f32 → f16 is exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the
+//! reference (`tests/backend.rs`); every pixel is computed from its own coordinates and its
+//! streak's run direction, so the result does not depend on the tiles or the threads.
 use half::f16;
 use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
