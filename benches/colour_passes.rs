@@ -1,15 +1,20 @@
 //! The CPU back end's colour passes at 720p (`gpu::host`): planes → hazed f16 canvas, with and
 //! without the haze, and canvas → code values; the plain `f64` twins on the same frame for
-//! scale. `cargo bench --bench colour_passes`.
+//! scale. Then the streaks of the default rain (10 mm/h) drawn over a 1080p canvas in tiles,
+//! beside the twin of `rain_simulate`'s geometry for the same drops (what simulating them on
+//! the CPU would cost at the least). `cargo bench --bench colour_passes`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::HostColour;
+use rain_composite::gpu::types::{RainParams, Streak};
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
 
@@ -81,5 +86,109 @@ fn colour_passes(c: &mut Criterion) {
     slow.finish();
 }
 
-criterion_group!(benches, colour_passes);
+/// The drops of the default rain over a 1080p picture at 1.5 s, as `rain_simulate` draws them
+/// (geometry from the twin; a grey radiance), with the uniforms.
+fn rain_1080p() -> (RainParams, Vec<Streak>) {
+    let (w, h) = (1920, 1080);
+    let camera = Camera::new(w, h, 60f64.to_radians(), 1.6, 0.0, 0.0);
+    let setup = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        1.0 / 50.0,
+        0,
+        (w, h),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let p = setup.motion_at(1.5);
+    let hidden = Streak {
+        len_px: -1.0,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let streaks = (0..setup.drop_count() as u64)
+        .map(|id| {
+            let Some(d) = sample_drop(setup.rainfall(), id, 1.5) else {
+                return hidden;
+            };
+            let Some(s) = streak_of(&p, d.position_m, d.velocity_mps, d.width_mm) else {
+                return hidden;
+            };
+            let z = s.ends_camera_m.map(|c| c.z as f32);
+            Streak {
+                q0_px: s.q0_px.as_vec2().to_array(),
+                dir: s.dir.as_vec2().to_array(),
+                len_px: s.len_px as f32,
+                r_eff_px: s.r_eff_px as f32,
+                alpha_scale: s.alpha_scale as f32,
+                drop_info: 0,
+                radiance0: [0.5, 0.5, 0.55, z[0]],
+                radiance1: [0.5, 0.5, 0.55, z[1]],
+            }
+        })
+        .collect();
+    (p, streaks)
+}
+
+fn streak_raster(c: &mut Criterion) {
+    let (p, streaks) = rain_1080p();
+    let format = FrameFormat {
+        width: 1920,
+        height: 1080,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
+    let mut host = HostColour::new(format, &frame.color);
+    let mut clear = p;
+    clear.haze = [0.0, 0.0, 0.0, 1.0];
+    let drawn = streaks.iter().filter(|s| s.len_px >= 0.0).count();
+    let area: f64 = streaks
+        .iter()
+        .filter(|s| s.len_px >= 0.0)
+        .map(|s| {
+            let ext = (s.r_eff_px + 0.5) as f64;
+            (s.len_px as f64 + 2.0 * ext) * 2.0 * ext
+        })
+        .sum();
+    let big = streaks.iter().filter(|s| s.r_eff_px > 5.0).count();
+    eprintln!(
+        "{drawn} of {} drops drawn; their quads cover {:.2} Mpx; {big} wider than 5 px",
+        streaks.len(),
+        area / 1e6
+    );
+    c.bench_function("host streaks 1080p, 10 mm/h (plate + raster)", |b| {
+        b.iter(|| {
+            host.decode(&frame, &clear);
+            black_box(host.draw_streaks(&clear, &streaks, None, &[]))
+        })
+    });
+    c.bench_function("host yuv→rgb 1080p, no haze (the plate alone)", |b| {
+        b.iter(|| black_box(host.decode(&frame, &clear).len()))
+    });
+    let camera = Camera::new(1920, 1080, 60f64.to_radians(), 1.6, 0.0, 0.0);
+    let setup = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        1.0 / 50.0,
+        0,
+        (1920, 1080),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let mut slow = c.benchmark_group("twins");
+    slow.sample_size(10);
+    slow.bench_function("twin drop states and streak geometry 1080p, 10 mm/h", |b| {
+        b.iter(|| {
+            (0..setup.drop_count() as u64)
+                .filter_map(|id| sample_drop(setup.rainfall(), id, 1.5))
+                .filter_map(|d| streak_of(&p, d.position_m, d.velocity_mps, d.width_mm))
+                .count()
+        })
+    });
+    slow.finish();
+}
+
+criterion_group!(benches, colour_passes, streak_raster);
 criterion_main!(benches);

@@ -16,9 +16,12 @@
 //! drains the ring at the end.
 //!
 //! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) the
-//! first and last stages run on the CPU ([`super::host`]): the hazed canvas goes up once
-//! (`write_texture`) for the stages between, and comes back once (copied into the ring's
-//! buffer), to be packed into code values when it is read back.
+//! first and last stages run on the CPU ([`super::host`]). Where the frame's only stages between
+//! are the drops' (no wet ground, puddles or splashes), the streaks are read back after
+//! `rain_simulate` and drawn on the CPU too: the canvas never leaves the CPU and the frame is
+//! done when `submit` returns. Otherwise the hazed canvas goes up once (`write_texture`) for
+//! the stages between, and comes back once (copied into the ring's buffer), to be packed into
+//! code values when it is read back.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -29,6 +32,7 @@ use wgpu::util::DeviceExt;
 use super::GpuContext;
 use super::context::Backend;
 use super::host::HostColour;
+use super::host::rain::HostRain;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, puddles::Puddles, rain_simulate::RainSimulate,
@@ -63,6 +67,8 @@ pub struct GpuStageTimes {
     pub wet_ground_s: f64,
     /// The puddles (zero without water).
     pub puddles_s: f64,
+    /// Streaks drawn, summed over the frames (counted where the CPU draws them).
+    pub streaks_drawn: u64,
 }
 
 impl GpuStageTimes {
@@ -120,6 +126,10 @@ pub struct Compositor {
     gpu_times: GpuStageTimes,
     /// The colour passes on the CPU (the CPU back end), with the canvas they write and read.
     host: Option<(HostColour, wgpu::Texture)>,
+    /// The streaks' readback where the CPU draws them (the CPU back end).
+    host_rain: Option<HostRain>,
+    /// Frames done, oldest first, older than any in flight.
+    ready: VecDeque<Rendered>,
 }
 
 /// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
@@ -248,7 +258,7 @@ impl Compositor {
             streaks: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("rain_streaks"),
                 size: std::mem::size_of::<Streak>() as u64 * rain.params.drop_count.max(1) as u64,
-                usage: wgpu::BufferUsages::STORAGE,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
             glints: rain
@@ -261,7 +271,7 @@ impl Compositor {
                         size: std::mem::size_of::<super::types::Glint>() as u64
                             * super::types::GLINTS_PER_DROP as u64
                             * rain.params.drop_count.max(1) as u64,
-                        usage: wgpu::BufferUsages::STORAGE,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                         mapped_at_creation: false,
                     })
                 }),
@@ -278,6 +288,14 @@ impl Compositor {
             .as_ref()
             .filter(|_| layer != Some(Layer::Matte));
         let stages = frame_stages(device, &resources, rain, layer, wetting, on_cpu);
+        let host_rain = on_cpu.then(|| {
+            HostRain::new(
+                device,
+                &resources.streaks,
+                resources.glints.as_ref(),
+                rain.mattes.clone(),
+            )
+        });
         let timed = stages.len() as u64;
         let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
@@ -304,6 +322,8 @@ impl Compositor {
             out_bytes,
             gpu_times: GpuStageTimes::default(),
             host: on_cpu.then(|| (HostColour::new(format, color), canvas)),
+            host_rain,
+            ready: VecDeque::with_capacity(RING),
         })
     }
 
@@ -442,14 +462,8 @@ impl Compositor {
                 self.format, frame.format
             )));
         }
-        let done = if self.in_flight.len() == RING {
-            Some(self.receive()?)
-        } else {
-            None
-        };
-        let queue = &self.ctx.queue;
         for (i, plane) in frame.planes.iter().enumerate() {
-            let (w, h) = self.format.plane_size(i);
+            let (_, h) = self.format.plane_size(i);
             let needed = plane.stride * (h as usize - 1) + self.format.packed_stride(i);
             if plane.data.len() < needed || plane.stride < self.format.packed_stride(i) {
                 return Err(Error::CorruptInput(format!(
@@ -457,6 +471,24 @@ impl Compositor {
                     frame.index
                 )));
             }
+        }
+        if self.drawn_on_host() {
+            while !self.in_flight.is_empty() {
+                let f = self.receive()?;
+                self.ready.push_back(f);
+            }
+            let f = self.render_on_host(frame, rain)?;
+            self.ready.push_back(f);
+            return Ok(self.ready.pop_front());
+        }
+        if self.in_flight.len() == RING {
+            let f = self.receive()?;
+            self.ready.push_back(f);
+        }
+        let done = self.ready.pop_front();
+        let queue = &self.ctx.queue;
+        for (i, plane) in frame.planes.iter().enumerate() {
+            let (w, h) = self.format.plane_size(i);
             queue.write_texture(
                 self.planes[i].as_image_copy(),
                 &plane.data,
@@ -557,6 +589,66 @@ impl Compositor {
         Ok(done)
     }
 
+    /// Whether this frame's rain is drawn on the CPU: the CPU back end, and no stage runs
+    /// between the colour passes but the drops' (the wet ground, the puddles and the splashes
+    /// stay on the GPU).
+    fn drawn_on_host(&self) -> bool {
+        self.host_rain.is_some()
+            && self
+                .stages
+                .iter()
+                .all(|s| !s.runs() || matches!(s.name(), "rain_simulate" | "rain_streaks"))
+    }
+
+    /// The frame rendered on the CPU back end with its streaks drawn on the CPU: the drops
+    /// simulated on the adapter while the CPU lays the plate, their streaks read back and drawn,
+    /// the canvas packed.
+    fn render_on_host(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Rendered> {
+        let (Some((host, _)), Some(readback)) = (&mut self.host, &self.host_rain) else {
+            return Err(Error::Gpu("no CPU back end".into()));
+        };
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let pending = self
+            .stages
+            .iter()
+            .enumerate()
+            .find(|(_, s)| s.runs() && s.name() == "rain_simulate")
+            .map(|(slot, stage)| {
+                let timestamps = self.timestamps.as_ref().map(|(set, resolve)| {
+                    let slot = slot as u32;
+                    (TimestampSlot { set, slot }, resolve)
+                });
+                queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
+                readback.submit(device, queue, stage.as_ref(), rain, timestamps)
+            });
+        let started = std::time::Instant::now();
+        host.decode(frame, rain);
+        self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64();
+        if let Some(pending) = pending {
+            let (count, ticks) = readback.receive(device, pending, |streaks, glints| {
+                let started = std::time::Instant::now();
+                let count = host.draw_streaks(rain, streaks, readback.mattes(), glints);
+                (count, started.elapsed().as_secs_f64())
+            })?;
+            self.gpu_times.rain_streaks_s += count.1;
+            self.gpu_times.streaks_drawn += count.0.streaks as u64;
+            if let Some(ticks) = ticks {
+                self.gpu_times.rain_simulate_s +=
+                    ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9;
+            }
+        }
+        let started = std::time::Instant::now();
+        let planes = host.encode_canvas();
+        self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
+        Ok(Rendered::Picture(YuvFrame {
+            format: frame.format,
+            color: frame.color,
+            planes,
+            pts: frame.pts,
+            index: frame.index,
+        }))
+    }
+
     /// Waits for the oldest frame in flight and reads it back.
     fn receive(&mut self) -> Result<Rendered> {
         let Some(f) = self.in_flight.pop_front() else {
@@ -648,11 +740,11 @@ impl Compositor {
 
     /// As [`Compositor::flush`], for any output.
     pub fn flush_rendered(&mut self) -> Result<Vec<Rendered>> {
-        let mut out = Vec::with_capacity(self.in_flight.len());
         while !self.in_flight.is_empty() {
-            out.push(self.receive()?);
+            let f = self.receive()?;
+            self.ready.push_back(f);
         }
-        Ok(out)
+        Ok(self.ready.drain(..).collect())
     }
 
     /// Renders one frame and waits for it (preview).

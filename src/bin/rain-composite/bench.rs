@@ -141,8 +141,12 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
                 1000.0 * a / frames.max(1) as f64,
             );
             eprintln!(
-                "{h}p on {adapter}; of GPU rain, splashes {:.1} ms/frame",
-                per_frame(|s| s.gpu.rain_splashes_s)
+                "{h}p on {adapter}; of GPU rain, splashes {:.1} ms/frame, rain_simulate {:.1}, \
+                 rain_streaks {:.1}; streaks drawn {:.0} per frame of {drops} drops simulated",
+                per_frame(|s| s.gpu.rain_splashes_s),
+                per_frame(|s| s.gpu.rain_simulate_s),
+                per_frame(|s| s.gpu.rain_streaks_s),
+                per_frame(|s| s.gpu.streaks_drawn as f64) / 1000.0,
             );
         }
         Ok(())

@@ -1,17 +1,21 @@
 //! The CPU back end of the per-pixel colour passes ([`super::Backend::Cpu`]): the planes → the
-//! hazed linear canvas in f16 ([`plate`], veiled by [`veil`]) and the canvas → packed code
-//! values ([`encode`]), in bands of rows spread over rayon's threads. On a CPU adapter the GPU's
+//! hazed linear canvas in f16 ([`plate`], veiled by [`veil`]), the streaks drawn over it
+//! ([`streaks`], in tiles) and the canvas → packed code values ([`encode`]), in bands of rows
+//! or tiles spread over rayon's threads. On a CPU adapter the GPU's
 //! shaders run as JIT code on the same cores at about 100 ns a pixel; these loops do the same
 //! work in a few. The plain `f64` twins of [`super::cpu`] are their references
 //! (`tests/backend.rs`).
 
 pub mod encode;
 pub mod plate;
+pub mod rain;
+pub mod streaks;
 pub mod veil;
 
 use half::f16;
 
-use crate::gpu::types::{LightList, RainParams};
+use crate::drops::MatteAtlas;
+use crate::gpu::types::{Glint, LightList, RainParams, Streak};
 use crate::lighting::RtfTable;
 use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
 
@@ -75,6 +79,35 @@ impl HostColour {
         let veil = veil::Veil::new(p, lit, self.depth.as_deref(), self.sky.as_deref(), size);
         self.decoder.decode(frame, veil.as_ref(), &mut self.canvas);
         &self.canvas
+    }
+
+    /// Draws `streaks` (with their `glints`, streak `mattes` where given, behind the scene's
+    /// depth where set) over the canvas [`decode`](Self::decode) wrote last.
+    pub fn draw_streaks(
+        &mut self,
+        p: &RainParams,
+        streaks: &[Streak],
+        mattes: Option<&MatteAtlas>,
+        glints: &[Glint],
+    ) -> streaks::RasterCount {
+        let rain = streaks::Rain {
+            params: p,
+            mattes,
+            glints,
+            depth: self.depth.as_deref(),
+        };
+        streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)
+    }
+
+    /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.
+    pub fn canvas(&self) -> &[f16] {
+        &self.canvas
+    }
+
+    /// The code planes of the canvas as it stands (see [`encode`](Self::encode)).
+    pub fn encode_canvas(&self) -> [Plane; 3] {
+        let texels: &[u16] = bytemuck::cast_slice(&self.canvas);
+        self.encoder.encode(texels, self.format.width as usize)
     }
 
     /// The code planes of the canvas `canvas` (RGBA f16 bits, rows `stride_texels` apart), laid

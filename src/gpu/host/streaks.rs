@@ -1,0 +1,597 @@
+//! The streaks rasterised on the CPU (the `rain_streaks` stage's work, for the CPU back end):
+//! each drawn streak is copied into the list of every 64 × 32 px tile its quad's box reaches, in
+//! drop order; rayon's threads take bands of tiles, and each tile with streaks goes to f32 once,
+//! blends its streaks in drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend
+//! state) in runs along each streak's steeper axis over the pixels it can cover, and goes back
+//! to f16. Tiles no streak reaches are not read or written, and a pixel no streak covers keeps
+//! its bits (f16 → f32 → f16 is exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the
+//! reference (`tests/backend.rs`); every pixel is computed from its own coordinates and its
+//! streak's run direction, so the result does not depend on the tiles or the threads.
+use half::f16;
+use half::slice::HalfFloatSliceExt;
+use rayon::prelude::*;
+
+use crate::drops::MatteAtlas;
+use crate::drops::atlas::{ATLAS_HEIGHT, ATLAS_WIDTH, HALF_WIDTH_RADII};
+use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M, matte_layers};
+use crate::gpu::types::{GLINTS_PER_DROP, Glint, RainParams, Streak};
+
+/// A tile's width and height, px: a tile's f32 pixels (32 KiB) stay in the first-level cache
+/// while its streaks blend.
+pub const TILE_W: usize = 64;
+/// See [`TILE_W`].
+pub const TILE_H: usize = 32;
+
+/// What a streak's matte colour reads: its environment layer and its glints (layer, mirror
+/// image, colour), strongest first.
+struct Matte {
+    layer: usize,
+    glints: Vec<(usize, bool, [f32; 3])>,
+}
+
+/// One drawn streak in the raster's terms (f32); copied into each tile's list, so a tile reads
+/// its streaks from contiguous memory.
+#[derive(Clone, Copy, Default)]
+struct Prepared {
+    /// Along and across the streak (px from q0) at coded pixel (x, y)'s centre:
+    /// `f[0] + x f[1] + y f[2]` (formed in f64).
+    along: [f32; 3],
+    across: [f32; 3],
+    len: f32,
+    /// 1 / len, and 1 / (len + 2 ext) (the radiance's interpolation along the quad).
+    inv_len: f32,
+    inv_quad: f32,
+    r: f32,
+    /// The quad's half-extent along (beyond each end) and across.
+    ext: f32,
+    across_ext: f32,
+    alpha_scale: f32,
+    radiance: [[f32; 3]; 2],
+    /// The drop's depth at the path's ends (camera z, m).
+    depth_m: [f32; 2],
+    /// Coded pixels the quad's box reaches (inclusive), clamped to the picture.
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+    /// Its index in the raster's [`Matte`]s ([`NO_MATTE`]: a capsule).
+    matte: u32,
+}
+
+/// [`Prepared::matte`] of a capsule.
+const NO_MATTE: u32 = u32::MAX;
+
+/// The display rotation: display = mᵀ (coded − offset) for pixel centres.
+#[derive(Clone, Copy)]
+struct Rotation {
+    m: [f32; 4],
+    offset: [f32; 2],
+}
+
+impl Rotation {
+    fn new(p: &RainParams) -> Rotation {
+        Rotation {
+            m: p.coded_from_display,
+            offset: p.coded_offset_px,
+        }
+    }
+
+    /// Display coordinates of coded point (x, y).
+    #[inline]
+    fn display(&self, x: f32, y: f32) -> [f32; 2] {
+        let (dx, dy) = (x - self.offset[0], y - self.offset[1]);
+        [
+            self.m[0] * dx + self.m[1] * dy,
+            self.m[2] * dx + self.m[3] * dy,
+        ]
+    }
+
+    /// Coded coordinates of display point (x, y).
+    fn coded(&self, x: f32, y: f32) -> [f32; 2] {
+        [
+            self.m[0] * x + self.m[2] * y + self.offset[0],
+            self.m[1] * x + self.m[3] * y + self.offset[1],
+        ]
+    }
+}
+
+/// Streaks drawn and tiles touched by one raster.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RasterCount {
+    /// Streaks with a quad on the picture.
+    pub streaks: usize,
+    /// Tiles at least one quad's box reaches.
+    pub tiles: usize,
+}
+
+/// The rain's inputs besides the streaks: the uniforms, the mattes and glints where streaks
+/// are drawn with mattes, and the scene's depth per displayed pixel (metres, 0 unknown).
+pub struct Rain<'a> {
+    /// The frame's uniforms.
+    pub params: &'a RainParams,
+    /// The streak mattes (`None`: capsules).
+    pub mattes: Option<&'a MatteAtlas>,
+    /// [`GLINTS_PER_DROP`] per drop, as `rain_simulate`'s `main_mattes` writes them (may be
+    /// empty: no glints).
+    pub glints: &'a [Glint],
+    /// The scene's depth per displayed pixel, row-major, metres (0: unknown).
+    pub depth: Option<&'a [f32]>,
+}
+
+/// Blends `streaks` (one per drop, `len_px < 0`: not drawn) over `canvas` (RGBA f16, row-major,
+/// the coded picture of `rain.params.coded_size_px`, `width` texels a row).
+pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
+    let height = canvas.len() / (4 * width.max(1));
+    let rot = Rotation::new(rain.params);
+    let items: Vec<(Prepared, Option<Matte>)> = streaks
+        .par_iter()
+        .enumerate()
+        .filter_map(|(id, s)| prepare(rain, &rot, id, s, width, height))
+        .collect();
+    let mut mattes = Vec::new();
+    let prepared: Vec<Prepared> = items
+        .into_iter()
+        .map(|(mut p, matte)| {
+            if let Some(m) = matte {
+                p.matte = mattes.len() as u32;
+                mattes.push(m);
+            }
+            p
+        })
+        .collect();
+    let tiles_x = width.div_ceil(TILE_W);
+    let tiles_y = height.div_ceil(TILE_H);
+    // Counting sort by tile, drop order kept within each tile.
+    let mut start = vec![0u32; tiles_x * tiles_y + 1];
+    let tile_span = |p: &Prepared| (p.x0 / TILE_W..=p.x1 / TILE_W, p.y0 / TILE_H..=p.y1 / TILE_H);
+    for p in &prepared {
+        let (xs, ys) = tile_span(p);
+        for ty in ys {
+            for tx in xs.clone() {
+                start[ty * tiles_x + tx + 1] += 1;
+            }
+        }
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut fill = start.clone();
+    let mut binned = vec![Prepared::default(); start[start.len() - 1] as usize];
+    for p in &prepared {
+        let (xs, ys) = tile_span(p);
+        for ty in ys {
+            for tx in xs.clone() {
+                let at = &mut fill[ty * tiles_x + tx];
+                binned[*at as usize] = *p;
+                *at += 1;
+            }
+        }
+    }
+    let count = RasterCount {
+        streaks: prepared.len(),
+        tiles: start.windows(2).filter(|w| w[1] > w[0]).count(),
+    };
+    canvas
+        .par_chunks_mut(4 * width * TILE_H)
+        .enumerate()
+        .for_each(|(ty, band)| {
+            let rows = band.len() / (4 * width);
+            let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
+            for tx in 0..tiles_x {
+                let k = ty * tiles_x + tx;
+                let list = &binned[start[k] as usize..start[k + 1] as usize];
+                if list.is_empty() {
+                    continue;
+                }
+                let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
+                for r in 0..rows {
+                    band[4 * (r * width + x0)..][..4 * cols]
+                        .convert_to_f32_slice(&mut tile[4 * r * TILE_W..][..4 * cols]);
+                }
+                let area = Area {
+                    x0,
+                    x1: x0 + cols - 1,
+                    y0: ty * TILE_H,
+                    y1: ty * TILE_H + rows - 1,
+                };
+                for p in list {
+                    let matte = mattes.get(p.matte as usize);
+                    draw(rain, &rot, p, matte, &area, &mut tile);
+                }
+                for r in 0..rows {
+                    band[4 * (r * width + x0)..][..4 * cols]
+                        .convert_from_f32_slice(&tile[4 * r * TILE_W..][..4 * cols]);
+                }
+            }
+        });
+    count
+}
+
+/// A tile's coded pixels (inclusive).
+struct Area {
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+}
+
+/// Streak `id` in the raster's terms, or `None` where it is not drawn or its quad misses the
+/// picture.
+fn prepare(
+    rain: &Rain,
+    rot: &Rotation,
+    id: usize,
+    s: &Streak,
+    width: usize,
+    height: usize,
+) -> Option<(Prepared, Option<Matte>)> {
+    // Hidden (negative length; NaN as well).
+    if s.len_px.is_nan() || s.len_px < 0.0 {
+        return None;
+    }
+    let (len, r) = (s.len_px, s.r_eff_px);
+    let ext = r + AA_MARGIN_PX as f32;
+    let across_ext = match rain.mattes {
+        None => ext,
+        Some(_) => ext.max(HALF_WIDTH_RADII as f32 * r),
+    };
+    // The quad's corners, display → coded; its box, a pixel wider for rounding.
+    let (q0, d) = (s.q0_px, s.dir);
+    let n = [-d[1], d[0]];
+    let mut lo = [f32::INFINITY; 2];
+    let mut hi = [f32::NEG_INFINITY; 2];
+    for along in [-ext, len + ext] {
+        for across in [-across_ext, across_ext] {
+            let c = rot.coded(
+                q0[0] + d[0] * along + n[0] * across,
+                q0[1] + d[1] * along + n[1] * across,
+            );
+            for k in 0..2 {
+                lo[k] = lo[k].min(c[k]);
+                hi[k] = hi[k].max(c[k]);
+            }
+        }
+    }
+    let on_picture =
+        hi[0] >= 0.0 && hi[1] >= 0.0 && lo[0] <= width as f32 && lo[1] <= height as f32;
+    if !on_picture {
+        return None;
+    }
+    let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+    // display = M (coded − offset): along = dir · (display − q0), across = n · (display − q0).
+    let m = rot.m.map(f64::from);
+    let (off, q) = (rot.offset.map(f64::from), q0.map(f64::from));
+    let form = |u: [f64; 2]| {
+        let at0 = [
+            m[0] * (0.5 - off[0]) + m[1] * (0.5 - off[1]) - q[0],
+            m[2] * (0.5 - off[0]) + m[3] * (0.5 - off[1]) - q[1],
+        ];
+        [
+            (u[0] * at0[0] + u[1] * at0[1]) as f32,
+            (u[0] * m[0] + u[1] * m[2]) as f32,
+            (u[0] * m[1] + u[1] * m[3]) as f32,
+        ]
+    };
+    let (dir64, n64) = (d.map(f64::from), n.map(f64::from));
+    let matte = rain.mattes.map(|atlas| {
+        let own = rain
+            .glints
+            .get(GLINTS_PER_DROP * id..)
+            .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
+        let (layer, glints) = matte_layers(atlas, rain.params.seed, id as u32, s.drop_info, own);
+        Matte {
+            layer,
+            glints: glints
+                .into_iter()
+                .zip(own)
+                .map(|((l, mirror), g)| (l, mirror, [g.colour[0], g.colour[1], g.colour[2]]))
+                .collect(),
+        }
+    });
+    let prepared = Prepared {
+        along: form(dir64),
+        across: form(n64),
+        len,
+        inv_len: if len >= 1e-3 { 1.0 / len } else { 0.0 },
+        inv_quad: 1.0 / (len + 2.0 * ext),
+        r,
+        ext,
+        across_ext,
+        alpha_scale: s.alpha_scale,
+        radiance: [
+            [s.radiance0[0], s.radiance0[1], s.radiance0[2]],
+            [s.radiance1[0], s.radiance1[1], s.radiance1[2]],
+        ],
+        depth_m: [s.radiance0[3], s.radiance1[3]],
+        x0: clamp((lo[0] - 1.0).floor(), width),
+        x1: clamp((hi[0] + 1.0).ceil(), width),
+        y0: clamp((lo[1] - 1.0).floor(), height),
+        y1: clamp((hi[1] + 1.0).ceil(), height),
+        matte: NO_MATTE,
+    };
+    Some((prepared, matte))
+}
+
+/// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
+/// slope, 0 where the slope vanishes), as a range of reals (possibly empty).
+#[inline]
+fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
+    if inv == 0.0 {
+        let inside = v0 >= lo - 1e-3 && v0 <= hi + 1e-3 && slope.abs() < 1e-6;
+        return if inside {
+            (f32::NEG_INFINITY, f32::INFINITY)
+        } else {
+            (f32::INFINITY, f32::NEG_INFINITY)
+        };
+    }
+    let (a, b) = ((lo - v0) * inv, (hi - v0) * inv);
+    (a.min(b), a.max(b))
+}
+
+/// 1 / `slope`, or 0 where it is too small to bound a row.
+fn inverse(slope: f32) -> f32 {
+    if slope.abs() < 1e-6 { 0.0 } else { 1.0 / slope }
+}
+
+/// The whole pixels in [lo, hi] (both ≥ 0 or the range empty), without libm's rounding.
+#[inline]
+fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
+    if lo.is_nan() || hi.is_nan() || lo > hi || hi < 0.0 {
+        return None;
+    }
+    let first = lo as usize + usize::from((lo as usize as f32) < lo);
+    let last = hi as usize;
+    (first <= last).then_some((first, last))
+}
+
+/// Blends streak `p` (with its `matte`) over the part of `tile` (f32 RGBA, [`TILE_W`] texels a
+/// row) in `area`: in runs along the coded picture's rows or, for a streak steeper than 45°
+/// there, along its columns, so that the runs are long. The direction is the streak's alone,
+/// so each pixel's value does not depend on the tile.
+fn draw(
+    rain: &Rain,
+    rot: &Rotation,
+    p: &Prepared,
+    matte: Option<&Matte>,
+    area: &Area,
+    tile: &mut [f32],
+) {
+    let (ya, yb) = (p.y0.max(area.y0), p.y1.min(area.y1));
+    let (xa, xb) = (p.x0.max(area.x0), p.x1.min(area.x1));
+    if ya > yb || xa > xb {
+        return;
+    }
+    // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
+    // a matte's colour reaches the whole quad.
+    let simple = matte.is_none();
+    let (along_lo, along_hi, across_lim) = if matte.is_none() {
+        (-p.r, p.len + p.r, p.r)
+    } else {
+        (-p.ext, p.len + p.ext, p.across_ext)
+    };
+    // Runs along coordinate `u` (x or y) at each `v`: `along = along_v + u · da`.
+    let columns = p.along[2].abs() > p.along[1].abs();
+    let (da, dc, va, vc) = if columns {
+        (p.along[2], p.across[2], p.along[1], p.across[1])
+    } else {
+        (p.along[1], p.across[1], p.along[2], p.across[2])
+    };
+    let (inv_a, inv_c) = (inverse(da), inverse(dc));
+    let ((v0, v1), (u0, u1)) = if columns {
+        ((xa, xb), (ya, yb))
+    } else {
+        ((ya, yb), (xa, xb))
+    };
+    // Rounding between the bounds and the pixels' own values: the pixel decides.
+    const PAD: f32 = 0.01;
+    for v in v0..=v1 {
+        let vf = v as f32;
+        let along_v = p.along[0] + vf * va;
+        let across_v = p.across[0] + vf * vc;
+        let (a0, a1) = span(along_v, da, inv_a, along_lo, along_hi);
+        let (c0, c1) = span(across_v, dc, inv_c, -across_lim, across_lim);
+        let lo = (a0.max(c0) - PAD).max(u0 as f32);
+        let hi = (a1.min(c1) + PAD).min(u1 as f32);
+        let Some((first, last)) = whole(lo, hi) else {
+            continue;
+        };
+        let (x, y, stride) = if columns {
+            (v, first, 4 * TILE_W)
+        } else {
+            (first, v, 4)
+        };
+        let at = 4 * ((y - area.y0) * TILE_W + x - area.x0);
+        let run = Run {
+            along: along_v,
+            across: across_v,
+            da,
+            dc,
+            first,
+            count: last - first + 1,
+            stride,
+        };
+        if simple {
+            match rain.depth {
+                None => capsule_run(p, &run, &mut tile[at..], |_, _| 1.0),
+                // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
+                Some(map) => capsule_run(p, &run, &mut tile[at..], |k, along| {
+                    let (x, y) = if columns {
+                        (v, first + k)
+                    } else {
+                        (first + k, v)
+                    };
+                    let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
+                    visibility(rain.params, map, at, along, p)
+                }),
+            }
+        } else {
+            for k in 0..run.count {
+                let u = first + k;
+                let (x, y) = if columns { (v, u) } else { (u, v) };
+                let px = &mut tile[at + k * stride..][..4];
+                pixel(rain, rot, p, matte, x as f32, y as f32, px);
+            }
+        }
+    }
+}
+
+/// A run of pixels: at coordinate `u` along it, `along + u · da` and `across + u · dc`; from
+/// `first`, `count` pixels `stride` floats apart.
+struct Run {
+    along: f32,
+    across: f32,
+    da: f32,
+    dc: f32,
+    first: usize,
+    count: usize,
+    stride: usize,
+}
+
+/// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
+/// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
+/// which leaves it exactly as it was.
+#[inline]
+fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f32) -> f32) {
+    let (r2, len) = (p.r * p.r, p.len);
+    let [r0, r1] = p.radiance;
+    let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
+    let still = len < 1e-3;
+    for k in 0..run.count {
+        let uf = (run.first + k) as f32;
+        let along = run.along + uf * run.da;
+        let across = run.across + uf * run.dc;
+        let h = (r2 - across * across).max(0.0).sqrt();
+        let cover = if still {
+            if along.abs() < h { 1.0 } else { 0.0 }
+        } else {
+            ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) * p.inv_len
+        };
+        let a = (cover * p.alpha_scale).clamp(0.0, 1.0) * shown(k, along);
+        let t = (along + p.ext) * p.inv_quad;
+        let keep = 1.0 - a;
+        let px = &mut px[k * run.stride..][..4];
+        px[0] = (r0[0] + dr[0] * t) * a + px[0] * keep;
+        px[1] = (r0[1] + dr[1] * t) * a + px[1] * keep;
+        px[2] = (r0[2] + dr[2] * t) * a + px[2] * keep;
+        px[3] = a + px[3] * keep;
+    }
+}
+
+/// Blends streak `p` over coded pixel (x, y), as the twin does: behind the scene's depth,
+/// with the streak's matte.
+#[inline]
+fn pixel(
+    rain: &Rain,
+    rot: &Rotation,
+    p: &Prepared,
+    matte: Option<&Matte>,
+    xf: f32,
+    yf: f32,
+    px: &mut [f32],
+) {
+    let along = p.along[0] + xf * p.along[1] + yf * p.along[2];
+    let across = p.across[0] + xf * p.across[1] + yf * p.across[2];
+    if along < -p.ext || along > p.len + p.ext || across.abs() > p.across_ext {
+        return;
+    }
+    let shown = match rain.depth {
+        None => 1.0,
+        Some(map) => visibility(rain.params, map, rot.display(xf + 0.5, yf + 0.5), along, p),
+    };
+    let a = (coverage(along, across, p.len, p.r) * p.alpha_scale).clamp(0.0, 1.0) * shown;
+    let t = (along + p.ext) * p.inv_quad;
+    let [r0, r1] = p.radiance;
+    let rad = [0, 1, 2].map(|k| r0[k] * (1.0 - t) + r1[k] * t);
+    let light = match (matte, rain.mattes) {
+        (Some(m), Some(atlas)) => {
+            let footprint = p.len + 2.0 * p.r;
+            let spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
+            let (u, w) = ((along + p.r) / footprint, -across / p.r);
+            let n = sample(atlas, m.layer, u, w);
+            let mut light = rad.map(|c| c * n);
+            for &(layer, mirror, colour) in &m.glints {
+                let g = sample(atlas, layer, u, if mirror { -w } else { w });
+                for k in 0..3 {
+                    light[k] += colour[k] * g;
+                }
+            }
+            light.map(|c| c * spread * shown)
+        }
+        _ => {
+            if a <= 0.0 {
+                return;
+            }
+            rad.map(|c| c * a)
+        }
+    };
+    if a <= 0.0 && light.iter().all(|&c| c <= 0.0) {
+        return;
+    }
+    let keep = 1.0 - a;
+    for k in 0..3 {
+        px[k] = light[k] + px[k] * keep;
+    }
+    px[3] = a + px[3] * keep;
+}
+
+/// The fraction of the exposure a disc of radius `r` moving from 0 to `len` along x covers the
+/// point (`along`, `across`) (the twin's `coverage`).
+#[inline]
+fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
+    let h2 = r * r - across * across;
+    if h2 <= 0.0 {
+        return 0.0;
+    }
+    let h = h2.sqrt();
+    if len < 1e-3 {
+        return if along.abs() < h { 1.0 } else { 0.0 };
+    }
+    ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) / len
+}
+
+/// How much of the drop shows at display point `at`, `along` px down its path, in front of
+/// the scene's depth there (the twin's `visibility` of `drop_depth_m`).
+fn visibility(params: &RainParams, map: &[f32], at: [f32; 2], along: f32, p: &Prepared) -> f32 {
+    let (w, h) = (
+        params.display_size_px[0] as usize,
+        params.display_size_px[1] as usize,
+    );
+    if map.len() < w * h || w == 0 || h == 0 {
+        return 1.0;
+    }
+    let px = (at[0].floor().max(0.0) as usize).min(w - 1);
+    let py = (at[1].floor().max(0.0) as usize).min(h - 1);
+    let scene = map[py * w + px];
+    if scene <= 0.0 {
+        return 1.0;
+    }
+    let t = if p.len >= 1e-3 {
+        (along / p.len).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let drop = 1.0 / ((1.0 - t) / p.depth_m[0] + t / p.depth_m[1]);
+    let x = ((scene - drop) / OCCLUSION_SOFTNESS_M as f32 + 0.5).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// The matte `layer` at (u along, w across in radii), bilinear between texel centres, zero
+/// outside (`MatteAtlas::sample` in f32).
+#[inline]
+fn sample(atlas: &MatteAtlas, layer: usize, u: f32, w: f32) -> f32 {
+    let texels = &atlas.texels[layer * ATLAS_WIDTH * ATLAS_HEIGHT..][..ATLAS_WIDTH * ATLAS_HEIGHT];
+    let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
+    let y = u * ATLAS_HEIGHT as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (tx, ty) = (x - x0, y - y0);
+    let at = |xi: f32, yi: f32| {
+        if xi < 0.0 || yi < 0.0 || xi >= ATLAS_WIDTH as f32 || yi >= ATLAS_HEIGHT as f32 {
+            0.0
+        } else {
+            texels[yi as usize * ATLAS_WIDTH + xi as usize]
+        }
+    };
+    let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1.0, y0) * tx;
+    let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
+    top * (1.0 - ty) + bottom * ty
+}
