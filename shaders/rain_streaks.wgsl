@@ -31,11 +31,11 @@ struct VsOut {
     // Mattes only. The point in the matte's texel grid (x across, y along, texel centres at
     // +0.5): affine over the quad, so interpolated rather than derived per fragment.
     @location(4) matte_px: vec2<f32>,
-    // The streak's matte layer, the first of its glints' (MATTE_NONE: none) and how many it
-    // has. The glints' layers, MATTE_MIRROR set where the matte is the mirror image; their
-    // colours are read where drawn. Few varyings: on CPU adapters each costs set-up per
-    // triangle, and the quads are many and small.
-    @location(5) @interpolate(flat) layer: u32,
+    // The first texel of the streak's matte layer in the texture's coordinates, the layers of
+    // its glints (MATTE_NONE: none), MATTE_MIRROR set where the matte is the mirror image, and
+    // how many it has; their colours are read where drawn. Few varyings: on CPU adapters each
+    // costs set-up per triangle, and the quads are many and small.
+    @location(5) @interpolate(flat) tile_uv: vec2<f32>,
     @location(6) @interpolate(flat) glint_layers: vec4<u32>,
     @location(7) @interpolate(flat) glint_count: u32,
     @location(8) @interpolate(flat) id: u32,
@@ -74,7 +74,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), vec2<f32>(0.0), 0u, vec4<u32>(MATTE_NONE), 0u, id);
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), vec2<f32>(0.0), vec2<f32>(0.0), vec4<u32>(MATTE_NONE), 0u, id);
     }
     // Corners (along ∈ {start, end}) × (across ∈ {−, +}), in strip order.
     let corner = array<vec2<f32>, 4>(
@@ -92,7 +92,7 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), vec2<f32>(0.0), 0u, vec4<u32>(MATTE_NONE), 0u, id);
+        vec2<f32>(s.radiance0.w, s.radiance1.w), vec2<f32>(0.0), vec2<f32>(0.0), vec4<u32>(MATTE_NONE), 0u, id);
 }
 
 // The index of the bin of `bins` (the first `count` of its eight) nearest to `x`, the lower on
@@ -116,7 +116,8 @@ fn nearest_bin(bins: array<vec4<f32>, 2>, count: u32, x: f32) -> u32 {
 
 @vertex
 fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
-    var out = quad(vertex, id, MATTE_HALF_WIDTH_RADII);
+    // As wide as the mattes reach (beyond, their light is zero).
+    var out = quad(vertex, id, mattes.reach.x);
     let r = out.shape.y;
     // The matte's (u, w): u from the disc's tail at shutter open to its head at close, w
     // across in radii, growing to the image right of a streak falling down the picture
@@ -129,7 +130,7 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     let view = nearest_bin(mattes.views_deg, mattes.counts.y, info.y * 90.0);
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
-    out.layer = (size * mattes.counts.y + view) * phases + phase;
+    out.tile_uv = tile_uv((size * mattes.counts.y + view) * phases + phase);
     for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
         let g = glints[GLINTS_PER_DROP * id + k];
         // Strongest first: the first without light ends them.
@@ -149,14 +150,19 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
     return out;
 }
 
-// N of `layer` at `px` of its texel grid, bilinear between texel centres and zero outside the
-// layer (twin of MatteAtlas::sample): the sampler's bilinear read, the point clamped to the
-// frame's texel centres, where the read is exactly zero.
-fn matte_at(layer: u32, px: vec2<f32>) -> f32 {
+// The first texel of `layer`'s tile in the texture's coordinates (0 to 1).
+fn tile_uv(layer: u32) -> vec2<f32> {
     let tile = vec2<u32>(layer % MATTE_TILES_ACROSS, layer / MATTE_TILES_ACROSS);
+    return vec2<f32>(tile * vec2<u32>(MATTE_WIDTH + 2u, MATTE_HEIGHT + 2u) + 1u) * mattes.reach.yz;
+}
+
+// N of the layer whose tile starts at `tile_uv`, at `px` of its texel grid, bilinear between
+// texel centres and zero outside the layer (twin of MatteAtlas::sample): the sampler's
+// bilinear read, the point clamped to the frame's texel centres, where the read is exactly
+// zero.
+fn matte_at(tile_uv: vec2<f32>, px: vec2<f32>) -> f32 {
     let inside = clamp(px, vec2<f32>(-0.5), vec2<f32>(f32(MATTE_WIDTH) + 0.5, f32(MATTE_HEIGHT) + 0.5));
-    let at = vec2<f32>(tile * vec2<u32>(MATTE_WIDTH + 2u, MATTE_HEIGHT + 2u) + 1u) + inside;
-    return textureSampleLevel(matte_atlas, matte_sampler, at / vec2<f32>(textureDimensions(matte_atlas)), 0.0).r;
+    return textureSampleLevel(matte_atlas, matte_sampler, tile_uv + inside * mattes.reach.yz, 0.0).r;
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -208,7 +214,7 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
     let a = cover * shown;
     let r = v.shape.y;
     let footprint = v.shape.x + 2.0 * r;
-    var light = v.radiance * matte_at(v.layer, v.matte_px);
+    var light = v.radiance * matte_at(v.tile_uv, v.matte_px);
     // A loop to the drop's count, the same for the whole quad: where it has no glints, none
     // is read. The layer picked by selects: a vector indexed per fragment spills to memory on
     // CPU adapters.
@@ -217,7 +223,7 @@ fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
         let bits = select(select(select(v.glint_layers.x, v.glint_layers.y, k == 1u), v.glint_layers.z, k == 2u), v.glint_layers.w, k == 3u);
         let layer = bits & ~MATTE_MIRROR;
         let px = select(v.matte_px, vec2<f32>(f32(MATTE_WIDTH) - v.matte_px.x, v.matte_px.y), layer != bits);
-        light += glints[first + k].colour.rgb * matte_at(layer, px);
+        light += glints[first + k].colour.rgb * matte_at(tile_uv(layer), px);
     }
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);

@@ -36,11 +36,7 @@ pub fn matte_texture(
     atlas: &MatteAtlas,
 ) -> crate::Result<wgpu::TextureView> {
     let (tile_w, tile_h) = (ATLAS_WIDTH + 2, ATLAS_HEIGHT + 2);
-    let layers = atlas.layers().max(1);
-    let (width, height) = (
-        MATTE_TILES_ACROSS * tile_w,
-        layers.div_ceil(MATTE_TILES_ACROSS) * tile_h,
-    );
+    let (width, height) = matte_texture_size(atlas);
     let max = device.limits().max_texture_dimension_2d as usize;
     if height > max {
         return Err(crate::Error::Unsupported(format!(
@@ -85,6 +81,15 @@ pub fn matte_texture(
         bytemuck::cast_slice(&texels),
     );
     Ok(texture.create_view(&Default::default()))
+}
+
+/// The width and height in texels of [`matte_texture`] for `atlas`.
+pub fn matte_texture_size(atlas: &MatteAtlas) -> (usize, usize) {
+    let layers = atlas.layers().max(1);
+    (
+        MATTE_TILES_ACROSS * (ATLAS_WIDTH + 2),
+        layers.div_ceil(MATTE_TILES_ACROSS) * (ATLAS_HEIGHT + 2),
+    )
 }
 
 /// The stage, drawing into one canvas.
