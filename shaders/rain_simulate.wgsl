@@ -1,7 +1,7 @@
 // Stage rain_simulate: each drop once per frame — its closed-form state at the frame's time,
 // the streak it draws over the exposure (projected, near-clipped, widened and defocused), the
 // light it shows — written to `streaks[id]` for rain_streaks to rasterise. Evaluating this in
-// the vertex stage would repeat it for each of a quad's six vertices.
+// the vertex stage would repeat it for each of a quad's four vertices.
 //
 // A drop of projected radius r moving from q0 to q1 (px) during the exposure covers a pixel for
 // the fraction of the exposure its disc overlaps the pixel: Garg & Nayar's time-averaged streak

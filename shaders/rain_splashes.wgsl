@@ -173,7 +173,7 @@ fn offset_blocks() {
         block_offsets[b] = offset;
         offset += n;
     }
-    draw_args = array<u32, 4>(6u, offset, 0u, 0u);
+    draw_args = array<u32, 4>(QUAD_VERTICES, offset, 0u, 0u);
 }
 
 @compute @workgroup_size(SIMULATE_WORKGROUP)

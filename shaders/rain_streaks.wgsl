@@ -28,19 +28,27 @@ struct VsOut {
     @location(2) radiance: vec3<f32>,
     // The drop's depth (camera z, m) at the start and end of its path.
     @location(3) @interpolate(flat) depth_m: vec2<f32>,
-    // The streak's matte layer (mattes only).
-    @location(4) @interpolate(flat) layer: u32,
-    // The glints' matte layers, strongest first (MATTE_NONE: none), MATTE_MIRROR set where the
-    // matte is the mirror image; their colours are read where drawn. Few varyings: on CPU
-    // adapters each costs set-up per triangle, and the quads are many and small.
-    @location(5) @interpolate(flat) glint_layers: vec4<u32>,
-    @location(6) @interpolate(flat) id: u32,
+    // Mattes only. The point in the matte's texel grid (x across, y along, texel centres at
+    // +0.5): affine over the quad, so interpolated rather than derived per fragment.
+    @location(4) matte_px: vec2<f32>,
+    // The first texel of the streak's matte layer in the texture's coordinates, the layers of
+    // its glints (MATTE_NONE: none), MATTE_MIRROR set where the matte is the mirror image, and
+    // how many it has; their colours are read where drawn. Few varyings: on CPU adapters each
+    // costs set-up per triangle, and the quads are many and small.
+    @location(5) @interpolate(flat) tile_uv: vec2<f32>,
+    @location(6) @interpolate(flat) glint_layers: vec4<u32>,
+    @location(7) @interpolate(flat) glint_count: u32,
+    @location(8) @interpolate(flat) id: u32,
 }
 
 @group(0) @binding(3) var<uniform> mattes: MatteParams;
-// MATTE_WIDTH × MATTE_HEIGHT normalised texels per layer (MatteAtlas::texels).
-@group(0) @binding(4) var<storage, read> matte_texels: array<f32>;
+// The matte layers as tiles of one filterable texture (src/gpu/stages/rain_streaks.rs,
+// matte_texture): layer l at tile (l mod MATTE_TILES_ACROSS, l div MATTE_TILES_ACROSS), each
+// MATTE_WIDTH × MATTE_HEIGHT texels framed by one texel of zeros, read bilinearly by the
+// sampler.
+@group(0) @binding(4) var matte_atlas: texture_2d<f32>;
 @group(0) @binding(5) var<storage, read> glints: array<Glint>;
+@group(0) @binding(6) var matte_sampler: sampler;
 
 // Half a matte layer's width in drop radii (HALF_WIDTH_RADII in src/drops/atlas.rs).
 const MATTE_HALF_WIDTH_RADII: f32 = 1.5;
@@ -61,17 +69,16 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32)
     return quad(vertex, id, 0.0);
 }
 
-// Corner `vertex` of the quad of streak `id`, at least `half_width_radii` drop radii wide on
-// each side.
+// Corner `vertex` of the quad of streak `id` (a triangle strip of four), at least
+// `half_width_radii` drop radii wide on each side.
 fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let s = streaks[id];
     if s.len_px < 0.0 {
-        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), 0u, vec4<u32>(MATTE_NONE), id);
+        return VsOut(vec4<f32>(2.0, 2.0, 2.0, 1.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0), vec2<f32>(0.0), vec2<f32>(0.0), vec4<u32>(MATTE_NONE), 0u, id);
     }
-    // Two triangles: corners (along ∈ {start, end}) × (across ∈ {−, +}).
-    let corner = array<vec2<f32>, 6>(
-        vec2<f32>(0.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(0.0, 1.0),
-        vec2<f32>(0.0, 1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
+    // Corners (along ∈ {start, end}) × (across ∈ {−, +}), in strip order.
+    let corner = array<vec2<f32>, 4>(
+        vec2<f32>(0.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(0.0, 1.0), vec2<f32>(1.0, 1.0),
     )[vertex];
     let ext = s.r_eff_px + AA_MARGIN_PX;
     let along = mix(-ext, s.len_px + ext, corner.x);
@@ -85,27 +92,45 @@ fn quad(vertex: u32, id: u32, half_width_radii: f32) -> VsOut {
     let t = clamp(along / max(s.len_px, 1e-3), 0.0, 1.0);
     let radiance = mix(s.radiance0.rgb, s.radiance1.rgb, t);
     return VsOut(vec4<f32>(clip, 0.0, 1.0), vec2<f32>(along, across), vec3<f32>(s.len_px, s.r_eff_px, s.alpha_scale), radiance,
-        vec2<f32>(s.radiance0.w, s.radiance1.w), 0u, vec4<u32>(MATTE_NONE), id);
+        vec2<f32>(s.radiance0.w, s.radiance1.w), vec2<f32>(0.0), vec2<f32>(0.0), vec4<u32>(MATTE_NONE), 0u, id);
 }
 
-// The index of the bin of `values` (the first `count`) nearest to `x`.
-fn nearest_bin(values: array<vec4<f32>, 2>, count: u32, x: f32) -> u32 {
+// The index of the bin of `bins` (the first `count` of its eight) nearest to `x`, the lower on
+// a tie: compares on two vectors, where an array indexed per vertex spills to memory on CPU
+// adapters.
+fn nearest_bin(bins: array<vec4<f32>, 2>, count: u32, x: f32) -> u32 {
+    let unused = vec4<f32>(3.0e38);
+    let lo = select(abs(bins[0] - x), unused, vec4<u32>(0u, 1u, 2u, 3u) >= vec4<u32>(count));
+    let hi = select(abs(bins[1] - x), unused, vec4<u32>(4u, 5u, 6u, 7u) >= vec4<u32>(count));
     var best = 0u;
-    for (var k = 1u; k < count; k++) {
-        if abs(values[k / 4u][k % 4u] - x) < abs(values[best / 4u][best % 4u] - x) { best = k; }
-    }
+    var d = lo.x;
+    best = select(best, 1u, lo.y < d); d = min(d, lo.y);
+    best = select(best, 2u, lo.z < d); d = min(d, lo.z);
+    best = select(best, 3u, lo.w < d); d = min(d, lo.w);
+    best = select(best, 4u, hi.x < d); d = min(d, hi.x);
+    best = select(best, 5u, hi.y < d); d = min(d, hi.y);
+    best = select(best, 6u, hi.z < d); d = min(d, hi.z);
+    best = select(best, 7u, hi.w < d);
     return best;
 }
 
 @vertex
 fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
-    var out = quad(vertex, id, MATTE_HALF_WIDTH_RADII);
+    // As wide as the mattes reach (beyond, their light is zero).
+    var out = quad(vertex, id, mattes.reach.x);
+    let r = out.shape.y;
+    // The matte's (u, w): u from the disc's tail at shutter open to its head at close, w
+    // across in radii, growing to the image right of a streak falling down the picture
+    // (−local_px.y); in texels as MatteAtlas::sample takes them.
+    let u = (out.local_px.x + r) / (out.shape.x + 2.0 * r);
+    let w = -out.local_px.y / r;
+    out.matte_px = vec2<f32>((w / MATTE_HALF_WIDTH_RADII + 1.0) * 0.5 * f32(MATTE_WIDTH), u * f32(MATTE_HEIGHT));
     let info = unpack2x16unorm(streaks[id].drop_info);
     let size = nearest_bin(mattes.sizes_mm, mattes.counts.x, info.x * 10.0);
     let view = nearest_bin(mattes.views_deg, mattes.counts.y, info.y * 90.0);
     let phases = mattes.counts.z;
     let phase = min(u32(drop_uniform(rain.seed, id, MATTE_PHASE_STREAM) * f32(phases)), phases - 1u);
-    out.layer = (size * mattes.counts.y + view) * phases + phase;
+    out.tile_uv = tile_uv((size * mattes.counts.y + view) * phases + phase);
     for (var k = 0u; k < GLINTS_PER_DROP && mattes.light_count.x > 0u; k++) {
         let g = glints[GLINTS_PER_DROP * id + k];
         // Strongest first: the first without light ends them.
@@ -120,38 +145,24 @@ fn vs_mattes(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u3
         }
         out.glint_layers[k] = mattes.light_count.y + ((size * mattes.counts.y + view) * mattes.light_count.x + light) * phases + phase
             | select(0u, MATTE_MIRROR, mirror);
+        out.glint_count = k + 1u;
     }
     return out;
 }
 
-// The matte texel (i, j) of `layer`, zero outside the layer.
-fn matte_texel(layer: u32, i: i32, j: i32) -> f32 {
-    if i < 0 || j < 0 || i >= i32(MATTE_WIDTH) || j >= i32(MATTE_HEIGHT) { return 0.0; }
-    return matte_texels[(layer * MATTE_HEIGHT + u32(j)) * MATTE_WIDTH + u32(i)];
+// The first texel of `layer`'s tile in the texture's coordinates (0 to 1).
+fn tile_uv(layer: u32) -> vec2<f32> {
+    let tile = vec2<u32>(layer % MATTE_TILES_ACROSS, layer / MATTE_TILES_ACROSS);
+    return vec2<f32>(tile * vec2<u32>(MATTE_WIDTH + 2u, MATTE_HEIGHT + 2u) + 1u) * mattes.reach.yz;
 }
 
-// N of `layer` at (u along the footprint, w across in radii), bilinear between texel centres
-// (twin of MatteAtlas::sample).
-fn matte_at(layer: u32, u: f32, w: f32) -> f32 {
-    let x = (w / MATTE_HALF_WIDTH_RADII + 1.0) * 0.5 * f32(MATTE_WIDTH) - 0.5;
-    let y = u * f32(MATTE_HEIGHT) - 0.5;
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let t = vec2<f32>(x - x0, y - y0);
-    let i = i32(x0);
-    let j = i32(y0);
-    let top = mix(matte_texel(layer, i, j), matte_texel(layer, i + 1, j), t.x);
-    let bottom = mix(matte_texel(layer, i, j + 1), matte_texel(layer, i + 1, j + 1), t.x);
-    return mix(top, bottom, t.y);
-}
-
-// The light of glint `index` at (u, w) of the footprint, drawn with its point-light matte
-// (`bits`: the layer, MATTE_MIRROR for the mirror image); nothing for MATTE_NONE (the same for
-// the whole quad).
-fn glint_light(bits: u32, index: u32, u: f32, w: f32) -> vec3<f32> {
-    if bits == MATTE_NONE { return vec3<f32>(0.0); }
-    let layer = bits & ~MATTE_MIRROR;
-    return glints[index].colour.rgb * matte_at(layer, u, select(w, -w, layer != bits));
+// N of the layer whose tile starts at `tile_uv`, at `px` of its texel grid, bilinear between
+// texel centres and zero outside the layer (twin of MatteAtlas::sample): the sampler's
+// bilinear read, the point clamped to the frame's texel centres, where the read is exactly
+// zero.
+fn matte_at(tile_uv: vec2<f32>, px: vec2<f32>) -> f32 {
+    let inside = clamp(px, vec2<f32>(-0.5), vec2<f32>(f32(MATTE_WIDTH) + 0.5, f32(MATTE_HEIGHT) + 0.5));
+    return textureSampleLevel(matte_atlas, matte_sampler, tile_uv + inside * mattes.reach.yz, 0.0).r;
 }
 
 // Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
@@ -194,20 +205,26 @@ fn fs_main(v: VsOut) -> @location(0) vec4<f32> {
 // holds the capsule's light, moved along the streak.
 @fragment
 fn fs_mattes(v: VsOut) -> @location(0) vec4<f32> {
+    let cover = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0);
+    // The oscillating drop reaches a little beyond the mean disc: light without coverage, as
+    // far as the mattes reach (their frame of zeros, mirrored or not, is the same).
+    let off_matte = any(v.matte_px <= vec2<f32>(-0.5)) || any(v.matte_px >= vec2<f32>(f32(MATTE_WIDTH) + 0.5, f32(MATTE_HEIGHT) + 0.5));
+    if cover <= 0.0 && off_matte { discard; }
     let shown = visibility(scene_depth_m(v.clip.xy), drop_depth_m(v.local_px.x, v.shape.x, v.depth_m));
-    let a = clamp(coverage(v.local_px.x, v.local_px.y, v.shape.x, v.shape.y) * v.shape.z, 0.0, 1.0) * shown;
+    let a = cover * shown;
     let r = v.shape.y;
     let footprint = v.shape.x + 2.0 * r;
-    // The oscillating drop reaches a little beyond the mean disc: light without coverage.
-    // The matte's (u, w): w grows to the image right of a streak falling down the picture,
-    // −local_px.y.
-    let u = (v.local_px.x + r) / footprint;
-    let w = -v.local_px.y / r;
-    var light = v.radiance * matte_at(v.layer, u, w);
-    // Written out: a vector indexed per fragment spills to memory on CPU adapters.
+    var light = v.radiance * matte_at(v.tile_uv, v.matte_px);
+    // A loop to the drop's count, the same for the whole quad: where it has no glints, none
+    // is read. The layer picked by selects: a vector indexed per fragment spills to memory on
+    // CPU adapters.
     let first = GLINTS_PER_DROP * v.id;
-    light += glint_light(v.glint_layers.x, first, u, w) + glint_light(v.glint_layers.y, first + 1u, u, w)
-        + glint_light(v.glint_layers.z, first + 2u, u, w) + glint_light(v.glint_layers.w, first + 3u, u, w);
+    for (var k = 0u; k < v.glint_count; k++) {
+        let bits = select(select(select(v.glint_layers.x, v.glint_layers.y, k == 1u), v.glint_layers.z, k == 2u), v.glint_layers.w, k == 3u);
+        let layer = bits & ~MATTE_MIRROR;
+        let px = select(v.matte_px, vec2<f32>(f32(MATTE_WIDTH) - v.matte_px.x, v.matte_px.y), layer != bits);
+        light += glints[first + k].colour.rgb * matte_at(tile_uv(layer), px);
+    }
     if a <= 0.0 && all(light <= vec3<f32>(0.0)) { discard; }
     return vec4<f32>(light * (shown * v.shape.z * MATTE_PI * r / footprint), a);
 }

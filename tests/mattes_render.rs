@@ -909,3 +909,32 @@ fn report_the_light_the_glints_leave_out() {
         );
     }
 }
+
+/// The mattes' reach, by brute force over every layer of the shipped set: each layer's read is
+/// zero (to rounding) from the reach outwards on both sides (the stage's quads end there), and some layer's
+/// light reaches nearly that far.
+#[test]
+fn no_matte_holds_light_beyond_its_reach() {
+    let atlas = atlas();
+    let reach = atlas.reach_radii();
+    assert!((1.0..=1.5).contains(&reach), "reach {reach} radii");
+    let (mut beyond, mut inside) = (0.0f64, 0.0f64);
+    for layer in 0..atlas.layers() {
+        for j in 0..=512 {
+            let u = j as f64 / 512.0;
+            for k in 0..=20 {
+                let w = reach + (1.5 - reach) * k as f64 / 20.0;
+                beyond = beyond
+                    .max(atlas.sample(layer, u, w))
+                    .max(atlas.sample(layer, u, -w));
+            }
+            let w = reach - 0.02;
+            inside = inside
+                .max(atlas.sample(layer, u, w))
+                .max(atlas.sample(layer, u, -w));
+        }
+    }
+    // Zero but for the rounding of the grid position (N is of order 1).
+    assert!(beyond < 1e-12, "light {beyond} beyond {reach} radii");
+    assert!(inside > 0.0, "no light just inside {reach} radii");
+}

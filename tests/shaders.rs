@@ -196,7 +196,7 @@ fn rust_twins_match_wgsl_layouts() {
     assert_twin!(
         module(Stage::RainStreaks),
         MatteParams,
-        [counts, sizes_mm, views_deg, lights, light_count]
+        [counts, sizes_mm, views_deg, lights, light_count, reach]
     );
     assert_twin!(module(Stage::RainSimulate), Glint, [colour, light_dir]);
     assert_twin!(m, LightList, [count, table_bins, _pad, lights]);

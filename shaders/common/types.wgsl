@@ -152,6 +152,7 @@ struct MatteParams {
     views_deg: array<vec4<f32>, 2>, // bin camera elevations, degrees
     lights: array<vec4<f32>, MAX_MATTE_LIGHTS>, // xyz: the point-light mattes' directions, the Glint frame
     light_count: vec4<u32>,         // x: point-light directions (0: none), y: first light layer
+    reach: vec4<f32>,               // x: how far across a streak the matte reaches, radii; yz: 1 / the matte texture's size
 }
 
 // The puddles' water map and look for one frame (src/gpu/stages/puddles.rs; stage puddles).

@@ -236,6 +236,27 @@ impl MatteAtlas {
         self.texels.len() / (ATLAS_WIDTH * ATLAS_HEIGHT)
     }
 
+    /// How far across the streak, in drop radii, any layer's [`MatteAtlas::sample`] is not
+    /// zero (at most [`HALF_WIDTH_RADII`]): a layer's read is zero from the centre of the
+    /// outermost empty column outwards. The rasteriser's quads need reach no farther.
+    pub fn reach_radii(&self) -> f64 {
+        let mut columns = [false; ATLAS_WIDTH];
+        for (k, &t) in self.texels.iter().enumerate() {
+            columns[k % ATLAS_WIDTH] |= t != 0.0;
+        }
+        // Texel centres at i + 0.5: v = H (2 x / W − 1) in radii.
+        let radii = |x: f64| HALF_WIDTH_RADII * (2.0 * x / ATLAS_WIDTH as f64 - 1.0);
+        let right = columns
+            .iter()
+            .rposition(|&c| c)
+            .map_or(0.0, |i| radii(i as f64 + 1.5));
+        let left = columns
+            .iter()
+            .position(|&c| c)
+            .map_or(0.0, |i| -radii(i as f64 - 0.5));
+        right.max(left).min(HALF_WIDTH_RADII)
+    }
+
     /// N at grid position (u, v) of `layer`, bilinear between texel centres, zero outside the
     /// grid (the stage's `matte_at`).
     pub fn sample(&self, layer: usize, u: f64, v: f64) -> f64 {

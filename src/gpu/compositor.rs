@@ -275,6 +275,11 @@ impl Compositor {
                         mapped_at_creation: false,
                     })
                 }),
+            matte_atlas: rain
+                .mattes
+                .as_deref()
+                .map(|m| super::stages::rain_streaks::matte_texture(device, &ctx.queue, m))
+                .transpose()?,
             drop_count: rain.params.drop_count,
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),

@@ -113,6 +113,11 @@ pub fn constants() -> String {
         ("MATTE_WIDTH", crate::drops::atlas::ATLAS_WIDTH as u32),
         ("MATTE_HEIGHT", crate::drops::atlas::ATLAS_HEIGHT as u32),
         (
+            "MATTE_TILES_ACROSS",
+            stages::rain_streaks::MATTE_TILES_ACROSS as u32,
+        ),
+        ("QUAD_VERTICES", stages::rain_streaks::QUAD_VERTICES),
+        (
             "MAX_MATTE_LIGHTS",
             crate::drops::atlas::MAX_MATTE_LIGHTS as u32,
         ),

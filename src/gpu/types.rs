@@ -318,6 +318,9 @@ pub struct MatteParams {
     pub lights: [[f32; 4]; crate::drops::atlas::MAX_MATTE_LIGHTS],
     /// Point-light directions, the first point-light layer, 0, 0.
     pub light_count: [u32; 4],
+    /// How far across a streak its matte reaches, drop radii; the reciprocal of the matte
+    /// texture's width and height in texels; 0.
+    pub reach: [f32; 4],
 }
 
 /// Compact lights per drop drawn with their point-light mattes (`--streaks mattes`): the
@@ -365,6 +368,15 @@ impl MatteParams {
                     .map_or([0.0; 4], |d| [d.x as f32, d.y as f32, d.z as f32, 0.0])
             }),
             light_count: [atlas.lights.len() as u32, atlas.light_layer0() as u32, 0, 0],
+            reach: {
+                let (w, h) = super::stages::rain_streaks::matte_texture_size(atlas);
+                [
+                    atlas.reach_radii() as f32,
+                    1.0 / w as f32,
+                    1.0 / h as f32,
+                    0.0,
+                ]
+            },
         }
     }
 }

@@ -148,7 +148,8 @@ pub fn rain_streaks_with(
         let dir = DVec2::new(s.dir[0] as f64, s.dir[1] as f64);
         let (len, r) = (s.len_px as f64, s.r_eff_px as f64);
         let ext = r + AA_MARGIN_PX;
-        // The matte's width (the stage's `quad` in `vs_mattes`).
+        // The matte's width (the stage's `quad` in `vs_mattes` reaches only as far as the
+        // mattes' light, `MatteAtlas::reach_radii`: the same pixels change).
         let across_ext = match mattes {
             None => ext,
             Some(_) => ext.max(HALF_WIDTH_RADII * r),

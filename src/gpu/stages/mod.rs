@@ -41,6 +41,8 @@ pub struct FrameResources {
     /// `GLINTS_PER_DROP` `Glint`s per drop where the streak mattes have point lights (`rain_simulate`'s
     /// `main_mattes` → `rain_streaks`); `None` otherwise.
     pub glints: Option<wgpu::Buffer>,
+    /// The streak mattes' texture ([`rain_streaks::matte_texture`]) where the job draws them.
+    pub matte_atlas: Option<wgpu::TextureView>,
     /// Drops per frame.
     pub drop_count: u32,
     /// The scene's depth per displayed pixel, metres (0 = unknown), for `rain_streaks`; one

@@ -52,7 +52,7 @@ pub struct SplashSimulate {
     pub splashes: wgpu::Buffer,
     /// The drawn streaks of `splashes`, in their order, packed to the front.
     pub drawn: wgpu::Buffer,
-    /// `draw_indirect`'s arguments: 6 vertices, as many instances as `drawn` holds.
+    /// `draw_indirect`'s arguments: a quad's vertices, as many instances as `drawn` holds.
     pub draw_args: wgpu::Buffer,
     /// The landing drops, in order (the g-th has its streaks at g·`SPLASH_SLOTS`).
     pub drop_ids: Vec<u32>,

@@ -8,7 +8,8 @@ use wgpu::util::DeviceExt;
 
 use super::{FrameResources, FrameStage, TimestampSlot};
 use crate::drops::MatteAtlas;
-use crate::gpu::bind::{bind_group, buffer};
+use crate::drops::atlas::{ATLAS_HEIGHT, ATLAS_WIDTH};
+use crate::gpu::bind::{bind_group, buffer, view};
 use crate::gpu::shaders::Stage;
 use bytemuck::Zeroable;
 
@@ -16,6 +17,80 @@ use crate::gpu::types::{Glint, MatteParams};
 
 /// The canvas format the streaks blend into.
 pub const CANVAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// Matte layers side by side in a row of the atlas texture (`MATTE_TILES_ACROSS` in the WGSL).
+pub const MATTE_TILES_ACROSS: usize = 64;
+
+/// Vertices of a streak's quad, a triangle strip.
+pub const QUAD_VERTICES: u32 = 4;
+
+/// The matte layers as one `R16Float` texture for the sampler's bilinear read: layer `l` at
+/// tile (`l mod` [`MATTE_TILES_ACROSS`], `l div` it), each layer framed by one texel of zeros,
+/// so a read clamped to the frame's texel centres is zero outside the layer as
+/// [`MatteAtlas::sample`] is. Half floats hold N to 2⁻¹¹ of itself, far below a code value of
+/// the light it spreads; the filtering hardware does the four reads and weights that a storage
+/// buffer read costs in the shader.
+pub fn matte_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    atlas: &MatteAtlas,
+) -> crate::Result<wgpu::TextureView> {
+    let (tile_w, tile_h) = (ATLAS_WIDTH + 2, ATLAS_HEIGHT + 2);
+    let (width, height) = matte_texture_size(atlas);
+    let max = device.limits().max_texture_dimension_2d as usize;
+    if height > max {
+        return Err(crate::Error::Unsupported(format!(
+            "{} streak mattes need a {width}×{height} texture; this GPU's largest is {max} px",
+            atlas.layers()
+        )));
+    }
+    let mut texels = vec![half::f16::ZERO; width * height];
+    for (l, layer) in atlas
+        .texels
+        .chunks_exact(ATLAS_WIDTH * ATLAS_HEIGHT)
+        .enumerate()
+    {
+        let (x0, y0) = (
+            (l % MATTE_TILES_ACROSS) * tile_w + 1,
+            (l / MATTE_TILES_ACROSS) * tile_h + 1,
+        );
+        for (j, row) in layer.chunks_exact(ATLAS_WIDTH).enumerate() {
+            let at = (y0 + j) * width + x0;
+            for (t, &n) in texels[at..at + ATLAS_WIDTH].iter_mut().zip(row) {
+                *t = half::f16::from_f32(n);
+            }
+        }
+    }
+    let texture = device.create_texture_with_data(
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some("matte_atlas"),
+            size: wgpu::Extent3d {
+                width: width as u32,
+                height: height as u32,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R16Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&texels),
+    );
+    Ok(texture.create_view(&Default::default()))
+}
+
+/// The width and height in texels of [`matte_texture`] for `atlas`.
+pub fn matte_texture_size(atlas: &MatteAtlas) -> (usize, usize) {
+    let layers = atlas.layers().max(1);
+    (
+        MATTE_TILES_ACROSS * (ATLAS_WIDTH + 2),
+        layers.div_ceil(MATTE_TILES_ACROSS) * (ATLAS_HEIGHT + 2),
+    )
+}
 
 /// The stage, drawing into one canvas.
 pub struct RainStreaks {
@@ -26,7 +101,7 @@ pub struct RainStreaks {
 }
 
 impl RainStreaks {
-    /// Builds the pipeline and binds `r`; with `mattes`, uploads them and draws with them.
+    /// Builds the pipeline and binds `r`; with `mattes` (their texture in `r`), draws with them.
     pub fn new(
         device: &wgpu::Device,
         r: &FrameResources,
@@ -58,7 +133,10 @@ impl RainStreaks {
                 compilation_options: Default::default(),
                 buffers: &[],
             },
-            primitive: wgpu::PrimitiveState::default(),
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                ..Default::default()
+            },
             depth_stencil: None,
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
@@ -98,11 +176,16 @@ impl RainStreaks {
                     contents: bytemuck::bytes_of(&Glint::zeroed()),
                     usage: wgpu::BufferUsages::STORAGE,
                 });
-                let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("matte_texels"),
-                    contents: bytemuck::cast_slice(&atlas.texels),
-                    usage: wgpu::BufferUsages::STORAGE,
+                let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+                    label: Some("matte_sampler"),
+                    mag_filter: wgpu::FilterMode::Linear,
+                    min_filter: wgpu::FilterMode::Linear,
+                    ..Default::default()
                 });
+                let texture = r
+                    .matte_atlas
+                    .as_ref()
+                    .expect("the frame's resources hold the mattes' texture");
                 bind_group(
                     device,
                     Stage::RainStreaks.name(),
@@ -112,8 +195,9 @@ impl RainStreaks {
                         buffer(streaks),
                         buffer(&r.scene_depth),
                         buffer(&params),
-                        buffer(&texels),
+                        view(texture),
                         buffer(r.glints.as_ref().unwrap_or(&placeholder)),
+                        wgpu::BindingResource::Sampler(&sampler),
                     ],
                 )
             }
@@ -149,7 +233,7 @@ impl RainStreaks {
         timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         self.begin(encoder, timestamp_writes)
-            .draw(0..6, 0..self.drops);
+            .draw(0..QUAD_VERTICES, 0..self.drops);
     }
 
     /// Records the draw of the first streaks, as many as the instance count in `args`
