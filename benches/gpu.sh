@@ -3,13 +3,16 @@
 # time and the GPU time of every stage (timestamp queries), as a Markdown table. Render-only fps
 # is 1 / (the stages' GPU time per frame): decode and encode left out.
 #
-#   BIN=target/release/rain-composite benches/gpu.sh IN.mp4 OUT_DIR
+#   BIN=target/release/rain-composite benches/gpu.sh IN.mp4 OUT_DIR [RENDER FLAGS…]
 #
+# Flags after OUT_DIR go to every render (`--streaks mattes` gives the table for the mattes).
 # The lossless FFV1 output keeps the encoder's cost small and the same for every row.
 set -u
 BIN=${BIN:-./target/release/rain-composite}
 IN=${1:?usage: benches/gpu.sh IN.mp4 OUT_DIR}
 OUT=${2:?usage: benches/gpu.sh IN.mp4 OUT_DIR}
+shift 2
+EXTRA=("$@")
 mkdir -p "$OUT"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
 "$BIN" adapters
@@ -18,7 +21,7 @@ echo "|---|---|---|---|---|---|---|---|---|"
 for spec in "10 300000" "75 128960" "75 300000" "150 1000000"; do
     set -- $spec
     "$BIN" "$IN" -o "$OUT/rain.mkv" -y --codec ffv1 --rain "$1" --max-drops "$2" \
-        --progress json 2> "$OUT/log-$1-$2.txt" >/dev/null
+        "${EXTRA[@]}" --progress json 2> "$OUT/log-$1-$2.txt" >/dev/null
     tail -n 1 "$OUT/log-$1-$2.txt" | python3 -c '
 import json, sys
 s = json.load(sys.stdin); g = s["stages"]["gpu"]; n = max(s["frames"], 1)
