@@ -456,7 +456,12 @@ fn exact_segments_give_the_pose_to_a_fiftieth_of_a_degree() {
 /// The worst angle, degrees, between the streaks drawn (no wind) through a camera posed at
 /// `tilt_deg`, `roll_deg` and the true nadir `nadir` in the picture, over the streaks at least
 /// 60 px from it; and how many were judged.
-fn streaks_off_nadir(pose: &street::Pose, tilt_deg: f64, roll_deg: f64, nadir: glam::DVec2) -> (usize, f64) {
+fn streaks_off_nadir(
+    pose: &street::Pose,
+    tilt_deg: f64,
+    roll_deg: f64,
+    nadir: glam::DVec2,
+) -> (usize, f64) {
     use rain_composite::config::{CameraConfig, RainConfig};
     use rain_composite::gpu::cpu::rain_simulate::streak_of;
     use rain_composite::gpu::uniforms::RainSetup;
@@ -634,10 +639,11 @@ fn steep_views_are_posed_or_not_confident() {
             if ok { "right" } else { "WRONG" }
         );
     }
-    println!(
-        "{right} of {shots} steep shots right; auto poses {confident}, {wrong} of them wrong"
+    println!("{right} of {shots} steep shots right; auto poses {confident}, {wrong} of them wrong");
+    assert!(
+        wrong == 0,
+        "{wrong} of {confident} confident steep estimates wrong"
     );
-    assert!(wrong == 0, "{wrong} of {confident} confident steep estimates wrong");
 }
 
 /// Exact segments of verticals seen through cameras looking 72–89° down or up at random rolls:

@@ -118,9 +118,7 @@ fn around(edges: &[Edge], inliers: &[usize], d: DVec3) -> Vec<f64> {
         .iter()
         .map(|&i| {
             let m = edges[i].m;
-            m.dot(e2)
-                .atan2(m.dot(e1))
-                .rem_euclid(std::f64::consts::TAU)
+            m.dot(e2).atan2(m.dot(e1)).rem_euclid(std::f64::consts::TAU)
         })
         .collect()
 }
@@ -214,8 +212,7 @@ pub const STEEP_CEILING: f64 = 0.5;
 /// The confidence of a steep reading: [`STEEP_CEILING`] times the evidence's logistic.
 pub fn confidence(s: &SteepReading) -> f64 {
     let w = STEEP_WEIGHTS;
-    let z = w[0]
-        + w[1] * s.distinct_lines.min(16) as f64
-        + w[2] * s.spread_rad / std::f64::consts::PI;
+    let z =
+        w[0] + w[1] * s.distinct_lines.min(16) as f64 + w[2] * s.spread_rad / std::f64::consts::PI;
     STEEP_CEILING / (1.0 + (-z).exp())
 }

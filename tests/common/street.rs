@@ -253,14 +253,21 @@ pub fn steep_shot(seed: u64, i: u64) -> (Street, Pose, Camera) {
         tilt_deg: if up { tilt } else { -tilt },
         roll_deg: uniform(&mut rng, -20.0, 20.0),
         fov_deg: uniform(&mut rng, 40.0, 90.0),
-        height_m: if up { 1.6 } else { uniform(&mut rng, 50.0, 80.0) },
+        height_m: if up {
+            1.6
+        } else {
+            uniform(&mut rng, 50.0, 80.0)
+        },
     };
     let mut camera = pose.camera();
     // Looking up: in the street between two rows of towers; looking down: anywhere.
     let (x, y) = if up {
         (10.0, uniform(&mut rng, -20.0, 20.0))
     } else {
-        (uniform(&mut rng, -20.0, 20.0), uniform(&mut rng, -20.0, 20.0))
+        (
+            uniform(&mut rng, -20.0, 20.0),
+            uniform(&mut rng, -20.0, 20.0),
+        )
     };
     camera.position_m = DVec3::new(x, y, pose.height_m);
     (city(&mut rng), pose, camera)
