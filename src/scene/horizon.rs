@@ -623,31 +623,35 @@ fn estimate_with(
     };
     est.confidence = calibrated_confidence(&est);
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
-    // sees no sky: a picture of a level street has a point where many lines converge too.
-    if est.confidence < MIN_CONFIDENCE && est.sky_correlation < steep::LEVEL_SKY {
-        let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
-        if let Some(s) = steep::read(&edges, sky) {
-            let confidence = steep::confidence(&s);
-            if confidence > est.confidence {
-                let (t, r) = tilt_roll_from_up(s.up_cam);
-                est = HorizonEstimate {
-                    up_cam: s.up_cam,
-                    tilt_deg: t.to_degrees(),
-                    roll_deg: r.to_degrees(),
-                    horizon_row: horizon_row_of_up(s.up_cam, camera),
-                    confidence,
-                    vertical_inliers: s.inliers.len(),
-                    horizontal_inliers: 0,
-                    horizon_inliers: 0,
-                    families: 0,
-                    fitted_inliers: s.inliers.len(),
-                    standing_len: 0.0,
-                    floating_len: 0.0,
-                    sky_correlation: sky(s.up_cam),
-                    steep_lines: s.distinct_lines,
-                    ..est
-                };
-            }
+    // sees no sky (a picture of a level street has a point where many lines converge too), or
+    // where its own sky is clearly brighter: looking up between facades, the sky is around
+    // the zenith, and the level reading (the Manhattan alternative) is then a guess.
+    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
+    if let Some(s) = steep::read(&edges, sky) {
+        let steep_sky = sky(s.up_cam);
+        let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
+            && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
+        let unsure = est.confidence < MIN_CONFIDENCE && est.sky_correlation < steep::LEVEL_SKY;
+        let confidence = steep::confidence(&s, sky_says_steep);
+        if sky_says_steep || (unsure && confidence > est.confidence) {
+            let (t, r) = tilt_roll_from_up(s.up_cam);
+            est = HorizonEstimate {
+                up_cam: s.up_cam,
+                tilt_deg: t.to_degrees(),
+                roll_deg: r.to_degrees(),
+                horizon_row: horizon_row_of_up(s.up_cam, camera),
+                confidence,
+                vertical_inliers: s.inliers.len(),
+                horizontal_inliers: 0,
+                horizon_inliers: 0,
+                families: 0,
+                fitted_inliers: s.inliers.len(),
+                standing_len: 0.0,
+                floating_len: 0.0,
+                sky_correlation: steep_sky,
+                steep_lines: s.distinct_lines,
+                ..est
+            };
         }
     }
     est

@@ -23,9 +23,12 @@
 //! directions around it differ by more than [`DISTINCT_DEG`]) and their *spread* (the circle
 //! around the point less its largest empty gap). A picture of a level street also has a point
 //! where many lines converge (the street's own vanishing point straight ahead), with the same
-//! evidence: a steep reading replaces the level search's only where that one is unsure and sees
-//! no sky above its horizon ([`LEVEL_SKY`]), and it is never confident ([`STEEP_CEILING`]): it
-//! is a pose to inspect, and `auto` does not engage on it.
+//! evidence. A steep reading replaces the level search's where its own sky correlates with
+//! elevation clearly better ([`SKY_MARGIN`]: looking up between facades, the sky is around the
+//! zenith), and then its evidence sets its confidence; or where the level reading is unsure and
+//! sees no sky above its horizon ([`LEVEL_SKY`]), and then it is not confident
+//! ([`STEEP_CEILING`]): a pose to inspect, on which `auto` does not engage. Views down have no
+//! sky to choose with.
 //!
 //! **Down or up.** The nadir and the zenith are the same point of the picture. The sky is
 //! brighter than what stands under it, so the reading looks up when the brightness correlates
@@ -197,6 +200,14 @@ pub fn read(edges: &[Edge], zenith_sky: impl Fn(DVec3) -> f64) -> Option<SteepRe
 /// street with a sky above its horizon is not read as a view straight down).
 pub const LEVEL_SKY: f64 = 0.3;
 
+/// Fewest distinct lines with which a steep reading's sky may overrule a level reading.
+pub const SKY_MIN_LINES: usize = 6;
+
+/// How much more a steep reading's sky must correlate with elevation than the level
+/// reading's for it to overrule that reading (on synthetic level streets the steep partner's
+/// sky exceeded the level reading's by at most 0.14; looking up between towers, by 0.3–0.5).
+pub const SKY_MARGIN: f64 = 0.25;
+
 /// Weights of the steep reading's confidence: `1 / (1 + exp(−z))`, `z = w₀ + w₁ min(lines,
 /// 16) + w₂ spread/π`: set by hand so that three lines or
 /// fewer stay below 0.25 (two paving joints always meet), four below 0.5 however spread, and
@@ -206,13 +217,17 @@ pub const STEEP_WEIGHTS: [f64; 3] = [-8.0, 1.2, 1.5];
 /// The share of the evidence's odds a steep reading keeps: on synthetic level streets looking
 /// up 11–19°, the street's own vanishing point reads as a view straight down with 16–19 distinct
 /// lines (the evidence of a true steep view), so the evidence alone cannot make a steep reading
-/// confident: its confidence stays at most this, below [`crate::scene::horizon::MIN_CONFIDENCE`].
+/// confident: unless the sky chose it, its confidence stays at most this, below
+/// [`crate::scene::horizon::MIN_CONFIDENCE`].
 pub const STEEP_CEILING: f64 = 0.5;
 
-/// The confidence of a steep reading: [`STEEP_CEILING`] times the evidence's logistic.
-pub fn confidence(s: &SteepReading) -> f64 {
+/// The confidence of a steep reading: the evidence's logistic, times [`STEEP_CEILING`] unless
+/// the sky chose it over the level reading (`by_sky`: a sky around the zenith, which a level
+/// street's own vanishing point does not have).
+pub fn confidence(s: &SteepReading, by_sky: bool) -> f64 {
     let w = STEEP_WEIGHTS;
     let z =
         w[0] + w[1] * s.distinct_lines.min(16) as f64 + w[2] * s.spread_rad / std::f64::consts::PI;
-    STEEP_CEILING / (1.0 + (-z).exp())
+    let ceiling = if by_sky { 1.0 } else { STEEP_CEILING };
+    ceiling / (1.0 + (-z).exp())
 }
