@@ -453,43 +453,25 @@ fn exact_segments_give_the_pose_to_a_fiftieth_of_a_degree() {
     }
 }
 
-/// A shot filmed straight down from 6 m over a street (paving of 1.5 m stones, posts): the
-/// search stops at ±65° of tilt, so the picture reads as a level view of a wall — but not
-/// confidently, and `auto` falls back. Given the pose (`--tilt`), the rain drawn through it (no
-/// wind) has its streaks converging on the nadir: each streak at least 60 px from the nadir's
-/// image points at it within 2°.
-#[test]
-fn straight_down_streaks_converge_to_the_nadir() {
+/// The worst angle, degrees, between the streaks drawn (no wind) through a camera posed at
+/// `tilt_deg`, `roll_deg` and the true nadir `nadir` in the picture, over the streaks at least
+/// 60 px from it; and how many were judged.
+fn streaks_off_nadir(
+    pose: &street::Pose,
+    tilt_deg: f64,
+    roll_deg: f64,
+    nadir: glam::DVec2,
+) -> (usize, f64) {
     use rain_composite::config::{CameraConfig, RainConfig};
     use rain_composite::gpu::cpu::rain_simulate::streak_of;
     use rain_composite::gpu::uniforms::RainSetup;
     use rain_composite::keyframes::Keyframes;
     use rain_composite::rain::volume::sample_drop;
-    use rain_composite::rng::SplitMix64;
-    let pose = street::Pose {
-        tilt_deg: -88.6,
-        roll_deg: 7.3,
-        fov_deg: 70.0,
-        height_m: 6.0,
-    };
-    let mut rng = SplitMix64(4242);
-    let mut scene = street::Street::random(&mut rng);
-    scene.stone_m = 1.5;
-    // The camera stands over the street's middle, 10 m along it.
-    let mut cam = pose.camera();
-    cam.position_m = glam::DVec3::new(0.0, 10.0, pose.height_m);
-    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
-    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
-    eprintln!("straight down: {e:?}");
-    assert!(e.confidence < horizon::MIN_CONFIDENCE, "{e:?}");
-    let nadir = cam
-        .project_world(cam.position_m - glam::DVec3::Z * 100.0)
-        .expect("the nadir is in front");
     let config = CameraConfig {
         fov_deg: pose.fov_deg,
         height_m: pose.height_m,
-        tilt_deg: pose.tilt_deg,
-        roll_deg: pose.roll_deg,
+        tilt_deg,
+        roll_deg,
         ..CameraConfig::default()
     };
     let camera = config.camera(street::W, street::H);
@@ -530,7 +512,215 @@ fn straight_down_streaks_converge_to_the_nadir() {
         worst = worst.max(sin.asin().to_degrees());
         judged += 1;
     }
+    (judged, worst)
+}
+
+/// A shot filmed straight down from 6 m over a street (paving of 1.5 m stones, a post or two):
+/// too few verticals converge on the nadir for a pose, so `auto` is not confident. Given the
+/// pose (`--tilt`), the rain drawn through it (no wind) has its streaks converging on the
+/// nadir: each streak at least 60 px from the nadir's image points at it within 2°.
+#[test]
+fn straight_down_streaks_converge_to_the_nadir() {
+    use rain_composite::rng::SplitMix64;
+    let pose = street::Pose {
+        tilt_deg: -88.6,
+        roll_deg: 7.3,
+        fov_deg: 70.0,
+        height_m: 6.0,
+    };
+    let mut rng = SplitMix64(4242);
+    let mut scene = street::Street::random(&mut rng);
+    scene.stone_m = 1.5;
+    // The camera stands over the street's middle, 10 m along it.
+    let mut cam = pose.camera();
+    cam.position_m = glam::DVec3::new(0.0, 10.0, pose.height_m);
+    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+    eprintln!("straight down: {e:?}");
+    assert!(e.confidence < horizon::MIN_CONFIDENCE, "{e:?}");
+    let nadir = cam
+        .project_world(cam.position_m - glam::DVec3::Z * 100.0)
+        .expect("the nadir is in front");
+    let (judged, worst) = streaks_off_nadir(&pose, pose.tilt_deg, pose.roll_deg, nadir);
     eprintln!("{judged} streaks, worst {worst:.2}° off the nadir at {nadir}");
     assert!(judged > 100, "{judged} streaks judged");
     assert!(worst < 2.0, "a streak {worst:.2}° off the nadir");
+}
+
+/// A drone shot straight down from 30 m over a street with buildings: their corners converge
+/// on the nadir, the pose is read from the frame alone (confidently, so `auto` engages the
+/// pose), and the streaks drawn through the estimated pose converge on the true nadir within
+/// 2°. The same street with its buildings and posts taken away (paving only) has no pose
+/// evidence and is not confident.
+#[test]
+#[ignore = "not reached: the level search reads this picture confidently as a level view \
+            (tilt 1.2°, confidence 0.99), the Manhattan alternative of the view down"]
+fn a_straight_down_street_is_posed_from_its_verticals() {
+    use rain_composite::rng::SplitMix64;
+    let pose = street::Pose {
+        tilt_deg: -88.6,
+        roll_deg: 7.3,
+        fov_deg: 70.0,
+        height_m: 30.0,
+    };
+    let mut rng = SplitMix64(4242);
+    let mut scene = street::Street::random(&mut rng);
+    let mut cam = pose.camera();
+    cam.position_m = glam::DVec3::new(0.0, 20.0, pose.height_m);
+    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+    let truth = rain_composite::scene::ground::up_from_tilt_roll(
+        pose.tilt_deg.to_radians(),
+        pose.roll_deg.to_radians(),
+    );
+    let off_deg = e.up_cam.angle_between(truth).to_degrees();
+    eprintln!("straight down over buildings: {off_deg:.3}° off: {e:?}");
+    assert!(e.confidence >= horizon::MIN_CONFIDENCE, "{e:?}");
+    assert!(off_deg < 0.5, "up direction {off_deg:.3}° off");
+    let nadir = cam
+        .project_world(cam.position_m - glam::DVec3::Z * 100.0)
+        .expect("the nadir is in front");
+    let (judged, worst) = streaks_off_nadir(&pose, e.tilt_deg, e.roll_deg, nadir);
+    eprintln!("{judged} streaks, worst {worst:.2}° off the nadir at {nadir}");
+    assert!(judged > 100, "{judged} streaks judged");
+    assert!(worst < 2.0, "a streak {worst:.2}° off the nadir");
+
+    scene.blocks.clear();
+    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+    eprintln!("paving only: {e:?}");
+    assert!(e.confidence < horizon::MIN_CONFIDENCE, "{e:?}");
+}
+
+/// Steep views of a city (down from a drone, up from a street) at random poses: the estimate's
+/// up direction is right when within 1° of the truth (the horizon is far off the picture; the
+/// streaks' directions follow the up direction). No confident estimate may be wrong.
+#[test]
+#[ignore = "not reached: 5 of 24 steep views are read confidently as level views (the \
+            Manhattan alternative); prints the table"]
+fn steep_views_are_posed_or_not_confident() {
+    let shots: u64 = std::env::var("STEEP_SHOTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30);
+    let (mut confident, mut wrong, mut right) = (0, 0, 0);
+    for i in 0..shots {
+        let (scene, pose, cam) = street::steep_shot(7, i);
+        let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+        if let Ok(dir) = std::env::var("STEEP_DUMP") {
+            let mut pgm = format!("P5 {} {} 255\n", street::W, street::H).into_bytes();
+            pgm.extend_from_slice(&frame.planes[0].data[..(street::W * street::H) as usize]);
+            std::fs::write(format!("{dir}/steep{i}.pgm"), pgm).expect("dump");
+        }
+        let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+        let truth = rain_composite::scene::ground::up_from_tilt_roll(
+            pose.tilt_deg.to_radians(),
+            pose.roll_deg.to_radians(),
+        );
+        let off_deg = e.up_cam.angle_between(truth).to_degrees();
+        let ok = off_deg < 1.0;
+        right += usize::from(ok);
+        if e.confidence >= horizon::MIN_CONFIDENCE {
+            confident += 1;
+            wrong += usize::from(!ok);
+        }
+        eprintln!(
+            "steep {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
+             confidence {:.3} lines {} v {} sky {:.2} | {}",
+            pose.tilt_deg,
+            pose.roll_deg,
+            pose.fov_deg,
+            e.tilt_deg,
+            e.roll_deg,
+            e.confidence,
+            e.steep_lines,
+            e.vertical_inliers,
+            e.sky_correlation,
+            if ok { "right" } else { "WRONG" }
+        );
+    }
+    println!("{right} of {shots} steep shots right; auto poses {confident}, {wrong} of them wrong");
+    assert!(
+        wrong == 0,
+        "{wrong} of {confident} confident steep estimates wrong"
+    );
+}
+
+/// Exact segments of verticals seen through cameras looking 72–89° down or up at random rolls:
+/// the steep reading finds the vertical vanishing point within 0.01° (its position in the
+/// picture is the pose, without a horizon), counts each line once, and a paving of two families
+/// of parallel joints alone (two lines through any point) is no steep evidence.
+#[test]
+fn steep_reading_finds_the_vertical_vanishing_point() {
+    use glam::DVec3;
+    use rain_composite::rng::SplitMix64;
+    use rain_composite::scene::ground::up_from_tilt_roll;
+    use rain_composite::scene::steep;
+    use rain_composite::scene::vanishing::Edge;
+    let edge = |cam: &rain_composite::scene::Camera, p0: DVec3, p1: DVec3| {
+        let (a, b) = (
+            cam.camera_from_world_point(p0),
+            cam.camera_from_world_point(p1),
+        );
+        if a.z <= 0.1 || b.z <= 0.1 {
+            return None;
+        }
+        let (a, b) = (a.normalize(), b.normalize());
+        Some(Edge {
+            l: a.cross(b).try_normalize()?,
+            m: (a + b).normalize(),
+            ends: [a, b],
+            cut: [false; 2],
+            w: a.angle_between(b),
+        })
+    };
+    let mut rng = SplitMix64(99);
+    for k in 0..12 {
+        let up_view = k % 3 == 0;
+        let tilt = (72.0 + 17.0 * rng.next_f64()) * if up_view { 1.0 } else { -1.0 };
+        let roll = 40.0 * rng.next_f64() - 20.0;
+        let height = if up_view { 1.6 } else { 40.0 };
+        let mut cam = rain_composite::scene::Camera::new(
+            640,
+            360,
+            70f64.to_radians(),
+            height,
+            f64::to_radians(tilt),
+            f64::to_radians(roll),
+        );
+        cam.position_m = DVec3::new(0.0, 0.0, height);
+        // Twelve building corners 5–25 m around (over half the circle: a line through the
+        // point on both sides is one line), 8–30 m tall; and a paving of 1 m joints.
+        let mut edges = Vec::new();
+        for c in 0..12 {
+            let az = c as f64 * 0.26 + rng.next_f64() * 0.1;
+            let r = 5.0 + 20.0 * rng.next_f64();
+            let base = DVec3::new(r * az.cos(), r * az.sin(), if up_view { 3.0 } else { 0.0 });
+            let top = DVec3::new(base.x, base.y, 8.0 + 22.0 * rng.next_f64());
+            edges.extend(edge(&cam, base, top));
+        }
+        let truth = up_from_tilt_roll(tilt.to_radians(), roll.to_radians());
+        let s = steep::read(&edges, |n| if n.dot(truth) > 0.0 { 1.0 } else { -1.0 })
+            .expect("a steep reading");
+        let off = s.up_cam.angle_between(truth).to_degrees();
+        eprintln!(
+            "tilt {tilt:.2} roll {roll:.2}: {off:.4}° off, {} lines of {} edges",
+            s.distinct_lines,
+            edges.len()
+        );
+        assert!(off < 0.01, "{off}° off");
+        assert_eq!(s.distinct_lines, edges.len());
+        if !up_view {
+            let mut paving = Vec::new();
+            for j in -20..=20 {
+                let (a, b) = (j as f64, 20.0);
+                paving.extend(edge(&cam, DVec3::new(a, -b, 0.0), DVec3::new(a, b, 0.0)));
+                paving.extend(edge(&cam, DVec3::new(-b, a, 0.0), DVec3::new(b, a, 0.0)));
+            }
+            let p = steep::read(&paving, |_| 0.0);
+            let lines = p.as_ref().map_or(0, |p| p.distinct_lines);
+            assert!(lines <= 2, "paving: {lines} lines");
+            assert!(p.is_none_or(|p| steep::confidence(&p, true) < 0.05));
+        }
+    }
 }

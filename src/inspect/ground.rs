@@ -85,6 +85,7 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
             "vertical_inliers": e.vertical_inliers,
             "horizontal_inliers": e.horizontal_inliers,
             "horizon_inliers": e.horizon_inliers,
+            "steep_lines": e.steep_lines,
         },
     })
 }

@@ -73,6 +73,7 @@ use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+use crate::scene::steep;
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
 use crate::video::frame::coded_pixel;
@@ -320,6 +321,9 @@ pub struct HorizonEstimate {
     pub floating_len: f64,
     /// Evidence: correlation of brightness with elevation above the horizon (the sky).
     pub sky_correlation: f64,
+    /// Distinct lines through the vertical vanishing point of a steep reading (see
+    /// [`steep`]); 0 for a reading of the level search.
+    pub steep_lines: usize,
 }
 
 struct Score {
@@ -615,8 +619,41 @@ fn estimate_with(
         standing_len: standing,
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
+        steep_lines: 0,
     };
     est.confidence = calibrated_confidence(&est);
+    // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
+    // sees no sky (a picture of a level street has a point where many lines converge too), or
+    // where its own sky is clearly brighter: looking up between facades, the sky is around
+    // the zenith, and the level reading (the Manhattan alternative) is then a guess.
+    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
+    if let Some(s) = steep::read(&edges, sky) {
+        let steep_sky = sky(s.up_cam);
+        let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
+            && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
+        let unsure = est.confidence < MIN_CONFIDENCE && est.sky_correlation < steep::LEVEL_SKY;
+        let confidence = steep::confidence(&s, sky_says_steep);
+        if sky_says_steep || (unsure && confidence > est.confidence) {
+            let (t, r) = tilt_roll_from_up(s.up_cam);
+            est = HorizonEstimate {
+                up_cam: s.up_cam,
+                tilt_deg: t.to_degrees(),
+                roll_deg: r.to_degrees(),
+                horizon_row: horizon_row_of_up(s.up_cam, camera),
+                confidence,
+                vertical_inliers: s.inliers.len(),
+                horizontal_inliers: 0,
+                horizon_inliers: 0,
+                families: 0,
+                fitted_inliers: s.inliers.len(),
+                standing_len: 0.0,
+                floating_len: 0.0,
+                sky_correlation: steep_sky,
+                steep_lines: s.distinct_lines,
+                ..est
+            };
+        }
+    }
     est
 }
 

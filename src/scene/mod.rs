@@ -8,6 +8,7 @@ pub mod depth;
 pub mod ground;
 pub mod horizon;
 pub mod sky;
+pub mod steep;
 pub mod vanishing;
 
 pub use camera::Camera;

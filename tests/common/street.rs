@@ -217,3 +217,58 @@ pub fn shot(seed: u64, i: u64) -> (Street, Pose) {
     };
     (Street::random(&mut rng), pose)
 }
+
+/// A city of towers seen in steep views: a grid of blocks 8–14 m wide and 10–40 m tall on
+/// 20 m centres (streets of 6–12 m between them), paving between, a sky.
+pub fn city(rng: &mut SplitMix64) -> Street {
+    let mut blocks = Vec::new();
+    for i in -3..=3 {
+        for j in -3..=3 {
+            let half = uniform(rng, 4.0, 7.0);
+            blocks.push(Block {
+                centre: [20.0 * i as f64, 20.0 * j as f64],
+                half: [half, uniform(rng, 4.0, 7.0)],
+                top_m: uniform(rng, 10.0, 40.0),
+                shade: uniform(rng, 0.45, 0.9),
+                building: true,
+            });
+        }
+    }
+    Street {
+        blocks,
+        paving_deg: uniform(rng, 0.0, 90.0),
+        stone_m: uniform(rng, 0.4, 0.9),
+        sky: uniform(rng, 0.7, 0.95),
+    }
+}
+
+/// Steep shot `i` of `seed`: a city and a camera, two in three looking down 70–90° from
+/// 50–80 m over a random point, one in three looking up 70–90° from 1.6 m in a street; roll
+/// ±20°, field of view 40–90°. Returns the city, the pose and the camera (placed).
+pub fn steep_shot(seed: u64, i: u64) -> (Street, Pose, Camera) {
+    let mut rng = SplitMix64(seed.wrapping_mul(1_000_033).wrapping_add(i));
+    let up = rng.next_f64() < 1.0 / 3.0;
+    let tilt = uniform(&mut rng, 70.0, 90.0);
+    let pose = Pose {
+        tilt_deg: if up { tilt } else { -tilt },
+        roll_deg: uniform(&mut rng, -20.0, 20.0),
+        fov_deg: uniform(&mut rng, 40.0, 90.0),
+        height_m: if up {
+            1.6
+        } else {
+            uniform(&mut rng, 50.0, 80.0)
+        },
+    };
+    let mut camera = pose.camera();
+    // Looking up: in the street between two rows of towers; looking down: anywhere.
+    let (x, y) = if up {
+        (10.0, uniform(&mut rng, -20.0, 20.0))
+    } else {
+        (
+            uniform(&mut rng, -20.0, 20.0),
+            uniform(&mut rng, -20.0, 20.0),
+        )
+    };
+    camera.position_m = DVec3::new(x, y, pose.height_m);
+    (city(&mut rng), pose, camera)
+}

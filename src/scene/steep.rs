@@ -1,0 +1,233 @@
+//! The camera's pose in steep views down or up, from the vertical vanishing point near the
+//! middle of the picture.
+//!
+//! Looking straight down (or up), the world's verticals — building corners, posts — converge
+//! on the nadir (or zenith) inside or near the picture, and its position gives the up direction
+//! in camera space directly: the unit ray through it, without any horizon. The search of
+//! [`crate::scene::horizon`] stops at ±65° of tilt, where its tilt-and-roll grid and its priors
+//! no longer tell the vertical vanishing point from the point straight ahead; this module reads
+//! the steeper views.
+//!
+//! Candidates are the meeting points of pairs of the longest segments that lie within
+//! [`STEEP_AXIS_DEG`] of the optical axis (tilt beyond 90° − that); each is scored by the
+//! length of the segments whose lines pass within [`INLIER_DEG`] of it and which do not cross
+//! it (a vertical edge below the camera is seen as a ray from the nadir, never through it).
+//! The best is refined by least squares: the unit `d` minimising `Σ w (l·d)² / |m×d|²` over the
+//! inliers (`l` an interpretation-plane normal, `m` the ray through the midpoint: the squared
+//! sine of each segment's angle to the great circle through its midpoint and `d`), the
+//! smallest eigenvector of a 3×3 matrix, reweighted and reclassified three times.
+//!
+//! **Evidence.** Paving seen from above has two families of parallel joints, and any two
+//! joints meet somewhere; only structure standing up converges from many directions. The
+//! reading's evidence is the number of *distinct lines* through the point (inliers whose
+//! directions around it differ by more than [`DISTINCT_DEG`]) and their *spread* (the circle
+//! around the point less its largest empty gap). A picture of a level street also has a point
+//! where many lines converge (the street's own vanishing point straight ahead), with the same
+//! evidence. A steep reading replaces the level search's where its own sky correlates with
+//! elevation clearly better ([`SKY_MARGIN`]: looking up between facades, the sky is around the
+//! zenith), and then its evidence sets its confidence; or where the level reading is unsure and
+//! sees no sky above its horizon ([`LEVEL_SKY`]), and then it is not confident
+//! ([`STEEP_CEILING`]): a pose to inspect, on which `auto` does not engage. Views down have no
+//! sky to choose with.
+//!
+//! **Down or up.** The nadir and the zenith are the same point of the picture. The sky is
+//! brighter than what stands under it, so the reading looks up when the brightness correlates
+//! with elevation above [`ZENITH_SKY`] for the zenith, and down otherwise (drone shots straight
+//! down are the common case).
+
+use glam::{DMat3, DVec3};
+
+use crate::scene::vanishing::{Edge, vertical_angle};
+
+/// Largest angle between the vertical vanishing point and the optical axis, degrees: tilts
+/// beyond 70° (the level search covers up to 65°; nearer level, a steep reading of a level
+/// street's own vanishing point is its Manhattan alternative, which that search weighs).
+pub const STEEP_AXIS_DEG: f64 = 20.0;
+
+/// Inlier tolerance, degrees.
+pub const INLIER_DEG: f64 = 1.0;
+
+/// Lines through the point whose directions around it differ by less than this are one line
+/// (the two silhouette edges of a post, a corner broken into pieces), degrees.
+pub const DISTINCT_DEG: f64 = 1.5;
+
+/// Segments paired for candidates (the longest).
+pub const PAIRED_SEGMENTS: usize = 60;
+
+/// The sky's correlation with elevation above which the reading looks up at the zenith.
+pub const ZENITH_SKY: f64 = 0.2;
+
+/// A steep reading.
+#[derive(Debug, Clone)]
+pub struct SteepReading {
+    /// The ground's upward normal in camera space.
+    pub up_cam: DVec3,
+    /// Inlier segments.
+    pub inliers: Vec<usize>,
+    /// Distinct lines through the vanishing point.
+    pub distinct_lines: usize,
+    /// The circle around the point less its largest gap without inliers, radians.
+    pub spread_rad: f64,
+    /// Root-mean-square angle of the inliers to the point, degrees.
+    pub rms_deg: f64,
+}
+
+/// Whether the unit ray `d` lies on segment `e` between its ends.
+fn crosses(e: &Edge, d: DVec3) -> bool {
+    let [a, b] = e.ends;
+    d.dot(e.m) > 0.0 && a.cross(d).dot(e.l) > 0.0 && d.cross(b).dot(e.l) > 0.0
+}
+
+fn inliers_of(edges: &[Edge], d: DVec3, tol_rad: f64) -> (Vec<usize>, f64) {
+    let mut out = Vec::new();
+    let mut w = 0.0;
+    for (i, e) in edges.iter().enumerate() {
+        if vertical_angle(e, d) < tol_rad && !crosses(e, d) {
+            out.push(i);
+            w += e.w;
+        }
+    }
+    (out, w)
+}
+
+/// The unit `d` minimising the weighted `Σ (l·d)² / |m×d0|²` (see the module doc), by inverse
+/// iteration from `d0`.
+fn fit(edges: &[Edge], inliers: &[usize], d0: DVec3) -> DVec3 {
+    let mut m = DMat3::ZERO;
+    for &i in inliers {
+        let e = &edges[i];
+        let s2 = e.m.cross(d0).length_squared().max(1e-6);
+        let l = e.l;
+        m += DMat3::from_cols(l * l.x, l * l.y, l * l.z) * (e.w / s2);
+    }
+    let trace = m.x_axis.x + m.y_axis.y + m.z_axis.z;
+    let a = m + DMat3::IDENTITY * (1e-9 * trace.max(1e-12));
+    if a.determinant().abs() < 1e-300 {
+        return d0;
+    }
+    let inv = a.inverse();
+    let mut d = d0;
+    for _ in 0..30 {
+        d = (inv * d).normalize_or(d0);
+    }
+    if d.dot(d0) < 0.0 { -d } else { d }
+}
+
+/// The direction of each inlier's midpoint around `d`, radians in [0, 2π).
+fn around(edges: &[Edge], inliers: &[usize], d: DVec3) -> Vec<f64> {
+    let e1 = (DVec3::X - d * d.x).normalize_or(DVec3::Y);
+    let e2 = d.cross(e1);
+    inliers
+        .iter()
+        .map(|&i| {
+            let m = edges[i].m;
+            m.dot(e2).atan2(m.dot(e1)).rem_euclid(std::f64::consts::TAU)
+        })
+        .collect()
+}
+
+/// The steep reading of `edges`, if two segments meet within [`STEEP_AXIS_DEG`] of the optical
+/// axis: its up direction looks down at the point unless `zenith_sky(d)` (the brightness's
+/// correlation with elevation for up = `d`) exceeds [`ZENITH_SKY`].
+pub fn read(edges: &[Edge], zenith_sky: impl Fn(DVec3) -> f64) -> Option<SteepReading> {
+    let mut order: Vec<usize> = (0..edges.len()).collect();
+    order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
+    order.truncate(PAIRED_SEGMENTS);
+    let cos_axis = STEEP_AXIS_DEG.to_radians().cos();
+    let tol = INLIER_DEG.to_radians();
+    let mut best: Option<(f64, DVec3)> = None;
+    for (k, &i) in order.iter().enumerate() {
+        for &j in &order[k + 1..] {
+            let Some(mut d) = edges[i].l.cross(edges[j].l).try_normalize() else {
+                continue;
+            };
+            if d.z < 0.0 {
+                d = -d;
+            }
+            if d.z < cos_axis || crosses(&edges[i], d) || crosses(&edges[j], d) {
+                continue;
+            }
+            let (_, w) = inliers_of(edges, d, tol);
+            if best.is_none_or(|b| w > b.0) {
+                best = Some((w, d));
+            }
+        }
+    }
+    let (_, mut d) = best?;
+    for tol_deg in [2.0, 1.5, INLIER_DEG, INLIER_DEG] {
+        let (inl, _) = inliers_of(edges, d, tol_deg.to_radians());
+        if inl.len() < 2 {
+            return None;
+        }
+        d = fit(edges, &inl, d);
+    }
+    let (inliers, _) = inliers_of(edges, d, tol);
+    if inliers.len() < 2 {
+        return None;
+    }
+    let mut dirs = around(edges, &inliers, d);
+    dirs.sort_by(f64::total_cmp);
+    let (tau, pi) = (std::f64::consts::TAU, std::f64::consts::PI);
+    let mut gap: f64 = tau - dirs[dirs.len() - 1] + dirs[0];
+    for w in dirs.windows(2) {
+        gap = gap.max(w[1] - w[0]);
+    }
+    // Lines: the directions modulo π (a line seen on both sides of the point is one line).
+    let mut lines: Vec<f64> = dirs.iter().map(|a| a.rem_euclid(pi)).collect();
+    lines.sort_by(f64::total_cmp);
+    let step = DISTINCT_DEG.to_radians();
+    let mut distinct = usize::from(pi - lines[lines.len() - 1] + lines[0] > step);
+    for w in lines.windows(2) {
+        distinct += usize::from(w[1] - w[0] > step);
+    }
+    let distinct = distinct.max(1);
+    let ms: f64 = inliers
+        .iter()
+        .map(|&i| vertical_angle(&edges[i], d).powi(2))
+        .sum::<f64>()
+        / inliers.len() as f64;
+    let up_cam = if zenith_sky(d) > ZENITH_SKY { d } else { -d };
+    Some(SteepReading {
+        up_cam,
+        distinct_lines: distinct,
+        spread_rad: tau - gap,
+        rms_deg: ms.sqrt().to_degrees(),
+        inliers,
+    })
+}
+
+/// The level reading's sky correlation below which a steep reading is weighed (a level
+/// street with a sky above its horizon is not read as a view straight down).
+pub const LEVEL_SKY: f64 = 0.3;
+
+/// Fewest distinct lines with which a steep reading's sky may overrule a level reading.
+pub const SKY_MIN_LINES: usize = 6;
+
+/// How much more a steep reading's sky must correlate with elevation than the level
+/// reading's for it to overrule that reading (on synthetic level streets the steep partner's
+/// sky exceeded the level reading's by at most 0.14; looking up between towers, by 0.3–0.5).
+pub const SKY_MARGIN: f64 = 0.25;
+
+/// Weights of the steep reading's confidence: `1 / (1 + exp(−z))`, `z = w₀ + w₁ min(lines,
+/// 16) + w₂ spread/π`: set by hand so that three lines or
+/// fewer stay below 0.25 (two paving joints always meet), four below 0.5 however spread, and
+/// eight lines spread over a third of the circle pass 0.9; checked on random steep streets (`tests/ground_pose.rs`).
+pub const STEEP_WEIGHTS: [f64; 3] = [-8.0, 1.2, 1.5];
+
+/// The share of the evidence's odds a steep reading keeps: on synthetic level streets looking
+/// up 11–19°, the street's own vanishing point reads as a view straight down with 16–19 distinct
+/// lines (the evidence of a true steep view), so the evidence alone cannot make a steep reading
+/// confident: unless the sky chose it, its confidence stays at most this, below
+/// [`crate::scene::horizon::MIN_CONFIDENCE`].
+pub const STEEP_CEILING: f64 = 0.5;
+
+/// The confidence of a steep reading: the evidence's logistic, times [`STEEP_CEILING`] unless
+/// the sky chose it over the level reading (`by_sky`: a sky around the zenith, which a level
+/// street's own vanishing point does not have).
+pub fn confidence(s: &SteepReading, by_sky: bool) -> f64 {
+    let w = STEEP_WEIGHTS;
+    let z =
+        w[0] + w[1] * s.distinct_lines.min(16) as f64 + w[2] * s.spread_rad / std::f64::consts::PI;
+    let ceiling = if by_sky { 1.0 } else { STEEP_CEILING };
+    ceiling / (1.0 + (-z).exp())
+}
