@@ -99,7 +99,9 @@ pub fn keys_of(track: &PoseTrack, config: &RenderConfig) -> Result<Keyframes> {
     let c = &config.camera;
     let curve = |value: &dyn Fn(&motion::FramePose) -> f64, plain: f64| {
         let keys: Vec<(f64, f64)> = track.frames.iter().map(|f| (f.t, value(f))).collect();
-        if keys.iter().all(|k| k.1 == plain) {
+        // The first camera read back through its rotation differs from the settings by
+        // rounding only.
+        if keys.iter().all(|k| (k.1 - plain).abs() <= 1e-9) {
             return Ok(None);
         }
         Curve::track(keys).map(Some).map_err(|e| Error::Parameter {

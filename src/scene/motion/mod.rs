@@ -184,9 +184,15 @@ pub fn pan_tilt_roll(world_from_camera: DMat3) -> (f64, f64, f64) {
 pub const MIN_INLIERS: usize = 16;
 /// See [`MIN_INLIERS`].
 pub const MIN_INLIER_SHARE: f64 = 0.4;
-/// Below this share of the reference's corners still following the fit, the reference moves
-/// on to the current frame.
-const RENEW_SHARE: f64 = 0.6;
+/// Below this share of the reference's corners still following the fit, or beyond this turn
+/// or zoom from it, the reference moves on to the current frame: a patch seen a few degrees
+/// further across a wide view is stretched by the perspective (by 1/cos² of its angle off
+/// the axis) and no longer matches its reference by a shift.
+const RENEW_SHARE: f64 = 0.75;
+/// See [`RENEW_SHARE`], degrees.
+const RENEW_TURN_DEG: f64 = 3.0;
+/// See [`RENEW_SHARE`].
+const RENEW_ZOOM: f64 = 0.03;
 /// Least share of a shot's frames with a confident estimate for its motion to be used.
 pub const MIN_SHOT_CONFIDENCE: f64 = 0.6;
 /// A shot whose camera never turns further than this from its first frame is still, degrees:
@@ -330,7 +336,13 @@ impl Estimator {
                 } else {
                     last.pose
                 };
-                (pose, if ok { share } else { 0.0 }, share < RENEW_SHARE)
+                let far = f.motion.angle_rad().to_degrees() > RENEW_TURN_DEG
+                    || (f.motion.zoom - 1.0).abs() > RENEW_ZOOM;
+                (
+                    pose,
+                    if ok { share } else { 0.0 },
+                    share < RENEW_SHARE || far,
+                )
             }
             None => (last.pose, 0.0, true),
         };
