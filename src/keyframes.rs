@@ -578,7 +578,12 @@ mod tests {
     #[test]
     fn a_track_keyed_every_frame_is_sampled_along_its_path() {
         let frames: Vec<(f64, f64)> = (0..250)
-            .map(|i| (i as f64 / 25.0, 0.2 * i as f64 / 25.0 + 0.3 * (i as f64).sin()))
+            .map(|i| {
+                (
+                    i as f64 / 25.0,
+                    0.2 * i as f64 / 25.0 + 0.3 * (i as f64).sin(),
+                )
+            })
             .collect();
         let keys = Keyframes {
             pan_deg: Some(Curve::track(frames.clone()).expect("track")),

@@ -218,7 +218,11 @@ fn a_still_shot_gives_exactly_no_motion() {
         }
     }
     let mut config = RenderConfig::default();
-    (config.camera.tilt_deg, config.camera.roll_deg, config.camera.fov_deg) = (-7.3, 2.1, 63.0);
+    (
+        config.camera.tilt_deg,
+        config.camera.roll_deg,
+        config.camera.fov_deg,
+    ) = (-7.3, 2.1, 63.0);
     let keys = rain_composite::pipeline::motion::keys_of(&track, &config).expect("keys");
     assert!(keys.is_empty(), "{keys:?}");
 }
@@ -318,8 +322,23 @@ fn clip_of(dir: &std::path::Path, shots: &[(&[Pose], u64, f32)]) -> std::path::P
     let clip = dir.join("pan.mkv");
     let size = format!("{}x{}", SIZE.0, SIZE.1);
     ffmpeg(&[
-        "-f", "rawvideo", "-pix_fmt", "gray", "-s", &size, "-r", "25", "-i", s(&raw), "-vf",
-        "format=yuv420p", "-c:v", "ffv1", "-color_range", "tv", s(&clip),
+        "-f",
+        "rawvideo",
+        "-pix_fmt",
+        "gray",
+        "-s",
+        &size,
+        "-r",
+        "25",
+        "-i",
+        s(&raw),
+        "-vf",
+        "format=yuv420p",
+        "-c:v",
+        "ffv1",
+        "-color_range",
+        "tv",
+        s(&clip),
     ]);
     clip
 }
@@ -357,7 +376,11 @@ fn a_cut_resets_and_the_pose_file_round_trips() {
     assert_eq!(shots.len(), 2, "{shots:?}");
     assert!((shots[1]["start_s"].as_f64().expect("start") - 0.8).abs() < 1e-9);
     let second = &track.frames[20];
-    assert_eq!([second.pan_deg, second.tilt_deg], [0.0, 0.0], "reset at the cut");
+    assert_eq!(
+        [second.pan_deg, second.tilt_deg],
+        [0.0, 0.0],
+        "reset at the cut"
+    );
     for (k, (f, p)) in track.frames.iter().zip(a.iter().chain(&b)).enumerate() {
         let first = if k < 20 { a[0] } else { b[0] };
         assert!(
@@ -374,14 +397,11 @@ fn a_cut_resets_and_the_pose_file_round_trips() {
         ..RenderConfig::default()
     };
     by_file.validate().expect("valid");
-    let from_file = rain_composite::pipeline::motion::resolve(&by_file, s(&clip), &cancel)
-        .expect("file");
-    let auto = rain_composite::pipeline::motion::resolve(
-        &RenderConfig::default(),
-        s(&clip),
-        &cancel,
-    )
-    .expect("auto");
+    let from_file =
+        rain_composite::pipeline::motion::resolve(&by_file, s(&clip), &cancel).expect("file");
+    let auto =
+        rain_composite::pipeline::motion::resolve(&RenderConfig::default(), s(&clip), &cancel)
+            .expect("auto");
     assert!(auto.keyframes.moves_camera());
     assert_eq!(from_file.keyframes, auto.keyframes);
     assert_eq!(from_file.camera_motion, MotionSource::None);
@@ -394,7 +414,69 @@ fn a_cut_resets_and_the_pose_file_round_trips() {
         .expect("auto with a ground");
     assert!(resolved.keyframes.is_empty());
     grounded.camera_motion = by_file.camera_motion.clone();
-    let e = grounded.validate().expect_err("file and ground").to_string();
+    let e = grounded
+        .validate()
+        .expect_err("file and ground")
+        .to_string();
     assert!(e.contains("camera_motion") && e.contains("ground"), "{e}");
 }
 
+/// Report (run with `--ignored --nocapture`): the estimation's cost per frame at 720p and
+/// 1080p, median of a panning shot's frames: the frame's luma boxed down to the tracked width,
+/// and the tracking and fit (the same work at both sizes: the tracked picture is 640 wide).
+/// Decoding is the render's own cost and is not counted.
+#[test]
+#[ignore]
+fn report_motion_costs() {
+    use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+    use std::time::Instant;
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let poses: Vec<Pose> = panning_shot(3, 30);
+    let images: Vec<Image> = poses
+        .iter()
+        .map(|p| frame(&p.camera(), 9, 0.004, 1))
+        .collect();
+    let first = Pose {
+        pan_deg: 0.0,
+        ..poses[0]
+    }
+    .camera();
+    let mut e = Estimator::new(first);
+    let mut track_ms = Vec::new();
+    for (i, img) in images.iter().enumerate() {
+        let start = Instant::now();
+        e.push(img.clone(), 1.0, i as f64 / FPS, false);
+        track_ms.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    println!("| picture | luma to 640 wide (ms) | tracking and fit (ms) |");
+    println!("|---|---|---|");
+    for (w, h) in [(1280u32, 720u32), (1920, 1080)] {
+        let format = FrameFormat {
+            width: w,
+            height: h,
+            chroma: Chroma::Cs420,
+            bit_depth: 8,
+        };
+        let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [128, 128, 128]);
+        let stride = frame.planes[0].stride;
+        for (k, v) in frame.planes[0].data.iter_mut().enumerate() {
+            let (x, y) = (k % stride, k / stride);
+            *v = (16 + (x * 7 + y * 13 + (x * y) % 31) % 200) as u8;
+        }
+        let luma_ms: Vec<f64> = (0..15)
+            .map(|_| {
+                let start = Instant::now();
+                std::hint::black_box(rain_composite::scene::motion::work_image(&frame, 0));
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        println!(
+            "| {w}×{h} | {:.1} | {:.1} |",
+            median(luma_ms),
+            median(track_ms.clone())
+        );
+    }
+}

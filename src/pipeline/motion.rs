@@ -58,15 +58,29 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
             continue;
         }
         last_t = t;
-        let luma = Luma::from_frame(&frame, rot, motion::WORK_WIDTH);
+        let (image, scale) = motion::work_image(&frame, rot);
+        let luma = Luma {
+            width: image.width,
+            height: image.height,
+            data: image.data,
+            scale,
+        };
         let thumb = luma.thumbnail();
         let cut = prev.is_some_and(|p| {
-            p.iter().zip(&thumb).map(|(a, b)| (a - b).abs()).sum::<f32>() / 144.0
+            p.iter()
+                .zip(&thumb)
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f32>()
+                / 144.0
                 > CUT_THRESHOLD
         });
         prev = Some(thumb);
-        let scale = luma.scale as f64;
-        estimator.push(motion::image_of(luma), scale, t, cut);
+        let image = motion::track::Image {
+            width: luma.width,
+            height: luma.height,
+            data: luma.data,
+        };
+        estimator.push(image, scale as f64, t, cut);
         frames += 1;
     }
     if frames == 0 {
@@ -152,7 +166,11 @@ pub fn resolve(config: &RenderConfig, input: &str, cancel: &AtomicBool) -> Resul
                 return Ok(out);
             }
             if config.ground.mode != GroundMode::None {
-                let turn = estimate.shots.iter().map(|s| s.max_turn_deg).fold(0.0, f64::max);
+                let turn = estimate
+                    .shots
+                    .iter()
+                    .map(|s| s.max_turn_deg)
+                    .fold(0.0, f64::max);
                 log::warn!(
                     "camera motion: the camera turns up to {turn:.1}° but a ground holds it \
                      still (its splashes, wet ground and puddles are mapped through one camera); \

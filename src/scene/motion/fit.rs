@@ -45,7 +45,9 @@ impl TurnZoom {
 
     /// The angle turned, radians.
     pub fn angle_rad(&self) -> f64 {
-        DQuat::from_mat3(&self.rotation).normalize().angle_between(DQuat::IDENTITY)
+        DQuat::from_mat3(&self.rotation)
+            .normalize()
+            .angle_between(DQuat::IDENTITY)
     }
 
     /// From the parameters `(ω, ln s)`: the rotation by the vector `ω` and the zoom `s`.
@@ -136,7 +138,9 @@ fn refine(pairs: &[(DVec2, DVec2)], keep: &[bool], start: TurnZoom) -> TurnZoom 
             for k in 0..4 {
                 let mut dp = p;
                 dp[k] += h;
-                let Some(g) = model(dp).apply(a) else { continue };
+                let Some(g) = model(dp).apply(a) else {
+                    continue;
+                };
                 let d = (g - f) / h;
                 jac[0][k] = d.x;
                 jac[1][k] = d.y;

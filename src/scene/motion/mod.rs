@@ -314,9 +314,10 @@ impl Estimator {
         let centre = self.first.principal_px();
         let to_norm = |q: DVec2| ((q + 0.5) * scale - centre) / f_ref;
         let to_samples = |n: DVec2| (n * f_ref + centre) / scale - 0.5;
+        use rayon::prelude::*;
         let pairs: Vec<(DVec2, DVec2)> = reference
             .corners
-            .iter()
+            .par_iter()
             .filter_map(|&c| {
                 let a = to_norm(c);
                 let g = guess.apply(a).map_or(c, to_samples);
@@ -462,13 +463,52 @@ pub fn savitzky_golay(values: &[[f64; 4]]) -> Vec<[f64; 4]> {
     out
 }
 
-/// A frame's luma (see [`crate::scene::horizon::Luma`]) as the tracker's image.
-pub fn image_of(luma: crate::scene::horizon::Luma) -> Image {
-    Image {
-        width: luma.width,
-        height: luma.height,
-        data: luma.data,
+/// A frame's luma as displayed, box-averaged down to about [`WORK_WIDTH`] samples wide, as the
+/// tracker's image, and the displayed pixels per sample: exactly
+/// [`crate::scene::horizon::Luma::from_frame`] (its plain reference), read row by row from the
+/// plane where the picture is not rotated.
+pub fn work_image(frame: &crate::video::YuvFrame, rotation_deg: i32) -> (Image, usize) {
+    use crate::scene::horizon::Luma;
+    if rotation_deg.rem_euclid(360) != 0 {
+        let luma = Luma::from_frame(frame, rotation_deg, WORK_WIDTH);
+        let image = Image {
+            width: luma.width,
+            height: luma.height,
+            data: luma.data,
+        };
+        return (image, luma.scale);
     }
+    let (fw, fh) = (frame.format.width as usize, frame.format.height as usize);
+    let scale = fw.div_ceil(WORK_WIDTH).max(1);
+    let (w, h) = ((fw / scale).max(1), (fh / scale).max(1));
+    let max = ((1u32 << frame.format.bit_depth) - 1) as f32;
+    let norm = 1.0 / (max * (scale * scale) as f32);
+    let plane = &frame.planes[0];
+    let wide = frame.format.bytes_per_sample() == 2;
+    let mut data = Vec::with_capacity(w * h);
+    let mut sums = vec![0u32; w];
+    for j in 0..h {
+        sums.fill(0);
+        for y in j * scale..((j + 1) * scale).min(fh) {
+            let row = &plane.data[y * plane.stride..];
+            for (i, sum) in sums.iter_mut().enumerate() {
+                for x in i * scale..((i + 1) * scale).min(fw) {
+                    *sum += if wide {
+                        u16::from_le_bytes([row[2 * x], row[2 * x + 1]]) as u32
+                    } else {
+                        row[x] as u32
+                    };
+                }
+            }
+        }
+        data.extend(sums.iter().map(|&s| s as f32 * norm));
+    }
+    let image = Image {
+        width: w,
+        height: h,
+        data,
+    };
+    (image, scale)
 }
 
 #[cfg(test)]
@@ -504,6 +544,43 @@ mod tests {
             for k in 0..4 {
                 assert!((a[k] - b[k]).abs() < 1e-12);
             }
+        }
+    }
+
+    /// The row-by-row luma is the reference's, bit for bit, at 8 and 10 bits.
+    #[test]
+    fn the_work_image_is_the_boxed_luma() {
+        use crate::scene::horizon::Luma;
+        use crate::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+        for bits in [8u8, 10] {
+            let format = FrameFormat {
+                width: 1283,
+                height: 722,
+                chroma: Chroma::Cs420,
+                bit_depth: bits,
+            };
+            let mut frame = YuvFrame::filled(format, ColorParams::bt709(bits), [64, 512, 512]);
+            let mut rng = crate::rng::SplitMix64(2);
+            let top = 1u64 << bits;
+            let stride = frame.planes[0].stride;
+            for y in 0..722 {
+                for x in 0..1283 {
+                    let v = (rng.next_u64() % top) as u16;
+                    if bits == 8 {
+                        frame.planes[0].data[y * stride + x] = v as u8;
+                    } else {
+                        let at = y * stride + 2 * x;
+                        frame.planes[0].data[at..at + 2].copy_from_slice(&v.to_le_bytes());
+                    }
+                }
+            }
+            let (image, scale) = work_image(&frame, 0);
+            let luma = Luma::from_frame(&frame, 0, WORK_WIDTH);
+            assert_eq!(
+                (image.width, image.height, scale),
+                (luma.width, luma.height, luma.scale)
+            );
+            assert_eq!(image.data, luma.data);
         }
     }
 

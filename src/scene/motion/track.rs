@@ -117,6 +117,64 @@ pub fn cornerness(img: &Image, x: isize, y: isize, r: isize) -> f64 {
     half_trace - (half_trace * half_trace - det).max(0.0).sqrt()
 }
 
+/// Half the side of the patch [`corners`] scores, samples.
+pub const CORNER_RADIUS: usize = 3;
+
+/// [`cornerness`] with radius [`CORNER_RADIUS`] at every sample at least `CORNER_RADIUS + 1`
+/// from the border (0 elsewhere): the gradients' products once per sample, summed over the
+/// patch by a running box sum along rows then columns, so the cost is a few passes over the
+/// picture instead of a patch per sample.
+pub fn cornerness_map(img: &Image) -> Vec<f64> {
+    let (w, h) = (img.width, img.height);
+    let r = CORNER_RADIUS;
+    let mut out = vec![0.0; w * h];
+    if w < 2 * r + 3 || h < 2 * r + 3 {
+        return out;
+    }
+    // Gradient products at every sample (central differences, clamped as `gradient` is).
+    let mut products = vec![[0.0f64; 3]; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let g = gradient(img, x as isize, y as isize);
+            products[y * w + x] = [g.x * g.x, g.x * g.y, g.y * g.y];
+        }
+    }
+    // Sums over 2r + 1 samples along each row, centred (valid where the window fits).
+    let mut rows = vec![[0.0f64; 3]; w * h];
+    for y in 0..h {
+        let line = &products[y * w..(y + 1) * w];
+        let mut acc = [0.0f64; 3];
+        for p in &line[..2 * r + 1] {
+            (0..3).for_each(|k| acc[k] += p[k]);
+        }
+        for x in r..w - r {
+            rows[y * w + x] = acc;
+            if x + r + 1 < w {
+                (0..3).for_each(|k| acc[k] += line[x + r + 1][k] - line[x - r][k]);
+            }
+        }
+    }
+    // Then along each column, and the smaller eigenvalue.
+    for x in r..w - r {
+        let mut acc = [0.0f64; 3];
+        for y in 0..2 * r + 1 {
+            (0..3).for_each(|k| acc[k] += rows[y * w + x][k]);
+        }
+        for y in r..h - r {
+            let [gxx, gxy, gyy] = acc;
+            let half_trace = 0.5 * (gxx + gyy);
+            let det = gxx * gyy - gxy * gxy;
+            out[y * w + x] = half_trace - (half_trace * half_trace - det).max(0.0).sqrt();
+            if y + r + 1 < h {
+                (0..3).for_each(|k| {
+                    acc[k] += rows[(y + r + 1) * w + x][k] - rows[(y - r) * w + x][k]
+                });
+            }
+        }
+    }
+    out
+}
+
 /// Corners of `img`: in each cell of a `cells.0 × cells.1` grid, the sample of largest
 /// [`cornerness`] (tested every `step` samples) if it passes [`MIN_CORNERNESS`], away from the
 /// border by more than the tracked patch.
@@ -125,6 +183,7 @@ pub fn corners(img: &Image, cells: (usize, usize), step: usize) -> Vec<DVec2> {
     if img.width <= 2 * margin || img.height <= 2 * margin {
         return Vec::new();
     }
+    let map = cornerness_map(img);
     let (iw, ih) = (img.width - 2 * margin, img.height - 2 * margin);
     let step = step.max(1);
     let mut out = Vec::new();
@@ -135,7 +194,7 @@ pub fn corners(img: &Image, cells: (usize, usize), step: usize) -> Vec<DVec2> {
             let mut best = (MIN_CORNERNESS, None);
             for y in (y0..y1).step_by(step) {
                 for x in (x0..x1).step_by(step) {
-                    let c = cornerness(img, x as isize, y as isize, 3);
+                    let c = map[y * img.width + x];
                     if c > best.0 {
                         best = (c, Some(DVec2::new(x as f64, y as f64)));
                     }
@@ -148,8 +207,8 @@ pub fn corners(img: &Image, cells: (usize, usize), step: usize) -> Vec<DVec2> {
 }
 
 /// Newton steps per level, and the step below which a level is done, samples.
-const ITERATIONS: usize = 12;
-const CONVERGED: f64 = 0.005;
+const ITERATIONS: usize = 10;
+const CONVERGED: f64 = 0.01;
 
 /// The position in `next` of the patch around `p` in `reference` (level-0 samples), starting
 /// from the guess `guess`: pyramidal Lucas–Kanade. `None` where the patch leaves the picture or
@@ -160,6 +219,9 @@ pub fn follow(reference: &Pyramid, next: &Pyramid, p: DVec2, guess: DVec2) -> Op
     // The displacement at the coarsest level, carried down and refined at each.
     let mut d = (guess - p) / (1u32 << top) as f64;
     let n = (2 * HALF_WINDOW + 1) as usize;
+    // The patch with a border of one sample, for its central differences.
+    let m = n + 2;
+    let mut ring = vec![0.0f64; m * m];
     let mut patch = vec![0.0f64; n * n];
     let mut grads = vec![DVec2::ZERO; n * n];
     for level in (0..levels).rev() {
@@ -167,16 +229,17 @@ pub fn follow(reference: &Pyramid, next: &Pyramid, p: DVec2, guess: DVec2) -> Op
         let scale = (1u32 << level) as f64;
         let q = p / scale;
         // The reference patch and its gradients, bilinear at the (sub-sample) corner position.
+        for (k, v) in ring.iter_mut().enumerate() {
+            let (u, w) = ((k % m) as f64 - 1.0, (k / m) as f64 - 1.0);
+            *v = a.bilinear(q.x + u - HALF_WINDOW as f64, q.y + w - HALF_WINDOW as f64);
+        }
         let (mut gxx, mut gxy, mut gyy) = (0.0, 0.0, 0.0);
-        for (k, (v, u)) in (-HALF_WINDOW..=HALF_WINDOW)
-            .flat_map(|v| (-HALF_WINDOW..=HALF_WINDOW).map(move |u| (v, u)))
-            .enumerate()
-        {
-            let (x, y) = (q.x + u as f64, q.y + v as f64);
-            patch[k] = a.bilinear(x, y);
+        for k in 0..n * n {
+            let c = (k / n + 1) * m + k % n + 1;
+            patch[k] = ring[c];
             let g = DVec2::new(
-                0.5 * (a.bilinear(x + 1.0, y) - a.bilinear(x - 1.0, y)),
-                0.5 * (a.bilinear(x, y + 1.0) - a.bilinear(x, y - 1.0)),
+                0.5 * (ring[c + 1] - ring[c - 1]),
+                0.5 * (ring[c + m] - ring[c - m]),
             );
             grads[k] = g;
             gxx += g.x * g.x;
@@ -253,6 +316,24 @@ mod tests {
         let p = DVec2::new(90.0, 70.0);
         let q = follow(&a, &b, p, p).expect("tracked");
         assert!((q - p - shift).length() < 0.02, "{q} vs {}", p + shift);
+    }
+
+    /// The running-sum cornerness map equals the patch-by-patch reference.
+    #[test]
+    fn the_cornerness_map_is_the_plain_sum() {
+        let img = blobs(90, 60, DVec2::new(0.3, -0.7));
+        let map = cornerness_map(&img);
+        let r = CORNER_RADIUS as isize;
+        for y in r..60 - r {
+            for x in r..90 - r {
+                let want = cornerness(&img, x, y, r);
+                let got = map[y as usize * 90 + x as usize];
+                assert!(
+                    (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                    "{x},{y}: {got} vs {want}"
+                );
+            }
+        }
     }
 
     /// A flat picture has no corners and no track.
