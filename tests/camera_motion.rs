@@ -111,7 +111,11 @@ fn panning_shot(seed: u64, frames: usize) -> Vec<Pose> {
     let shake: Vec<(f64, f64, f64)> = (0..3)
         .map(|_| (u(0.3, 1.0), u(1.0, 4.0), u(0.0, std::f64::consts::TAU)))
         .collect();
-    let zoom_end = if seed % 2 == 0 { u(1.0, 1.15) } else { 1.0 };
+    let zoom_end = if seed.is_multiple_of(2) {
+        u(1.0, 1.15)
+    } else {
+        1.0
+    };
     (0..frames)
         .map(|i| {
             let t = i as f64 / FPS;

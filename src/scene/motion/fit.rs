@@ -87,7 +87,7 @@ fn linear(pairs: &[(DVec2, DVec2)], w: impl Fn(usize) -> f64) -> Option<TurnZoom
         return None;
     }
     let u = n.inverse() * r;
-    if !(u.x > 0.0) {
+    if u.x.is_nan() || u.x <= 0.0 {
         return None;
     }
     Some(TurnZoom::from_params(DVec4::new(
