@@ -231,6 +231,35 @@ fn a_still_shot_gives_exactly_no_motion() {
     assert!(keys.is_empty(), "{keys:?}");
 }
 
+/// A tripod shot with a large textured object crossing it (two fifths of the picture, as a
+/// passing bus or a test pattern's moving parts): the object's corners do not move the camera.
+#[test]
+fn a_moving_object_does_not_move_a_still_camera() {
+    let still = Pose {
+        pan_deg: 0.0,
+        tilt_deg: 3.0,
+        roll_deg: 0.0,
+        fov_deg: 60.0,
+    };
+    let camera = still.camera();
+    let background = frame(&camera, 21, 0.0, 0);
+    let object = frame(&camera, 22, 0.0, 0);
+    let mut e = Estimator::new(camera);
+    let (w, h) = (SIZE.0 as usize, SIZE.1 as usize);
+    for i in 0..30usize {
+        let mut img = background.clone();
+        let x0 = 40 + 6 * i;
+        for y in h / 5..4 * h / 5 {
+            for x in x0..(x0 + w / 2).min(w) {
+                img.data[y * w + x] = object.data[y * w + x - 6 * i];
+            }
+        }
+        e.push(img, 1.0, i as f64 / FPS, false);
+    }
+    let estimate = e.finish();
+    assert!(estimate.track.is_still(), "{:?}", estimate.shots);
+}
+
 /// The drops of an estimated pan stay in the world: each drop's streak on a frame is its world
 /// position seen through that frame's estimated camera (within 0.05 px, as the keyed camera
 /// test holds the keys; a level camera, so a falling drop's streak stays in a plane parallel to

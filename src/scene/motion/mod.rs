@@ -183,7 +183,7 @@ pub fn pan_tilt_roll(world_from_camera: DMat3) -> (f64, f64, f64) {
 /// estimate to count.
 pub const MIN_INLIERS: usize = 16;
 /// See [`MIN_INLIERS`].
-pub const MIN_INLIER_SHARE: f64 = 0.4;
+pub const MIN_INLIER_SHARE: f64 = 0.55;
 /// Below this share of the reference's corners still following the fit, or beyond this turn
 /// or zoom from it, the reference moves on to the current frame: a patch seen a few degrees
 /// further across a wide view is stretched by the perspective (by 1/cos² of its angle off
@@ -194,7 +194,7 @@ const RENEW_TURN_DEG: f64 = 3.0;
 /// See [`RENEW_SHARE`].
 const RENEW_ZOOM: f64 = 0.03;
 /// Least share of a shot's frames with a confident estimate for its motion to be used.
-pub const MIN_SHOT_CONFIDENCE: f64 = 0.6;
+pub const MIN_SHOT_CONFIDENCE: f64 = 0.8;
 /// A shot whose camera never turns further than this from its first frame is still, degrees:
 /// about a sample of the tracked picture at 60°, well above the noise of a tripod shot.
 pub const DEAD_BAND_DEG: f64 = 0.05;
