@@ -112,11 +112,14 @@ pub struct PoseTrack {
 pub const MAX_POSE_FILE_BYTES: u64 = 64 << 20;
 
 impl PoseTrack {
-    /// Reads and checks a pose file; the error names the file and what is wrong.
+    /// Reads and checks a pose file; the error names the setting, the file and what is wrong.
     pub fn read(path: &std::path::Path) -> Result<PoseTrack> {
-        let fail = |reason: String| Error::Config {
-            path: path.display().to_string(),
-            reason,
+        let fail = |reason: String| Error::Parameter {
+            name: "camera_motion",
+            value: path.display().to_string(),
+            expected: format!(
+                "a pose file ({{\"frames\": [{{\"t\", \"pan_deg\", …}}]}}): {reason}"
+            ),
         };
         let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
         if !meta.is_file() || meta.len() > MAX_POSE_FILE_BYTES {
