@@ -352,6 +352,7 @@ mod tests {
         (c.ground.relief_m, c.ground.relief_seed) = (0.01, 7);
         c.ground.puddle_particles = 12_000;
         c.camera_motion = rain_composite::scene::motion::MotionSource::File("poses.json".into());
+        c.ground.sky = rain_composite::scene::sky::SkyMode::Off;
         let values = flag_values(&c);
         let defaults = flag_values(&RenderConfig::default());
         for (flag, d) in &defaults {
