@@ -155,6 +155,11 @@ pub struct RenderConfig {
     /// The streak database for `rain.streaks = "mattes"`: ours (`index.json`) or a copy of
     /// Garg & Nayar's; `None`: the `drops/` shipped with the program.
     pub streak_db: Option<String>,
+    /// The camera's motion: `auto` (the default) estimates its turn and zoom from the clip
+    /// before the render (a still shot stays exactly still), `none` keeps the camera where
+    /// the camera settings and keys put it, a path reads a pose file (`inspect camera --json`;
+    /// see [`crate::scene::motion`]).
+    pub camera_motion: crate::scene::motion::MotionSource,
     /// The settings that change over the shot (`[time_s, value]` keys in the JSON, see
     /// [`crate::keyframes`]); the fields above hold their values at t = 0. Serialise with
     /// [`RenderConfig::to_value`], which writes the keys back.
@@ -382,6 +387,7 @@ impl RenderConfig {
             ("light.hdr_input", l.hdr_input.name().to_string()),
             ("rain.scene_depth_m", r.scene_depth_m.to_string()),
             ("ground.mode", g.mode.to_string()),
+            ("camera_motion", self.camera_motion.to_string()),
             ("ground.pre_rain_min", g.pre_rain_min.to_string()),
             ("ground.depth_scale", g.depth_scale.to_string()),
             ("ground.sky", g.sky.name().to_string()),
@@ -404,6 +410,33 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
+    /// A pose file moves the camera as keys do: not beside pose keys, nor beside a ground
+    /// (whose checks refuse a moving camera).
+    fn validate_motion(&self) -> Result<()> {
+        use crate::scene::motion::MotionSource;
+        let MotionSource::File(path) = &self.camera_motion else {
+            return Ok(());
+        };
+        let bad = |expected: &str| Error::Parameter {
+            name: "camera_motion",
+            value: path.display().to_string(),
+            expected: expected.to_string(),
+        };
+        if self.keyframes.pose().into_iter().any(Option::is_some) {
+            return Err(bad(
+                "no keyed camera pose or field of view besides a pose file: give one of them",
+            ));
+        }
+        if self.ground.mode != crate::scene::GroundMode::None {
+            return Err(bad(
+                "no ground besides a pose file: the ground is found through the camera at one \
+                 pose, and the splashes, wet ground and puddles are mapped through one camera \
+                 (use ground.mode none)",
+            ));
+        }
+        Ok(())
+    }
+
     /// The ground's checks: a mode the render can use, and a camera pose given once — by the
     /// ground or by `camera.tilt_deg`/`camera.roll_deg`, not both.
     fn validate_ground(&self) -> Result<()> {
@@ -493,13 +526,19 @@ impl RenderConfig {
                 expected: "keys from 0.5 to 64 (a pinhole cannot be keyed)".into(),
             });
         }
+        // The plain values once, each key's applied to a copy (a track keyed every frame
+        // has thousands of keys).
+        let plain = RenderConfig {
+            keyframes: Default::default(),
+            ..self.clone()
+        };
         let checked: Vec<(f64, Result<()>)> = self
             .keyframes
             .times_s()
             .into_iter()
             .map(|t| {
-                let mut at = self.at(t);
-                at.keyframes = Default::default();
+                let mut at = plain.clone();
+                at.apply_keys_at(&self.keyframes, t);
                 (t, at.validate_values())
             })
             .collect();
@@ -686,6 +725,7 @@ impl RenderConfig {
             light.validate()?;
         }
         self.validate_ground()?;
+        self.validate_motion()?;
         check(
             "ground.pre_rain_min",
             self.ground.pre_rain_min,

@@ -100,6 +100,29 @@ impl<V: KeyValue> Curve<V> {
         Ok(Curve { keys })
     }
 
+    /// A measured track (one key per frame, as the camera's motion estimated from a clip):
+    /// [`Curve::new`]'s checks without its count limit, for curves read only on the CPU.
+    pub fn track(keys: Vec<(f64, V)>) -> Result<Curve<V>, String> {
+        if keys.is_empty() {
+            return Err("at least one key".into());
+        }
+        if let Some((t, v)) = keys
+            .iter()
+            .find(|(t, v)| !(t.is_finite() && *t >= 0.0 && v.is_finite()))
+        {
+            return Err(format!(
+                "the key [{t}, {v:?}]: times are seconds ≥ 0 and values finite"
+            ));
+        }
+        if let Some(w) = keys.windows(2).find(|w| w[1].0 <= w[0].0) {
+            return Err(format!(
+                "times in increasing order ({} s then {} s)",
+                w[0].0, w[1].0
+            ));
+        }
+        Ok(Curve { keys })
+    }
+
     /// The same value at every time.
     pub fn constant(value: V) -> Curve<V> {
         Curve {
@@ -408,10 +431,45 @@ impl Keyframes {
         self.pose().into_iter().flatten().any(|c| !c.is_constant())
     }
 
-    /// The times the camera is sampled at to plan the rain volume for the whole shot: every
-    /// pose key, and between keys steps that turn the camera by at most `step_deg` (the sum of
-    /// the pan, tilt and roll changes bounds the rotation between two poses). Sorted, from 0.
+    /// The times the camera is sampled at to plan the rain volume for the whole shot: from 0
+    /// to the last pose key, no two neighbours further apart than `step_deg` along the camera's
+    /// path (the pan, tilt, roll and field-of-view changes summed over the keys between them,
+    /// which bounds the rotation and the widening between two poses), and every height key.
+    /// Keys closer than that along the path are merged, so a track keyed every frame (the
+    /// estimated motion) is planned for as many poses as its turn needs. Sorted, from 0.
     pub fn camera_samples_s(&self, step_deg: f64) -> Vec<f64> {
+        let fine = self.camera_steps_s(step_deg);
+        let angles = [&self.pan_deg, &self.tilt_deg, &self.roll_deg, &self.fov_deg];
+        let at = |t: f64| -> [f64; 4] { angles.map(|k| k.as_ref().map_or(0.0, |k| k.at(t))) };
+        let path = |a: f64, b: f64| -> f64 {
+            let (a, b) = (at(a), at(b));
+            (0..4).map(|i| (b[i] - a[i]).abs()).sum()
+        };
+        let height_keys: Vec<f64> = self
+            .height_m
+            .iter()
+            .flat_map(|c| c.keys().iter().map(|k| k.0))
+            .collect();
+        let mut out = vec![fine[0]];
+        let mut since = 0.0;
+        for w in fine.windows(2) {
+            let d = path(w[0], w[1]);
+            let last = *out.last().expect("one");
+            if last != w[0] && (since + d > step_deg.max(1e-3) || height_keys.contains(&w[0])) {
+                out.push(w[0]);
+                since = 0.0;
+            }
+            since += d;
+        }
+        let end = fine[fine.len() - 1];
+        if *out.last().expect("one") != end {
+            out.push(end);
+        }
+        out
+    }
+
+    /// Every pose key, and between keys steps that turn the camera by at most `step_deg`.
+    fn camera_steps_s(&self, step_deg: f64) -> Vec<f64> {
         let mut keys: Vec<f64> = self
             .pose()
             .into_iter()
@@ -501,9 +559,7 @@ mod tests {
         };
         let s = keys.camera_samples_s(1.0);
         assert_eq!(s[0], 0.0);
-        for t in [0.5, 1.0, 1.5, 2.0] {
-            assert!(s.contains(&t), "{t} in {s:?}");
-        }
+        assert_eq!(s[s.len() - 1], 2.0);
         let turn = |t: f64| {
             keys.pan_deg.as_ref().map_or(0.0, |k| k.at(t))
                 - keys.roll_deg.as_ref().map_or(0.0, |k| k.at(t))
@@ -513,6 +569,39 @@ mod tests {
             // Pan and roll move in opposite senses here, so their changes add up in `turn`.
             assert!((turn(w[1]) - turn(w[0])).abs() <= 1.0 + 1e-9, "{w:?}");
         }
+        assert!(s.len() <= 36, "{} poses for a turn of 34°", s.len());
+    }
+
+    /// A track keyed every frame that shakes back and forth is sampled by its path: the summed
+    /// changes between neighbours within the step (a back-and-forth is not merged away), and
+    /// far fewer poses than frames where it moves little.
+    #[test]
+    fn a_track_keyed_every_frame_is_sampled_along_its_path() {
+        let frames: Vec<(f64, f64)> = (0..250)
+            .map(|i| {
+                (
+                    i as f64 / 25.0,
+                    0.2 * i as f64 / 25.0 + 0.3 * (i as f64).sin(),
+                )
+            })
+            .collect();
+        let keys = Keyframes {
+            pan_deg: Some(Curve::track(frames.clone()).expect("track")),
+            ..Keyframes::default()
+        };
+        assert!(Curve::new(frames.clone()).is_err(), "more than MAX_KEYS");
+        let s = keys.camera_samples_s(1.0);
+        let pan = keys.pan_deg.as_ref().expect("pan");
+        for w in s.windows(2) {
+            let path: f64 = frames
+                .windows(2)
+                .filter(|f| f[0].0 >= w[0] && f[1].0 <= w[1])
+                .map(|f| (f[1].1 - f[0].1).abs())
+                .sum();
+            assert!(path <= 1.0 + 1e-9, "{w:?}: {path}");
+            assert!((pan.at(w[1]) - pan.at(w[0])).abs() <= 1.0 + 1e-9);
+        }
+        assert!(s.len() < 150 && s.len() > 20, "{} poses", s.len());
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! the lens and the budget, the camera from [`CameraConfig`] — so what it prints is what a
 //! render with the same settings draws.
 
+pub mod camera;
 pub mod ground;
 pub mod puddles;
 pub mod sky;
@@ -149,6 +150,13 @@ pub fn ground(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>
 pub fn sky(input: &str, at_s: f64, mask: Option<&Path>) -> Result<Value> {
     check_plot(mask)?;
     sky::report(input, at_s, mask)
+}
+
+/// `inspect camera`: the camera's pan, tilt, roll and field of view at every frame of `input`
+/// as `camera_motion auto` estimates it, the first frame seen through `camera` (its field of
+/// view, tilt and roll); the report is a pose file.
+pub fn camera(input: &str, camera: &CameraConfig) -> Result<Value> {
+    camera::report(input, camera)
 }
 
 /// `inspect puddles`: the water a render of `input` under `config` has on its ground at

@@ -106,6 +106,7 @@ pub fn render(
     let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
     let config = super::ground::resolve(&job.render, &job.input)?;
+    let config = super::motion::resolve(&config, &job.input, cancel)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let rain = Renderer::with_layer(&config, &Footage::of(&info), &job.adapter, layer)?;
     let rain = match &job.checkpoints {

@@ -6,6 +6,8 @@
 //! - [`preview`]: one frame, exactly as the job writes it.
 //! - [`ground`]: `--ground auto`'s pre-pass, resolved into the configuration before the shot
 //!   is planned.
+//! - [`motion`]: the camera's motion (`camera_motion`), estimated in a pre-pass or read from a
+//!   pose file, resolved into pose keys after the ground.
 //! - [`renderer`]: the frame renderer every front end uses; it drives the compositor with
 //!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`.
 //!
@@ -18,6 +20,7 @@ mod depth_feed;
 pub mod ground;
 pub mod job;
 mod light_feed;
+pub mod motion;
 pub mod preview;
 pub mod renderer;
 mod sky_feed;

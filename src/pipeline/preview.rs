@@ -43,6 +43,7 @@ pub fn preview(
     let mut source = Source::open(input)?;
     let info = source.info().clone();
     let render = &super::ground::resolve(render, input)?;
+    let render = &super::motion::resolve(render, input, cancel)?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,

@@ -7,6 +7,7 @@ pub mod camera;
 pub mod depth;
 pub mod ground;
 pub mod horizon;
+pub mod motion;
 pub mod sky;
 pub mod steep;
 pub mod vanishing;

@@ -97,6 +97,8 @@ pub const FLAGS: &[Flag] = &[
     row("ground.relief_seed", "--relief-seed", "N"),
     row("ground.puddles", "--puddles", ""),
     row("ground.puddle_particles", "--puddle-particles", "N"),
+    // The camera's motion.
+    row("camera_motion", "--camera-motion", "MODE"),
     // The encoder.
     row("encode.codec", "--codec", "CODEC"),
     row("encode.crf", "--crf", "CRF"),

@@ -142,6 +142,24 @@ pub enum InspectCommand {
         #[arg(long, value_name = "PNG")]
         mask: Option<PathBuf>,
     },
+    /// The camera's motion `--camera-motion auto` estimates over a whole clip: per frame t, pan_deg (since the first frame, right positive), tilt_deg and roll_deg (as --tilt and --roll), fov_deg and confidence; per shot its confidence and largest turn. The report is a pose file for --camera-motion.
+    #[command(allow_negative_numbers = true)]
+    Camera {
+        /// Input video.
+        video: String,
+        /// Horizontal field of view of the first frame, degrees.
+        #[arg(long, default_value_t = CameraConfig::default().fov_deg)]
+        fov: f64,
+        /// Camera pitch at the first frame, degrees up.
+        #[arg(long, default_value_t = CameraConfig::default().tilt_deg)]
+        tilt: f64,
+        /// Camera roll at the first frame, degrees clockwise.
+        #[arg(long, default_value_t = CameraConfig::default().roll_deg)]
+        roll: f64,
+        /// Print JSON (the default; kept for scripts).
+        #[arg(long)]
+        json: bool,
+    },
     /// Sample the drop emitter: the plan (distances, counts per band), diameters, velocities, positions.
     #[command(allow_negative_numbers = true)]
     Drops {
@@ -305,6 +323,27 @@ pub fn run(command: &InspectCommand) -> anyhow::Result<()> {
         } => {
             let at_s = crate::args::parse_time_s(at)?;
             inspect::sky(video, at_s, mask.as_deref())?
+        }
+        InspectCommand::Camera {
+            video,
+            fov,
+            tilt,
+            roll,
+            ..
+        } => {
+            check_fov(*fov)?;
+            for (flag, v) in [("--tilt", *tilt), ("--roll", *roll)] {
+                if !(v.is_finite() && v.abs() <= 90.0) {
+                    bail!("invalid {flag} {v}: expected degrees within ±90");
+                }
+            }
+            let camera = CameraConfig {
+                fov_deg: *fov,
+                tilt_deg: *tilt,
+                roll_deg: *roll,
+                ..CameraConfig::default()
+            };
+            inspect::camera(video, &camera)?
         }
         InspectCommand::Drops {
             size,

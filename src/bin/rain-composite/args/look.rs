@@ -99,6 +99,9 @@ pub struct LookArgs {
     /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (the plane n·X + d = 0 in the camera frame: x right, y down, z forward, metres; level ground 1.6 m below is plane=0,-1,0,1.6); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
+    /// The camera's motion: auto (estimated from the whole clip before the render: its pan, tilt, roll and zoom frame by frame, so the rain stays in the world; a still or uncertain shot keeps the camera still, and a ground or camera keys keep it as they set it), none, or a pose file as `inspect camera --json` writes it.
+    #[arg(long, value_name = "MODE")]
+    pub camera_motion: Option<String>,
     /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
     #[arg(long, value_name = "MIN")]
     pub pre_rain: Option<f64>,
@@ -224,6 +227,9 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     if let Some(s) = look.sky {
         c.ground.sky = s.into();
     }
+    if let Some(m) = &look.camera_motion {
+        c.camera_motion = m.parse()?;
+    }
     if let Some(g) = &look.ground {
         c.ground.mode = g.parse()?;
         if c.ground.is_given() {
@@ -345,6 +351,8 @@ mod tests {
         (c.ground.depth, c.ground.depth_scale) = (Some("depth.png".into()), 0.25);
         (c.ground.relief_m, c.ground.relief_seed) = (0.01, 7);
         c.ground.puddle_particles = 12_000;
+        c.camera_motion = rain_composite::scene::motion::MotionSource::File("poses.json".into());
+        c.ground.sky = rain_composite::scene::sky::SkyMode::Off;
         let values = flag_values(&c);
         let defaults = flag_values(&RenderConfig::default());
         for (flag, d) in &defaults {

@@ -1,0 +1,193 @@
+//! `camera_motion` in the render: the camera's pose per frame, estimated in a pre-pass over the
+//! whole clip (`auto`) or read from a pose file, turned into pose keys before the rain is
+//! built, so every frame sees the rain, the lights and the haze through its own camera exactly
+//! as with the camera keys (the volume is planned for every pose of the shot).
+//!
+//! The pre-pass reads the whole clip, whatever part a job renders, so a chunk and a preview
+//! plan the same rain as the whole render. A shot that does not move (beyond the dead band of
+//! [`crate::scene::motion`]) or is not estimated confidently keeps the configured camera, and a
+//! clip with no moving shot adds no keys: its render is the render without `auto`. The
+//! estimated motion follows the camera keys' rules: it is not estimated beside pose keys (they
+//! are the manual control), and a ground — given or found — holds the camera still (its
+//! splashes, wet ground and puddles are mapped through one camera), with a warning where the
+//! camera was seen to move.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use crate::config::RenderConfig;
+use crate::keyframes::{Curve, Keyframes};
+use crate::scene::GroundMode;
+use crate::scene::horizon::{CUT_THRESHOLD, Luma};
+use crate::scene::motion::{self, Estimate, Estimator, MotionSource, PoseTrack};
+use crate::video::Source;
+use crate::{Error, Result};
+
+/// The camera's motion over the clip `input`, whose first frame is seen through `config`'s
+/// camera (its field of view, tilt and roll; pan 0). Stops with [`Error::Interrupted`] once
+/// `cancel` is set.
+pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) -> Result<Estimate> {
+    if input == "-" {
+        return Err(Error::Parameter {
+            name: "camera_motion",
+            value: "auto".into(),
+            expected: "a file input: auto reads the whole clip before the render (give a pose \
+                       file or none for a stream on stdin)"
+                .into(),
+        });
+    }
+    let mut source = Source::open(input)?;
+    let info = source.info().clone();
+    let rot = info.rotation_deg;
+    let (w, h) = crate::video::frame::display_size(rot, info.format.width, info.format.height);
+    let camera = crate::config::CameraConfig {
+        pan_deg: 0.0,
+        ..config.camera
+    }
+    .camera(w, h);
+    let mut estimator = Estimator::new(camera);
+    let mut prev: Option<[f32; 144]> = None;
+    let mut last_t = f64::NEG_INFINITY;
+    let (started, mut frames) = (Instant::now(), 0usize);
+    while let Some(frame) = source.next_frame()? {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
+        let t = crate::shot::frame_time_s(&info, &frame).max(0.0);
+        if t <= last_t {
+            continue;
+        }
+        last_t = t;
+        let (image, scale) = motion::work_image(&frame, rot);
+        let luma = Luma {
+            width: image.width,
+            height: image.height,
+            data: image.data,
+            scale,
+        };
+        let thumb = luma.thumbnail();
+        let cut = prev.is_some_and(|p| {
+            p.iter()
+                .zip(&thumb)
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f32>()
+                / 144.0
+                > CUT_THRESHOLD
+        });
+        prev = Some(thumb);
+        let image = motion::track::Image {
+            width: luma.width,
+            height: luma.height,
+            data: luma.data,
+        };
+        estimator.push(image, scale as f64, t, cut);
+        frames += 1;
+    }
+    if frames == 0 {
+        return Err(Error::CorruptInput(
+            "camera_motion auto: no frame could be decoded".into(),
+        ));
+    }
+    let estimate = estimator.finish();
+    log::info!(
+        "camera motion: {} frames in {:.1} s ({:.1} ms a frame, decoding included), {} shot(s), \
+         {} moving",
+        frames,
+        started.elapsed().as_secs_f64(),
+        started.elapsed().as_secs_f64() * 1e3 / frames as f64,
+        estimate.shots.len(),
+        estimate.shots.iter().filter(|s| s.moving).count()
+    );
+    Ok(estimate)
+}
+
+/// The pose keys of `track` over `config`'s camera: the pan added to `camera.pan_deg` (the
+/// file's is relative to the first frame), the tilt, roll and field of view as they are; a
+/// setting the track never moves off its configured value gets no key.
+pub fn keys_of(track: &PoseTrack, config: &RenderConfig) -> Result<Keyframes> {
+    track.check().map_err(|reason| Error::Parameter {
+        name: "camera_motion",
+        value: "a pose track".into(),
+        expected: reason,
+    })?;
+    let c = &config.camera;
+    let curve = |value: &dyn Fn(&motion::FramePose) -> f64, plain: f64| {
+        let keys: Vec<(f64, f64)> = track.frames.iter().map(|f| (f.t, value(f))).collect();
+        // The first camera read back through its rotation differs from the settings by
+        // rounding only.
+        if keys.iter().all(|k| (k.1 - plain).abs() <= 1e-9) {
+            return Ok(None);
+        }
+        Curve::track(keys).map(Some).map_err(|e| Error::Parameter {
+            name: "camera_motion",
+            value: "a pose track".into(),
+            expected: e,
+        })
+    };
+    Ok(Keyframes {
+        pan_deg: curve(&|f| c.pan_deg + f.pan_deg, c.pan_deg)?,
+        tilt_deg: curve(&|f| f.tilt_deg, c.tilt_deg)?,
+        roll_deg: curve(&|f| f.roll_deg, c.roll_deg)?,
+        fov_deg: curve(&|f| f.fov_deg, c.fov_deg)?,
+        ..config.keyframes.clone()
+    })
+}
+
+/// `config` with `camera_motion` resolved on `input` (after the ground is): the motion as pose
+/// keys where it moves the camera, and `camera_motion` set to `none` (see the module doc for
+/// when `auto` adds nothing).
+pub fn resolve(config: &RenderConfig, input: &str, cancel: &AtomicBool) -> Result<RenderConfig> {
+    let mut out = config.clone();
+    out.camera_motion = MotionSource::None;
+    let track = match &config.camera_motion {
+        MotionSource::None => return Ok(out),
+        MotionSource::File(path) => PoseTrack::read(path)?,
+        MotionSource::Auto => {
+            if config.keyframes.pose().into_iter().any(Option::is_some) {
+                log::info!("camera motion: the camera keys move the camera; none estimated");
+                return Ok(out);
+            }
+            if input == "-" {
+                log::info!("camera motion: a stream on stdin is not read ahead; none estimated");
+                return Ok(out);
+            }
+            let estimate = estimate_clip(input, config, cancel)?;
+            for s in estimate.shots.iter().filter(|s| !s.moving && s.frames > 1) {
+                if s.confidence < motion::MIN_SHOT_CONFIDENCE {
+                    log::warn!(
+                        "camera motion: the shot at {:.2} s is not tracked confidently \
+                         ({:.0} % of its frames); its camera is held still",
+                        s.start_s,
+                        100.0 * s.confidence
+                    );
+                }
+            }
+            if estimate.track.is_still() {
+                return Ok(out);
+            }
+            if config.ground.mode != GroundMode::None {
+                let turn = estimate
+                    .shots
+                    .iter()
+                    .map(|s| s.max_turn_deg)
+                    .fold(0.0, f64::max);
+                log::warn!(
+                    "camera motion: the camera turns up to {turn:.1}° but a ground holds it \
+                     still (its splashes, wet ground and puddles are mapped through one camera); \
+                     the rain turns with the picture (ground.mode none lets it follow the camera)"
+                );
+                return Ok(out);
+            }
+            estimate.track
+        }
+    };
+    out.keyframes = keys_of(&track, &out)?;
+    if out.keyframes.moves_camera() {
+        log::info!(
+            "camera motion: {} poses over {:.2} s",
+            track.frames.len(),
+            track.frames.last().map_or(0.0, |f| f.t)
+        );
+    }
+    Ok(out)
+}
