@@ -114,6 +114,8 @@ pub struct Compositor {
     scene_depth: wgpu::Buffer,
     /// The open sky's weight at the glow's grid points (see `set_sky_mask`).
     sky_mask: wgpu::Buffer,
+    /// The ground's weight at the glow's grid points (see `set_ground_mask`).
+    ground_mask: wgpu::Buffer,
     display_size: (u32, u32),
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
@@ -244,6 +246,12 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        // Ones: everything below the horizon is ground until a mask is set.
+        let ground_mask = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("ground_mask"),
+            contents: bytemuck::cast_slice(&vec![1.0f32; gw as usize * gh as usize]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -285,6 +293,7 @@ impl Compositor {
             out_words: out_buffer.clone(),
             scene_depth: scene_depth.clone(),
             sky_mask: sky_mask.clone(),
+            ground_mask: ground_mask.clone(),
         };
         // The frame, in order. A layer carries the wet ground as colour and alpha over the
         // frame it was made from; the matte is the rain's coverage alone.
@@ -317,6 +326,7 @@ impl Compositor {
             direct_lights,
             scene_depth,
             sky_mask,
+            ground_mask,
             display_size: (dw, dh),
             out_buffer,
             staging,
@@ -412,6 +422,24 @@ impl Compositor {
         if let Some((host, _)) = &mut self.host {
             host.set_sky_mask(weights.to_vec());
         }
+        Ok(())
+    }
+
+    /// Sets the ground's weight (in [0, 1]) at the glow's grid points
+    /// (`stages::yuv_to_rgb::glow_grid_size` of the coded picture, row-major) for the frames
+    /// submitted from now on: the wet ground and the puddles keep to it where the depth map
+    /// does not know the pixel (`scene::ground_mask`). A mask of another size is refused.
+    pub fn set_ground_mask(&mut self, weights: &[f32]) -> Result<()> {
+        if 4 * weights.len() as u64 != self.ground_mask.size() {
+            return Err(Error::Gpu(format!(
+                "a ground mask of {} points for a grid of {}",
+                weights.len(),
+                self.ground_mask.size() / 4
+            )));
+        }
+        self.ctx
+            .queue
+            .write_buffer(&self.ground_mask, 0, bytemuck::cast_slice(weights));
         Ok(())
     }
 
