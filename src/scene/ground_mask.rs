@@ -20,11 +20,17 @@
 //! - **below the horizon** of the given ground (the caller's `below_horizon`);
 //! - **not upright, nor next to an upright point** (the upright points grown by one closes the
 //!   gaps between a facade's windows and a railing's posts);
-//! - **connected to the picture's bottom edge** as displayed, through such points: what stands
-//!   on the road and is enclosed by its verticals (a wall's smooth panels) is cut off from it.
+//! - **connected to the picture's bottom edge** as displayed, through such points whose mean
+//!   luma steps by at most [`STEP_CODES`] plus the texture's RMS gradient from the ground
+//!   behind them along the flood
+//!   (the road's shading and its texture pass; the step from the road to a wall's base, a kerb
+//!   or a car's side does not): what stands on the road and is enclosed by its verticals and
+//!   its base line (a wall's smooth panels) is cut off from it.
 //!
-//! The region is eroded by one point, so every point whose block touches a vertical structure
-//! leaves it, and read bilinearly between points: its edge is soft over one cell, and lies
+//! The region is grown back by one point into the ring it lost next to upright points (where
+//! the step to it is the ground's own), then
+//! eroded by one point, so every point whose block touches a vertical structure or the step to
+//! one leaves it, and read bilinearly between points: its edge is soft over one cell, and lies
 //! inside the ground. Each frame's mask is a pure function of that frame; averaged over a
 //! window by [`crate::scene::sky::SkyTracker`], it fades instead of switching.
 //!
@@ -48,6 +54,10 @@ pub const UPRIGHT_ENERGY_CODES: f32 = 3.0;
 /// that makes its structure upright: isotropic texture gives 1/2, the ground's foreshortened
 /// texture less, a vertical edge 1.
 pub const UPRIGHT_SHARE: f32 = 0.62;
+
+/// Largest step of mean luma between neighbouring ground points beyond their texture, 8-bit
+/// codes: the shading of a road is gentle, the base of a wall or a kerb is a step.
+pub const STEP_CODES: f32 = 8.0;
 
 /// Whether wetness and puddles keep to the ground found in the frames (`ground.mask`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -80,14 +90,14 @@ pub struct PointView {
 }
 
 /// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
-/// coded axes).
-fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 3]> {
+/// coded axes), and its mean luma (8-bit codes).
+fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
     let c = grid.cell_px as usize;
     let point = |x: usize| (x + c / 2) / c;
     let to_8bit = 255.0 / ((1u32 << f.bit_depth) - 1) as f32;
-    let mut sums = vec![[0.0f32; 4]; grid.len()];
+    let mut sums = vec![[0.0f32; 5]; grid.len()];
     sums.par_chunks_mut(grid.width)
         .enumerate()
         .for_each(|(j, points)| {
@@ -102,19 +112,31 @@ fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 3]> {
                     s[1] += gy * gy;
                     s[2] += gx * gy;
                     s[3] += 1.0;
+                    s[4] += v * to_8bit;
                 }
             }
         });
+    // Empty blocks past the right and bottom edges copy their neighbours.
+    for k in 0..sums.len() {
+        if sums[k][3] == 0.0 {
+            let from = if k % grid.width > 0 {
+                k - 1
+            } else {
+                k.saturating_sub(grid.width)
+            };
+            sums[k] = sums[from];
+        }
+    }
     sums.iter()
         .map(|s| {
             let n = s[3].max(1.0);
-            [s[0] / n, s[1] / n, s[2] / n]
+            [s[0] / n, s[1] / n, s[2] / n, s[4] / n]
         })
         .collect()
 }
 
 /// Whether a block of structure tensor `t` has edges along the image direction `up`.
-fn upright(t: &[f32; 3], up: [f32; 2]) -> bool {
+fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
     let energy = t[0] + t[1];
     if energy < UPRIGHT_ENERGY_CODES * UPRIGHT_ENERGY_CODES {
         return false;
@@ -158,9 +180,21 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         TopEdge::Left => (0..h).map(|j| j * w + w - 1).collect(),
         TopEdge::Right => (0..h).map(|j| j * w).collect(),
     };
+    // The ground's luma and texture along the flood's path to each point (halfway to each new
+    // point's own): a step is measured from the ground behind it, so the base of a wall spread
+    // over two blocks, each half the step and with an edge's texture, is still a step.
+    let rms: Vec<f32> = t.iter().map(|q| (q[0] + q[1]).sqrt()).collect();
+    let mut reference = vec![[0.0f32; 2]; n];
+    let passes = |reference: &[[f32; 2]], from: usize, to: usize| {
+        let [luma, texture] = reference[from];
+        (t[to][3] - luma).abs() <= STEP_CODES + texture.min(rms[to])
+    };
     let mut ground = vec![false; n];
     let mut queue: VecDeque<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
-    queue.iter().for_each(|&k| ground[k] = true);
+    for &k in &queue {
+        ground[k] = true;
+        reference[k] = [t[k][3], rms[k]];
+    }
     while let Some(k) = queue.pop_front() {
         let (i, j) = (k % w, k / w);
         let next = [
@@ -170,13 +204,21 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
             (j + 1 < h).then(|| k + w),
         ];
         for m in next.into_iter().flatten() {
-            if open[m] && !ground[m] {
+            if open[m] && !ground[m] && passes(&reference, k, m) {
                 ground[m] = true;
+                let [luma, texture] = reference[k];
+                reference[m] = [0.5 * (luma + t[m][3]), 0.5 * (texture + rms[m])];
                 queue.push_back(m);
             }
         }
     }
-    // Eroded by one point (the picture's border does not erode it).
+    // Grown back by one point into the ring next to upright points (closed above against the
+    // gaps), then eroded by one point (the picture's border does not erode it).
+    let ring: Vec<usize> = (0..n)
+        .filter(|&k| !ground[k] && view[k].below_horizon && !standing[k])
+        .filter(|&k| neighbours8(k).any(|m| ground[m] && passes(&reference, m, k)))
+        .collect();
+    ring.into_iter().for_each(|k| ground[k] = true);
     (0..n)
         .map(|k| f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m]))))
         .collect()
