@@ -142,7 +142,7 @@ fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
         return false;
     }
     let norm = (up[0] * up[0] + up[1] * up[1]).sqrt();
-    if !(norm > 0.0) {
+    if norm.is_nan() || norm <= 0.0 {
         return false;
     }
     // Across `up`: n = (−up.y, up.x)/|up|; E[(g·n)²] = nᵀ T n.
