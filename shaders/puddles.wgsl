@@ -13,9 +13,10 @@
 // The ground under the water is the frame's own (decoded from the planes, common/plate.wgsl),
 // not the canvas, which already holds the wet ground's film: the water replaces the film where
 // it covers the ground, C' = C + cover·(L·T + S + T·((k − 1)·L + R·L_r) − C), instead of
-// darkening it twice.
+// darkening it twice. Without a depth map, the water keeps to the ground found in the frame
+// (common/ground_mask.wgsl).
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/depth.wgsl, common/water.wgsl, common/plate.wgsl.
+// common/depth.wgsl, common/water.wgsl, common/plate.wgsl, common/ground_mask.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> puddle: PuddleParams;
@@ -29,6 +30,7 @@
 @group(0) @binding(9) var plane_y: texture_2d<u32>;
 @group(0) @binding(10) var plane_cb: texture_2d<u32>;
 @group(0) @binding(11) var plane_cr: texture_2d<u32>;
+@group(0) @binding(12) var<storage, read> ground_mask: array<f32>;
 
 // The reflection fades from the frame to the environment over this many pixels at its border.
 const EDGE_PX: f32 = 8.0;
@@ -107,7 +109,8 @@ fn shade(id: vec2<u32>, layer: bool) {
     let p = rain.camera_pos_m + ground_z_m * ray;
     let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
     if cover <= 0.0 { return; }
-    let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m);
+    let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m) * ground_weight(id);
+    if shown <= 0.0 { return; }
     let c = picture_at(vec2<i32>(id));
     let t = haze_transmittance(id);
     let scene = plate_linear(id);

@@ -8,13 +8,14 @@
 // reflectance of water. The mirror image comes from four SH bands: a blurred sky, as on a rough
 // wet road, not a sharp mirror. With a depth map, a pixel whose scene is nearer than the ground
 // along its ray (a car, a wall) shows something standing on the ground, not the ground: it
-// stays dry.
+// stays dry; without one, the wetness keeps to the ground found in the frame
+// (common/ground_mask.wgsl).
 // For the rain as a layer (entry point `layer`) the same C' is written as a premultiplied
 // colour and alpha laid over the original frame: with α = 1 − min(M) over the channels, the
 // colour L·(M − min(M)) + A ≥ 0 gives back L·M + A over L exactly. The darkening is per channel
 // (the ground's albedo tints it), so the layer is exact over the frame it was made from.
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/depth.wgsl, common/plate.wgsl, common/water.wgsl.
+// common/depth.wgsl, common/plate.wgsl, common/water.wgsl, common/ground_mask.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> wet: WetParams;
@@ -24,6 +25,7 @@
 @group(0) @binding(5) var plane_cr: texture_2d<u32>;
 @group(0) @binding(6) var canvas: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(7) var<storage, read> scene_depth: array<f32>;
+@group(0) @binding(8) var<storage, read> ground_mask: array<f32>;
 
 // The wet ground at pixel `p` as L·M + A: the frame's linear colour L, the factor M on it and
 // the light A added (the haze's and the film's reflection); `ground` false where the pixel's
@@ -51,7 +53,7 @@ fn wet_at(p: vec2<u32>) -> Wet {
     // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
     let ground_z_m = rain.camera_pos_m.z / -ray.z;
     let shown = ground_shown(scene_depth_m(vec2<f32>(p) + vec2<f32>(0.5)), ground_z_m);
-    let w = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown;
+    let w = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown * ground_weight(p);
     return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p, t) + w * t * r * sky);
 }
 

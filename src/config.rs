@@ -188,6 +188,10 @@ pub struct GroundConfig {
     /// The open sky, found in the frames (`auto`) or not (`off`): where it is, the scene is
     /// infinitely far and the haze leaves the sky its own radiance (see [`crate::scene::sky`]).
     pub sky: crate::scene::sky::SkyMode,
+    /// Wetness and puddles keep to the ground found in the frames (`auto`) or cover everything
+    /// below the horizon (`off`); a depth map, where given, decides (see
+    /// [`crate::scene::ground_mask`]).
+    pub mask: crate::scene::ground_mask::GroundMaskMode,
     /// Standard deviation of the fractal micro-relief the puddle simulation adds over the
     /// ground, m (0: none); the ground's image is not displaced (see [`crate::fluid::puddles`]).
     pub relief_m: f64,
@@ -209,6 +213,7 @@ impl Default for GroundConfig {
             depth: None,
             depth_scale: 1.0,
             sky: crate::scene::sky::SkyMode::Auto,
+            mask: crate::scene::ground_mask::GroundMaskMode::Auto,
             relief_m: 0.004,
             relief_seed: 1,
             puddles: false,
@@ -391,6 +396,7 @@ impl RenderConfig {
             ("ground.pre_rain_min", g.pre_rain_min.to_string()),
             ("ground.depth_scale", g.depth_scale.to_string()),
             ("ground.sky", g.sky.name().to_string()),
+            ("ground.mask", g.mask.name().to_string()),
             ("ground.relief_m", g.relief_m.to_string()),
             ("ground.relief_seed", g.relief_seed.to_string()),
             ("ground.puddle_particles", g.puddle_particles.to_string()),

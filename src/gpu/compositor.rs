@@ -44,6 +44,8 @@ use super::uniforms::RainSetup;
 use crate::video::{FrameFormat, Layer, LayerFrame, LayerSamples, Plane, YuvFrame};
 use crate::{Error, Result};
 
+mod masks;
+
 /// Frames in flight (readback slots).
 const RING: usize = 3;
 
@@ -114,6 +116,8 @@ pub struct Compositor {
     scene_depth: wgpu::Buffer,
     /// The open sky's weight at the glow's grid points (see `set_sky_mask`).
     sky_mask: wgpu::Buffer,
+    /// The ground's weight at the glow's grid points (see `set_ground_mask`).
+    ground_mask: wgpu::Buffer,
     display_size: (u32, u32),
     out_buffer: wgpu::Buffer,
     staging: Vec<wgpu::Buffer>,
@@ -244,6 +248,12 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        // Ones: everything below the horizon is ground until a mask is set.
+        let ground_mask = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("ground_mask"),
+            contents: bytemuck::cast_slice(&vec![1.0f32; gw as usize * gh as usize]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -285,6 +295,7 @@ impl Compositor {
             out_words: out_buffer.clone(),
             scene_depth: scene_depth.clone(),
             sky_mask: sky_mask.clone(),
+            ground_mask: ground_mask.clone(),
         };
         // The frame, in order. A layer carries the wet ground as colour and alpha over the
         // frame it was made from; the matte is the rain's coverage alone.
@@ -317,6 +328,7 @@ impl Compositor {
             direct_lights,
             scene_depth,
             sky_mask,
+            ground_mask,
             display_size: (dw, dh),
             out_buffer,
             staging,
@@ -390,27 +402,6 @@ impl Compositor {
             .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
         if let Some((host, _)) = &mut self.host {
             host.set_scene_depth(metres);
-        }
-        Ok(())
-    }
-
-    /// Sets the open sky's weight (in [0, 1]) at the glow's grid points
-    /// (`stages::yuv_to_rgb::glow_grid_size` of the coded picture, row-major) for the frames
-    /// submitted from now on: the haze leaves the sky its own radiance (`scene::sky`). A mask of
-    /// another size is refused.
-    pub fn set_sky_mask(&mut self, weights: &[f32]) -> Result<()> {
-        if 4 * weights.len() as u64 != self.sky_mask.size() {
-            return Err(Error::Gpu(format!(
-                "a sky mask of {} points for a grid of {}",
-                weights.len(),
-                self.sky_mask.size() / 4
-            )));
-        }
-        self.ctx
-            .queue
-            .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights));
-        if let Some((host, _)) = &mut self.host {
-            host.set_sky_mask(weights.to_vec());
         }
         Ok(())
     }

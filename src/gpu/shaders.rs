@@ -34,7 +34,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 13] = [
+const COMMON: [(&str, &str); 14] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -86,6 +86,10 @@ const COMMON: [(&str, &str); 13] = [
     (
         "common/sky.wgsl",
         include_str!("../../shaders/common/sky.wgsl"),
+    ),
+    (
+        "common/ground_mask.wgsl",
+        include_str!("../../shaders/common/ground_mask.wgsl"),
     ),
 ];
 

@@ -18,6 +18,7 @@
 pub mod chunk;
 mod depth_feed;
 pub mod ground;
+pub mod ground_mask_feed;
 pub mod job;
 mod light_feed;
 pub mod motion;

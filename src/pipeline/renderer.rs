@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use super::depth_feed::DepthFeed;
+use super::ground_mask_feed::GroundMaskFeed;
 use super::light_feed::LightFeed;
 use super::sky_feed::SkyFeed;
 use super::water_feed::PuddleFeed;
@@ -31,6 +32,7 @@ pub struct Renderer {
     lighting: LightFeed,
     depth: DepthFeed,
     sky: SkyFeed,
+    ground_mask: GroundMaskFeed,
     puddles: PuddleFeed,
     adapter: String,
 }
@@ -77,6 +79,7 @@ impl Renderer {
         log::info!("{}", shot.rain.summary());
         let lighting = LightFeed::new(&shot)?;
         let sky = SkyFeed::new(&shot);
+        let ground_mask = GroundMaskFeed::new(&shot);
         let puddles = PuddleFeed::new(&shot, layer);
         let rain = RainSetup::pack(shot.rain);
         let mut compositor = Compositor::with_backend(
@@ -94,6 +97,7 @@ impl Renderer {
             lighting,
             depth,
             sky,
+            ground_mask,
             puddles,
             adapter: ctx.summary().name,
         })
@@ -150,6 +154,8 @@ impl Renderer {
         let cut = self.lighting.last_was_cut();
         self.sky
             .feed(&mut self.compositor, frame, &params, t_s, cut)?;
+        self.ground_mask
+            .feed(&mut self.compositor, frame, &params, t_s, cut)?;
         hits.extend(
             self.puddles
                 .start(&self.rain, &mut self.depth.source, frame.index, t_s)?,
@@ -165,6 +171,7 @@ impl Renderer {
             .window_secs()
             .unwrap_or(0.0)
             .max(self.sky.window_s())
+            .max(self.ground_mask.window_s())
     }
 
     /// Takes the light and the sky of a frame shown at `t_s` into account without rendering
@@ -173,6 +180,7 @@ impl Renderer {
         let (params, _) = self.lighting.params(&self.rain, frame, t_s);
         let cut = self.lighting.last_was_cut();
         self.sky.observe(frame, &params, t_s, cut);
+        self.ground_mask.observe(frame, &params, t_s, cut);
     }
 
     /// The frame shown at `t_s` with rain, waiting for the GPU.

@@ -6,6 +6,7 @@
 pub mod camera;
 pub mod depth;
 pub mod ground;
+pub mod ground_mask;
 pub mod horizon;
 pub mod motion;
 pub mod sky;

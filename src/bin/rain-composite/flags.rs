@@ -93,6 +93,7 @@ pub const FLAGS: &[Flag] = &[
     row("ground.depth", "--depth", "PATH"),
     row("ground.depth_scale", "--depth-scale", "DEPTH_SCALE"),
     row("ground.sky", "--sky", "MODE"),
+    row("ground.mask", "--ground-mask", "MODE"),
     row("ground.relief_m", "--relief", "M"),
     row("ground.relief_seed", "--relief-seed", "N"),
     row("ground.puddles", "--puddles", ""),

@@ -56,6 +56,20 @@ pub fn puddles(
     water: &Water<'_>,
     depth: Option<&DepthMap>,
 ) {
+    puddles_masked(canvas, frame_yuv, p, water, depth, None);
+}
+
+/// [`puddles`] with the ground mask `mask` (weights at the glow's grid points; `None`: all
+/// ground), which the water keeps to where the depth map does not know the pixel
+/// ([`super::wet_ground::ground_weight`]).
+pub fn puddles_masked(
+    canvas: &mut [[f64; 3]],
+    frame_yuv: &YuvFrame,
+    p: &RainParams,
+    water: &Water<'_>,
+    depth: Option<&DepthMap>,
+    mask: Option<&[f32]>,
+) {
     let width = frame_yuv.format.width;
     let plate = super::yuv_to_rgb::plate(frame_yuv, p);
     let frame = Frame {
@@ -102,7 +116,11 @@ pub fn puddles(
         let scene_m = depth.and_then(|map| {
             super::yuv_to_rgb::scene_depth_at(p, map, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
         });
-        let shown = ground_shown(scene_m, ground_z_m);
+        let shown = ground_shown(scene_m, ground_z_m)
+            * super::wet_ground::ground_weight(p, depth, mask, x, y);
+        if shown <= 0.0 {
+            continue;
+        }
         let transmittance = super::yuv_to_rgb::haze_transmittance(p, depth, x, y);
         let in_scatter = if transmittance < 1.0 {
             prt_colour_f64(&env, &drop, ray).map(|v| (1.0 - transmittance) * v.max(0.0))

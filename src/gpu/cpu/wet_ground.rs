@@ -1,7 +1,8 @@
 //! The CPU twin of the `wet_ground` stage: on every pixel whose view ray meets the ground
 //! z = 0 in front of the camera, the scene radiance under the haze is darkened by the water
 //! film (Lekner & Dorf, [`FilmOptics::darkening`]) and gains the film's Fresnel reflection of the
-//! environment in the mirrored direction, both weighted by the wetness (docs/method.md §2.3).
+//! environment in the mirrored direction, both weighted by the wetness (docs/method.md §2.3)
+//! and, without a depth map, by the ground mask ([`ground_weight`]).
 
 use std::f64::consts::PI;
 
@@ -50,6 +51,41 @@ pub fn wet_terms(
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
 ) -> Vec<Option<[[f64; 3]; 3]>> {
+    wet_terms_masked(frame, p, wet, depth, None)
+}
+
+/// The ground's weight at coded pixel (`x`, `y`) (twin of `ground_weight` in
+/// common/ground_mask.wgsl): the mask `mask` (weights at the glow's grid points of the coded
+/// picture) bilinear at the pixel's centre; 1 without a mask or where the depth map knows the
+/// pixel (its depth decides).
+pub fn ground_weight(
+    p: &RainParams,
+    depth: Option<&crate::scene::DepthMap>,
+    mask: Option<&[f32]>,
+    x: u32,
+    y: u32,
+) -> f64 {
+    let size = (p.coded_size_px[0] as u32, p.coded_size_px[1] as u32);
+    let grid = crate::scene::sky::SkyGrid::new(crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX, size);
+    let Some(mask) = mask.filter(|m| m.len() == grid.len()) else {
+        return 1.0;
+    };
+    let centre = glam::DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+    if depth.is_some_and(|map| super::yuv_to_rgb::scene_depth_at(p, map, centre).is_some()) {
+        return 1.0;
+    }
+    f64::from(grid.weight_at(mask, x, y))
+}
+
+/// [`wet_terms`] with the ground mask `mask` (weights at the glow's grid points; `None`: all
+/// ground).
+pub fn wet_terms_masked(
+    frame: &YuvFrame,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+    mask: Option<&[f32]>,
+) -> Vec<Option<[[f64; 3]; 3]>> {
     let plate = super::yuv_to_rgb::plate(frame, p);
     let width = frame.format.width;
     let (env, drop) = super::yuv_to_rgb::environment_and_drop(p);
@@ -89,7 +125,8 @@ pub fn wet_terms(
             });
             let w = wet.wetness as f64
                 * reach_fade(distance_m, wet.reach_m as f64)
-                * ground_shown(scene_m, ground_z_m);
+                * ground_shown(scene_m, ground_z_m)
+                * ground_weight(p, depth, mask, x, y);
             let r = reflectance(optics.index, cos_view);
             let sky = radiance(&env, DVec3::new(d.x, d.y, -d.z));
             let (mut m, mut a) = ([0.0; 3], [0.0; 3]);
@@ -118,7 +155,22 @@ pub fn wet_ground(
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
 ) {
-    for (pixel, terms) in canvas.iter_mut().zip(wet_terms(frame, p, wet, depth)) {
+    wet_ground_masked(canvas, frame, p, wet, depth, None);
+}
+
+/// [`wet_ground`] with the ground mask `mask` (see [`wet_terms_masked`]).
+pub fn wet_ground_masked(
+    canvas: &mut [[f64; 3]],
+    frame: &YuvFrame,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+    mask: Option<&[f32]>,
+) {
+    for (pixel, terms) in canvas
+        .iter_mut()
+        .zip(wet_terms_masked(frame, p, wet, depth, mask))
+    {
         if let Some([l, m, a]) = terms {
             *pixel = std::array::from_fn(|k| l[k] * m[k] + a[k]);
         }

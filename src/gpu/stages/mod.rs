@@ -50,6 +50,9 @@ pub struct FrameResources {
     pub scene_depth: wgpu::Buffer,
     /// The open sky's weight at the glow's grid points, for `yuv_to_rgb` (zeros: no sky).
     pub sky_mask: wgpu::Buffer,
+    /// The ground's weight at the glow's grid points, for `wet_ground` and `puddles` (ones:
+    /// everything below the horizon).
+    pub ground_mask: wgpu::Buffer,
     /// The direct light term's inputs.
     pub lights: DirectLightBuffers,
     /// The packed output planes (`rgb_to_yuv` → readback), or the packed layer (`rgba_out`).

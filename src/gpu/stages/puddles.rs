@@ -4,7 +4,7 @@
 //! untouched. It copies the canvas first and reads the copy, so the mirror image is the picture
 //! before any water, and pixels without water keep their value bit for bit; the ground under
 //! the water is the frame's own, from the planes (the wet ground's film is replaced, not
-//! darkened again).
+//! darkened again). The water keeps to the ground mask (`FrameResources::ground_mask`).
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::fluid::Field2;
@@ -32,6 +32,7 @@ pub struct Puddles {
     planes: [wgpu::TextureView; 3],
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
+    ground_mask: wgpu::Buffer,
     lights: wgpu::Buffer,
     /// Whether frames are pictures; for a layer the water is written as the layer's colour and
     /// alpha over the frame (entry point `layer`).
@@ -65,6 +66,7 @@ impl Puddles {
             planes: r.planes.clone(),
             canvas: r.canvas.texture().clone(),
             scene_depth: r.scene_depth.clone(),
+            ground_mask: r.ground_mask.clone(),
             lights: r.lights.list.clone(),
             picture,
             job: None,
@@ -174,6 +176,7 @@ impl Puddles {
                 view(&self.planes[0]),
                 view(&self.planes[1]),
                 view(&self.planes[2]),
+                buffer(&self.ground_mask),
             ],
         );
         let optics = FilmOptics::water();

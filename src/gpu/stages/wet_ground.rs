@@ -2,7 +2,8 @@
 //! (`shaders/wet_ground.wgsl`; CPU twin [`crate::gpu::cpu::wet_ground`]). It reads the dry
 //! scene from the decoded planes and writes the wet ground on the canvas (or, for the rain as
 //! a layer, its premultiplied colour and alpha); pixels it does not touch (the horizon and
-//! above) keep their value bit for bit.
+//! above) keep their value bit for bit. The wetness keeps to the ground mask
+//! (`FrameResources::ground_mask`).
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::gpu::bind::{bind_group, buffer, view};
@@ -56,6 +57,7 @@ impl WetGround {
                     view(&r.planes[2]),
                     view(&r.canvas),
                     buffer(&r.scene_depth),
+                    buffer(&r.ground_mask),
                 ],
             );
             Wet {

@@ -114,6 +114,9 @@ pub struct LookArgs {
     /// The open sky: auto (found in each frame: smooth, sky-coloured regions reaching the picture's top edge, above a given ground's horizon; there the scene is infinitely far and the haze leaves the sky its own radiance) or off (veil every pixel without a depth to the ground or --scene-depth, for footage whose sky is found wrongly).
     #[arg(long, value_enum, value_name = "MODE")]
     pub sky: Option<SkyArg>,
+    /// Where the ground is: auto (found in each frame: below the horizon, connected to the picture's bottom edge, without the vertical structure of walls, railings, poles and vehicles' sides; wetness and puddles keep to it) or off (every pixel below the horizon is ground). A depth map, where given, decides.
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub ground_mask: Option<GroundMaskArg>,
     /// Standard deviation of the seeded fractal micro-relief the puddle simulation lays over the ground, metres (0: none); the ground's image is not displaced.
     #[arg(long, value_name = "M")]
     pub relief: Option<f64>,
@@ -174,6 +177,24 @@ impl From<SkyArg> for rain_composite::scene::sky::SkyMode {
     }
 }
 
+/// `--ground-mask`'s values.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum GroundMaskArg {
+    /// Found in each frame.
+    Auto,
+    /// Everything below the horizon.
+    Off,
+}
+
+impl From<GroundMaskArg> for rain_composite::scene::ground_mask::GroundMaskMode {
+    fn from(a: GroundMaskArg) -> Self {
+        match a {
+            GroundMaskArg::Auto => Self::Auto,
+            GroundMaskArg::Off => Self::Off,
+        }
+    }
+}
+
 fn parse_rain(s: &str) -> anyhow::Result<f64> {
     Ok(rain_composite::rain::physics::RainRate::parse(s)?.mm_per_h())
 }
@@ -229,6 +250,9 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     }
     if let Some(m) = &look.camera_motion {
         c.camera_motion = m.parse()?;
+    }
+    if let Some(m) = look.ground_mask {
+        c.ground.mask = m.into();
     }
     if let Some(g) = &look.ground {
         c.ground.mode = g.parse()?;

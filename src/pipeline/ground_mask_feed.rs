@@ -1,0 +1,114 @@
+//! The ground mask feed: each frame's ground ([`crate::scene::ground_mask`]) under the given
+//! ground's horizon, averaged over the frames shortly before it, handed to the compositor so
+//! that wetness and puddles keep to it.
+
+use glam::DVec2;
+
+use crate::Result;
+use crate::gpu::Compositor;
+use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
+use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
+use crate::gpu::types::RainParams;
+use crate::scene::ground_mask::{GroundMaskMode, PointView, detect};
+use crate::scene::sky::{SkyGrid, SkyTracker, TopEdge};
+use crate::shot::Shot;
+use crate::video::YuvFrame;
+
+/// The ground of a shot's frames, on the glow's grid; nothing where `ground.mask` is off.
+pub(super) struct GroundMaskFeed {
+    tracker: Option<SkyTracker>,
+    grid: SkyGrid,
+}
+
+impl GroundMaskFeed {
+    /// The feed of `shot`: smoothed like the light (`light.smoothing_s`).
+    pub(super) fn new(shot: &Shot) -> GroundMaskFeed {
+        let config = &shot.config;
+        let f = shot.footage.format;
+        GroundMaskFeed {
+            tracker: (config.ground.mask == GroundMaskMode::Auto)
+                .then(|| SkyTracker::new(config.light.smoothing_s)),
+            grid: SkyGrid::new(GLOW_CELL_PX, (f.width, f.height)),
+        }
+    }
+
+    /// How far back frames change the mask of a frame, seconds.
+    pub(super) fn window_s(&self) -> f64 {
+        self.tracker.as_ref().map_or(0.0, SkyTracker::window_s)
+    }
+
+    /// The mask of `frame` shown at `t_s` under the uniforms `p` (`cut`: the light saw a scene
+    /// cut); `None` where it is not looked for or there is no ground.
+    pub(super) fn observe(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        t_s: f64,
+        cut: bool,
+    ) -> Option<&[f32]> {
+        let tracker = self.tracker.as_mut()?;
+        if p.ground_clip == 0 || p.camera_pos_m[2] <= 0.0 {
+            return None;
+        }
+        let view = point_views(p, self.grid);
+        let m = p.coded_from_display;
+        // Display "up" (0, −1) in coded pixels: display = M coded, M orthogonal.
+        let top = TopEdge::from_up([-f64::from(m[2]), -f64::from(m[3])]);
+        let mask = detect(frame, self.grid, top, &view);
+        Some(tracker.update(mask, t_s, cut))
+    }
+
+    /// Sets the mask of `frame` on `compositor` (see [`observe`](Self::observe)).
+    pub(super) fn feed(
+        &mut self,
+        compositor: &mut Compositor,
+        frame: &YuvFrame,
+        p: &RainParams,
+        t_s: f64,
+        cut: bool,
+    ) -> Result<()> {
+        match self.observe(frame, p, t_s, cut) {
+            Some(mask) => compositor.set_ground_mask(mask),
+            None => Ok(()),
+        }
+    }
+}
+
+/// What the camera of `p` says about each point of `grid`: whether its ray meets the ground,
+/// and the image of the world's up direction there.
+pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
+    let cell = f64::from(grid.cell_px);
+    // World up in the camera's frame: the rows' z (world = Σ row_k · q_k, orthonormal).
+    let up = [
+        f64::from(p.camera_from_world_0[2]),
+        f64::from(p.camera_from_world_1[2]),
+        f64::from(p.camera_from_world_2[2]),
+    ];
+    let m = p.coded_from_display.map(f64::from);
+    let (f, c) = (
+        f64::from(p.focal_px),
+        DVec2::new(f64::from(p.principal_px[0]), f64::from(p.principal_px[1])),
+    );
+    (0..grid.len())
+        .map(|k| {
+            let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * cell;
+            let ray = view_ray_at(p, at);
+            // The displayed position's normalised coordinates d: the camera-space ray (d, 1).
+            let o = at
+                - DVec2::new(
+                    f64::from(p.coded_offset_px[0]),
+                    f64::from(p.coded_offset_px[1]),
+                );
+            let shown = DVec2::new(m[0] * o.x + m[1] * o.y, m[2] * o.x + m[3] * o.y);
+            let d = (shown - c) / f;
+            // d(display)/dε of the point moved by ε along world up: f · (up.xy − d · up.z).
+            let s = DVec2::new(up[0] - d.x * up[2], up[1] - d.y * up[2]);
+            // Coded = Mᵀ display.
+            let coded = [m[0] * s.x + m[2] * s.y, m[1] * s.x + m[3] * s.y];
+            PointView {
+                below_horizon: ray.z < 0.0,
+                up_px: coded.map(|v| v as f32),
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,225 @@
+//! Where the ground is in a frame without a depth map: the part of the picture below the
+//! horizon that the ground plane explains, so wetness and puddles stay off facades, walls,
+//! railings and vehicles' sides standing on it.
+//!
+//! # Method
+//!
+//! On the haze's grid of points (every `cell_px` coded pixels, as [`crate::scene::sky`]) each
+//! point sums up the luma gradients of the block of pixels around it (its structure tensor).
+//! A world vertical (a wall's edge, a window's frame, a railing's post, a pole, a car's door)
+//! shows in the picture along the image of the world's up direction at that point, which the
+//! caller gives per point (it converges to the nadir on a camera tilted down). A point is
+//! **upright** where its gradients are strong (RMS at least [`UPRIGHT_ENERGY_CODES`]) and at
+//! least [`UPRIGHT_SHARE`] of their energy lies across that direction: its edges run along the
+//! world's verticals. The ground's own texture, foreshortened toward the horizon by the sine of
+//! the ray's depression, leans the other way (its edges flatten), and the lines drawn on it
+//! converge to vanishing points on the horizon, upright only right below them.
+//!
+//! The ground is then
+//!
+//! - **below the horizon** of the given ground (the caller's `below_horizon`);
+//! - **not upright, nor next to an upright point** (the upright points grown by one closes the
+//!   gaps between a facade's windows and a railing's posts);
+//! - **connected to the picture's bottom edge** as displayed, through such points whose mean
+//!   luma steps by at most [`STEP_CODES`] plus the texture's RMS gradient from the ground
+//!   behind them along the flood
+//!   (the road's shading and its texture pass; the step from the road to a wall's base, a kerb
+//!   or a car's side does not): what stands on the road and is enclosed by its verticals and
+//!   its base line (a wall's smooth panels) is cut off from it.
+//!
+//! The region is grown back by one point into the ring it lost next to upright points (where
+//! the step to it is the ground's own), then
+//! eroded by one point, so every point whose block touches a vertical structure or the step to
+//! one leaves it, and read bilinearly between points: its edge is soft over one cell, and lies
+//! inside the ground. Each frame's mask is a pure function of that frame; averaged over a
+//! window by [`crate::scene::sky::SkyTracker`], it fades instead of switching.
+//!
+//! Not explained: a smooth wall without a vertical edge reaching the ground's region (it is
+//! taken for ground), and lines painted on the road straight ahead right below its vanishing
+//! point (upright, so a narrow dry lane along them).
+
+use std::collections::VecDeque;
+
+use rayon::prelude::*;
+
+use super::sky::{SkyGrid, TopEdge};
+use crate::video::YuvFrame;
+
+/// Smallest RMS luma gradient between neighbouring pixels, 8-bit codes, of a block with
+/// structure: compressed noise on a smooth wall is one or two codes; the edge of a window or a
+/// post across the block is tens.
+pub const UPRIGHT_ENERGY_CODES: f32 = 3.0;
+
+/// Smallest share of a block's gradient energy across the image of the world's up direction
+/// that makes its structure upright: isotropic texture gives 1/2, the ground's foreshortened
+/// texture less, a vertical edge 1.
+pub const UPRIGHT_SHARE: f32 = 0.62;
+
+/// Largest step of mean luma between neighbouring ground points beyond their texture, 8-bit
+/// codes: the shading of a road is gentle, the base of a wall or a kerb is a step.
+pub const STEP_CODES: f32 = 8.0;
+
+/// Whether wetness and puddles keep to the ground found in the frames (`ground.mask`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GroundMaskMode {
+    /// Found in each frame (see the module's method); a depth map, where given, decides.
+    #[default]
+    Auto,
+    /// Every pixel below the horizon is ground (a depth map still keeps what stands on it dry).
+    Off,
+}
+
+impl GroundMaskMode {
+    /// The name the command line and the configuration use.
+    pub fn name(self) -> &'static str {
+        match self {
+            GroundMaskMode::Auto => "auto",
+            GroundMaskMode::Off => "off",
+        }
+    }
+}
+
+/// What the given ground says about one grid point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointView {
+    /// Its ray meets the ground.
+    pub below_horizon: bool,
+    /// The image of the world's up direction there, in coded pixels (any length, not zero).
+    pub up_px: [f32; 2],
+}
+
+/// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
+/// coded axes), and its mean luma (8-bit codes).
+fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
+    let f = frame.format;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let c = grid.cell_px as usize;
+    let point = |x: usize| (x + c / 2) / c;
+    let to_8bit = 255.0 / ((1u32 << f.bit_depth) - 1) as f32;
+    let mut sums = vec![[0.0f32; 5]; grid.len()];
+    sums.par_chunks_mut(grid.width)
+        .enumerate()
+        .for_each(|(j, points)| {
+            let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
+            for y in lo..hi.min(h.saturating_sub(1)) {
+                for x in 0..w.saturating_sub(1) {
+                    let v = f32::from(frame.sample(0, x as u32, y as u32));
+                    let gx = (f32::from(frame.sample(0, x as u32 + 1, y as u32)) - v) * to_8bit;
+                    let gy = (f32::from(frame.sample(0, x as u32, y as u32 + 1)) - v) * to_8bit;
+                    let s = &mut points[point(x).min(grid.width - 1)];
+                    s[0] += gx * gx;
+                    s[1] += gy * gy;
+                    s[2] += gx * gy;
+                    s[3] += 1.0;
+                    s[4] += v * to_8bit;
+                }
+            }
+        });
+    // Empty blocks past the right and bottom edges copy their neighbours.
+    for k in 0..sums.len() {
+        if sums[k][3] == 0.0 {
+            let from = if k % grid.width > 0 {
+                k - 1
+            } else {
+                k.saturating_sub(grid.width)
+            };
+            sums[k] = sums[from];
+        }
+    }
+    sums.iter()
+        .map(|s| {
+            let n = s[3].max(1.0);
+            [s[0] / n, s[1] / n, s[2] / n, s[4] / n]
+        })
+        .collect()
+}
+
+/// Whether a block of structure tensor `t` has edges along the image direction `up`.
+fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
+    let energy = t[0] + t[1];
+    if energy < UPRIGHT_ENERGY_CODES * UPRIGHT_ENERGY_CODES {
+        return false;
+    }
+    let norm = (up[0] * up[0] + up[1] * up[1]).sqrt();
+    if norm.is_nan() || norm <= 0.0 {
+        return false;
+    }
+    // Across `up`: n = (−up.y, up.x)/|up|; E[(g·n)²] = nᵀ T n.
+    let (nx, ny) = (-up[1] / norm, up[0] / norm);
+    let across = nx * nx * t[0] + ny * ny * t[1] + 2.0 * nx * ny * t[2];
+    across >= UPRIGHT_SHARE * energy
+}
+
+/// The ground's weight at each grid point of `frame` (row-major over `grid`, in {0, 1}; read
+/// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
+/// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
+pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
+    let n = grid.len();
+    if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
+        return vec![0.0; n];
+    }
+    let t = tensors(frame, grid);
+    let (w, h) = (grid.width, grid.height);
+    let neighbours8 = |k: usize| {
+        let (i, j) = ((k % w) as i64, (k / w) as i64);
+        (-1i64..=1)
+            .flat_map(move |dj| (-1i64..=1).map(move |di| (i + di, j + dj)))
+            .filter(move |&(x, y)| {
+                (x, y) != (i, j) && x >= 0 && y >= 0 && x < w as i64 && y < h as i64
+            })
+            .map(move |(x, y)| y as usize * w + x as usize)
+    };
+    let standing: Vec<bool> = (0..n).map(|k| upright(&t[k], view[k].up_px)).collect();
+    let open: Vec<bool> = (0..n)
+        .map(|k| view[k].below_horizon && !standing[k] && !neighbours8(k).any(|m| standing[m]))
+        .collect();
+    let bottom: Vec<usize> = match top {
+        TopEdge::Top => (0..w).map(|i| (h - 1) * w + i).collect(),
+        TopEdge::Bottom => (0..w).collect(),
+        TopEdge::Left => (0..h).map(|j| j * w + w - 1).collect(),
+        TopEdge::Right => (0..h).map(|j| j * w).collect(),
+    };
+    // The ground's luma and texture along the flood's path to each point (halfway to each new
+    // point's own): a step is measured from the ground behind it, so the base of a wall spread
+    // over two blocks, each half the step and with an edge's texture, is still a step.
+    let rms: Vec<f32> = t.iter().map(|q| (q[0] + q[1]).sqrt()).collect();
+    let mut reference = vec![[0.0f32; 2]; n];
+    let passes = |reference: &[[f32; 2]], from: usize, to: usize| {
+        let [luma, texture] = reference[from];
+        (t[to][3] - luma).abs() <= STEP_CODES + texture.min(rms[to])
+    };
+    let mut ground = vec![false; n];
+    let mut queue: VecDeque<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
+    for &k in &queue {
+        ground[k] = true;
+        reference[k] = [t[k][3], rms[k]];
+    }
+    while let Some(k) = queue.pop_front() {
+        let (i, j) = (k % w, k / w);
+        let next = [
+            (i > 0).then(|| k - 1),
+            (i + 1 < w).then(|| k + 1),
+            (j > 0).then(|| k - w),
+            (j + 1 < h).then(|| k + w),
+        ];
+        for m in next.into_iter().flatten() {
+            if open[m] && !ground[m] && passes(&reference, k, m) {
+                ground[m] = true;
+                let [luma, texture] = reference[k];
+                reference[m] = [0.5 * (luma + t[m][3]), 0.5 * (texture + rms[m])];
+                queue.push_back(m);
+            }
+        }
+    }
+    // Grown back by one point into the ring next to upright points (closed above against the
+    // gaps), then eroded by one point (the picture's border does not erode it).
+    let ring: Vec<usize> = (0..n)
+        .filter(|&k| !ground[k] && view[k].below_horizon && !standing[k])
+        .filter(|&k| neighbours8(k).any(|m| ground[m] && passes(&reference, m, k)))
+        .collect();
+    ring.into_iter().for_each(|k| ground[k] = true);
+    (0..n)
+        .map(|k| f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m]))))
+        .collect()
+}
