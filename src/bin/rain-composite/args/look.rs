@@ -377,6 +377,7 @@ mod tests {
         c.ground.puddle_particles = 12_000;
         c.camera_motion = rain_composite::scene::motion::MotionSource::File("poses.json".into());
         c.ground.sky = rain_composite::scene::sky::SkyMode::Off;
+        c.ground.mask = rain_composite::scene::ground_mask::GroundMaskMode::Off;
         let values = flag_values(&c);
         let defaults = flag_values(&RenderConfig::default());
         for (flag, d) in &defaults {
