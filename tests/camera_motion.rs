@@ -432,16 +432,19 @@ fn a_cut_resets_and_the_pose_file_round_trips() {
     by_file.validate().expect("valid");
     let from_file =
         rain_composite::pipeline::motion::resolve(&by_file, s(&clip), &cancel).expect("file");
+    let by_auto = RenderConfig {
+        camera_motion: MotionSource::Auto,
+        ..RenderConfig::default()
+    };
     let auto =
-        rain_composite::pipeline::motion::resolve(&RenderConfig::default(), s(&clip), &cancel)
-            .expect("auto");
+        rain_composite::pipeline::motion::resolve(&by_auto, s(&clip), &cancel).expect("auto");
     assert!(auto.keyframes.moves_camera());
     assert_eq!(from_file.keyframes, auto.keyframes);
     assert_eq!(from_file.camera_motion, MotionSource::None);
     from_file.validate().expect("the resolved keys are valid");
 
     // A ground holds the camera still: auto adds nothing beside one, a pose file is refused.
-    let mut grounded = RenderConfig::default();
+    let mut grounded = by_auto.clone();
     grounded.ground.mode = "horizon=0.6".parse().expect("mode");
     let resolved = rain_composite::pipeline::motion::resolve(&grounded, s(&clip), &cancel)
         .expect("auto with a ground");

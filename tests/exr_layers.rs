@@ -282,7 +282,7 @@ fn compare(input: &Path, dir: &Path, look: &[&str]) -> (Agreement, Agreement, Ve
     (exr_fit, png_fit, layers)
 }
 
-/// At the defaults, with a clipped bright region recovered as a sun: the EXR layer over the
+/// At the defaults with a lamp in view ([`LAMP`]): the EXR layer over the
 /// plate is the render within one code value, where the 16-bit layer misses the glow above
 /// white; the glow is there as values above 1; OpenImageIO reads the same half-float R, G, B, A
 /// as FFmpeg, and BT.709 chromaticities.
@@ -290,14 +290,17 @@ fn compare(input: &Path, dir: &Path, look: &[&str]) -> (Agreement, Agreement, Ve
 /// 8-bit, every sample is within one code. 10-bit, a few samples of bright streaks over the
 /// glow (5 of 1.4 million) are two codes off: the same samples with the 16-bit layer, so the
 /// render's own arithmetic (its canvas is half floats too), not the layer's format.
+/// A lamp just above the view's centre, 10⁵ times the frame's white (a street lamp at night is
+/// 10³–10⁵): its glow in the haze is brighter than white, which a 16-bit layer cannot hold.
+/// (testsrc2's colour bars clip one or two channels, so they are surfaces, not a sun.)
+const LAMP: &str = "0,5,100000,100000,100000";
+
 #[test]
 fn exr_layer_over_the_plate_is_the_render_glow_included() {
     for (pix_fmt, within_one) in [("yuv420p", 1.0), ("yuv422p10le", 0.99999)] {
         let dir = TempDir::new().unwrap();
-        // From about 640×360 up, testsrc2's clipped colour bars are recovered at the defaults as
-        // a sun hundreds of times the frame's white, whose glow in the haze is brighter than white.
         let input = lossless_clip(dir.path(), "640x360", pix_fmt, "bt709");
-        let (exr, png, layers) = compare(&input, dir.path(), &[]);
+        let (exr, png, layers) = compare(&input, dir.path(), &["--light", LAMP, "--sky", "off"]);
         eprintln!("{pix_fmt} EXR layer over the plate: {}", exr.report());
         eprintln!(
             "{pix_fmt} 16-bit PNG layer over the plate: {}",
@@ -325,7 +328,7 @@ fn exr_layer_over_the_plate_is_the_render_glow_included() {
         assert_eq!(
             covered,
             layers.iter().map(Vec::len).sum::<usize>(),
-            "{pix_fmt}: the haze veils every pixel, so every pixel has alpha"
+            "{pix_fmt}: the haze veils every pixel (no open sky), so every pixel has alpha"
         );
 
         let first = images(dir.path(), "rain_", ".exr").remove(0);
@@ -340,14 +343,18 @@ fn exr_layer_over_the_plate_is_the_render_glow_included() {
     }
 }
 
-/// Heavy rain thickens the haze, and the glow of `testsrc2`'s bars (recovered as a sun) passes
+/// Heavy rain thickens the haze, and the glow of a lamp in view ([`LAMP`]) passes
 /// white over much of the picture: the 16-bit layer clips it far from the render, the EXR layer
 /// over the plate stays within one code value.
 #[test]
 fn exr_layer_keeps_a_glow_far_above_white() {
     let dir = TempDir::new().unwrap();
     let input = lossless_clip(dir.path(), "320x240", "yuv420p", "bt709");
-    let (exr, png, layers) = compare(&input, dir.path(), &["--rain", "60", "--seed", "7"]);
+    let (exr, png, layers) = compare(
+        &input,
+        dir.path(),
+        &["--rain", "60", "--seed", "7", "--light", LAMP],
+    );
     eprintln!("60 mm/h, EXR layer over the plate: {}", exr.report());
     eprintln!("60 mm/h, 16-bit PNG layer over the plate: {}", png.report());
     assert_eq!(exr.within_one, exr.samples, "{}", exr.report());

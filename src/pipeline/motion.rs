@@ -124,10 +124,12 @@ pub fn keys_of(track: &PoseTrack, config: &RenderConfig) -> Result<Keyframes> {
             expected: e,
         })
     };
+    // A camera set at a bound of its range (a roll of ±180°, a tilt of ±90°) and seen to move
+    // a hair past it is held at the bound: the keys' ranges are the settings' ranges.
     Ok(Keyframes {
-        pan_deg: curve(&|f| c.pan_deg + f.pan_deg, c.pan_deg)?,
-        tilt_deg: curve(&|f| f.tilt_deg, c.tilt_deg)?,
-        roll_deg: curve(&|f| f.roll_deg, c.roll_deg)?,
+        pan_deg: curve(&|f| (c.pan_deg + f.pan_deg).clamp(-360.0, 360.0), c.pan_deg)?,
+        tilt_deg: curve(&|f| f.tilt_deg.clamp(-90.0, 90.0), c.tilt_deg)?,
+        roll_deg: curve(&|f| f.roll_deg.clamp(-180.0, 180.0), c.roll_deg)?,
         fov_deg: curve(&|f| f.fov_deg, c.fov_deg)?,
         ..config.keyframes.clone()
     })

