@@ -21,7 +21,7 @@ use rain_composite::rng::splitmix64;
 use rain_composite::scene::Camera;
 use rain_composite::scene::ground_mask::detect;
 use rain_composite::scene::sky::{SkyGrid, TopEdge};
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+use rain_composite::video::YuvFrame;
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
@@ -33,7 +33,7 @@ use render::{dry_ground, lit, render_with};
 
 #[path = "common/pictures.rs"]
 mod pictures;
-use pictures::{codes, picture};
+use pictures::codes;
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -141,32 +141,9 @@ fn street(camera: &Camera, seed: u64) -> Street {
     Street { rgb, truth }
 }
 
-/// The street as an 8-bit 4:2:0 BT.709 limited-range frame (chroma of the co-sited pixel).
+/// The street as an 8-bit 4:2:0 BT.709 limited-range frame.
 fn frame(street: &Street) -> YuvFrame {
-    let format = FrameFormat {
-        width: W,
-        height: H,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
-    let (kr, kb) = (0.2126, 0.0722);
-    let ycc = |x: u32, y: u32| {
-        let [r, g, b] = street.rgb[(y * W + x) as usize].map(|v| v.clamp(0.0, 1.0));
-        let luma = kr * r + (1.0 - kr - kb) * g + kb * b;
-        [
-            16.0 + 219.0 * luma,
-            128.0 + 224.0 * (b - luma) / (2.0 * (1.0 - kb)),
-            128.0 + 224.0 * (r - luma) / (2.0 * (1.0 - kr)),
-        ]
-        .map(|v: f64| v.round().clamp(0.0, 255.0) as u16)
-    };
-    picture(format, ColorParams::bt709(8), |i, x, y| {
-        if i == 0 {
-            ycc(x, y)[0]
-        } else {
-            ycc(2 * x, 2 * y)[i]
-        }
-    })
+    pictures::bt709_420_from_rgb(W, H, &street.rgb)
 }
 
 fn grid() -> SkyGrid {

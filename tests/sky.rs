@@ -16,7 +16,7 @@ use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::rng::splitmix64;
 use rain_composite::scene::DepthMap;
 use rain_composite::scene::sky::{SkyGrid, SkyTracker, TopEdge, detect};
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+use rain_composite::video::YuvFrame;
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
@@ -28,7 +28,7 @@ use render::{render_with, water_tables};
 
 #[path = "common/pictures.rs"]
 mod pictures;
-use pictures::{picture, plane_codes};
+use pictures::plane_codes;
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -107,32 +107,9 @@ fn skyline(seed: u64, roof_range: (f64, f64), horizon_row: u32) -> Scene {
     Scene { rgb, sky }
 }
 
-/// The scene as an 8-bit 4:2:0 BT.709 limited-range frame (chroma of the co-sited pixel).
+/// The scene as an 8-bit 4:2:0 BT.709 limited-range frame.
 fn frame(scene: &Scene) -> YuvFrame {
-    let format = FrameFormat {
-        width: W,
-        height: H,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
-    let (kr, kb) = (0.2126, 0.0722);
-    let ycc = |x: u32, y: u32| {
-        let [r, g, b] = scene.rgb[(y * W + x) as usize].map(|v| v.clamp(0.0, 1.0));
-        let luma = kr * r + (1.0 - kr - kb) * g + kb * b;
-        [
-            16.0 + 219.0 * luma,
-            128.0 + 224.0 * (b - luma) / (2.0 * (1.0 - kb)),
-            128.0 + 224.0 * (r - luma) / (2.0 * (1.0 - kr)),
-        ]
-        .map(|v: f64| v.round().clamp(0.0, 255.0) as u16)
-    };
-    picture(format, ColorParams::bt709(8), |i, x, y| {
-        if i == 0 {
-            ycc(x, y)[0]
-        } else {
-            ycc(2 * x, 2 * y)[i]
-        }
-    })
+    pictures::bt709_420_from_rgb(W, H, &scene.rgb)
 }
 
 /// The mask's weight at each pixel, as the haze reads it.

@@ -85,3 +85,32 @@ pub fn plane_codes(frame: &YuvFrame, i: usize) -> Vec<u16> {
         .map(|(x, y)| frame.sample(i, x, y))
         .collect()
 }
+
+/// An 8-bit 4:2:0 BT.709 limited-range picture of `width` × `height` from non-linear
+/// R′G′B′ values in [0, 1] (row-major; clamped), each chroma sample from its co-sited pixel.
+pub fn bt709_420_from_rgb(width: u32, height: u32, rgb: &[[f64; 3]]) -> YuvFrame {
+    let format = FrameFormat {
+        width,
+        height,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let (kr, kb) = (0.2126, 0.0722);
+    let ycc = |x: u32, y: u32| {
+        let [r, g, b] = rgb[(y * width + x) as usize].map(|v| v.clamp(0.0, 1.0));
+        let luma = kr * r + (1.0 - kr - kb) * g + kb * b;
+        [
+            16.0 + 219.0 * luma,
+            128.0 + 224.0 * (b - luma) / (2.0 * (1.0 - kb)),
+            128.0 + 224.0 * (r - luma) / (2.0 * (1.0 - kr)),
+        ]
+        .map(|v: f64| v.round().clamp(0.0, 255.0) as u16)
+    };
+    picture(format, ColorParams::bt709(8), |i, x, y| {
+        if i == 0 {
+            ycc(x, y)[0]
+        } else {
+            ycc(2 * x, 2 * y)[i]
+        }
+    })
+}
