@@ -44,6 +44,7 @@ use super::uniforms::RainSetup;
 use crate::video::{FrameFormat, Layer, LayerFrame, LayerSamples, Plane, YuvFrame};
 use crate::{Error, Result};
 
+mod host;
 mod masks;
 
 /// Frames in flight (readback slots).
@@ -132,6 +133,8 @@ pub struct Compositor {
     host: Option<(HostColour, wgpu::Texture)>,
     /// The streaks' readback where the CPU draws them (the CPU back end).
     host_rain: Option<HostRain>,
+    /// The splashes' draw list's readback (the CPU back end, with a ground).
+    host_splashes: Option<super::host::splashes::HostSplashes>,
     /// Frames done, oldest first, older than any in flight.
     ready: VecDeque<Rendered>,
 }
@@ -312,6 +315,10 @@ impl Compositor {
                 rain.mattes.clone(),
             )
         });
+        let host_splashes = on_cpu
+            .then(|| host::splash_stage(&stages))
+            .flatten()
+            .map(|s| super::host::splashes::HostSplashes::new(device, s.simulate()));
         let timed = stages.len() as u64;
         let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
@@ -340,6 +347,7 @@ impl Compositor {
             gpu_times: GpuStageTimes::default(),
             host: on_cpu.then(|| (HostColour::new(format, color), canvas)),
             host_rain,
+            host_splashes,
             ready: VecDeque::with_capacity(RING),
         })
     }
@@ -585,66 +593,6 @@ impl Compositor {
         Ok(done)
     }
 
-    /// Whether this frame's rain is drawn on the CPU: the CPU back end, and no stage runs
-    /// between the colour passes but the drops' (the wet ground, the puddles and the splashes
-    /// stay on the GPU).
-    fn drawn_on_host(&self) -> bool {
-        self.host_rain.is_some()
-            && self
-                .stages
-                .iter()
-                .all(|s| !s.runs() || matches!(s.name(), "rain_simulate" | "rain_streaks"))
-    }
-
-    /// The frame rendered on the CPU back end with its streaks drawn on the CPU: the drops
-    /// simulated on the adapter while the CPU lays the plate, their streaks read back and drawn,
-    /// the canvas packed.
-    fn render_on_host(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Rendered> {
-        let (Some((host, _)), Some(readback)) = (&mut self.host, &self.host_rain) else {
-            return Err(Error::Gpu("no CPU back end".into()));
-        };
-        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
-        let pending = self
-            .stages
-            .iter()
-            .enumerate()
-            .find(|(_, s)| s.runs() && s.name() == "rain_simulate")
-            .map(|(slot, stage)| {
-                let timestamps = self.timestamps.as_ref().map(|(set, resolve)| {
-                    let slot = slot as u32;
-                    (TimestampSlot { set, slot }, resolve)
-                });
-                queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
-                readback.submit(device, queue, stage.as_ref(), rain, timestamps)
-            });
-        let started = std::time::Instant::now();
-        host.decode(frame, rain);
-        self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64();
-        if let Some(pending) = pending {
-            let (count, ticks) = readback.receive(device, pending, |streaks, glints| {
-                let started = std::time::Instant::now();
-                let count = host.draw_streaks(rain, streaks, readback.mattes(), glints);
-                (count, started.elapsed().as_secs_f64())
-            })?;
-            self.gpu_times.rain_streaks_s += count.1;
-            self.gpu_times.streaks_drawn += count.0.streaks as u64;
-            if let Some(ticks) = ticks {
-                self.gpu_times.rain_simulate_s +=
-                    ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9;
-            }
-        }
-        let started = std::time::Instant::now();
-        let planes = host.encode_canvas();
-        self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
-        Ok(Rendered::Picture(YuvFrame {
-            format: frame.format,
-            color: frame.color,
-            planes,
-            pts: frame.pts,
-            index: frame.index,
-        }))
-    }
-
     /// Waits for the oldest frame in flight and reads it back.
     fn receive(&mut self) -> Result<Rendered> {
         let Some(f) = self.in_flight.pop_front() else {
@@ -826,8 +774,14 @@ fn frame_stages(
     on_cpu: bool,
 ) -> Vec<Box<dyn FrameStage>> {
     let between: [Box<dyn FrameStage>; 5] = [
-        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
-        Box::new(Puddles::new(device, resources, layer.is_none())),
+        Box::new(WetGround::new(
+            device,
+            resources,
+            wetting,
+            layer.is_some(),
+            !on_cpu,
+        )),
+        Box::new(Puddles::new(device, resources, layer.is_none(), !on_cpu)),
         Box::new(RainSimulate::new(device, resources)),
         Box::new(RainSplashes::new(device, resources, rain)),
         Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
