@@ -72,6 +72,8 @@ pub struct GpuStageTimes {
     pub puddles_s: f64,
     /// Streaks drawn, summed over the frames (counted where the CPU draws them).
     pub streaks_drawn: u64,
+    /// Splash streaks drawn, summed over the frames (counted where the CPU draws them).
+    pub splashes_drawn: u64,
 }
 
 impl GpuStageTimes {

@@ -79,10 +79,11 @@ impl Compositor {
             let (count, ticks) =
                 back.receive(device, queue, stage.simulate(), pending, |list| {
                     let started = std::time::Instant::now();
-                    host.draw_splashes(rain, list);
-                    ((), started.elapsed().as_secs_f64())
+                    let count = host.draw_splashes(rain, list);
+                    (count.streaks, started.elapsed().as_secs_f64())
                 })?;
             self.gpu_times.rain_splashes_s += count.1 + ticks.map_or(0.0, |t| t as f64 * period_s);
+            self.gpu_times.splashes_drawn += count.0 as u64;
         }
         if let Some(pending) = pending {
             let (count, ticks) = readback.receive(device, pending, |streaks, glints| {
