@@ -41,7 +41,7 @@ impl Compositor {
         frame: &YuvFrame,
         rain: &RainParams,
     ) -> Result<Rendered> {
-        let (Some((host, _)), Some(readback)) = (&mut self.host, &self.host_rain) else {
+        let (Some(host), Some(readback)) = (&mut self.host, &self.host_rain) else {
             return Err(Error::Gpu("no CPU back end".into()));
         };
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
