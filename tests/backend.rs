@@ -337,7 +337,7 @@ fn cpu_back_end_is_deterministic() {
     }
 }
 
-/// Through the compositor on the CPU back end (the canvas up to the GPU and back): a frame with
+/// Through the compositor on the CPU back end (the canvas never on the adapter): a frame with
 /// nothing drawn and no haze comes back bit for bit, the haze as the twins lay it, twice alike.
 #[test]
 fn compositor_on_the_cpu_back_end() {
