@@ -1078,23 +1078,6 @@ fn ground_case_turned(
     }
 }
 
-/// The rain plan of `camera` over `format`'s picture at `rate` mm/h.
-fn plan_for(camera: Camera, format: FrameFormat, rate: f64) -> RainSetup {
-    rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig {
-            rate_mm_per_h: rate,
-            ..RainConfig::default()
-        },
-        1.0 / 50.0,
-        0,
-        (format.width, format.height),
-    )
-    .map(RainSetup::pack)
-    .expect("rain")
-}
-
 /// The wet ground and the puddles on the CPU back end are within one code of the twins on
 /// 99.9 % of the samples, for every picture and every case; the pixels the twins leave alone
 /// keep the plate's bits; the cases do change the picture.
