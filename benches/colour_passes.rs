@@ -2,7 +2,9 @@
 //! without the haze, and canvas → code values; the plain `f64` twins on the same frame for
 //! scale. Then the streaks of the default rain (10 mm/h) drawn over a 1080p canvas in tiles,
 //! beside the twin of `rain_simulate`'s geometry for the same drops (what simulating them on
-//! the CPU would cost at the least). `cargo bench --bench colour_passes`.
+//! the CPU would cost at the least). Then the ground's passes at 720p on a view two thirds
+//! ground: the wet ground fused into the decode, and the puddles over a lake, still, with 128
+//! rings, and marched against a depth map. `cargo bench --bench colour_passes`.
 
 use std::hint::black_box;
 
@@ -10,9 +12,11 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::host::HostColour;
-use rain_composite::gpu::types::{RainParams, Streak};
+use rain_composite::gpu::host::{GroundFrame, HostColour};
+use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, FrameWater, LIGHT_LOBE};
+use rain_composite::gpu::types::{PuddleParams, RainParams, Ripple, Streak, WetParams};
 use rain_composite::gpu::uniforms::RainSetup;
+use rain_composite::lighting::wetness::FilmOptics;
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
@@ -190,5 +194,103 @@ fn streak_raster(c: &mut Criterion) {
     slow.finish();
 }
 
-criterion_group!(benches, colour_passes, streak_raster);
+fn ground_passes(c: &mut Criterion) {
+    let frame = frame();
+    let camera = Camera::new(W, H, 1.0, 1.6, -0.2, 0.0);
+    let rain = RainConfig {
+        rate_mm_per_h: 0.0,
+        ..RainConfig::default()
+    };
+    let setup =
+        rain_composite::shot::rain::plan(&camera, &CameraConfig::default(), &rain, 0.02, 0, (W, H))
+            .map(RainSetup::pack)
+            .expect("rain")
+            .with_ground(true);
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.9, 1.0, 1.3];
+    env.coeffs[2] = [0.3, 0.3, 0.4];
+    let light = FrameLight {
+        env,
+        lights: Vec::new(),
+    };
+    let mut p = setup.params_at(0.0, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    p.haze = [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()];
+    let optics = FilmOptics::water();
+    let wet = WetParams::new(0.8, &optics, 0.0);
+    // A lake 2 cm deep over the 40 m in front of the camera.
+    let (nx, ny) = (160, 160);
+    let depth_m = vec![0.02f32; nx * ny];
+    let pool = |rings: u32| PuddleParams {
+        origin_m: [-20.0, 0.0],
+        cell_m: 0.25,
+        edge_depth_m: EDGE_DEPTH_M as f32,
+        cells: [nx as u32, ny as u32],
+        ring_count: rings,
+        far_slope_rms: 0.0,
+        water_index: optics.index as f32,
+        diffuse_external: optics.diffuse_external as f32,
+        diffuse_internal: optics.diffuse_internal as f32,
+        light_lobe: LIGHT_LOBE as f32,
+        resolve_depth_m: 0.0,
+        _pad0: 0.0,
+        _pad1: 0.0,
+        _pad2: 0.0,
+    };
+    let ripples: Vec<Ripple> = (0..128)
+        .map(|k| Ripple {
+            centre_m: [-4.0 + 0.06 * k as f32, 3.0 + 0.1 * k as f32],
+            radius_m: 0.1 + 0.002 * k as f32,
+            width_m: 0.02,
+            amplitude_m: 1e-3,
+            wavenumber: 90.0,
+            phase: 0.3 * k as f32,
+            _pad: 0.0,
+        })
+        .collect();
+    let water = |rings: u32| GroundFrame {
+        wet: Some(wet),
+        water: Some(FrameWater {
+            params: pool(rings),
+            depth_m: &depth_m,
+            ripples: ripples.clone(),
+        }),
+    };
+    let mut host = HostColour::new(frame.format, &frame.color);
+    let mut group = c.benchmark_group("ground 720p");
+    group.sample_size(10);
+    group.bench_function("decode, dry", |b| {
+        b.iter(|| black_box(host.decode(&frame, &p).len()))
+    });
+    let wet_only = GroundFrame {
+        wet: Some(wet),
+        water: None,
+    };
+    group.bench_function("decode with the wet ground", |b| {
+        b.iter(|| black_box(host.decode_ground(&frame, &p, &wet_only)))
+    });
+    for (name, rings) in [("a still lake", 0), ("a lake with 128 rings", 128)] {
+        let ground = water(rings);
+        group.bench_function(format!("decode, wet ground and {name}"), |b| {
+            b.iter(|| black_box(host.decode_ground(&frame, &p, &ground)))
+        });
+    }
+    // A wall 6 m away on the left third, the rest unknown: the mirrored rays are marched.
+    let wall: Vec<f32> = (0..(W * H) as usize)
+        .map(|i| {
+            if i % W as usize > W as usize / 3 {
+                0.0
+            } else {
+                6.0
+            }
+        })
+        .collect();
+    host.set_scene_depth(wall);
+    let ground = water(128);
+    group.bench_function("decode, wet ground and the lake with rings, marched", |b| {
+        b.iter(|| black_box(host.decode_ground(&frame, &p, &ground)))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, colour_passes, streak_raster, ground_passes);
 criterion_main!(benches);

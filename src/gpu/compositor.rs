@@ -15,13 +15,10 @@
 //! it just submitted, so upload, GPU work and readback of consecutive frames overlap. `flush`
 //! drains the ring at the end.
 //!
-//! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) the
-//! first and last stages run on the CPU ([`super::host`]). Where the frame's only stages between
-//! are the drops' (no wet ground, puddles or splashes), the streaks are read back after
-//! `rain_simulate` and drawn on the CPU too: the canvas never leaves the CPU and the frame is
-//! done when `submit` returns. Otherwise the hazed canvas goes up once (`write_texture`) for
-//! the stages between, and comes back once (copied into the ring's buffer), to be packed into
-//! code values when it is read back.
+//! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) every
+//! per-pixel pass runs on the CPU ([`super::host`]): only the drops and the splashes are
+//! simulated on the adapter, their streaks read back and drawn on the CPU; the canvas never
+//! leaves the CPU and the frame is done when `submit` returns (`compositor/host.rs`).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -44,6 +41,7 @@ use super::uniforms::RainSetup;
 use crate::video::{FrameFormat, Layer, LayerFrame, LayerSamples, Plane, YuvFrame};
 use crate::{Error, Result};
 
+mod host;
 mod masks;
 
 /// Frames in flight (readback slots).
@@ -65,12 +63,15 @@ pub struct GpuStageTimes {
     pub rgb_to_yuv_s: f64,
     /// Canvas → packed R'G'B'A (the rain as a layer).
     pub rgba_out_s: f64,
-    /// The wet ground (zero without one).
+    /// The wet ground (zero without one; on the CPU back end it is fused into the plate's
+    /// decode and counted in `yuv_to_rgb_s`).
     pub wet_ground_s: f64,
-    /// The puddles (zero without water).
+    /// The puddles (zero without water; on the CPU back end the CPU's time).
     pub puddles_s: f64,
     /// Streaks drawn, summed over the frames (counted where the CPU draws them).
     pub streaks_drawn: u64,
+    /// Splash streaks drawn, summed over the frames (counted where the CPU draws them).
+    pub splashes_drawn: u64,
 }
 
 impl GpuStageTimes {
@@ -128,10 +129,12 @@ pub struct Compositor {
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     out_bytes: u64,
     gpu_times: GpuStageTimes,
-    /// The colour passes on the CPU (the CPU back end), with the canvas they write and read.
-    host: Option<(HostColour, wgpu::Texture)>,
+    /// Every per-pixel pass on the CPU (the CPU back end, [`Compositor::render_on_host`]).
+    host: Option<HostColour>,
     /// The streaks' readback where the CPU draws them (the CPU back end).
     host_rain: Option<HostRain>,
+    /// The splashes' draw list's readback (the CPU back end, with a ground).
+    host_splashes: Option<super::host::splashes::HostSplashes>,
     /// Frames done, oldest first, older than any in flight.
     ready: VecDeque<Rendered>,
 }
@@ -206,11 +209,7 @@ impl Compositor {
         } else {
             frame_params.total_words() as u64
         };
-        let out_bytes = if on_cpu {
-            canvas_row_bytes(format.width) * u64::from(format.height)
-        } else {
-            out_words * 4
-        };
+        let out_bytes = out_words * 4;
         let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("packed_planes"),
             size: out_bytes,
@@ -312,6 +311,10 @@ impl Compositor {
                 rain.mattes.clone(),
             )
         });
+        let host_splashes = on_cpu
+            .then(|| host::splash_stage(&stages))
+            .flatten()
+            .map(|s| super::host::splashes::HostSplashes::new(device, s.simulate()));
         let timed = stages.len() as u64;
         let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
@@ -338,8 +341,9 @@ impl Compositor {
             timestamps,
             out_bytes,
             gpu_times: GpuStageTimes::default(),
-            host: on_cpu.then(|| (HostColour::new(format, color), canvas)),
+            host: on_cpu.then(|| HostColour::new(format, color)),
             host_rain,
+            host_splashes,
             ready: VecDeque::with_capacity(RING),
         })
     }
@@ -368,7 +372,7 @@ impl Compositor {
     /// (see `LightEstimator::transfer_tables`). Until then the lights add nothing.
     pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
         self.direct_lights.upload_table(&self.ctx.queue, tables);
-        if let Some((host, _)) = &mut self.host {
+        if let Some(host) = &mut self.host {
             host.set_transfer_table(tables);
         }
     }
@@ -376,7 +380,7 @@ impl Compositor {
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
         self.direct_lights.upload_lights(&self.ctx.queue, lights);
-        if let Some((host, _)) = &mut self.host {
+        if let Some(host) = &mut self.host {
             host.set_lights(lights);
         }
     }
@@ -400,7 +404,7 @@ impl Compositor {
         self.ctx
             .queue
             .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
-        if let Some((host, _)) = &mut self.host {
+        if let Some(host) = &mut self.host {
             host.set_scene_depth(metres);
         }
         Ok(())
@@ -501,22 +505,6 @@ impl Compositor {
             );
         }
         queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
-        if let Some((host, canvas)) = &mut self.host {
-            let started = std::time::Instant::now();
-            let texels = host.decode(frame, rain);
-            queue.write_texture(
-                canvas.as_image_copy(),
-                bytemuck::cast_slice(texels),
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(8 * self.format.width),
-                    rows_per_image: Some(self.format.height),
-                },
-                canvas.size(),
-            );
-            self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64();
-        }
-
         let device = &self.ctx.device;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
@@ -533,27 +521,7 @@ impl Compositor {
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
-        match &self.host {
-            Some((_, canvas)) => encoder.copy_texture_to_buffer(
-                canvas.as_image_copy(),
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &self.staging[slot],
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(canvas_row_bytes(self.format.width) as u32),
-                        rows_per_image: Some(self.format.height),
-                    },
-                },
-                canvas.size(),
-            ),
-            None => encoder.copy_buffer_to_buffer(
-                &self.out_buffer,
-                0,
-                &self.staging[slot],
-                0,
-                self.out_bytes,
-            ),
-        }
+        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_bytes);
         if let Some((set, resolve)) = &self.timestamps {
             encoder.resolve_query_set(set, 0..2 * self.stages.len() as u32, resolve, 0);
             encoder.copy_buffer_to_buffer(
@@ -583,66 +551,6 @@ impl Compositor {
             template,
         });
         Ok(done)
-    }
-
-    /// Whether this frame's rain is drawn on the CPU: the CPU back end, and no stage runs
-    /// between the colour passes but the drops' (the wet ground, the puddles and the splashes
-    /// stay on the GPU).
-    fn drawn_on_host(&self) -> bool {
-        self.host_rain.is_some()
-            && self
-                .stages
-                .iter()
-                .all(|s| !s.runs() || matches!(s.name(), "rain_simulate" | "rain_streaks"))
-    }
-
-    /// The frame rendered on the CPU back end with its streaks drawn on the CPU: the drops
-    /// simulated on the adapter while the CPU lays the plate, their streaks read back and drawn,
-    /// the canvas packed.
-    fn render_on_host(&mut self, frame: &YuvFrame, rain: &RainParams) -> Result<Rendered> {
-        let (Some((host, _)), Some(readback)) = (&mut self.host, &self.host_rain) else {
-            return Err(Error::Gpu("no CPU back end".into()));
-        };
-        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
-        let pending = self
-            .stages
-            .iter()
-            .enumerate()
-            .find(|(_, s)| s.runs() && s.name() == "rain_simulate")
-            .map(|(slot, stage)| {
-                let timestamps = self.timestamps.as_ref().map(|(set, resolve)| {
-                    let slot = slot as u32;
-                    (TimestampSlot { set, slot }, resolve)
-                });
-                queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
-                readback.submit(device, queue, stage.as_ref(), rain, timestamps)
-            });
-        let started = std::time::Instant::now();
-        host.decode(frame, rain);
-        self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64();
-        if let Some(pending) = pending {
-            let (count, ticks) = readback.receive(device, pending, |streaks, glints| {
-                let started = std::time::Instant::now();
-                let count = host.draw_streaks(rain, streaks, readback.mattes(), glints);
-                (count, started.elapsed().as_secs_f64())
-            })?;
-            self.gpu_times.rain_streaks_s += count.1;
-            self.gpu_times.streaks_drawn += count.0.streaks as u64;
-            if let Some(ticks) = ticks {
-                self.gpu_times.rain_simulate_s +=
-                    ticks as f64 * queue.get_timestamp_period() as f64 * 1e-9;
-            }
-        }
-        let started = std::time::Instant::now();
-        let planes = host.encode_canvas();
-        self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
-        Ok(Rendered::Picture(YuvFrame {
-            format: frame.format,
-            color: frame.color,
-            planes,
-            pts: frame.pts,
-            index: frame.index,
-        }))
     }
 
     /// Waits for the oldest frame in flight and reads it back.
@@ -691,13 +599,7 @@ impl Compositor {
                 fp.c_row_words as usize * 4,
                 fp.c_row_words as usize * 4,
             ];
-            if let Some((host, _)) = &self.host {
-                let started = std::time::Instant::now();
-                let texels: &[u16] = bytemuck::cast_slice(&view[..self.out_bytes as usize]);
-                out.planes = host.encode(texels, canvas_row_bytes(fp.width) as usize / 8);
-                self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
-            }
-            for i in (0..3).filter(|_| self.rgba.is_none() && self.host.is_none()) {
+            for i in (0..3).filter(|_| self.rgba.is_none()) {
                 out.planes[i] = Plane {
                     data: view[bounds[i].0..bounds[i].1].to_vec(),
                     stride: strides[i],
@@ -786,13 +688,8 @@ fn plane_textures(device: &wgpu::Device, format: &FrameFormat) -> [wgpu::Texture
     })
 }
 
-/// Bytes a row of the canvas takes in the readback buffer: 8 a texel, padded as copies need.
-fn canvas_row_bytes(width: u32) -> u64 {
-    u64::from(width * 8).next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT))
-}
-
 /// The canvas: linear RGB of the frame that every stage between the first and the last reads
-/// and writes (written and read whole by the CPU back end).
+/// and writes.
 fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some("canvas"),
@@ -826,8 +723,14 @@ fn frame_stages(
     on_cpu: bool,
 ) -> Vec<Box<dyn FrameStage>> {
     let between: [Box<dyn FrameStage>; 5] = [
-        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
-        Box::new(Puddles::new(device, resources, layer.is_none())),
+        Box::new(WetGround::new(
+            device,
+            resources,
+            wetting,
+            layer.is_some(),
+            !on_cpu,
+        )),
+        Box::new(Puddles::new(device, resources, layer.is_none(), !on_cpu)),
         Box::new(RainSimulate::new(device, resources)),
         Box::new(RainSplashes::new(device, resources, rain)),
         Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),

@@ -20,7 +20,7 @@ impl Compositor {
         self.ctx
             .queue
             .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights));
-        if let Some((host, _)) = &mut self.host {
+        if let Some(host) = &mut self.host {
             host.set_sky_mask(weights.to_vec());
         }
         Ok(())
@@ -41,6 +41,9 @@ impl Compositor {
         self.ctx
             .queue
             .write_buffer(&self.ground_mask, 0, bytemuck::cast_slice(weights));
+        if let Some(host) = &mut self.host {
+            host.set_ground_mask(weights.to_vec());
+        }
         Ok(())
     }
 }

@@ -1,21 +1,26 @@
 //! The CPU back end of the per-pixel colour passes ([`super::Backend::Cpu`]): the planes → the
-//! hazed linear canvas in f16 ([`plate`], veiled by [`veil`]), the streaks drawn over it
-//! ([`streaks`], in tiles) and the canvas → packed code values ([`encode`]), in bands of rows
-//! or tiles spread over rayon's threads. On a CPU adapter the GPU's
+//! hazed linear canvas in f16 ([`plate`], veiled by [`veil`], the wet ground fused in:
+//! [`wet_ground`]), the puddles ([`puddles`]), the splashes and the streaks drawn over it
+//! ([`splashes`], [`streaks`], in tiles) and the canvas → packed code values ([`encode`]), in
+//! bands of rows or tiles spread over rayon's threads. On a CPU adapter the GPU's
 //! shaders run as JIT code on the same cores at about 100 ns a pixel; these loops do the same
 //! work in a few. The plain `f64` twins of [`super::cpu`] are their references
 //! (`tests/backend.rs`).
 
 pub mod encode;
 pub mod plate;
+pub mod puddles;
 pub mod rain;
+pub mod splashes;
 pub mod streaks;
 pub mod veil;
+pub mod wet_ground;
 
 use half::f16;
 
 use crate::drops::MatteAtlas;
-use crate::gpu::types::{Glint, LightList, RainParams, Streak};
+use crate::gpu::stages::puddles::FrameWater;
+use crate::gpu::types::{Glint, LightList, RainParams, Streak, WetParams};
 use crate::lighting::RtfTable;
 use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
 
@@ -31,7 +36,18 @@ pub struct HostColour {
     depth: Option<Vec<f32>>,
     /// The open sky's weight at the glow's grid points.
     sky: Option<Vec<f32>>,
+    /// The ground's weight at the glow's grid points.
+    ground_mask: Option<Vec<f32>>,
     canvas: Vec<f16>,
+}
+
+/// What lies on the ground of one frame: the wet ground's uniforms and the water.
+#[derive(Default)]
+pub struct GroundFrame<'a> {
+    /// The wet ground (`None`: dry, or no ground).
+    pub wet: Option<WetParams>,
+    /// The puddles (`None`: no water set).
+    pub water: Option<FrameWater<'a>>,
 }
 
 impl HostColour {
@@ -45,6 +61,7 @@ impl HostColour {
             tables: None,
             depth: None,
             sky: None,
+            ground_mask: None,
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
         }
     }
@@ -71,14 +88,47 @@ impl HostColour {
         self.sky = Some(weights);
     }
 
+    /// The ground's weight at the glow's grid points, as the GPU's `ground_mask` buffer holds
+    /// it: the wet ground and the puddles keep to it where the depth map does not know a pixel.
+    pub fn set_ground_mask(&mut self, weights: Vec<f32>) {
+        self.ground_mask = Some(weights);
+    }
+
     /// The hazed linear canvas of `frame` under `p`: RGBA f16, row-major, `width` texels a row
     /// (what `yuv_to_rgb` writes on the GPU).
     pub fn decode(&mut self, frame: &YuvFrame, p: &RainParams) -> &[f16] {
+        self.decode_ground(frame, p, &GroundFrame::default());
+        &self.canvas
+    }
+
+    /// As [`decode`](Self::decode), with the wet ground (fused into the decode) and the
+    /// puddles of `ground` (the `wet_ground` and `puddles` stages' work); returns the seconds
+    /// the puddles took and the pixels under water.
+    pub fn decode_ground(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        ground: &GroundFrame,
+    ) -> (f64, usize) {
         let lit = self.tables.as_deref().map(|t| (&self.lights, t));
         let size = (self.format.width, self.format.height);
         let veil = veil::Veil::new(p, lit, self.depth.as_deref(), self.sky.as_deref(), size);
-        self.decoder.decode(frame, veil.as_ref(), &mut self.canvas);
-        &self.canvas
+        let on_ground =
+            wet_ground::Ground::new(p, size, self.depth.as_deref(), self.ground_mask.as_deref());
+        let wet = ground
+            .wet
+            .as_ref()
+            .and_then(|w| wet_ground::WetGround::new(&on_ground, w));
+        self.decoder
+            .decode(frame, veil.as_ref(), wet.as_ref(), &mut self.canvas);
+        let Some(water) = &ground.water else {
+            return (0.0, 0);
+        };
+        let started = std::time::Instant::now();
+        let wet = puddles::Puddles::new(&on_ground, water, &self.lights).map_or(0, |w| {
+            w.shade(&mut self.canvas, frame, &self.decoder, veil.as_ref())
+        });
+        (started.elapsed().as_secs_f64(), wet)
     }
 
     /// Draws `streaks` (with their `glints`, streak `mattes` where given, behind the scene's
@@ -94,6 +144,18 @@ impl HostColour {
             params: p,
             mattes,
             glints,
+            depth: self.depth.as_deref(),
+        };
+        streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)
+    }
+
+    /// Draws the splashes' `streaks` (capsules, behind the scene's depth where set) over the
+    /// canvas, before the drops' own: the `rain_splashes` stage's draw.
+    pub fn draw_splashes(&mut self, p: &RainParams, streaks: &[Streak]) -> streaks::RasterCount {
+        let rain = streaks::Rain {
+            params: p,
+            mattes: None,
+            glints: &[],
             depth: self.depth.as_deref(),
         };
         streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)

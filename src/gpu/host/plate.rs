@@ -7,6 +7,7 @@ use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 
 use super::veil::Veil;
+use super::wet_ground::WetGround;
 use crate::video::color::eotf_signed;
 use crate::video::{ColorParams, FrameFormat, Transfer, YuvFrame};
 
@@ -92,20 +93,37 @@ impl Decoder {
         }
     }
 
-    /// Writes the linear canvas of `frame` under `veil` (RGBA f16, alpha 1) into `canvas`.
-    pub fn decode(&self, frame: &YuvFrame, veil: Option<&Veil>, canvas: &mut [f16]) {
+    /// Writes the linear canvas of `frame` under `veil` (RGBA f16, alpha 1) into `canvas`, the
+    /// wet ground `wet` fused in where given (it reads the plate before the haze, the haze's
+    /// transmittance and in-scatter of the same row).
+    pub fn decode(
+        &self,
+        frame: &YuvFrame,
+        veil: Option<&Veil>,
+        wet: Option<&WetGround>,
+        canvas: &mut [f16],
+    ) {
         let w = self.format.width as usize;
         canvas
             .par_chunks_mut(4 * w * BAND_ROWS)
             .enumerate()
             .for_each(|(band, out)| {
                 let mut rgba = vec![0f32; 4 * w];
+                let mut plate = Vec::new();
                 let mut scratch = RowScratch::default();
                 for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
                     let y = (band * BAND_ROWS + k) as u32;
                     self.plate_row(frame, y, &mut rgba, &mut scratch);
+                    let wet = wet.filter(|g| g.touches(y as usize));
+                    if wet.is_some() {
+                        plate.clone_from(&rgba);
+                    }
                     if let Some(v) = veil {
                         veil_row(v, y, &mut rgba, &mut scratch);
+                    }
+                    if let Some(g) = wet {
+                        let haze = veil.map(|_| (&scratch.transmittance[..], &scratch.grid[..]));
+                        g.row(y as usize, &plate, haze, &mut rgba);
                     }
                     row.convert_from_f32_slice(&rgba);
                 }
@@ -113,7 +131,7 @@ impl Decoder {
     }
 
     /// The plate's linear RGBA along row `y`.
-    fn plate_row(&self, frame: &YuvFrame, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
+    pub(super) fn plate_row(&self, frame: &YuvFrame, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
         let f = self.format;
         let (sx, sy) = f.chroma.shift();
         let (cw, _) = f.plane_size(1);
@@ -144,7 +162,7 @@ impl Decoder {
 
 /// Per-band buffers, reused row after row.
 #[derive(Default)]
-struct RowScratch {
+pub(super) struct RowScratch {
     y: Vec<u16>,
     cb: Vec<u16>,
     cr: Vec<u16>,

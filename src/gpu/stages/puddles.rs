@@ -37,10 +37,28 @@ pub struct Puddles {
     /// Whether frames are pictures; for a layer the water is written as the layer's colour and
     /// alpha over the frame (entry point `layer`).
     picture: bool,
+    /// Whether the pass runs on the adapter (not on the CPU back end, which shades from
+    /// [`Puddles::frame_water`]: then no pipeline is built).
+    on_gpu: bool,
+    /// The map's placement (origin, cell, cells) and the water's optics, once water is set.
+    base: Option<PuddleParams>,
     job: Option<Water>,
     rings: Vec<Ring>,
     /// The far water's RMS slope and the camera depth where it takes over, m.
     far_slope: (f32, f32),
+    /// The water map as uploaded (m per cell), for the CPU back end.
+    metres: Vec<f32>,
+}
+
+/// The water of one frame as the stage's uniforms and buffers hold it (what the CPU back end
+/// shades from).
+pub struct FrameWater<'a> {
+    /// The map's placement, the water's optics and the live rings' count.
+    pub params: PuddleParams,
+    /// Water depth per cell, m (row-major, x fastest).
+    pub depth_m: &'a [f32],
+    /// The rings alive at the frame's time, the newest [`MAX_RINGS`].
+    pub ripples: Vec<Ripple>,
 }
 
 /// What water on the ground needs.
@@ -51,14 +69,12 @@ struct Water {
     frame: wgpu::Texture,
     depth_m: wgpu::Buffer,
     ripples: wgpu::Buffer,
-    /// The map's placement (origin, cell, cells) and the water's optics.
-    base: PuddleParams,
 }
 
 impl Puddles {
     /// The stage for the frame resources `r` of pictures (`picture`) or layers, idle until
-    /// water is set.
-    pub fn new(device: &wgpu::Device, r: &FrameResources, picture: bool) -> Puddles {
+    /// water is set; its pass on the adapter only with `on_gpu`.
+    pub fn new(device: &wgpu::Device, r: &FrameResources, picture: bool, on_gpu: bool) -> Puddles {
         Puddles {
             device: device.clone(),
             rain_params: r.rain_params.clone(),
@@ -69,9 +85,12 @@ impl Puddles {
             ground_mask: r.ground_mask.clone(),
             lights: r.lights.list.clone(),
             picture,
+            on_gpu,
+            base: None,
             job: None,
             rings: Vec::new(),
             far_slope: (0.0, 0.0),
+            metres: Vec::new(),
         }
     }
 
@@ -99,15 +118,30 @@ impl Puddles {
             .map(|&d| if d.is_finite() { d.max(0.0) } else { 0.0 })
             .collect();
         let bytes = 4 * cells as u64;
-        if self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes) {
+        if self.on_gpu && self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes) {
             self.job = Some(self.build(bytes));
         }
-        if let Some(job) = &mut self.job {
-            job.base.origin_m = depth.origin_m.to_array();
-            job.base.cell_m = depth.cell_m;
-            job.base.cells = [depth.nx as u32, depth.ny as u32];
+        if let Some(job) = &self.job {
             queue.write_buffer(&job.depth_m, 0, bytemuck::cast_slice(&metres));
         }
+        let optics = FilmOptics::water();
+        self.base = Some(PuddleParams {
+            origin_m: depth.origin_m.to_array(),
+            cell_m: depth.cell_m,
+            edge_depth_m: EDGE_DEPTH_M as f32,
+            cells: [depth.nx as u32, depth.ny as u32],
+            ring_count: 0,
+            far_slope_rms: 0.0,
+            water_index: optics.index as f32,
+            diffuse_external: optics.diffuse_external as f32,
+            diffuse_internal: optics.diffuse_internal as f32,
+            light_lobe: LIGHT_LOBE as f32,
+            resolve_depth_m: 0.0,
+            _pad0: 0.0,
+            _pad1: 0.0,
+            _pad2: 0.0,
+        });
+        self.metres = metres;
         Ok(())
     }
 
@@ -122,6 +156,28 @@ impl Puddles {
     /// that); 0: none.
     pub fn set_far_ripples(&mut self, slope_rms: f64, resolve_depth_m: f64) {
         self.far_slope = (slope_rms as f32, resolve_depth_m as f32);
+    }
+
+    /// The water of the frame of `rain` (uniforms, map and rings), or `None` before water is
+    /// set (the stage does not run).
+    pub fn frame_water(&self, rain: &RainParams) -> Option<FrameWater<'_>> {
+        let base = self.base?;
+        let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
+        let ripples: Vec<Ripple> = live_rings(&self.rings, t_s)
+            .iter()
+            .filter_map(|ring| Ripple::new(ring, t_s))
+            .collect();
+        let params = PuddleParams {
+            ring_count: ripples.len() as u32,
+            far_slope_rms: self.far_slope.0,
+            resolve_depth_m: self.far_slope.1,
+            ..base
+        };
+        Some(FrameWater {
+            params,
+            depth_m: &self.metres,
+            ripples,
+        })
     }
 
     /// The pipeline and buffers, for a water map of `depth_bytes`.
@@ -179,7 +235,6 @@ impl Puddles {
                 buffer(&self.ground_mask),
             ],
         );
-        let optics = FilmOptics::water();
         Water {
             pipeline,
             bind,
@@ -187,22 +242,6 @@ impl Puddles {
             frame,
             depth_m,
             ripples,
-            base: PuddleParams {
-                origin_m: [0.0; 2],
-                cell_m: 1.0,
-                edge_depth_m: EDGE_DEPTH_M as f32,
-                cells: [0; 2],
-                ring_count: 0,
-                far_slope_rms: 0.0,
-                water_index: optics.index as f32,
-                diffuse_external: optics.diffuse_external as f32,
-                diffuse_internal: optics.diffuse_internal as f32,
-                light_lobe: LIGHT_LOBE as f32,
-                resolve_depth_m: 0.0,
-                _pad0: 0.0,
-                _pad1: 0.0,
-                _pad2: 0.0,
-            },
         }
     }
 }
@@ -213,26 +252,17 @@ impl FrameStage for Puddles {
     }
 
     fn runs(&self) -> bool {
-        self.job.is_some()
+        self.base.is_some()
     }
 
     fn prepare(&self, queue: &wgpu::Queue, rain: &RainParams) {
-        let Some(job) = &self.job else { return };
-        let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
-        let ripples: Vec<Ripple> = live_rings(&self.rings, t_s)
-            .iter()
-            .filter_map(|ring| Ripple::new(ring, t_s))
-            .collect();
-        if !ripples.is_empty() {
-            queue.write_buffer(&job.ripples, 0, bytemuck::cast_slice(&ripples));
-        }
-        let params = PuddleParams {
-            ring_count: ripples.len() as u32,
-            far_slope_rms: self.far_slope.0,
-            resolve_depth_m: self.far_slope.1,
-            ..job.base
+        let (Some(job), Some(water)) = (&self.job, self.frame_water(rain)) else {
+            return;
         };
-        queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&params));
+        if !water.ripples.is_empty() {
+            queue.write_buffer(&job.ripples, 0, bytemuck::cast_slice(&water.ripples));
+        }
+        queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&water.params));
     }
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {

@@ -18,9 +18,9 @@ pub struct WetGround {
 
 /// What a wetting ground needs.
 struct Wet {
-    pipeline: wgpu::ComputePipeline,
-    bind: wgpu::BindGroup,
-    params: wgpu::Buffer,
+    /// The pipeline, its bindings and its uniforms' buffer; `None` on the CPU back end,
+    /// which reads the uniforms from [`WetGround::params_at`].
+    pass: Option<(wgpu::ComputePipeline, wgpu::BindGroup, wgpu::Buffer)>,
     size: (u32, u32),
     wetting: Wetting,
     optics: FilmOptics,
@@ -29,47 +29,62 @@ struct Wet {
 impl WetGround {
     /// Builds the pipeline and binds `r` for a ground wetting as `wetting`; nothing without one.
     /// With `layer`, the wet ground is written as the layer's premultiplied colour and alpha.
+    /// Without `on_gpu` (the CPU back end draws it) no pipeline is built.
     pub fn new(
         device: &wgpu::Device,
         r: &FrameResources,
         wetting: Option<&Wetting>,
         layer: bool,
+        on_gpu: bool,
     ) -> WetGround {
         let job = wetting.filter(|w| w.ever_wet()).map(|wetting| {
-            let params = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("wet_params"),
-                size: std::mem::size_of::<WetParams>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
+            let pass = on_gpu.then(|| {
+                let params = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("wet_params"),
+                    size: std::mem::size_of::<WetParams>() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                let entry = if layer { "layer" } else { "main" };
+                let pipeline = super::compute_pipeline(device, Stage::WetGround, entry);
+                let bind = bind_group(
+                    device,
+                    Stage::WetGround.name(),
+                    &pipeline.get_bind_group_layout(0),
+                    &[
+                        buffer(&r.rain_params),
+                        buffer(&params),
+                        buffer(&r.frame_params),
+                        view(&r.planes[0]),
+                        view(&r.planes[1]),
+                        view(&r.planes[2]),
+                        view(&r.canvas),
+                        buffer(&r.scene_depth),
+                        buffer(&r.ground_mask),
+                    ],
+                );
+                (pipeline, bind, params)
             });
-            let entry = if layer { "layer" } else { "main" };
-            let pipeline = super::compute_pipeline(device, Stage::WetGround, entry);
-            let bind = bind_group(
-                device,
-                Stage::WetGround.name(),
-                &pipeline.get_bind_group_layout(0),
-                &[
-                    buffer(&r.rain_params),
-                    buffer(&params),
-                    buffer(&r.frame_params),
-                    view(&r.planes[0]),
-                    view(&r.planes[1]),
-                    view(&r.planes[2]),
-                    view(&r.canvas),
-                    buffer(&r.scene_depth),
-                    buffer(&r.ground_mask),
-                ],
-            );
             Wet {
-                pipeline,
-                bind,
-                params,
+                pass,
                 size: (r.frame.width, r.frame.height),
                 wetting: wetting.clone(),
                 optics: FilmOptics::water(),
             }
         });
         WetGround { job }
+    }
+
+    /// The uniforms of the frame of `rain`, or `None` where the ground never wets (the stage
+    /// does not run; the CPU back end reads them here).
+    pub fn params_at(&self, rain: &RainParams) -> Option<WetParams> {
+        let job = self.job.as_ref()?;
+        let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
+        Some(WetParams::new(
+            job.wetting.wetness_at(t_s),
+            &job.optics,
+            job.wetting.reach_m,
+        ))
     }
 }
 
@@ -83,25 +98,23 @@ impl FrameStage for WetGround {
     }
 
     fn prepare(&self, queue: &wgpu::Queue, rain: &RainParams) {
-        if let Some(job) = &self.job {
-            let t_s = rain.time_whole_s as f64 + rain.time_frac_s as f64;
-            let params = WetParams::new(
-                job.wetting.wetness_at(t_s),
-                &job.optics,
-                job.wetting.reach_m,
-            );
-            queue.write_buffer(&job.params, 0, bytemuck::bytes_of(&params));
+        let pass = self.job.as_ref().and_then(|j| j.pass.as_ref());
+        if let (Some((_, _, buffer)), Some(params)) = (pass, self.params_at(rain)) {
+            queue.write_buffer(buffer, 0, bytemuck::bytes_of(&params));
         }
     }
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
         let Some(job) = &self.job else { return };
+        let Some((pipeline, bind, _)) = &job.pass else {
+            return;
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.name()),
             timestamp_writes: timestamps.map(TimestampSlot::compute),
         });
-        pass.set_pipeline(&job.pipeline);
-        pass.set_bind_group(0, &job.bind, &[]);
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(
             workgroups(job.size.0, PIXEL_WORKGROUP),
             workgroups(job.size.1, PIXEL_WORKGROUP),

@@ -1,0 +1,506 @@
+//! The puddles on the CPU back end (the `puddles` stage's work): where a pixel's ray meets the
+//! ground on water, the ground under the water (the frame's own colour, decoded again for the
+//! rows with water) darkened as by a film, plus the rippled surface's Fresnel reflection of
+//! the picture along the mirrored ray (marched against the depth map where there is one) or,
+//! beyond the frame, of the environment and the lamps (docs/method.md, "Puddles: shading").
+//! Bands of rows over rayon's threads, each in blocks of 16 × 16 px that keep only the rings
+//! that can reach their ground (as the shader's workgroups do); the mirror reads the canvas as
+//! it was before the water (each band is written to a copy, put back once all are done), so no
+//! pixel depends on the order. Pixels without water keep their bits. In f32 as the shader; the
+//! plain twin [`crate::gpu::cpu::puddles`] is the reference (`tests/backend.rs`).
+
+use glam::{Vec2, Vec3};
+use half::f16;
+use half::slice::HalfFloatSliceExt;
+use rayon::prelude::*;
+
+use super::plate::Decoder;
+use super::veil::Veil;
+use super::wet_ground::{Ground, PI, darkening, ground_shown, reflectance, smoothstep};
+use crate::gpu::stages::puddles::FrameWater;
+use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
+use crate::gpu::types::{LightList, MAX_LIGHTS, Ripple};
+use crate::video::YuvFrame;
+
+/// Rows per band and columns per block: a block's rings are culled once (the shader's
+/// workgroup, `PIXEL_WORKGROUP`).
+const BLOCK: usize = crate::gpu::stages::PIXEL_WORKGROUP as usize;
+
+/// The reflection fades from the frame to the environment over this many pixels at its border.
+const EDGE_PX: f32 = 8.0;
+/// The march along the mirrored ray's image (`MARCH_*` in puddles.wgsl).
+const MARCH_STRIDE_PX: f32 = 2.0;
+const MARCH_MAX_STEPS: u32 = 64;
+const MARCH_FARTHEST: f32 = 0.999;
+const MARCH_HALVINGS: u32 = 6;
+const MARCH_THICKNESS: f32 = 0.25;
+
+/// The water of one frame over the ground.
+pub struct Puddles<'a> {
+    ground: &'a Ground<'a>,
+    water: &'a FrameWater<'a>,
+    lights: &'a LightList,
+    e_up: Vec3,
+}
+
+/// What one pixel's shading reads besides the water: the canvas before the water.
+struct Picture<'a> {
+    canvas: &'a [f16],
+    width: usize,
+    height: usize,
+}
+
+impl Picture<'_> {
+    /// The picture at coded pixel (`x`, `y`), clamped at the border.
+    #[inline]
+    fn at(&self, x: i64, y: i64) -> Vec3 {
+        let x = x.clamp(0, self.width as i64 - 1) as usize;
+        let y = y.clamp(0, self.height as i64 - 1) as usize;
+        let px = &self.canvas[4 * (y * self.width + x)..][..3];
+        Vec3::new(px[0].to_f32(), px[1].to_f32(), px[2].to_f32())
+    }
+
+    /// The picture at coded position `at` (px), bilinear between pixel centres.
+    #[inline]
+    fn sample(&self, at: Vec2) -> Vec3 {
+        let u = at - Vec2::splat(0.5);
+        let i = u.floor();
+        let f = u - i;
+        let (x, y) = (i.x as i64, i.y as i64);
+        let (a, b) = (self.at(x, y), self.at(x + 1, y));
+        let (c, e) = (self.at(x, y + 1), self.at(x + 1, y + 1));
+        a.lerp(b, f.x).lerp(c.lerp(e, f.x), f.y)
+    }
+
+    fn inside(&self, at: Vec2) -> f32 {
+        at.x.min(at.y)
+            .min(self.width as f32 - at.x)
+            .min(self.height as f32 - at.y)
+    }
+}
+
+impl<'a> Puddles<'a> {
+    /// The water `water` over `ground`, the lamps `lights` mirrored beyond the frame; `None`
+    /// where no ray reaches the ground.
+    pub fn new(
+        ground: &'a Ground<'a>,
+        water: &'a FrameWater<'a>,
+        lights: &'a LightList,
+    ) -> Option<Puddles<'a>> {
+        let cells = water.params.cells[0] as usize * water.params.cells[1] as usize;
+        (ground.height_m() > 0.0 && cells > 0 && water.depth_m.len() >= cells).then(|| Puddles {
+            ground,
+            water,
+            lights,
+            e_up: ground.irradiance_up(),
+        })
+    }
+
+    /// Puts the water on `canvas` (RGBA f16, the frame `frame` decoded by `decoder` under
+    /// `veil`, with the wet ground if any); returns the pixels under water.
+    pub fn shade(
+        &self,
+        canvas: &mut [f16],
+        frame: &YuvFrame,
+        decoder: &Decoder,
+        veil: Option<&Veil>,
+    ) -> usize {
+        let (width, height) = self.ground.coded_size;
+        let bands = height.div_ceil(BLOCK);
+        let picture = Picture {
+            canvas,
+            width,
+            height,
+        };
+        let done: Vec<(usize, Vec<f16>, usize)> = (0..bands)
+            .into_par_iter()
+            .filter_map(|band| self.band(band, &picture, frame, decoder, veil))
+            .collect();
+        let mut wet = 0;
+        for (band, rows, n) in done {
+            canvas[4 * width * band * BLOCK..][..rows.len()].copy_from_slice(&rows);
+            wet += n;
+        }
+        wet
+    }
+
+    /// Band `band`'s rows with the water, or `None` where none of its pixels is under water.
+    fn band(
+        &self,
+        band: usize,
+        picture: &Picture,
+        frame: &YuvFrame,
+        decoder: &Decoder,
+        veil: Option<&Veil>,
+    ) -> Option<(usize, Vec<f16>, usize)> {
+        let g = self.ground;
+        let width = picture.width;
+        let y0 = band * BLOCK;
+        let rows = BLOCK.min(picture.height - y0);
+        // The cover of each pixel first (cheap): most bands of most frames have no water.
+        let mut cover = vec![0f32; width * rows];
+        let mut any = false;
+        for r in 0..rows {
+            for x in g.downward(y0 + r) {
+                let c = self.cover(x, y0 + r);
+                cover[r * width + x] = c;
+                any |= c > 0.0;
+            }
+        }
+        if !any {
+            return None;
+        }
+        let mut out = vec![0f32; 4 * width];
+        let mut plate = vec![0f32; 4 * width];
+        let (mut t, mut finite) = (vec![1f32; width], vec![false; width]);
+        let mut grid = Vec::new();
+        let mut scratch = super::plate::RowScratch::default();
+        // The rings of the blocks with water.
+        let rings: Vec<Vec<u32>> = (0..width.div_ceil(BLOCK))
+            .map(|b| {
+                let x0 = b * BLOCK;
+                let wet = (0..rows).any(|r| {
+                    cover[r * width + x0..][..BLOCK.min(width - x0)]
+                        .iter()
+                        .any(|&c| c > 0.0)
+                });
+                if wet && !self.ripples().is_empty() {
+                    self.rings_near(x0, y0, width, picture.height)
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect();
+        let mut band_out = vec![f16::ZERO; 4 * width * rows];
+        let mut wet = 0;
+        for r in 0..rows {
+            let y = y0 + r;
+            let row = &picture.canvas[4 * width * y..][..4 * width];
+            let under = &cover[r * width..][..width];
+            let dst = &mut band_out[4 * width * r..][..4 * width];
+            if under.iter().all(|&c| c <= 0.0) {
+                dst.copy_from_slice(row);
+                continue;
+            }
+            row.convert_to_f32_slice(&mut out);
+            decoder.plate_row(frame, y as u32, &mut plate, &mut scratch);
+            if let Some(v) = veil {
+                v.transmittance_row(y as u32, &mut t, &mut finite);
+                v.grid_row(y as u32, &mut grid);
+            }
+            for (x, &c) in under.iter().enumerate() {
+                if c <= 0.0 {
+                    continue;
+                }
+                let s = veil.map_or(Vec3::ZERO, |_| {
+                    let cell = GLOW_CELL_PX as usize;
+                    let (a, b) = (grid[x / cell], grid[x / cell + 1]);
+                    let f = ((x % cell) as f32 + 0.5) / cell as f32;
+                    Vec3::from_array(std::array::from_fn(|k| a[k] + (b[k] - a[k]) * f))
+                });
+                let l = Vec3::from_slice(&plate[4 * x..]);
+                let px = &mut out[4 * x..][..3];
+                let held = Vec3::from_slice(px);
+                if let Some(v) = self.pixel(x, y, c, l, t[x], s, held, &rings[x / BLOCK], picture) {
+                    px.copy_from_slice(&v.to_array());
+                    wet += 1;
+                }
+            }
+            dst.convert_from_f32_slice(&out);
+            // Pixels without water keep their bits (f16 → f32 → f16 is exact).
+        }
+        Some((band, band_out, wet))
+    }
+
+    /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
+    /// rises to the rim's.
+    #[inline]
+    fn cover(&self, x: usize, y: usize) -> f32 {
+        let g = self.ground;
+        let ray = g.ray(x, y);
+        let ground = g.camera + (g.height_m() / -ray.z) * ray;
+        smoothstep(
+            0.0,
+            self.water.params.edge_depth_m,
+            self.water_depth(Vec2::new(ground.x, ground.y)),
+        )
+    }
+
+    /// Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
+    #[inline]
+    fn water_depth(&self, xy: Vec2) -> f32 {
+        let p = &self.water.params;
+        let (nx, ny) = (p.cells[0] as i64, p.cells[1] as i64);
+        let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
+        let i0 = u.floor();
+        let f = u - i0;
+        let (i0, j0) = (i0.x as i64, i0.y as i64);
+        let mut sum = 0.0;
+        for (j, wy) in [(j0, 1.0 - f.y), (j0 + 1, f.y)] {
+            for (i, wx) in [(i0, 1.0 - f.x), (i0 + 1, f.x)] {
+                if (0..nx).contains(&i) && (0..ny).contains(&j) {
+                    sum += wx * wy * self.water.depth_m[(j * nx + i) as usize];
+                }
+            }
+        }
+        sum
+    }
+
+    /// The rings (indices, in ring order) whose annulus R ± 4 s meets the ground under the
+    /// block from (`x0`, `y0`): the box of its four corner pixels' ground points; every ring
+    /// where a corner looks at or above the horizon (`cull_rings` of puddles.wgsl).
+    fn rings_near(&self, x0: usize, y0: usize, width: usize, height: usize) -> Vec<u32> {
+        let g = self.ground;
+        let rings = self.ripples();
+        let (x1, y1) = (
+            (x0 + BLOCK - 1).min(width - 1),
+            (y0 + BLOCK - 1).min(height - 1),
+        );
+        let mut bounded = g.height_m() > 0.0;
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+            let ray = g.ray(x, y);
+            bounded &= ray.z < 0.0;
+            let at = Vec2::new(g.camera.x, g.camera.y)
+                + (g.height_m() / -ray.z) * Vec2::new(ray.x, ray.y);
+            lo = lo.min(at);
+            hi = hi.max(at);
+        }
+        (0..rings.len() as u32)
+            .filter(|&i| {
+                let ring = &rings[i as usize];
+                let c = Vec2::from_array(ring.centre_m);
+                let nearest = c.clamp(lo, hi).distance(c);
+                let farthest = (lo - c).abs().max((hi - c).abs()).length();
+                let reach = 4.0 * ring.width_m;
+                !bounded || (nearest <= ring.radius_m + reach && farthest >= ring.radius_m - reach)
+            })
+            .collect()
+    }
+
+    fn ripples(&self) -> &[Ripple] {
+        let n = (self.water.params.ring_count as usize).min(self.water.ripples.len());
+        &self.water.ripples[..n]
+    }
+
+    /// The water at coded pixel (`x`, `y`) of cover `cover`: `l` the frame's linear colour,
+    /// `t` and `s` the haze's transmittance and in-scatter, `held` the picture before the
+    /// water, `rings` the block's; `None` where the pixel does not show the ground.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn pixel(
+        &self,
+        x: usize,
+        y: usize,
+        cover: f32,
+        l: Vec3,
+        t: f32,
+        s: Vec3,
+        held: Vec3,
+        rings: &[u32],
+        picture: &Picture,
+    ) -> Option<Vec3> {
+        let g = self.ground;
+        let ray = g.ray(x, y);
+        let d = ray.normalize();
+        let ground_z_m = g.height_m() / -ray.z;
+        let p = g.camera + ground_z_m * ray;
+        let scene_m = g.scene_depth_m(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+        let shown = ground_shown(scene_m, ground_z_m) * g.weight(x, y, scene_m);
+        if shown <= 0.0 {
+            return None;
+        }
+        let w = &self.water.params;
+        let optics = [w.water_index, w.diffuse_external, w.diffuse_internal];
+        let k = darkening(l, self.e_up, optics, -d.z);
+        let slope = self.ripple_slope(Vec2::new(p.x, p.y), rings);
+        let normal = Vec3::new(-slope.x, -slope.y, 1.0).normalize();
+        let cos_i = (-d.dot(normal)).max(0.0);
+        let mirrored = d + 2.0 * cos_i * normal;
+        let r = reflectance(w.water_index, cos_i);
+        let a = cover * shown;
+        let seen = self.rough_reflected(p, d, slope, mirrored, ground_z_m, picture);
+        let change = (k - Vec3::ONE) * l + r * seen;
+        let in_scatter = if t >= 1.0 { Vec3::ZERO } else { (1.0 - t) * s };
+        let water = l * t + in_scatter + t * change;
+        Some(held + a * (water - held))
+    }
+
+    /// The gradient of the water's height at `xy`: each kept ring's radial slope along r̂.
+    #[inline]
+    fn ripple_slope(&self, xy: Vec2, rings: &[u32]) -> Vec2 {
+        let all = self.ripples();
+        let mut g = Vec2::ZERO;
+        for &i in rings {
+            let ring = &all[i as usize];
+            let off = xy - Vec2::from_array(ring.centre_m);
+            let r = off.length();
+            let u = r - ring.radius_m;
+            if u.abs() > 4.0 * ring.width_m || r < 1e-6 {
+                continue;
+            }
+            let s2 = ring.width_m * ring.width_m;
+            let envelope = (-0.5 * u * u / s2).exp();
+            let carrier = ring.wavenumber * r - ring.phase;
+            let dr = ring.amplitude_m
+                * envelope
+                * (-u / s2 * carrier.cos() - ring.wavenumber * carrier.sin());
+            g += dr * off / r;
+        }
+        g
+    }
+
+    /// The reflection along `mirrored`, blurred beyond the resolved depth by the far water's
+    /// RMS slope (the mean of four slopes moved by ±σ along x and y; `rough_reflected`).
+    fn rough_reflected(
+        &self,
+        p: Vec3,
+        d: Vec3,
+        slope: Vec2,
+        mirrored: Vec3,
+        depth_m: f32,
+        picture: &Picture,
+    ) -> Vec3 {
+        let w = &self.water.params;
+        if w.far_slope_rms <= 0.0 {
+            return self.reflected(p, mirrored, picture);
+        }
+        let s = w.resolve_depth_m;
+        let sigma = w.far_slope_rms * smoothstep(s, 2.0 * s, depth_m);
+        if sigma <= 0.0 {
+            return self.reflected(p, mirrored, picture);
+        }
+        let mut sum = Vec3::ZERO;
+        for i in 0..4 {
+            let axis = if i < 2 { Vec2::X } else { Vec2::Y };
+            let tilt = if i & 1 == 0 { sigma } else { -sigma } * axis;
+            let n = Vec3::new(-(slope.x + tilt.x), -(slope.y + tilt.y), 1.0).normalize();
+            let c = (-d.dot(n)).max(0.0);
+            sum += self.reflected(p, d + 2.0 * c * n, picture);
+        }
+        0.25 * sum
+    }
+
+    /// The radiance the water at ground point `p` mirrors along unit direction `dir`.
+    fn reflected(&self, p: Vec3, dir: Vec3, picture: &Picture) -> Vec3 {
+        let q = self
+            .march(p, dir, picture)
+            .unwrap_or_else(|| self.camera_dir(dir));
+        if q.z <= 1e-6 {
+            return self.environment(p, dir);
+        }
+        let at = self.project(q);
+        let w = smoothstep(0.0, EDGE_PX, picture.inside(at));
+        if w <= 0.0 {
+            return self.environment(p, dir);
+        }
+        if w >= 1.0 {
+            return picture.sample(at);
+        }
+        self.environment(p, dir).lerp(picture.sample(at), w)
+    }
+
+    /// Where the mirrored ray from `p` along `dir` first passes behind the filmed scene
+    /// (camera space), if a depth map is set and it does within the frame (`march`).
+    fn march(&self, p: Vec3, dir: Vec3, picture: &Picture) -> Option<Vec3> {
+        if !self.ground.has_depth() {
+            return None;
+        }
+        let q_p = self.to_camera(p);
+        let q_dir = self.camera_dir(dir);
+        if q_dir.z <= 1e-6 {
+            return None;
+        }
+        let distance = |share: f32| share * q_p.z / ((1.0 - share) * q_dir.z);
+        let image_px = self.project(q_dir).distance(self.project(q_p));
+        let steps = (image_px / MARCH_STRIDE_PX)
+            .ceil()
+            .clamp(1.0, MARCH_MAX_STEPS as f32) as u32;
+        let size = Vec2::new(picture.width as f32, picture.height as f32);
+        let mut before = 0.0;
+        for i in 1..=steps {
+            let share = MARCH_FARTHEST * i as f32 / steps as f32;
+            let q = q_p + distance(share) * q_dir;
+            let at = self.project(q);
+            if !(at.cmpge(Vec2::ZERO).all() && at.cmplt(size).all()) {
+                return None;
+            }
+            if self.behind(q) {
+                let (mut lo, mut hi) = (before, share);
+                for _ in 0..MARCH_HALVINGS {
+                    let mid = 0.5 * (lo + hi);
+                    if self.behind(q_p + distance(mid) * q_dir) {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                return Some(q_p + distance(hi) * q_dir);
+            }
+            before = share;
+        }
+        None
+    }
+
+    /// Whether camera-space point `q` lies behind the scene's surface at its pixel (but not
+    /// far), where that surface stands on the ground (`behind`).
+    fn behind(&self, q: Vec3) -> bool {
+        if q.z <= 0.0 {
+            return false;
+        }
+        let g = self.ground;
+        let at = self.project(q);
+        let z = g.scene_depth_m(at);
+        if z <= 0.0 || q.z < z || q.z > z * (1.0 + MARCH_THICKNESS) {
+            return false;
+        }
+        let px = at.floor().max(Vec2::ZERO);
+        let ray = g.ray(px.x as u32 as usize, px.y as u32 as usize);
+        ray.z >= 0.0 || z < 0.9 * g.height_m() / -ray.z
+    }
+
+    /// World direction `dir` in the camera's frame.
+    #[inline]
+    fn camera_dir(&self, dir: Vec3) -> Vec3 {
+        let r = &self.ground.rows;
+        Vec3::new(r[0].dot(dir), r[1].dot(dir), r[2].dot(dir))
+    }
+
+    /// World point `w` in the camera's frame.
+    #[inline]
+    fn to_camera(&self, w: Vec3) -> Vec3 {
+        self.camera_dir(w - self.ground.camera)
+    }
+
+    /// Coded pixel position of camera-space point `q` (`project`).
+    #[inline]
+    fn project(&self, q: Vec3) -> Vec2 {
+        let g = self.ground;
+        let s = g.principal + g.focal * Vec2::new(q.x, q.y) / q.z;
+        g.coded(s)
+    }
+
+    /// What lies along `dir` from ground point `p` outside the frame: the SH environment, and
+    /// each lamp as a normalised von Mises–Fisher lobe about its direction from `p`.
+    fn environment(&self, p: Vec3, dir: Vec3) -> Vec3 {
+        let mut c = self.ground.sky(dir);
+        let kappa = self.water.params.light_lobe;
+        let from_camera = p - self.ground.camera;
+        let count = (self.lights.count as usize).min(MAX_LIGHTS);
+        for l in &self.lights.lights[..count] {
+            let [lx, ly, lz, d] = l.direction_distance;
+            let omega = Vec3::new(lx, ly, lz);
+            let (seen, scale) = if d <= 0.0 {
+                (omega, 1.0)
+            } else {
+                let to_light = omega * d - from_camera;
+                let r = to_light.length();
+                let q = d / r.max(l.strength[3]);
+                (if r > 0.0 { to_light / r } else { omega }, q * q)
+            };
+            let lobe = kappa / (2.0 * PI) * (kappa * (seen.dot(dir) - 1.0)).exp();
+            c += Vec3::new(l.strength[0], l.strength[1], l.strength[2]) * (scale * lobe);
+        }
+        c
+    }
+}
