@@ -9,7 +9,8 @@
 //! - [`motion`]: the camera's motion (`camera_motion`), estimated in a pre-pass or read from a
 //!   pose file, resolved into pose keys after the ground.
 //! - [`renderer`]: the frame renderer every front end uses; it drives the compositor with
-//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`.
+//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`
+//!   (the sky's and the ground mask's windows in `view_window`).
 //!
 //! The rain at a frame is a pure function of the frame's time `t = (pts − start) · time_base`
 //! and of that frame alone, so [`preview()`] renders exactly what [`render`] writes at the same
@@ -25,6 +26,7 @@ pub mod motion;
 pub mod preview;
 pub mod renderer;
 mod sky_feed;
+mod view_window;
 mod water_feed;
 
 pub use chunk::FrameRange;

@@ -8,16 +8,16 @@
 //! [`crate::scene::motion`]) or is not estimated confidently keeps the configured camera, and a
 //! clip with no moving shot adds no keys: its render is the render without `auto`. The
 //! estimated motion follows the camera keys' rules: it is not estimated beside pose keys (they
-//! are the manual control), and a ground — given or found — holds the camera still (its
-//! splashes, wet ground and puddles are mapped through one camera), with a warning where the
-//! camera was seen to move.
+//! are the manual control). Beside a ground — given or found — the ground poses the first
+//! camera and the motion turns it from there: a camera turning and zooming about its centre
+//! leaves the ground plane where it is in the world, so the splashes, wet ground and puddles,
+//! drawn through each frame's camera, stay on it.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use crate::config::RenderConfig;
 use crate::keyframes::{Curve, Keyframes};
-use crate::scene::GroundMode;
 use crate::scene::horizon::{CUT_THRESHOLD, Luma};
 use crate::scene::motion::{self, Estimate, Estimator, MotionSource, PoseTrack};
 use crate::video::Source;
@@ -42,7 +42,7 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
     let (w, h) = crate::video::frame::display_size(rot, info.format.width, info.format.height);
     let camera = crate::config::CameraConfig {
         pan_deg: 0.0,
-        ..config.camera
+        ..config.posed_camera(w, h)?
     }
     .camera(w, h);
     let mut estimator = Estimator::new(camera);
@@ -101,16 +101,21 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
     Ok(estimate)
 }
 
-/// The pose keys of `track` over `config`'s camera: the pan added to `camera.pan_deg` (the
-/// file's is relative to the first frame), the tilt, roll and field of view as they are; a
-/// setting the track never moves off its configured value gets no key.
-pub fn keys_of(track: &PoseTrack, config: &RenderConfig) -> Result<Keyframes> {
+/// The pose keys of `track` over the camera `posed` (`config`'s camera with its ground's pose:
+/// [`RenderConfig::posed_camera`]): the pan added to `camera.pan_deg` (the file's is relative
+/// to the first frame), the tilt, roll and field of view as they are; a setting the track never
+/// moves off its configured value gets no key.
+pub fn keys_of(
+    track: &PoseTrack,
+    config: &RenderConfig,
+    posed: &crate::config::CameraConfig,
+) -> Result<Keyframes> {
     track.check().map_err(|reason| Error::Parameter {
         name: "camera_motion",
         value: "a pose track".into(),
         expected: reason,
     })?;
-    let c = &config.camera;
+    let c = posed;
     let curve = |value: &dyn Fn(&motion::FramePose) -> f64, plain: f64| {
         let keys: Vec<(f64, f64)> = track.frames.iter().map(|f| (f.t, value(f))).collect();
         // The first camera read back through its rotation differs from the settings by
@@ -133,6 +138,30 @@ pub fn keys_of(track: &PoseTrack, config: &RenderConfig) -> Result<Keyframes> {
         fov_deg: curve(&|f| f.fov_deg, c.fov_deg)?,
         ..config.keyframes.clone()
     })
+}
+
+/// The camera settings of `config` on the displayed picture of `input`, posed by its ground
+/// (see [`RenderConfig::posed_camera`]); the settings as they are without a ground.
+fn posed_camera(config: &RenderConfig, input: &str) -> Result<crate::config::CameraConfig> {
+    if !config.ground.is_given() {
+        return Ok(config.camera);
+    }
+    if input == "-" {
+        return Err(Error::Parameter {
+            name: "camera_motion",
+            value: config.camera_motion.to_string(),
+            expected: "a file input beside a ground (the ground poses the first frame through \
+                       the picture's size)"
+                .into(),
+        });
+    }
+    let info = Source::open(input)?.info().clone();
+    let (w, h) = crate::video::frame::display_size(
+        info.rotation_deg,
+        info.format.width,
+        info.format.height,
+    );
+    config.posed_camera(w, h)
 }
 
 /// `config` with `camera_motion` resolved on `input` (after the ground is): the motion as pose
@@ -167,23 +196,30 @@ pub fn resolve(config: &RenderConfig, input: &str, cancel: &AtomicBool) -> Resul
             if estimate.track.is_still() {
                 return Ok(out);
             }
-            if config.ground.mode != GroundMode::None {
-                let turn = estimate
-                    .shots
-                    .iter()
-                    .map(|s| s.max_turn_deg)
-                    .fold(0.0, f64::max);
-                log::warn!(
-                    "camera motion: the camera turns up to {turn:.1}° but a ground holds it \
-                     still (its splashes, wet ground and puddles are mapped through one camera); \
-                     the rain turns with the picture (ground.mode none lets it follow the camera)"
-                );
-                return Ok(out);
-            }
             estimate.track
         }
     };
-    out.keyframes = keys_of(&track, &out)?;
+    let posed = posed_camera(config, input)?;
+    // Beside a ground, the ground poses the first camera: a file's turns are taken from there
+    // (the estimate starts there already).
+    let first = track.frames[0];
+    let track = if config.ground.is_given()
+        && ((first.tilt_deg - posed.tilt_deg).abs() > 1e-9
+            || (first.roll_deg - posed.roll_deg).abs() > 1e-9)
+    {
+        log::info!(
+            "camera motion: the poses start at tilt {:.2}°, roll {:.2}°; turned to start at the \
+             ground's {:.2}°, {:.2}°",
+            first.tilt_deg,
+            first.roll_deg,
+            posed.tilt_deg,
+            posed.roll_deg
+        );
+        track.rebased(posed.tilt_deg, posed.roll_deg)
+    } else {
+        track
+    };
+    out.keyframes = keys_of(&track, &out, &posed)?;
     if out.keyframes.moves_camera() {
         log::info!(
             "camera motion: {} poses over {:.2} s",

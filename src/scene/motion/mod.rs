@@ -162,6 +162,42 @@ impl PoseTrack {
         Ok(())
     }
 
+    /// The track turned so that its first frame has tilt `tilt_deg` and roll `roll_deg`
+    /// (and pan 0): every frame keeps its turn from the first one, `W' = W₀' · W₀ᵀ · W` with
+    /// `W` the world-from-camera rotations, so a track estimated through a level guess follows
+    /// a ground that poses the first camera otherwise. Pans are unwrapped frame to frame.
+    pub fn rebased(&self, tilt_deg: f64, roll_deg: f64) -> PoseTrack {
+        let rotation = |pan: f64, tilt: f64, roll: f64| {
+            Camera::new(2, 2, 1.0, 1.0, tilt.to_radians(), roll.to_radians())
+                .panned(pan.to_radians())
+                .world_from_camera
+        };
+        let Some(first) = self.frames.first() else {
+            return self.clone();
+        };
+        let turn = rotation(0.0, tilt_deg, roll_deg)
+            * rotation(first.pan_deg, first.tilt_deg, first.roll_deg).transpose();
+        let mut last_pan = 0.0;
+        let frames = self
+            .frames
+            .iter()
+            .map(|f| {
+                let (pan, tilt, roll) =
+                    pan_tilt_roll(turn * rotation(f.pan_deg, f.tilt_deg, f.roll_deg));
+                let pan = pan.to_degrees();
+                let pan = pan - 360.0 * ((pan - last_pan) / 360.0).round();
+                last_pan = pan;
+                FramePose {
+                    pan_deg: pan,
+                    tilt_deg: tilt.to_degrees(),
+                    roll_deg: roll.to_degrees(),
+                    ..*f
+                }
+            })
+            .collect();
+        PoseTrack { frames }
+    }
+
     /// Whether every frame has the first one's pose.
     pub fn is_still(&self) -> bool {
         let p = |f: &FramePose| [f.pan_deg, f.tilt_deg, f.roll_deg, f.fov_deg];
