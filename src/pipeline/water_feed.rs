@@ -17,9 +17,6 @@ use crate::shot::Shot;
 use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
 
-/// Most turn and zoom between the camera poses the water's ground is laid out for, degrees:
-/// the views between two of them overlap theirs by far.
-const DOMAIN_STEP_DEG: f64 = 1.0;
 
 /// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
 /// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
@@ -292,7 +289,7 @@ impl PuddlePlan {
             ),
             None => None,
         };
-        let cameras = self.track.poses(DOMAIN_STEP_DEG);
+        let cameras = self.track.poses(crate::shot::rain::GROUND_VIEW_STEP_DEG);
         PuddleSim::seen_by(&self.config, &cameras, map.as_deref(), self.fps, settings)
     }
 }

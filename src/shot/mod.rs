@@ -185,10 +185,10 @@ fn check_pose_keys(config: &RenderConfig, posed: &crate::config::CameraConfig) -
         {
             return Err(Error::Parameter {
                 name,
-                value: format!("keys starting at {at_0}"),
+                value: format!("keys from {at_0}"),
                 expected: format!(
-                    "keys starting at the ground's {value:.3}° (ground.mode {} sets the first \
-                     frame's pose; key pan and zoom, or start the keys there)",
+                    "keys from the ground's {value:.3}° (ground.mode {} poses the first frame; \
+                     key the pan and the field of view, or start these keys there)",
                     config.ground.mode
                 ),
             });

@@ -328,6 +328,10 @@ pub fn plan_keyed(
     Ok(plan)
 }
 
+/// Most turn and zoom between the camera poses the water's ground is laid out for, degrees
+/// ([`CameraTrack::poses`]): the views between two of them overlap theirs by far.
+pub const GROUND_VIEW_STEP_DEG: f64 = 1.0;
+
 /// The camera of each frame of a shot: [`RainPlan::camera_at`] without the rain.
 #[derive(Debug, Clone)]
 pub struct CameraTrack {
