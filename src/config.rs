@@ -464,7 +464,12 @@ impl RenderConfig {
             GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
                 // A camera that turns and zooms about its centre keeps the ground where it is
                 // in the world; one that rises or falls would move it (a translation).
-                if self.keyframes.height_m.as_ref().is_some_and(|k| !k.is_constant()) {
+                if self
+                    .keyframes
+                    .height_m
+                    .as_ref()
+                    .is_some_and(|k| !k.is_constant())
+                {
                     return Err(bad(
                         "no keyed camera.height_m besides it: the ground follows a camera that \
                          turns and zooms, not one that moves (use ground.mode none)",

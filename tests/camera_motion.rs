@@ -227,7 +227,8 @@ fn a_still_shot_gives_exactly_no_motion() {
         config.camera.roll_deg,
         config.camera.fov_deg,
     ) = (-7.3, 2.1, 63.0);
-    let keys = rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
+    let keys =
+        rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
     assert!(keys.is_empty(), "{keys:?}");
 }
 
@@ -282,7 +283,8 @@ fn the_drops_of_a_pan_follow_the_estimated_camera() {
     let track = estimate(&poses, 11, 0.004);
     let mut config = RenderConfig::default();
     config.camera.roll_deg = 1.5;
-    let keys = rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
+    let keys =
+        rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
     assert!(keys.moves_camera());
     let rain = RainConfig {
         rate_mm_per_h: 20.0,
@@ -592,6 +594,56 @@ fn the_ground_stays_in_the_world_through_an_estimated_pan() {
     assert!(worst_own < 0.01, "{worst_own} px");
     assert_eq!(outside_whole, 0);
     assert!(outside_first > 100, "{outside_first}");
+}
+
+/// `auto`'s estimate kept beside the water: read back as it was found, under the same file
+/// and first camera only; a damaged file is estimated anew.
+#[test]
+fn the_estimate_is_kept_and_read_back() {
+    use rain_composite::pipeline::motion::estimate_kept;
+    use rain_composite::pipeline::pose_cache;
+    let dir = tempfile::tempdir().expect("tmp");
+    let poses: Vec<Pose> = (0..12)
+        .map(|i| Pose {
+            pan_deg: 0.8 * i as f64,
+            tilt_deg: 0.0,
+            roll_deg: 0.0,
+            fov_deg: 60.0,
+        })
+        .collect();
+    let clip = clip_of(dir.path(), &[(&poses, 5, 1.0)]);
+    let kept = dir.path().join("in.water");
+    let cancel = AtomicBool::new(false);
+    let config = RenderConfig::default();
+    let fresh = estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("estimate");
+    let files = || std::fs::read_dir(&kept).map_or(0, |d| d.count());
+    assert_eq!(files(), 1);
+    let first = config.camera.camera(SIZE.0, SIZE.1);
+    let key = pose_cache::key(s(&clip), &first).expect("a file");
+    let read = pose_cache::load(&kept, &key).expect("kept");
+    assert_eq!(read, fresh);
+    assert_eq!(
+        estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("read back"),
+        fresh
+    );
+    // Another first camera is another estimate.
+    let mut wider = config.clone();
+    wider.camera.fov_deg = 70.0;
+    let other = estimate_kept(s(&clip), &wider, &cancel, Some(&kept)).expect("estimate");
+    assert_eq!(files(), 2);
+    assert!(other.track.frames.last().expect("frames").pan_deg > fresh.track.frames[11].pan_deg);
+    // A damaged file is passed over and written again.
+    let file = pose_cache::path(&kept, &key);
+    std::fs::write(&file, b"{\"key\": 1").expect("damage");
+    assert!(pose_cache::load(&kept, &key).is_none());
+    assert_eq!(
+        estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("again"),
+        fresh
+    );
+    assert_eq!(pose_cache::load(&kept, &key).expect("rewritten"), fresh);
+    // The file is a pose file.
+    let track = PoseTrack::read(&file).expect("a pose file");
+    assert_eq!(track, fresh.track);
 }
 
 /// Report (run with `--ignored --nocapture`): the estimation's cost per frame at 720p and

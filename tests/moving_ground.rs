@@ -80,7 +80,13 @@ fn a_pan_over_puddles_previews_chunks_and_renders_again_the_same() {
     // Chunks bring the water to their first frame and join into the whole.
     let mut joined = Vec::new();
     for (k, range) in ["0..23", "23.."].into_iter().enumerate() {
-        let chunk = render(d, &input, &format!("c{k}.mkv"), PANNING, &["--frames", range]);
+        let chunk = render(
+            d,
+            &input,
+            &format!("c{k}.mkv"),
+            PANNING,
+            &["--frames", range],
+        );
         joined.extend(framemd5(&chunk, "0:v", false));
     }
     assert_eq!(joined, frames);
@@ -146,5 +152,8 @@ fn a_moving_ground_camera_is_refused_where_it_cannot_be_drawn() {
     // A tilt keyed from level, where the ground's horizon puts the camera at another tilt.
     refused(&["--set", "camera.tilt_deg=[[0,0],[0.2,3]]"], "--tilt");
     // A crane: the camera moves, the ground would not stay where it is drawn.
-    refused(&["--set", "camera.height_m=[[0,1.6],[0.2,3]]"], "--camera-height");
+    refused(
+        &["--set", "camera.height_m=[[0,1.6],[0.2,3]]"],
+        "--camera-height",
+    );
 }

@@ -4,6 +4,7 @@
 
 use glam::DVec2;
 
+use super::view_window::Window;
 use crate::Result;
 use crate::gpu::Compositor;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
@@ -11,7 +12,6 @@ use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::RainParams;
 use crate::scene::ground_mask::{GroundMaskMode, PointView, detect};
 use crate::scene::sky::{SkyGrid, TopEdge};
-use super::view_window::Window;
 use crate::shot::Shot;
 use crate::video::YuvFrame;
 
@@ -28,8 +28,7 @@ impl GroundMaskFeed {
         let f = shot.footage.format;
         let grid = SkyGrid::new(GLOW_CELL_PX, (f.width, f.height));
         GroundMaskFeed {
-            tracker: (config.ground.mask == GroundMaskMode::Auto)
-                .then(|| Window::new(shot, grid)),
+            tracker: (config.ground.mask == GroundMaskMode::Auto).then(|| Window::new(shot, grid)),
             grid,
         }
     }

@@ -13,11 +13,14 @@
 //! leaves the ground plane where it is in the world, so the splashes, wet ground and puddles,
 //! drawn through each frame's camera, stay on it.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use super::pose_cache;
 use crate::config::RenderConfig;
 use crate::keyframes::{Curve, Keyframes};
+use crate::scene::Camera;
 use crate::scene::horizon::{CUT_THRESHOLD, Luma};
 use crate::scene::motion::{self, Estimate, Estimator, MotionSource, PoseTrack};
 use crate::video::Source;
@@ -39,13 +42,7 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
     let mut source = Source::open(input)?;
     let info = source.info().clone();
     let rot = info.rotation_deg;
-    let (w, h) = crate::video::frame::display_size(rot, info.format.width, info.format.height);
-    let camera = crate::config::CameraConfig {
-        pan_deg: 0.0,
-        ..config.posed_camera(w, h)?
-    }
-    .camera(w, h);
-    let mut estimator = Estimator::new(camera);
+    let mut estimator = Estimator::new(first_camera(config, &info)?);
     let mut prev: Option<[f32; 144]> = None;
     let mut last_t = f64::NEG_INFINITY;
     let (started, mut frames) = (Instant::now(), 0usize);
@@ -99,6 +96,45 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
         estimate.shots.iter().filter(|s| s.moving).count()
     );
     Ok(estimate)
+}
+
+/// The camera the first frame of the clip `info` is seen through under `config` (its ground's
+/// pose, pan 0): where the estimate starts.
+fn first_camera(config: &RenderConfig, info: &crate::video::VideoInfo) -> Result<Camera> {
+    let (w, h) =
+        crate::video::frame::display_size(info.rotation_deg, info.format.width, info.format.height);
+    Ok(crate::config::CameraConfig {
+        pan_deg: 0.0,
+        ..config.posed_camera(w, h)?
+    }
+    .camera(w, h))
+}
+
+/// [`estimate_clip`], kept in and read back from `kept` (a folder: see
+/// [`super::pose_cache`]) where one is given and `input` is a file.
+pub fn estimate_kept(
+    input: &str,
+    config: &RenderConfig,
+    cancel: &AtomicBool,
+    kept: Option<&Path>,
+) -> Result<Estimate> {
+    if let Some(dir) = kept.filter(|_| input != "-") {
+        let info = Source::open(input)?.info().clone();
+        if let Some(key) = pose_cache::key(input, &first_camera(config, &info)?) {
+            if let Some(estimate) = pose_cache::load(dir, &key) {
+                log::info!(
+                    "camera motion: {} frames read from {}",
+                    estimate.track.frames.len(),
+                    pose_cache::path(dir, &key).display()
+                );
+                return Ok(estimate);
+            }
+            let estimate = estimate_clip(input, config, cancel)?;
+            pose_cache::store(dir, &key, &estimate);
+            return Ok(estimate);
+        }
+    }
+    estimate_clip(input, config, cancel)
 }
 
 /// The pose keys of `track` over the camera `posed` (`config`'s camera with its ground's pose:
@@ -156,11 +192,8 @@ fn posed_camera(config: &RenderConfig, input: &str) -> Result<crate::config::Cam
         });
     }
     let info = Source::open(input)?.info().clone();
-    let (w, h) = crate::video::frame::display_size(
-        info.rotation_deg,
-        info.format.width,
-        info.format.height,
-    );
+    let (w, h) =
+        crate::video::frame::display_size(info.rotation_deg, info.format.width, info.format.height);
     config.posed_camera(w, h)
 }
 
@@ -168,6 +201,17 @@ fn posed_camera(config: &RenderConfig, input: &str) -> Result<crate::config::Cam
 /// keys where it moves the camera, and `camera_motion` set to `none` (see the module doc for
 /// when `auto` adds nothing).
 pub fn resolve(config: &RenderConfig, input: &str, cancel: &AtomicBool) -> Result<RenderConfig> {
+    resolve_kept(config, input, cancel, None)
+}
+
+/// [`resolve`], with `auto`'s estimate kept in and read back from the folder `kept` (see
+/// [`super::pose_cache`]).
+pub fn resolve_kept(
+    config: &RenderConfig,
+    input: &str,
+    cancel: &AtomicBool,
+    kept: Option<&Path>,
+) -> Result<RenderConfig> {
     let mut out = config.clone();
     out.camera_motion = MotionSource::None;
     let track = match &config.camera_motion {
@@ -182,7 +226,7 @@ pub fn resolve(config: &RenderConfig, input: &str, cancel: &AtomicBool) -> Resul
                 log::info!("camera motion: a stream on stdin is not read ahead; none estimated");
                 return Ok(out);
             }
-            let estimate = estimate_clip(input, config, cancel)?;
+            let estimate = estimate_kept(input, config, cancel, kept)?;
             for s in estimate.shots.iter().filter(|s| !s.moving && s.frames > 1) {
                 if s.confidence < motion::MIN_SHOT_CONFIDENCE {
                     log::warn!(

@@ -3,13 +3,13 @@
 
 use glam::DVec2;
 
+use super::view_window::Window;
 use crate::Result;
 use crate::gpu::Compositor;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
 use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::RainParams;
 use crate::scene::sky::{SkyGrid, SkyMode, TopEdge, detect};
-use super::view_window::Window;
 use crate::shot::Shot;
 use crate::video::YuvFrame;
 

@@ -17,7 +17,6 @@ use crate::shot::Shot;
 use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
 
-
 /// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
 /// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
 /// start or from kept water, so a preview or a chunk sees the water a whole render shows

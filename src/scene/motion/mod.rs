@@ -268,7 +268,7 @@ struct Reference {
 }
 
 /// How one shot of the clip moved.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShotMotion {
     /// Time of the shot's first frame, s.
     pub start_s: f64,
@@ -283,9 +283,10 @@ pub struct ShotMotion {
 }
 
 /// The estimate over a clip.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
     /// The pose of every frame.
+    #[serde(flatten)]
     pub track: PoseTrack,
     /// The shots, cut where the picture changes.
     pub shots: Vec<ShotMotion>,
