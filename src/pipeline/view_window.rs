@@ -169,6 +169,50 @@ fn sample(mask: &[f32], grid: SkyGrid, g: DVec2) -> Option<f64> {
     Some(top + (bottom - top) * fy)
 }
 
+/// A feed's window: on the picture for a still camera, in the world's directions for one that
+/// turns or zooms.
+pub(super) enum Window {
+    /// [`SkyTracker`]: the camera does not move.
+    Picture(SkyTracker),
+    /// [`RayWindow`]: pose keys (typed or estimated) move it.
+    Rays(RayWindow),
+}
+
+impl Window {
+    /// The window of `shot`'s masks over `grid`, smoothed like the light
+    /// (`light.smoothing_s`).
+    pub(super) fn new(shot: &crate::shot::Shot, grid: SkyGrid) -> Window {
+        let settle_s = shot.config.light.smoothing_s;
+        if shot.rain.keys.moves_camera() {
+            Window::Rays(RayWindow::new(settle_s, grid))
+        } else {
+            Window::Picture(SkyTracker::new(settle_s))
+        }
+    }
+
+    /// How far back a frame's mask still counts, seconds.
+    pub(super) fn window_s(&self) -> f64 {
+        match self {
+            Window::Picture(t) => t.window_s(),
+            Window::Rays(t) => t.window_s(),
+        }
+    }
+
+    /// The mask to use for the frame shown at `t_s` through `p`, given its own `detected`.
+    pub(super) fn update(
+        &mut self,
+        detected: Vec<f32>,
+        p: &RainParams,
+        t_s: f64,
+        cut: bool,
+    ) -> &[f32] {
+        match self {
+            Window::Picture(t) => t.update(detected, t_s, cut),
+            Window::Rays(t) => t.update(detected, p, t_s, cut),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,49 +276,5 @@ mod tests {
         // Bilinear reading of a ramp 20 per radian wide across a few points: small.
         assert!(worst < 0.05, "{worst}");
         assert!(worst_on_picture > 0.3, "{worst_on_picture}");
-    }
-}
-
-/// A feed's window: on the picture for a still camera, in the world's directions for one that
-/// turns or zooms.
-pub(super) enum Window {
-    /// [`SkyTracker`]: the camera does not move.
-    Picture(SkyTracker),
-    /// [`RayWindow`]: pose keys (typed or estimated) move it.
-    Rays(RayWindow),
-}
-
-impl Window {
-    /// The window of `shot`'s masks over `grid`, smoothed like the light
-    /// (`light.smoothing_s`).
-    pub(super) fn new(shot: &crate::shot::Shot, grid: SkyGrid) -> Window {
-        let settle_s = shot.config.light.smoothing_s;
-        if shot.rain.keys.moves_camera() {
-            Window::Rays(RayWindow::new(settle_s, grid))
-        } else {
-            Window::Picture(SkyTracker::new(settle_s))
-        }
-    }
-
-    /// How far back a frame's mask still counts, seconds.
-    pub(super) fn window_s(&self) -> f64 {
-        match self {
-            Window::Picture(t) => t.window_s(),
-            Window::Rays(t) => t.window_s(),
-        }
-    }
-
-    /// The mask to use for the frame shown at `t_s` through `p`, given its own `detected`.
-    pub(super) fn update(
-        &mut self,
-        detected: Vec<f32>,
-        p: &RainParams,
-        t_s: f64,
-        cut: bool,
-    ) -> &[f32] {
-        match self {
-            Window::Picture(t) => t.update(detected, t_s, cut),
-            Window::Rays(t) => t.update(detected, p, t_s, cut),
-        }
     }
 }

@@ -241,6 +241,13 @@ pub const MIN_SHOT_CONFIDENCE: f64 = 0.8;
 pub const DEAD_BAND_DEG: f64 = 0.05;
 /// A shot whose zoom stays within this fraction of 1 keeps its field of view.
 pub const ZOOM_DEAD_BAND: f64 = 0.005;
+/// The fields of view and the largest tilt an estimated pose may take, degrees (inside the
+/// settings' ranges, with room for smoothing).
+const MIN_FOV_DEG: f64 = 2.0;
+/// See [`MIN_FOV_DEG`].
+const MAX_FOV_DEG: f64 = 165.0;
+/// See [`MIN_FOV_DEG`].
+const MAX_TILT_DEG: f64 = 89.0;
 /// The grid corners are picked on (one per cell), and the step they are searched at.
 const CELLS: (usize, usize) = (16, 9);
 const CORNER_STEP: usize = 2;
@@ -439,9 +446,26 @@ impl Estimator {
             let zooms = readings
                 .iter()
                 .any(|r| (r.pose.zoom - 1.0).abs() > ZOOM_DEAD_BAND);
+            // A fit that ran off (a change of view the cut detector missed, read as a turn and
+            // a zoom, compounded over the references after it) leaves the camera's range: the
+            // shot is held still rather than followed there.
+            let in_range = readings.iter().all(|r| {
+                let fov = 2.0 * ((0.5 * fov0).tan() / r.pose.zoom).atan();
+                let (_, tilt, _) = pan_tilt_roll(first_w * r.pose.rotation.transpose());
+                (MIN_FOV_DEG..=MAX_FOV_DEG).contains(&fov.to_degrees())
+                    && tilt.to_degrees().abs() <= MAX_TILT_DEG
+            });
+            if !in_range {
+                log::warn!(
+                    "camera motion: the shot at {:.2} s reads as a camera turned or zoomed out of \
+                     range (a change of view not taken for a cut?); its camera is held still",
+                    readings[0].t_s
+                );
+            }
             let moving = readings.len() > 1
                 && confidence >= MIN_SHOT_CONFIDENCE
-                && (max_turn_deg > DEAD_BAND_DEG || zooms);
+                && (max_turn_deg > DEAD_BAND_DEG || zooms)
+                && in_range;
             shots.push(ShotMotion {
                 start_s: readings[0].t_s,
                 frames: readings.len(),
