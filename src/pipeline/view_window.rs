@@ -244,7 +244,7 @@ mod tests {
         let (w, h) = (320u32, 180u32);
         let grid = SkyGrid::new(8, (w, h));
         let mut window = RayWindow::new(0.25, grid);
-        let soft = |d: DVec3| (0.5 + 20.0 * d.normalize().z).clamp(0.0, 1.0) as f32;
+        let soft = |d: DVec3| (0.5 + 6.0 * d.normalize().z).clamp(0.0, 1.0) as f32;
         let mut on_picture = SkyTracker::new(0.25);
         let (mut worst, mut worst_on_picture): (f32, f32) = (0.0, 0.0);
         for i in 0..30 {
@@ -270,11 +270,13 @@ mod tests {
             let d = view.ray(at).normalize();
             let seen = cam.ray_world(at).normalize();
             assert!((d - seen).length() < 1e-6);
+            // And back, to the uniforms' f32 rounding.
             let back = view.coded_of(d).expect("in front");
-            assert!((back - at).length() < 1e-6);
+            assert!((back - at).length() < 1e-3, "{back} vs {at}");
         }
-        // Bilinear reading of a ramp 20 per radian wide across a few points: small.
+        // The rays' average is the frame's own mask but for the bilinear reading of the ramp
+        // at its clamped ends (0.024); the picture's lags the turn by about 0.3.
         assert!(worst < 0.05, "{worst}");
-        assert!(worst_on_picture > 0.3, "{worst_on_picture}");
+        assert!(worst_on_picture > 0.2, "{worst_on_picture}");
     }
 }
