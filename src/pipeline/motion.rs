@@ -263,7 +263,26 @@ pub fn resolve_kept(
     } else {
         track
     };
-    out.keyframes = keys_of(&track, &out, &posed)?;
+    let keys = keys_of(&track, &out, &posed)?;
+    // The rain volume is planned along the camera's path, summed over every turn: a long
+    // handheld clip (0.5° of shake at 2 Hz sums 4° a second) can sum more than the planning
+    // takes. An estimate the render would refuse is held still instead, with a warning; a pose
+    // file is the user's, and is refused with the reason.
+    if config.camera_motion == MotionSource::Auto {
+        use crate::shot::rain::{MAX_PATH_POSES, MAX_PATH_STEP_DEG, PATH_STEP_DEG};
+        let poses = keys.camera_samples_s(PATH_STEP_DEG).len();
+        if PATH_STEP_DEG * poses as f64 > MAX_PATH_POSES as f64 * MAX_PATH_STEP_DEG {
+            log::warn!(
+                "camera motion: the estimated turns sum to about {} degrees over the clip, more \
+                 than the rain can be planned for ({:.0}); the camera is held still (write the \
+                 poses with inspect camera --json and pass a smoothed or shorter file)",
+                poses - 1,
+                MAX_PATH_POSES as f64 * MAX_PATH_STEP_DEG
+            );
+            return Ok(out);
+        }
+    }
+    out.keyframes = keys;
     if out.keyframes.moves_camera() {
         log::info!(
             "camera motion: {} poses over {:.2} s",

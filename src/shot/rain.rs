@@ -123,7 +123,7 @@ struct CameraPath<'a> {
 
 /// Most turn between the camera poses a moving camera's rain volume is planned for, degrees
 /// (the frusta between are covered by widening each by half of it).
-const PATH_STEP_DEG: f64 = 1.0;
+pub const PATH_STEP_DEG: f64 = 1.0;
 
 /// Most poses planned between the keys: each costs milliseconds, so a camera that turns far
 /// is planned at a coarser step (wider frusta) rather than for minutes.
