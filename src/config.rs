@@ -416,8 +416,8 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
-    /// A pose file moves the camera as keys do: not beside pose keys, nor beside a ground
-    /// (whose checks refuse a moving camera).
+    /// A pose file moves the camera as keys do: not beside pose keys (beside a ground, its
+    /// turns and zoom are taken from the ground's pose: `pipeline::motion`).
     fn validate_motion(&self) -> Result<()> {
         use crate::scene::motion::MotionSource;
         let MotionSource::File(path) = &self.camera_motion else {
@@ -433,29 +433,27 @@ impl RenderConfig {
                 "no keyed camera pose or field of view besides a pose file: give one of them",
             ));
         }
-        if self.ground.mode != crate::scene::GroundMode::None {
-            return Err(bad(
-                "no ground besides a pose file: the ground is found through the camera at one \
-                 pose, and the splashes, wet ground and puddles are mapped through one camera \
-                 (use ground.mode none)",
-            ));
-        }
         Ok(())
     }
 
-    /// The ground's checks: a mode the render can use, and a camera pose given once — by the
-    /// ground or by `camera.tilt_deg`/`camera.roll_deg`, not both.
+    /// The ground's checks: a mode the render can use, with values in range.
     fn validate_ground(&self) -> Result<()> {
-        use crate::scene::GroundMode;
-        let mode = self.ground.mode;
-        mode.validate()?;
+        self.ground.mode.validate()?;
         crate::scene::depth::check_scale(self.ground.depth_scale)?;
         check(
             "ground.relief_m",
             self.ground.relief_m,
             (0.0..=0.1).contains(&self.ground.relief_m),
             "metres in [0, 0.1] (a micro-relief of millimetres to centimetres)",
-        )?;
+        )
+    }
+
+    /// A camera pose given once — by the ground or by `camera.tilt_deg`/`camera.roll_deg`, not
+    /// both — and, beside a ground, a camera that turns and zooms but stays where it is (the
+    /// settings as given, not at each key: a keyed tilt moves the ground's camera).
+    fn validate_ground_pose(&self) -> Result<()> {
+        use crate::scene::GroundMode;
+        let mode = self.ground.mode;
         let bad = |expected: &str| Error::Parameter {
             name: "ground.mode",
             value: mode.to_string(),
@@ -464,11 +462,17 @@ impl RenderConfig {
         match mode {
             GroundMode::None => Ok(()),
             GroundMode::Auto | GroundMode::Horizon { .. } | GroundMode::Plane { .. } => {
-                if self.keyframes.moves_camera() {
+                // A camera that turns and zooms about its centre keeps the ground where it is
+                // in the world; one that rises or falls would move it (a translation).
+                if self
+                    .keyframes
+                    .height_m
+                    .as_ref()
+                    .is_some_and(|k| !k.is_constant())
+                {
                     return Err(bad(
-                        "no keyed camera pose or field of view besides it: the ground is found \
-                         through the camera at one pose, and the splashes, wet ground and \
-                         puddles are mapped through one camera (use ground.mode none)",
+                        "no keyed camera.height_m besides it: the ground follows a camera that \
+                         turns and zooms, not one that moves (use ground.mode none)",
                     ));
                 }
                 let c = &self.camera;
@@ -495,19 +499,26 @@ impl RenderConfig {
     /// with the tilt and roll (and for `plane=`, the height) of a given ground, so the ground
     /// is the level world plane z = 0 the rain volume stands on.
     pub fn camera(&self, width_px: u32, height_px: u32) -> Result<crate::scene::Camera> {
-        let c = &self.camera;
+        Ok(self
+            .posed_camera(width_px, height_px)?
+            .camera(width_px, height_px))
+    }
+
+    /// The camera settings with a given ground's tilt and roll (and for `plane=`, its height)
+    /// written in, for a displayed picture of `width_px`×`height_px` (`horizon=` needs the
+    /// focal length): the settings pose keys move a camera from, so a moving camera beside a
+    /// ground starts at the ground's pose.
+    pub fn posed_camera(&self, width_px: u32, height_px: u32) -> Result<CameraConfig> {
+        let c = self.camera;
         let base = c.camera(width_px, height_px);
         Ok(match self.ground.mode.fixed_pose(&base, c.height_m)? {
-            None => base,
-            Some(pose) => crate::scene::Camera::new(
-                width_px,
-                height_px,
-                c.fov_deg.to_radians(),
-                pose.height_m,
-                pose.tilt_rad,
-                pose.roll_rad,
-            )
-            .panned(c.pan_deg.to_radians()),
+            None => c,
+            Some(pose) => CameraConfig {
+                tilt_deg: pose.tilt_rad.to_degrees(),
+                roll_deg: pose.roll_rad.to_degrees(),
+                height_m: pose.height_m,
+                ..c
+            },
         })
     }
 }
@@ -517,7 +528,8 @@ impl RenderConfig {
     /// settings are checked at every key.
     pub fn validate(&self) -> Result<()> {
         self.validate_at_keys()?;
-        self.validate_values()
+        self.validate_values()?;
+        self.validate_ground_pose()
     }
 
     /// Each key's value in range, the error naming the key's time; an aperture keyed to 0

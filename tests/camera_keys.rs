@@ -252,19 +252,21 @@ fn each_frame_gets_the_camera_at_its_pose() {
     assert!((forward - want).length() < 1e-6, "{forward}");
 }
 
-/// A keyed pose with a ground that fixes the pose is refused, naming the ground; shutter keys
-/// are refused with their reason.
+/// Beside a ground a camera may turn and zoom but not move: a keyed height is refused, naming
+/// the ground; shutter keys are refused with their reason.
 #[test]
 fn moving_camera_refusals_are_named() {
     let mut config = RenderConfig::default();
     config.ground.mode = "horizon=0.6".parse().expect("mode");
     config.keyframes.pan_deg = ramp(&[(0.0, 0.0), (1.0, 10.0)]);
+    config.validate().expect("a pan beside a ground");
+    config.keyframes.height_m = ramp(&[(0.0, 1.6), (1.0, 3.0)]);
     let e = config
         .validate()
-        .expect_err("ground with a moving camera")
+        .expect_err("ground with a crane")
         .to_string();
     assert!(
-        e.contains("ground.mode") && e.contains("keyed camera"),
+        e.contains("ground.mode") && e.contains("camera.height_m"),
         "{e}"
     );
     let mut tree = serde_json::json!({"camera": {"shutter_deg": [[0, 180], [1, 90]]}});

@@ -227,7 +227,8 @@ fn a_still_shot_gives_exactly_no_motion() {
         config.camera.roll_deg,
         config.camera.fov_deg,
     ) = (-7.3, 2.1, 63.0);
-    let keys = rain_composite::pipeline::motion::keys_of(&track, &config).expect("keys");
+    let keys =
+        rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
     assert!(keys.is_empty(), "{keys:?}");
 }
 
@@ -282,7 +283,8 @@ fn the_drops_of_a_pan_follow_the_estimated_camera() {
     let track = estimate(&poses, 11, 0.004);
     let mut config = RenderConfig::default();
     config.camera.roll_deg = 1.5;
-    let keys = rain_composite::pipeline::motion::keys_of(&track, &config).expect("keys");
+    let keys =
+        rain_composite::pipeline::motion::keys_of(&track, &config, &config.camera).expect("keys");
     assert!(keys.moves_camera());
     let rain = RainConfig {
         rate_mm_per_h: 20.0,
@@ -443,18 +445,205 @@ fn a_cut_resets_and_the_pose_file_round_trips() {
     assert_eq!(from_file.camera_motion, MotionSource::None);
     from_file.validate().expect("the resolved keys are valid");
 
-    // A ground holds the camera still: auto adds nothing beside one, a pose file is refused.
+    // Beside a ground, the ground poses the first camera and the motion turns it from there:
+    // auto starts at the ground's tilt, and the pose file (estimated through a level camera)
+    // is turned to start there, frame for frame the same turns.
     let mut grounded = by_auto.clone();
     grounded.ground.mode = "horizon=0.6".parse().expect("mode");
-    let resolved = rain_composite::pipeline::motion::resolve(&grounded, s(&clip), &cancel)
+    let posed = grounded.posed_camera(SIZE.0, SIZE.1).expect("posed");
+    // The horizon below the centre: a camera looking up.
+    assert!(posed.tilt_deg > 3.0, "{posed:?}");
+    let auto_grounded = rain_composite::pipeline::motion::resolve(&grounded, s(&clip), &cancel)
         .expect("auto with a ground");
-    assert!(resolved.keyframes.is_empty());
     grounded.camera_motion = by_file.camera_motion.clone();
-    let e = grounded
-        .validate()
-        .expect_err("file and ground")
-        .to_string();
-    assert!(e.contains("camera_motion") && e.contains("ground"), "{e}");
+    grounded.validate().expect("a pose file beside a ground");
+    let file_grounded = rain_composite::pipeline::motion::resolve(&grounded, s(&clip), &cancel)
+        .expect("file with a ground");
+    let (a, b) = (&auto_grounded.keyframes, &file_grounded.keyframes);
+    assert!(a.moves_camera() && b.moves_camera());
+    let tilt = a.tilt_deg.as_ref().expect("tilt keys");
+    assert!((tilt.at(0.0) - posed.tilt_deg).abs() < 1e-9);
+    for k in 0..40 {
+        let t = k as f64 / FPS;
+        let (ca, cb) = (camera_of(a, &posed, t), camera_of(b, &posed, t));
+        let turn = (ca.world_from_camera.transpose() * cb.world_from_camera)
+            .col(2)
+            .angle_between(DVec3::Z)
+            .to_degrees();
+        assert!(turn < 0.02, "frame {k}: {turn}°");
+    }
+}
+
+/// The camera `keys` make of `posed` at `t_s`, on the test picture.
+fn camera_of(
+    keys: &rain_composite::keyframes::Keyframes,
+    posed: &CameraConfig,
+    t_s: f64,
+) -> Camera {
+    let mut at = RenderConfig {
+        camera: *posed,
+        ..RenderConfig::default()
+    };
+    at.apply_keys_at(keys, t_s);
+    at.camera.camera(SIZE.0, SIZE.1)
+}
+
+/// A pan with handheld shake over a known ground (tilt −8.3°, roll 2.7°, given as its horizon),
+/// through the pre-pass on a real clip: every frame's uniforms — which the splashes, the wet
+/// ground and the puddles map the ground through — show each ground point where the true
+/// camera of that frame sees it, within a fraction of a pixel, and the water's ground covers
+/// every frame's view (the first frame's alone would not).
+#[test]
+fn the_ground_stays_in_the_world_through_an_estimated_pan() {
+    use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
+    use rain_composite::gpu::cpu::yuv_to_rgb::view_ray_at;
+    use rain_composite::scene::{GroundMode, GroundPlane};
+    use rain_composite::shot::{Footage, Shot};
+    use rain_composite::video::{Chroma, ColorParams, FrameFormat};
+
+    let dir = tempfile::tempdir().expect("tmp");
+    let poses: Vec<Pose> = (0..30)
+        .map(|i| {
+            let t = i as f64 / FPS;
+            Pose {
+                pan_deg: 18.0 * t + 0.5 * (7.0 * t).sin(),
+                tilt_deg: -8.3 + 0.3 * (5.0 * t).sin(),
+                roll_deg: 2.7 + 0.2 * (3.0 * t).sin(),
+                fov_deg: 60.0,
+            }
+        })
+        .collect();
+    let clip = clip_of(dir.path(), &[(&poses, 21, 1.0)]);
+    let first = poses[0].camera();
+    let row = GroundPlane::LEVEL.horizon_row(&first).expect("a horizon");
+    let mut config = RenderConfig::default();
+    config.ground.mode = GroundMode::Horizon {
+        row,
+        roll_deg: poses[0].roll_deg,
+    };
+    config.ground.puddles = true;
+    config.camera_motion = MotionSource::Auto;
+    config.validate().expect("auto beside a ground");
+    let cancel = AtomicBool::new(false);
+    let resolved =
+        rain_composite::pipeline::motion::resolve(&config, s(&clip), &cancel).expect("resolve");
+    assert!(resolved.keyframes.moves_camera());
+    let format = FrameFormat {
+        width: SIZE.0,
+        height: SIZE.1,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let footage = Footage::picture(format, ColorParams::bt709(8), FPS);
+    let shot = Shot::plan(&footage, &resolved, None).expect("a shot");
+    let setup = RainSetup::pack(shot.rain.clone());
+    let (mut worst_true, mut worst_own, mut points) = (0.0f64, 0.0f64, 0);
+    let track = shot.rain.camera_track();
+    let settings = PuddleSettings {
+        max_distance_m: 6.0,
+        max_particles: 500,
+        ..PuddleSettings::default()
+    };
+    let build = |cameras: &[Camera]| {
+        PuddleSim::seen_by(&resolved, cameras, None, FPS, &settings)
+            .expect("valid")
+            .expect("ground in view")
+            .ground_rect()
+    };
+    let whole = build(&track.poses(1.0));
+    let first_only = build(&[track.first()]);
+    let (mut outside_whole, mut outside_first) = (0, 0);
+    for (i, pose) in poses.iter().enumerate() {
+        let t = i as f64 / FPS;
+        let p = setup.motion_at(t);
+        let truth = pose.camera();
+        let own = setup.camera_at(t);
+        let eye = DVec3::from_array(p.camera_pos_m.map(f64::from));
+        for j in 0..=18 {
+            for k in 0..=32 {
+                let px = glam::DVec2::new(k as f64 * 20.0, j as f64 * 20.0);
+                let ray = view_ray_at(&p, px);
+                if ray.normalize().z > -0.02 {
+                    continue;
+                }
+                // The ground point this pixel shows, as the ground's stages find it.
+                let hit = eye + ray * (eye.z / -ray.z);
+                points += 1;
+                let seen = truth.project_world(hit).expect("in front");
+                worst_true = worst_true.max((seen - px).length());
+                let again = own.project_world(hit).expect("in front");
+                worst_own = worst_own.max((again - px).length());
+                if (hit - eye).truncate().length() < settings.max_distance_m {
+                    let inside = |r: &rain_composite::rain::volume::GroundRect| {
+                        let g = hit.truncate();
+                        g.cmpge(r.min_m - 1e-6).all() && g.cmple(r.max_m + 1e-6).all()
+                    };
+                    outside_whole += usize::from(!inside(&whole));
+                    outside_first += usize::from(!inside(&first_only));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{points} ground points over 30 frames: within {worst_true:.3} px of the true cameras, \
+         {worst_own:.4} px of the estimated ones; outside the water's ground: {outside_whole} \
+         (the first view's alone: {outside_first})"
+    );
+    assert!(points > 5000, "{points}");
+    assert!(worst_true < 0.5, "{worst_true} px");
+    assert!(worst_own < 0.01, "{worst_own} px");
+    assert_eq!(outside_whole, 0);
+    assert!(outside_first > 100, "{outside_first}");
+}
+
+/// `auto`'s estimate kept beside the water: read back as it was found, under the same file
+/// and first camera only; a damaged file is estimated anew.
+#[test]
+fn the_estimate_is_kept_and_read_back() {
+    use rain_composite::pipeline::motion::estimate_kept;
+    use rain_composite::pipeline::pose_cache;
+    let dir = tempfile::tempdir().expect("tmp");
+    let poses: Vec<Pose> = (0..12)
+        .map(|i| Pose {
+            pan_deg: 0.8 * i as f64,
+            tilt_deg: 0.0,
+            roll_deg: 0.0,
+            fov_deg: 60.0,
+        })
+        .collect();
+    let clip = clip_of(dir.path(), &[(&poses, 5, 1.0)]);
+    let kept = dir.path().join("in.water");
+    let cancel = AtomicBool::new(false);
+    let config = RenderConfig::default();
+    let fresh = estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("estimate");
+    let files = || std::fs::read_dir(&kept).map_or(0, |d| d.count());
+    assert_eq!(files(), 1);
+    let first = config.camera.camera(SIZE.0, SIZE.1);
+    let key = pose_cache::key(s(&clip), &first).expect("a file");
+    let read = pose_cache::load(&kept, &key).expect("kept");
+    assert_eq!(read, fresh);
+    assert_eq!(
+        estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("read back"),
+        fresh
+    );
+    // Another first camera is another estimate.
+    let mut wider = config.clone();
+    wider.camera.fov_deg = 70.0;
+    let other = estimate_kept(s(&clip), &wider, &cancel, Some(&kept)).expect("estimate");
+    assert_eq!(files(), 2);
+    assert!(other.track.frames.last().expect("frames").pan_deg > fresh.track.frames[11].pan_deg);
+    // A damaged file is passed over and written again.
+    let file = pose_cache::path(&kept, &key);
+    std::fs::write(&file, b"{\"key\": 1").expect("damage");
+    assert!(pose_cache::load(&kept, &key).is_none());
+    assert_eq!(
+        estimate_kept(s(&clip), &config, &cancel, Some(&kept)).expect("again"),
+        fresh
+    );
+    assert_eq!(pose_cache::load(&kept, &key).expect("rewritten"), fresh);
+    // The file is a pose file.
+    let track = PoseTrack::read(&file).expect("a pose file");
+    assert_eq!(track, fresh.track);
 }
 
 /// Report (run with `--ignored --nocapture`): the estimation's cost per frame at 720p and

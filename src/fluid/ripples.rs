@@ -182,7 +182,21 @@ fn newest_first(a: &Impact, b: &Impact) -> std::cmp::Ordering {
 /// however hard it rains and however long the clip, and the same set whether the impacts
 /// came frame by frame or at once (a render or a seek).
 pub fn keep_resolved_rings(rings: &mut Vec<Impact>, hits: &[Impact], t_s: f64, camera: &Camera) {
-    rings.extend(hits.iter().filter(|h| ring_resolved(h, camera)));
+    keep_rings_resolved_by(rings, hits, t_s, |_| *camera);
+}
+
+/// [`keep_resolved_rings`] for a camera that moves: each impact judged by `camera_at` its
+/// landing time.
+pub fn keep_rings_resolved_by(
+    rings: &mut Vec<Impact>,
+    hits: &[Impact],
+    t_s: f64,
+    camera_at: impl Fn(f64) -> Camera,
+) {
+    rings.extend(
+        hits.iter()
+            .filter(|h| ring_resolved(h, &camera_at(h.time_s))),
+    );
     rings.retain(|h| h.time_s > t_s - RING_LIFE_S);
     if rings.len() > RING_POOL {
         rings.sort_by(newest_first);

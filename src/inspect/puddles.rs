@@ -35,6 +35,9 @@ pub fn report(
         });
     }
     config.validate()?;
+    // The camera's motion as the render resolves it: the water covers every view, and the
+    // water kept here is the render's.
+    let config = &crate::pipeline::motion::resolve(config, input, cancel)?;
     let source = Source::open(input)?;
     let info = source.info().clone();
     let camera = camera_for(&info, config)?;
@@ -59,9 +62,23 @@ pub fn report(
         }
         None => None,
     };
+    let (w, h) = Footage::of(&info).display_size();
+    let plan = crate::shot::rain::plan_keyed(
+        &camera,
+        &config.posed_camera(w, h)?,
+        &config.rain,
+        &config.keyframes,
+        exposure_s(&info, config)?,
+        info.rotation_deg,
+        (info.format.width, info.format.height),
+    )?;
     let settings = PuddleSettings::of(config);
     let built = Instant::now();
-    let Some(mut sim) = PuddleSim::new(config, &camera, depth.as_deref(), fps, &settings)? else {
+    let views = plan
+        .camera_track()
+        .poses(crate::shot::rain::GROUND_VIEW_STEP_DEG);
+    let Some(mut sim) = PuddleSim::seen_by(config, &views, depth.as_deref(), fps, &settings)?
+    else {
         return Ok(json!({
             "simulated": false,
             "reason": if depth.is_some() {
@@ -74,15 +91,6 @@ pub fn report(
         }));
     };
     let build_s = built.elapsed().as_secs_f64();
-    let plan = crate::shot::rain::plan_keyed(
-        &camera,
-        &config.camera,
-        &config.rain,
-        &config.keyframes,
-        exposure_s(&info, config)?,
-        info.rotation_deg,
-        (info.format.width, info.format.height),
-    )?;
     let run = Instant::now();
     let rain = crate::rain::volume::GroundRain::new(plan.rainfall());
     let steps = match keep.filter(|k| k.every_frames > 0) {

@@ -4,19 +4,20 @@
 
 use glam::DVec2;
 
+use super::view_window::Window;
 use crate::Result;
 use crate::gpu::Compositor;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
 use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::RainParams;
 use crate::scene::ground_mask::{GroundMaskMode, PointView, detect};
-use crate::scene::sky::{SkyGrid, SkyTracker, TopEdge};
+use crate::scene::sky::{SkyGrid, TopEdge};
 use crate::shot::Shot;
 use crate::video::YuvFrame;
 
 /// The ground of a shot's frames, on the glow's grid; nothing where `ground.mask` is off.
 pub(super) struct GroundMaskFeed {
-    tracker: Option<SkyTracker>,
+    tracker: Option<Window>,
     grid: SkyGrid,
 }
 
@@ -25,16 +26,16 @@ impl GroundMaskFeed {
     pub(super) fn new(shot: &Shot) -> GroundMaskFeed {
         let config = &shot.config;
         let f = shot.footage.format;
+        let grid = SkyGrid::new(GLOW_CELL_PX, (f.width, f.height));
         GroundMaskFeed {
-            tracker: (config.ground.mask == GroundMaskMode::Auto)
-                .then(|| SkyTracker::new(config.light.smoothing_s)),
-            grid: SkyGrid::new(GLOW_CELL_PX, (f.width, f.height)),
+            tracker: (config.ground.mask == GroundMaskMode::Auto).then(|| Window::new(shot, grid)),
+            grid,
         }
     }
 
     /// How far back frames change the mask of a frame, seconds.
     pub(super) fn window_s(&self) -> f64 {
-        self.tracker.as_ref().map_or(0.0, SkyTracker::window_s)
+        self.tracker.as_ref().map_or(0.0, Window::window_s)
     }
 
     /// The mask of `frame` shown at `t_s` under the uniforms `p` (`cut`: the light saw a scene
@@ -55,7 +56,7 @@ impl GroundMaskFeed {
         // Display "up" (0, −1) in coded pixels: display = M coded, M orthogonal.
         let top = TopEdge::from_up([-f64::from(m[2]), -f64::from(m[3])]);
         let mask = detect(frame, self.grid, top, &view);
-        Some(tracker.update(mask, t_s, cut))
+        Some(tracker.update(mask, p, t_s, cut))
     }
 
     /// Sets the mask of `frame` on `compositor` (see [`observe`](Self::observe)).

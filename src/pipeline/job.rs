@@ -106,7 +106,8 @@ pub fn render(
     let mut source = Source::open(&job.input)?;
     let info = source.info().clone();
     let config = super::ground::resolve(&job.render, &job.input)?;
-    let config = super::motion::resolve(&config, &job.input, cancel)?;
+    let kept = job.checkpoints.as_ref().map(|c| c.dir.as_path());
+    let config = super::motion::resolve_kept(&config, &job.input, cancel, kept)?;
     let sink = Sink::create(&job.output, &info, &job.encode)?;
     let rain = Renderer::with_layer(&config, &Footage::of(&info), &job.adapter, layer)?;
     let rain = match &job.checkpoints {

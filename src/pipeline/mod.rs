@@ -7,9 +7,11 @@
 //! - [`ground`]: `--ground auto`'s pre-pass, resolved into the configuration before the shot
 //!   is planned.
 //! - [`motion`]: the camera's motion (`camera_motion`), estimated in a pre-pass or read from a
-//!   pose file, resolved into pose keys after the ground.
+//!   pose file, resolved into pose keys after the ground; [`pose_cache`] keeps an estimate
+//!   beside the water's checkpoints.
 //! - [`renderer`]: the frame renderer every front end uses; it drives the compositor with
-//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`.
+//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`
+//!   (the sky's and the ground mask's windows in `view_window`).
 //!
 //! The rain at a frame is a pure function of the frame's time `t = (pts − start) · time_base`
 //! and of that frame alone, so [`preview()`] renders exactly what [`render`] writes at the same
@@ -22,9 +24,11 @@ pub mod ground_mask_feed;
 pub mod job;
 mod light_feed;
 pub mod motion;
+pub mod pose_cache;
 pub mod preview;
 pub mod renderer;
 mod sky_feed;
+mod view_window;
 mod water_feed;
 
 pub use chunk::FrameRange;

@@ -43,7 +43,8 @@ pub fn preview(
     let mut source = Source::open(input)?;
     let info = source.info().clone();
     let render = &super::ground::resolve(render, input)?;
-    let render = &super::motion::resolve(render, input, cancel)?;
+    let render =
+        &super::motion::resolve_kept(render, input, cancel, checkpoints.map(|c| c.dir.as_path()))?;
     let target = match at {
         FrameSelector::At(t) => source.seek_to_time(t)?,
         FrameSelector::Index(n) => source.frame_at_index(n)?,

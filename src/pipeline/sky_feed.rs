@@ -3,18 +3,19 @@
 
 use glam::DVec2;
 
+use super::view_window::Window;
 use crate::Result;
 use crate::gpu::Compositor;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
 use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::RainParams;
-use crate::scene::sky::{SkyGrid, SkyMode, SkyTracker, TopEdge, detect};
+use crate::scene::sky::{SkyGrid, SkyMode, TopEdge, detect};
 use crate::shot::Shot;
 use crate::video::YuvFrame;
 
 /// The open sky of a shot's frames, on the glow's grid; nothing where `ground.sky` is off.
 pub(super) struct SkyFeed {
-    tracker: Option<SkyTracker>,
+    tracker: Option<Window>,
     grid: SkyGrid,
 }
 
@@ -23,16 +24,16 @@ impl SkyFeed {
     pub(super) fn new(shot: &Shot) -> SkyFeed {
         let config = &shot.config;
         let f = shot.footage.format;
+        let grid = SkyGrid::new(GLOW_CELL_PX, (f.width, f.height));
         SkyFeed {
-            tracker: (config.ground.sky == SkyMode::Auto)
-                .then(|| SkyTracker::new(config.light.smoothing_s)),
-            grid: SkyGrid::new(GLOW_CELL_PX, (f.width, f.height)),
+            tracker: (config.ground.sky == SkyMode::Auto).then(|| Window::new(shot, grid)),
+            grid,
         }
     }
 
     /// How far back frames change the mask of a frame, seconds.
     pub(super) fn window_s(&self) -> f64 {
-        self.tracker.as_ref().map_or(0.0, SkyTracker::window_s)
+        self.tracker.as_ref().map_or(0.0, Window::window_s)
     }
 
     /// The mask of `frame` shown at `t_s` under the uniforms `p` (`cut`: the light saw a scene
@@ -63,7 +64,7 @@ impl SkyFeed {
                 .collect()
         });
         let mask = detect(frame, grid, top, below.as_deref());
-        Some(tracker.update(mask, t_s, cut))
+        Some(tracker.update(mask, p, t_s, cut))
     }
 
     /// Sets the mask of `frame` on `compositor` (see [`observe`](Self::observe)).

@@ -14,6 +14,7 @@ use crate::rain::volume::{GroundRain, Impact};
 use crate::scene::Camera;
 use crate::scene::depth::DepthSource;
 use crate::shot::Shot;
+use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
 
 /// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
@@ -33,7 +34,10 @@ pub(super) enum PuddleFeed {
 
 /// What the water is built from at the first frame.
 pub(super) struct PuddlePlan {
+    /// The camera at the shot's start.
     camera: Camera,
+    /// Every frame's camera: a camera that turns and zooms sees more ground over the shot.
+    track: CameraTrack,
     fps: f64,
     config: RenderConfig,
     pub(super) checkpoints: Option<Checkpoints>,
@@ -46,8 +50,8 @@ pub(super) struct PuddleRun {
     sim: crate::fluid::puddles::PuddleSim,
     /// All the rain landing on the ground: the drawn drops' and the stream beyond them.
     rain: GroundRain,
-    /// The render's camera (which rings the picture resolves).
-    camera: Camera,
+    /// Every frame's camera (which rings the picture resolves, where they land).
+    track: CameraTrack,
     /// The rings finer than a pixel, as a rough surface.
     far: FarRipples,
     /// The clip time the rain has been fed up to, s.
@@ -89,6 +93,7 @@ impl PuddleFeed {
         }
         PuddleFeed::Pending(Box::new(PuddlePlan {
             camera: shot.camera,
+            track: shot.rain.camera_track(),
             fps: shot.footage.fps,
             config: shot.config.clone(),
             checkpoints: None,
@@ -123,19 +128,19 @@ impl PuddleFeed {
             return Ok(Vec::new());
         };
         let hits = rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
-        let camera = plan.camera;
-        let far = FarRipples::new(&rain, &camera);
+        let track = plan.track.clone();
+        let far = FarRipples::new(&rain);
         log::info!(
             "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them water of \
              RMS slope {:.3}",
             rain.flux_at(t_s),
-            far.resolve_depth_m,
+            far.resolve_depth_m(&plan.camera),
             (rain.flux_at(t_s) * far.slope_variance_per_flux).sqrt()
         );
         let run = PuddleRun {
             sim,
             rain,
-            camera,
+            track,
             far,
             fed_s: t_s,
             recent: Vec::new(),
@@ -172,14 +177,18 @@ impl PuddleFeed {
         hits: &[Impact],
         t_s: f64,
     ) -> Result<()> {
-        use crate::fluid::ripples::{keep_resolved_rings, rings_on_water};
+        use crate::fluid::ripples::{keep_rings_resolved_by, rings_on_water};
         if let PuddleFeed::On(run) = self {
             let water = run.sim.shown_depth();
-            keep_resolved_rings(&mut run.recent, hits, t_s, &run.camera);
+            // A ring is judged by the camera of the moment it lands, so which rings are kept
+            // depends on the impacts alone, not on the frame a render starts at.
+            let track = &run.track;
+            keep_rings_resolved_by(&mut run.recent, hits, t_s, |t| track.at(t));
             compositor.set_water(&water)?;
             compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
             let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
-            compositor.set_far_ripples(slope_rms, run.far.resolve_depth_m)?;
+            let resolve_depth_m = run.far.resolve_depth_m(&run.track.at(t_s));
+            compositor.set_far_ripples(slope_rms, resolve_depth_m)?;
         }
         Ok(())
     }
@@ -188,24 +197,28 @@ impl PuddleFeed {
 /// The ripples where single rings are finer than a pixel: the water's mean square slope per
 /// unit impact flux ([`rain_slope_variance`](crate::fluid::ripples::rain_slope_variance) over
 /// the sizes that land) and the camera depth where a ring of the mean landing size spans
-/// [`MIN_RING_WAVELENGTH_PX`](crate::fluid::ripples::MIN_RING_WAVELENGTH_PX).
+/// [`MIN_RING_WAVELENGTH_PX`](crate::fluid::ripples::MIN_RING_WAVELENGTH_PX) (per frame: a zoom
+/// moves it).
 struct FarRipples {
     slope_variance_per_flux: f64,
-    resolve_depth_m: f64,
+    mean_diameter_mm: f64,
 }
 
 impl FarRipples {
-    fn new(rain: &GroundRain, camera: &Camera) -> FarRipples {
-        use crate::fluid::ripples::{
-            MIN_RING_WAVELENGTH_PX, WAVELENGTH_PER_DIAMETER, rain_slope_variance,
-        };
+    fn new(rain: &GroundRain) -> FarRipples {
+        use crate::fluid::ripples::rain_slope_variance;
         let sizes_mm = rain.impact_diameters_mm(8);
-        let mean_mm = sizes_mm.iter().sum::<f64>() / sizes_mm.len() as f64;
         FarRipples {
             slope_variance_per_flux: rain_slope_variance(1.0, &sizes_mm),
-            resolve_depth_m: WAVELENGTH_PER_DIAMETER * mean_mm * 1e-3 * camera.focal_px()
-                / MIN_RING_WAVELENGTH_PX,
+            mean_diameter_mm: sizes_mm.iter().sum::<f64>() / sizes_mm.len() as f64,
         }
+    }
+
+    /// The camera depth beyond which `camera` resolves no single ring, m.
+    fn resolve_depth_m(&self, camera: &Camera) -> f64 {
+        use crate::fluid::ripples::{MIN_RING_WAVELENGTH_PX, WAVELENGTH_PER_DIAMETER};
+        WAVELENGTH_PER_DIAMETER * self.mean_diameter_mm * 1e-3 * camera.focal_px()
+            / MIN_RING_WAVELENGTH_PX
     }
 }
 
@@ -275,6 +288,7 @@ impl PuddlePlan {
             ),
             None => None,
         };
-        PuddleSim::new(&self.config, camera, map.as_deref(), self.fps, settings)
+        let cameras = self.track.poses(crate::shot::rain::GROUND_VIEW_STEP_DEG);
+        PuddleSim::seen_by(&self.config, &cameras, map.as_deref(), self.fps, settings)
     }
 }

@@ -116,9 +116,12 @@ impl Shot {
             rain_config.max_drops = cap;
         }
         let camera = footage.camera(config)?;
+        let (w, h) = footage.display_size();
+        let posed = config.posed_camera(w, h)?;
+        check_pose_keys(config, &posed)?;
         let plan = rain::plan_keyed(
             &camera,
-            &config.camera,
+            &posed,
             &rain_config,
             &config.keyframes,
             exposure,
@@ -160,6 +163,38 @@ impl Shot {
             rain,
         })
     }
+}
+
+/// Most a keyed tilt or roll may start off a given ground's, degrees (rounding in a pose file).
+pub const POSE_KEY_TOLERANCE_DEG: f64 = 0.01;
+
+/// Beside a given ground, a keyed tilt or roll is the camera's own, as without one, so it
+/// starts where the ground puts the camera (`posed`): the ground is then where the picture
+/// shows it at the first frame, and stays in the world as the camera turns.
+fn check_pose_keys(config: &RenderConfig, posed: &crate::config::CameraConfig) -> Result<()> {
+    if !config.ground.is_given() {
+        return Ok(());
+    }
+    let k = &config.keyframes;
+    for (name, key, value) in [
+        ("camera.tilt_deg", &k.tilt_deg, posed.tilt_deg),
+        ("camera.roll_deg", &k.roll_deg, posed.roll_deg),
+    ] {
+        if let Some(at_0) = key.as_ref().map(|c| c.at(0.0))
+            && (at_0 - value).abs() > POSE_KEY_TOLERANCE_DEG
+        {
+            return Err(Error::Parameter {
+                name,
+                value: format!("keys from {at_0}"),
+                expected: format!(
+                    "keys from the ground's {value:.3}° (ground.mode {} poses the first frame; \
+                     key the pan and the field of view, or start these keys there)",
+                    config.ground.mode
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The camera looking at the displayed picture of `info`.

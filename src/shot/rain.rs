@@ -123,7 +123,7 @@ struct CameraPath<'a> {
 
 /// Most turn between the camera poses a moving camera's rain volume is planned for, degrees
 /// (the frusta between are covered by widening each by half of it).
-const PATH_STEP_DEG: f64 = 1.0;
+pub const PATH_STEP_DEG: f64 = 1.0;
 
 /// Most poses planned between the keys: each costs milliseconds, so a camera that turns far
 /// is planned at a coarser step (wider frusta) rather than for minutes.
@@ -328,6 +328,54 @@ pub fn plan_keyed(
     Ok(plan)
 }
 
+/// Most turn and zoom between the camera poses the water's ground is laid out for, degrees
+/// ([`CameraTrack::poses`]): the views between two of them overlap theirs by far.
+pub const GROUND_VIEW_STEP_DEG: f64 = 1.0;
+
+/// The camera of each frame of a shot: [`RainPlan::camera_at`] without the rain.
+#[derive(Debug, Clone)]
+pub struct CameraTrack {
+    first: Camera,
+    config: CameraConfig,
+    /// The pose keys, where they move the camera.
+    keys: Option<Keyframes>,
+}
+
+impl CameraTrack {
+    /// The camera of the frame shown at `t_s`.
+    pub fn at(&self, t_s: f64) -> Camera {
+        match &self.keys {
+            Some(keys) => camera_at(
+                &self.config,
+                keys,
+                self.first.width_px,
+                self.first.height_px,
+                t_s,
+            ),
+            None => self.first,
+        }
+    }
+
+    /// The camera at the shot's start.
+    pub fn first(&self) -> Camera {
+        self.first
+    }
+
+    /// The cameras over the shot no further apart than `step_deg` of turn and zoom along the
+    /// keys' path ([`Keyframes::camera_samples_s`]), the first at t = 0; the one camera of a
+    /// still shot.
+    pub fn poses(&self, step_deg: f64) -> Vec<Camera> {
+        match &self.keys {
+            Some(keys) => keys
+                .camera_samples_s(step_deg)
+                .into_iter()
+                .map(|t| self.at(t))
+                .collect(),
+            None => vec![self.first],
+        }
+    }
+}
+
 /// The camera of `config` with `keys` applied at `t_s`, for a `width_px`×`height_px` picture.
 fn camera_at(
     config: &CameraConfig,
@@ -365,6 +413,23 @@ impl RainPlan {
             camera_at(config, &self.keys, camera.width_px, camera.height_px, t_s)
         } else {
             *camera
+        }
+    }
+
+    /// The cameras of the shot's frames, apart from the rain (what the water on the ground
+    /// needs of them).
+    pub fn camera_track(&self) -> CameraTrack {
+        CameraTrack {
+            first: self.lens_camera.0,
+            config: self.lens_camera.1,
+            keys: self.keys.moves_camera().then(|| Keyframes {
+                pan_deg: self.keys.pan_deg.clone(),
+                tilt_deg: self.keys.tilt_deg.clone(),
+                roll_deg: self.keys.roll_deg.clone(),
+                height_m: self.keys.height_m.clone(),
+                fov_deg: self.keys.fov_deg.clone(),
+                ..Keyframes::default()
+            }),
         }
     }
 

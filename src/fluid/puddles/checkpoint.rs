@@ -43,7 +43,7 @@ pub struct Checkpoints {
 }
 
 /// FNV-1a, 64 bits: a hash that stays the same across builds and machines (unlike std's).
-fn fnv1a(text: &str) -> u64 {
+pub(crate) fn fnv1a(text: &str) -> u64 {
     fnv1a_bytes(text.as_bytes())
 }
 

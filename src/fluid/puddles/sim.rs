@@ -135,6 +135,22 @@ impl PuddleSim {
         fps: f64,
         settings: &PuddleSettings,
     ) -> Result<Option<PuddleSim>> {
+        PuddleSim::seen_by(config, std::slice::from_ref(camera), depth_m, fps, settings)
+    }
+
+    /// As [`new`](Self::new) for a camera that turns and zooms over the shot, seen by each of
+    /// `cameras` (its poses over the shot, the first the one `depth_m` is seen by): the
+    /// ground and the water placed on it cover every view.
+    pub fn seen_by(
+        config: &RenderConfig,
+        cameras: &[Camera],
+        depth_m: Option<&[f32]>,
+        fps: f64,
+        settings: &PuddleSettings,
+    ) -> Result<Option<PuddleSim>> {
+        let Some(camera) = cameras.first() else {
+            return Ok(None);
+        };
         let s = settings;
         if !config.ground.is_given() {
             return Ok(None);
@@ -155,7 +171,14 @@ impl PuddleSim {
                 expected: "fps > 0, m ≥ 1, positive sizes and caps, infiltration ≥ 0".into(),
             });
         }
-        let Some(footprint) = ground_footprint(camera, s.max_distance_m) else {
+        let Some(footprint) = cameras
+            .iter()
+            .filter_map(|c| ground_footprint(c, s.max_distance_m))
+            .reduce(|a, b| Footprint {
+                min_m: a.min_m.min(b.min_m),
+                max_m: a.max_m.max(b.max_m),
+            })
+        else {
             return Ok(None);
         };
         let (nx, ny, cell) = relief_grid(&footprint, s.relief_cell_m, s.max_vertices);
@@ -194,11 +217,12 @@ impl PuddleSim {
         let in_view = |x: f32, y: f32, z: f32| {
             let p = glam::DVec3::new(x as f64, y as f64, z as f64);
             let ahead = (p - camera.position_m).truncate().length() <= s.max_distance_m;
-            let (w, h) = (camera.width_px as f64, camera.height_px as f64);
             ahead
-                && camera
-                    .project_world(p)
-                    .is_some_and(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= w && q.y <= h)
+                && cameras.iter().any(|c| {
+                    let (w, h) = (c.width_px as f64, c.height_px as f64);
+                    c.project_world(p)
+                        .is_some_and(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= w && q.y <= h)
+                })
         };
         let shown_m3: f64 = (0..nx * ny)
             .filter(|&v| filled.depth_m[v] > 0.0)

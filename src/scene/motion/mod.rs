@@ -162,6 +162,42 @@ impl PoseTrack {
         Ok(())
     }
 
+    /// The track turned so that its first frame has tilt `tilt_deg` and roll `roll_deg`
+    /// (and pan 0): every frame keeps its turn from the first one, `W' = W₀' · W₀ᵀ · W` with
+    /// `W` the world-from-camera rotations, so a track estimated through a level guess follows
+    /// a ground that poses the first camera otherwise. Pans are unwrapped frame to frame.
+    pub fn rebased(&self, tilt_deg: f64, roll_deg: f64) -> PoseTrack {
+        let rotation = |pan: f64, tilt: f64, roll: f64| {
+            Camera::new(2, 2, 1.0, 1.0, tilt.to_radians(), roll.to_radians())
+                .panned(pan.to_radians())
+                .world_from_camera
+        };
+        let Some(first) = self.frames.first() else {
+            return self.clone();
+        };
+        let turn = rotation(0.0, tilt_deg, roll_deg)
+            * rotation(first.pan_deg, first.tilt_deg, first.roll_deg).transpose();
+        let mut last_pan = 0.0;
+        let frames = self
+            .frames
+            .iter()
+            .map(|f| {
+                let (pan, tilt, roll) =
+                    pan_tilt_roll(turn * rotation(f.pan_deg, f.tilt_deg, f.roll_deg));
+                let pan = pan.to_degrees();
+                let pan = pan - 360.0 * ((pan - last_pan) / 360.0).round();
+                last_pan = pan;
+                FramePose {
+                    pan_deg: pan,
+                    tilt_deg: tilt.to_degrees(),
+                    roll_deg: roll.to_degrees(),
+                    ..*f
+                }
+            })
+            .collect();
+        PoseTrack { frames }
+    }
+
     /// Whether every frame has the first one's pose.
     pub fn is_still(&self) -> bool {
         let p = |f: &FramePose| [f.pan_deg, f.tilt_deg, f.roll_deg, f.fov_deg];
@@ -205,6 +241,13 @@ pub const MIN_SHOT_CONFIDENCE: f64 = 0.8;
 pub const DEAD_BAND_DEG: f64 = 0.05;
 /// A shot whose zoom stays within this fraction of 1 keeps its field of view.
 pub const ZOOM_DEAD_BAND: f64 = 0.005;
+/// The fields of view and the largest tilt an estimated pose may take, degrees (inside the
+/// settings' ranges, with room for smoothing).
+const MIN_FOV_DEG: f64 = 2.0;
+/// See [`MIN_FOV_DEG`].
+const MAX_FOV_DEG: f64 = 165.0;
+/// See [`MIN_FOV_DEG`].
+const MAX_TILT_DEG: f64 = 89.0;
 /// The grid corners are picked on (one per cell), and the step they are searched at.
 const CELLS: (usize, usize) = (16, 9);
 const CORNER_STEP: usize = 2;
@@ -232,7 +275,7 @@ struct Reference {
 }
 
 /// How one shot of the clip moved.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShotMotion {
     /// Time of the shot's first frame, s.
     pub start_s: f64,
@@ -247,9 +290,10 @@ pub struct ShotMotion {
 }
 
 /// The estimate over a clip.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
     /// The pose of every frame.
+    #[serde(flatten)]
     pub track: PoseTrack,
     /// The shots, cut where the picture changes.
     pub shots: Vec<ShotMotion>,
@@ -402,9 +446,26 @@ impl Estimator {
             let zooms = readings
                 .iter()
                 .any(|r| (r.pose.zoom - 1.0).abs() > ZOOM_DEAD_BAND);
+            // A fit that ran off (a change of view the cut detector missed, read as a turn and
+            // a zoom, compounded over the references after it) leaves the camera's range: the
+            // shot is held still rather than followed there.
+            let in_range = readings.iter().all(|r| {
+                let fov = 2.0 * ((0.5 * fov0).tan() / r.pose.zoom).atan();
+                let (_, tilt, _) = pan_tilt_roll(first_w * r.pose.rotation.transpose());
+                (MIN_FOV_DEG..=MAX_FOV_DEG).contains(&fov.to_degrees())
+                    && tilt.to_degrees().abs() <= MAX_TILT_DEG
+            });
+            if !in_range {
+                log::warn!(
+                    "camera motion: the shot at {:.2} s reads as a camera turned or zoomed out of \
+                     range (a change of view not taken for a cut?); its camera is held still",
+                    readings[0].t_s
+                );
+            }
             let moving = readings.len() > 1
                 && confidence >= MIN_SHOT_CONFIDENCE
-                && (max_turn_deg > DEAD_BAND_DEG || zooms);
+                && (max_turn_deg > DEAD_BAND_DEG || zooms)
+                && in_range;
             shots.push(ShotMotion {
                 start_s: readings[0].t_s,
                 frames: readings.len(),

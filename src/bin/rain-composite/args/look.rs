@@ -99,7 +99,7 @@ pub struct LookArgs {
     /// The ground the rain lands on: none, auto (estimated from the clip's first shot; no ground, with a warning, when unsure), horizon=ROW[,roll=DEG] (ROW: where the horizon crosses the picture's vertical centre line, a fraction of the height from the top) or plane=nx,ny,nz,d (the plane n·X + d = 0 in the camera frame: x right, y down, z forward, metres; level ground 1.6 m below is plane=0,-1,0,1.6); it sets the camera's tilt and roll, and streaks end where drops land.
     #[arg(long, value_name = "MODE", allow_hyphen_values = true)]
     pub ground: Option<String>,
-    /// The camera's motion: auto (estimated from the whole clip before the render: its pan, tilt, roll and zoom frame by frame, so the rain stays in the world; a still or uncertain shot keeps the camera still, and a ground or camera keys keep it as they set it; it reads the whole clip first, so write the poses once with `inspect camera --json` to preview a long clip), none (the default), or a pose file as `inspect camera --json` writes it.
+    /// The camera's motion: auto (estimated from the whole clip before the render: its pan, tilt, roll and zoom frame by frame, so the rain, and beside a ground the splashes, wet ground and puddles, stay in the world; a still or uncertain shot keeps the camera still, and camera keys keep it as they set it; the whole clip is read once per file, kept in the --checkpoints folder and read back by later previews, chunks and renders), none (the default), or a pose file as `inspect camera --json` writes it.
     #[arg(long, value_name = "MODE")]
     pub camera_motion: Option<String>,
     /// Minutes it has rained (at --rain) before the clip starts: how wet a given ground already is (0: dry at the start, wetting during the clip).
