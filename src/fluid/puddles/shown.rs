@@ -7,16 +7,20 @@
 //! map carries the level of the water around it minus the leaf's own ground: positive under
 //! water, negative on ground that rises above it, and the shader's interpolation puts the rim
 //! where level and ground cross, between the leaves. Around each leaf the binomial kernel of
-//! order 8 along x and y (σ = √2 leaves) weighs the leaves within four:
-//! - all of them wet: the level is their surface heights' weighted mean (the carpet takes each
+//! order 8 along x and y (σ = √2 leaves) weighs the leaves within four, and of them:
+//! - all wet: the level is the surface heights' mean over 1-4-6-4-1 (the carpet takes each
 //!   leaf's deepest particle, which speckles the surface at the particle scale);
-//! - some wet: the level is their surface heights' weighted soft minimum (over
-//!   3·[`EDGE_DEPTH_M`]), since a rim's shallow water is a particle deep where a particle lies
-//!   (its cap stands above the level) and dry between; and the wet share W of the weights
-//!   bounds the shown depth by E·(W − [`REACH_SHARE`]) / [`RAMP_SHARE`] (E the rim depth), so
-//!   where no ground bounds the water (flat ground, a film's front) the rim is the smoothed
-//!   wet area's edge, soft over about half a leaf;
-//! - none: dry.
+//! - some wet: the level is a soft minimum of the wet leaves' surface heights within two,
+//!   weighted 1-4-6-4-1 (those within 3·[`EDGE_DEPTH_M`] of the lowest, tapered), since a
+//!   rim's shallow water is a particle deep where a particle lies (its cap stands above the
+//!   level) and dry between; and the wet share W of the order-8 weights bounds the shown depth
+//!   by E·(W − [`REACH_SHARE`]) / [`RAMP_SHARE`] (E the rim depth), so where no ground bounds
+//!   the water (flat ground, a film's front) the rim is the smoothed wet area's edge, soft over
+//!   about half a leaf;
+//! - none wet: dry.
+//!
+//! The cost is a few separable passes over the grid and a 5×5 neighbourhood on leaves near a
+//! rim.
 
 use crate::fluid::carpet::Field2;
 
@@ -98,8 +102,11 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
                     continue;
                 }
                 for (a, ii) in (i as isize - r..=i as isize + r).enumerate() {
+                    if ii < 0 || ii as usize >= nx {
+                        continue;
+                    }
                     let m = jj as usize * nx + ii as usize;
-                    if ii >= 0 && (ii as usize) < nx && wet[m] {
+                    if wet[m] {
                         leaves[n] = (LEVEL_KERNEL[a] * LEVEL_KERNEL[b], surface_m.values[m]);
                         n += 1;
                     }
