@@ -1,7 +1,8 @@
 // Stage puddles: standing water on the ground, shaded into the picture (docs/method.md,
 // "Puddles: shading"; CPU twin src/gpu/cpu/puddles.rs). A pixel whose view ray meets the ground
 // z = 0 at P takes the water depth there from the map (bilinear; the water covers the ground
-// smoothly as the depth rises from 0 to edge_depth_m). The water's normal is the flat normal
+// smoothly as the depth rises from 0 to edge_depth_m). The map is signed, negative where dry
+// (src/fluid/puddles/shown.rs), so the rim, its interpolated zero, falls between cells. The water's normal is the flat normal
 // tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
 // the ground under it darkened by Lekner & Dorf's k (as the wet ground), plus the exact
 // unpolarised Fresnel reflectance R of the rippled surface times the radiance L_r along the
@@ -160,7 +161,8 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
     return 0.25 * sum;
 }
 
-// Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
+// Water depth at ground point `xy` (m, signed: negative where dry): bilinear between cell
+// centres, 0 off the map.
 fn water_depth(xy: vec2<f32>) -> f32 {
     let n = vec2<i32>(puddle.cells);
     let u = (xy - puddle.origin_m) / puddle.cell_m - vec2<f32>(0.5);

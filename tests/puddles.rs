@@ -14,6 +14,9 @@ use std::process::Command;
 #[path = "common/fixtures.rs"]
 mod fixtures;
 
+#[path = "common/rims.rs"]
+mod rims;
+
 const FPS: f64 = 25.0;
 
 /// A camera looking down the street (the horizon 10 % from the top, a 90° lens, 1.6 m up) over
@@ -317,6 +320,136 @@ fn a_bowl_gathers_its_water_at_the_lowest_point_under_a_flat_surface() {
             .enumerate()
             .fold((0, 0.0f32), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
         assert!((at(&water, wk).as_dvec2() - centre).length() < 0.5 * (pool / k).sqrt());
+    }
+}
+
+/// The rim of the water the simulation holds in a bowl, as the shading reads the map (the
+/// twin's bilinear depth and smoothstep cover), at 1:1 (a carpet cell 2 px wide) and at 2×:
+/// near where the carpet's level meets the fluid's ground, and smooth from cell to cell
+/// (measured as each crossing's offset less the mean over 3 cells of rim around it). The
+/// carpet's rim is a particle deep where a particle lies and dry between, so the depth
+/// smoothed over the cells, as the map once was, draws it a cell out and scalloped; the
+/// measure must see that.
+#[test]
+fn a_pool_in_a_bowl_has_a_rim_smooth_between_the_cells() {
+    use rain_composite::fluid::puddles::shown::{EDGE_DEPTH_M, smoothed};
+    use rain_composite::gpu::cpu::puddles::water_depth;
+    use rain_composite::gpu::types::PuddleParams;
+    let (centre, radius, depth) = (DVec2::new(0.07, 2.0), 0.5, 0.1);
+    let k = depth / (radius * radius);
+    let (config, _) = street(5.0, 20.0, 0.0);
+    // A fine depth map (a pixel under 5 mm on the bowl), so the fluid's ground is the bowl.
+    let camera = config.camera(1280, 960).expect("camera");
+    let bowl = |x: f64, y: f64| (k * (DVec2::new(x, y) - centre).length_squared() - depth).min(0.0);
+    let depth_px = depth_map(&camera, bowl);
+    let fine = PuddleSettings {
+        particle_spacing_m: 0.01,
+        relief_cell_m: 0.01,
+        ..small()
+    };
+    let sim = PuddleSim::new(&config, &camera, Some(&depth_px), FPS, &fine)
+        .expect("valid")
+        .expect("ground in view");
+    let carpet = sim.water_depth();
+    let surface = sim.flow().carpet.surface_height();
+    // The carpet's level: its wet cells' mean surface over the pool's inner half.
+    let at = |i: usize| {
+        carpet.origin_m.as_dvec2()
+            + (DVec2::new((i % carpet.nx) as f64, (i / carpet.nx) as f64) + 0.5)
+                * carpet.cell_m as f64
+    };
+    let inner: Vec<f64> = (0..carpet.values.len())
+        .filter(|&i| carpet.values[i] > 0.0 && (at(i) - centre).length() < 0.1)
+        .map(|i| surface.values[i] as f64)
+        .collect();
+    let level = inner.iter().sum::<f64>() / inner.len() as f64;
+    let rim_radius = ((level + depth) / k).sqrt();
+    assert!(
+        rim_radius > 0.1 && rim_radius < 0.4,
+        "rim radius {rim_radius}"
+    );
+    // The true rim: where that level meets the fluid's own ground (the depth map's relief,
+    // within a millimetre of the bowl), at the bowl's slope.
+    let fluid_ground =
+        |p: DVec2| sim.flow().sph.boundaries().ground_m(p.x as f32, p.y as f32) as f64;
+    let rim = |p: DVec2| {
+        let slope = 2.0 * k * (p - centre).length();
+        (level - fluid_ground(p) - 0.5 * EDGE_DEPTH_M as f64, slope)
+    };
+    let bumps = (0..carpet.values.len())
+        .map(at)
+        .filter(|p| ((p - centre).length() - rim_radius).abs() < 0.05)
+        .map(|p| (fluid_ground(p) - bowl(p.x, p.y)).abs())
+        .fold(0.0f64, f64::max);
+    assert!(
+        bumps < 1e-3,
+        "the fluid's ground off the bowl by {bumps} m at the rim"
+    );
+    let cell = carpet.cell_m as f64;
+    for scale in [1u32, 2] {
+        // Looking down at the bowl from 1.6 m: a cell 2·scale px wide at its rim.
+        let distance = (1.6f64.powi(2) + 4.0).sqrt();
+        let focal = 2.0 * scale as f64 * distance / cell;
+        let (w, h) = (160 * scale, 120 * scale);
+        let view = Camera::new(
+            w,
+            h,
+            2.0 * (0.5 * w as f64 / focal).atan(),
+            1.6,
+            -(1.6f64 / 2.0).atan(),
+            0.0,
+        );
+        let mut results = Vec::new();
+        for (name, map) in [
+            ("water map", sim.shown_depth()),
+            ("smoothed depth", smoothed(&carpet)),
+        ] {
+            let params = PuddleParams {
+                origin_m: map.origin_m.to_array(),
+                cell_m: map.cell_m,
+                cells: [map.nx as u32, map.ny as u32],
+                ..bytemuck::Zeroable::zeroed()
+            };
+            let cover: Vec<f64> = (0..(w * h) as usize)
+                .map(|i| {
+                    let ray = view.ray_world(DVec2::new(
+                        (i % w as usize) as f64 + 0.5,
+                        (i / w as usize) as f64 + 0.5,
+                    ));
+                    let p = view.position_m + ray * (view.position_m.z / -ray.z.min(-1e-9));
+                    let t = (water_depth(&params, &map.values, p.truncate()) / EDGE_DEPTH_M as f64)
+                        .clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                })
+                .collect();
+            let crossings = rims::rim_crossings(&view, &cover, rim);
+            let cells: Vec<f64> = crossings.iter().map(|c| c.1 / cell).collect();
+            let (mean, rms, sd, max) = rims::spread(&cells);
+            let rough = rims::roughness_m(&crossings, centre, 3.0 * cell) / cell;
+            eprintln!(
+                "{scale}×, {name}: {} crossings, rim {mean:+.3} cells off the level's, RMS \
+                 {rms:.3}, {sd:.3} about its mean, at most {max:.3}; rough by {rough:.3} cells \
+                 ({:.2} px) over 3 cells",
+                cells.len(),
+                rough * 2.0 * scale as f64
+            );
+            assert!(
+                cells.len() > 100 * scale as usize,
+                "{} crossings",
+                cells.len()
+            );
+            results.push((mean, rough));
+        }
+        let ((mean, rough), (mean_before, rough_before)) = (results[0], results[1]);
+        // Within half a cell of the level's rim, and smooth over cells to a quarter of one.
+        assert!(
+            mean.abs() < 0.5 && rough < 0.25,
+            "{scale}×: {mean:+.3} cells off, rough by {rough:.3}"
+        );
+        assert!(
+            mean_before.abs() > 0.5 && rough_before > 0.25,
+            "the measure sees the smoothed depth's rims: {mean_before:+.3}, {rough_before:.3}"
+        );
     }
 }
 

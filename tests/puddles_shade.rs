@@ -33,7 +33,11 @@ use render::{dry_ground, lit, render_with};
 
 #[path = "common/pictures.rs"]
 mod pictures;
+
+#[path = "common/rims.rs"]
+mod rims;
 use pictures::{codes, picture_444, plane_codes};
+use rims::{rim_offsets_m, spread};
 
 // ---------------------------------------------------------------------------------------------
 // Ripples.
@@ -909,4 +913,173 @@ fn water_replaces_the_wet_film_under_it() {
         }
     }
     assert!(under_water > 50, "{under_water} pixels under water");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rims.
+
+/// A still pool in a bowl z = |P − centre|² / (2 R) filled to `level_m`: the carpet's fields on
+/// cells of `cell_m` (surface: the level where wet, the ground where dry; depth), as a still
+/// pool leaves them.
+struct Bowl {
+    centre_m: DVec2,
+    radius_of_curvature_m: f64,
+    level_m: f64,
+}
+
+impl Bowl {
+    fn ground_m(&self, p: DVec2) -> f64 {
+        (p - self.centre_m).length_squared() / (2.0 * self.radius_of_curvature_m)
+    }
+
+    /// The level's height above the ground at `p` beyond what covers half, and its gradient.
+    fn rim(&self, p: DVec2) -> (f64, f64) {
+        let above = self.level_m - self.ground_m(p) - 0.5 * EDGE_DEPTH_M;
+        (
+            above,
+            (p - self.centre_m).length() / self.radius_of_curvature_m,
+        )
+    }
+
+    /// The carpet's surface and depth on an `n`×`n` grid of `cell_m` around the bowl (its
+    /// corner off the centre by a fraction of a cell, so the rim meets the cells at every phase).
+    fn carpet(&self, n: usize, cell_m: f32) -> (Field2, Field2) {
+        let origin = self.centre_m.as_vec2() - Vec2::splat(0.5 * n as f32 * cell_m)
+            + Vec2::new(0.37, 0.71) * cell_m;
+        let (mut surface, mut depth) = (Vec::new(), Vec::new());
+        for k in 0..n * n {
+            let c = origin + (Vec2::new((k % n) as f32, (k / n) as f32) + 0.5) * cell_m;
+            let ground = self.ground_m(c.as_dvec2());
+            let d = (self.level_m - ground).max(0.0);
+            surface.push((ground + d) as f32);
+            depth.push(d as f32);
+        }
+        let field = |values| Field2 {
+            nx: n,
+            ny: n,
+            origin_m: origin,
+            cell_m,
+            values,
+        };
+        (field(surface), field(depth))
+    }
+}
+
+/// A puddle's rim follows the line where its level meets the ground, between the water map's
+/// cells, at 1:1 (a cell about 2 px wide) and at 2× (4 px): a still pool in a bowl, its rim a
+/// circle that meets the cells at every angle and phase, drawn by the CPU twin (exact) and the
+/// GPU stage (within a code of it). The depth smoothed over the cells, as the map once was,
+/// puts the rim a cell off, in steps; the measure must see that.
+#[test]
+fn puddle_rims_follow_the_level_between_cells() {
+    use rain_composite::fluid::puddles::shown::{smoothed, water_map};
+    let ctx = gpu();
+    let cell_m = 0.03f32;
+    let bowl = Bowl {
+        centre_m: DVec2::new(0.13, 2.4),
+        radius_of_curvature_m: 15.0,
+        level_m: 0.5f64.powi(2) / 30.0,
+    };
+    let (surface, depth) = bowl.carpet(48, cell_m);
+    let map = water_map(&surface, &depth);
+    let before = smoothed(&depth);
+    let full = Field2 {
+        values: vec![1.0; depth.values.len()],
+        ..depth.clone()
+    };
+    let lights = LightList::new(&[]);
+    for scale in [1u32, 2] {
+        // 1.6 m up, 35° down, 40° across: the bowl's rim 2.8 m away, a cell about 2·scale px.
+        let camera = Camera::new(
+            160 * scale,
+            120 * scale,
+            f64::to_radians(40.0),
+            1.6,
+            f64::to_radians(-35.0),
+            0.0,
+        );
+        let s = setup(&camera, false);
+        let p = lit(&s, 0.0, &uniform_sky(0.6), Some(1.0));
+        let frame = picture_444(camera.width_px, camera.height_px, |_, _| 400, |_, _, _| 512);
+        let twin = |water: &Field2| {
+            let params = puddle_params(water, 0);
+            let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+            puddles::puddles(
+                &mut canvas,
+                &frame,
+                &p,
+                &Water {
+                    params: &params,
+                    depth_m: &water.values,
+                    ripples: &[],
+                    lights: &lights,
+                },
+                None,
+            );
+            canvas
+        };
+        let dry = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+        let wet = twin(&full);
+        let cover_of = |canvas: &[[f64; 3]]| -> Vec<f64> {
+            (0..canvas.len())
+                .map(|i| {
+                    let change = wet[i][1] - dry[i][1];
+                    if change.abs() < 1e-4 {
+                        0.0
+                    } else {
+                        (canvas[i][1] - dry[i][1]) / change
+                    }
+                })
+                .collect()
+        };
+        let shown = twin(&map);
+        let px_per_cell = camera.focal_px() * cell_m as f64 / 2.8;
+        let mut results = Vec::new();
+        for (name, canvas) in [("water map", &shown), ("smoothed depth", &twin(&before))] {
+            let offsets = rim_offsets_m(&camera, &cover_of(canvas), |p| bowl.rim(p));
+            let cells: Vec<f64> = offsets.iter().map(|d| d / cell_m as f64).collect();
+            let (_, rms, sd, max) = spread(&cells);
+            eprintln!(
+                "{scale}×, {name}: {} crossings, rim off by RMS {rms:.3} cells ({:.2} px), \
+                 {sd:.3} about its mean, at most {max:.3}",
+                cells.len(),
+                rms * px_per_cell,
+            );
+            assert!(
+                cells.len() > 100 * scale as usize,
+                "{} crossings",
+                cells.len()
+            );
+            results.push((rms, max));
+        }
+        let ((rms, max), (rms_before, _)) = (results[0], results[1]);
+        // The rim to a twelfth of a cell (a third of a pixel at 2×), nowhere a fifth off.
+        assert!(
+            rms < 0.08 && max < 0.2,
+            "{scale}×: RMS {rms:.3}, max {max:.3} cells"
+        );
+        assert!(
+            rms_before > 0.2,
+            "the measure sees cell-sized rims: {rms_before:.3}"
+        );
+        if let Some(ctx) = &ctx {
+            let gpu = codes(&render(
+                ctx,
+                &frame,
+                &s,
+                &p,
+                &Inputs {
+                    water: Some(&map),
+                    ..Inputs::default()
+                },
+            ));
+            let cpu = rgb_to_yuv::rgb_to_yuv(&shown, frame.format, &frame.color);
+            let worst = (0..3)
+                .flat_map(|k| gpu[k].iter().zip(&cpu[k]).map(|(a, b)| a.abs_diff(*b)))
+                .max()
+                .unwrap_or(0);
+            eprintln!("{scale}×: GPU against the twin, worst {worst} codes");
+            assert!(worst <= 1, "{scale}×: {worst} codes off");
+        }
+    }
 }

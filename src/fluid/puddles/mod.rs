@@ -8,16 +8,19 @@
 //!  --pre-rain × rate ─► ledger (film, evaporation, infiltration) ─► fill (priority-flood,
 //!                      volume conserved) ─► particles on a lattice in the depressions
 //!  impacts per frame ─► SurfaceFlow (precipitation counters 5.29–5.31, SPH, carpet)
-//!                      ─► water_depth(): Field2 on z = 0 for the shading
+//!                      ─► water_depth(): Field2 on z = 0
+//!                      ─► shown: the water map the shading reads (signed, rims between leaves)
 //! ```
 //!
 //! Modules: [`checkpoint`] (the water kept in files for chunks), [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
-//! [`ledger`] (the water balance), [`sim`] ([`PuddleSim`], the loop), [`report`]
+//! [`ledger`] (the water balance), [`shown`] (the water map the picture is shaded from),
+//! [`sim`] ([`PuddleSim`], the loop), [`report`]
 //! (`inspect puddles`).
 pub mod checkpoint;
 pub mod fill;
 pub mod ledger;
 pub mod relief;
+pub mod shown;
 pub mod sim;
 
 pub use checkpoint::Checkpoints;

@@ -405,12 +405,11 @@ impl PuddleSim {
         self.flow.water_depth()
     }
 
-    /// The water depth the picture shows: [`PuddleSim::water_depth`] smoothed over about a
-    /// particle spacing (a separable binomial 1-4-6-4-1 kernel, σ = 1 cell, weights renormalised
-    /// at the edges). The carpet takes each leaf's deepest particle, which speckles the surface
-    /// at the particle scale; a liquid surface between particles is smooth.
+    /// The water map the picture is shaded from ([`super::shown::water_map`]): on the carpet's
+    /// grid, the smoothed level of the water above each leaf's ground, negative where dry, so
+    /// a puddle's rim falls where its level meets the ground, between the leaves.
     pub fn shown_depth(&self) -> Field2 {
-        smoothed(&self.water_depth())
+        super::shown::water_map(&self.flow.carpet.surface_height(), &self.water_depth())
     }
 
     /// Wetness on the carpet's grid, [0, 1].
@@ -562,67 +561,5 @@ fn resample(
         for (w, s) in water.iter_mut().zip(sampled) {
             *w = s * scale;
         }
-    }
-}
-
-/// `field` convolved with the binomial kernel 1-4-6-4-1 along x, then along y, the weights
-/// renormalised where the kernel leaves the grid.
-fn smoothed(field: &Field2) -> Field2 {
-    const W: [f32; 5] = [1.0, 4.0, 6.0, 4.0, 1.0];
-    let (nx, ny) = (field.nx, field.ny);
-    let pass = |src: &[f32], along_x: bool| -> Vec<f32> {
-        let mut out = vec![0.0; src.len()];
-        for j in 0..ny {
-            for i in 0..nx {
-                let (mut sum, mut weight) = (0.0, 0.0);
-                for (k, w) in W.iter().enumerate() {
-                    let (ii, jj) = if along_x {
-                        (i as isize + k as isize - 2, j as isize)
-                    } else {
-                        (i as isize, j as isize + k as isize - 2)
-                    };
-                    if ii >= 0 && jj >= 0 && (ii as usize) < nx && (jj as usize) < ny {
-                        sum += w * src[jj as usize * nx + ii as usize];
-                        weight += w;
-                    }
-                }
-                out[j * nx + i] = sum / weight;
-            }
-        }
-        out
-    };
-    let x = pass(&field.values, true);
-    Field2 {
-        nx,
-        ny,
-        origin_m: field.origin_m,
-        cell_m: field.cell_m,
-        values: pass(&x, false),
-    }
-}
-
-#[cfg(test)]
-mod smoothing_tests {
-    use super::*;
-
-    /// Away from the edges the smoothing keeps the water's volume and its centre, and spreads a
-    /// single deep cell over the kernel's 5×5 footprint with the binomial weights.
-    #[test]
-    fn smoothing_keeps_volume_and_spreads_a_spike() {
-        let mut values = vec![0.0f32; 15 * 11];
-        values[5 * 15 + 7] = 0.256;
-        let field = Field2 {
-            nx: 15,
-            ny: 11,
-            origin_m: glam::Vec2::ZERO,
-            cell_m: 0.02,
-            values,
-        };
-        let s = smoothed(&field);
-        let total: f32 = s.values.iter().sum();
-        assert!((total - 0.256).abs() < 1e-6, "{total}");
-        assert!((s.values[5 * 15 + 7] - 0.256 * 36.0 / 256.0).abs() < 1e-7);
-        assert!((s.values[3 * 15 + 5] - 0.256 / 256.0).abs() < 1e-7);
-        assert_eq!(s.values[2 * 15 + 7], 0.0, "nothing beyond two cells");
     }
 }

@@ -33,7 +33,7 @@ pub const MARCH_THICKNESS: f64 = 0.25;
 pub struct Water<'a> {
     /// Placement of the map, the water's optics, the ring count.
     pub params: &'a PuddleParams,
-    /// Water depth per cell, m (row-major, x fastest).
+    /// The water map: signed depth per cell, m, negative where dry (row-major, x fastest).
     pub depth_m: &'a [f32],
     /// The rings at the frame's time (the first `params.ring_count`).
     pub ripples: &'a [Ripple],
@@ -325,7 +325,8 @@ impl Mirror<'_> {
     }
 }
 
-/// Water depth (m) at ground point `xy`: bilinear between cell centres, 0 off the map.
+/// Water depth (m, signed: negative where dry) at ground point `xy`: bilinear between cell
+/// centres, 0 off the map.
 pub fn water_depth(params: &PuddleParams, depth_m: &[f32], xy: DVec2) -> f64 {
     let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
     let origin = DVec2::new(params.origin_m[0] as f64, params.origin_m[1] as f64);

@@ -8,6 +8,7 @@
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::fluid::Field2;
+use crate::fluid::puddles::shown;
 use crate::fluid::ripples::{MAX_RINGS, Ring, live_rings};
 use crate::gpu::bind::{bind_group, buffer, view};
 use crate::gpu::shaders::Stage;
@@ -17,8 +18,8 @@ use crate::rain::volume::impacts::Impact;
 use crate::{Error, Result};
 
 /// Water covers the ground smoothly as its depth rises from 0 to this, m: a puddle's rim is a
-/// wet film a millimetre thick, not a cut.
-pub const EDGE_DEPTH_M: f64 = 1e-3;
+/// wet film a millimetre thick, not a cut (the water map's own ramp, [`shown::EDGE_DEPTH_M`]).
+pub const EDGE_DEPTH_M: f64 = shown::EDGE_DEPTH_M as f64;
 
 /// Concentration κ of a compact light's mirror image on the water, rad⁻²: a lobe of about 1.8°
 /// (1/√κ), the glitter of a surface that is never quite still.
@@ -94,8 +95,9 @@ impl Puddles {
         }
     }
 
-    /// Sets the water depth on the ground (m per cell of `depth`, world x, y on z = 0) for the
-    /// frames submitted from now on. Negative or non-finite depths count as dry.
+    /// Sets the water map (m per cell of `depth`, world x, y on z = 0; [`shown::water_map`]) for
+    /// the frames submitted from now on: a signed depth, negative where dry, so that its
+    /// interpolated zero can fall between cells. Non-finite values count as dry.
     pub fn set_water(&mut self, queue: &wgpu::Queue, depth: &Field2) -> Result<()> {
         let cells = depth.nx * depth.ny;
         if cells == 0 || depth.values.len() != cells {
@@ -115,7 +117,13 @@ impl Puddles {
         let metres: Vec<f32> = depth
             .values
             .iter()
-            .map(|&d| if d.is_finite() { d.max(0.0) } else { 0.0 })
+            .map(|&d| {
+                if d.is_finite() {
+                    d
+                } else {
+                    -shown::EDGE_DEPTH_M
+                }
+            })
             .collect();
         let bytes = 4 * cells as u64;
         if self.on_gpu && self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes) {

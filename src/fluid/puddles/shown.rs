@@ -1,0 +1,259 @@
+//! The water map the picture is shaded from: the carpet's water as a signed depth on its grid,
+//! whose zero is the puddle's rim to a fraction of a cell (docs/method.md, "Puddles: shading").
+//!
+//! How it works: a puddle's rim is where its level meets the ground. The carpet knows the
+//! level only on wet leaves, and a depth that drops to 0 on the first dry leaf puts the rim on
+//! the leaves' grid, a staircase however it is interpolated. So on every leaf near water the
+//! map carries the level of the water around it minus the leaf's own ground: positive under
+//! water, negative on ground that rises above it, and the shader's interpolation puts the rim
+//! where level and ground cross, between the leaves. Around each leaf the binomial kernel of
+//! order 8 along x and y (σ = √2 leaves) weighs the leaves within four, and of them:
+//! - all wet: the level is the surface heights' mean over 1-4-6-4-1 (the carpet takes each
+//!   leaf's deepest particle, which speckles the surface at the particle scale);
+//! - some wet: the level is a soft minimum of the wet leaves' surface heights within two,
+//!   weighted 1-4-6-4-1 (those within 3·[`EDGE_DEPTH_M`] of the lowest, tapered), since a
+//!   rim's shallow water is a particle deep where a particle lies (its cap stands above the
+//!   level) and dry between; and the wet share W of the order-8 weights bounds the shown depth
+//!   by E·(W − [`REACH_SHARE`]) / [`RAMP_SHARE`] (E the rim depth), so where no ground bounds
+//!   the water (flat ground, a film's front) the rim is the smoothed wet area's edge, soft over
+//!   about half a leaf;
+//! - none wet: dry.
+//!
+//! The cost is a few separable passes over the grid and a 5×5 neighbourhood on leaves near a
+//! rim.
+
+use crate::fluid::carpet::Field2;
+
+/// Water covers the ground smoothly as its shown depth rises from 0 to this, m: a puddle's rim
+/// is a wet film a millimetre thick, not a cut.
+pub const EDGE_DEPTH_M: f32 = 1e-3;
+
+/// Where no ground bounds the water, none is shown where less than this share of the
+/// neighbourhood's weight is wet: on a straight front, about a leaf beyond the last wet leaf's
+/// edge (the first dry leaf holds 93/256 of it, the second 37/256). Well below the share
+/// where the ground does bound it (its true rim between the last wet and the first dry leaf),
+/// so that there the level decides.
+pub const REACH_SHARE: f32 = 0.15;
+
+/// The shown depth of water no ground bounds rises by [`EDGE_DEPTH_M`] over this much more
+/// share: a rim soft over about half a leaf.
+pub const RAMP_SHARE: f32 = 0.1;
+
+/// Leaves on either side of a leaf that its neighbourhood takes in.
+const REACH: usize = 4;
+
+/// The neighbourhood's weights along x and along y: the binomial kernel of 2·[`REACH`] (σ = √2
+/// leaves).
+const KERNEL: [f32; 2 * REACH + 1] = [1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0];
+
+/// Leaves on either side whose water gives a leaf its level.
+const LEVEL_REACH: usize = 2;
+
+/// The level's weights along x and along y: the binomial kernel 1-4-6-4-1 (σ = 1 leaf).
+const LEVEL_KERNEL: [f32; 2 * LEVEL_REACH + 1] = [1.0, 4.0, 6.0, 4.0, 1.0];
+
+/// The water map of a carpet whose surface heights (water where wet, ground where dry) are
+/// `surface_m` and whose water depths are `depth_m`, on one grid (see the module docs): a
+/// signed depth, m, negative where dry.
+///
+/// # Panics
+/// If the two fields are not on one grid (they are the same carpet's).
+pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
+    assert!(
+        surface_m.nx == depth_m.nx
+            && surface_m.ny == depth_m.ny
+            && surface_m.values.len() == depth_m.values.len()
+            && depth_m.values.len() == depth_m.nx * depth_m.ny,
+        "surface and depth on one grid"
+    );
+    let (nx, ny) = (depth_m.nx, depth_m.ny);
+    let wet: Vec<bool> = depth_m.values.iter().map(|&d| d > 0.0).collect();
+    let front = |share: f32| EDGE_DEPTH_M * (share - REACH_SHARE) / RAMP_SHARE;
+    let on_grid = |values: Vec<f32>| Field2 {
+        values,
+        ..depth_m.clone()
+    };
+    // The wet share (separable passes: exactly 0 with no wet leaf within reach, exactly 1 with
+    // no dry one).
+    let share = convolved(
+        &on_grid(wet.iter().map(|&w| if w { 1.0 } else { 0.0 }).collect()),
+        &KERNEL,
+    );
+    // Under water all around (all of the wide neighbourhood wet), the surface smoothed over
+    // the level's neighbourhood.
+    let level = convolved(surface_m, &LEVEL_KERNEL);
+    let r = LEVEL_REACH as isize;
+    let values = (0..nx * ny)
+        .map(|k| {
+            let w = share.values[k];
+            let ground = surface_m.values[k] - depth_m.values[k];
+            if w <= 0.0 {
+                return front(0.0);
+            }
+            if w >= 1.0 {
+                return level.values[k] - ground;
+            }
+            // The neighbourhood's wet leaves: (weight, surface).
+            let (i, j) = (k % nx, k / nx);
+            let mut leaves = [(0.0f32, 0.0f32); LEVEL_KERNEL.len() * LEVEL_KERNEL.len()];
+            let mut n = 0;
+            for (b, jj) in (j as isize - r..=j as isize + r).enumerate() {
+                if jj < 0 || jj as usize >= ny {
+                    continue;
+                }
+                for (a, ii) in (i as isize - r..=i as isize + r).enumerate() {
+                    if ii < 0 || ii as usize >= nx {
+                        continue;
+                    }
+                    let m = jj as usize * nx + ii as usize;
+                    if wet[m] {
+                        leaves[n] = (LEVEL_KERNEL[a] * LEVEL_KERNEL[b], surface_m.values[m]);
+                        n += 1;
+                    }
+                }
+            }
+            (soft_minimum(&leaves[..n]) - ground).min(front(w))
+        })
+        .collect();
+    on_grid(values)
+}
+
+/// A weighted soft minimum of heights h with weights w: their mean weighted by w·(1 − (h −
+/// h_min)/(3 E)) where positive, E = [`EDGE_DEPTH_M`]: the lowest height where one stands
+/// clear below the rest, their mean where they agree to well under E. (An empty set: +∞.)
+fn soft_minimum(held: &[(f32, f32)]) -> f32 {
+    let low = held.iter().fold(f32::INFINITY, |a, h| a.min(h.1));
+    let taper = 3.0 * EDGE_DEPTH_M;
+    let (sum, weight) = held.iter().fold((0.0f32, 0.0f32), |(s, w), h| {
+        let t = h.0 * (1.0 - (h.1 - low) / taper).max(0.0);
+        (s + t * h.1, w + t)
+    });
+    if weight > 0.0 { sum / weight } else { low }
+}
+
+/// `field` convolved with the binomial kernel 1-4-6-4-1 along x, then along y, the weights
+/// renormalised where the kernel leaves the grid: the carpet's depth smoothed over a leaf, the
+/// water map drawn with rims on the leaves' grid that the rim tests measure against.
+pub fn smoothed(field: &Field2) -> Field2 {
+    convolved(field, &[1.0, 4.0, 6.0, 4.0, 1.0])
+}
+
+/// `field` convolved with the odd, centred `kernel` along x, then along y, the weights
+/// renormalised where the kernel leaves the grid.
+fn convolved(field: &Field2, kernel: &[f32]) -> Field2 {
+    let (nx, ny) = (field.nx, field.ny);
+    let half = kernel.len() / 2;
+    let total: f32 = kernel.iter().sum();
+    // One pass along a line of `n` values `stride` apart from `start`, into `out`.
+    let line = |src: &[f32], out: &mut [f32], start: usize, stride: usize, n: usize| {
+        for i in 0..n {
+            let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
+            let (mut sum, mut weight) = (0.0, 0.0);
+            for (t, w) in (lo..hi).zip(&kernel[lo + half - i..]) {
+                sum += w * src[start + t * stride];
+                weight += w;
+            }
+            // Inside the grid the weights sum to the kernel's total (exactly: small integers).
+            out[start + i * stride] = if hi - lo == kernel.len() {
+                sum / total
+            } else {
+                sum / weight
+            };
+        }
+    };
+    let mut x = vec![0.0; field.values.len()];
+    for j in 0..ny {
+        line(&field.values, &mut x, j * nx, 1, nx);
+    }
+    let mut values = vec![0.0; field.values.len()];
+    for i in 0..nx {
+        line(&x, &mut values, i, nx, ny);
+    }
+    Field2 {
+        nx,
+        ny,
+        origin_m: field.origin_m,
+        cell_m: field.cell_m,
+        values,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(nx: usize, ny: usize, values: Vec<f32>) -> Field2 {
+        Field2 {
+            nx,
+            ny,
+            origin_m: glam::Vec2::ZERO,
+            cell_m: 0.02,
+            values,
+        }
+    }
+
+    /// Away from the edges the smoothing keeps the water's volume and its centre, and spreads a
+    /// single deep cell over the kernel's 5×5 footprint with the binomial weights.
+    #[test]
+    fn smoothing_keeps_volume_and_spreads_a_spike() {
+        let mut values = vec![0.0f32; 15 * 11];
+        values[5 * 15 + 7] = 0.256;
+        let s = smoothed(&grid(15, 11, values));
+        let total: f32 = s.values.iter().sum();
+        assert!((total - 0.256).abs() < 1e-6, "{total}");
+        assert!((s.values[5 * 15 + 7] - 0.256 * 36.0 / 256.0).abs() < 1e-7);
+        assert!((s.values[3 * 15 + 5] - 0.256 / 256.0).abs() < 1e-7);
+        assert_eq!(s.values[2 * 15 + 7], 0.0, "nothing beyond two cells");
+    }
+
+    /// A still pool on a slope, wet exactly where its level stands above the ground: the map's
+    /// zero (where the shader's interpolation puts the rim) lies where level and ground cross,
+    /// between the leaves; under water all around it is the depth.
+    #[test]
+    fn a_level_pool_on_a_slope_has_its_rim_where_level_meets_ground() {
+        let (nx, ny) = (24, 7);
+        for level in [0.0131f32, 0.0137, 0.0144] {
+            let ground = |i: usize| 0.001 * i as f32;
+            let (mut surface, mut depth) = (Vec::new(), Vec::new());
+            for _ in 0..ny {
+                for i in 0..nx {
+                    let d = (level - ground(i)).max(0.0);
+                    surface.push(ground(i) + d);
+                    depth.push(d);
+                }
+            }
+            let map = water_map(&grid(nx, ny, surface), &grid(nx, ny, depth));
+            let row = &map.values[3 * nx..4 * nx];
+            let i = row.iter().position(|&s| s <= 0.0).expect("a rim");
+            let rim = (i - 1) as f32 + row[i - 1] / (row[i - 1] - row[i]);
+            let truth = level / 0.001;
+            assert!(
+                (rim - truth).abs() < 1e-3,
+                "rim at {rim}, level meets ground at {truth}"
+            );
+            assert!((row[3] - (level - ground(3))).abs() < 1e-6, "{row:?}");
+        }
+    }
+
+    /// A film on flat ground, whatever its depth: the shown water ends where the wet share of
+    /// the neighbourhood falls to the reach, about a leaf beyond the last wet one.
+    #[test]
+    fn a_film_on_flat_ground_ends_where_the_wet_share_falls_to_the_reach() {
+        let (nx, ny) = (16, 5);
+        for film in [0.004f32, 0.02] {
+            let depth: Vec<f32> = (0..nx * ny)
+                .map(|k| if k % nx < 8 { film } else { 0.0 })
+                .collect();
+            let map = water_map(&grid(nx, ny, depth.clone()), &grid(nx, ny, depth));
+            let row = &map.values[2 * nx..3 * nx];
+            let i = row.iter().position(|&s| s <= 0.0).expect("a rim");
+            let rim = (i - 1) as f32 + row[i - 1] / (row[i - 1] - row[i]);
+            // Shares 93/256 and 37/256 on the first two dry leaves.
+            let share = |s: f32| EDGE_DEPTH_M * (s - REACH_SHARE) / RAMP_SHARE;
+            let expected = 8.0 + share(93.0 / 256.0) / (share(93.0 / 256.0) - share(37.0 / 256.0));
+            assert!((rim - expected).abs() < 1e-4, "rim at {rim}: {row:?}");
+            assert!(rim > 8.5 && rim < 9.0, "{rim}");
+            assert!(row[..4].iter().all(|&d| (d - film).abs() < 1e-6), "{row:?}");
+        }
+    }
+}
