@@ -22,6 +22,8 @@
 //! The cost is a few separable passes over the grid and a 5×5 neighbourhood on leaves near a
 //! rim.
 
+use rayon::prelude::*;
+
 use crate::fluid::carpet::Field2;
 
 /// Water covers the ground smoothly as its shown depth rises from 0 to this, m: a puddle's rim
@@ -84,6 +86,7 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
     let level = convolved(surface_m, &LEVEL_KERNEL);
     let r = LEVEL_REACH as isize;
     let values = (0..nx * ny)
+        .into_par_iter()
         .map(|k| {
             let w = share.values[k];
             let ground = surface_m.values[k] - depth_m.values[k];
@@ -139,36 +142,61 @@ pub fn smoothed(field: &Field2) -> Field2 {
 }
 
 /// `field` convolved with the odd, centred `kernel` along x, then along y, the weights
-/// renormalised where the kernel leaves the grid.
+/// renormalised where the kernel leaves the grid. Both passes run a row at a time (the pass
+/// along y sums whole rows, so it reads memory in order) over rayon's threads; each value is
+/// summed in the kernel's order, so the result does not depend on the threads.
 fn convolved(field: &Field2, kernel: &[f32]) -> Field2 {
     let (nx, ny) = (field.nx, field.ny);
     let half = kernel.len() / 2;
     let total: f32 = kernel.iter().sum();
-    // One pass along a line of `n` values `stride` apart from `start`, into `out`.
-    let line = |src: &[f32], out: &mut [f32], start: usize, stride: usize, n: usize| {
-        for i in 0..n {
-            let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
-            let (mut sum, mut weight) = (0.0, 0.0);
-            for (t, w) in (lo..hi).zip(&kernel[lo + half - i..]) {
-                sum += w * src[start + t * stride];
-                weight += w;
-            }
-            // Inside the grid the weights sum to the kernel's total (exactly: small integers).
-            out[start + i * stride] = if hi - lo == kernel.len() {
-                sum / total
-            } else {
-                sum / weight
-            };
-        }
+    // The taps of position `i` on a line of `n`: (first index, the kernel's weights from there,
+    // whether the whole kernel lies on the line).
+    let taps = |i: usize, n: usize| {
+        let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
+        (
+            lo,
+            &kernel[lo + half - i..lo + half - i + (hi - lo)],
+            hi - lo == kernel.len(),
+        )
     };
     let mut x = vec![0.0; field.values.len()];
-    for j in 0..ny {
-        line(&field.values, &mut x, j * nx, 1, nx);
-    }
+    x.par_chunks_mut(nx.max(1))
+        .zip(field.values.par_chunks(nx.max(1)))
+        .for_each(|(out, src)| {
+            for (i, o) in out.iter_mut().enumerate() {
+                let (lo, weights, whole) = taps(i, nx);
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for (s, w) in src[lo..].iter().zip(weights) {
+                    sum += w * s;
+                    weight += w;
+                }
+                // Inside the grid the weights sum to the kernel's total (exactly: small
+                // integers).
+                *o = if whole { sum / total } else { sum / weight };
+            }
+        });
     let mut values = vec![0.0; field.values.len()];
-    for i in 0..nx {
-        line(&x, &mut values, i, nx, ny);
-    }
+    values
+        .par_chunks_mut(nx.max(1))
+        .enumerate()
+        .for_each(|(j, out)| {
+            let (lo, weights, whole) = taps(j, ny);
+            let mut sum = vec![0.0f32; nx];
+            for (t, w) in weights.iter().enumerate() {
+                let row = &x[(lo + t) * nx..(lo + t + 1) * nx];
+                for (s, r) in sum.iter_mut().zip(row) {
+                    *s += w * r;
+                }
+            }
+            let norm = if whole {
+                total
+            } else {
+                weights.iter().sum::<f32>()
+            };
+            for (o, s) in out.iter_mut().zip(&sum) {
+                *o = s / norm;
+            }
+        });
     Field2 {
         nx,
         ny,
