@@ -237,16 +237,19 @@ fn ground_setup(cam: &Camera, wet: bool) -> RainSetup {
         history: RainHistory::new(vec![(-600.0, 10.0), (0.0, 0.0)]).expect("history"),
         reach_m: REACH_M,
     };
-    setup
-        .with_ground(true)
-        .with_wetting(wet.then_some(wetting))
+    setup.with_ground(true).with_wetting(wet.then_some(wetting))
 }
 
 /// The haze of [`setup_and_params`] with its extinction, so that it ends on the ground.
 fn ground_params(setup: &RainSetup) -> RainParams {
     let mut p = lit(setup, 0.0, &[(0, [0.05, 0.05, 0.08])], None);
     let beta = -HAZE_T.ln() / (HAZE_FAR_M - HAZE_NEAR_M);
-    p.haze = [HAZE_NEAR_M as f32, HAZE_FAR_M as f32, beta as f32, HAZE_T as f32];
+    p.haze = [
+        HAZE_NEAR_M as f32,
+        HAZE_FAR_M as f32,
+        beta as f32,
+        HAZE_T as f32,
+    ];
     p
 }
 
@@ -254,9 +257,7 @@ fn ground_params(setup: &RainSetup) -> RainParams {
 /// the horizon.
 fn street_lamp(cam: &Camera) -> LightSource {
     LightSource {
-        direction_world: cam
-            .ray_world(glam::DVec2::new(48.0, 26.0))
-            .normalize(),
+        direction_world: cam.ray_world(glam::DVec2::new(48.0, 26.0)).normalize(),
         solid_angle_sr: 2e-4,
         radiance_rgb: [3000.0, 2400.0, 1200.0],
         distance_m: None,
@@ -272,7 +273,10 @@ fn beyond_reach(p: &RainParams, x: u32, y: u32) -> bool {
 
 /// The wetness of [`ground_setup`]'s ground at the frame's time.
 fn wet_params() -> WetParams {
-    let wetting = ground_setup(&camera(), true).wetting.clone().expect("a wetting ground");
+    let wetting = ground_setup(&camera(), true)
+        .wetting
+        .clone()
+        .expect("a wetting ground");
     WetParams::new(wetting.wetness_at(0.0), &FilmOptics::water(), REACH_M)
 }
 
@@ -322,7 +326,15 @@ fn the_glow_goes_on_over_the_ground() {
     // The whole frame against the twin, wet ground and glow.
     let glow = yuv_to_rgb::haze_glow(&p, &lamp, &tables, (W, H));
     let mut canvas = yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, &lamp, &tables);
-    wet_ground::wet_ground_lit(&mut canvas, &frame, &p, &wet_params(), None, None, Some(&glow));
+    wet_ground::wet_ground_lit(
+        &mut canvas,
+        &frame,
+        &p,
+        &wet_params(),
+        None,
+        None,
+        Some(&glow),
+    );
     let twin = rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color);
     let (mut worst, mut wetted) = (0, 0);
     for plane in 0..3 {

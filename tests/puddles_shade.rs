@@ -1128,11 +1128,17 @@ fn the_water_keeps_the_lamps_glow() {
         for k in 0..3 {
             let halo = lamplit[i][k] - dark[i][k];
             let kept = lit_water[i][k] - dark_water[i][k];
-            assert!(kept >= halo - 1e-12, "pixel {i}: {kept} of the halo's {halo} kept");
+            assert!(
+                kept >= halo - 1e-12,
+                "pixel {i}: {kept} of the halo's {halo} kept"
+            );
         }
         halo_under_water += usize::from(covered && lamplit[i][1] - dark[i][1] > 1e-3);
     }
-    assert!(halo_under_water > 100, "{halo_under_water} pixels of halo under water");
+    assert!(
+        halo_under_water > 100,
+        "{halo_under_water} pixels of halo under water"
+    );
     let Some(ctx) = gpu() else { return };
     let gpu = codes(&render_with(&ctx, &frame, &s, &p, |comp| {
         comp.set_transfer_table(&tables);

@@ -30,7 +30,10 @@ pub struct YuvToRgb {
 }
 
 /// The glow's grid pipeline, bound to `r` (the grid is `r.glow_grid`).
-fn glow_pass(device: &wgpu::Device, r: &FrameResources) -> (wgpu::ComputePipeline, wgpu::BindGroup) {
+fn glow_pass(
+    device: &wgpu::Device,
+    r: &FrameResources,
+) -> (wgpu::ComputePipeline, wgpu::BindGroup) {
     let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "glow");
     let entries = [
         (5, buffer(&r.rain_params)),
