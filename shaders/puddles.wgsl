@@ -13,11 +13,13 @@
 // compact lights, blended over the last EDGE_PX pixels.
 // The ground under the water is the frame's own (decoded from the planes, common/plate.wgsl),
 // not the canvas, which already holds the wet ground's film: the water replaces the film where
-// it covers the ground, C' = C + cover·(L·T + S + T·((k − 1)·L + R·L_r) − C), instead of
+// it covers the ground, C' = C + cover·(L·T + S + G + T·((k − 1)·L + R·L_r) − C) (G the
+// lamps' glow, common/glow_grid.wgsl, as yuv_to_rgb added it), instead of
 // darkening it twice. Without a depth map, the water keeps to the ground found in the frame
 // (common/ground_mask.wgsl).
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/depth.wgsl, common/water.wgsl, common/plate.wgsl, common/ground_mask.wgsl.
+// common/depth.wgsl, common/water.wgsl, common/plate.wgsl, common/ground_mask.wgsl,
+// common/glow_grid.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> puddle: PuddleParams;
@@ -32,6 +34,7 @@
 @group(0) @binding(10) var plane_cb: texture_2d<u32>;
 @group(0) @binding(11) var plane_cr: texture_2d<u32>;
 @group(0) @binding(12) var<storage, read> ground_mask: array<f32>;
+@group(0) @binding(13) var<storage, read> glow_grid: array<vec4<f32>>;
 
 // The reflection fades from the frame to the environment over this many pixels at its border.
 const EDGE_PX: f32 = 8.0;
@@ -129,14 +132,14 @@ fn shade(id: vec2<u32>, layer: bool) {
     if layer {
         let held = textureLoad(picture, id, 0);
         let m = t * k;
-        let added = in_scatter(id, t) + t * r * seen;
+        let added = in_scatter(id, t) + haze_glow(id, t) + t * r * seen;
         let f = (1.0 - a) * (1.0 - held.a) + a * m;
         let kept = clamp(min(f.x, min(f.y, f.z)), 0.0, 1.0);
         textureStore(canvas, id, vec4<f32>((1.0 - a) * held.rgb + a * added + scene * (f - kept), 1.0 - kept));
         return;
     }
     let change = (k - 1.0) * scene + r * seen;
-    let water = scene * t + in_scatter(id, t) + t * change;
+    let water = scene * t + in_scatter(id, t) + haze_glow(id, t) + t * change;
     textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
 }
 

@@ -1,8 +1,9 @@
 // Stage wet_ground: the ground wets (docs/method.md §2.3; CPU twin src/gpu/cpu/wet_ground.rs).
 // Only pixels whose view ray meets the ground z = 0 in front of the camera change (d.z < 0):
 // nothing at or above the horizon is written. The scene radiance L is the frame's own, decoded
-// from the planes (common/plate.wgsl); yuv_to_rgb veiled it with the haze (C = L·T + S), so
-// the wet ground is C' = L·T + S + w·T·((k − 1)·L + R(μ)·L_env(mirrored ray)) = L·M + A, with k
+// from the planes (common/plate.wgsl); yuv_to_rgb veiled it with the haze and the lamps' glow
+// (C = L·T + S + G), so the wet ground is C' = L·T + S + G + w·T·((k − 1)·L + R(μ)·L_env(mirrored
+// ray)) = L·M + A, with k
 // Lekner & Dorf's darkening of a film over a surface of albedo a = π·L / E (E the irradiance
 // the frame's environment SH sends onto the level ground) and R the exact unpolarised Fresnel
 // reflectance of water. The mirror image comes from four SH bands: a blurred sky, as on a rough
@@ -15,7 +16,8 @@
 // colour L·(M − min(M)) + A ≥ 0 gives back L·M + A over L exactly. The darkening is per channel
 // (the ground's albedo tints it), so the layer is exact over the frame it was made from.
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/depth.wgsl, common/plate.wgsl, common/water.wgsl, common/ground_mask.wgsl.
+// common/depth.wgsl, common/plate.wgsl, common/water.wgsl, common/ground_mask.wgsl,
+// common/glow_grid.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<uniform> wet: WetParams;
@@ -26,9 +28,12 @@
 @group(0) @binding(6) var canvas: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(7) var<storage, read> scene_depth: array<f32>;
 @group(0) @binding(8) var<storage, read> ground_mask: array<f32>;
+@group(0) @binding(9) var<uniform> lights: LightList;
+@group(0) @binding(10) var<storage, read> glow_grid: array<vec4<f32>>;
 
 // The wet ground at pixel `p` as L·M + A: the frame's linear colour L, the factor M on it and
-// the light A added (the haze's and the film's reflection); `ground` false where the pixel's
+// the light A added (the haze's in-scatter and the lamps' glow, as yuv_to_rgb wrote them with
+// the same T, and the film's reflection); `ground` false where the pixel's
 // ray does not meet the ground (nothing to write).
 struct Wet {
     ground: bool,
@@ -54,7 +59,7 @@ fn wet_at(p: vec2<u32>) -> Wet {
     let ground_z_m = rain.camera_pos_m.z / -ray.z;
     let shown = ground_shown(scene_depth_m(vec2<f32>(p) + vec2<f32>(0.5)), ground_z_m);
     let w = wet.wetness * reach_fade(rain.camera_pos_m.z / cos_view, wet.reach_m) * shown * ground_weight(p);
-    return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p, t) + w * t * r * sky);
+    return Wet(true, scene, t + w * t * (k - 1.0), in_scatter(p, t) + haze_glow(p, t) + w * t * r * sky);
 }
 
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)

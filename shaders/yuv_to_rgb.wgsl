@@ -6,7 +6,8 @@
 // without rain: exact identity; common/plate.wgsl, common/glow.wgsl); on the open sky T goes
 // to 1 for the background and the in-scatter, the glow staying (common/sky.wgsl).
 // Includes: common/types.wgsl, common/color.wgsl, common/sh.wgsl, common/camera.wgsl,
-// common/lights.wgsl, common/depth.wgsl, common/plate.wgsl, common/glow.wgsl, common/sky.wgsl.
+// common/lights.wgsl, common/depth.wgsl, common/plate.wgsl, common/glow.wgsl, common/glow_grid.wgsl,
+// common/sky.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: FrameParams;
 @group(0) @binding(1) var plane_y: texture_2d<u32>;

@@ -13,8 +13,8 @@ use glam::{DVec3, Vec2};
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::drops::MatteAtlas;
 use rain_composite::fluid::Field2;
-use rain_composite::gpu::cpu::puddles::{Water, puddles_masked};
-use rain_composite::gpu::cpu::wet_ground::wet_ground_masked;
+use rain_composite::gpu::cpu::puddles::{Water, puddles_lit};
+use rain_composite::gpu::cpu::wet_ground::wet_ground_lit;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::{GroundFrame, HostColour};
 use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, FrameWater, LIGHT_LOBE};
@@ -849,7 +849,8 @@ fn unknown_depth_draws_as_no_map() {
 
 // The ground's passes on the CPU back end (`gpu::host::wet_ground`, `gpu::host::puddles`, the
 // splashes' draw list drawn by `gpu::host::streaks`) against the twins
-// (`gpu::cpu::wet_ground::wet_ground_masked`, `gpu::cpu::puddles::puddles_masked`), and through
+// (`gpu::cpu::wet_ground::wet_ground_lit`, `gpu::cpu::puddles::puddles_lit`, the lamps' glow
+// kept on the ground), and through
 // the compositor against the GPU's stages.
 
 /// A camera 1.6 m over the ground looking down by 0.2 rad: about two thirds of the picture is
@@ -1029,9 +1030,13 @@ fn ground_case_turned(
     // The twins.
     let lit = Some((&list, tables));
     let twin_before = yuv_to_rgb::yuv_to_rgb_in_scene(frame, &p, lit, map.as_ref(), None);
+    // The lamps' glow the ground's passes keep (none without lamps or haze).
+    let glow = (list.count > 0 && p.haze[3] < 1.0)
+        .then(|| yuv_to_rgb::haze_glow(&p, &list, tables, (f.width, f.height)));
     let mut twin = twin_before.clone();
     if let Some(w) = &wet {
-        wet_ground_masked(&mut twin, frame, &p, w, map.as_ref(), mask.as_deref());
+        let (map, mask) = (map.as_ref(), mask.as_deref());
+        wet_ground_lit(&mut twin, frame, &p, w, map, mask, glow.as_deref());
     }
     if let Some(params) = &pool {
         let pond = Water {
@@ -1040,7 +1045,8 @@ fn ground_case_turned(
             ripples: &ripples,
             lights: &list,
         };
-        puddles_masked(&mut twin, frame, &p, &pond, map.as_ref(), mask.as_deref());
+        let (map, mask) = (map.as_ref(), mask.as_deref());
+        puddles_lit(&mut twin, frame, &p, &pond, map, mask, glow.as_deref());
     }
     // The CPU back end.
     let mut host = HostColour::new(f, &frame.color);

@@ -1083,3 +1083,73 @@ fn puddle_rims_follow_the_level_between_cells() {
         }
     }
 }
+
+/// At night the water keeps the lamps' halo the haze laid on the ground: on the GPU, within a
+/// code of the twin; in the twin, every pixel the water covers gains at least the glow the
+/// plate had there with the lamp (its reflection of the lit picture only adds), where without
+/// the glow term it would lose it under deep water.
+#[test]
+fn the_water_keeps_the_lamps_glow() {
+    let camera = Camera::new(96, 64, 1.0, 1.6, 0.0, 0.0);
+    let s = setup(&camera, false);
+    let mut p = lit(&s, 0.0, &uniform_sky(0.02), None);
+    // Haze from 3 m to 50 m, ending on the ground where it is nearer.
+    let t: f64 = 0.85;
+    p.haze = [3.0, 50.0, (-t.ln() / 47.0) as f32, t as f32];
+    let frame = picture_444(96, 64, |_, _| 120, grey);
+    let water = lake(0.05, 20.0);
+    let params = puddle_params(&water, 0);
+    let lamp = LightSource {
+        direction_world: camera.ray_world(DVec2::new(48.0, 26.0)).normalize(),
+        solid_angle_sr: 2e-4,
+        radiance_rgb: [3000.0, 2400.0, 1200.0],
+        distance_m: None,
+    };
+    let (lamps, none) = (LightList::new(&[lamp]), LightList::new(&[]));
+    let tables = render::water_tables(1024);
+    let glow = yuv_to_rgb::haze_glow(&p, &lamps, &tables, (96, 64));
+    let twin = |lights: &LightList, glow: Option<&[[f64; 3]]>| {
+        let before = yuv_to_rgb::yuv_to_rgb_lit(&frame, &p, lights, &tables);
+        let mut after = before.clone();
+        let pond = Water {
+            params: &params,
+            depth_m: &water.values,
+            ripples: &[],
+            lights,
+        };
+        puddles::puddles_lit(&mut after, &frame, &p, &pond, None, None, glow);
+        (before, after)
+    };
+    let (dark, dark_water) = twin(&none, None);
+    let (lamplit, lit_water) = twin(&lamps, Some(&glow));
+    let mut halo_under_water = 0;
+    for i in 0..dark.len() {
+        let covered = dark_water[i] != dark[i];
+        for k in 0..3 {
+            let halo = lamplit[i][k] - dark[i][k];
+            let kept = lit_water[i][k] - dark_water[i][k];
+            assert!(
+                kept >= halo - 1e-12,
+                "pixel {i}: {kept} of the halo's {halo} kept"
+            );
+        }
+        halo_under_water += usize::from(covered && lamplit[i][1] - dark[i][1] > 1e-3);
+    }
+    assert!(
+        halo_under_water > 100,
+        "{halo_under_water} pixels of halo under water"
+    );
+    let Some(ctx) = gpu() else { return };
+    let gpu = codes(&render_with(&ctx, &frame, &s, &p, |comp| {
+        comp.set_transfer_table(&tables);
+        comp.set_lights(&lamps);
+        comp.set_water(&water).expect("water");
+    }));
+    let cpu = rgb_to_yuv::rgb_to_yuv(&lit_water, frame.format, &frame.color);
+    let worst = (0..3)
+        .flat_map(|k| gpu[k].iter().zip(&cpu[k]).map(|(a, b)| a.abs_diff(*b)))
+        .max()
+        .unwrap_or(0);
+    eprintln!("the water under the halo: GPU against the twin, worst {worst} codes");
+    assert!(worst <= 1, "{worst} codes off");
+}

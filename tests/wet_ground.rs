@@ -537,7 +537,7 @@ fn the_wet_ground_as_a_layer_over_the_plate_is_the_wet_picture() {
     clear.haze[3] = 1.0;
     let plate = yuv_to_rgb::yuv_to_rgb(&frame, &clear);
     let mut layer: Vec<[f64; 4]> = vec![[0.0; 4]; plate.len()];
-    wet_ground::wet_ground_layer(&mut layer, &frame, &p, &wet, None);
+    wet_ground::wet_ground_layer(&mut layer, &frame, &p, &wet, None, None);
     let mut wet_px = 0;
     for ((l, plate), want) in layer.iter().zip(&plate).zip(&picture) {
         if l[3] == 0.0 {

@@ -9,9 +9,9 @@
 // `glow_grid`) and each pixel interpolates it bilinearly: a per-pixel integral over 16 lights
 // cost 0.35 s per 720p frame on a CPU adapter, the grid 1/64 of it.
 //
-// Needs, declared by the stage that includes it: var<uniform> rain: RainParams;
-// var<storage, read_write> glow_grid: array<vec4<f32>>; and those of common/lights.wgsl. Uses
-// common/lights.wgsl.
+// Needs, declared by the stage that includes it: var<uniform> rain: RainParams; and those of
+// common/lights.wgsl. Uses common/lights.wgsl; the grid is read back at each pixel by
+// common/glow_grid.wgsl (the stages after yuv_to_rgb that rewrite a pixel add it too).
 
 // Samples along the ray per light at a finite distance; a light at infinity is seen at one
 // angle all along the ray and needs none.
@@ -57,35 +57,8 @@ fn haze_glow_along(v: vec3<f32>) -> vec3<f32> {
     return c;
 }
 
-// Whether there is a glow to draw.
-fn haze_glows() -> bool {
-    return rain.haze.w < 1.0 && lights.count > 0u;
-}
-
-// Grid points per row: one every GLOW_CELL_PX coded pixels, both ends included.
-fn glow_grid_width() -> u32 {
-    return (u32(rain.coded_size_px.x) + GLOW_CELL_PX - 1u) / GLOW_CELL_PX + 1u;
-}
-
 // The glow along the ray through grid point `g`, at coded position GLOW_CELL_PX · g (pixel
 // corners: pixel p's centre is p + ½).
 fn glow_at_grid_point(g: vec2<u32>) -> vec3<f32> {
     return haze_glow_along(normalize(view_ray_at(vec2<f32>(g * GLOW_CELL_PX))));
-}
-
-// The glow at coded pixel `p`, bilinear between the grid points around its centre, for a ray
-// whose haze has transmittance `t`: the grid integrates the haze to the scene's depth, and a
-// ray that meets the ground sooner glows by its share of that opacity (exact for lights at
-// infinity, whose glow is proportional to the opacity).
-fn haze_glow(p: vec2<u32>, t: f32) -> vec3<f32> {
-    if !haze_glows() { return vec3<f32>(0.0); }
-    let share = (1.0 - t) / (1.0 - rain.haze.w);
-    let u = (vec2<f32>(p) + vec2<f32>(0.5)) / f32(GLOW_CELL_PX);
-    let g = vec2<u32>(floor(u));
-    let f = u - floor(u);
-    let w = glow_grid_width();
-    let i = g.y * w + g.x;
-    let top = mix(glow_grid[i].rgb, glow_grid[i + 1u].rgb, f.x);
-    let bottom = mix(glow_grid[i + w].rgb, glow_grid[i + w + 1u].rgb, f.x);
-    return share * mix(top, bottom, f.y);
 }

@@ -247,6 +247,12 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let glow_grid = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glow_grid"),
+            size: 16 * u64::from(gw) * u64::from(gh),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         // Ones: everything below the horizon is ground until a mask is set.
         let ground_mask = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ground_mask"),
@@ -293,6 +299,7 @@ impl Compositor {
             lights: direct_lights.clone(),
             out_words: out_buffer.clone(),
             scene_depth: scene_depth.clone(),
+            glow_grid,
             sky_mask: sky_mask.clone(),
             ground_mask: ground_mask.clone(),
         };

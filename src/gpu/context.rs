@@ -169,6 +169,12 @@ impl GpuContext {
             max_compute_workgroups_per_dimension: adapter
                 .limits()
                 .max_compute_workgroups_per_dimension,
+            // The puddles read five storage buffers (the depth maps, the rings, the ground
+            // mask, the lamps' glow): past the downlevel four, within WebGPU's eight.
+            max_storage_buffers_per_shader_stage: adapter
+                .limits()
+                .max_storage_buffers_per_shader_stage
+                .max(limits.max_storage_buffers_per_shader_stage),
             ..limits
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

@@ -34,7 +34,7 @@ pub enum Stage {
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 14] = [
+const COMMON: [(&str, &str); 15] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -82,6 +82,10 @@ const COMMON: [(&str, &str); 14] = [
     (
         "common/glow.wgsl",
         include_str!("../../shaders/common/glow.wgsl"),
+    ),
+    (
+        "common/glow_grid.wgsl",
+        include_str!("../../shaders/common/glow_grid.wgsl"),
     ),
     (
         "common/sky.wgsl",

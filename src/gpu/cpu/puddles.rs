@@ -70,6 +70,21 @@ pub fn puddles_masked(
     depth: Option<&DepthMap>,
     mask: Option<&[f32]>,
 ) {
+    puddles_lit(canvas, frame_yuv, p, water, depth, mask, None);
+}
+
+/// [`puddles_masked`] with the lamps' glow `glow` (per coded pixel, at the scene's opacity, as
+/// [`super::yuv_to_rgb::haze_glow`] gives it; `None`: no lamps): the water keeps the glow
+/// yuv_to_rgb laid on the ground, at its ray's share of the opacity.
+pub fn puddles_lit(
+    canvas: &mut [[f64; 3]],
+    frame_yuv: &YuvFrame,
+    p: &RainParams,
+    water: &Water<'_>,
+    depth: Option<&DepthMap>,
+    mask: Option<&[f32]>,
+    glow: Option<&[[f64; 3]]>,
+) {
     let width = frame_yuv.format.width;
     let plate = super::yuv_to_rgb::plate(frame_yuv, p);
     let frame = Frame {
@@ -127,6 +142,8 @@ pub fn puddles_masked(
         } else {
             [0.0; 3]
         };
+        let share = (1.0 - transmittance) / (1.0 - p.haze[3] as f64).max(1e-300);
+        let glow_px = glow.map_or([0.0; 3], |g| g[i].map(|v| v * share));
         let slope = ripple_slope(&water.ripples[..w.ring_count as usize], ground.truncate());
         let normal = DVec3::new(-slope.x, -slope.y, 1.0).normalize();
         let cos_i = (-d.dot(normal)).max(0.0);
@@ -141,7 +158,7 @@ pub fn puddles_masked(
                 0.0
             };
             let change = (optics.darkening(albedo, -d.z) - 1.0) * scene + r * reflected[k];
-            let wet = scene * transmittance + in_scatter[k] + transmittance * change;
+            let wet = scene * transmittance + in_scatter[k] + glow_px[k] + transmittance * change;
             pixel[k] += cover * shown * (wet - pixel[k]);
         }
     }

@@ -2,7 +2,8 @@
 //! z = 0 in front of the camera, the scene radiance under the haze is darkened by the water
 //! film (Lekner & Dorf, [`FilmOptics::darkening`]) and gains the film's Fresnel reflection of the
 //! environment in the mirrored direction, both weighted by the wetness (docs/method.md §2.3)
-//! and, without a depth map, by the ground mask ([`ground_weight`]).
+//! and, without a depth map, by the ground mask ([`ground_weight`]). The haze's in-scatter and
+//! the lamps' glow that yuv_to_rgb put on the pixel stay on it.
 
 use std::f64::consts::PI;
 
@@ -40,8 +41,8 @@ pub fn irradiance(env: &[[f64; 3]], normal: DVec3) -> [f64; 3] {
 
 /// The wet ground of `frame` at each coded pixel (row-major) under the uniforms `p` and `wet`,
 /// as (L, M, A): the frame's linear colour L, the factor M on it and the light A added (the
-/// haze's in-scatter and the film's reflection), so the wet picture is L·M + A; `None` where the
-/// pixel's ray does not meet the ground.
+/// haze's in-scatter, the lamps' glow and the film's reflection), so the wet picture is L·M + A;
+/// `None` where the pixel's ray does not meet the ground.
 ///
 /// With `depth` (metres of camera z per displayed pixel, `NaN` unknown), a pixel whose scene is
 /// nearer than the ground along its ray stays dry ([`ground_shown`]).
@@ -51,7 +52,7 @@ pub fn wet_terms(
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
 ) -> Vec<Option<[[f64; 3]; 3]>> {
-    wet_terms_masked(frame, p, wet, depth, None)
+    wet_terms_masked(frame, p, wet, depth, None, None)
 }
 
 /// The ground's weight at coded pixel (`x`, `y`) (twin of `ground_weight` in
@@ -78,13 +79,16 @@ pub fn ground_weight(
 }
 
 /// [`wet_terms`] with the ground mask `mask` (weights at the glow's grid points; `None`: all
-/// ground).
+/// ground) and the lamps' glow `glow` (per coded pixel, at the scene's opacity, as
+/// [`super::yuv_to_rgb::haze_glow`] gives it; `None`: no lamps), which the pixel keeps at its
+/// ray's share of the opacity as yuv_to_rgb laid it.
 pub fn wet_terms_masked(
     frame: &YuvFrame,
     p: &RainParams,
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
     mask: Option<&[f32]>,
+    glow: Option<&[[f64; 3]]>,
 ) -> Vec<Option<[[f64; 3]; 3]>> {
     let plate = super::yuv_to_rgb::plate(frame, p);
     let width = frame.format.width;
@@ -111,6 +115,8 @@ pub fn wet_terms_masked(
             } else {
                 [0.0; 3]
             };
+            let share = (1.0 - transmittance) / (1.0 - p.haze[3] as f64).max(1e-300);
+            let glow_px = glow.map_or([0.0; 3], |g| g[i].map(|v| v * share));
             let cos_view = -d.z;
             let distance_m = p.camera_pos_m[2] as f64 / cos_view;
             // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
@@ -139,7 +145,7 @@ pub fn wet_terms_masked(
                 };
                 let darkening = optics.darkening(albedo, cos_view);
                 m[k] = transmittance * (1.0 + w * (darkening - 1.0));
-                a[k] = in_scatter[k] + w * transmittance * r * sky[k].max(0.0);
+                a[k] = in_scatter[k] + glow_px[k] + w * transmittance * r * sky[k].max(0.0);
             }
             Some([scene, m, a])
         })
@@ -167,9 +173,23 @@ pub fn wet_ground_masked(
     depth: Option<&crate::scene::DepthMap>,
     mask: Option<&[f32]>,
 ) {
+    wet_ground_lit(canvas, frame, p, wet, depth, mask, None);
+}
+
+/// [`wet_ground_masked`] with the lamps' glow `glow` (see [`wet_terms_masked`]): over a canvas
+/// from [`super::yuv_to_rgb::yuv_to_rgb_in_scene`] with the same lamps.
+pub fn wet_ground_lit(
+    canvas: &mut [[f64; 3]],
+    frame: &YuvFrame,
+    p: &RainParams,
+    wet: &WetParams,
+    depth: Option<&crate::scene::DepthMap>,
+    mask: Option<&[f32]>,
+    glow: Option<&[[f64; 3]]>,
+) {
     for (pixel, terms) in canvas
         .iter_mut()
-        .zip(wet_terms_masked(frame, p, wet, depth, mask))
+        .zip(wet_terms_masked(frame, p, wet, depth, mask, glow))
     {
         if let Some([l, m, a]) = terms {
             *pixel = std::array::from_fn(|k| l[k] * m[k] + a[k]);
@@ -178,15 +198,20 @@ pub fn wet_ground_masked(
 }
 
 /// The wet ground on a layer (premultiplied linear RGBA, starting as the haze alone): over
-/// the frame it gives back L·M + A exactly, with α = 1 − min(M) and colour L·(M − min M) + A.
+/// the frame it gives back L·M + A exactly, with α = 1 − min(M) and colour L·(M − min M) + A;
+/// `glow` the lamps' (see [`wet_terms_masked`]).
 pub fn wet_ground_layer(
     layer: &mut [[f64; 4]],
     frame: &YuvFrame,
     p: &RainParams,
     wet: &WetParams,
     depth: Option<&crate::scene::DepthMap>,
+    glow: Option<&[[f64; 3]]>,
 ) {
-    for (pixel, terms) in layer.iter_mut().zip(wet_terms(frame, p, wet, depth)) {
+    for (pixel, terms) in layer
+        .iter_mut()
+        .zip(wet_terms_masked(frame, p, wet, depth, None, glow))
+    {
         if let Some([l, m, a]) = terms {
             let kept = m[0].min(m[1]).min(m[2]).clamp(0.0, 1.0);
             *pixel = [

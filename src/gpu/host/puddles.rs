@@ -196,7 +196,9 @@ impl<'a> Puddles<'a> {
                     let cell = GLOW_CELL_PX as usize;
                     let (a, b) = (grid[x / cell], grid[x / cell + 1]);
                     let f = ((x % cell) as f32 + 0.5) / cell as f32;
-                    Vec3::from_array(std::array::from_fn(|k| a[k] + (b[k] - a[k]) * f))
+                    let at = |c: usize| a[c] + (b[c] - a[c]) * f;
+                    // The in-scatter and the lamps' glow, both per unit of opacity.
+                    Vec3::from_array(std::array::from_fn(|k| at(k) + at(k + 3)))
                 });
                 let l = Vec3::from_slice(&plate[4 * x..]);
                 let px = &mut out[4 * x..][..3];
@@ -284,7 +286,8 @@ impl<'a> Puddles<'a> {
     }
 
     /// The water at coded pixel (`x`, `y`) of cover `cover`: `l` the frame's linear colour,
-    /// `t` and `s` the haze's transmittance and in-scatter, `held` the picture before the
+    /// `t` the haze's transmittance, `s` its in-scatter plus the lamps' glow (per unit of
+    /// opacity, as the decode laid them), `held` the picture before the
     /// water, `rings` the block's; `None` where the pixel does not show the ground.
     #[allow(clippy::too_many_arguments)]
     #[inline]

@@ -1,7 +1,8 @@
 //! The wet ground on the CPU back end (the `wet_ground` stage's work), fused into the plate's
 //! decode: a row whose rays reach the ground takes the frame's linear colour L before the haze,
 //! the haze's transmittance T and in-scatter S from the decode, and writes L·M + A where the ray
-//! meets the ground (M = T·(1 + w·(k − 1)), A = (1 − T)·S + w·T·R·L_env(mirrored ray);
+//! meets the ground (M = T·(1 + w·(k − 1)), A = (1 − T)·(S + G) + w·T·R·L_env(mirrored ray), G
+//! the lamps' glow per unit of opacity the decode laid too;
 //! docs/method.md §2.3, Lekner & Dorf's darkening k). Rows above the horizon, and pixels the ray
 //! of which does not go down, keep the decode's bits. In f32 as the shader; the plain twin
 //! [`crate::gpu::cpu::wet_ground`] is the reference (`tests/backend.rs`). [`Ground`] holds what
@@ -273,8 +274,8 @@ impl<'a> WetGround<'a> {
     }
 
     /// Wets row `y`: `plate` the frame's linear RGBA before the haze, `haze` the row's
-    /// transmittance and the in-scatter on the glow's grid columns (`None`: no haze), `out` the
-    /// veiled row (RGBA), rewritten where the ray meets the ground.
+    /// transmittance and the in-scatter and glow on the glow's grid columns (`None`: no haze),
+    /// `out` the veiled row (RGBA), rewritten where the ray meets the ground.
     pub fn row(
         &self,
         y: usize,
@@ -287,13 +288,14 @@ impl<'a> WetGround<'a> {
         let cell = GLOW_CELL_PX as usize;
         for x in g.downward(y) {
             let ray = g.ray(x, y);
-            let (t, s) = match haze {
-                None => (1.0, Vec3::ZERO),
+            let (t, s, glow) = match haze {
+                None => (1.0, Vec3::ZERO, Vec3::ZERO),
                 Some((t, grid)) => {
                     let (a, b) = (grid[x / cell], grid[x / cell + 1]);
                     let f = ((x % cell) as f32 + 0.5) / cell as f32;
                     let at = |c: usize| a[c] + (b[c] - a[c]) * f;
-                    (t[x], Vec3::new(at(0), at(1), at(2)))
+                    let rgb = |c: usize| Vec3::new(at(c), at(c + 1), at(c + 2));
+                    (t[x], rgb(0), rgb(3))
                 }
             };
             let len = ray.length();
@@ -308,9 +310,9 @@ impl<'a> WetGround<'a> {
             let l = Vec3::from_slice(&plate[4 * x..]);
             let px = &mut out[4 * x..][..3];
             if w == 0.0 {
-                // L·T + (1 − T)·S, as the haze lays it before the lamps' glow.
+                // L·T + (1 − T)·S + (1 − T)·G, as the haze lays it.
                 for k in 0..3 {
-                    px[k] = l[k] * t + (1.0 - t) * s[k];
+                    px[k] = l[k] * t + (1.0 - t) * s[k] + (1.0 - t) * glow[k];
                 }
                 continue;
             }
@@ -319,7 +321,7 @@ impl<'a> WetGround<'a> {
             let r = reflectance(self.optics[0], cos_view);
             let sky = g.sky(Vec3::new(d.x, d.y, -d.z));
             let m = Vec3::splat(t) + w * t * (k - Vec3::ONE);
-            let a = (1.0 - t) * s + w * t * r * sky;
+            let a = (1.0 - t) * s + (1.0 - t) * glow + w * t * r * sky;
             for c in 0..3 {
                 px[c] = l[c] * m[c] + a[c];
             }

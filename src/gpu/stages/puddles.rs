@@ -34,6 +34,7 @@ pub struct Puddles {
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
     ground_mask: wgpu::Buffer,
+    glow_grid: wgpu::Buffer,
     lights: wgpu::Buffer,
     /// Whether frames are pictures; for a layer the water is written as the layer's colour and
     /// alpha over the frame (entry point `layer`).
@@ -84,6 +85,7 @@ impl Puddles {
             canvas: r.canvas.texture().clone(),
             scene_depth: r.scene_depth.clone(),
             ground_mask: r.ground_mask.clone(),
+            glow_grid: r.glow_grid.clone(),
             lights: r.lights.list.clone(),
             picture,
             on_gpu,
@@ -241,6 +243,7 @@ impl Puddles {
                 view(&self.planes[1]),
                 view(&self.planes[2]),
                 buffer(&self.ground_mask),
+                buffer(&self.glow_grid),
             ],
         );
         Water {

@@ -3,7 +3,8 @@
 //! scene from the decoded planes and writes the wet ground on the canvas (or, for the rain as
 //! a layer, its premultiplied colour and alpha); pixels it does not touch (the horizon and
 //! above) keep their value bit for bit. The wetness keeps to the ground mask
-//! (`FrameResources::ground_mask`).
+//! (`FrameResources::ground_mask`); the lamps' glow `yuv_to_rgb` put on the ground is read
+//! back from its grid (`FrameResources::glow_grid`) and kept.
 
 use super::{FrameResources, FrameStage, PIXEL_WORKGROUP, TimestampSlot, workgroups};
 use crate::gpu::bind::{bind_group, buffer, view};
@@ -61,6 +62,8 @@ impl WetGround {
                         view(&r.canvas),
                         buffer(&r.scene_depth),
                         buffer(&r.ground_mask),
+                        buffer(&r.lights.list),
+                        buffer(&r.glow_grid),
                     ],
                 );
                 (pipeline, bind, params)

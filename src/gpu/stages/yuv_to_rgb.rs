@@ -29,24 +29,17 @@ pub struct YuvToRgb {
     size: (u32, u32),
 }
 
-/// The glow's grid buffer and its pipeline, bound to `r`.
+/// The glow's grid pipeline, bound to `r` (the grid is `r.glow_grid`).
 fn glow_pass(
     device: &wgpu::Device,
     r: &FrameResources,
-) -> (wgpu::Buffer, wgpu::ComputePipeline, wgpu::BindGroup) {
-    let (gw, gh) = glow_grid_size((r.frame.width, r.frame.height));
-    let grid = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("glow_grid"),
-        size: 16 * u64::from(gw) * u64::from(gh),
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
+) -> (wgpu::ComputePipeline, wgpu::BindGroup) {
     let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, "glow");
     let entries = [
         (5, buffer(&r.rain_params)),
         (6, buffer(&r.lights.list)),
         (7, buffer(&r.lights.table)),
-        (8, buffer(&grid)),
+        (8, buffer(&r.glow_grid)),
     ]
     .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -54,7 +47,7 @@ fn glow_pass(
         layout: &pipeline.get_bind_group_layout(0),
         entries: &entries,
     });
-    (grid, pipeline, bind)
+    (pipeline, bind)
 }
 
 impl YuvToRgb {
@@ -72,7 +65,7 @@ impl YuvToRgb {
     /// The stage with entry point `entry`, bound to what that entry point reads (the planes
     /// only for `main`; the drop tables only the glow's pass reads).
     fn with_entry(device: &wgpu::Device, r: &FrameResources, entry: &str) -> YuvToRgb {
-        let (grid, glow, glow_bind) = glow_pass(device, r);
+        let (glow, glow_bind) = glow_pass(device, r);
         let pipeline = super::compute_pipeline(device, Stage::YuvToRgb, entry);
         let planes = [
             (1, view(&r.planes[0])),
@@ -84,7 +77,7 @@ impl YuvToRgb {
             (4, view(&r.canvas)),
             (5, buffer(&r.rain_params)),
             (6, buffer(&r.lights.list)),
-            (8, buffer(&grid)),
+            (8, buffer(&r.glow_grid)),
             (9, buffer(&r.scene_depth)),
             (10, buffer(&r.sky_mask)),
         ]
