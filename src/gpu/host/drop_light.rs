@@ -56,7 +56,7 @@ pub(super) struct Lit<'a> {
     lights: Vec<Light>,
     table: Option<&'a LightTable>,
     bins: f32,
-    last_bin: i32,
+    last_bin: u32,
 }
 
 impl<'a> Lit<'a> {
@@ -80,7 +80,7 @@ impl<'a> Lit<'a> {
                 .collect(),
             table,
             bins: bins as f32,
-            last_bin: bins as i32 - 1,
+            last_bin: bins as u32 - 1,
         }
     }
 }
@@ -138,14 +138,21 @@ fn atan2_upper(y: f32, x: f32) -> f32 {
     let a = lo / hi.max(f32::MIN_POSITIVE);
     // Below tan(π/8) the series directly; above, about π/4.
     let big = a > 0.414_213_57;
-    let t = if big { (a - 1.0) / (a + 1.0) } else { a };
+    let t = select(big, (a - 1.0) / (a + 1.0), a);
     let z = t * t;
     let poly =
         (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
             + t;
-    let r = if big { FRAC_PI_4 + poly } else { poly };
-    let r = if y > ax { FRAC_PI_2 - r } else { r };
-    if x < 0.0 { PI - r } else { r }
+    let r = select(big, FRAC_PI_4 + poly, poly);
+    let r = select(y > ax, FRAC_PI_2 - r, r);
+    select(x < 0.0, PI - r, r)
+}
+
+/// `a` where `c`, else `b`; both already evaluated, so the compiler emits a blend, not a
+/// branch, and the loop around it vectorises.
+#[inline(always)]
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    if c { a } else { b }
 }
 
 /// The radiance at both ends of the block's drawn streaks `visible` (lanes): the environment
@@ -207,10 +214,23 @@ pub(super) fn light_ends(
             let mut scale = [0f32; 2 * LANES];
             let mut bin = [0u32; 2 * LANES];
             let mut frac = [0f32; 2 * LANES];
+            // Three loops, each simple enough for the vectoriser (one loop of all three is
+            // left scalar): the light's direction and solid angle, the angle, the bin.
+            let mut omega = [[0f32; 2 * LANES]; 3];
             for i in 0..2 * LANES {
-                let (omega, s) = seen_from(light, [o[0][i], o[1][i], o[2][i]]);
-                let (b, t) = table_at(f, theta(omega, [v[0][i], v[1][i], v[2][i]]));
+                let (w, s) = seen_from(light, [o[0][i], o[1][i], o[2][i]]);
+                omega[0][i] = w[0];
+                omega[1][i] = w[1];
+                omega[2][i] = w[2];
                 scale[i] = s;
+            }
+            let mut angle = [0f32; 2 * LANES];
+            for i in 0..2 * LANES {
+                let w = [omega[0][i], omega[1][i], omega[2][i]];
+                angle[i] = theta(w, [v[0][i], v[1][i], v[2][i]]);
+            }
+            for i in 0..2 * LANES {
+                let (b, t) = table_at(f, angle[i]);
                 bin[i] = b;
                 frac[i] = t;
             }
@@ -251,14 +271,11 @@ fn seen_from(l: &Light, from: [f32; 3]) -> ([f32; 3], f32) {
     ];
     let r = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
     let finite = d > 0.0;
-    let moved = finite && r > 0.0;
-    let omega = if moved {
-        [to[0] / r, to[1] / r, to[2] / r]
-    } else {
-        l.dir
-    };
+    // `&`, not `&&`: no branch in the vectorised loop.
+    let moved = finite & (r > 0.0);
+    let omega = std::array::from_fn(|a| select(moved, to[a] / r, l.dir[a]));
     let q = d / r.max(l.closest_m);
-    (omega, if finite { q * q } else { 1.0 })
+    (omega, select(finite, q * q, 1.0))
 }
 
 /// The scattering angle between ω and the view ray v: atan2(|ω × v|, ω · v).
@@ -277,20 +294,18 @@ fn theta(w: [f32; 3], v: [f32; 3]) -> f32 {
 /// WGSL's `rtf_at` (a fraction of 0 at either end).
 #[inline(always)]
 fn table_at(f: &Lit, theta: f32) -> (u32, f32) {
+    // 2²³: adding it rounds an f32 in [0, 2²²) to an integer, whose bits it then holds.
+    const MAGIC: f32 = 8_388_608.0;
     let u = theta / std::f32::consts::PI * f.bins - 0.5;
-    let below = u <= 0.0;
-    let fl = u.floor();
-    let m = fl as i32;
-    let beyond = m >= f.last_bin;
-    let bin = if below {
-        0
-    } else if beyond {
-        f.last_bin
-    } else {
-        m
-    };
-    let t = if below || beyond { 0.0 } else { u - fl };
-    (bin as u32, t)
+    let last = f.last_bin as f32;
+    let clamped = u.max(0.0).min(last);
+    let nearest = (clamped + MAGIC) - MAGIC;
+    let floor = nearest - select(nearest > clamped, 1.0, 0.0);
+    let inside = (u > 0.0) & (floor < last);
+    (
+        (floor + MAGIC).to_bits() - MAGIC.to_bits(),
+        select(inside, u - floor, 0.0),
+    )
 }
 
 /// The glints of the drawn drop at `pos` moving at `vel` (the stage's `main_mattes`): its

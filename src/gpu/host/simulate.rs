@@ -130,6 +130,14 @@ fn simulate_on(
     }
 }
 
+/// Whether the CPU runs AVX2.
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
 /// The frame's constants, formed once.
 struct Frame<'a> {
     p: &'a RainParams,
@@ -142,7 +150,7 @@ struct Frame<'a> {
     /// The frame's compact lights and their table.
     lit: Lit<'a>,
     glints: bool,
-    /// Whether the AVX2 build may run.
+    /// Whether the steps' AVX2 builds run (asked for, and the CPU has AVX2).
     avx2: bool,
 }
 
@@ -157,25 +165,47 @@ impl<'a> Frame<'a> {
             max_radius_px: NEAR_FIELD_MAX_RADIUS as f32 * p.display_size_px[1],
             lit: Lit::new(drops.lights, drops.table),
             glints: drops.glints,
-            avx2,
+            avx2: avx2 && has_avx2(),
         }
     }
 }
 
-/// The drops `first..first + streaks.len()`; returns how many can be drawn.
-fn run_chunk(f: &Frame, first: usize, streaks: &mut [Streak], glints: &mut [Glint]) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    if f.avx2 && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { chunk_avx2(f, first, streaks, glints) };
-    }
-    chunk(f, first, streaks, glints)
+/// Defines `$name(avx2, args…)`: `$inner(args…)`, compiled a second time for AVX2 (8 lanes a
+/// vector, gathers, shifts by lane) and run that way where `avx2` (the CPU has it). Each step
+/// is a function of its own so the vectoriser sees its loops whole.
+macro_rules! with_avx2 {
+    ($(fn $name:ident = $inner:ident($($arg:ident: $ty:ty),*) -> $ret:ty;)*) => {$(
+        #[inline(never)]
+        fn $name(avx2: bool, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                #[target_feature(enable = "avx2")]
+                fn fast($($arg: $ty),*) -> $ret {
+                    $inner($($arg),*)
+                }
+                // SAFETY: `avx2` is set only where the CPU has AVX2 (`Frame::new`).
+                return unsafe { fast($($arg),*) };
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = avx2;
+            $inner($($arg),*)
+        }
+    )*};
 }
 
-/// [`chunk`] compiled for AVX2 (8 lanes a vector, gathers, vector shifts by lane).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn chunk_avx2(f: &Frame, first: usize, streaks: &mut [Streak], glints: &mut [Glint]) -> usize {
+with_avx2! {
+    fn states_on = states(f: &Frame, id0: u32, cols: &[u32; LANES]) -> States;
+    fn shapes_on = shapes(f: &Frame, s: &States) -> Shapes;
+    fn light_on = light_ends(
+        p: &RainParams,
+        lit: &Lit,
+        ends: &[[[f32; LANES]; 3]; 2],
+        visible: &[u8]
+    ) -> [[f32; 3]; 2 * LANES];
+}
+
+/// The drops `first..first + streaks.len()`; returns how many can be drawn.
+fn run_chunk(f: &Frame, first: usize, streaks: &mut [Streak], glints: &mut [Glint]) -> usize {
     chunk(f, first, streaks, glints)
 }
 
@@ -240,8 +270,8 @@ fn block(
     out: &mut [Streak],
     glints: &mut [Glint],
 ) -> usize {
-    let s = states(f, id0, cols);
-    let sh = shapes(f, &s);
+    let s = states_on(f.avx2, f, id0, cols);
+    let sh = shapes_on(f.avx2, f, &s);
     let mut visible = [0u8; LANES];
     let mut n = 0;
     for l in 0..out.len() {
@@ -256,7 +286,7 @@ fn block(
         return 0;
     }
     let visible = &visible[..n];
-    let radiance = light_ends(f.p, &f.lit, &sh.ends, visible);
+    let radiance = light_on(f.avx2, f.p, &f.lit, &sh.ends, visible);
     let mut info = [0u32; LANES];
     drop_info(f, &s, visible, &mut info);
     for (k, &l) in visible.iter().enumerate() {
@@ -314,6 +344,12 @@ fn unit(bits: u32) -> f32 {
 #[inline(always)]
 fn fract(x: f32) -> f32 {
     x - x.floor()
+}
+
+/// `a` where `c`, else `b`; both already formed, so the loop gets a blend, not a branch.
+#[inline(always)]
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    if c { a } else { b }
 }
 
 /// WGSL `mix`: `a (1 − t) + b t`.
@@ -573,37 +609,24 @@ fn shapes(f: &Frame, s: &States) -> Shapes {
             s.vel[2][l] * half_t,
         ];
         let w0 = [pos[0] - half[0], pos[1] - half[1], pos[2] - half[2]];
-        let mut w1 = [pos[0] + half[0], pos[1] + half[1], pos[2] + half[2]];
+        let w1 = [pos[0] + half[0], pos[1] + half[1], pos[2] + half[2]];
         // Impact on the ground during the exposure: the streak ends there.
-        let lands = p.ground_clip != 0 && w1[2] < 0.0;
-        let landed = lands && w0[2] <= 0.0;
-        let exposed = if lands { w0[2] / (w0[2] - w1[2]) } else { 1.0 };
-        if lands {
-            w1 = [
-                mix(w0[0], w1[0], exposed),
-                mix(w0[1], w1[1], exposed),
-                mix(w0[2], w1[2], exposed),
-            ];
-        }
-        let mut c0 = to_camera(p, w0);
-        let mut c1 = to_camera(p, w1);
-        let behind = c0[2] < near && c1[2] < near;
-        if c0[2] < near {
-            let t = (near - c0[2]) / (c1[2] - c0[2]);
-            c0 = [
-                mix(c0[0], c1[0], t),
-                mix(c0[1], c1[1], t),
-                mix(c0[2], c1[2], t),
-            ];
-        }
-        if c1[2] < near {
-            let t = (near - c1[2]) / (c0[2] - c1[2]);
-            c1 = [
-                mix(c1[0], c0[0], t),
-                mix(c1[1], c0[1], t),
-                mix(c1[2], c0[2], t),
-            ];
-        }
+        // `&` and `|`, not `&&` and `||`: no branches in the vectorised loop.
+        let lands = (p.ground_clip != 0) & (w1[2] < 0.0);
+        let landed = lands & (w0[2] <= 0.0);
+        // Both sides formed, one picked: blends, not branches.
+        let exposed = select(lands, w0[2] / (w0[2] - w1[2]), 1.0);
+        let w1: [f32; 3] =
+            std::array::from_fn(|a| select(lands, mix(w0[a], w1[a], exposed), w1[a]));
+        let (c0, c1) = (to_camera(p, w0), to_camera(p, w1));
+        let behind = (c0[2] < near) & (c1[2] < near);
+        // Clipped to the near plane, the start first (the WGSL's order).
+        let t0 = (near - c0[2]) / (c1[2] - c0[2]);
+        let c0: [f32; 3] =
+            std::array::from_fn(|a| select(c0[2] < near, mix(c0[a], c1[a], t0), c0[a]));
+        let t1 = (near - c1[2]) / (c0[2] - c1[2]);
+        let c1: [f32; 3] =
+            std::array::from_fn(|a| select(c1[2] < near, mix(c1[a], c0[a], t1), c1[a]));
         let z = c0[2].min(c1[2]);
         let r = 0.5e-3 * s.width_mm[l] * fpx / z;
         let q0 = [
@@ -623,17 +646,17 @@ fn shapes(f: &Frame, s: &States) -> Shapes {
         let len = (seg[0] * seg[0] + seg[1] * seg[1]).sqrt();
         let long = len > 1e-4;
         let dir = [
-            if long { seg[0] / len } else { 0.0 },
-            if long { seg[1] / len } else { 1.0 },
+            select(long, seg[0] / len, 0.0),
+            select(long, seg[1] / len, 1.0),
         ];
         let alpha = r * r / (r_eff * r_eff) * p.opacity * p.drop_weight * exposed;
         let peak = alpha * (2.0 * r_eff / len.max(1e-3)).min(1.0);
         let ext = r_eff + 1.0;
-        let off = q0[0].max(q1[0]) + ext < 0.0
-            || q0[1].max(q1[1]) + ext < 0.0
-            || q0[0].min(q1[0]) - ext > p.display_size_px[0]
-            || q0[1].min(q1[1]) - ext > p.display_size_px[1];
-        sh.drawn[l] = s.falls[l] && !landed && !behind && peak >= MIN_PEAK_ALPHA as f32 && !off;
+        let off = (q0[0].max(q1[0]) + ext < 0.0)
+            | (q0[1].max(q1[1]) + ext < 0.0)
+            | (q0[0].min(q1[0]) - ext > p.display_size_px[0])
+            | (q0[1].min(q1[1]) - ext > p.display_size_px[1]);
+        sh.drawn[l] = s.falls[l] & !landed & !behind & (peak >= MIN_PEAK_ALPHA as f32) & !off;
         sh.q0[0][l] = q0[0];
         sh.q0[1][l] = q0[1];
         sh.dir[0][l] = dir[0];
