@@ -4,7 +4,10 @@
 //! beside the twin of `rain_simulate`'s geometry for the same drops (what simulating them on
 //! the CPU would cost at the least). Then the ground's passes at 720p on a view two thirds
 //! ground: the wet ground fused into the decode, and the puddles over a lake, still, with 128
-//! rings, and marched against a depth map. `cargo bench --bench colour_passes`.
+//! rings, and marched against a depth map. Then the default rain's drops of a 1080p frame
+//! simulated on the CPU back end (`gpu::host::simulate`): without compact lights and with 16,
+//! on all of rayon's threads and on one, and without the AVX2 build.
+//! `cargo bench --bench colour_passes`.
 
 use std::hint::black_box;
 
@@ -292,5 +295,97 @@ fn ground_passes(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, colour_passes, streak_raster, ground_passes);
+/// 16 compact lights around a 1080p view: half at a few metres, half at infinity.
+fn sixteen_lights(camera: &Camera) -> Vec<rain_composite::lighting::LightSource> {
+    (0..16)
+        .map(|k| rain_composite::lighting::LightSource {
+            direction_world: camera.ray_world(glam::DVec2::new(
+                120.0 * k as f64,
+                200.0 + 40.0 * (k % 5) as f64,
+            )),
+            solid_angle_sr: 1e-4,
+            radiance_rgb: [900.0, 800.0, 600.0],
+            distance_m: (k % 2 == 0).then_some(3.0 + k as f64),
+        })
+        .collect()
+}
+
+fn drop_simulation(c: &mut Criterion) {
+    use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate, simulate_baseline};
+    use rain_composite::gpu::types::LightList;
+    use rain_composite::lighting::prt::channel_optics;
+    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+    let camera = Camera::new(1920, 1080, 60f64.to_radians(), 1.6, 0.0, 0.0);
+    let setup = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        1.0 / 50.0,
+        0,
+        (1920, 1080),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.8, 0.9, 1.0];
+    env.coeffs[2] = [0.3, 0.35, 0.5];
+    let light = FrameLight {
+        env,
+        lights: Vec::new(),
+    };
+    let p = setup.params_at(1.5, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(1024).expect("table"));
+    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(&tables));
+    let none = LightList::new(&[]);
+    let sixteen = LightList::new(&sixteen_lights(&camera));
+    let drops = |lights| Drops {
+        columns: &setup.columns,
+        lights,
+        table: Some(&table),
+        glints: false,
+    };
+    let (mut streaks, mut glints) = (Vec::new(), Vec::new());
+    let drawable = simulate(&p, &drops(&sixteen), &mut streaks, &mut glints);
+    eprintln!("{drawable} of {} drops drawable", streaks.len());
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    c.bench_function("host simulate 1080p, 10 mm/h, no lights", |b| {
+        b.iter(|| black_box(simulate(&p, &drops(&none), &mut streaks, &mut glints)))
+    });
+    c.bench_function("host simulate 1080p, 10 mm/h, 16 lights", |b| {
+        b.iter(|| black_box(simulate(&p, &drops(&sixteen), &mut streaks, &mut glints)))
+    });
+    c.bench_function("host simulate 1080p, 10 mm/h, 16 lights, one thread", |b| {
+        b.iter(|| {
+            one.install(|| black_box(simulate(&p, &drops(&sixteen), &mut streaks, &mut glints)))
+        })
+    });
+    c.bench_function(
+        "host simulate 1080p, 10 mm/h, 16 lights, one thread, no AVX2",
+        |b| {
+            b.iter(|| {
+                one.install(|| {
+                    black_box(simulate_baseline(
+                        &p,
+                        &drops(&sixteen),
+                        &mut streaks,
+                        &mut glints,
+                    ))
+                })
+            })
+        },
+    );
+}
+
+criterion_group!(
+    benches,
+    colour_passes,
+    streak_raster,
+    ground_passes,
+    drop_simulation
+);
 criterion_main!(benches);

@@ -16,9 +16,10 @@
 //! drains the ring at the end.
 //!
 //! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) every
-//! per-pixel pass runs on the CPU ([`super::host`]): only the drops and the splashes are
-//! simulated on the adapter, their streaks read back and drawn on the CPU; the canvas never
-//! leaves the CPU and the frame is done when `submit` returns (`compositor/host.rs`).
+//! per-pixel pass runs on the CPU ([`super::host`]), and the drops are simulated there too: only
+//! the splashes are simulated on the adapter, their streaks read back and drawn on the CPU; a
+//! frame without splashes touches no adapter. The canvas never leaves the CPU and the frame is
+//! done when `submit` returns (`compositor/host.rs`).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -43,6 +44,7 @@ use crate::{Error, Result};
 
 mod host;
 mod masks;
+mod uploads;
 
 /// Frames in flight (readback slots).
 const RING: usize = 3;
@@ -137,6 +139,9 @@ pub struct Compositor {
     host_splashes: Option<super::host::splashes::HostSplashes>,
     /// Frames done, oldest first, older than any in flight.
     ready: VecDeque<Rendered>,
+    /// The GPU's inputs not yet written (the CPU back end writes them only for frames with GPU
+    /// stages).
+    stale: uploads::Stale,
 }
 
 /// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
@@ -310,14 +315,7 @@ impl Compositor {
             .as_ref()
             .filter(|_| layer != Some(Layer::Matte));
         let stages = frame_stages(device, &resources, rain, layer, wetting, on_cpu);
-        let host_rain = on_cpu.then(|| {
-            HostRain::new(
-                device,
-                &resources.streaks,
-                resources.glints.as_ref(),
-                rain.mattes.clone(),
-            )
-        });
+        let host_rain = on_cpu.then(|| HostRain::new(&rain.columns, rain.mattes.clone()));
         let host_splashes = on_cpu
             .then(|| host::splash_stage(&stages))
             .flatten()
@@ -352,6 +350,7 @@ impl Compositor {
             host_rain,
             host_splashes,
             ready: VecDeque::with_capacity(RING),
+            stale: uploads::Stale::default(),
         })
     }
 
@@ -382,13 +381,23 @@ impl Compositor {
         if let Some(host) = &mut self.host {
             host.set_transfer_table(tables);
         }
+        if let Some(drops) = &mut self.host_rain {
+            drops.set_transfer_table(tables);
+        }
     }
 
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
-        self.direct_lights.upload_lights(&self.ctx.queue, lights);
+        if self.defers_uploads() {
+            self.stale.lights = Some(*lights);
+        } else {
+            self.direct_lights.upload_lights(&self.ctx.queue, lights);
+        }
         if let Some(host) = &mut self.host {
             host.set_lights(lights);
+        }
+        if let Some(drops) = &mut self.host_rain {
+            drops.set_lights(lights);
         }
     }
 
@@ -408,11 +417,16 @@ impl Compositor {
             .iter()
             .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
             .collect();
-        self.ctx
-            .queue
-            .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres));
-        if let Some(host) = &mut self.host {
-            host.set_scene_depth(metres);
+        match &mut self.host {
+            Some(host) => {
+                host.set_scene_depth(metres);
+                self.stale.depth = true;
+            }
+            None => {
+                self.ctx
+                    .queue
+                    .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres))
+            }
         }
         Ok(())
     }
@@ -492,6 +506,7 @@ impl Compositor {
             let f = self.receive()?;
             self.ready.push_back(f);
         }
+        self.write_stale();
         let done = self.ready.pop_front();
         let queue = &self.ctx.queue;
         for (i, plane) in frame.planes.iter().enumerate() {

@@ -1,8 +1,8 @@
-//! A frame on the CPU back end, whole: the drops (and, with a ground, the splashes) simulated on
-//! the adapter while the CPU lays the plate with the wet ground fused in and shades the
-//! puddles, then the splashes' and the drops' streaks read back and drawn on the CPU, and the
-//! canvas packed. The canvas never goes to the adapter, and the frame is done when `submit`
-//! returns.
+//! A frame on the CPU back end, whole: with a ground the splashes simulated on the adapter
+//! while the CPU lays the plate with the wet ground fused in and shades the puddles, the drops
+//! simulated on the CPU, then the splashes' streaks read back and drawn, the drops' drawn, and
+//! the canvas packed. The canvas never goes to the adapter, a frame without splashes does not
+//! touch it at all, and the frame is done when `submit` returns.
 
 use super::Compositor;
 use crate::gpu::host::GroundFrame;
@@ -41,7 +41,15 @@ impl Compositor {
         frame: &YuvFrame,
         rain: &RainParams,
     ) -> Result<Rendered> {
-        let (Some(host), Some(readback)) = (&mut self.host, &self.host_rain) else {
+        let splashing =
+            running::<RainSplashes>(&self.stages).is_some() && self.host_splashes.is_some();
+        if splashing {
+            // The splashes' simulation reads the uniforms and the held lights, depth and masks.
+            self.write_stale();
+            let queue = &self.ctx.queue;
+            queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
+        }
+        let (Some(host), Some(drops)) = (&mut self.host, &mut self.host_rain) else {
             return Err(Error::Gpu("no CPU back end".into()));
         };
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
@@ -52,14 +60,6 @@ impl Compositor {
             })
         };
         let stages = &self.stages;
-        queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
-        let pending = stages
-            .iter()
-            .enumerate()
-            .find(|(_, s)| s.runs() && s.name() == "rain_simulate")
-            .map(|(slot, stage)| {
-                readback.submit(device, queue, stage.as_ref(), rain, timestamps(slot))
-            });
         let splashes = running::<RainSplashes>(stages)
             .zip(self.host_splashes.as_ref())
             .map(|((slot, stage), back)| {
@@ -85,17 +85,13 @@ impl Compositor {
             self.gpu_times.rain_splashes_s += count.1 + ticks.map_or(0.0, |t| t as f64 * period_s);
             self.gpu_times.splashes_drawn += count.0 as u64;
         }
-        if let Some(pending) = pending {
-            let (count, ticks) = readback.receive(device, pending, |streaks, glints| {
-                let started = std::time::Instant::now();
-                let count = host.draw_streaks(rain, streaks, readback.mattes(), glints);
-                (count, started.elapsed().as_secs_f64())
-            })?;
-            self.gpu_times.rain_streaks_s += count.1;
-            self.gpu_times.streaks_drawn += count.0.streaks as u64;
-            if let Some(ticks) = ticks {
-                self.gpu_times.rain_simulate_s += ticks as f64 * period_s;
-            }
+        if self.rain_drops > 0 {
+            let t = drops.draw(rain, |streaks, mattes, glints| {
+                host.draw_streaks(rain, streaks, mattes, glints)
+            });
+            self.gpu_times.rain_simulate_s += t.simulate_s;
+            self.gpu_times.rain_streaks_s += t.streaks_s;
+            self.gpu_times.streaks_drawn += t.raster.streaks as u64;
         }
         let started = std::time::Instant::now();
         let planes = host.encode_canvas();

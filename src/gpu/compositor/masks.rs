@@ -17,11 +17,15 @@ impl Compositor {
                 self.sky_mask.size() / 4
             )));
         }
-        self.ctx
-            .queue
-            .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights));
-        if let Some(host) = &mut self.host {
-            host.set_sky_mask(weights.to_vec());
+        match &mut self.host {
+            Some(host) => {
+                host.set_sky_mask(weights.to_vec());
+                self.stale.sky = true;
+            }
+            None => self
+                .ctx
+                .queue
+                .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights)),
         }
         Ok(())
     }
@@ -38,11 +42,13 @@ impl Compositor {
                 self.ground_mask.size() / 4
             )));
         }
-        self.ctx
-            .queue
-            .write_buffer(&self.ground_mask, 0, bytemuck::cast_slice(weights));
         if let Some(host) = &mut self.host {
             host.set_ground_mask(weights.to_vec());
+            self.stale.ground = Some(weights.to_vec());
+        } else {
+            self.ctx
+                .queue
+                .write_buffer(&self.ground_mask, 0, bytemuck::cast_slice(weights));
         }
         Ok(())
     }

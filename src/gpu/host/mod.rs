@@ -7,10 +7,12 @@
 //! work in a few. The plain `f64` twins of [`super::cpu`] are their references
 //! (`tests/backend.rs`).
 
+pub mod drop_light;
 pub mod encode;
 pub mod plate;
 pub mod puddles;
 pub mod rain;
+pub mod simulate;
 pub mod splashes;
 pub mod streaks;
 pub mod veil;
@@ -92,6 +94,16 @@ impl HostColour {
     /// it: the wet ground and the puddles keep to it where the depth map does not know a pixel.
     pub fn set_ground_mask(&mut self, weights: Vec<f32>) {
         self.ground_mask = Some(weights);
+    }
+
+    /// The scene's depth last set (see [`set_scene_depth`](Self::set_scene_depth)).
+    pub fn scene_depth(&self) -> Option<&[f32]> {
+        self.depth.as_deref()
+    }
+
+    /// The sky mask last set (see [`set_sky_mask`](Self::set_sky_mask)).
+    pub fn sky_mask(&self) -> Option<&[f32]> {
+        self.sky.as_deref()
     }
 
     /// The hazed linear canvas of `frame` under `p`: RGBA f16, row-major, `width` texels a row

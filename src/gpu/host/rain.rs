@@ -1,57 +1,53 @@
-//! The rain of a frame on the CPU back end: the drops are simulated on the adapter
-//! (`rain_simulate`, one invocation per drop) while the CPU lays the plate, their streaks (and
-//! glints) copied into a mapped buffer and read back, then rasterised on the CPU
-//! ([`super::streaks`]); the canvas never goes to the adapter.
+//! The rain of a frame on the CPU back end: the drops simulated on the CPU
+//! ([`super::simulate`], the `rain_simulate` stage's work) and their streaks rasterised over the
+//! plate ([`super::streaks`]); neither the canvas nor the drops go to the adapter, which a
+//! frame drawn this way does not touch.
 
 use std::sync::Arc;
-use std::sync::mpsc;
 
+use super::simulate::{self, Drops, LightTable};
+use super::streaks::RasterCount;
 use crate::drops::MatteAtlas;
-use crate::gpu::stages::{FrameStage, TimestampSlot};
-use crate::gpu::types::{GLINTS_PER_DROP, Glint, RainParams, Streak};
-use crate::{Error, Result};
+use crate::gpu::types::{Column, Glint, LightList, RainParams, Streak};
+use crate::lighting::RtfTable;
 
-/// The readback of one frame's streaks: the buffers it copies from and the one it maps.
+/// The drops of a rain on the CPU, with the lights they are lit by and the records of the last
+/// frame (kept to reuse their memory).
 pub struct HostRain {
-    streaks: wgpu::Buffer,
-    glints: Option<wgpu::Buffer>,
-    /// Streaks, then glints, then the simulation's two timestamps.
-    readback: wgpu::Buffer,
-    streak_bytes: u64,
-    glint_bytes: u64,
+    columns: Vec<Column>,
     mattes: Option<Arc<MatteAtlas>>,
+    /// Whether the drops carry glints (mattes with point lights).
+    glints_on: bool,
+    lights: LightList,
+    table: Option<LightTable>,
+    streaks: Vec<Streak>,
+    glints: Vec<Glint>,
 }
 
-/// A simulation submitted, its readback mapped when it is done.
-pub struct Pending {
-    submission: wgpu::SubmissionIndex,
-    mapped: mpsc::Receiver<std::result::Result<(), wgpu::BufferAsyncError>>,
-    timed: bool,
+/// What one frame's rain cost and drew.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RainTimes {
+    /// Wall time of the simulation, s.
+    pub simulate_s: f64,
+    /// Wall time of the raster, s.
+    pub streaks_s: f64,
+    /// Streaks the simulation found drawable.
+    pub drawable: usize,
+    /// What the raster drew.
+    pub raster: RasterCount,
 }
 
 impl HostRain {
-    /// The readback of `streaks` (and `glints`, where the streak mattes have point lights), for
-    /// streaks drawn with `mattes` (`None`: capsules).
-    pub fn new(
-        device: &wgpu::Device,
-        streaks: &wgpu::Buffer,
-        glints: Option<&wgpu::Buffer>,
-        mattes: Option<Arc<MatteAtlas>>,
-    ) -> HostRain {
-        let (streak_bytes, glint_bytes) = (streaks.size(), glints.map_or(0, wgpu::Buffer::size));
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("streak_readback"),
-            size: streak_bytes + glint_bytes + 16,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+    /// The rain of the volume `columns`, its streaks drawn with `mattes` (`None`: capsules).
+    pub fn new(columns: &[Column], mattes: Option<Arc<MatteAtlas>>) -> HostRain {
         HostRain {
-            streaks: streaks.clone(),
-            glints: glints.cloned(),
-            readback,
-            streak_bytes,
-            glint_bytes,
+            columns: columns.to_vec(),
+            glints_on: mattes.as_ref().is_some_and(|m| !m.lights.is_empty()),
             mattes,
+            lights: LightList::new(&[]),
+            table: None,
+            streaks: Vec::new(),
+            glints: Vec::new(),
         }
     }
 
@@ -60,91 +56,49 @@ impl HostRain {
         self.mattes.as_deref()
     }
 
-    /// Submits `simulate` for the frame of `rain` and the copy of its streaks, timed in slot
-    /// `timestamps` (with the buffer its two queries resolve into) where given.
-    pub fn submit(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        simulate: &dyn FrameStage,
-        rain: &RainParams,
-        timestamps: Option<(TimestampSlot<'_>, &wgpu::Buffer)>,
-    ) -> Pending {
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("rain_simulate"),
-        });
-        simulate.prepare(queue, rain);
-        simulate.record(&mut encoder, timestamps.map(|(slot, _)| slot));
-        encoder.copy_buffer_to_buffer(&self.streaks, 0, &self.readback, 0, self.streak_bytes);
-        if let Some(glints) = &self.glints {
-            encoder.copy_buffer_to_buffer(
-                glints,
-                0,
-                &self.readback,
-                self.streak_bytes,
-                self.glint_bytes,
-            );
-        }
-        if let Some((slot, resolve)) = timestamps {
-            let first = 2 * slot.slot;
-            encoder.resolve_query_set(slot.set, first..first + 2, resolve, 0);
-            encoder.copy_buffer_to_buffer(
-                resolve,
-                0,
-                &self.readback,
-                self.streak_bytes + self.glint_bytes,
-                16,
-            );
-        }
-        let (tx, rx) = mpsc::channel();
-        encoder.map_buffer_on_submit(&self.readback, wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        Pending {
-            submission: queue.submit([encoder.finish()]),
-            mapped: rx,
-            timed: timestamps.is_some(),
-        }
+    /// The compact lights of the frames from now on.
+    pub fn set_lights(&mut self, lights: &LightList) {
+        self.lights = *lights;
     }
 
-    /// Waits for `pending` and hands `draw` the streaks and glints it read back; returns what
-    /// `draw` returns and the simulation's GPU time in ticks, where it was timed.
-    pub fn receive<T>(
-        &self,
-        device: &wgpu::Device,
-        pending: Pending,
-        draw: impl FnOnce(&[Streak], &[Glint]) -> T,
-    ) -> Result<(T, Option<u64>)> {
-        device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(pending.submission),
-                timeout: None,
-            })
-            .map_err(|e| Error::Gpu(format!("waiting for the drops: {e}")))?;
-        pending
-            .mapped
-            .recv()
-            .map_err(|_| Error::Gpu("readback callback dropped".into()))?
-            .map_err(|e| Error::Gpu(format!("readback of the drops: {e}")))?;
-        let result = {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
-            let (s, rest) = view.split_at(self.streak_bytes as usize);
-            let (g, ticks) = rest.split_at(self.glint_bytes as usize);
-            // Mapped memory is aligned for any `Pod`; copied where it is not.
-            let streaks: std::borrow::Cow<[Streak]> = bytemuck::try_cast_slice(s)
-                .map_or_else(|_| bytemuck::pod_collect_to_vec(s).into(), Into::into);
-            let glints: std::borrow::Cow<[Glint]> = bytemuck::try_cast_slice(g)
-                .map_or_else(|_| bytemuck::pod_collect_to_vec(g).into(), Into::into);
-            debug_assert!(glints.is_empty() || glints.len() == GLINTS_PER_DROP * streaks.len());
-            let word =
-                |k: usize| u64::from_le_bytes(ticks[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
-            let span = pending.timed.then(|| word(1).saturating_sub(word(0)));
-            (draw(&streaks, &glints), span)
+    /// The drop's transfer table the lights are seen through; until it is set they add
+    /// nothing (as on the GPU).
+    pub fn set_transfer_table(&mut self, tables: &[RtfTable; 3]) {
+        self.table = Some(LightTable::new(&crate::gpu::lights::table_texels(tables)));
+    }
+
+    /// The frame's drops under `p`: one streak per drop and, with point-light mattes, their
+    /// glints (the records `rain_simulate` writes); returns them with the count that can be
+    /// drawn.
+    pub fn simulate(&mut self, p: &RainParams) -> (&[Streak], &[Glint], usize) {
+        let drops = Drops {
+            columns: &self.columns,
+            lights: &self.lights,
+            table: self.table.as_ref(),
+            glints: self.glints_on,
         };
-        self.readback.unmap();
-        Ok(result)
+        let drawable = simulate::simulate(p, &drops, &mut self.streaks, &mut self.glints);
+        (&self.streaks, &self.glints, drawable)
+    }
+
+    /// Simulates the frame's drops under `p` and draws them with `draw` (given the streaks, the
+    /// glints and the mattes), timing both.
+    pub fn draw(
+        &mut self,
+        p: &RainParams,
+        draw: impl FnOnce(&[Streak], Option<&MatteAtlas>, &[Glint]) -> RasterCount,
+    ) -> RainTimes {
+        let started = std::time::Instant::now();
+        let mattes = self.mattes.clone();
+        let (streaks, glints, drawable) = self.simulate(p);
+        let simulate_s = started.elapsed().as_secs_f64();
+        let started = std::time::Instant::now();
+        let raster = draw(streaks, mattes.as_deref(), glints);
+        RainTimes {
+            simulate_s,
+            streaks_s: started.elapsed().as_secs_f64(),
+            drawable,
+            raster,
+        }
     }
 }
