@@ -94,6 +94,22 @@ pub struct Carpet {
     wet_ref: Vec<f32>,
     wet_ref_time_s: Vec<f64>,
     time_s: f64,
+    /// [`Carpet::update_split`]'s memory, rebuilt when missing (left out of checkpoints).
+    #[serde(skip)]
+    incremental: Option<Incremental>,
+}
+
+/// What lets [`Carpet::update_split`] visit only the leaves that can change: the footprint of
+/// the water at rest and the leaves left moving by the last update.
+#[derive(Debug, Clone)]
+struct Incremental {
+    /// The resting particles' version the footprint was made from.
+    rest_version: u64,
+    /// Per leaf, the highest top of a resting particle over it (−∞: none).
+    rest_splat_m: Vec<f32>,
+    /// Leaves whose next update may differ from their last: a moving particle's top was over
+    /// the water at rest there, or the leaf is a falling trail.
+    live: Vec<u32>,
 }
 
 impl Carpet {
@@ -201,6 +217,7 @@ impl Carpet {
             wet_ref: vec![0.0; n],
             wet_ref_time_s: vec![0.0; n],
             time_s: 0.0,
+            incremental: None,
         })
     }
 
@@ -265,7 +282,8 @@ impl Carpet {
     /// `dt_s`.
     pub fn update(&mut self, positions_m: &[Vec3], dt_s: f32) {
         self.time_s += dt_s as f64;
-        self.splat(positions_m);
+        self.incremental = None;
+        self.splat(positions_m, true);
         let top = self.levels.len() - 1;
         for j in 0..self.levels[top].ny {
             for i in 0..self.levels[top].nx {
@@ -278,7 +296,9 @@ impl Carpet {
         self.splatted.clear();
     }
 
-    fn splat(&mut self, positions_m: &[Vec3]) {
+    /// Raises `splat_m` to each particle's top over the leaves its disk covers, listing the
+    /// leaves first raised in `splatted`; `mark`: also mark them (and their parents) touched.
+    fn splat(&mut self, positions_m: &[Vec3], mark: bool) {
         let s = self.settings;
         let r = s.particle_radius_m;
         for p in positions_m {
@@ -301,12 +321,115 @@ impl Carpet {
                     let k = j * s.nx + i;
                     if self.splat_m[k] == f32::NEG_INFINITY {
                         self.splatted.push(k as u32);
-                        self.mark_touched(i, j);
+                        if mark {
+                            self.mark_touched(i, j);
+                        }
                     }
                     self.splat_m[k] = self.splat_m[k].max(top);
                 }
             }
         }
+    }
+
+    /// [`Carpet::update`] with the particles split into `resting_m` (water at rest, which
+    /// changes only when `resting_version` does) and `moving_m`, visiting only the leaves that
+    /// can change: those under a moving particle now or at the last update, falling trails,
+    /// and those whose resting footprint changed; then their parents. A leaf under resting
+    /// water alone, as at the last update, would be set to the same height again, so it is
+    /// skipped. The nodes and the wetness equal [`Carpet::update`]'s bit for bit (the only
+    /// difference: a leaf kept under water does not restamp the time its drying would start
+    /// from, which is restamped when it dries, before anything reads it).
+    pub fn update_split(
+        &mut self,
+        resting_m: &[Vec3],
+        resting_version: u64,
+        moving_m: &[Vec3],
+        dt_s: f32,
+    ) {
+        self.time_s += dt_s as f64;
+        let n = self.settings.nx * self.settings.ny;
+        // The resting footprint: kept, remade on a change (the leaves that differ are
+        // visited), or made afresh (every leaf the full update would visit is).
+        let fresh = match self.incremental.take() {
+            Some(inc) if inc.rest_version == resting_version => Ok(inc),
+            other => Err(other),
+        };
+        let mut candidates = Vec::new();
+        let mut inc = match fresh {
+            Ok(inc) => inc,
+            Err(old) => {
+                self.splat(resting_m, false);
+                let mut rest = vec![f32::NEG_INFINITY; n];
+                for &k in &self.splatted {
+                    rest[k as usize] = self.splat_m[k as usize];
+                    self.splat_m[k as usize] = f32::NEG_INFINITY;
+                }
+                self.splatted.clear();
+                match old {
+                    Some(old) => {
+                        candidates.extend(old.live);
+                        candidates.extend(
+                            (0..n as u32)
+                                .filter(|&k| old.rest_splat_m[k as usize] != rest[k as usize]),
+                        );
+                    }
+                    None => {
+                        let wet = &self.levels[0].nodes;
+                        candidates.extend((0..n as u32).filter(|&k| {
+                            rest[k as usize] > f32::NEG_INFINITY
+                                || wet[k as usize].max_depth_m > 0.0
+                        }));
+                    }
+                }
+                Incremental {
+                    rest_version: resting_version,
+                    rest_splat_m: rest,
+                    live: Vec::new(),
+                }
+            }
+        };
+        candidates.append(&mut inc.live);
+        self.splat(moving_m, false);
+        candidates.extend_from_slice(&self.splatted);
+        candidates.sort_unstable();
+        candidates.dedup();
+
+        for &k in &candidates {
+            let k = k as usize;
+            let splat = self.splat_m[k].max(inc.rest_splat_m[k]);
+            self.update_leaf(k, splat, dt_s);
+            let falling = splat == f32::NEG_INFINITY && self.levels[0].nodes[k].max_depth_m > 0.0;
+            if splat != inc.rest_splat_m[k] || falling {
+                inc.live.push(k as u32);
+            }
+        }
+        for &k in &self.splatted {
+            self.splat_m[k as usize] = f32::NEG_INFINITY;
+        }
+        self.splatted.clear();
+
+        // The parents of what was visited, level by level, each once.
+        let mut below = candidates;
+        for level in 1..self.levels.len() {
+            let nx_below = self.levels[level - 1].nx;
+            let nx = self.levels[level].nx;
+            let mut parents: Vec<u32> = Vec::with_capacity(below.len() / 2 + 1);
+            for &c in &below {
+                let (i, j) = (c as usize % nx_below / 2, c as usize / nx_below / 2);
+                let p = j * nx + i;
+                if !self.levels[level].touched[p] {
+                    self.levels[level].touched[p] = true;
+                    parents.push(p as u32);
+                }
+            }
+            for &p in &parents {
+                let (i, j) = (p as usize % nx, p as usize / nx);
+                self.levels[level].touched[p as usize] = false;
+                self.levels[level].nodes[p as usize] = combine(&self.levels[level - 1], i, j);
+            }
+            below = parents;
+        }
+        self.incremental = Some(inc);
     }
 
     fn mark_touched(&mut self, mut i: usize, mut j: usize) {
@@ -325,7 +448,7 @@ impl Carpet {
         let k = j * self.levels[level].nx + i;
         self.levels[level].touched[k] = false;
         if level == 0 {
-            self.update_leaf(k, dt_s);
+            self.update_leaf(k, self.splat_m[k], dt_s);
             return;
         }
         let below = level - 1;
@@ -342,12 +465,13 @@ impl Carpet {
         self.levels[level].nodes[k] = combine(&self.levels[below], i, j);
     }
 
-    fn update_leaf(&mut self, k: usize, dt_s: f32) {
+    /// One leaf's step with `splat_m` the highest particle top over it (−∞: none).
+    fn update_leaf(&mut self, k: usize, splat_m: f32, dt_s: f32) {
         let terrain = self.leaf_terrain_m[k];
         let node = &mut self.levels[0].nodes[k];
         let was_wet = node.max_depth_m > 0.0;
-        if self.splat_m[k] > f32::NEG_INFINITY {
-            node.height_m = self.splat_m[k].max(terrain);
+        if splat_m > f32::NEG_INFINITY {
+            node.height_m = splat_m.max(terrain);
             self.leaf_speed_mps[k] = 0.0;
         } else if node.height_m > terrain {
             // The thesis's trail: the node falls until a particle arrives or it meets the ground.

@@ -71,9 +71,6 @@ pub struct SurfaceFlow {
     pub carpet: Carpet,
     precipitation_cell_m: f32,
     drained: Vec<NewParticle>,
-    /// Every particle's position, moving and at rest, for the carpet.
-    #[serde(skip)]
-    positions: Vec<Vec3>,
 }
 
 impl SurfaceFlow {
@@ -144,7 +141,6 @@ impl SurfaceFlow {
             carpet,
             precipitation_cell_m: s.precipitation_cell_m,
             drained: Vec::new(),
-            positions: Vec::new(),
         })
     }
 
@@ -191,11 +187,16 @@ impl SurfaceFlow {
         Ok(steps)
     }
 
-    /// Rebuilds the carpet from every particle, moving and at rest, `dt_s` after the last.
+    /// Rebuilds the carpet from every particle, moving and at rest, `dt_s` after the last:
+    /// only where it can change ([`Carpet::update_split`]; the water at rest stays put).
     pub fn update_carpet(&mut self, dt_s: f32) {
-        self.positions.clear();
-        self.positions.extend(self.sph.all_positions_m());
-        self.carpet.update(&self.positions, dt_s);
+        let resting = self.sph.resting();
+        self.carpet.update_split(
+            resting.positions_m(),
+            resting.version(),
+            &self.sph.particles().position_m,
+            dt_s,
+        );
     }
 
     /// Water depth above the terrain on the carpet grid, m.
