@@ -722,3 +722,59 @@ fn carpet_updated_where_it_can_change_equals_the_full_rebuild() {
         "the scene has water ({wet}) and drying leaves ({damp})"
     );
 }
+
+/// Raindrops' wetting applied as a batch in leaf order equals adding them one by one in the
+/// order they came, bit for bit: on dry leaves, drying ones, leaves hit many times, and under
+/// water.
+#[test]
+fn carpet_wetting_in_a_batch_equals_one_drop_at_a_time() {
+    let n = 64;
+    let terrain = HeightField::flat(n + 1, n + 1, Vec2::ZERO, 0.01, 0.0).expect("terrain");
+    let settings = CarpetSettings {
+        nx: n,
+        ny: n,
+        origin_m: Vec2::ZERO,
+        cell_m: 0.01,
+        particle_radius_m: 0.005,
+        trail_acceleration_mps2: G,
+        drying_time_s: 0.3,
+        wetting_per_hit: 0.15,
+    };
+    let mut one = Carpet::new(settings, &terrain).expect("carpet");
+    let mut batch = one.clone();
+    let mut rng = rain_composite::rng::SplitMix64(11);
+    let pool = [Vec3::new(0.2, 0.2, 0.004), Vec3::new(0.21, 0.2, 0.004)];
+    let mut leaves = Vec::new();
+    let (mut under_water, mut drying) = (false, false);
+    for frame in 0..40 {
+        for _ in 0..500 {
+            // Half the drops in a small patch (many hits per leaf), half anywhere.
+            let (x, y) = if rng.next_f64() < 0.5 {
+                (0.1 + 0.03 * rng.next_f64(), 0.1 + 0.03 * rng.next_f64())
+            } else {
+                (0.66 * rng.next_f64(), 0.66 * rng.next_f64())
+            };
+            let (x, y) = (x as f32, y as f32);
+            one.add_hit(x, y);
+            if let Some(k) = batch.leaf_index(x, y) {
+                leaves.push(k);
+            }
+        }
+        batch.add_hits(&mut leaves);
+        assert!(leaves.is_empty());
+        let water: &[Vec3] = if frame < 20 { &pool } else { &[] };
+        one.update(water, 0.02);
+        batch.update(water, 0.02);
+        let (a, b) = (one.wetness(), batch.wetness());
+        assert!(
+            a.values
+                .iter()
+                .zip(&b.values)
+                .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "frame {frame}"
+        );
+        under_water |= a.values.iter().any(|&v| v == 1.0);
+        drying |= a.values.iter().any(|&v| v > 0.0 && v < 0.5);
+    }
+    assert!(under_water && drying);
+}

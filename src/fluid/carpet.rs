@@ -91,12 +91,24 @@ pub struct Carpet {
     leaf_speed_mps: Vec<f32>,
     splat_m: Vec<f32>,
     splatted: Vec<u32>,
-    wet_ref: Vec<f32>,
-    wet_ref_time_s: Vec<f64>,
+    /// Per leaf, what its wetness is evaluated from.
+    wet: Vec<LeafWet>,
     time_s: f64,
+    /// [`Carpet::add_hits`]'s buffer.
+    #[serde(skip)]
+    sort_scratch: Vec<u32>,
     /// [`Carpet::update_split`]'s memory, rebuilt when missing (left out of checkpoints).
     #[serde(skip)]
     incremental: Option<Incremental>,
+}
+
+/// A leaf's wetness state, in one record so a raindrop reads and writes one cache line: under
+/// water (mirrors `max_depth_m > 0`), else `wet_ref` decaying from `wet_ref_time_s`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+struct LeafWet {
+    wet_ref: f32,
+    under_water: bool,
+    wet_ref_time_s: f64,
 }
 
 /// What lets [`Carpet::update_split`] visit only the leaves that can change: the footprint of
@@ -214,9 +226,9 @@ impl Carpet {
             leaf_speed_mps: vec![0.0; n],
             splat_m: vec![f32::NEG_INFINITY; n],
             splatted: Vec::new(),
-            wet_ref: vec![0.0; n],
-            wet_ref_time_s: vec![0.0; n],
+            wet: vec![LeafWet::default(); n],
             time_s: 0.0,
+            sort_scratch: Vec::new(),
             incremental: None,
         })
     }
@@ -265,17 +277,47 @@ impl Carpet {
     pub fn add_hit(&mut self, x_m: f32, y_m: f32) {
         if let Some(k) = self.leaf_of(x_m, y_m) {
             let w = self.leaf_wetness(k);
-            self.wet_ref[k] = (w + self.settings.wetting_per_hit).min(1.0);
-            self.wet_ref_time_s[k] = self.time_s;
+            let leaf = &mut self.wet[k];
+            leaf.wet_ref = (w + self.settings.wetting_per_hit).min(1.0);
+            leaf.wet_ref_time_s = self.time_s;
         }
     }
 
+    /// The leaf under (x, y), for [`Carpet::add_hits`]; `None` outside the carpet.
+    pub fn leaf_index(&self, x_m: f32, y_m: f32) -> Option<u32> {
+        self.leaf_of(x_m, y_m).map(|k| k as u32)
+    }
+
+    /// [`Carpet::add_hit`] once per entry of `leaves` (leaf indices, one per raindrop; emptied).
+    /// The hits are applied in leaf order, so the memory is swept once rather than hit at
+    /// random; the result is the same as adding them one by one in any order, since all hits
+    /// of a leaf at one time are the same operation (the second and later see no decay).
+    pub fn add_hits(&mut self, leaves: &mut Vec<u32>) {
+        radix_sort(leaves, &mut self.sort_scratch, self.wet.len());
+        let a = self.settings.wetting_per_hit;
+        for &k in leaves.iter() {
+            let k = k as usize;
+            if k < self.wet.len() {
+                let w = self.leaf_wetness(k);
+                let leaf = &mut self.wet[k];
+                leaf.wet_ref = (w + a).min(1.0);
+                leaf.wet_ref_time_s = self.time_s;
+            }
+        }
+        leaves.clear();
+    }
+
     fn leaf_wetness(&self, k: usize) -> f32 {
-        if self.levels[0].nodes[k].max_depth_m > 0.0 {
+        let leaf = &self.wet[k];
+        if leaf.under_water {
             return 1.0;
         }
-        let age = (self.time_s - self.wet_ref_time_s[k]).max(0.0);
-        self.wet_ref[k] * (-age / self.settings.drying_time_s as f64).exp() as f32
+        // Never wetted, or wetted at this very time: e^0 = 1, so no exponential (the same bits).
+        if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
+            return leaf.wet_ref;
+        }
+        let age = (self.time_s - leaf.wet_ref_time_s).max(0.0);
+        leaf.wet_ref * (-age / self.settings.drying_time_s as f64).exp() as f32
     }
 
     /// Rebuilds the surface from particle positions and advances the trails and the drying by
@@ -484,10 +526,13 @@ impl Carpet {
             self.leaf_speed_mps[k] = 0.0;
         }
         node.max_depth_m = node.height_m - terrain;
-        if node.max_depth_m > 0.0 || was_wet {
+        let under_water = node.max_depth_m > 0.0;
+        let leaf = &mut self.wet[k];
+        leaf.under_water = under_water;
+        if under_water || was_wet {
             // Wet now, or just dried: drying starts from 1 at this time.
-            self.wet_ref[k] = 1.0;
-            self.wet_ref_time_s[k] = self.time_s;
+            leaf.wet_ref = 1.0;
+            leaf.wet_ref_time_s = self.time_s;
         }
     }
 
@@ -515,6 +560,33 @@ impl Carpet {
             cell_m: s.cell_m,
             values: (0..s.nx * s.ny).map(f).collect(),
         }
+    }
+}
+
+/// Sorts `keys` (all below `bound`) ascending: least significant digit first, 11 bits a pass,
+/// as many passes as `bound` needs.
+fn radix_sort(keys: &mut Vec<u32>, scratch: &mut Vec<u32>, bound: usize) {
+    const BITS: u32 = 11;
+    let bits = usize::BITS - bound.saturating_sub(1).leading_zeros();
+    scratch.clear();
+    scratch.resize(keys.len(), 0);
+    let mut shift = 0;
+    while shift < bits {
+        let mut start = [0usize; 1 << BITS];
+        for &k in keys.iter() {
+            start[((k >> shift) & ((1 << BITS) - 1)) as usize] += 1;
+        }
+        let mut sum = 0;
+        for s in start.iter_mut() {
+            (*s, sum) = (sum, sum + *s);
+        }
+        for &k in keys.iter() {
+            let d = ((k >> shift) & ((1 << BITS) - 1)) as usize;
+            scratch[start[d]] = k;
+            start[d] += 1;
+        }
+        std::mem::swap(keys, scratch);
+        shift += BITS;
     }
 }
 
