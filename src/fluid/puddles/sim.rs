@@ -376,7 +376,6 @@ impl PuddleSim {
                 return Err(Error::Interrupted);
             }
             let (t0, t1) = (self.time_s, self.time_s + self.step_s);
-            let mut room = self.room();
             // Frame by frame, as a render reports them: at the cap, which drops still add
             // water depends on their order.
             let m = self.frames_per_step.max(1);
@@ -387,24 +386,46 @@ impl PuddleSim {
                 } else {
                     t0 + self.step_s * (f + 1) as f64 / m as f64
                 };
-                for hit in impacts_between(rain.rainfall(), a, b) {
-                    let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
-                    self.land(x, y, || hit.diameter_mm, &mut room);
-                }
-                rain.stream_landings(&self.ground_rect(), a, b, |landing| {
-                    let p = landing.position_m;
-                    self.land(
-                        p.x as f32,
-                        p.y as f32,
-                        || rain.landing_diameter_mm(&landing),
-                        &mut room,
-                    );
-                });
+                self.feed_rain(rain, a, b);
             }
             self.flow.flush_hits();
             steps += self.step_to(t1)?;
         }
         Ok(steps)
+    }
+
+    /// Feeds all the rain landing on the footprint with time in (t0_s, t1_s] and runs the
+    /// solver in whole steps up to `t1_s`: [`PuddleSim::advance_to`] with
+    /// [`GroundRain::impacts_between`]'s drops, the same state, without making the stream's
+    /// drops impacts. A render's frame.
+    pub fn advance_with_rain_between(
+        &mut self,
+        rain: &GroundRain,
+        t0_s: f64,
+        t1_s: f64,
+    ) -> Result<usize> {
+        self.feed_rain(rain, t0_s, t1_s);
+        self.flow.flush_hits();
+        self.step_to(t1_s)
+    }
+
+    /// The drops of (t0_s, t1_s] to the counters and the carpet (its wetting held back):
+    /// the drawn drops', then the stream's, in [`GroundRain::impacts_between`]'s order.
+    fn feed_rain(&mut self, rain: &GroundRain, t0_s: f64, t1_s: f64) {
+        let mut room = self.room();
+        for hit in impacts_between(rain.rainfall(), t0_s, t1_s) {
+            let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
+            self.land(x, y, || hit.diameter_mm, &mut room);
+        }
+        rain.stream_landings(&self.ground_rect(), t0_s, t1_s, |landing| {
+            let p = landing.position_m;
+            self.land(
+                p.x as f32,
+                p.y as f32,
+                || rain.landing_diameter_mm(&landing),
+                &mut room,
+            );
+        });
     }
 
     /// The simulated ground as the rectangle the rain is asked for.

@@ -260,6 +260,11 @@ impl GroundRain {
             .collect()
     }
 
+    /// The largest diameter that lands, mm (the size distribution's truncation).
+    pub fn max_diameter_mm(&self) -> f64 {
+        self.model.dsd.range_mm().1
+    }
+
     /// Whether the drawn volume's own drops land at `p` (world x, y on z = 0).
     pub fn drawn_at(&self, p: DVec2) -> bool {
         self.drawn.cut_at(p).is_some()
