@@ -370,6 +370,18 @@ impl PuddleSim {
         t_s: f64,
         cancel: &std::sync::atomic::AtomicBool,
     ) -> Result<usize> {
+        // On one of the solver's own threads: its parallel passes over a few hundred moving
+        // particles then start there, not by waking the pool from outside some five times a
+        // step (the same results: each particle's update is its own).
+        rayon::scope(|_| self.fast_forward(rain, t_s, cancel))
+    }
+
+    fn fast_forward(
+        &mut self,
+        rain: &GroundRain,
+        t_s: f64,
+        cancel: &std::sync::atomic::AtomicBool,
+    ) -> Result<usize> {
         let mut steps = 0;
         while self.time_s + self.step_s <= t_s + 1e-9 {
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
