@@ -773,7 +773,7 @@ fn carpet_wetting_in_a_batch_equals_one_drop_at_a_time() {
                 .all(|(x, y)| x.to_bits() == y.to_bits()),
             "frame {frame}"
         );
-        under_water |= a.values.iter().any(|&v| v == 1.0);
+        under_water |= a.values.contains(&1.0);
         drying |= a.values.iter().any(|&v| v > 0.0 && v < 0.5);
     }
     assert!(under_water && drying);
