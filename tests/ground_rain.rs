@@ -214,3 +214,42 @@ fn the_same_impacts_whatever_the_intervals_asked() {
     assert_eq!(whole.len(), parts.len());
     assert!(whole.iter().zip(&parts).all(|(a, b)| a == b));
 }
+
+/// The stream's landings (where and when, the size looked up only when asked) are the
+/// stream's impacts, in the same order with the same values: with a keyed rate (sizes thinned
+/// by rate) and drawn drops landing on part of the ground (sizes left to them there).
+#[test]
+fn the_streams_landings_are_its_impacts() {
+    let s = setup(20.0);
+    let keys = Curve::new(vec![(0.0, 20.0), (0.5, 8.0)]).expect("keys");
+    let model = s.model.clone().with_rate_keys(&keys);
+    for g in [
+        ground_rain(&s),
+        GroundRain::new(Rainfall::new(&s.volume, &model, &s.wind, s.params.seed)),
+    ] {
+        let r = rect(-3.0, 0.0, 3.0, 12.0);
+        let mut impacts = Vec::new();
+        g.stream_between(&r, 0.3, 0.7, &mut impacts);
+        let mut landings = Vec::new();
+        g.stream_landings(&r, 0.3, 0.7, |l| landings.push(l));
+        assert!(impacts.len() > 10_000, "{}", impacts.len());
+        assert!(
+            impacts.iter().any(|h| g.drawn_at(h.position_m.truncate())),
+            "some land among the drawn drops"
+        );
+        assert_eq!(impacts.len(), landings.len());
+        for (h, l) in impacts.iter().zip(&landings) {
+            assert_eq!(
+                (h.id, h.pass, h.time_s, h.position_m.truncate()),
+                (l.id, l.pass, l.time_s, l.position_m)
+            );
+            assert_eq!(h.diameter_mm, g.landing_diameter_mm(l));
+            assert_eq!(
+                -h.velocity_mps.z,
+                terminal_velocity_gk_mps(h.diameter_mm) * {
+                    s.model.fall.terminal_velocity_mps(1.0) / terminal_velocity_gk_mps(1.0)
+                }
+            );
+        }
+    }
+}

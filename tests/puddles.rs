@@ -218,40 +218,116 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
     )
     .map(RainSetup::pack)
     .expect("rain");
-    let every_other = PuddleSettings {
-        step_every_frames: 2,
+    let ground = GroundRain::new(rain.rainfall());
+    // Below the particle cap (drops fill the counters) and at it (drops only wet the ground).
+    for cap in [small().max_particles, 50] {
+        let every_other = PuddleSettings {
+            step_every_frames: 2,
+            max_particles: cap,
+            ..small()
+        };
+        let build = || {
+            PuddleSim::new(&config, &camera, None, FPS, &every_other)
+                .expect("valid")
+                .expect("ground in view")
+        };
+        let (mut render, mut seek, mut lean) = (build(), build(), build());
+        for frame in 1..=6 {
+            let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
+            let hits = ground.impacts_between(&render.ground_rect(), t0, t1);
+            let steps = render.advance_to(t1, &hits).expect("frame");
+            // A render's frame fed without making the impacts.
+            let lean_steps = lean
+                .advance_with_rain_between(&ground, t0, t1)
+                .expect("frame");
+            assert_eq!(steps, lean_steps);
+            assert_eq!(
+                steps == 0,
+                frame % 2 == 1,
+                "the solver runs every other frame"
+            );
+        }
+        seek.advance_with_rain(&ground, 6.0 / FPS)
+            .expect("fast-forward");
+        let (a, mut b) = (render.ledger(), seek.ledger());
+        assert!(a.rain_drops + a.rain_drops_over_cap > 0, "{a:?}");
+        assert_eq!(cap == 50, a.rain_drops_over_cap > 0, "{a:?}");
+        // The same drops, summed in another order: their volume agrees to rounding.
+        if a.rain_drops > 0 {
+            assert!((a.rain_drop_volume_m3 / b.rain_drop_volume_m3 - 1.0).abs() < 1e-12);
+        }
+        b.rain_drop_volume_m3 = a.rain_drop_volume_m3;
+        assert_eq!(a, b);
+        assert_eq!(
+            render.flow().sph.state_digest(),
+            seek.flow().sph.state_digest()
+        );
+        assert_eq!(render.water_depth(), seek.water_depth());
+        assert_eq!(render.wetness(), seek.wetness());
+        assert_eq!(render.ledger(), lean.ledger());
+        assert_eq!(
+            render.flow().sph.state_digest(),
+            lean.flow().sph.state_digest()
+        );
+        assert_eq!(render.water_depth(), lean.water_depth());
+        assert_eq!(render.wetness(), lean.wetness());
+    }
+}
+
+/// The impacts a feed keeps for the rings are the same whether it asks the rain for the whole
+/// simulated ground or only for the part where a ring can be resolved (`ring_ground`), which
+/// is a small part of it.
+#[test]
+fn rings_from_the_ground_where_they_resolve_are_the_rings_from_all_of_it() {
+    use rain_composite::fluid::ripples::{keep_resolved_rings, ring_ground};
+    let (mut config, _) = street(30.0, 10.0, 0.004);
+    let camera = config.camera(1280, 720).expect("camera");
+    let r = &mut config.rain;
+    (r.far_m, r.max_drops, r.drop_scale) = (6.0, 100_000, 3.0);
+    let rain = rain_composite::shot::rain::plan(
+        &camera,
+        &config.camera,
+        &config.rain,
+        0.02,
+        0,
+        (camera.width_px, camera.height_px),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let ground = GroundRain::new(rain.rainfall());
+    let settings = PuddleSettings {
+        max_distance_m: 20.0,
         ..small()
     };
-    let build = || {
-        PuddleSim::new(&config, &camera, None, FPS, &every_other)
-            .expect("valid")
-            .expect("ground in view")
-    };
-    let (mut render, mut seek) = (build(), build());
-    let ground = GroundRain::new(rain.rainfall());
-    for frame in 1..=6 {
-        let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
-        let hits = ground.impacts_between(&render.ground_rect(), t0, t1);
-        let steps = render.advance_to(t1, &hits).expect("frame");
-        assert_eq!(
-            steps == 0,
-            frame % 2 == 1,
-            "the solver runs every other frame"
-        );
-    }
-    seek.advance_with_rain(&ground, 6.0 / FPS)
-        .expect("fast-forward");
-    assert!(render.ledger().rain_drops > 0, "{:?}", render.ledger());
-    // The same drops, summed in another order: their volume agrees to rounding.
-    let (a, mut b) = (render.ledger(), seek.ledger());
-    assert!((a.rain_drop_volume_m3 / b.rain_drop_volume_m3 - 1.0).abs() < 1e-12);
-    b.rain_drop_volume_m3 = a.rain_drop_volume_m3;
-    assert_eq!(a, b);
-    assert_eq!(
-        render.flow().sph.state_digest(),
-        seek.flow().sph.state_digest()
+    let sim = PuddleSim::new(&config, &camera, None, FPS, &settings)
+        .expect("valid")
+        .expect("ground in view");
+    let all = sim.ground_rect();
+    let near = ring_ground(&camera, &all, ground.max_diameter_mm());
+    assert!(
+        near.area_m2() < 0.5 * all.area_m2(),
+        "{} of {} m²",
+        near.area_m2(),
+        all.area_m2()
     );
-    assert_eq!(render.water_depth(), seek.water_depth());
+    let (mut from_all, mut from_near) = (Vec::new(), Vec::new());
+    for frame in 1..=8 {
+        let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
+        keep_resolved_rings(
+            &mut from_all,
+            &ground.impacts_between(&all, t0, t1),
+            t1,
+            &camera,
+        );
+        keep_resolved_rings(
+            &mut from_near,
+            &ground.impacts_between(&near, t0, t1),
+            t1,
+            &camera,
+        );
+        assert_eq!(from_all, from_near, "frame {frame}");
+    }
+    assert!(from_all.len() > 1000, "{}", from_all.len());
 }
 
 #[test]

@@ -267,3 +267,46 @@ fn report() {
         1e3 * rms_m
     );
 }
+
+/// The seek of a preview on the street sample's ground (640×360, 20 mm/h, two hours of
+/// pre-rain, 25 fps, to 1.52 s): the build and the fast-forward with all the ground's rain,
+/// wall seconds (docs/measurements.md, "The water's cost").
+#[test]
+#[ignore]
+fn report_seek() {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.48".parse().expect("mode");
+    config.rain.rate_mm_per_h = 20.0;
+    config.rain.scene_depth_m = 30.0;
+    config.ground.pre_rain_min = 120.0;
+    let camera = config.camera(640, 360).expect("camera");
+    let rain = rain_composite::shot::rain::plan(
+        &camera,
+        &config.camera,
+        &config.rain,
+        0.02,
+        0,
+        (camera.width_px, camera.height_px),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let ground = GroundRain::new(rain.rainfall());
+    let t = Instant::now();
+    let mut sim = PuddleSim::new(&config, &camera, None, FPS, &PuddleSettings::of(&config))
+        .expect("valid")
+        .expect("ground");
+    let build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    sim.advance_with_rain(&ground, 38.0 / FPS)
+        .expect("fast-forward");
+    let seek = t.elapsed().as_secs_f64();
+    let l = sim.ledger();
+    println!(
+        "build {build:.2} s, fast-forward {seek:.2} s: {} solver steps, {} drops ({} over the \
+         cap), solver digest {:016x}",
+        sim.steps(),
+        l.rain_drops + l.rain_drops_over_cap,
+        l.rain_drops_over_cap,
+        sim.flow().sph.state_digest()
+    );
+}

@@ -6,9 +6,9 @@ use glam::{Vec2, Vec3};
 use rain_composite::Error;
 use rain_composite::fluid::scenes::{self, Basin, DamBreak, SceneOptions};
 use rain_composite::fluid::{
-    Boundaries, Domain, Emitter, EquationOfState, HeightField, Kernel, Muller2003, NewParticle,
-    Poly6, PrecipitationGrid, SphSettings, Spiky, SurfaceFlow, SurfaceFlowSettings, TimeStep,
-    Viscosity,
+    Boundaries, Carpet, CarpetSettings, Domain, Emitter, EquationOfState, HeightField, Kernel,
+    Muller2003, NewParticle, Poly6, PrecipitationGrid, SphSettings, Spiky, SurfaceFlow,
+    SurfaceFlowSettings, TimeStep, Viscosity,
 };
 
 const G: f32 = 9.81;
@@ -588,4 +588,193 @@ fn report_density_error_against_stiffness_and_time_step() {
             100.0 * (hs.pressure_gradient_pa_per_m / hs.expected_gradient_pa_per_m - 1.0),
         );
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The carpet updated only where it can change
+// ---------------------------------------------------------------------------------------------
+
+/// Every node of every level and the wetness of two carpets, bit for bit.
+fn carpets_equal(a: &Carpet, b: &Carpet) -> Result<(), String> {
+    for level in 0..a.levels() {
+        let (nx, ny) = a.level_dims(level).expect("level");
+        for j in 0..ny {
+            for i in 0..nx {
+                let (na, nb) = (a.node(level, i, j), b.node(level, i, j));
+                if na.map(|n| n.height_m.to_bits()) != nb.map(|n| n.height_m.to_bits())
+                    || na.map(|n| n.max_depth_m.to_bits()) != nb.map(|n| n.max_depth_m.to_bits())
+                {
+                    return Err(format!("level {level} node ({i}, {j}): {na:?} vs {nb:?}"));
+                }
+            }
+        }
+    }
+    let (wa, wb) = (a.wetness(), b.wetness());
+    for (k, (x, y)) in wa.values.iter().zip(&wb.values).enumerate() {
+        if x.to_bits() != y.to_bits() {
+            return Err(format!("wetness of leaf {k}: {x} vs {y}"));
+        }
+    }
+    Ok(())
+}
+
+/// A carpet updated only where it can change (the water at rest split from the moving
+/// particles) equals one rebuilt from every particle each update, bit for bit: with particles
+/// moving, leaving (their leaves falling as trails, then drying), arriving, raindrops wetting
+/// dry leaves, water at rest removed and added, and the carpet read back from a checkpoint.
+#[test]
+fn carpet_updated_where_it_can_change_equals_the_full_rebuild() {
+    let n = 48;
+    let spacing = 0.01;
+    let heights: Vec<f32> = (0..(n + 1) * (n + 1))
+        .map(|v| {
+            let (x, y) = ((v % (n + 1)) as f32, (v / (n + 1)) as f32);
+            0.004 * ((0.37 * x).sin() + (0.23 * y).cos())
+        })
+        .collect();
+    let terrain = HeightField::new(n + 1, n + 1, Vec2::ZERO, spacing, heights).expect("terrain");
+    let settings = CarpetSettings {
+        nx: n,
+        ny: n,
+        origin_m: Vec2::ZERO,
+        cell_m: spacing,
+        particle_radius_m: 0.006,
+        trail_acceleration_mps2: G,
+        drying_time_s: 0.5,
+        wetting_per_hit: 0.2,
+    };
+    let mut full = Carpet::new(settings, &terrain).expect("carpet");
+    let mut split = full.clone();
+    let mut rng = rain_composite::rng::SplitMix64(7);
+    // Water at rest in a pool in one corner; a few particles wandering over the rest.
+    let mut resting: Vec<Vec3> = (0..300)
+        .map(|k| {
+            let (i, j) = ((k % 15) as f32, (k / 15 % 15) as f32);
+            Vec3::new(
+                0.04 + 0.01 * i,
+                0.04 + 0.01 * j,
+                0.006 + 0.01 * (k / 225) as f32,
+            )
+        })
+        .collect();
+    let mut version = 0;
+    let mut moving: Vec<Vec3> = (0..40)
+        .map(|_| {
+            Vec3::new(
+                rng.next_f64() as f32 * 0.48,
+                rng.next_f64() as f32 * 0.48,
+                0.01,
+            )
+        })
+        .collect();
+    let dt = 0.02;
+    for frame in 0..120 {
+        for p in &mut moving {
+            *p += Vec3::new(
+                (rng.next_f64() as f32 - 0.5) * 0.02,
+                (rng.next_f64() as f32 - 0.5) * 0.02,
+                0.0,
+            );
+        }
+        if frame % 10 == 5 {
+            // Some leave (their leaves fall, then dry), others arrive.
+            moving.truncate(moving.len() * 2 / 3);
+            moving.push(Vec3::new(0.3, 0.3, 0.02));
+        }
+        if frame == 30 {
+            resting.truncate(200);
+            version += 1;
+        }
+        if frame == 70 {
+            resting.push(Vec3::new(0.4, 0.1, 0.01));
+            version += 1;
+        }
+        if frame == 50 {
+            let bytes = postcard::to_stdvec(&split).expect("serialise");
+            split = postcard::from_bytes(&bytes).expect("read back");
+        }
+        for _ in 0..30 {
+            let (x, y) = (rng.next_f64() as f32 * 0.5, rng.next_f64() as f32 * 0.5);
+            full.add_hit(x, y);
+            split.add_hit(x, y);
+        }
+        let all: Vec<Vec3> = moving.iter().chain(&resting).copied().collect();
+        full.update(&all, dt);
+        split.update_split(&resting, version, &moving, dt);
+        if let Err(e) = carpets_equal(&full, &split) {
+            panic!("frame {frame}: {e}");
+        }
+    }
+    let wet = full
+        .water_depth()
+        .values
+        .iter()
+        .filter(|&&d| d > 0.0)
+        .count();
+    let damp = full
+        .wetness()
+        .values
+        .iter()
+        .filter(|&&w| w > 0.0 && w < 1.0)
+        .count();
+    assert!(
+        wet > 100 && damp > 50,
+        "the scene has water ({wet}) and drying leaves ({damp})"
+    );
+}
+
+/// Raindrops' wetting applied as a batch in leaf order equals adding them one by one in the
+/// order they came, bit for bit: on dry leaves, drying ones, leaves hit many times, and under
+/// water.
+#[test]
+fn carpet_wetting_in_a_batch_equals_one_drop_at_a_time() {
+    let n = 64;
+    let terrain = HeightField::flat(n + 1, n + 1, Vec2::ZERO, 0.01, 0.0).expect("terrain");
+    let settings = CarpetSettings {
+        nx: n,
+        ny: n,
+        origin_m: Vec2::ZERO,
+        cell_m: 0.01,
+        particle_radius_m: 0.005,
+        trail_acceleration_mps2: G,
+        drying_time_s: 0.3,
+        wetting_per_hit: 0.15,
+    };
+    let mut one = Carpet::new(settings, &terrain).expect("carpet");
+    let mut batch = one.clone();
+    let mut rng = rain_composite::rng::SplitMix64(11);
+    let pool = [Vec3::new(0.2, 0.2, 0.004), Vec3::new(0.21, 0.2, 0.004)];
+    let mut leaves = Vec::new();
+    let (mut under_water, mut drying) = (false, false);
+    for frame in 0..40 {
+        for _ in 0..500 {
+            // Half the drops in a small patch (many hits per leaf), half anywhere.
+            let (x, y) = if rng.next_f64() < 0.5 {
+                (0.1 + 0.03 * rng.next_f64(), 0.1 + 0.03 * rng.next_f64())
+            } else {
+                (0.66 * rng.next_f64(), 0.66 * rng.next_f64())
+            };
+            let (x, y) = (x as f32, y as f32);
+            one.add_hit(x, y);
+            if let Some(k) = batch.leaf_index(x, y) {
+                leaves.push(k);
+            }
+        }
+        batch.add_hits(&mut leaves);
+        assert!(leaves.is_empty());
+        let water: &[Vec3] = if frame < 20 { &pool } else { &[] };
+        one.update(water, 0.02);
+        batch.update(water, 0.02);
+        let (a, b) = (one.wetness(), batch.wetness());
+        assert!(
+            a.values
+                .iter()
+                .zip(&b.values)
+                .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "frame {frame}"
+        );
+        under_water |= a.values.contains(&1.0);
+        drying |= a.values.iter().any(|&v| v > 0.0 && v < 0.5);
+    }
+    assert!(under_water && drying);
 }

@@ -91,9 +91,37 @@ pub struct Carpet {
     leaf_speed_mps: Vec<f32>,
     splat_m: Vec<f32>,
     splatted: Vec<u32>,
-    wet_ref: Vec<f32>,
-    wet_ref_time_s: Vec<f64>,
+    /// Per leaf, what its wetness is evaluated from.
+    wet: Vec<LeafWet>,
     time_s: f64,
+    /// [`Carpet::add_hits`]'s buffer.
+    #[serde(skip)]
+    sort_scratch: Vec<u32>,
+    /// [`Carpet::update_split`]'s memory, rebuilt when missing (left out of checkpoints).
+    #[serde(skip)]
+    incremental: Option<Incremental>,
+}
+
+/// A leaf's wetness state, in one record so a raindrop reads and writes one cache line: under
+/// water (mirrors `max_depth_m > 0`), else `wet_ref` decaying from `wet_ref_time_s`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+struct LeafWet {
+    wet_ref: f32,
+    under_water: bool,
+    wet_ref_time_s: f64,
+}
+
+/// What lets [`Carpet::update_split`] visit only the leaves that can change: the footprint of
+/// the water at rest and the leaves left moving by the last update.
+#[derive(Debug, Clone)]
+struct Incremental {
+    /// The resting particles' version the footprint was made from.
+    rest_version: u64,
+    /// Per leaf, the highest top of a resting particle over it (−∞: none).
+    rest_splat_m: Vec<f32>,
+    /// Leaves whose next update may differ from their last: a moving particle's top was over
+    /// the water at rest there, or the leaf is a falling trail.
+    live: Vec<u32>,
 }
 
 impl Carpet {
@@ -198,9 +226,10 @@ impl Carpet {
             leaf_speed_mps: vec![0.0; n],
             splat_m: vec![f32::NEG_INFINITY; n],
             splatted: Vec::new(),
-            wet_ref: vec![0.0; n],
-            wet_ref_time_s: vec![0.0; n],
+            wet: vec![LeafWet::default(); n],
             time_s: 0.0,
+            sort_scratch: Vec::new(),
+            incremental: None,
         })
     }
 
@@ -248,24 +277,55 @@ impl Carpet {
     pub fn add_hit(&mut self, x_m: f32, y_m: f32) {
         if let Some(k) = self.leaf_of(x_m, y_m) {
             let w = self.leaf_wetness(k);
-            self.wet_ref[k] = (w + self.settings.wetting_per_hit).min(1.0);
-            self.wet_ref_time_s[k] = self.time_s;
+            let leaf = &mut self.wet[k];
+            leaf.wet_ref = (w + self.settings.wetting_per_hit).min(1.0);
+            leaf.wet_ref_time_s = self.time_s;
         }
     }
 
+    /// The leaf under (x, y), for [`Carpet::add_hits`]; `None` outside the carpet.
+    pub fn leaf_index(&self, x_m: f32, y_m: f32) -> Option<u32> {
+        self.leaf_of(x_m, y_m).map(|k| k as u32)
+    }
+
+    /// [`Carpet::add_hit`] once per entry of `leaves` (leaf indices, one per raindrop; emptied).
+    /// The hits are applied in leaf order, so the memory is swept once rather than hit at
+    /// random; the result is the same as adding them one by one in any order, since all hits
+    /// of a leaf at one time are the same operation (the second and later see no decay).
+    pub fn add_hits(&mut self, leaves: &mut Vec<u32>) {
+        radix_sort(leaves, &mut self.sort_scratch, self.wet.len());
+        let a = self.settings.wetting_per_hit;
+        for &k in leaves.iter() {
+            let k = k as usize;
+            if k < self.wet.len() {
+                let w = self.leaf_wetness(k);
+                let leaf = &mut self.wet[k];
+                leaf.wet_ref = (w + a).min(1.0);
+                leaf.wet_ref_time_s = self.time_s;
+            }
+        }
+        leaves.clear();
+    }
+
     fn leaf_wetness(&self, k: usize) -> f32 {
-        if self.levels[0].nodes[k].max_depth_m > 0.0 {
+        let leaf = &self.wet[k];
+        if leaf.under_water {
             return 1.0;
         }
-        let age = (self.time_s - self.wet_ref_time_s[k]).max(0.0);
-        self.wet_ref[k] * (-age / self.settings.drying_time_s as f64).exp() as f32
+        // Never wetted, or wetted at this very time: e^0 = 1, so no exponential (the same bits).
+        if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
+            return leaf.wet_ref;
+        }
+        let age = (self.time_s - leaf.wet_ref_time_s).max(0.0);
+        leaf.wet_ref * (-age / self.settings.drying_time_s as f64).exp() as f32
     }
 
     /// Rebuilds the surface from particle positions and advances the trails and the drying by
     /// `dt_s`.
     pub fn update(&mut self, positions_m: &[Vec3], dt_s: f32) {
         self.time_s += dt_s as f64;
-        self.splat(positions_m);
+        self.incremental = None;
+        self.splat(positions_m, true);
         let top = self.levels.len() - 1;
         for j in 0..self.levels[top].ny {
             for i in 0..self.levels[top].nx {
@@ -278,7 +338,9 @@ impl Carpet {
         self.splatted.clear();
     }
 
-    fn splat(&mut self, positions_m: &[Vec3]) {
+    /// Raises `splat_m` to each particle's top over the leaves its disk covers, listing the
+    /// leaves first raised in `splatted`; `mark`: also mark them (and their parents) touched.
+    fn splat(&mut self, positions_m: &[Vec3], mark: bool) {
         let s = self.settings;
         let r = s.particle_radius_m;
         for p in positions_m {
@@ -301,12 +363,115 @@ impl Carpet {
                     let k = j * s.nx + i;
                     if self.splat_m[k] == f32::NEG_INFINITY {
                         self.splatted.push(k as u32);
-                        self.mark_touched(i, j);
+                        if mark {
+                            self.mark_touched(i, j);
+                        }
                     }
                     self.splat_m[k] = self.splat_m[k].max(top);
                 }
             }
         }
+    }
+
+    /// [`Carpet::update`] with the particles split into `resting_m` (water at rest, which
+    /// changes only when `resting_version` does) and `moving_m`, visiting only the leaves that
+    /// can change: those under a moving particle now or at the last update, falling trails,
+    /// and those whose resting footprint changed; then their parents. A leaf under resting
+    /// water alone, as at the last update, would be set to the same height again, so it is
+    /// skipped. The nodes and the wetness equal [`Carpet::update`]'s bit for bit (the only
+    /// difference: a leaf kept under water does not restamp the time its drying would start
+    /// from, which is restamped when it dries, before anything reads it).
+    pub fn update_split(
+        &mut self,
+        resting_m: &[Vec3],
+        resting_version: u64,
+        moving_m: &[Vec3],
+        dt_s: f32,
+    ) {
+        self.time_s += dt_s as f64;
+        let n = self.settings.nx * self.settings.ny;
+        // The resting footprint: kept, remade on a change (the leaves that differ are
+        // visited), or made afresh (every leaf the full update would visit is).
+        let fresh = match self.incremental.take() {
+            Some(inc) if inc.rest_version == resting_version => Ok(inc),
+            other => Err(other),
+        };
+        let mut candidates = Vec::new();
+        let mut inc = match fresh {
+            Ok(inc) => inc,
+            Err(old) => {
+                self.splat(resting_m, false);
+                let mut rest = vec![f32::NEG_INFINITY; n];
+                for &k in &self.splatted {
+                    rest[k as usize] = self.splat_m[k as usize];
+                    self.splat_m[k as usize] = f32::NEG_INFINITY;
+                }
+                self.splatted.clear();
+                match old {
+                    Some(old) => {
+                        candidates.extend(old.live);
+                        candidates.extend(
+                            (0..n as u32)
+                                .filter(|&k| old.rest_splat_m[k as usize] != rest[k as usize]),
+                        );
+                    }
+                    None => {
+                        let wet = &self.levels[0].nodes;
+                        candidates.extend((0..n as u32).filter(|&k| {
+                            rest[k as usize] > f32::NEG_INFINITY
+                                || wet[k as usize].max_depth_m > 0.0
+                        }));
+                    }
+                }
+                Incremental {
+                    rest_version: resting_version,
+                    rest_splat_m: rest,
+                    live: Vec::new(),
+                }
+            }
+        };
+        candidates.append(&mut inc.live);
+        self.splat(moving_m, false);
+        candidates.extend_from_slice(&self.splatted);
+        candidates.sort_unstable();
+        candidates.dedup();
+
+        for &k in &candidates {
+            let k = k as usize;
+            let splat = self.splat_m[k].max(inc.rest_splat_m[k]);
+            self.update_leaf(k, splat, dt_s);
+            let falling = splat == f32::NEG_INFINITY && self.levels[0].nodes[k].max_depth_m > 0.0;
+            if splat != inc.rest_splat_m[k] || falling {
+                inc.live.push(k as u32);
+            }
+        }
+        for &k in &self.splatted {
+            self.splat_m[k as usize] = f32::NEG_INFINITY;
+        }
+        self.splatted.clear();
+
+        // The parents of what was visited, level by level, each once.
+        let mut below = candidates;
+        for level in 1..self.levels.len() {
+            let nx_below = self.levels[level - 1].nx;
+            let nx = self.levels[level].nx;
+            let mut parents: Vec<u32> = Vec::with_capacity(below.len() / 2 + 1);
+            for &c in &below {
+                let (i, j) = (c as usize % nx_below / 2, c as usize / nx_below / 2);
+                let p = j * nx + i;
+                if !self.levels[level].touched[p] {
+                    self.levels[level].touched[p] = true;
+                    parents.push(p as u32);
+                }
+            }
+            for &p in &parents {
+                let (i, j) = (p as usize % nx, p as usize / nx);
+                self.levels[level].touched[p as usize] = false;
+                self.levels[level].nodes[p as usize] = combine(&self.levels[level - 1], i, j);
+            }
+            below = parents;
+        }
+        self.incremental = Some(inc);
     }
 
     fn mark_touched(&mut self, mut i: usize, mut j: usize) {
@@ -325,7 +490,7 @@ impl Carpet {
         let k = j * self.levels[level].nx + i;
         self.levels[level].touched[k] = false;
         if level == 0 {
-            self.update_leaf(k, dt_s);
+            self.update_leaf(k, self.splat_m[k], dt_s);
             return;
         }
         let below = level - 1;
@@ -342,12 +507,13 @@ impl Carpet {
         self.levels[level].nodes[k] = combine(&self.levels[below], i, j);
     }
 
-    fn update_leaf(&mut self, k: usize, dt_s: f32) {
+    /// One leaf's step with `splat_m` the highest particle top over it (−∞: none).
+    fn update_leaf(&mut self, k: usize, splat_m: f32, dt_s: f32) {
         let terrain = self.leaf_terrain_m[k];
         let node = &mut self.levels[0].nodes[k];
         let was_wet = node.max_depth_m > 0.0;
-        if self.splat_m[k] > f32::NEG_INFINITY {
-            node.height_m = self.splat_m[k].max(terrain);
+        if splat_m > f32::NEG_INFINITY {
+            node.height_m = splat_m.max(terrain);
             self.leaf_speed_mps[k] = 0.0;
         } else if node.height_m > terrain {
             // The thesis's trail: the node falls until a particle arrives or it meets the ground.
@@ -360,10 +526,13 @@ impl Carpet {
             self.leaf_speed_mps[k] = 0.0;
         }
         node.max_depth_m = node.height_m - terrain;
-        if node.max_depth_m > 0.0 || was_wet {
+        let under_water = node.max_depth_m > 0.0;
+        let leaf = &mut self.wet[k];
+        leaf.under_water = under_water;
+        if under_water || was_wet {
             // Wet now, or just dried: drying starts from 1 at this time.
-            self.wet_ref[k] = 1.0;
-            self.wet_ref_time_s[k] = self.time_s;
+            leaf.wet_ref = 1.0;
+            leaf.wet_ref_time_s = self.time_s;
         }
     }
 
@@ -391,6 +560,33 @@ impl Carpet {
             cell_m: s.cell_m,
             values: (0..s.nx * s.ny).map(f).collect(),
         }
+    }
+}
+
+/// Sorts `keys` (all below `bound`) ascending: least significant digit first, 11 bits a pass,
+/// as many passes as `bound` needs.
+fn radix_sort(keys: &mut Vec<u32>, scratch: &mut Vec<u32>, bound: usize) {
+    const BITS: u32 = 11;
+    let bits = usize::BITS - bound.saturating_sub(1).leading_zeros();
+    scratch.clear();
+    scratch.resize(keys.len(), 0);
+    let mut shift = 0;
+    while shift < bits {
+        let mut start = [0usize; 1 << BITS];
+        for &k in keys.iter() {
+            start[((k >> shift) & ((1 << BITS) - 1)) as usize] += 1;
+        }
+        let mut sum = 0;
+        for s in start.iter_mut() {
+            (*s, sum) = (sum, sum + *s);
+        }
+        for &k in keys.iter() {
+            let d = ((k >> shift) & ((1 << BITS) - 1)) as usize;
+            scratch[start[d]] = k;
+            start[d] += 1;
+        }
+        std::mem::swap(keys, scratch);
+        shift += BITS;
     }
 }
 

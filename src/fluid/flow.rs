@@ -71,9 +71,10 @@ pub struct SurfaceFlow {
     pub carpet: Carpet,
     precipitation_cell_m: f32,
     drained: Vec<NewParticle>,
-    /// Every particle's position, moving and at rest, for the carpet.
+    /// Carpet leaves hit by drops whose wetting is held back (empty between calls that a
+    /// checkpoint can see).
     #[serde(skip)]
-    positions: Vec<Vec3>,
+    held_hits: Vec<u32>,
 }
 
 impl SurfaceFlow {
@@ -144,7 +145,7 @@ impl SurfaceFlow {
             carpet,
             precipitation_cell_m: s.precipitation_cell_m,
             drained: Vec::new(),
-            positions: Vec::new(),
+            held_hits: Vec::new(),
         })
     }
 
@@ -169,8 +170,29 @@ impl SurfaceFlow {
         self.precipitation.add_hit_at(x_m, y_m)
     }
 
+    /// [`SurfaceFlow::add_hit_at`] with the carpet's wetting held back until
+    /// [`SurfaceFlow::flush_hits`] (or the next [`SurfaceFlow::advance`]) applies a batch of
+    /// them in leaf order ([`Carpet::add_hits`]: the same result).
+    pub fn add_hit_later(&mut self, x_m: f32, y_m: f32) -> bool {
+        self.wet_later(x_m, y_m);
+        self.precipitation.add_hit_at(x_m, y_m)
+    }
+
+    /// A drop that only wets the carpet at (x, y), held back as [`SurfaceFlow::add_hit_later`].
+    pub fn wet_later(&mut self, x_m: f32, y_m: f32) {
+        if let Some(k) = self.carpet.leaf_index(x_m, y_m) {
+            self.held_hits.push(k);
+        }
+    }
+
+    /// Applies the wetting held back by [`SurfaceFlow::add_hit_later`].
+    pub fn flush_hits(&mut self) {
+        self.carpet.add_hits(&mut self.held_hits);
+    }
+
     /// Releases the drained particles, runs SPH for `dt_s` and rebuilds the carpet.
     pub fn advance(&mut self, dt_s: f64) -> Result<usize> {
+        self.flush_hits();
         let clearance = 0.5 * self.sph.settings().particle_spacing_m;
         let carpet = &self.carpet;
         let bounds = self.sph.boundaries();
@@ -191,11 +213,16 @@ impl SurfaceFlow {
         Ok(steps)
     }
 
-    /// Rebuilds the carpet from every particle, moving and at rest, `dt_s` after the last.
+    /// Rebuilds the carpet from every particle, moving and at rest, `dt_s` after the last:
+    /// only where it can change ([`Carpet::update_split`]; the water at rest stays put).
     pub fn update_carpet(&mut self, dt_s: f32) {
-        self.positions.clear();
-        self.positions.extend(self.sph.all_positions_m());
-        self.carpet.update(&self.positions, dt_s);
+        let resting = self.sph.resting();
+        self.carpet.update_split(
+            resting.positions_m(),
+            resting.version(),
+            &self.sph.particles().position_m,
+            dt_s,
+        );
     }
 
     /// Water depth above the terrain on the carpet grid, m.

@@ -47,6 +47,9 @@ pub struct RestingWater {
     next_due_m3: Option<f64>,
     #[serde(skip)]
     ready: bool,
+    /// Bumped whenever the set of particles changes (a carpet caches their footprint).
+    #[serde(skip)]
+    version: u64,
 }
 
 impl RestingWater {
@@ -79,6 +82,13 @@ impl RestingWater {
         self.contact.push(contact);
         self.ready = false;
         self.next_due_m3 = None;
+        self.version += 1;
+    }
+
+    /// A number that changes whenever a particle is added or removed (not when they are only
+    /// reordered): what a cache of their footprint is keyed by.
+    pub fn version(&self) -> u64 {
+        self.version
     }
 
     /// Advances the soak clock by `per_particle_m3` and removes the ground-touching particles
@@ -114,6 +124,7 @@ impl RestingWater {
         retain(&mut self.contact, &keep);
         self.ready = false;
         self.next_due_m3 = None;
+        self.version += 1;
         (before - self.len()) as u64
     }
 

@@ -19,6 +19,7 @@ use glam::DVec2;
 use crate::drops::shape::{WATER_DENSITY_KG_PER_M3, WATER_SURFACE_TENSION_N_PER_M};
 use crate::fluid::carpet::Field2;
 use crate::rain::physics::G_MPS2;
+use crate::rain::volume::GroundRect;
 use crate::rain::volume::impacts::Impact;
 use crate::scene::Camera;
 
@@ -167,6 +168,48 @@ pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
         && px.y < camera.height_px as f64;
     let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
     inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+}
+
+/// The part of `rect` (ground z = 0) where a ring of a drop up to `max_diameter_mm` can be
+/// resolved ([`ring_resolved`]): the bounding box of the rect cut to camera depths
+/// z ≤ λ_max f / [`MIN_RING_WAVELENGTH_PX`] (a little more, for rounding). A feed asks the
+/// rain for impacts there only, not over the whole simulated ground: the same rings.
+pub fn ring_ground(camera: &Camera, rect: &GroundRect, max_diameter_mm: f64) -> GroundRect {
+    let z_max = WAVELENGTH_PER_DIAMETER * max_diameter_mm * 1e-3 * camera.focal_px()
+        / MIN_RING_WAVELENGTH_PX;
+    let z_max = z_max * (1.0 + 1e-6) + 1e-6;
+    let corners = [
+        rect.min_m,
+        DVec2::new(rect.max_m.x, rect.min_m.y),
+        rect.max_m,
+        DVec2::new(rect.min_m.x, rect.max_m.y),
+    ];
+    let depth = |p: DVec2| camera.camera_from_world_point(p.extend(0.0)).z;
+    // Sutherland–Hodgman against one half-plane: the depth is affine on the ground.
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for k in 0..4 {
+        let (a, b) = (corners[k], corners[(k + 1) % 4]);
+        let (za, zb) = (depth(a), depth(b));
+        if za <= z_max {
+            (lo, hi) = (lo.min(a), hi.max(a));
+        }
+        if (za <= z_max) != (zb <= z_max) {
+            let c = a + (b - a) * ((z_max - za) / (zb - za));
+            (lo, hi) = (lo.min(c), hi.max(c));
+        }
+    }
+    if lo.x > hi.x {
+        return GroundRect {
+            min_m: rect.min_m,
+            max_m: rect.min_m,
+        };
+    }
+    // Inclusive bounds, so the half-open rect reaches a hair beyond them.
+    let pad = DVec2::splat(1e-6);
+    GroundRect {
+        min_m: (lo - pad).max(rect.min_m),
+        max_m: (hi + pad).min(rect.max_m),
+    }
 }
 
 /// Newest first, ties broken by drop: one order whatever order the impacts came in.

@@ -52,6 +52,9 @@ pub(super) struct PuddleRun {
     rain: GroundRain,
     /// Every frame's camera (which rings the picture resolves, where they land).
     track: CameraTrack,
+    /// The part of the simulated ground where a ring can be resolved: the only impacts the
+    /// feed makes (the water takes its drops without them).
+    rings: crate::rain::volume::GroundRect,
     /// The rings finer than a pixel, as a rough surface.
     far: FarRipples,
     /// The clip time the rain has been fed up to, s.
@@ -110,7 +113,7 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<Vec<Impact>> {
-        use crate::fluid::ripples::RING_LIFE_S;
+        use crate::fluid::ripples::{RING_LIFE_S, ring_ground};
         let PuddleFeed::Pending(plan) = self else {
             return Ok(Vec::new());
         };
@@ -127,8 +130,14 @@ impl PuddleFeed {
             *self = PuddleFeed::Off;
             return Ok(Vec::new());
         };
-        let hits = rain.impacts_between(&sim.ground_rect(), (t_s - RING_LIFE_S).max(0.0), t_s);
         let track = plan.track.clone();
+        // A still camera resolves rings only near it ([`ring_ground`]); a moving one is
+        // asked about the whole ground.
+        let rings = match track.poses(1.0).as_slice() {
+            [still] => ring_ground(still, &sim.ground_rect(), rain.max_diameter_mm()),
+            _ => sim.ground_rect(),
+        };
+        let hits = rain.impacts_between(&rings, (t_s - RING_LIFE_S).max(0.0), t_s);
         let far = FarRipples::new(&rain);
         log::info!(
             "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them water of \
@@ -141,6 +150,7 @@ impl PuddleFeed {
             sim,
             rain,
             track,
+            rings,
             far,
             fed_s: t_s,
             recent: Vec::new(),
@@ -152,7 +162,7 @@ impl PuddleFeed {
     }
 
     /// Feeds running water the rain that landed since the last frame and runs it to `t_s`
-    /// (frame `index`, kept if due); returns those impacts.
+    /// (frame `index`, kept if due); returns those impacts where rings can be resolved.
     pub(super) fn advance(&mut self, index: u64, t_s: f64) -> Result<Vec<Impact>> {
         let PuddleFeed::On(run) = self else {
             return Ok(Vec::new());
@@ -160,10 +170,9 @@ impl PuddleFeed {
         if t_s <= run.fed_s {
             return Ok(Vec::new());
         }
-        let hits = run
-            .rain
-            .impacts_between(&run.sim.ground_rect(), run.fed_s, t_s);
-        run.sim.advance_to(t_s, &hits)?;
+        run.sim
+            .advance_with_rain_between(&run.rain, run.fed_s, t_s)?;
+        let hits = run.rain.impacts_between(&run.rings, run.fed_s, t_s);
         run.fed_s = t_s;
         run.keep(index);
         Ok(hits)

@@ -21,7 +21,7 @@ use super::PuddleSim;
 use crate::{Error, Result};
 
 /// Changes whenever the layout of the state changes.
-pub const FORMAT: u32 = 2;
+pub const FORMAT: u32 = 3;
 
 /// Largest checkpoint read, bytes: the water of the most particles `--puddle-particles` allows
 /// takes a few hundred MiB; the bound keeps a wrong file from filling the memory.

@@ -25,7 +25,7 @@
 //! Volume is conserved by construction: held + run off = rain, to rounding.
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, VecDeque};
 
 use crate::fluid::terrain::HeightField;
 
@@ -90,15 +90,86 @@ fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     .map(move |(a, b)| b as usize * nx + a as usize)
 }
 
-/// Fills `terrain` with `rain_m` of water over each vertex's cell (a uniform depth, m; the
-/// water each cell received and did not lose otherwise).
-pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
-    let (nx, ny) = (terrain.nx(), terrain.ny());
-    let h = terrain.heights_m();
+/// Priority-Flood of the heights `h` (`nx × ny`, row-major) from the edges: the filled
+/// heights, each vertex's receiver (`NONE` on the edge) and the order the vertices were taken.
+fn priority_flood(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
     let n = nx * ny;
-    let area_m2 = (terrain.spacing_m() as f64).powi(2);
+    let mut filled = h.to_vec();
+    let mut receiver = vec![NONE; n];
+    let mut reached = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    let mut queue = BinaryHeap::new();
+    let mut pushed = 0u32;
+    for v in 0..n {
+        let (i, j) = (v % nx, v / nx);
+        if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
+            reached[v] = true;
+            queue.push(Queued {
+                level_m: h[v],
+                order: pushed,
+                vertex: v as u32,
+            });
+            pushed += 1;
+        }
+    }
+    // A vertex flooded at the level being taken (the bulk of a depression) would enter the
+    // heap behind every entry of that level and leave it before any higher one: it waits in
+    // a first-in first-out queue instead (Barnes et al.'s pit queue), taken whenever its
+    // (level, order) is the smaller, so the order is the heap's alone, without its cost
+    // (the pit's entries share one level and come in order, so its front is its least).
+    let mut pit: VecDeque<(u32, u32)> = VecDeque::new();
+    let mut pit_level = 0.0f32;
+    loop {
+        let from_pit = match (pit.front(), queue.peek()) {
+            (Some(&(o, _)), Some(top)) => pit_level
+                .total_cmp(&top.level_m)
+                .then(o.cmp(&top.order))
+                .is_lt(),
+            (Some(_), None) => true,
+            (None, _) => false,
+        };
+        let (level, vertex) = if from_pit {
+            let Some((_, v)) = pit.pop_front() else {
+                break;
+            };
+            (pit_level, v)
+        } else {
+            match queue.pop() {
+                Some(q) => (q.level_m, q.vertex),
+                None => break,
+            }
+        };
+        let c = vertex as usize;
+        order.push(vertex);
+        for nb in neighbours(c, nx, ny) {
+            if !reached[nb] {
+                reached[nb] = true;
+                filled[nb] = h[nb].max(filled[c]);
+                receiver[nb] = vertex;
+                // All in the pit share one level (bit for bit: −0 and +0 differ in the order).
+                let same = |a: f32| a.total_cmp(&level).is_eq();
+                if same(filled[nb]) && (pit.is_empty() || same(pit_level)) {
+                    pit_level = level;
+                    pit.push_back((pushed, nb as u32));
+                } else {
+                    queue.push(Queued {
+                        level_m: filled[nb],
+                        order: pushed,
+                        vertex: nb as u32,
+                    });
+                }
+                pushed += 1;
+            }
+        }
+    }
+    (filled, receiver, order)
+}
 
-    // 1. Priority-Flood.
+/// [`priority_flood`] with the heap alone: the plain reference the pit queue is tested
+/// against.
+#[cfg(test)]
+fn priority_flood_reference(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
+    let n = nx * ny;
     let mut filled = h.to_vec();
     let mut receiver = vec![NONE; n];
     let mut reached = vec![false; n];
@@ -134,6 +205,19 @@ pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
             }
         }
     }
+    (filled, receiver, order)
+}
+
+/// Fills `terrain` with `rain_m` of water over each vertex's cell (a uniform depth, m; the
+/// water each cell received and did not lose otherwise).
+pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
+    let (nx, ny) = (terrain.nx(), terrain.ny());
+    let h = terrain.heights_m();
+    let n = nx * ny;
+    let area_m2 = (terrain.spacing_m() as f64).powi(2);
+
+    // 1. Priority-Flood.
+    let (filled, receiver, order) = priority_flood(h, nx, ny);
 
     // 2. Depressions: 8-connected flooded sets, labelled in flood order (so each label's
     // first vertex is the depression's first flooded one).
@@ -233,6 +317,47 @@ fn level_holding(mut heights: Vec<f64>, volume: f64) -> f64 {
         }
     }
     heights.first().copied().unwrap_or(0.0)
+}
+
+#[cfg(test)]
+mod pit_queue_tests {
+    use super::*;
+
+    /// The pit queue takes the vertices in the heap's order: the same filled heights,
+    /// receivers and order as the heap alone, on a rough relief with many pits, flat runs
+    /// (equal heights) and a plateau.
+    #[test]
+    fn the_pit_queue_floods_as_the_heap_alone() {
+        let (nx, ny) = (97, 61);
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let h: Vec<f32> = (0..nx * ny)
+            .map(|v| {
+                state = crate::rng::splitmix64(state);
+                let (x, y) = ((v % nx) as f32, (v / nx) as f32);
+                let noise = (state >> 40) as f32 / (1u64 << 24) as f32;
+                // Quantised to 1 mm, so many neighbours share a height (both zeros among them: −0
+                // and +0 are apart in the order); a plateau in a corner.
+                let z = 0.01 * (0.3 * x).sin() * (0.2 * y).cos() + 0.004 * noise;
+                if x < 20.0 && y < 15.0 {
+                    0.02
+                } else {
+                    (z * 1000.0).round() / 1000.0
+                }
+            })
+            .collect();
+        let fast = priority_flood(&h, nx, ny);
+        let plain = priority_flood_reference(&h, nx, ny);
+        let pits = (0..nx * ny).filter(|&v| fast.0[v] > h[v]).count();
+        assert!(pits > 500, "{pits} flooded vertices");
+        assert!(
+            fast.0
+                .iter()
+                .zip(&plain.0)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        assert_eq!(fast.1, plain.1);
+        assert_eq!(fast.2, plain.2);
+    }
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use crate::fluid::carpet::Field2;
 use crate::fluid::flow::{SurfaceFlow, SurfaceFlowSettings};
 use crate::fluid::terrain::HeightField;
 use crate::lighting::wetness::SurfaceStore;
-use crate::rain::volume::{GroundRain, GroundRect, Impact};
+use crate::rain::volume::{GroundRain, GroundRect, Impact, impacts_between};
 use crate::scene::Camera;
 use crate::{Error, Result};
 
@@ -105,6 +105,8 @@ pub struct PuddleSim {
     max_particles: usize,
     time_s: f64,
     step_s: f64,
+    /// Frames per solver step (m).
+    frames_per_step: u32,
     steps: u64,
 }
 
@@ -293,6 +295,7 @@ impl PuddleSim {
             max_particles: s.max_particles,
             time_s: 0.0,
             step_s: s.step_every_frames as f64 / fps,
+            frames_per_step: s.step_every_frames,
             steps: 0,
         }))
     }
@@ -300,25 +303,45 @@ impl PuddleSim {
     /// Feeds `impacts` (drops landing since the last call) to the precipitation counters and
     /// runs the solver in whole steps of m frames up to `t_s`; returns the solver steps taken.
     pub fn advance_to(&mut self, t_s: f64, impacts: &[Impact]) -> Result<usize> {
-        let mut room = self
-            .max_particles
-            .saturating_sub(self.flow.sph.particle_count() + self.flow.precipitation.queued());
+        let mut room = self.room();
         for hit in impacts {
             let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
-            let inside = self.footprint_contains(x, y);
-            if inside && room == 0 {
-                // At the cap: the drop wets the ground but adds no water (counted).
-                self.flow.carpet.add_hit(x, y);
-                self.ledger.rain_drops_over_cap += 1;
-            } else if inside {
-                let queued = self.flow.precipitation.queued();
-                self.flow.add_hit_at(x, y);
-                room = room.saturating_sub(self.flow.precipitation.queued() - queued);
-                self.ledger.rain_drops += 1;
-                let r = 0.5e-3 * hit.diameter_mm;
-                self.ledger.rain_drop_volume_m3 += 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
-            }
+            self.land(x, y, || hit.diameter_mm, &mut room);
         }
+        self.flow.flush_hits();
+        self.step_to(t_s)
+    }
+
+    /// Particles that may still be added under the cap.
+    fn room(&self) -> usize {
+        self.max_particles
+            .saturating_sub(self.flow.sph.particle_count() + self.flow.precipitation.queued())
+    }
+
+    /// One drop landed at (x, y) of diameter `diameter_mm()` (asked only where its water is
+    /// counted): to the precipitation counters while under the cap, else it only wets the
+    /// ground.
+    #[inline]
+    fn land(&mut self, x: f32, y: f32, diameter_mm: impl FnOnce() -> f64, room: &mut usize) {
+        if !self.footprint_contains(x, y) {
+            return;
+        }
+        if *room == 0 {
+            // At the cap: the drop wets the ground but adds no water (counted).
+            self.flow.wet_later(x, y);
+            self.ledger.rain_drops_over_cap += 1;
+        } else {
+            let queued = self.flow.precipitation.queued();
+            self.flow.add_hit_later(x, y);
+            *room = room.saturating_sub(self.flow.precipitation.queued() - queued);
+            self.ledger.rain_drops += 1;
+            let r = 0.5e-3 * diameter_mm();
+            self.ledger.rain_drop_volume_m3 += 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+        }
+    }
+
+    /// Runs the solver in whole steps of m frames up to `t_s`; returns the steps taken.
+    fn step_to(&mut self, t_s: f64) -> Result<usize> {
         let mut steps = 0;
         while self.time_s + self.step_s <= t_s + 1e-9 {
             steps += self.flow.advance(self.step_s)?;
@@ -337,24 +360,84 @@ impl PuddleSim {
 
     /// [`advance_with_rain`](Self::advance_with_rain), stopping with [`Error::Interrupted`]
     /// between two steps once `cancel` is set (a fast-forward can take minutes; a step takes
-    /// milliseconds).
+    /// milliseconds). Each step's drops are fed as [`PuddleSim::advance_to`] is fed
+    /// [`GroundRain::impacts_between`] (the drawn drops', then the stream's, in its order),
+    /// but the stream's without making them [`Impact`]s: the water needs their size only
+    /// under the cap.
     pub fn advance_with_rain_or_stop(
         &mut self,
         rain: &GroundRain,
         t_s: f64,
         cancel: &std::sync::atomic::AtomicBool,
     ) -> Result<usize> {
+        // On one of the solver's own threads: its parallel passes over a few hundred moving
+        // particles then start there, not by waking the pool from outside some five times a
+        // step (the same results: each particle's update is its own).
+        rayon::scope(|_| self.fast_forward(rain, t_s, cancel))
+    }
+
+    fn fast_forward(
+        &mut self,
+        rain: &GroundRain,
+        t_s: f64,
+        cancel: &std::sync::atomic::AtomicBool,
+    ) -> Result<usize> {
         let mut steps = 0;
-        let mut hits = Vec::new();
         while self.time_s + self.step_s <= t_s + 1e-9 {
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return Err(Error::Interrupted);
             }
             let (t0, t1) = (self.time_s, self.time_s + self.step_s);
-            rain.impacts_between_into(&self.ground_rect(), t0, t1, &mut hits);
-            steps += self.advance_to(t1, &hits)?;
+            // Frame by frame, as a render reports them: at the cap, which drops still add
+            // water depends on their order.
+            let m = self.frames_per_step.max(1);
+            for f in 0..m {
+                let a = t0 + self.step_s * f as f64 / m as f64;
+                let b = if f + 1 == m {
+                    t1
+                } else {
+                    t0 + self.step_s * (f + 1) as f64 / m as f64
+                };
+                self.feed_rain(rain, a, b);
+            }
+            self.flow.flush_hits();
+            steps += self.step_to(t1)?;
         }
         Ok(steps)
+    }
+
+    /// Feeds all the rain landing on the footprint with time in (t0_s, t1_s] and runs the
+    /// solver in whole steps up to `t1_s`: [`PuddleSim::advance_to`] with
+    /// [`GroundRain::impacts_between`]'s drops, the same state, without making the stream's
+    /// drops impacts. A render's frame.
+    pub fn advance_with_rain_between(
+        &mut self,
+        rain: &GroundRain,
+        t0_s: f64,
+        t1_s: f64,
+    ) -> Result<usize> {
+        self.feed_rain(rain, t0_s, t1_s);
+        self.flow.flush_hits();
+        self.step_to(t1_s)
+    }
+
+    /// The drops of (t0_s, t1_s] to the counters and the carpet (its wetting held back):
+    /// the drawn drops', then the stream's, in [`GroundRain::impacts_between`]'s order.
+    fn feed_rain(&mut self, rain: &GroundRain, t0_s: f64, t1_s: f64) {
+        let mut room = self.room();
+        for hit in impacts_between(rain.rainfall(), t0_s, t1_s) {
+            let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
+            self.land(x, y, || hit.diameter_mm, &mut room);
+        }
+        rain.stream_landings(&self.ground_rect(), t0_s, t1_s, |landing| {
+            let p = landing.position_m;
+            self.land(
+                p.x as f32,
+                p.y as f32,
+                || rain.landing_diameter_mm(&landing),
+                &mut room,
+            );
+        });
     }
 
     /// The simulated ground as the rectangle the rain is asked for.

@@ -55,6 +55,22 @@ const STREAM_SALT: u32 = 0x5EED_6A1D;
 /// Stream impacts carry ids with this bit set (drawn drops' ids are below 2³²).
 pub const STREAM_ID_BIT: u64 = 1 << 63;
 
+/// A drop of the stream landing on the ground: an [`Impact`] before its size is looked up
+/// ([`GroundRain::landing_diameter_mm`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Landing {
+    /// The impact's id (as [`Impact::id`]).
+    pub id: u64,
+    /// Its time slot (as [`Impact::pass`]).
+    pub pass: u32,
+    /// Time of impact, s.
+    pub time_s: f64,
+    /// Point of impact on z = 0, m.
+    pub position_m: DVec2,
+    /// Flux-weighted quantile of its diameter.
+    size_q: f64,
+}
+
 /// An axis-aligned rectangle of the ground z = 0, m.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GroundRect {
@@ -84,6 +100,10 @@ struct DrawnCells {
     origin_m: DVec2,
     cell_m: DVec2,
     cells: HashMap<(i64, i64), f64>,
+    /// The cells' index range, inclusive: most of the ground lies outside it, where no
+    /// lookup is needed.
+    lo: (i64, i64),
+    hi: (i64, i64),
 }
 
 impl DrawnCells {
@@ -102,7 +122,7 @@ impl DrawnCells {
             (i.x as i64, i.y as i64)
         };
         let (d_min, _) = model.dsd.range_mm();
-        let cells = landing
+        let cells: HashMap<(i64, i64), f64> = landing
             .iter()
             .map(|c| {
                 let cut = if c.size_keep_q >= SIZE_KEEP_ALL {
@@ -113,10 +133,17 @@ impl DrawnCells {
                 (index(c.cell_min_m), cut)
             })
             .collect();
+        let (mut lo, mut hi) = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
+        for &(i, j) in cells.keys() {
+            lo = (lo.0.min(i), lo.1.min(j));
+            hi = (hi.0.max(i), hi.1.max(j));
+        }
         DrawnCells {
             origin_m,
             cell_m,
             cells,
+            lo,
+            hi,
         }
     }
 
@@ -127,7 +154,11 @@ impl DrawnCells {
             return None;
         }
         let i = ((p - self.origin_m) / self.cell_m).floor();
-        self.cells.get(&(i.x as i64, i.y as i64)).copied()
+        let (i, j) = (i.x as i64, i.y as i64);
+        if i < self.lo.0 || j < self.lo.1 || i > self.hi.0 || j > self.hi.1 {
+            return None;
+        }
+        self.cells.get(&(i, j)).copied()
     }
 }
 
@@ -229,6 +260,11 @@ impl GroundRain {
             .collect()
     }
 
+    /// The largest diameter that lands, mm (the size distribution's truncation).
+    pub fn max_diameter_mm(&self) -> f64 {
+        self.model.dsd.range_mm().1
+    }
+
     /// Whether the drawn volume's own drops land at `p` (world x, y on z = 0).
     pub fn drawn_at(&self, p: DVec2) -> bool {
         self.drawn.cut_at(p).is_some()
@@ -270,6 +306,31 @@ impl GroundRain {
     /// The stream's impacts in `rect` with time in (t0_s, t1_s], appended to `out`: cell by
     /// cell (x, then y), slot by slot.
     pub fn stream_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64, out: &mut Vec<Impact>) {
+        self.stream_landings(rect, t0_s, t1_s, |landing| {
+            let d_mm = self.landing_diameter_mm(&landing);
+            let p = landing.position_m;
+            out.push(Impact {
+                id: landing.id,
+                pass: landing.pass,
+                time_s: landing.time_s,
+                position_m: DVec3::new(p.x, p.y, 0.0),
+                diameter_mm: d_mm,
+                velocity_mps: DVec3::new(0.0, 0.0, -self.model.fall.terminal_velocity_mps(d_mm)),
+            });
+        });
+    }
+
+    /// The stream's impacts in `rect` with time in (t0_s, t1_s] as [`Landing`]s, in the order
+    /// of [`GroundRain::stream_between`] and with its values, each handed to `f`: for a
+    /// consumer that needs where a drop lands but its size only now and then (the water over
+    /// its particle cap), so no diameter is looked up, and no fall speed, it does not use.
+    pub fn stream_landings(
+        &self,
+        rect: &GroundRect,
+        t0_s: f64,
+        t1_s: f64,
+        mut f: impl FnMut(Landing),
+    ) {
         let t0_s = t0_s.max(0.0);
         if self.flux_per_m2_s <= 0.0 || t1_s <= t0_s || rect.area_m2() <= 0.0 {
             return;
@@ -281,6 +342,7 @@ impl GroundRain {
             0.0
         };
         let mean = self.flux_per_m2_s * self.cell_m * self.cell_m * SLOT_S;
+        let none = (-mean).exp();
         let lo = (rect.min_m / self.cell_m).floor();
         let hi = (rect.max_m / self.cell_m).ceil();
         let (s0, s1) = (
@@ -295,7 +357,7 @@ impl GroundRain {
                             pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32,
                         ) ^ slot as u32,
                     );
-                    let n = poisson(mean, unit(key, 0));
+                    let n = poisson(mean, none, unit(key, 0));
                     for j in 0..n {
                         let k = 8 * (j + 1);
                         let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
@@ -309,35 +371,37 @@ impl GroundRain {
                         if !rect.contains(p) {
                             continue;
                         }
-                        let d_mm = self.diameter_mm(unit(key, k + 4));
+                        let size_q = unit(key, k + 4);
                         // In a drawn cell: the sizes its drops leave out, and the budget's
                         // supplement of the others.
-                        if self.drawn.cut_at(p).is_some_and(|cut| d_mm >= cut)
+                        if let Some(cut) = self.drawn.cut_at(p)
+                            && self.diameter_mm(size_q) >= cut
                             && unit(key, k + 3) >= supplement
                         {
                             continue;
                         }
                         if let Some(keys) = &self.model.rate_keys
-                            && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), d_mm)
+                            && unit(key, k + 5)
+                                >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
                         {
                             continue;
                         }
-                        out.push(Impact {
+                        f(Landing {
                             id: STREAM_ID_BIT | (key as u64) << 16 | j as u64,
                             pass: slot as u32,
                             time_s,
-                            position_m: DVec3::new(p.x, p.y, 0.0),
-                            diameter_mm: d_mm,
-                            velocity_mps: DVec3::new(
-                                0.0,
-                                0.0,
-                                -self.model.fall.terminal_velocity_mps(d_mm),
-                            ),
+                            position_m: p,
+                            size_q,
                         });
                     }
                 }
             }
         }
+    }
+
+    /// The diameter of a stream drop, mm.
+    pub fn landing_diameter_mm(&self, landing: &Landing) -> f64 {
+        self.diameter_mm(landing.size_q)
     }
 
     /// The diameter of flux-weighted quantile `u` (the table inverted, linear within an
@@ -364,9 +428,10 @@ fn unit(key: u32, k: u32) -> f64 {
     (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
 
-/// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few).
-fn poisson(mean: f64, u: f64) -> u32 {
-    let mut p = (-mean).exp();
+/// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
+/// e^−mean, the chance of none.
+fn poisson(mean: f64, none: f64, u: f64) -> u32 {
+    let mut p = none;
     let mut cdf = p;
     let mut n = 0;
     while u >= cdf && p > 0.0 {
@@ -384,7 +449,7 @@ mod tests {
     #[test]
     fn poisson_counts_have_their_mean_and_variance() {
         let samples: Vec<f64> = (0..200_000u32)
-            .map(|i| poisson(6.5, unit(pcg_hash(i), 0)) as f64)
+            .map(|i| poisson(6.5, (-6.5f64).exp(), unit(pcg_hash(i), 0)) as f64)
             .collect();
         let mean = samples.iter().sum::<f64>() / samples.len() as f64;
         let var = samples.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / samples.len() as f64;
