@@ -182,6 +182,30 @@ pub fn basis16_cartesian(d: DVec3) -> [f64; 16] {
     ]
 }
 
+/// [`basis16_cartesian`] in `f32` at unit (x, y, z), as the shader computes it: the CPU back
+/// end's per-pixel and per-drop loops call it (inlined, so the vectoriser takes it whole).
+#[inline(always)]
+pub fn basis16_cartesian_f32(x: f32, y: f32, z: f32) -> [f32; 16] {
+    [
+        0.282_094_8,
+        0.488_602_5 * y,
+        0.488_602_5 * z,
+        0.488_602_5 * x,
+        1.092_548_4 * x * y,
+        1.092_548_4 * y * z,
+        0.315_391_57 * (3.0 * z * z - 1.0),
+        1.092_548_4 * x * z,
+        0.546_274_2 * (x * x - y * y),
+        0.590_043_6 * y * (3.0 * x * x - y * y),
+        2.890_611_4 * x * y * z,
+        0.457_045_8 * y * (5.0 * z * z - 1.0),
+        0.373_176_33 * z * (5.0 * z * z - 3.0),
+        0.457_045_8 * x * (5.0 * z * z - 1.0),
+        1.445_305_7 * z * (x * x - y * y),
+        0.590_043_6 * x * (x * x - 3.0 * y * y),
+    ]
+}
+
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on `P_n`); exact for degree ≤ 2n−1.
 pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut nodes = vec![0.0; n];
@@ -384,6 +408,24 @@ pub fn band_energy(coeffs: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The f32 basis is the f64 one rounded: a mistyped constant moves a function by far more
+    /// than f32's rounding.
+    #[test]
+    fn the_f32_basis_is_the_f64_basis() {
+        for k in 0..500 {
+            // Directions spread over the sphere by the golden angle.
+            let z = 1.0 - (2 * k + 1) as f64 / 500.0;
+            let phi = k as f64 * 2.399_963_229_728_653;
+            let r = (1.0 - z * z).sqrt();
+            let d = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            let exact = basis16_cartesian(d);
+            let single = basis16_cartesian_f32(d.x as f32, d.y as f32, d.z as f32);
+            for (e, s) in exact.iter().zip(single) {
+                assert!((e - s as f64).abs() < 2e-6, "{e} vs {s} at {d}");
+            }
+        }
+    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials() {

@@ -17,6 +17,7 @@
 use super::simulate::{LANES, NO_GLINT};
 use crate::gpu::lights::TABLE_BINS;
 use crate::gpu::types::{GLINTS_PER_DROP, Glint, LightList, MAX_LIGHTS, RainParams, Streak};
+use crate::lighting::sh::basis16_cartesian_f32;
 
 /// The transfer table as the light loop reads it: one array per channel, [`TABLE_LEN`]
 /// entries (the bins, then the last bin repeated), so a masked index never leaves it.
@@ -105,29 +106,6 @@ pub(super) fn world_offset(p: &RainParams, c: [f32; 3]) -> [f32; 3] {
 /// sqrt(4π/(2l+1)) for l = 0..3 (common/sh.wgsl).
 const SH_ZONAL_FACTOR: [f32; 4] = [3.544_907_7, 2.046_653_4, 1.585_330_9, 1.339_849_2];
 
-/// The 16 real SH basis functions at unit (x, y, z) (WGSL `sh_basis16`).
-#[inline(always)]
-fn sh_basis16(x: f32, y: f32, z: f32) -> [f32; 16] {
-    [
-        0.282_094_8,
-        0.488_602_5 * y,
-        0.488_602_5 * z,
-        0.488_602_5 * x,
-        1.092_548_4 * x * y,
-        1.092_548_4 * y * z,
-        0.315_391_57 * (3.0 * z * z - 1.0),
-        1.092_548_4 * x * z,
-        0.546_274_2 * (x * x - y * y),
-        0.590_043_6 * y * (3.0 * x * x - y * y),
-        2.890_611_4 * x * y * z,
-        0.457_045_8 * y * (5.0 * z * z - 1.0),
-        0.373_176_34 * z * (5.0 * z * z - 3.0),
-        0.457_045_8 * x * (5.0 * z * z - 1.0),
-        1.445_305_7 * z * (x * x - y * y),
-        0.590_043_6 * x * (x * x - 3.0 * y * y),
-    ]
-}
-
 /// atan2(y, x) for y ≥ 0, in [0, π]: Cephes' `atanf` on min/max (within 2 × 10⁻⁷ rad), no
 /// branches.
 #[inline(always)]
@@ -192,7 +170,7 @@ pub(super) fn light_ends(
         std::array::from_fn(|c| std::array::from_fn(|l| p.drop_zonal[c][l] * SH_ZONAL_FACTOR[l]));
     let mut sum = [[0f32; 2 * LANES]; 3];
     for i in 0..2 * LANES {
-        let y = sh_basis16(v[0][i], v[1][i], v[2][i]);
+        let y = basis16_cartesian_f32(v[0][i], v[1][i], v[2][i]);
         for c in 0..3 {
             let e = |k: usize| env[k][c] * y[k];
             let mut s = env[0][c] * t[c][0] * y[0];

@@ -14,6 +14,7 @@ use super::veil::GridPoint;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
 use crate::gpu::stages::yuv_to_rgb::{GLOW_CELL_PX, glow_grid_size};
 use crate::gpu::types::{RainParams, WetParams};
+use crate::lighting::sh::basis16_cartesian_f32;
 
 /// π in f32, as the shaders' `PI`.
 pub(super) const PI: f32 = std::f32::consts::PI;
@@ -162,7 +163,7 @@ impl<'a> Ground<'a> {
     /// The environment's radiance from unit direction `dir`, clamped at 0.
     #[inline]
     pub(super) fn sky(&self, dir: Vec3) -> Vec3 {
-        let b = basis16(dir);
+        let b = basis16_cartesian_f32(dir.x, dir.y, dir.z);
         let mut c = Vec3::ZERO;
         for (e, y) in self.env.iter().zip(b) {
             c += *e * y;
@@ -177,30 +178,6 @@ impl<'a> Ground<'a> {
             + self.env[2] * ((2.0 * PI / 3.0) * 0.488_602_5)
             + self.env[6] * ((PI / 4.0) * 0.630_783_1)
     }
-}
-
-/// The 16 real SH basis functions at unit direction `d` (`sh_basis16` of common/sh.wgsl).
-#[inline]
-fn basis16(d: Vec3) -> [f32; 16] {
-    let (x, y, z) = (d.x, d.y, d.z);
-    [
-        0.282_094_8,
-        0.488_602_5 * y,
-        0.488_602_5 * z,
-        0.488_602_5 * x,
-        1.092_548_4 * x * y,
-        1.092_548_4 * y * z,
-        0.315_391_57 * (3.0 * z * z - 1.0),
-        1.092_548_4 * x * z,
-        0.546_274_2 * (x * x - y * y),
-        0.590_043_6 * y * (3.0 * x * x - y * y),
-        2.890_611_4 * x * y * z,
-        0.457_045_8 * y * (5.0 * z * z - 1.0),
-        0.373_176_33 * z * (5.0 * z * z - 3.0),
-        0.457_045_8 * x * (5.0 * z * z - 1.0),
-        1.445_305_7 * z * (x * x - y * y),
-        0.590_043_6 * x * (x * x - 3.0 * y * y),
-    ]
 }
 
 /// Unpolarised Fresnel reflectance of water of index `n` seen from the air at incidence cosine
