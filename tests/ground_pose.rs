@@ -724,3 +724,103 @@ fn steep_reading_finds_the_vertical_vanishing_point() {
         }
     }
 }
+
+/// Prints the evidence of shot `SHOT` of seed `SEED` (default 1) at the truth and at the
+/// estimate, and writes `DIAG/shotN.png` with its segments (red: vertical at the truth, green:
+/// in a family at the truth, blue: neither).
+#[test]
+#[ignore = "diagnosis by hand"]
+fn diagnose_shot() {
+    use glam::DVec3;
+    use rain_composite::scene::ground::up_from_tilt_roll;
+    use rain_composite::scene::vanishing::{self, Edge};
+    let var = |k: &str, d: u64| {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    let (seed, i) = (var("SEED", 1), var("SHOT", 71));
+    let (scene, pose) = street::shot(seed, i);
+    let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
+    let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+    let cam = pose.intrinsics();
+    let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
+    let e = horizon::estimate(&luma, &cam);
+    let (f, c) = (cam.focal_px(), cam.principal_px());
+    let diag = (street::W as f64).hypot(street::H as f64);
+    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
+    let edges: Vec<Edge> = segs
+        .iter()
+        .filter_map(|s| {
+            let (a, b) = (ray(s.a), ray(s.b));
+            Some(Edge {
+                l: a.cross(b).try_normalize()?,
+                m: (a + b).normalize(),
+                ends: [a.normalize(), b.normalize()],
+                cut: [false; 2],
+                w: s.length() / diag,
+            })
+        })
+        .collect();
+    let truth = up_from_tilt_roll(pose.tilt_deg.to_radians(), pose.roll_deg.to_radians());
+    eprintln!("{pose:?}\n{e:?}");
+    eprintln!("{} segments; up {:.3}° off", segs.len(), e.up_cam.angle_between(truth).to_degrees());
+    for (name, n) in [("truth", truth), ("estimate", e.up_cam)] {
+        let inl = vanishing::classify(&edges, n, 1f64.to_radians());
+        let fams: Vec<usize> = inl.families.iter().map(Vec::len).collect();
+        eprintln!(
+            "{name}: vertical {} horizon {} families {fams:?}; J {:.3e} (J of the other's inliers at \
+             this n)",
+            inl.vertical.len(),
+            inl.horizon.len(),
+            vanishing::residual(&edges, &inl, n)
+        );
+        let (r, _) = vanishing::refine(&edges, n);
+        eprintln!("  refined from {name}: {:.3}° off the truth", r.angle_between(truth).to_degrees());
+    }
+    let r = pose.camera().world_from_camera.transpose();
+    let (ps, pc) = scene.paving_deg.to_radians().sin_cos();
+    let vps = [r * DVec3::new(pc, ps, 0.0), r * DVec3::new(-ps, pc, 0.0), r * DVec3::Z, r * DVec3::X, r * DVec3::Y];
+    eprintln!("paving {:.2}°", scene.paving_deg);
+    for (k, ed) in edges.iter().enumerate() {
+        let ang: Vec<String> = vps
+            .iter()
+            .map(|d| {
+                let s = (ed.l.dot(*d) / ed.m.cross(*d).length()).asin().to_degrees();
+                format!("{s:+7.3}")
+            })
+            .collect();
+        if std::env::var("SEGS").is_ok() {
+            eprintln!("seg {k}: len {:.1} {:?} {:?}: {}", segs[k].length(), segs[k].a, segs[k].b, ang.join(" "));
+        }
+    }
+    if let Ok(dir) = std::env::var("DIAG") {
+        let inl = vanishing::classify(&edges, truth, 1f64.to_radians());
+        let mut img = image::RgbImage::new(street::W, street::H);
+        for (k, p) in img.pixels_mut().enumerate() {
+            let v = frame.planes[0].data[k];
+            *p = image::Rgb([v, v, v]);
+        }
+        for (k, s) in segs.iter().enumerate() {
+            let col = if inl.vertical.contains(&k) {
+                [255, 0, 0]
+            } else if inl.families.iter().any(|f| f.contains(&k)) {
+                [0, 255, 0]
+            } else if inl.horizon.contains(&k) {
+                [255, 255, 0]
+            } else {
+                [0, 128, 255]
+            };
+            let n = s.length().ceil() as usize + 1;
+            for t in 0..=n {
+                let u = t as f64 / n as f64;
+                let (x, y) = (s.a[0] + u * (s.b[0] - s.a[0]), s.a[1] + u * (s.b[1] - s.a[1]));
+                if x >= 0.0 && y >= 0.0 && x < street::W as f64 && y < street::H as f64 {
+                    img.put_pixel(x as u32, y as u32, image::Rgb(col));
+                }
+            }
+        }
+        img.save(format!("{dir}/shot{i}.png")).expect("png");
+    }
+}

@@ -73,6 +73,7 @@ use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+pub use crate::scene::segments::{Segment, detect_segments};
 use crate::scene::steep;
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
@@ -148,137 +149,6 @@ impl Luma {
         }
         std::array::from_fn(|i| sum[i] / count[i].max(1) as f32)
     }
-}
-
-/// A straight edge, in displayed-frame pixels.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Segment {
-    /// One end, pixels.
-    pub a: [f64; 2],
-    /// The other end, pixels.
-    pub b: [f64; 2],
-}
-
-impl Segment {
-    /// Length, pixels.
-    pub fn length(&self) -> f64 {
-        (self.a[0] - self.b[0]).hypot(self.a[1] - self.b[1])
-    }
-}
-
-/// Line segments of `luma` (LSD-like region growing; see the module doc), in frame pixels,
-/// longest first, at most `max_count`.
-pub fn detect_segments(luma: &Luma, max_count: usize) -> Vec<Segment> {
-    let (w, h) = (luma.width, luma.height);
-    if w < 3 || h < 3 {
-        return Vec::new();
-    }
-    let px = |x: usize, y: usize| luma.data[y * w + x];
-    let mut mag = vec![0.0f32; w * h];
-    let mut ang = vec![0.0f32; w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let gx = (px(x + 1, y - 1) + 2.0 * px(x + 1, y) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x - 1, y) + px(x - 1, y + 1));
-            let gy = (px(x - 1, y + 1) + 2.0 * px(x, y + 1) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x, y - 1) + px(x + 1, y - 1));
-            let (gx, gy) = (gx / 8.0, gy / 8.0);
-            mag[y * w + x] = gx.hypot(gy);
-            // Direction along the edge (perpendicular to the gradient), mod π.
-            ang[y * w + x] = gx.atan2(-gy);
-        }
-    }
-    const MIN_GRAD: f32 = 0.012;
-    let tol = 22.5f32.to_radians();
-    let mut order: Vec<u32> = (0..(w * h) as u32)
-        .filter(|&i| mag[i as usize] > MIN_GRAD)
-        .collect();
-    order.sort_unstable_by(|&a, &b| mag[b as usize].total_cmp(&mag[a as usize]));
-    let mut used = vec![false; w * h];
-    let mut segs = Vec::new();
-    let mut region: Vec<u32> = Vec::new();
-    let mut stack: Vec<u32> = Vec::new();
-    let diff = |a: f32, b: f32| {
-        let d = (a - b).rem_euclid(std::f32::consts::PI);
-        d.min(std::f32::consts::PI - d)
-    };
-    for &seed in &order {
-        if used[seed as usize] {
-            continue;
-        }
-        region.clear();
-        stack.clear();
-        used[seed as usize] = true;
-        stack.push(seed);
-        let (mut c2, mut s2) = (0.0f32, 0.0f32);
-        let mut mean;
-        while let Some(i) = stack.pop() {
-            region.push(i);
-            let a = 2.0 * ang[i as usize];
-            c2 += a.cos();
-            s2 += a.sin();
-            mean = 0.5 * s2.atan2(c2);
-            let (x, y) = ((i as usize % w) as isize, (i as usize / w) as isize);
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 1 || ny < 1 || nx >= w as isize - 1 || ny >= h as isize - 1 {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if !used[j] && mag[j] > MIN_GRAD && diff(ang[j], mean) < tol {
-                        used[j] = true;
-                        stack.push(j as u32);
-                    }
-                }
-            }
-        }
-        if region.len() < 8 {
-            continue;
-        }
-        // Principal axis, magnitude-weighted.
-        let (mut sw, mut mx, mut my) = (0.0f64, 0.0, 0.0);
-        for &i in &region {
-            let m = mag[i as usize] as f64;
-            sw += m;
-            mx += m * (i as usize % w) as f64;
-            my += m * (i as usize / w) as f64;
-        }
-        let (mx, my) = (mx / sw, my / sw);
-        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-        for &i in &region {
-            let m = mag[i as usize] as f64;
-            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
-            sxx += m * dx * dx;
-            sxy += m * dx * dy;
-            syy += m * dy * dy;
-        }
-        let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let (ux, uy) = (theta.cos(), theta.sin());
-        let (mut lo, mut hi, mut wlo, mut whi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &i in &region {
-            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
-            let along = dx * ux + dy * uy;
-            let across = -dx * uy + dy * ux;
-            lo = lo.min(along);
-            hi = hi.max(along);
-            wlo = wlo.min(across);
-            whi = whi.max(across);
-        }
-        let (len, width) = (hi - lo + 1.0, whi - wlo + 1.0);
-        if len < 12.0 || width > 0.2 * len {
-            continue;
-        }
-        let s = luma.scale as f64;
-        let to_frame = |t: f64| [(mx + 0.5 + t * ux) * s, (my + 0.5 + t * uy) * s];
-        segs.push(Segment {
-            a: to_frame(lo),
-            b: to_frame(hi),
-        });
-    }
-    segs.sort_by(|a, b| b.length().total_cmp(&a.length()));
-    segs.truncate(max_count);
-    segs
 }
 
 /// One frame's estimate.
