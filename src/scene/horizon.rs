@@ -211,7 +211,7 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     let e2 = n.cross(e1);
     let cut = 3.0 * sigma;
     let inv2s2 = 0.5 / (sigma * sigma);
-    let (mut v_sum, mut l_sum, mut below, mut all) = (0.0, 0.0, 0.0, 0.0);
+    let (mut v_sum, mut v_max, mut l_sum, mut below, mut all) = (0.0, 0.0f64, 0.0, 0.0, 0.0);
     let (mut nv, mut nl) = (0, 0);
     for e in edges {
         all += e.w;
@@ -222,7 +222,9 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
         let mxn = e.m.cross(n).length().max(1e-9);
         let alpha = (ln.abs() / mxn).min(1.0).asin();
         if alpha < cut {
-            v_sum += e.w * (-alpha * alpha * inv2s2).exp();
+            let v = e.w * (-alpha * alpha * inv2s2).exp();
+            v_sum += v;
+            v_max = v_max.max(v);
             if alpha < 2.0 * sigma {
                 nv += 1;
             }
@@ -277,7 +279,8 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     }
     let g = if all > 0.0 { below / all } else { 0.5 };
     Score {
-        total: (v_sum + h_sum + 1.5 * l_sum) * (1.0 - 0.5 * TEXTURE_PRIOR + TEXTURE_PRIOR * g),
+        total: (v_sum - v_max + h_sum + 1.5 * l_sum)
+            * (1.0 - 0.5 * TEXTURE_PRIOR + TEXTURE_PRIOR * g),
         vertical: nv,
         horizontal: nh,
         horizon: nl,
@@ -413,12 +416,20 @@ fn estimate_with(
     while t <= MAX_TILT_DEG {
         let mut r = -MAX_ROLL_DEG;
         while r <= MAX_ROLL_DEG {
-            coarse.push((eval(t, r, 2.5, &mut hist).total * prior(t, r), t, r));
-            r += 3.0;
+            coarse.push((eval(t, r, COARSE_SIGMA_DEG, &mut hist).total * prior(t, r), t, r));
+            r += COARSE_STEP_DEG;
         }
-        t += 3.0;
+        t += COARSE_STEP_DEG;
     }
     coarse.sort_by(|a, b| b.0.total_cmp(&a.0));
+    if std::env::var("RC_DEBUG_HORIZON").is_ok() {
+        for c in coarse.iter().take(12) {
+            eprintln!("DEBUG coarse {c:.3?}");
+        }
+        for c in coarse.iter().filter(|c| (c.1 + 0.0).abs() < 2.0 && (c.2 + 10.0).abs() < 2.0) {
+            eprintln!("DEBUG coarse near truth {c:.3?}");
+        }
+    }
     let mut starts: Vec<(f64, f64)> = Vec::new();
     for &(_, t, r) in &coarse {
         if starts
@@ -427,8 +438,46 @@ fn estimate_with(
         {
             starts.push((t, r));
         }
-        if starts.len() == 3 {
+        if starts.len() == STARTS {
             break;
+        }
+    }
+    // Hypotheses from the edges themselves: the vertical vanishing point where two of the
+    // longest edges meet. A wide kernel lets a wrong reading gather the ridges of several
+    // families of long lines and outscore the true one in the coarse grid; a pair of
+    // verticals puts the true one among the starts.
+    let mut order: Vec<usize> = (0..edges.len()).collect();
+    order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
+    order.truncate(PAIRED_EDGES);
+    let mut paired: Vec<(f64, f64, f64)> = Vec::new();
+    for (k, &i) in order.iter().enumerate() {
+        for &j in &order[k + 1..] {
+            let Some(mut n) = edges[i].l.cross(edges[j].l).try_normalize() else {
+                continue;
+            };
+            if n.y > 0.0 {
+                n = -n;
+            }
+            let (t, r) = tilt_roll_from_up(n);
+            let (t, r) = (t.to_degrees(), r.to_degrees());
+            if t.abs() > MAX_TILT_DEG || r.abs() > MAX_ROLL_DEG {
+                continue;
+            }
+            paired.push((eval(t, r, 1.0, &mut hist).total * prior(t, r), t, r));
+        }
+    }
+    paired.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut extra = 0;
+    for &(_, t, r) in &paired {
+        if extra == PAIRED_STARTS {
+            break;
+        }
+        if starts
+            .iter()
+            .all(|&(t0, r0)| (t - t0).abs() > 1.0 || (r - r0).abs() > 1.0)
+        {
+            starts.push((t, r));
+            extra += 1;
         }
     }
     let refine = |(t0, r0): (f64, f64), half: f64, step: f64, sigma: f64, hist: &mut Vec<_>| {
@@ -448,10 +497,23 @@ fn estimate_with(
         }
         best
     };
+    if let Ok(tr) = std::env::var("RC_DEBUG_TRUTH") {
+        let v: Vec<f64> = tr.split(',').map(|x| x.parse().unwrap()).collect();
+        for sig in [2.5, 1.0, 0.4] {
+            let sc = eval(v[0], v[1], sig, &mut hist);
+            eprintln!("DEBUG truth sigma {sig}: raw {:.3} prior {:.3} v {} h {} l {}", sc.total, prior(v[0], v[1]), sc.vertical, sc.horizontal, sc.horizon);
+        }
+        let b = refine((v[0], v[1]), 3.0, 0.5, 1.0, &mut hist);
+        eprintln!("DEBUG truth refined {:.2} {:.2} raw {:.3}", b.1, b.2, b.0);
+    }
     let readings: Vec<(f64, f64, f64)> = starts
         .into_iter()
         .map(|s| {
             let b = refine(s, 3.0, 0.5, 1.0, &mut hist);
+            if std::env::var("RC_DEBUG_HORIZON").is_ok() {
+                let sc = eval(b.1, b.2, 1.0, &mut hist);
+                eprintln!("DEBUG start {s:?} -> {:.2} {:.2}: raw {:.3} prior {:.3} v {} h {} l {}", b.1, b.2, b.0, prior(b.1, b.2), sc.vertical, sc.horizontal, sc.horizon);
+            }
             (b.0 * prior(b.1, b.2), b.1, b.2)
         })
         .collect();
@@ -462,10 +524,20 @@ fn estimate_with(
     let ambiguity = ambiguity(&readings, best);
     let (_, t, r) = refine((best.1, best.2), 0.6, 0.1, 0.4, &mut hist);
     let fin = eval(t, r, 0.4, &mut hist);
-    let (up_cam, inliers) = vanishing::refine(
+    // The fit's inliers depend on where it starts: refit from its own result until it stays
+    // put (a start half a degree off can keep a neighbouring line of a family out).
+    let (mut up_cam, mut inliers) = vanishing::refine(
         &edges,
         crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians()),
     );
+    for _ in 0..3 {
+        let (n, inl) = vanishing::refine(&edges, up_cam);
+        let moved = n.angle_between(up_cam);
+        (up_cam, inliers) = (n, inl);
+        if moved < 0.01f64.to_radians() {
+            break;
+        }
+    }
     let (t, r) = tilt_roll_from_up(up_cam);
     let (t, r) = (t.to_degrees(), r.to_degrees());
     let (standing, floating) = vanishing::standing_check(&edges, &inliers.vertical, up_cam);
@@ -737,3 +809,20 @@ impl GroundTracker {
         aggregate(&readings, camera).unwrap_or(est)
     }
 }
+
+/// Step of the coarse search over tilt and roll, degrees.
+pub const COARSE_STEP_DEG: f64 = 2.0;
+
+/// Kernel width of the coarse search, degrees: wide enough that a cell's support reaches the
+/// reading within it (at most a degree away), narrow enough that a wrong reading does not
+/// gather the ridges of several families of long, well-fitted lines (at 2.5° it did).
+pub const COARSE_SIGMA_DEG: f64 = 1.5;
+
+/// Distinct coarse cells refined into readings.
+pub const STARTS: usize = 5;
+
+/// The longest edges paired for hypotheses of the vertical vanishing point.
+pub const PAIRED_EDGES: usize = 40;
+
+/// Hypotheses from pairs of edges refined into readings (besides the coarse cells).
+pub const PAIRED_STARTS: usize = 2;
