@@ -40,9 +40,38 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
     (pose, e, right)
 }
 
+/// Steep view `i` of `seed`: the estimate and how far its up direction is from the truth,
+/// degrees.
+fn judge_steep(seed: u64, i: u64) -> (HorizonEstimate, f64) {
+    let (scene, pose, cam) = street::steep_shot(seed, i);
+    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+    let truth = rain_composite::scene::ground::up_from_tilt_roll(
+        pose.tilt_deg.to_radians(),
+        pose.roll_deg.to_radians(),
+    );
+    let off_deg = e.up_cam.angle_between(truth).to_degrees();
+    eprintln!(
+        "steep {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
+         confidence {:.3} lines {} v {} sky {:.2} standing {:.2} floating {:.2}",
+        pose.tilt_deg,
+        pose.roll_deg,
+        pose.fov_deg,
+        e.tilt_deg,
+        e.roll_deg,
+        e.confidence,
+        e.steep_lines,
+        e.vertical_inliers,
+        e.sky_correlation,
+        e.standing_len,
+        e.floating_len,
+    );
+    (e, off_deg)
+}
+
 /// Refits [`horizon::CONFIDENCE_WEIGHTS`] by logistic regression (Newton's method with a
-/// small ridge) on 300 shots of a training seed, distinct from the seeds the tests judge on;
-/// prints the weights to paste.
+/// small ridge) on 300 street shots (and `STEEP_SHOTS` steep views) of training seeds,
+/// distinct from the seeds the tests judge on; prints the weights to paste.
 #[test]
 #[ignore = "refits the confidence model (minutes); run by hand after changing the estimator"]
 #[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
@@ -52,15 +81,30 @@ fn fit_confidence_weights() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(300);
-    let data: Vec<([f64; N], f64)> = (0..shots)
+    // Steep views in the fit lower the confidence of level streets more than that of the steep
+    // views' level misreadings (their evidence looks alike: see the measurements), so the
+    // committed weights are fitted on streets alone (`STEEP_SHOTS=0`).
+    let steep: u64 = std::env::var("STEEP_SHOTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let as_data = |e: &HorizonEstimate, right: bool| {
+        (
+            horizon::confidence_inputs(e),
+            if right { 1.0 } else { 0.0 },
+        )
+    };
+    let mut data: Vec<([f64; N], f64)> = (0..shots)
         .map(|i| {
             let (_, e, right) = judge(1000, i);
-            (
-                horizon::confidence_inputs(&e),
-                if right { 1.0 } else { 0.0 },
-            )
+            as_data(&e, right)
         })
         .collect();
+    // Steep views of a city (a seed the steep test does not judge on).
+    data.extend((0..steep).map(|i| {
+        let (e, off_deg) = judge_steep(1007, i);
+        as_data(&e, off_deg < 1.0)
+    }));
     let mut w = [0.0f64; N];
     for _ in 0..50 {
         let mut g = [0.0f64; N];
@@ -119,8 +163,8 @@ const BINS: [(f64, f64); 6] = [
 /// The confidence is calibrated — the expected calibration error (the shots' mean distance
 /// between a bin's fraction right and its mean confidence) is at most 0.1, and in each bin of
 /// at least 10 shots the fraction right is within two binomial standard deviations (plus 0.05)
-/// of the mean confidence — few confident estimates are wrong, and `auto` engages on most
-/// shots: on 120 shots of a seed the model was not fitted on.
+/// of the mean confidence — no confident estimate is wrong, and `auto` engages on at least
+/// 90 % of the street-like shots: on 120 shots of a seed the model was not fitted on.
 #[test]
 fn confidence_is_calibrated_on_random_poses() {
     let shots: u64 = std::env::var("SHOTS")
@@ -181,15 +225,15 @@ fn confidence_is_calibrated_on_random_poses() {
         worst <= 0.05,
         "a bin off by {worst:.2} beyond two standard deviations"
     );
-    // The confidence is a probability: at the threshold of 0.9 about one confident estimate in
-    // twenty may be wrong, and is allowed to be; more would mean the model lies.
+    // No confident estimate is wrong, and `auto` engages on at least 90 % of the street-like
+    // shots (those whose horizon lies within a quarter height of the picture).
     assert!(
-        wrong as f64 <= 0.05 * confident.len() as f64,
+        wrong == 0,
         "{wrong} of {} confident estimates wrong",
         confident.len()
     );
     assert!(
-        near_engaged as f64 >= 0.75 * near_n as f64,
+        near_engaged as f64 >= 0.9 * near_n as f64,
         "auto engages on {near_engaged} of {near_n}"
     );
 }

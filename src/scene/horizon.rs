@@ -194,6 +194,10 @@ pub struct HorizonEstimate {
     /// Distinct lines through the vertical vanishing point of a steep reading (see
     /// [`steep`]); 0 for a reading of the level search.
     pub steep_lines: usize,
+    /// Evidence: how near the optical axis the fitted horizontal families converge: the
+    /// largest `|cos|` of the angle between a family's vanishing point and the axis (0 without
+    /// families). See [`RECEDING_MIN_COS`].
+    pub receding: f64,
 }
 
 struct Score {
@@ -422,14 +426,6 @@ fn estimate_with(
         t += COARSE_STEP_DEG;
     }
     coarse.sort_by(|a, b| b.0.total_cmp(&a.0));
-    if std::env::var("RC_DEBUG_HORIZON").is_ok() {
-        for c in coarse.iter().take(12) {
-            eprintln!("DEBUG coarse {c:.3?}");
-        }
-        for c in coarse.iter().filter(|c| (c.1 + 0.0).abs() < 2.0 && (c.2 + 10.0).abs() < 2.0) {
-            eprintln!("DEBUG coarse near truth {c:.3?}");
-        }
-    }
     let mut starts: Vec<(f64, f64)> = Vec::new();
     for &(_, t, r) in &coarse {
         if starts
@@ -497,23 +493,10 @@ fn estimate_with(
         }
         best
     };
-    if let Ok(tr) = std::env::var("RC_DEBUG_TRUTH") {
-        let v: Vec<f64> = tr.split(',').map(|x| x.parse().unwrap()).collect();
-        for sig in [2.5, 1.0, 0.4] {
-            let sc = eval(v[0], v[1], sig, &mut hist);
-            eprintln!("DEBUG truth sigma {sig}: raw {:.3} prior {:.3} v {} h {} l {}", sc.total, prior(v[0], v[1]), sc.vertical, sc.horizontal, sc.horizon);
-        }
-        let b = refine((v[0], v[1]), 3.0, 0.5, 1.0, &mut hist);
-        eprintln!("DEBUG truth refined {:.2} {:.2} raw {:.3}", b.1, b.2, b.0);
-    }
     let readings: Vec<(f64, f64, f64)> = starts
         .into_iter()
         .map(|s| {
             let b = refine(s, 3.0, 0.5, 1.0, &mut hist);
-            if std::env::var("RC_DEBUG_HORIZON").is_ok() {
-                let sc = eval(b.1, b.2, 1.0, &mut hist);
-                eprintln!("DEBUG start {s:?} -> {:.2} {:.2}: raw {:.3} prior {:.3} v {} h {} l {}", b.1, b.2, b.0, prior(b.1, b.2), sc.vertical, sc.horizontal, sc.horizon);
-            }
             (b.0 * prior(b.1, b.2), b.1, b.2)
         })
         .collect();
@@ -562,13 +545,18 @@ fn estimate_with(
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
         steep_lines: 0,
+        receding: inliers
+            .families
+            .iter()
+            .map(|f| vanishing::family_point(&edges, f, up_cam).z.abs())
+            .fold(0.0, f64::max),
     };
+    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
     // the zenith, and the level reading (the Manhattan alternative) is then a guess.
-    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     if let Some(s) = steep::read(&edges, sky) {
         let steep_sky = sky(s.up_cam);
         let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
@@ -625,7 +613,7 @@ pub fn confidence_inputs(e: &HorizonEstimate) -> [f64; CONFIDENCE_INPUTS] {
 /// within 1°" on synthetic streets at random poses (`tests/ground_pose.rs` refits them), so
 /// that the confidence is the probability of being right on such shots.
 pub const CONFIDENCE_WEIGHTS: [f64; CONFIDENCE_INPUTS] =
-    [-2.174, -0.506, 1.586, 3.895, 1.180, -2.327, -4.086, -1.568];
+    [2.382, -0.041, 1.234, -1.594, -3.897, -3.609, 0.990, 1.881];
 
 /// A vertical structure of at least this length (frame diagonals) rising above the horizon
 /// with its foot above it, and under [`STANDING_SHARE`] of that length standing on the ground,
@@ -641,10 +629,17 @@ pub fn floats(e: &HorizonEstimate) -> bool {
     e.floating_len >= FLOATING_MIN_LEN && e.standing_len < STANDING_SHARE * e.floating_len
 }
 
-/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 without segments or
-/// where the reading [`floats`].
+/// A level reading whose families of horizontal edges all converge farther than this from
+/// the optical axis (`cos` of the angle; about 80°), with no edge along its horizon, sees no
+/// ground receding and has confidence 0: a paving seen straight down reads, edge for edge, as
+/// a tiled wall seen level (one family of its joints taken for verticals, the other for
+/// frontal horizontals), and nothing in the edges tells the two apart.
+pub const RECEDING_MIN_COS: f64 = 0.17;
+
+/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 without segments,
+/// where the reading [`floats`], or where it sees no receding ground ([`RECEDING_MIN_COS`]).
 pub fn calibrated_confidence(e: &HorizonEstimate) -> f64 {
-    if e.segments == 0 || floats(e) {
+    if e.segments == 0 || floats(e) || (e.receding < RECEDING_MIN_COS && e.horizon_inliers == 0) {
         return 0.0;
     }
     let x = confidence_inputs(e);
@@ -724,7 +719,7 @@ pub const TEXTURE_PRIOR: f64 = 0.15;
 /// Weight of the brightness prior: the support is scaled by `1 + w ρ`, `ρ` the correlation of
 /// the picture's block brightness with elevation above the candidate horizon (daylight skies
 /// are brighter than what stands under them).
-pub const BRIGHTNESS_PRIOR: f64 = 1.5;
+pub const BRIGHTNESS_PRIOR: f64 = 0.5;
 
 /// Weight of the tilt prior: the support is scaled by `1 − w (tilt/90°)²` (most footage is
 /// shot within 45° of level, and of the two Manhattan readings of a picture, the vertical and a

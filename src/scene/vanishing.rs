@@ -148,6 +148,30 @@ pub fn classify(edges: &[Edge], n: DVec3, tol_rad: f64) -> Inliers {
     out
 }
 
+/// The vanishing point of a family of horizontal edges on the horizon of `n`: the unit
+/// direction normal to `n` most orthogonal to the family's plane normals (the smallest
+/// eigenvector of the 2×2 problem in [`residual`]).
+pub fn family_point(edges: &[Edge], family: &[usize], n: DVec3) -> DVec3 {
+    let (e1, e2) = horizon_basis(n);
+    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+    for &i in family {
+        let (p, q) = (edges[i].l.dot(e1), edges[i].l.dot(e2));
+        a += edges[i].w * p * p;
+        b += edges[i].w * p * q;
+        c += edges[i].w * q * q;
+    }
+    // The eigenvector of the smaller eigenvalue of [[a, b], [b, c]].
+    let lambda = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let (x, y) = if b.abs() > 1e-15 {
+        (b, lambda - a)
+    } else if a <= c {
+        (1.0, 0.0)
+    } else {
+        (0.0, 1.0)
+    };
+    (e1 * x + e2 * y).normalize_or(e1)
+}
+
 /// `J(n)` of the module doc for fixed inliers.
 pub fn residual(edges: &[Edge], inliers: &Inliers, n: DVec3) -> f64 {
     let mut j = 0.0;
