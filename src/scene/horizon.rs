@@ -420,7 +420,11 @@ fn estimate_with(
     while t <= MAX_TILT_DEG {
         let mut r = -MAX_ROLL_DEG;
         while r <= MAX_ROLL_DEG {
-            coarse.push((eval(t, r, COARSE_SIGMA_DEG, &mut hist).total * prior(t, r), t, r));
+            coarse.push((
+                eval(t, r, COARSE_SIGMA_DEG, &mut hist).total * prior(t, r),
+                t,
+                r,
+            ));
             r += COARSE_STEP_DEG;
         }
         t += COARSE_STEP_DEG;

@@ -400,7 +400,10 @@ fn regions(grad: &Gradient) -> Vec<Piece> {
         let (c, u) = p.line();
         let (mut lo, mut hi, mut wlo, mut whi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for &i in &region {
-            let (dx, dy) = ((i as usize % w) as f64 - c[0], (i as usize / w) as f64 - c[1]);
+            let (dx, dy) = (
+                (i as usize % w) as f64 - c[0],
+                (i as usize / w) as f64 - c[1],
+            );
             let along = dx * u[0] + dy * u[1];
             let across = -dx * u[1] + dy * u[0];
             lo = lo.min(along);
