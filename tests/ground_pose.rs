@@ -20,7 +20,8 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
         && (e.roll_deg - pose.roll_deg).abs() < 1.0;
     eprintln!(
         "shot {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
-         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} | {}",
+         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} \
+         level {:+.4} | {}",
         pose.tilt_deg,
         pose.roll_deg,
         pose.fov_deg,
@@ -35,6 +36,7 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
         e.sky_correlation,
         e.standing_len,
         e.floating_len,
+        e.level_offset,
         if right { "right" } else { "WRONG" }
     );
     (pose, e, right)
@@ -886,4 +888,43 @@ fn diagnose_shot() {
         }
         img.save(format!("{dir}/shot{i}.png")).expect("png");
     }
+}
+
+/// A street estimated through a field of view 20° off the lens's is not confidently wrong: the
+/// verticals then read their convergence as the wrong tilt, the receding level lines converge
+/// off the horizon it predicts, and the reading is refused ([`horizon::lens_mismatch`]) unless
+/// it is right anyway (a camera near level, whose horizon no focal length moves).
+#[test]
+fn a_wrong_field_of_view_is_refused_or_right() {
+    let (mut refused, mut shots, mut wrong) = (0, 0, 0);
+    for i in 0..16u64 {
+        let (scene, pose) = street::shot(1, i);
+        let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
+        let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+        let fov_deg = if pose.fov_deg < 65.0 {
+            pose.fov_deg + 20.0
+        } else {
+            pose.fov_deg - 20.0
+        };
+        let assumed = street::Pose { fov_deg, ..pose };
+        let e = horizon::estimate(&luma, &assumed.intrinsics());
+        let row = pose.horizon_row().expect("crosses");
+        let right = e.horizon_row.is_some_and(|r| (r - row).abs() < 0.02)
+            && (e.roll_deg - pose.roll_deg).abs() < 1.0;
+        eprintln!(
+            "shot {i}: tilt {:.2} fov {:.1} read at {fov_deg:.1} | row {:.3} (true {row:.3}) \
+             confidence {:.3} level {:+.4} {}",
+            pose.tilt_deg,
+            pose.fov_deg,
+            e.horizon_row.unwrap_or(f64::NAN),
+            e.confidence,
+            e.level_offset,
+            if right { "right" } else { "WRONG" }
+        );
+        shots += 1;
+        refused += usize::from(horizon::lens_mismatch(&e));
+        wrong += usize::from(!right && e.confidence >= horizon::MIN_CONFIDENCE);
+    }
+    eprintln!("{refused} of {shots} refused for their lens, {wrong} confidently wrong");
+    assert_eq!(wrong, 0, "{wrong} of {shots} confidently wrong");
 }

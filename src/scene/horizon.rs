@@ -198,6 +198,10 @@ pub struct HorizonEstimate {
     /// largest `|cos|` of the angle between a family's vanishing point and the axis (0 without
     /// families). See [`RECEDING_MIN_COS`].
     pub receding: f64,
+    /// Evidence: how far the horizontal families converge off the horizon the verticals alone
+    /// predict, picture heights, positive above (see [`vanishing::level_offset`]; 0 where it
+    /// is not measured). See [`lens_mismatch`].
+    pub level_offset: f64,
 }
 
 struct Score {
@@ -554,6 +558,8 @@ fn estimate_with(
             .iter()
             .map(|f| vanishing::family_point(&edges, f, up_cam).z.abs())
             .fold(0.0, f64::max),
+        level_offset: vanishing::level_offset(&edges, &inliers, up_cam)
+            .map_or(0.0, |a| a * f / camera.height_px as f64),
     };
     let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
@@ -561,7 +567,14 @@ fn estimate_with(
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
     // the zenith, and the level reading (the Manhattan alternative) is then a guess.
-    if let Some(s) = steep::read(&edges, sky) {
+    // A level reading refused for its lens keeps its refusal (the user's remedy is a field of
+    // view, and a steep reading of a level street is a guess).
+    let steep = if lens_mismatch(&est) {
+        None
+    } else {
+        steep::read(&edges, sky)
+    };
+    if let Some(s) = steep {
         let steep_sky = sky(s.up_cam);
         let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
             && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
@@ -584,6 +597,7 @@ fn estimate_with(
                 floating_len: 0.0,
                 sky_correlation: steep_sky,
                 steep_lines: s.distinct_lines,
+                level_offset: 0.0,
                 ..est
             };
         }
@@ -640,10 +654,46 @@ pub fn floats(e: &HorizonEstimate) -> bool {
 /// frontal horizontals), and nothing in the edges tells the two apart.
 pub const RECEDING_MIN_COS: f64 = 0.17;
 
-/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 without segments,
-/// where the reading [`floats`], or where it sees no receding ground ([`RECEDING_MIN_COS`]).
+/// Horizontal families converging farther than this (picture heights, a weighted mean) off
+/// the horizon the verticals predict make a reading inconsistent with the assumed field of
+/// view: see [`lens_mismatch`].
+pub const LEVEL_OFFSET_MAX: f64 = 0.03;
+
+/// Whether the verticals and the horizontal families disagree on the horizon under the assumed
+/// focal length ([`HorizonEstimate::level_offset`] beyond [`LEVEL_OFFSET_MAX`]). The verticals
+/// set the tilt through the focal length (their vanishing point `v` and the horizon are pole
+/// and polar, `(p − c)·(v − c) = −f²`), the families' vanishing points show the horizon
+/// directly: where they disagree the field of view is not the lens's, and the tilt read from
+/// the verticals (a convergence a wider lens shows at a smaller tilt) is wrong. Synthetic
+/// shots are drawn through an exactly known lens, so the confidence model cannot learn this.
+pub fn lens_mismatch(e: &HorizonEstimate) -> bool {
+    e.level_offset.abs() > LEVEL_OFFSET_MAX
+}
+
+/// Why a reading has confidence 0 regardless of its evidence, if it does.
+pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
+    if e.segments == 0 {
+        Some("no straight edges")
+    } else if floats(e) {
+        Some("vertical structure floats above the horizon (a rail taken for it)")
+    } else if e.receding < RECEDING_MIN_COS && e.horizon_inliers == 0 {
+        Some("no ground receding (no horizontal lines converge ahead)")
+    } else if lens_mismatch(e) {
+        Some(
+            "the verticals and the receding level lines disagree on the horizon: the field of \
+             view is not the lens's (try another --fov)",
+        )
+    } else {
+        None
+    }
+}
+
+/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 where there is a
+/// [`refusal`]: without segments, where the reading [`floats`], where it sees no receding
+/// ground ([`RECEDING_MIN_COS`]), or where the assumed lens is not the picture's
+/// ([`lens_mismatch`]).
 pub fn calibrated_confidence(e: &HorizonEstimate) -> f64 {
-    if e.segments == 0 || floats(e) || (e.receding < RECEDING_MIN_COS && e.horizon_inliers == 0) {
+    if refusal(e).is_some() {
         return 0.0;
     }
     let x = confidence_inputs(e);
