@@ -56,7 +56,9 @@
 //! vertical length whose foot floats, the kernel support — fitted on synthetic streets at random
 //! poses and checked for calibration on others (`tests/ground_pose.rs`). A reading that leaves
 //! strong vertical structure floating above its horizon with nothing standing through it
-//! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0. Below
+//! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0, and so has
+//! one whose verticals and receding level lines disagree on the horizon under the assumed
+//! field of view ([`lens_mismatch`]: the lens is not the picture's). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
