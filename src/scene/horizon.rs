@@ -204,6 +204,9 @@ pub struct HorizonEstimate {
     /// predict, picture heights, positive above (see [`vanishing::level_offset`]; 0 where it
     /// is not measured). See [`lens_mismatch`].
     pub level_offset: f64,
+    /// How far the horizon lies from the principal point along the picture's up, picture
+    /// heights (`f tan(tilt) / height`; see [`lens_mismatch`]).
+    pub horizon_shift: f64,
 }
 
 struct Score {
@@ -562,6 +565,7 @@ fn estimate_with(
             .fold(0.0, f64::max),
         level_offset: vanishing::level_offset(&edges, &inliers, up_cam)
             .map_or(0.0, |a| a * f / camera.height_px as f64),
+        horizon_shift: f * t.to_radians().tan() / camera.height_px as f64,
     };
     let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
@@ -600,6 +604,7 @@ fn estimate_with(
                 sky_correlation: steep_sky,
                 steep_lines: s.distinct_lines,
                 level_offset: 0.0,
+                horizon_shift: f * t.tan() / camera.height_px as f64,
                 ..est
             };
         }
@@ -669,8 +674,14 @@ pub const LEVEL_OFFSET_MAX: f64 = 0.03;
 /// the verticals (a convergence a wider lens shows at a smaller tilt) is wrong. Synthetic
 /// shots are drawn through an exactly known lens, so the confidence model cannot learn this.
 pub fn lens_mismatch(e: &HorizonEstimate) -> bool {
-    e.level_offset.abs() > LEVEL_OFFSET_MAX
+    e.level_offset.abs() > LEVEL_OFFSET_MAX && e.horizon_shift.abs() >= LENS_SHIFT_MIN
 }
+
+/// A horizon the verticals put nearer the principal point than this (picture heights) is
+/// exempt from [`lens_mismatch`]: a wrong focal length moves the horizon in proportion to its
+/// distance from there (`y_h f²/f_a²` for `y_h` under the assumed `f_a`), so a level reading is
+/// right under any lens, and an offset there is the level lines' own noise.
+pub const LENS_SHIFT_MIN: f64 = 0.02;
 
 /// Why a reading has confidence 0 regardless of its evidence, if it does.
 pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {

@@ -294,18 +294,28 @@ pub const LEVEL_PAIRED_EDGES: usize = 40;
 /// level in [`level_offset`], degrees.
 pub const LEVEL_MAX_ELEVATION_DEG: f64 = 10.0;
 
+/// Nearest a level family's vanishing point comes to the optical axis in [`level_offset`]
+/// (`cos` of the angle; about 73°): a family converging far aside is nearly parallel in the
+/// picture and its point's elevation is poorly determined (a paving's families 80–84° aside
+/// read 2.4–2.9° off the horizon of an exact lens).
+pub const LEVEL_MIN_COS: f64 = 0.3;
+
+/// Least length of a second level family in [`level_offset`], a share of the first's.
+pub const LEVEL_SECOND_SHARE: f64 = 0.5;
+
 /// Most level families [`level_offset`] finds.
 pub const LEVEL_FAMILIES: usize = 2;
 
 /// How far the families of receding level edges converge off the horizon the verticals alone
 /// predict: the weighted mean signed elevation (radians, positive above) of their vanishing
-/// points over the horizon of the verticals' own vanishing point, weights each family's length
-/// times how much it recedes. The families are found afresh, not at the fitted `n`: a fit whose
-/// tilt is wrong groups, along its own horizon, the edges that happen to meet there, and misses
+/// points over the horizon of the verticals' own vanishing point. The families are found
+/// afresh, not at the fitted `n`: a fit whose tilt is wrong groups, along its own horizon, the edges that happen to meet there, and misses
 /// the true families, which converge off it. A family is the point where two of the
 /// [`LEVEL_PAIRED_EDGES`] longest non-vertical edges meet with the most edge length through it
-/// (within [`INLIER_DEG`], at least [`MIN_FAMILY`] edges, converging within about 80° of the
-/// optical axis), greedily, up to [`LEVEL_FAMILIES`].
+/// (within [`INLIER_DEG`], at least [`MIN_FAMILY`] edges, within [`LEVEL_MIN_COS`] of the
+/// optical axis), greedily, up to [`LEVEL_FAMILIES`], a second one at least
+/// [`LEVEL_SECOND_SHARE`] as long as the first; weights: length times the square of how much
+/// the family recedes (the cosine of its point's angle to the axis).
 ///
 /// Under the right focal length a vertical vanishing point `v` and the horizon are pole and
 /// polar (`(p − c)·(v − c) = −f²` for every point `p` of the horizon), so the level families'
@@ -321,7 +331,7 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
     let mut free: Vec<usize> = (0..edges.len())
         .filter(|&i| vertical_angle(&edges[i], nv) >= tol)
         .collect();
-    let (mut sum, mut weight) = (0.0, 0.0);
+    let (mut sum, mut weight, mut heaviest) = (0.0, 0.0, 0.0f64);
     for _ in 0..LEVEL_FAMILIES {
         let mut order = free.clone();
         order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
@@ -335,7 +345,7 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
                 if p.z < 0.0 {
                     p = -p;
                 }
-                if p.z < 0.17 {
+                if p.z < LEVEL_MIN_COS {
                     continue;
                 }
                 let members: Vec<usize> = free
@@ -349,9 +359,12 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
                 }
             }
         }
-        if best.2.is_empty() {
+        // A second family counts where it is at least half as strong as the first: a few
+        // edges meeting by chance make a weak one.
+        if best.2.is_empty() || best.0 < LEVEL_SECOND_SHARE * heaviest {
             break;
         }
+        heaviest = heaviest.max(best.0);
         let mut d = free_point(edges, &best.2, best.1);
         if d.z < 0.0 {
             d = -d;
@@ -361,8 +374,8 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
         // beyond the inlier tolerance.
         let elevation = d.dot(nv).clamp(-1.0, 1.0).asin();
         if elevation.abs() < LEVEL_MAX_ELEVATION_DEG.to_radians() {
-            sum += best.0 * d.z * elevation;
-            weight += best.0 * d.z;
+            sum += best.0 * d.z * d.z * elevation;
+            weight += best.0 * d.z * d.z;
         }
         free.retain(|i| !best.2.contains(i));
     }
