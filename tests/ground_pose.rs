@@ -596,8 +596,8 @@ fn straight_down_streaks_converge_to_the_nadir() {
 /// 2°. The same street with its buildings and posts taken away (paving only) has no pose
 /// evidence and is not confident.
 #[test]
-#[ignore = "not reached: the view down is read 19° off (a steep reading on 5 verticals, tilt \
-            −72°, roll −124°) and not confidently (0.01): refused, not posed"]
+#[ignore = "not reached: the view down is read as a level view (tilt 1.2°), refused (no \
+            receding ground, confidence 0): not confidently wrong, but not posed"]
 fn a_straight_down_street_is_posed_from_its_verticals() {
     use rain_composite::rng::SplitMix64;
     let pose = street::Pose {
@@ -639,7 +639,7 @@ fn a_straight_down_street_is_posed_from_its_verticals() {
 /// up direction is right when within 1° of the truth (the horizon is far off the picture; the
 /// streaks' directions follow the up direction). No confident estimate may be wrong.
 #[test]
-#[ignore = "not reached: 7 of 30 steep views are read confidently as level views (the \
+#[ignore = "not reached: 6 of 30 steep views are read confidently as level views (the \
             Manhattan alternative); prints the table"]
 fn steep_views_are_posed_or_not_confident() {
     let shots: u64 = std::env::var("STEEP_SHOTS")
