@@ -20,7 +20,8 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
         && (e.roll_deg - pose.roll_deg).abs() < 1.0;
     eprintln!(
         "shot {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
-         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} | {}",
+         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} \
+         level {:+.4} | {}",
         pose.tilt_deg,
         pose.roll_deg,
         pose.fov_deg,
@@ -35,14 +36,44 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
         e.sky_correlation,
         e.standing_len,
         e.floating_len,
+        e.level_offset,
         if right { "right" } else { "WRONG" }
     );
     (pose, e, right)
 }
 
+/// Steep view `i` of `seed`: the estimate and how far its up direction is from the truth,
+/// degrees.
+fn judge_steep(seed: u64, i: u64) -> (HorizonEstimate, f64) {
+    let (scene, pose, cam) = street::steep_shot(seed, i);
+    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
+    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+    let truth = rain_composite::scene::ground::up_from_tilt_roll(
+        pose.tilt_deg.to_radians(),
+        pose.roll_deg.to_radians(),
+    );
+    let off_deg = e.up_cam.angle_between(truth).to_degrees();
+    eprintln!(
+        "steep {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
+         confidence {:.3} lines {} v {} sky {:.2} standing {:.2} floating {:.2}",
+        pose.tilt_deg,
+        pose.roll_deg,
+        pose.fov_deg,
+        e.tilt_deg,
+        e.roll_deg,
+        e.confidence,
+        e.steep_lines,
+        e.vertical_inliers,
+        e.sky_correlation,
+        e.standing_len,
+        e.floating_len,
+    );
+    (e, off_deg)
+}
+
 /// Refits [`horizon::CONFIDENCE_WEIGHTS`] by logistic regression (Newton's method with a
-/// small ridge) on 300 shots of a training seed, distinct from the seeds the tests judge on;
-/// prints the weights to paste.
+/// small ridge) on 300 street shots (and `STEEP_SHOTS` steep views) of training seeds,
+/// distinct from the seeds the tests judge on; prints the weights to paste.
 #[test]
 #[ignore = "refits the confidence model (minutes); run by hand after changing the estimator"]
 #[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
@@ -52,15 +83,27 @@ fn fit_confidence_weights() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(300);
-    let data: Vec<([f64; N], f64)> = (0..shots)
+    // Steep views in the fit lower the confidence of level streets more than that of the steep
+    // views' level misreadings (their evidence looks alike: see the measurements), so the
+    // committed weights are fitted on streets alone (`STEEP_SHOTS=0`).
+    let steep: u64 = std::env::var("STEEP_SHOTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let as_data = |e: &HorizonEstimate, right: bool| {
+        (horizon::confidence_inputs(e), if right { 1.0 } else { 0.0 })
+    };
+    let mut data: Vec<([f64; N], f64)> = (0..shots)
         .map(|i| {
             let (_, e, right) = judge(1000, i);
-            (
-                horizon::confidence_inputs(&e),
-                if right { 1.0 } else { 0.0 },
-            )
+            as_data(&e, right)
         })
         .collect();
+    // Steep views of a city (a seed the steep test does not judge on).
+    data.extend((0..steep).map(|i| {
+        let (e, off_deg) = judge_steep(1007, i);
+        as_data(&e, off_deg < 1.0)
+    }));
     let mut w = [0.0f64; N];
     for _ in 0..50 {
         let mut g = [0.0f64; N];
@@ -119,8 +162,8 @@ const BINS: [(f64, f64); 6] = [
 /// The confidence is calibrated — the expected calibration error (the shots' mean distance
 /// between a bin's fraction right and its mean confidence) is at most 0.1, and in each bin of
 /// at least 10 shots the fraction right is within two binomial standard deviations (plus 0.05)
-/// of the mean confidence — few confident estimates are wrong, and `auto` engages on most
-/// shots: on 120 shots of a seed the model was not fitted on.
+/// of the mean confidence — no confident estimate is wrong, and `auto` engages on at least
+/// 90 % of the street-like shots: on 120 shots of a seed the model was not fitted on.
 #[test]
 fn confidence_is_calibrated_on_random_poses() {
     let shots: u64 = std::env::var("SHOTS")
@@ -181,15 +224,15 @@ fn confidence_is_calibrated_on_random_poses() {
         worst <= 0.05,
         "a bin off by {worst:.2} beyond two standard deviations"
     );
-    // The confidence is a probability: at the threshold of 0.9 about one confident estimate in
-    // twenty may be wrong, and is allowed to be; more would mean the model lies.
+    // No confident estimate is wrong, and `auto` engages on at least 90 % of the street-like
+    // shots (those whose horizon lies within a quarter height of the picture).
     assert!(
-        wrong as f64 <= 0.05 * confident.len() as f64,
+        wrong == 0,
         "{wrong} of {} confident estimates wrong",
         confident.len()
     );
     assert!(
-        near_engaged as f64 >= 0.75 * near_n as f64,
+        near_engaged as f64 >= 0.9 * near_n as f64,
         "auto engages on {near_engaged} of {near_n}"
     );
 }
@@ -553,8 +596,8 @@ fn straight_down_streaks_converge_to_the_nadir() {
 /// 2°. The same street with its buildings and posts taken away (paving only) has no pose
 /// evidence and is not confident.
 #[test]
-#[ignore = "not reached: the level search reads this picture confidently as a level view \
-            (tilt 1.2°, confidence 0.99), the Manhattan alternative of the view down"]
+#[ignore = "not reached: the view down is read as a level view (tilt 1.2°), refused (no \
+            receding ground, confidence 0): not confidently wrong, but not posed"]
 fn a_straight_down_street_is_posed_from_its_verticals() {
     use rain_composite::rng::SplitMix64;
     let pose = street::Pose {
@@ -596,7 +639,7 @@ fn a_straight_down_street_is_posed_from_its_verticals() {
 /// up direction is right when within 1° of the truth (the horizon is far off the picture; the
 /// streaks' directions follow the up direction). No confident estimate may be wrong.
 #[test]
-#[ignore = "not reached: 5 of 24 steep views are read confidently as level views (the \
+#[ignore = "not reached: 6 of 30 steep views are read confidently as level views (the \
             Manhattan alternative); prints the table"]
 fn steep_views_are_posed_or_not_confident() {
     let shots: u64 = std::env::var("STEEP_SHOTS")
@@ -723,4 +766,165 @@ fn steep_reading_finds_the_vertical_vanishing_point() {
             assert!(p.is_none_or(|p| steep::confidence(&p, true) < 0.05));
         }
     }
+}
+
+/// Prints the evidence of shot `SHOT` of seed `SEED` (default 1) at the truth and at the
+/// estimate, and writes `DIAG/shotN.png` with its segments (red: vertical at the truth, green:
+/// in a family at the truth, blue: neither).
+#[test]
+#[ignore = "diagnosis by hand"]
+fn diagnose_shot() {
+    use glam::DVec3;
+    use rain_composite::scene::ground::up_from_tilt_roll;
+    use rain_composite::scene::vanishing::{self, Edge};
+    let var = |k: &str, d: u64| {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    let (seed, i) = (var("SEED", 1), var("SHOT", 71));
+    let (scene, pose) = street::shot(seed, i);
+    let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
+    let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+    let cam = pose.intrinsics();
+    let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
+    let e = horizon::estimate(&luma, &cam);
+    let (f, c) = (cam.focal_px(), cam.principal_px());
+    let diag = (street::W as f64).hypot(street::H as f64);
+    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
+    let edges: Vec<Edge> = segs
+        .iter()
+        .filter_map(|s| {
+            let (a, b) = (ray(s.a), ray(s.b));
+            Some(Edge {
+                l: a.cross(b).try_normalize()?,
+                m: (a + b).normalize(),
+                ends: [a.normalize(), b.normalize()],
+                cut: [false; 2],
+                w: s.length() / diag,
+            })
+        })
+        .collect();
+    let truth = up_from_tilt_roll(pose.tilt_deg.to_radians(), pose.roll_deg.to_radians());
+    eprintln!("{pose:?}\n{e:?}");
+    eprintln!(
+        "{} segments; up {:.3}° off",
+        segs.len(),
+        e.up_cam.angle_between(truth).to_degrees()
+    );
+    for (name, n) in [("truth", truth), ("estimate", e.up_cam)] {
+        let inl = vanishing::classify(&edges, n, 1f64.to_radians());
+        let fams: Vec<usize> = inl.families.iter().map(Vec::len).collect();
+        eprintln!(
+            "{name}: vertical {} horizon {} families {fams:?}; J {:.3e} (J of the other's inliers at \
+             this n)",
+            inl.vertical.len(),
+            inl.horizon.len(),
+            vanishing::residual(&edges, &inl, n)
+        );
+        let (r, _) = vanishing::refine(&edges, n);
+        eprintln!(
+            "  refined from {name}: {:.3}° off the truth",
+            r.angle_between(truth).to_degrees()
+        );
+    }
+    let r = pose.camera().world_from_camera.transpose();
+    let (ps, pc) = scene.paving_deg.to_radians().sin_cos();
+    let vps = [
+        r * DVec3::new(pc, ps, 0.0),
+        r * DVec3::new(-ps, pc, 0.0),
+        r * DVec3::Z,
+        r * DVec3::X,
+        r * DVec3::Y,
+    ];
+    eprintln!("paving {:.2}°", scene.paving_deg);
+    for (k, ed) in edges.iter().enumerate() {
+        let ang: Vec<String> = vps
+            .iter()
+            .map(|d| {
+                let s = (ed.l.dot(*d) / ed.m.cross(*d).length()).asin().to_degrees();
+                format!("{s:+7.3}")
+            })
+            .collect();
+        if std::env::var("SEGS").is_ok() {
+            eprintln!(
+                "seg {k}: len {:.1} {:?} {:?}: {}",
+                segs[k].length(),
+                segs[k].a,
+                segs[k].b,
+                ang.join(" ")
+            );
+        }
+    }
+    if let Ok(dir) = std::env::var("DIAG") {
+        let inl = vanishing::classify(&edges, truth, 1f64.to_radians());
+        let mut img = image::RgbImage::new(street::W, street::H);
+        for (k, p) in img.pixels_mut().enumerate() {
+            let v = frame.planes[0].data[k];
+            *p = image::Rgb([v, v, v]);
+        }
+        for (k, s) in segs.iter().enumerate() {
+            let col = if inl.vertical.contains(&k) {
+                [255, 0, 0]
+            } else if inl.families.iter().any(|f| f.contains(&k)) {
+                [0, 255, 0]
+            } else if inl.horizon.contains(&k) {
+                [255, 255, 0]
+            } else {
+                [0, 128, 255]
+            };
+            let n = s.length().ceil() as usize + 1;
+            for t in 0..=n {
+                let u = t as f64 / n as f64;
+                let (x, y) = (
+                    s.a[0] + u * (s.b[0] - s.a[0]),
+                    s.a[1] + u * (s.b[1] - s.a[1]),
+                );
+                if x >= 0.0 && y >= 0.0 && x < street::W as f64 && y < street::H as f64 {
+                    img.put_pixel(x as u32, y as u32, image::Rgb(col));
+                }
+            }
+        }
+        img.save(format!("{dir}/shot{i}.png")).expect("png");
+    }
+}
+
+/// A street estimated through a field of view 20° off the lens's is not confidently wrong: the
+/// verticals then read their convergence as the wrong tilt, the receding level lines converge
+/// off the horizon it predicts, and the reading is refused ([`horizon::lens_mismatch`]) unless
+/// it is right anyway (a camera near level, whose horizon no focal length moves).
+#[test]
+fn a_wrong_field_of_view_is_refused_or_right() {
+    let (mut refused, mut shots, mut wrong) = (0, 0, 0);
+    for i in 0..16u64 {
+        let (scene, pose) = street::shot(1, i);
+        let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
+        let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+        let fov_deg = if pose.fov_deg < 65.0 {
+            pose.fov_deg + 20.0
+        } else {
+            pose.fov_deg - 20.0
+        };
+        let assumed = street::Pose { fov_deg, ..pose };
+        let e = horizon::estimate(&luma, &assumed.intrinsics());
+        let row = pose.horizon_row().expect("crosses");
+        let right = e.horizon_row.is_some_and(|r| (r - row).abs() < 0.02)
+            && (e.roll_deg - pose.roll_deg).abs() < 1.0;
+        eprintln!(
+            "shot {i}: tilt {:.2} fov {:.1} read at {fov_deg:.1} | row {:.3} (true {row:.3}) \
+             confidence {:.3} level {:+.4} {}",
+            pose.tilt_deg,
+            pose.fov_deg,
+            e.horizon_row.unwrap_or(f64::NAN),
+            e.confidence,
+            e.level_offset,
+            if right { "right" } else { "WRONG" }
+        );
+        shots += 1;
+        refused += usize::from(horizon::lens_mismatch(&e));
+        wrong += usize::from(!right && e.confidence >= horizon::MIN_CONFIDENCE);
+    }
+    eprintln!("{refused} of {shots} refused for their lens, {wrong} confidently wrong");
+    assert_eq!(wrong, 0, "{wrong} of {shots} confidently wrong");
 }

@@ -86,7 +86,10 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
             "horizontal_inliers": e.horizontal_inliers,
             "horizon_inliers": e.horizon_inliers,
             "steep_lines": e.steep_lines,
+            "families": e.families,
+            "level_offset": e.level_offset,
         },
+        "refused": horizon::refusal(e),
     })
 }
 
@@ -96,6 +99,9 @@ pub fn report(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>
     let (raw, smooth, frame, rot, ms, frames) = estimate_at(input, at_s, camera)?;
     let ground = if smooth.confidence >= horizon::MIN_CONFIDENCE {
         "auto"
+    } else if let Some(why) = horizon::refusal(&smooth) {
+        log::warn!("ground: refused, {why}: no ground");
+        "none"
     } else {
         log::warn!(
             "ground: confidence {:.2} is below {}: no ground (too few straight edges agree on a horizon)",

@@ -56,7 +56,9 @@
 //! vertical length whose foot floats, the kernel support — fitted on synthetic streets at random
 //! poses and checked for calibration on others (`tests/ground_pose.rs`). A reading that leaves
 //! strong vertical structure floating above its horizon with nothing standing through it
-//! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0. Below
+//! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0, and so has
+//! one whose verticals and receding level lines disagree on the horizon under the assumed
+//! field of view ([`lens_mismatch`]: the lens is not the picture's). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
@@ -73,6 +75,7 @@ use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+pub use crate::scene::segments::{Segment, detect_segments};
 use crate::scene::steep;
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
@@ -150,137 +153,6 @@ impl Luma {
     }
 }
 
-/// A straight edge, in displayed-frame pixels.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Segment {
-    /// One end, pixels.
-    pub a: [f64; 2],
-    /// The other end, pixels.
-    pub b: [f64; 2],
-}
-
-impl Segment {
-    /// Length, pixels.
-    pub fn length(&self) -> f64 {
-        (self.a[0] - self.b[0]).hypot(self.a[1] - self.b[1])
-    }
-}
-
-/// Line segments of `luma` (LSD-like region growing; see the module doc), in frame pixels,
-/// longest first, at most `max_count`.
-pub fn detect_segments(luma: &Luma, max_count: usize) -> Vec<Segment> {
-    let (w, h) = (luma.width, luma.height);
-    if w < 3 || h < 3 {
-        return Vec::new();
-    }
-    let px = |x: usize, y: usize| luma.data[y * w + x];
-    let mut mag = vec![0.0f32; w * h];
-    let mut ang = vec![0.0f32; w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let gx = (px(x + 1, y - 1) + 2.0 * px(x + 1, y) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x - 1, y) + px(x - 1, y + 1));
-            let gy = (px(x - 1, y + 1) + 2.0 * px(x, y + 1) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x, y - 1) + px(x + 1, y - 1));
-            let (gx, gy) = (gx / 8.0, gy / 8.0);
-            mag[y * w + x] = gx.hypot(gy);
-            // Direction along the edge (perpendicular to the gradient), mod π.
-            ang[y * w + x] = gx.atan2(-gy);
-        }
-    }
-    const MIN_GRAD: f32 = 0.012;
-    let tol = 22.5f32.to_radians();
-    let mut order: Vec<u32> = (0..(w * h) as u32)
-        .filter(|&i| mag[i as usize] > MIN_GRAD)
-        .collect();
-    order.sort_unstable_by(|&a, &b| mag[b as usize].total_cmp(&mag[a as usize]));
-    let mut used = vec![false; w * h];
-    let mut segs = Vec::new();
-    let mut region: Vec<u32> = Vec::new();
-    let mut stack: Vec<u32> = Vec::new();
-    let diff = |a: f32, b: f32| {
-        let d = (a - b).rem_euclid(std::f32::consts::PI);
-        d.min(std::f32::consts::PI - d)
-    };
-    for &seed in &order {
-        if used[seed as usize] {
-            continue;
-        }
-        region.clear();
-        stack.clear();
-        used[seed as usize] = true;
-        stack.push(seed);
-        let (mut c2, mut s2) = (0.0f32, 0.0f32);
-        let mut mean;
-        while let Some(i) = stack.pop() {
-            region.push(i);
-            let a = 2.0 * ang[i as usize];
-            c2 += a.cos();
-            s2 += a.sin();
-            mean = 0.5 * s2.atan2(c2);
-            let (x, y) = ((i as usize % w) as isize, (i as usize / w) as isize);
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx < 1 || ny < 1 || nx >= w as isize - 1 || ny >= h as isize - 1 {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if !used[j] && mag[j] > MIN_GRAD && diff(ang[j], mean) < tol {
-                        used[j] = true;
-                        stack.push(j as u32);
-                    }
-                }
-            }
-        }
-        if region.len() < 8 {
-            continue;
-        }
-        // Principal axis, magnitude-weighted.
-        let (mut sw, mut mx, mut my) = (0.0f64, 0.0, 0.0);
-        for &i in &region {
-            let m = mag[i as usize] as f64;
-            sw += m;
-            mx += m * (i as usize % w) as f64;
-            my += m * (i as usize / w) as f64;
-        }
-        let (mx, my) = (mx / sw, my / sw);
-        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-        for &i in &region {
-            let m = mag[i as usize] as f64;
-            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
-            sxx += m * dx * dx;
-            sxy += m * dx * dy;
-            syy += m * dy * dy;
-        }
-        let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let (ux, uy) = (theta.cos(), theta.sin());
-        let (mut lo, mut hi, mut wlo, mut whi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &i in &region {
-            let (dx, dy) = ((i as usize % w) as f64 - mx, (i as usize / w) as f64 - my);
-            let along = dx * ux + dy * uy;
-            let across = -dx * uy + dy * ux;
-            lo = lo.min(along);
-            hi = hi.max(along);
-            wlo = wlo.min(across);
-            whi = whi.max(across);
-        }
-        let (len, width) = (hi - lo + 1.0, whi - wlo + 1.0);
-        if len < 12.0 || width > 0.2 * len {
-            continue;
-        }
-        let s = luma.scale as f64;
-        let to_frame = |t: f64| [(mx + 0.5 + t * ux) * s, (my + 0.5 + t * uy) * s];
-        segs.push(Segment {
-            a: to_frame(lo),
-            b: to_frame(hi),
-        });
-    }
-    segs.sort_by(|a, b| b.length().total_cmp(&a.length()));
-    segs.truncate(max_count);
-    segs
-}
-
 /// One frame's estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HorizonEstimate {
@@ -324,6 +196,17 @@ pub struct HorizonEstimate {
     /// Distinct lines through the vertical vanishing point of a steep reading (see
     /// [`steep`]); 0 for a reading of the level search.
     pub steep_lines: usize,
+    /// Evidence: how near the optical axis the fitted horizontal families converge: the
+    /// largest `|cos|` of the angle between a family's vanishing point and the axis (0 without
+    /// families). See [`RECEDING_MIN_COS`].
+    pub receding: f64,
+    /// Evidence: how far the horizontal families converge off the horizon the verticals alone
+    /// predict, picture heights, positive above (see [`vanishing::level_offset`]; 0 where it
+    /// is not measured). See [`lens_mismatch`].
+    pub level_offset: f64,
+    /// How far the horizon lies from the principal point along the picture's up, picture
+    /// heights (`f tan(tilt) / height`; see [`lens_mismatch`]).
+    pub horizon_shift: f64,
 }
 
 struct Score {
@@ -341,7 +224,7 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     let e2 = n.cross(e1);
     let cut = 3.0 * sigma;
     let inv2s2 = 0.5 / (sigma * sigma);
-    let (mut v_sum, mut l_sum, mut below, mut all) = (0.0, 0.0, 0.0, 0.0);
+    let (mut v_sum, mut v_max, mut l_sum, mut below, mut all) = (0.0, 0.0f64, 0.0, 0.0, 0.0);
     let (mut nv, mut nl) = (0, 0);
     for e in edges {
         all += e.w;
@@ -352,7 +235,9 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
         let mxn = e.m.cross(n).length().max(1e-9);
         let alpha = (ln.abs() / mxn).min(1.0).asin();
         if alpha < cut {
-            v_sum += e.w * (-alpha * alpha * inv2s2).exp();
+            let v = e.w * (-alpha * alpha * inv2s2).exp();
+            v_sum += v;
+            v_max = v_max.max(v);
             if alpha < 2.0 * sigma {
                 nv += 1;
             }
@@ -407,7 +292,8 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
     }
     let g = if all > 0.0 { below / all } else { 0.5 };
     Score {
-        total: (v_sum + h_sum + 1.5 * l_sum) * (1.0 - 0.5 * TEXTURE_PRIOR + TEXTURE_PRIOR * g),
+        total: (v_sum - v_max + h_sum + 1.5 * l_sum)
+            * (1.0 - 0.5 * TEXTURE_PRIOR + TEXTURE_PRIOR * g),
         vertical: nv,
         horizontal: nh,
         horizon: nl,
@@ -543,10 +429,14 @@ fn estimate_with(
     while t <= MAX_TILT_DEG {
         let mut r = -MAX_ROLL_DEG;
         while r <= MAX_ROLL_DEG {
-            coarse.push((eval(t, r, 2.5, &mut hist).total * prior(t, r), t, r));
-            r += 3.0;
+            coarse.push((
+                eval(t, r, COARSE_SIGMA_DEG, &mut hist).total * prior(t, r),
+                t,
+                r,
+            ));
+            r += COARSE_STEP_DEG;
         }
-        t += 3.0;
+        t += COARSE_STEP_DEG;
     }
     coarse.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut starts: Vec<(f64, f64)> = Vec::new();
@@ -557,8 +447,46 @@ fn estimate_with(
         {
             starts.push((t, r));
         }
-        if starts.len() == 3 {
+        if starts.len() == STARTS {
             break;
+        }
+    }
+    // Hypotheses from the edges themselves: the vertical vanishing point where two of the
+    // longest edges meet. A wide kernel lets a wrong reading gather the ridges of several
+    // families of long lines and outscore the true one in the coarse grid; a pair of
+    // verticals puts the true one among the starts.
+    let mut order: Vec<usize> = (0..edges.len()).collect();
+    order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
+    order.truncate(PAIRED_EDGES);
+    let mut paired: Vec<(f64, f64, f64)> = Vec::new();
+    for (k, &i) in order.iter().enumerate() {
+        for &j in &order[k + 1..] {
+            let Some(mut n) = edges[i].l.cross(edges[j].l).try_normalize() else {
+                continue;
+            };
+            if n.y > 0.0 {
+                n = -n;
+            }
+            let (t, r) = tilt_roll_from_up(n);
+            let (t, r) = (t.to_degrees(), r.to_degrees());
+            if t.abs() > MAX_TILT_DEG || r.abs() > MAX_ROLL_DEG {
+                continue;
+            }
+            paired.push((eval(t, r, 1.0, &mut hist).total * prior(t, r), t, r));
+        }
+    }
+    paired.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut extra = 0;
+    for &(_, t, r) in &paired {
+        if extra == PAIRED_STARTS {
+            break;
+        }
+        if starts
+            .iter()
+            .all(|&(t0, r0)| (t - t0).abs() > 1.0 || (r - r0).abs() > 1.0)
+        {
+            starts.push((t, r));
+            extra += 1;
         }
     }
     let refine = |(t0, r0): (f64, f64), half: f64, step: f64, sigma: f64, hist: &mut Vec<_>| {
@@ -592,10 +520,20 @@ fn estimate_with(
     let ambiguity = ambiguity(&readings, best);
     let (_, t, r) = refine((best.1, best.2), 0.6, 0.1, 0.4, &mut hist);
     let fin = eval(t, r, 0.4, &mut hist);
-    let (up_cam, inliers) = vanishing::refine(
+    // The fit's inliers depend on where it starts: refit from its own result until it stays
+    // put (a start half a degree off can keep a neighbouring line of a family out).
+    let (mut up_cam, mut inliers) = vanishing::refine(
         &edges,
         crate::scene::ground::up_from_tilt_roll(t.to_radians(), r.to_radians()),
     );
+    for _ in 0..3 {
+        let (n, inl) = vanishing::refine(&edges, up_cam);
+        let moved = n.angle_between(up_cam);
+        (up_cam, inliers) = (n, inl);
+        if moved < 0.01f64.to_radians() {
+            break;
+        }
+    }
     let (t, r) = tilt_roll_from_up(up_cam);
     let (t, r) = (t.to_degrees(), r.to_degrees());
     let (standing, floating) = vanishing::standing_check(&edges, &inliers.vertical, up_cam);
@@ -620,14 +558,29 @@ fn estimate_with(
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
         steep_lines: 0,
+        receding: inliers
+            .families
+            .iter()
+            .map(|f| vanishing::family_point(&edges, f, up_cam).z.abs())
+            .fold(0.0, f64::max),
+        level_offset: vanishing::level_offset(&edges, &inliers, up_cam)
+            .map_or(0.0, |a| a * f / camera.height_px as f64),
+        horizon_shift: f * t.to_radians().tan() / camera.height_px as f64,
     };
+    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
     // the zenith, and the level reading (the Manhattan alternative) is then a guess.
-    let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
-    if let Some(s) = steep::read(&edges, sky) {
+    // A level reading refused for its lens keeps its refusal (the user's remedy is a field of
+    // view, and a steep reading of a level street is a guess).
+    let steep = if lens_mismatch(&est) {
+        None
+    } else {
+        steep::read(&edges, sky)
+    };
+    if let Some(s) = steep {
         let steep_sky = sky(s.up_cam);
         let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
             && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
@@ -650,6 +603,8 @@ fn estimate_with(
                 floating_len: 0.0,
                 sky_correlation: steep_sky,
                 steep_lines: s.distinct_lines,
+                level_offset: 0.0,
+                horizon_shift: f * t.tan() / camera.height_px as f64,
                 ..est
             };
         }
@@ -683,7 +638,7 @@ pub fn confidence_inputs(e: &HorizonEstimate) -> [f64; CONFIDENCE_INPUTS] {
 /// within 1°" on synthetic streets at random poses (`tests/ground_pose.rs` refits them), so
 /// that the confidence is the probability of being right on such shots.
 pub const CONFIDENCE_WEIGHTS: [f64; CONFIDENCE_INPUTS] =
-    [-2.174, -0.506, 1.586, 3.895, 1.180, -2.327, -4.086, -1.568];
+    [2.382, -0.041, 1.234, -1.594, -3.897, -3.609, 0.990, 1.881];
 
 /// A vertical structure of at least this length (frame diagonals) rising above the horizon
 /// with its foot above it, and under [`STANDING_SHARE`] of that length standing on the ground,
@@ -699,10 +654,59 @@ pub fn floats(e: &HorizonEstimate) -> bool {
     e.floating_len >= FLOATING_MIN_LEN && e.standing_len < STANDING_SHARE * e.floating_len
 }
 
-/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 without segments or
-/// where the reading [`floats`].
+/// A level reading whose families of horizontal edges all converge farther than this from
+/// the optical axis (`cos` of the angle; about 80°), with no edge along its horizon, sees no
+/// ground receding and has confidence 0: a paving seen straight down reads, edge for edge, as
+/// a tiled wall seen level (one family of its joints taken for verticals, the other for
+/// frontal horizontals), and nothing in the edges tells the two apart.
+pub const RECEDING_MIN_COS: f64 = 0.17;
+
+/// Horizontal families converging farther than this (picture heights, a weighted mean) off
+/// the horizon the verticals predict make a reading inconsistent with the assumed field of
+/// view: see [`lens_mismatch`].
+pub const LEVEL_OFFSET_MAX: f64 = 0.03;
+
+/// Whether the verticals and the horizontal families disagree on the horizon under the assumed
+/// focal length ([`HorizonEstimate::level_offset`] beyond [`LEVEL_OFFSET_MAX`]). The verticals
+/// set the tilt through the focal length (their vanishing point `v` and the horizon are pole
+/// and polar, `(p − c)·(v − c) = −f²`), the families' vanishing points show the horizon
+/// directly: where they disagree the field of view is not the lens's, and the tilt read from
+/// the verticals (a convergence a wider lens shows at a smaller tilt) is wrong. Synthetic
+/// shots are drawn through an exactly known lens, so the confidence model cannot learn this.
+pub fn lens_mismatch(e: &HorizonEstimate) -> bool {
+    e.level_offset.abs() > LEVEL_OFFSET_MAX && e.horizon_shift.abs() >= LENS_SHIFT_MIN
+}
+
+/// A horizon the verticals put nearer the principal point than this (picture heights) is
+/// exempt from [`lens_mismatch`]: a wrong focal length moves the horizon in proportion to its
+/// distance from there (`y_h f²/f_a²` for `y_h` under the assumed `f_a`), so a level reading is
+/// right under any lens, and an offset there is the level lines' own noise.
+pub const LENS_SHIFT_MIN: f64 = 0.02;
+
+/// Why a reading has confidence 0 regardless of its evidence, if it does.
+pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
+    if e.segments == 0 {
+        Some("no straight edges")
+    } else if floats(e) {
+        Some("vertical structure floats above the horizon (a rail taken for it)")
+    } else if e.receding < RECEDING_MIN_COS && e.horizon_inliers == 0 {
+        Some("no ground receding (no horizontal lines converge ahead)")
+    } else if lens_mismatch(e) {
+        Some(
+            "the verticals and the receding level lines disagree on the horizon: the field of \
+             view is not the lens's (try another --fov)",
+        )
+    } else {
+        None
+    }
+}
+
+/// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 where there is a
+/// [`refusal`]: without segments, where the reading [`floats`], where it sees no receding
+/// ground ([`RECEDING_MIN_COS`]), or where the assumed lens is not the picture's
+/// ([`lens_mismatch`]).
 pub fn calibrated_confidence(e: &HorizonEstimate) -> f64 {
-    if e.segments == 0 || floats(e) {
+    if refusal(e).is_some() {
         return 0.0;
     }
     let x = confidence_inputs(e);
@@ -782,7 +786,7 @@ pub const TEXTURE_PRIOR: f64 = 0.15;
 /// Weight of the brightness prior: the support is scaled by `1 + w ρ`, `ρ` the correlation of
 /// the picture's block brightness with elevation above the candidate horizon (daylight skies
 /// are brighter than what stands under them).
-pub const BRIGHTNESS_PRIOR: f64 = 1.5;
+pub const BRIGHTNESS_PRIOR: f64 = 0.5;
 
 /// Weight of the tilt prior: the support is scaled by `1 − w (tilt/90°)²` (most footage is
 /// shot within 45° of level, and of the two Manhattan readings of a picture, the vertical and a
@@ -867,3 +871,20 @@ impl GroundTracker {
         aggregate(&readings, camera).unwrap_or(est)
     }
 }
+
+/// Step of the coarse search over tilt and roll, degrees.
+pub const COARSE_STEP_DEG: f64 = 2.0;
+
+/// Kernel width of the coarse search, degrees: wide enough that a cell's support reaches the
+/// reading within it (at most a degree away), narrow enough that a wrong reading does not
+/// gather the ridges of several families of long, well-fitted lines (at 2.5° it did).
+pub const COARSE_SIGMA_DEG: f64 = 1.5;
+
+/// Distinct coarse cells refined into readings.
+pub const STARTS: usize = 5;
+
+/// The longest edges paired for hypotheses of the vertical vanishing point.
+pub const PAIRED_EDGES: usize = 40;
+
+/// Hypotheses from pairs of edges refined into readings (besides the coarse cells).
+pub const PAIRED_STARTS: usize = 2;

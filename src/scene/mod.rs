@@ -9,6 +9,7 @@ pub mod ground;
 pub mod ground_mask;
 pub mod horizon;
 pub mod motion;
+pub mod segments;
 pub mod sky;
 pub mod steep;
 pub mod vanishing;

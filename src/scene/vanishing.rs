@@ -148,6 +148,30 @@ pub fn classify(edges: &[Edge], n: DVec3, tol_rad: f64) -> Inliers {
     out
 }
 
+/// The vanishing point of a family of horizontal edges on the horizon of `n`: the unit
+/// direction normal to `n` most orthogonal to the family's plane normals (the smallest
+/// eigenvector of the 2×2 problem in [`residual`]).
+pub fn family_point(edges: &[Edge], family: &[usize], n: DVec3) -> DVec3 {
+    let (e1, e2) = horizon_basis(n);
+    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+    for &i in family {
+        let (p, q) = (edges[i].l.dot(e1), edges[i].l.dot(e2));
+        a += edges[i].w * p * p;
+        b += edges[i].w * p * q;
+        c += edges[i].w * q * q;
+    }
+    // The eigenvector of the smaller eigenvalue of [[a, b], [b, c]].
+    let lambda = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let (x, y) = if b.abs() > 1e-15 {
+        (b, lambda - a)
+    } else if a <= c {
+        (1.0, 0.0)
+    } else {
+        (0.0, 1.0)
+    };
+    (e1 * x + e2 * y).normalize_or(e1)
+}
+
 /// `J(n)` of the module doc for fixed inliers.
 pub fn residual(edges: &[Edge], inliers: &Inliers, n: DVec3) -> f64 {
     let mut j = 0.0;
@@ -234,4 +258,126 @@ pub fn standing_check(edges: &[Edge], vertical: &[usize], n: DVec3) -> (f64, f64
         }
     }
     (standing, floating)
+}
+
+/// The unit direction most orthogonal to the plane normals of `members` (the smallest
+/// eigenvector of `Σ w l lᵀ`, by inverse iteration from `start`): the free vanishing point of
+/// a set of edges, on no assumed horizon.
+pub fn free_point(edges: &[Edge], members: &[usize], start: DVec3) -> DVec3 {
+    let mut m = glam::DMat3::ZERO;
+    for &i in members {
+        let l = edges[i].l;
+        m += glam::DMat3::from_cols(l * l.x, l * l.y, l * l.z) * edges[i].w;
+    }
+    let trace = m.x_axis.x + m.y_axis.y + m.z_axis.z;
+    let shifted = m + glam::DMat3::IDENTITY * (1e-9 * trace + 1e-15);
+    if shifted.determinant().abs() < 1e-300 {
+        return start;
+    }
+    let inv = shifted.inverse();
+    let mut x = start;
+    for _ in 0..8 {
+        x = (inv * x).normalize_or(x);
+    }
+    if x.dot(start) < 0.0 { -x } else { x }
+}
+
+/// Fewest vertical inliers for [`level_offset`]: below, the verticals alone do not pose the
+/// camera and the fit rests on the families, consistent with them by construction.
+pub const LEVEL_CHECK_MIN_VERTICALS: usize = 4;
+
+/// Longest non-vertical edges paired for the level families' vanishing points in
+/// [`level_offset`].
+pub const LEVEL_PAIRED_EDGES: usize = 40;
+
+/// Farthest a family's vanishing point may lie off the predicted horizon and still count as
+/// level in [`level_offset`], degrees.
+pub const LEVEL_MAX_ELEVATION_DEG: f64 = 10.0;
+
+/// Nearest a level family's vanishing point comes to the optical axis in [`level_offset`]
+/// (`cos` of the angle; about 73°): a family converging far aside is nearly parallel in the
+/// picture and its point's elevation is poorly determined (a paving's families 80–84° aside
+/// read 2.4–2.9° off the horizon of an exact lens).
+pub const LEVEL_MIN_COS: f64 = 0.3;
+
+/// Least length of a second level family in [`level_offset`], a share of the first's.
+pub const LEVEL_SECOND_SHARE: f64 = 0.5;
+
+/// Most level families [`level_offset`] finds.
+pub const LEVEL_FAMILIES: usize = 2;
+
+/// How far the families of receding level edges converge off the horizon the verticals alone
+/// predict: the weighted mean signed elevation (radians, positive above) of their vanishing
+/// points over the horizon of the verticals' own vanishing point. The families are found
+/// afresh, not at the fitted `n`: a fit whose tilt is wrong groups, along its own horizon, the edges that happen to meet there, and misses
+/// the true families, which converge off it. A family is the point where two of the
+/// [`LEVEL_PAIRED_EDGES`] longest non-vertical edges meet with the most edge length through it
+/// (within [`INLIER_DEG`], at least [`MIN_FAMILY`] edges, within [`LEVEL_MIN_COS`] of the
+/// optical axis), greedily, up to [`LEVEL_FAMILIES`], a second one at least
+/// [`LEVEL_SECOND_SHARE`] as long as the first; weights: length times the square of how much
+/// the family recedes (the cosine of its point's angle to the axis).
+///
+/// Under the right focal length a vertical vanishing point `v` and the horizon are pole and
+/// polar (`(p − c)·(v − c) = −f²` for every point `p` of the horizon), so the level families'
+/// points lie on it; under a wrong one the verticals' convergence is read as the wrong tilt and
+/// the families sit off its horizon, all on one side. `None` with fewer than
+/// [`LEVEL_CHECK_MIN_VERTICALS`] verticals or no family.
+pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> {
+    if inliers.vertical.len() < LEVEL_CHECK_MIN_VERTICALS {
+        return None;
+    }
+    let nv = free_point(edges, &inliers.vertical, n);
+    let tol = INLIER_DEG.to_radians();
+    let mut free: Vec<usize> = (0..edges.len())
+        .filter(|&i| vertical_angle(&edges[i], nv) >= tol)
+        .collect();
+    let (mut sum, mut weight, mut heaviest) = (0.0, 0.0, 0.0f64);
+    for _ in 0..LEVEL_FAMILIES {
+        let mut order = free.clone();
+        order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
+        order.truncate(LEVEL_PAIRED_EDGES);
+        let mut best: (f64, DVec3, Vec<usize>) = (0.0, DVec3::Z, Vec::new());
+        for (k, &i) in order.iter().enumerate() {
+            for &j in &order[k + 1..] {
+                let Some(mut p) = edges[i].l.cross(edges[j].l).try_normalize() else {
+                    continue;
+                };
+                if p.z < 0.0 {
+                    p = -p;
+                }
+                if p.z < LEVEL_MIN_COS {
+                    continue;
+                }
+                let members: Vec<usize> = free
+                    .iter()
+                    .copied()
+                    .filter(|&m| vertical_angle(&edges[m], p) < tol)
+                    .collect();
+                let w: f64 = members.iter().map(|&m| edges[m].w).sum();
+                if members.len() >= MIN_FAMILY && w > best.0 {
+                    best = (w, p, members);
+                }
+            }
+        }
+        // A second family counts where it is at least half as strong as the first: a few
+        // edges meeting by chance make a weak one.
+        if best.2.is_empty() || best.0 < LEVEL_SECOND_SHARE * heaviest {
+            break;
+        }
+        heaviest = heaviest.max(best.0);
+        let mut d = free_point(edges, &best.2, best.1);
+        if d.z < 0.0 {
+            d = -d;
+        }
+        // A point farther than this off the predicted horizon is no level family (a lens a
+        // few tens of degrees off moves the horizon a few degrees): stairs, roofs, or verticals
+        // beyond the inlier tolerance.
+        let elevation = d.dot(nv).clamp(-1.0, 1.0).asin();
+        if elevation.abs() < LEVEL_MAX_ELEVATION_DEG.to_radians() {
+            sum += best.0 * d.z * d.z * elevation;
+            weight += best.0 * d.z * d.z;
+        }
+        free.retain(|i| !best.2.contains(i));
+    }
+    (weight > 1e-12).then(|| sum / weight)
 }
