@@ -497,14 +497,14 @@ fn detect_with(
             smooth[k] && g - r.max(b) <= GREEN_CODES && !below(k)
         })
         .collect();
+    // The eight neighbours in row-major order (the rim's luma sums them in this order).
     let neighbours8 = |k: usize| {
-        let (i, j) = ((k % w) as i64, (k / w) as i64);
-        (-1i64..=1)
-            .flat_map(move |dj| (-1i64..=1).map(move |di| (i + di, j + dj)))
-            .filter(move |&(x, y)| {
-                (x, y) != (i, j) && x >= 0 && y >= 0 && x < w as i64 && y < h as i64
-            })
-            .map(move |(x, y)| y as usize * w + x as usize)
+        let (i, j) = (k % w, k / w);
+        let (x0, x1) = (i.saturating_sub(1), (i + 1).min(w - 1));
+        let (y0, y1) = (j.saturating_sub(1), (j + 1).min(h - 1));
+        (y0..=y1)
+            .flat_map(move |y| (x0..=x1).map(move |x| y * w + x))
+            .filter(move |&m| m != k)
     };
     let neighbours4 = |k: usize| {
         let (i, j) = (k % w, k / w);
