@@ -751,12 +751,19 @@ mod tests {
         }
     }
 
-    /// Times the block sums and the whole detection on a 1080p frame of `samples/street.mp4`
-    /// (ffmpeg scales it): `cargo test --release --lib sky_cost -- --ignored --nocapture`.
+    /// Times the block sums and the whole detection, plain and fast, on a frame of
+    /// `samples/street.mp4` scaled by ffmpeg to 640×360 and to 1080p:
+    /// `cargo test --release --lib sky_cost -- --ignored --nocapture`.
     #[test]
     #[ignore = "a timing report, not a check"]
     fn sky_cost_report() {
-        let (w, h) = (1920u32, 1080u32);
+        for (w, h) in [(640u32, 360u32), (1920, 1080)] {
+            report_at(w, h);
+        }
+    }
+
+    fn report_at(w: u32, h: u32) {
+        let scale = format!("scale={w}:{h}");
         let raw = std::process::Command::new("ffmpeg")
             .args([
                 "-v",
@@ -768,15 +775,7 @@ mod tests {
                 "-frames:v",
                 "1",
             ])
-            .args([
-                "-vf",
-                "scale=1920:1080",
-                "-pix_fmt",
-                "yuv420p",
-                "-f",
-                "rawvideo",
-                "-",
-            ])
+            .args(["-vf", &scale, "-pix_fmt", "yuv420p", "-f", "rawvideo", "-"])
             .output()
             .expect("ffmpeg runs")
             .stdout;
@@ -814,7 +813,7 @@ mod tests {
         assert_eq!(sky, detect_by(sums_plain));
         let share = sky.iter().sum::<f32>() / sky.len() as f32;
         println!(
-            "1080p median of 9: detect plain {plain_ms:.2} ms (block sums {sums_plain_ms:.2}), \
+            "{w}x{h} median of 9: detect plain {plain_ms:.2} ms (block sums {sums_plain_ms:.2}), \
              fast {fast_ms:.2} ms (block sums {sums_ms:.2}); sky share {share:.3}"
         );
     }
