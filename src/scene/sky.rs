@@ -199,6 +199,7 @@ struct Cell {
 }
 
 /// Row `y` of plane `i` of `frame` as codes into `out` (`n` samples).
+#[cfg(test)]
 fn row_codes(frame: &YuvFrame, i: usize, y: u32, n: usize, out: &mut Vec<f32>) {
     let p = &frame.planes[i];
     let start = y as usize * p.stride;
@@ -214,10 +215,10 @@ fn row_codes(frame: &YuvFrame, i: usize, y: u32, n: usize, out: &mut Vec<f32>) {
     }
 }
 
-/// Each grid point's block of `frame`: the pixels nearer to it than to any other point (a
-/// point past the picture's edge, whose block is empty, copies its neighbour's). One pass over
-/// the rows, in memory order, each row of points' band of rows on its own thread.
-fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
+/// The plain reference of [`sums`]: per pixel, its point found by division, every sum in
+/// `f32` (exact, as every partial sum is an integer below 2²⁴).
+#[cfg(test)]
+fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 6]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
     let (sx, sy) = f.chroma.shift();
@@ -256,6 +257,168 @@ fn cells(frame: &YuvFrame, grid: SkyGrid) -> Vec<Cell> {
                 std::mem::swap(&mut above, &mut row);
             }
         });
+    sums
+}
+
+/// A row of samples as integer codes, without a copy for 8-bit planes.
+trait Code: Copy {
+    fn code(self) -> u32;
+}
+
+impl Code for u8 {
+    fn code(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+impl Code for u16 {
+    fn code(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+/// Per-column sums over one row of points' band of pixel rows: luma, luma steps to the row
+/// above and to the next column, Cb and Cr; whole rows at a time, so the loops vectorise.
+#[derive(Default)]
+struct Columns {
+    luma: Vec<u32>,
+    down: Vec<u32>,
+    across: Vec<u32>,
+    cb: Vec<u32>,
+    cr: Vec<u32>,
+    rows: u32,
+}
+
+impl Columns {
+    /// Adds one pixel row (`above` it: the band's previous row, if any).
+    fn add<T: Code>(&mut self, row: &[T], above: Option<&[T]>, cb: &[T], cr: &[T]) {
+        let w = row.len();
+        if self.rows == 0 {
+            *self = Columns {
+                luma: vec![0; w],
+                down: vec![0; w],
+                across: vec![0; w],
+                cb: vec![0; cb.len()],
+                cr: vec![0; cr.len()],
+                rows: 0,
+            };
+        }
+        self.rows += 1;
+        self.luma
+            .iter_mut()
+            .zip(row)
+            .for_each(|(s, v)| *s += v.code());
+        if let Some(above) = above {
+            for ((s, v), a) in self.down.iter_mut().zip(row).zip(above) {
+                *s += v.code().abs_diff(a.code());
+            }
+        }
+        for (s, pair) in self.across.iter_mut().zip(row.windows(2)) {
+            *s += pair[1].code().abs_diff(pair[0].code());
+        }
+        self.cb.iter_mut().zip(cb).for_each(|(s, v)| *s += v.code());
+        self.cr.iter_mut().zip(cr).for_each(|(s, v)| *s += v.code());
+    }
+
+    /// The sums of each point of the row (see [`sums_plain`]: luma, Cb, Cr, pixels, luma steps
+    /// and their count), the same integers the plain pass adds one pixel at a time: a block's
+    /// sums stay far below 2³², and below 2²⁴ for blocks up to 64 px of 10-bit codes, so the
+    /// `f32` reference holds them exactly and both agree to the bit.
+    fn reduce(&self, c: usize, sx: usize, out: &mut [[f32; 6]]) {
+        let (w, rows) = (self.luma.len(), self.rows);
+        if rows == 0 {
+            return;
+        }
+        // Σ over pixels x in x0..x1 of a chroma column's sum at x >> sx.
+        let chroma = |col: &[u32], x0: usize, x1: usize| {
+            let (k0, k1) = (x0 >> sx, (x1 - 1) >> sx);
+            let all: u32 = col[k0..=k1].iter().sum::<u32>() << sx;
+            all - col[k0] * (x0 - (k0 << sx)) as u32 - col[k1] * (((k1 + 1) << sx) - x1) as u32
+        };
+        for (i, o) in out.iter_mut().enumerate() {
+            // Point i holds the pixels x with (x + c/2) / c == i.
+            let x0 = (i * c).saturating_sub(c / 2).min(w);
+            let x1 = (i * c + c - c / 2).min(w);
+            if x0 == x1 {
+                continue;
+            }
+            let n = (x1 - x0) as u32;
+            let steps =
+                self.down[x0..x1].iter().sum::<u32>() + self.across[x0..x1 - 1].iter().sum::<u32>();
+            *o = [
+                self.luma[x0..x1].iter().sum::<u32>(),
+                chroma(&self.cb, x0, x1),
+                chroma(&self.cr, x0, x1),
+                n * rows,
+                steps,
+                (n - 1) * rows + n * (rows - 1),
+            ]
+            .map(|v| v as f32);
+        }
+    }
+}
+
+/// A row of a 16-bit plane as codes into `out` (`n` samples).
+fn row_u16(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
+    let p = &frame.planes[i];
+    out.clear();
+    out.extend(
+        p.data[y * p.stride..][..2 * n]
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]])),
+    );
+}
+
+/// Each grid point's sums over its block of `frame` (see [`Columns::reduce`]): the pixels nearer to it
+/// than to any other point. One pass over the rows, in memory order, each row of points' band
+/// of rows on its own thread, every point's run of pixels summed at once.
+fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 6]> {
+    let f = frame.format;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let (sx, sy) = f.chroma.shift();
+    let (sx, sy) = (sx as usize, sy as usize);
+    let cw = f.plane_size(1).0 as usize;
+    let c = grid.cell_px as usize;
+    let mut sums = vec![[0.0f32; 6]; grid.len()];
+    sums.par_chunks_mut(grid.width)
+        .enumerate()
+        .for_each(|(j, out)| {
+            let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
+            let mut columns = Columns::default();
+            if f.bytes_per_sample() == 1 {
+                let row = |i: usize, y: usize, n: usize| {
+                    let p = &frame.planes[i];
+                    &p.data[y * p.stride..][..n]
+                };
+                for y in lo..hi {
+                    let above = (y > lo).then(|| row(0, y - 1, w));
+                    let (cb, cr) = (row(1, y >> sy, cw), row(2, y >> sy, cw));
+                    columns.add(row(0, y, w), above, cb, cr);
+                }
+            } else {
+                let (mut above, mut row) = (Vec::new(), Vec::new());
+                let (mut cb, mut cr) = (Vec::new(), Vec::new());
+                for y in lo..hi {
+                    row_u16(frame, 0, y, w, &mut row);
+                    row_u16(frame, 1, y >> sy, cw, &mut cb);
+                    row_u16(frame, 2, y >> sy, cw, &mut cr);
+                    columns.add(&row, (y > lo).then_some(&above[..]), &cb, &cr);
+                    std::mem::swap(&mut above, &mut row);
+                }
+            }
+            columns.reduce(c, sx, out);
+        });
+    sums
+}
+
+/// The per-point block sums: [`sums`], or its plain reference in tests.
+type BlockSums = fn(&YuvFrame, SkyGrid) -> Vec<[f32; 6]>;
+
+/// Each grid point's block of `frame`: the pixels nearer to it than to any other point (a
+/// point past the picture's edge, whose block is empty, copies its neighbour's).
+fn cells(frame: &YuvFrame, grid: SkyGrid, sum: BlockSums) -> Vec<Cell> {
+    let f = frame.format;
+    let mut sums = sum(frame, grid);
     // Empty blocks past the right and bottom edges copy their neighbours.
     for k in 0..sums.len() {
         if sums[k][3] == 0.0 {
@@ -309,11 +472,22 @@ pub fn detect(
     top: TopEdge,
     below_horizon: Option<&[bool]>,
 ) -> Vec<f32> {
+    detect_with(frame, grid, top, below_horizon, sums)
+}
+
+/// [`detect`] with the block sums of `sum`.
+fn detect_with(
+    frame: &YuvFrame,
+    grid: SkyGrid,
+    top: TopEdge,
+    below_horizon: Option<&[bool]>,
+    sum: BlockSums,
+) -> Vec<f32> {
     let n = grid.len();
     if n == 0 || frame.format.width == 0 || frame.format.height == 0 {
         return vec![0.0; n];
     }
-    let cells = cells(frame, grid);
+    let cells = cells(frame, grid, sum);
     let (w, h) = (grid.width, grid.height);
     let smooth: Vec<bool> = cells.iter().map(|c| c.texture <= TEXTURE_CODES).collect();
     let below = |k: usize| below_horizon.is_some_and(|b| b.get(k).copied().unwrap_or(false));
@@ -323,14 +497,14 @@ pub fn detect(
             smooth[k] && g - r.max(b) <= GREEN_CODES && !below(k)
         })
         .collect();
+    // The eight neighbours in row-major order (the rim's luma sums them in this order).
     let neighbours8 = |k: usize| {
-        let (i, j) = ((k % w) as i64, (k / w) as i64);
-        (-1i64..=1)
-            .flat_map(move |dj| (-1i64..=1).map(move |di| (i + di, j + dj)))
-            .filter(move |&(x, y)| {
-                (x, y) != (i, j) && x >= 0 && y >= 0 && x < w as i64 && y < h as i64
-            })
-            .map(move |(x, y)| y as usize * w + x as usize)
+        let (i, j) = (k % w, k / w);
+        let (x0, x1) = (i.saturating_sub(1), (i + 1).min(w - 1));
+        let (y0, y1) = (j.saturating_sub(1), (j + 1).min(h - 1));
+        (y0..=y1)
+            .flat_map(move |y| (x0..=x1).map(move |x| y * w + x))
+            .filter(move |&m| m != k)
     };
     let neighbours4 = |k: usize| {
         let (i, j) = (k % w, k / w);
@@ -496,5 +670,151 @@ impl SkyTracker {
         let norm = (1.0 / total) as f32;
         self.weights.iter_mut().for_each(|w| *w *= norm);
         &self.weights
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::video::ColorParams;
+    use crate::video::frame::{Chroma, FrameFormat, Plane};
+
+    /// A frame of `size` whose samples are a smooth ramp over random blocks and noise (`seed`),
+    /// packed with `pad` bytes of stride beyond each row.
+    fn frame(size: (u32, u32), chroma: Chroma, bit_depth: u8, seed: u64) -> YuvFrame {
+        let format = FrameFormat {
+            width: size.0,
+            height: size.1,
+            chroma,
+            bit_depth,
+        };
+        let max = (1u64 << bit_depth) - 1;
+        let planes = std::array::from_fn(|i| {
+            let (w, h) = format.plane_size(i);
+            let stride = format.packed_stride(i) + 3 * format.bytes_per_sample();
+            let mut data = vec![0u8; stride * h as usize];
+            for y in 0..h as u64 {
+                for x in 0..w as u64 {
+                    let r = crate::rng::splitmix64(seed ^ (i as u64) << 40 ^ y << 20 ^ x);
+                    let v = if (x / 13 + y / 9) % 3 == 0 {
+                        r % (max + 1)
+                    } else {
+                        (x + y) * max / u64::from(w + h)
+                    };
+                    let at = y as usize * stride + x as usize * format.bytes_per_sample();
+                    if bit_depth > 8 {
+                        data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
+                    } else {
+                        data[at] = v as u8;
+                    }
+                }
+            }
+            Plane { data, stride }
+        });
+        YuvFrame {
+            format,
+            color: ColorParams::bt709(bit_depth),
+            planes,
+            pts: 0,
+            index: 0,
+        }
+    }
+
+    #[test]
+    fn the_block_sums_equal_the_plain_ones_to_the_bit() {
+        let cases = [
+            ((64, 36), Chroma::Cs420, 8, 8),
+            ((67, 41), Chroma::Cs420, 8, 8),
+            ((50, 29), Chroma::Cs422, 10, 7),
+            ((45, 33), Chroma::Cs444, 12, 16),
+            ((9, 5), Chroma::Cs420, 8, 1),
+            ((3, 2), Chroma::Cs420, 8, 8),
+        ];
+        for (seed, &(size, chroma, depth, cell)) in cases.iter().enumerate() {
+            let f = frame(size, chroma, depth, seed as u64);
+            let grid = SkyGrid::new(cell, size);
+            let (fast, plain) = (sums(&f, grid), sums_plain(&f, grid));
+            assert_eq!(fast.len(), plain.len());
+            for (k, (a, b)) in fast.iter().zip(&plain).enumerate() {
+                assert_eq!(
+                    a.map(f32::to_bits),
+                    b.map(f32::to_bits),
+                    "{size:?} point {k}"
+                );
+            }
+            let (a, b) = (
+                detect_with(&f, grid, TopEdge::Top, None, sums),
+                detect_with(&f, grid, TopEdge::Top, None, sums_plain),
+            );
+            let bits = |m: Vec<f32>| m.into_iter().map(f32::to_bits).collect::<Vec<_>>();
+            assert_eq!(bits(a), bits(b));
+        }
+    }
+
+    /// Times the block sums and the whole detection, plain and fast, on a frame of
+    /// `samples/street.mp4` scaled by ffmpeg to 640×360 and to 1080p:
+    /// `cargo test --release --lib sky_cost -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a timing report, not a check"]
+    fn sky_cost_report() {
+        for (w, h) in [(640u32, 360u32), (1920, 1080)] {
+            report_at(w, h);
+        }
+    }
+
+    fn report_at(w: u32, h: u32) {
+        let scale = format!("scale={w}:{h}");
+        let raw = std::process::Command::new("ffmpeg")
+            .args([
+                "-v",
+                "error",
+                "-ss",
+                "1",
+                "-i",
+                "samples/street.mp4",
+                "-frames:v",
+                "1",
+            ])
+            .args(["-vf", &scale, "-pix_fmt", "yuv420p", "-f", "rawvideo", "-"])
+            .output()
+            .expect("ffmpeg runs")
+            .stdout;
+        let mut f = frame((w, h), Chroma::Cs420, 8, 0);
+        let mut at = 0;
+        for p in &mut f.planes {
+            let n = p.data.len() / p.stride * (p.stride - 3);
+            let rows = raw[at..at + n].chunks_exact(p.stride - 3);
+            p.data
+                .chunks_exact_mut(p.stride)
+                .zip(rows)
+                .for_each(|(d, s)| {
+                    d[..s.len()].copy_from_slice(s);
+                });
+            at += n;
+        }
+        let grid = SkyGrid::new(8, (w, h));
+        let median_ms = |run: &dyn Fn()| {
+            let mut t: Vec<f64> = (0..9)
+                .map(|_| {
+                    let start = std::time::Instant::now();
+                    run();
+                    start.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            t.sort_by(f64::total_cmp);
+            t[t.len() / 2]
+        };
+        let detect_by = |sum: BlockSums| detect_with(&f, grid, TopEdge::Top, None, sum);
+        let sums_plain_ms = median_ms(&|| drop(std::hint::black_box(sums_plain(&f, grid))));
+        let sums_ms = median_ms(&|| drop(std::hint::black_box(sums(&f, grid))));
+        let plain_ms = median_ms(&|| drop(std::hint::black_box(detect_by(sums_plain))));
+        let fast_ms = median_ms(&|| drop(std::hint::black_box(detect_by(sums))));
+        let sky = detect_by(sums);
+        assert_eq!(sky, detect_by(sums_plain));
+        let share = sky.iter().sum::<f32>() / sky.len() as f32;
+        println!(
+            "{w}x{h} median of 9: detect plain {plain_ms:.2} ms (block sums {sums_plain_ms:.2}), \
+             fast {fast_ms:.2} ms (block sums {sums_ms:.2}); sky share {share:.3}"
+        );
     }
 }
