@@ -34,7 +34,7 @@ pub struct Puddles {
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
     ground_mask: wgpu::Buffer,
-    glow_grid: wgpu::Buffer,
+    glow_grid: wgpu::TextureView,
     lights: wgpu::Buffer,
     /// Whether frames are pictures; for a layer the water is written as the layer's colour and
     /// alpha over the frame (entry point `layer`).
@@ -243,7 +243,7 @@ impl Puddles {
                 view(&self.planes[1]),
                 view(&self.planes[2]),
                 buffer(&self.ground_mask),
-                buffer(&self.glow_grid),
+                view(&self.glow_grid),
             ],
         );
         Water {
