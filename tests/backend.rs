@@ -18,7 +18,7 @@ use rain_composite::gpu::cpu::wet_ground::wet_ground_lit;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::rain::HostRain;
 use rain_composite::gpu::host::{GroundFrame, HostColour};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, FrameWater, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{
     GLINTS_PER_DROP, Glint, LightList, PuddleParams, RainParams, Ripple, Streak, WetParams,
 };
@@ -908,23 +908,16 @@ fn rings() -> Vec<Ripple> {
 
 /// The water's uniforms for `water` with `rings` live rings and the far water's slope `far`.
 fn pool_params(water: &Field2, rings: usize, far: Option<(f32, f32)>) -> PuddleParams {
-    let optics = FilmOptics::water();
     let (far_slope_rms, resolve_depth_m) = far.unwrap_or((0.0, 0.0));
     PuddleParams {
-        origin_m: water.origin_m.to_array(),
-        cell_m: water.cell_m,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [water.nx as u32, water.ny as u32],
         ring_count: rings as u32,
         far_slope_rms,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
         resolve_depth_m,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
+        ..water_params(
+            water.origin_m.to_array(),
+            water.cell_m,
+            [water.nx as u32, water.ny as u32],
+        )
     }
 }
 

@@ -11,7 +11,7 @@ use rain_composite::fluid::Field2;
 use rain_composite::gpu::cpu::puddles::{Water, puddles_masked};
 use rain_composite::gpu::cpu::wet_ground::wet_ground_masked;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::water_params;
 use rain_composite::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, WetParams};
 use rain_composite::gpu::uniforms::RainSetup;
@@ -212,23 +212,11 @@ fn lake() -> Field2 {
 }
 
 fn puddle_params(water: &Field2) -> PuddleParams {
-    let optics = FilmOptics::water();
-    PuddleParams {
-        origin_m: water.origin_m.to_array(),
-        cell_m: water.cell_m,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [water.nx as u32, water.ny as u32],
-        ring_count: 0,
-        far_slope_rms: 0.0,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
-        resolve_depth_m: 0.0,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
-    }
+    water_params(
+        water.origin_m.to_array(),
+        water.cell_m,
+        [water.nx as u32, water.ny as u32],
+    )
 }
 
 /// The CPU twins' picture: the wet ground and the puddles over the decoded frame, with `mask`.

@@ -41,7 +41,6 @@ impl MaskDetector for Ground {
 /// What the camera of `p` says about each point of `grid`: whether its ray meets the ground,
 /// and the image of the world's up direction there.
 pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
-    let cell = f64::from(grid.cell_px);
     // World up in the camera's frame: the rows' z (world = Σ row_k · q_k, orthonormal).
     let up = [
         f64::from(p.camera_from_world_0[2]),
@@ -55,7 +54,7 @@ pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
     );
     (0..grid.len())
         .map(|k| {
-            let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * cell;
+            let at = grid.point_px(k);
             let ray = view_ray_at(p, at);
             // The displayed position's normalised coordinates d: the camera-space ray (d, 1).
             let o = at

@@ -1,8 +1,6 @@
 //! The sky feed: each frame's open sky ([`crate::scene::sky`]), averaged over the frames
 //! shortly before it, handed to the compositor as the haze's sky mask.
 
-use glam::DVec2;
-
 use super::mask_feed::{MaskDetector, MaskFeed};
 use crate::Result;
 use crate::gpu::Compositor;
@@ -30,12 +28,8 @@ impl MaskDetector for Sky {
         }
         // Below the horizon of a given ground: the ray goes down to it.
         let below: Option<Vec<bool>> = (p.ground_clip != 0 && p.camera_pos_m[2] > 0.0).then(|| {
-            let cell = f64::from(grid.cell_px);
             (0..grid.len())
-                .map(|k| {
-                    let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * cell;
-                    view_ray_at(p, at).z < 0.0
-                })
+                .map(|k| view_ray_at(p, grid.point_px(k)).z < 0.0)
                 .collect()
         });
         Some(detect(frame, grid, top, below.as_deref()))
