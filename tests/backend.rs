@@ -465,32 +465,46 @@ fn preview_is_the_render_on_both_back_ends() {
                 "0..12",
             ])
             .args(look));
-        let preview = dir.path().join(format!("{backend}-preview.png"));
-        ok(bin()
-            .args(["preview", s(&input), "--frame", "9", "-o", s(&preview)])
-            .args(["--bits", "16"])
-            .args(look));
-        // The render's frame through the same still conversion (no rain, no haze added).
-        let from_full = dir.path().join(format!("{backend}-full.png"));
-        ok(bin().args([
-            "preview",
-            s(&full),
-            "--frame",
-            "9",
-            "-o",
-            s(&from_full),
-            "--bits",
-            "16",
-            "--rain",
-            "0",
-            "--backend",
-            backend,
-        ]));
-        assert!(
-            std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
-            "--backend {backend}: the preview differs from the render's frame"
-        );
+        assert_preview_is_the_render(dir.path(), &input, &full, "9", &look, backend);
     }
+}
+
+/// The 16-bit preview of `input`'s frame `frame` under `look` (which names `backend`) is the
+/// frame of the render `rendered` taken through the same still conversion (no rain, no haze
+/// added), byte for byte.
+fn assert_preview_is_the_render(
+    dir: &Path,
+    input: &Path,
+    rendered: &Path,
+    frame: &str,
+    look: &[&str],
+    backend: &str,
+) {
+    let preview = dir.join(format!("{backend}-preview.png"));
+    ok(bin()
+        .args(["preview", s(input), "--frame", frame, "-o", s(&preview)])
+        .args(["--bits", "16"])
+        .args(look));
+    let from_full = dir.join(format!("{backend}-full.png"));
+    ok(bin().args([
+        "preview",
+        s(rendered),
+        "--frame",
+        frame,
+        "-o",
+        s(&from_full),
+        "--bits",
+        "16",
+        "--rain",
+        "0",
+        "--backend",
+        backend,
+    ]));
+    assert!(
+        std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
+        "--backend {backend}: the preview differs from the render's frame ({})",
+        look.join(" ")
+    );
 }
 
 // The streaks drawn on the CPU (`gpu::host::streaks`) against the plain twin
@@ -1304,30 +1318,8 @@ fn puddles_are_seeded_and_previewed_alike_on_both_back_ends() {
         let (a, b, other) = (render("5", "a"), render("5", "b"), render("6", "c"));
         assert!(a == b, "--backend {backend}: one seed, two renders differ");
         assert!(a != other, "--backend {backend}: the seed changes nothing");
-        let preview = dir.path().join(format!("{backend}-preview.png"));
-        ok(bin()
-            .args(["preview", s(&input), "--frame", "8", "-o", s(&preview)])
-            .args(["--bits", "16"])
-            .args(look("5")));
-        let from_full = dir.path().join(format!("{backend}-full.png"));
-        ok(bin().args([
-            "preview",
-            s(&dir.path().join(format!("{backend}-a.mkv"))),
-            "--frame",
-            "8",
-            "-o",
-            s(&from_full),
-            "--bits",
-            "16",
-            "--rain",
-            "0",
-            "--backend",
-            backend,
-        ]));
-        assert!(
-            std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
-            "--backend {backend}: the preview with puddles differs from the render's frame"
-        );
+        let rendered = dir.path().join(format!("{backend}-a.mkv"));
+        assert_preview_is_the_render(dir.path(), &input, &rendered, "8", &look("5"), backend);
     }
 }
 

@@ -33,7 +33,7 @@ use render::{dry_ground, lit, render_with};
 
 #[path = "common/pictures.rs"]
 mod pictures;
-use pictures::codes;
+use pictures::{codes, interior};
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -180,25 +180,6 @@ fn shot(pose: (f64, f64, f64), seed: u64) -> (RainSetup, RainParams, YuvFrame, S
     (setup, p, f, s, mask)
 }
 
-/// Pixels at least `margin` px from any pixel showing something else.
-fn interior(truth: &[Surface], margin: i64) -> Vec<bool> {
-    (0..(W * H) as usize)
-        .map(|i| {
-            let (x, y) = ((i as u32 % W) as i64, (i as u32 / W) as i64);
-            (-margin..=margin).all(|dy| {
-                (-margin..=margin).all(|dx| {
-                    let (u, v) = (x + dx, y + dy);
-                    u < 0
-                        || v < 0
-                        || u >= W as i64
-                        || v >= H as i64
-                        || truth[(v as u32 * W + u as u32) as usize] == truth[i]
-                })
-            })
-        })
-        .collect()
-}
-
 /// Water 3 cm deep everywhere within 40 m of the camera's foot.
 fn lake() -> Field2 {
     let n = 80;
@@ -275,7 +256,7 @@ fn wetness_and_water_keep_off_the_walls_and_the_railing() {
         let masked = wet_picture(&f, &p, Some(&mask));
         let unmasked = wet_picture(&f, &p, None);
         let changed = |a: &[f64; 3], b: &[f64; 3]| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-4);
-        let inside = interior(&s.truth, 12);
+        let inside = interior(&s.truth, (W, H), 12);
         let (mut standing, mut standing_wet, mut standing_wet_unmasked) = (0, 0, 0);
         let (mut road, mut road_wet) = (0, 0);
         for i in 0..(W * H) as usize {
