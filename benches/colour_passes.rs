@@ -16,7 +16,7 @@ use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::{GroundFrame, HostColour};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, FrameWater, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{PuddleParams, RainParams, Ripple, Streak, WetParams};
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::wetness::FilmOptics;
@@ -224,21 +224,10 @@ fn ground_passes(c: &mut Criterion) {
     let (nx, ny) = (160, 160);
     let depth_m = vec![0.02f32; nx * ny];
     let pool = |rings: u32| PuddleParams {
-        origin_m: [-20.0, 0.0],
-        cell_m: 0.25,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [nx as u32, ny as u32],
         ring_count: rings,
-        far_slope_rms: 0.0,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
-        resolve_depth_m: 0.0,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
+        ..water_params([-20.0, 0.0], 0.25, [nx as u32, ny as u32])
     };
+
     let ripples: Vec<Ripple> = (0..128)
         .map(|k| Ripple {
             centre_m: [-4.0 + 0.06 * k as f32, 3.0 + 0.1 * k as f32],

@@ -34,7 +34,7 @@
 @group(0) @binding(10) var plane_cb: texture_2d<u32>;
 @group(0) @binding(11) var plane_cr: texture_2d<u32>;
 @group(0) @binding(12) var<storage, read> ground_mask: array<f32>;
-@group(0) @binding(13) var<storage, read> glow_grid: array<vec4<f32>>;
+@group(0) @binding(13) var glow_grid: texture_2d<f32>;
 
 // The reflection fades from the frame to the environment over this many pixels at its border.
 const EDGE_PX: f32 = 8.0;

@@ -29,7 +29,7 @@
 @group(0) @binding(7) var<storage, read> scene_depth: array<f32>;
 @group(0) @binding(8) var<storage, read> ground_mask: array<f32>;
 @group(0) @binding(9) var<uniform> lights: LightList;
-@group(0) @binding(10) var<storage, read> glow_grid: array<vec4<f32>>;
+@group(0) @binding(10) var glow_grid: texture_2d<f32>;
 
 // The wet ground at pixel `p` as L·M + A: the frame's linear colour L, the factor M on it and
 // the light A added (the haze's in-scatter and the lamps' glow, as yuv_to_rgb wrote them with

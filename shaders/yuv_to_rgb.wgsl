@@ -17,9 +17,11 @@
 @group(0) @binding(5) var<uniform> rain: RainParams;
 @group(0) @binding(6) var<uniform> lights: LightList;
 @group(0) @binding(7) var<storage, read> rtf_table: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> glow_grid: array<vec4<f32>>;
+@group(0) @binding(8) var glow_out: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(9) var<storage, read> scene_depth: array<f32>;
 @group(0) @binding(10) var<storage, read> sky_mask: array<f32>;
+// The grid `glow` wrote (the same texture as `glow_out`), read back by `main` and `layer`.
+@group(0) @binding(11) var glow_grid: texture_2d<f32>;
 
 // The lamps' glow on its coarse grid (common/glow.wgsl), before `main` or `layer` reads it.
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)
@@ -27,7 +29,7 @@ fn glow(@builtin(global_invocation_id) id: vec3<u32>) {
     let w = glow_grid_width();
     let h = (u32(rain.coded_size_px.y) + GLOW_CELL_PX - 1u) / GLOW_CELL_PX + 1u;
     if id.x >= w || id.y >= h || !haze_glows() { return; }
-    glow_grid[id.y * w + id.x] = vec4<f32>(glow_at_grid_point(id.xy), 0.0);
+    textureStore(glow_out, id.xy, vec4<f32>(glow_at_grid_point(id.xy), 0.0));
 }
 
 @compute @workgroup_size(PIXEL_WORKGROUP, PIXEL_WORKGROUP)

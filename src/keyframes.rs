@@ -78,26 +78,13 @@ pub struct Curve<V> {
 }
 
 impl<V: KeyValue> Curve<V> {
-    /// A curve from its keys; the error says what is wrong with them.
+    /// A curve from its keys, at most `MAX_KEYS` of them, checked as [`Curve::track`] checks
+    /// them; the error says what is wrong with them.
     pub fn new(keys: Vec<(f64, V)>) -> Result<Curve<V>, String> {
         if keys.is_empty() || keys.len() > MAX_KEYS {
             return Err(format!("from 1 to {MAX_KEYS} keys, got {}", keys.len()));
         }
-        if let Some((t, v)) = keys
-            .iter()
-            .find(|(t, v)| !(t.is_finite() && *t >= 0.0 && v.is_finite()))
-        {
-            return Err(format!(
-                "the key [{t}, {v:?}]: times are seconds ≥ 0 and values finite"
-            ));
-        }
-        if let Some(w) = keys.windows(2).find(|w| w[1].0 <= w[0].0) {
-            return Err(format!(
-                "times in increasing order ({} s then {} s)",
-                w[0].0, w[1].0
-            ));
-        }
-        Ok(Curve { keys })
+        Curve::track(keys)
     }
 
     /// A measured track (one key per frame, as the camera's motion estimated from a clip):

@@ -18,7 +18,7 @@ use rain_composite::gpu::cpu::wet_ground::wet_ground_lit;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::rain::HostRain;
 use rain_composite::gpu::host::{GroundFrame, HostColour};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, FrameWater, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{
     GLINTS_PER_DROP, Glint, LightList, PuddleParams, RainParams, Ripple, Streak, WetParams,
 };
@@ -465,32 +465,46 @@ fn preview_is_the_render_on_both_back_ends() {
                 "0..12",
             ])
             .args(look));
-        let preview = dir.path().join(format!("{backend}-preview.png"));
-        ok(bin()
-            .args(["preview", s(&input), "--frame", "9", "-o", s(&preview)])
-            .args(["--bits", "16"])
-            .args(look));
-        // The render's frame through the same still conversion (no rain, no haze added).
-        let from_full = dir.path().join(format!("{backend}-full.png"));
-        ok(bin().args([
-            "preview",
-            s(&full),
-            "--frame",
-            "9",
-            "-o",
-            s(&from_full),
-            "--bits",
-            "16",
-            "--rain",
-            "0",
-            "--backend",
-            backend,
-        ]));
-        assert!(
-            std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
-            "--backend {backend}: the preview differs from the render's frame"
-        );
+        assert_preview_is_the_render(dir.path(), &input, &full, "9", &look, backend);
     }
+}
+
+/// The 16-bit preview of `input`'s frame `frame` under `look` (which names `backend`) is the
+/// frame of the render `rendered` taken through the same still conversion (no rain, no haze
+/// added), byte for byte.
+fn assert_preview_is_the_render(
+    dir: &Path,
+    input: &Path,
+    rendered: &Path,
+    frame: &str,
+    look: &[&str],
+    backend: &str,
+) {
+    let preview = dir.join(format!("{backend}-preview.png"));
+    ok(bin()
+        .args(["preview", s(input), "--frame", frame, "-o", s(&preview)])
+        .args(["--bits", "16"])
+        .args(look));
+    let from_full = dir.join(format!("{backend}-full.png"));
+    ok(bin().args([
+        "preview",
+        s(rendered),
+        "--frame",
+        frame,
+        "-o",
+        s(&from_full),
+        "--bits",
+        "16",
+        "--rain",
+        "0",
+        "--backend",
+        backend,
+    ]));
+    assert!(
+        std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
+        "--backend {backend}: the preview differs from the render's frame ({})",
+        look.join(" ")
+    );
 }
 
 // The streaks drawn on the CPU (`gpu::host::streaks`) against the plain twin
@@ -908,23 +922,16 @@ fn rings() -> Vec<Ripple> {
 
 /// The water's uniforms for `water` with `rings` live rings and the far water's slope `far`.
 fn pool_params(water: &Field2, rings: usize, far: Option<(f32, f32)>) -> PuddleParams {
-    let optics = FilmOptics::water();
     let (far_slope_rms, resolve_depth_m) = far.unwrap_or((0.0, 0.0));
     PuddleParams {
-        origin_m: water.origin_m.to_array(),
-        cell_m: water.cell_m,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [water.nx as u32, water.ny as u32],
         ring_count: rings as u32,
         far_slope_rms,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
         resolve_depth_m,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
+        ..water_params(
+            water.origin_m.to_array(),
+            water.cell_m,
+            [water.nx as u32, water.ny as u32],
+        )
     }
 }
 
@@ -1311,30 +1318,8 @@ fn puddles_are_seeded_and_previewed_alike_on_both_back_ends() {
         let (a, b, other) = (render("5", "a"), render("5", "b"), render("6", "c"));
         assert!(a == b, "--backend {backend}: one seed, two renders differ");
         assert!(a != other, "--backend {backend}: the seed changes nothing");
-        let preview = dir.path().join(format!("{backend}-preview.png"));
-        ok(bin()
-            .args(["preview", s(&input), "--frame", "8", "-o", s(&preview)])
-            .args(["--bits", "16"])
-            .args(look("5")));
-        let from_full = dir.path().join(format!("{backend}-full.png"));
-        ok(bin().args([
-            "preview",
-            s(&dir.path().join(format!("{backend}-a.mkv"))),
-            "--frame",
-            "8",
-            "-o",
-            s(&from_full),
-            "--bits",
-            "16",
-            "--rain",
-            "0",
-            "--backend",
-            backend,
-        ]));
-        assert!(
-            std::fs::read(&preview).expect("png") == std::fs::read(&from_full).expect("png"),
-            "--backend {backend}: the preview with puddles differs from the render's frame"
-        );
+        let rendered = dir.path().join(format!("{backend}-a.mkv"));
+        assert_preview_is_the_render(dir.path(), &input, &rendered, "8", &look("5"), backend);
     }
 }
 

@@ -1,18 +1,18 @@
 //! The ground: `auto` against synthetic shots rendered through the project's own camera model
 //! with a known tilt and roll; the hard cases; depth maps with holes and of another size.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rain_composite::scene::horizon::{self, GroundTracker, Luma};
-use rain_composite::scene::{Camera, DepthMap, GroundPlane};
+use rain_composite::scene::{Camera, DepthMap};
 use rain_composite::video::YuvFrame;
-use rain_composite::video::color::ColorParams;
-use rain_composite::video::frame::{Chroma, FrameFormat};
 
 #[path = "common/fixtures.rs"]
 mod fixtures;
+#[path = "common/street.rs"]
+mod street;
 
-const W: u32 = 640;
-const H: u32 = 360;
+use street::{Block, Pose};
+
 const FOV_DEG: f64 = 60.0;
 
 /// Posts and buildings: (x, y) of their centres on the ground, half width and height, metres.
@@ -31,45 +31,24 @@ const BOXES: [(f64, f64, f64, f64); 8] = [
 /// 0.6 m stones with dark joints, turned 20° from the view, and a smooth sky.
 fn radiance(o: DVec3, d: DVec3) -> f64 {
     let mut best = (f64::MAX, 0.0);
-    for &(px, py, half, top) in &BOXES {
-        let lo = DVec3::new(px - half, py - half, 0.0);
-        let hi = DVec3::new(px + half, py + half, top);
-        let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, 0);
-        for k in 0..3 {
-            let inv = 1.0 / d[k];
-            let (mut a, mut b) = ((lo[k] - o[k]) * inv, (hi[k] - o[k]) * inv);
-            if a > b {
-                std::mem::swap(&mut a, &mut b);
-            }
-            if a > t0 {
-                t0 = a;
-                axis = k;
-            }
-            t1 = t1.min(b);
-        }
-        if t0 < t1 && t0 < best.0 {
+    for &(x, y, half, top_m) in &BOXES {
+        let b = Block {
+            centre: [x, y],
+            half: [half, half],
+            top_m,
+            shade: 1.0,
+            building: top_m > 6.0,
+        };
+        if let Some((t0, axis)) = b.entry(o, d).filter(|&(t0, _)| t0 < best.0) {
             // Faces shaded by orientation; buildings have a dark band at each 3 m floor.
-            let floor = top > 6.0 && ((o + d * t0).z / 3.0).fract() < 0.2;
+            let floor = b.building && ((o + d * t0).z / 3.0).fract() < 0.2;
             best = (t0, [0.25, 0.45, 0.7][axis] * if floor { 0.5 } else { 1.0 });
         }
     }
     if d.z < 0.0 {
         let t = -o.z / d.z;
         if t < best.0 {
-            let p = o + d * t;
-            let (s, c) = 20f64.to_radians().sin_cos();
-            let (u, v) = ((c * p.x + s * p.y) / 0.6, (-s * p.x + c * p.y) / 0.6);
-            let (fu, fv) = (u - u.floor(), v - v.floor());
-            let joint = fu < 0.08 || fv < 0.08;
-            let stone = if (u.floor() as i64 + v.floor() as i64) % 2 == 0 {
-                0.55
-            } else {
-                0.4
-            };
-            // Far away the paving averages out (as a real lens would blur it).
-            let fade = (-t / 40.0).exp();
-            let value = if joint { 0.15 } else { stone };
-            return fade * value + (1.0 - fade) * 0.42;
+            return street::paving(o + d * t, t, 20.0, 0.6);
         }
     }
     if best.0 < f64::MAX {
@@ -78,38 +57,23 @@ fn radiance(o: DVec3, d: DVec3) -> f64 {
     0.75 + 0.2 * d.z.max(0.0)
 }
 
+/// The camera of `tilt_deg` and `roll_deg`: a 60° view 1.6 m up.
+fn pose(tilt_deg: f64, roll_deg: f64) -> Pose {
+    Pose {
+        tilt_deg,
+        roll_deg,
+        fov_deg: FOV_DEG,
+        height_m: 1.6,
+    }
+}
+
 /// A frame of the scene through a camera of `tilt_deg` and `roll_deg`, 2×2 supersampled.
 fn render(tilt_deg: f64, roll_deg: f64, scene: fn(DVec3, DVec3) -> f64) -> YuvFrame {
-    let cam = Camera::new(
-        W,
-        H,
-        FOV_DEG.to_radians(),
-        1.6,
-        tilt_deg.to_radians(),
-        roll_deg.to_radians(),
-    );
-    let format = FrameFormat {
-        width: W,
-        height: H,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
-    let mut f = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
-    for y in 0..H {
-        for x in 0..W {
-            let mut sum = 0.0;
-            for (sx, sy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                let d = cam.ray_world(DVec2::new(x as f64 + sx, y as f64 + sy));
-                sum += scene(cam.position_m, d);
-            }
-            f.planes[0].data[(y * W + x) as usize] = (16.0 + 219.0 * sum / 4.0).round() as u8;
-        }
-    }
-    f
+    street::render(&pose(tilt_deg, roll_deg).camera(), scene)
 }
 
 fn intrinsics() -> Camera {
-    Camera::new(W, H, FOV_DEG.to_radians(), 1.6, 0.0, 0.0)
+    pose(0.0, 0.0).intrinsics()
 }
 
 fn estimate(frame: &YuvFrame) -> horizon::HorizonEstimate {
@@ -119,15 +83,7 @@ fn estimate(frame: &YuvFrame) -> horizon::HorizonEstimate {
 
 /// The true horizon row of a camera (from the plane, not from the estimator's formula).
 fn true_row(tilt_deg: f64, roll_deg: f64) -> Option<f64> {
-    let cam = Camera::new(
-        W,
-        H,
-        FOV_DEG.to_radians(),
-        1.6,
-        tilt_deg.to_radians(),
-        roll_deg.to_radians(),
-    );
-    GroundPlane::LEVEL.horizon_row(&cam)
+    pose(tilt_deg, roll_deg).horizon_row()
 }
 
 fn check(tilt_deg: f64, roll_deg: f64) {

@@ -11,7 +11,7 @@ use rain_composite::fluid::Field2;
 use rain_composite::gpu::cpu::puddles::{Water, puddles_masked};
 use rain_composite::gpu::cpu::wet_ground::wet_ground_masked;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::water_params;
 use rain_composite::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, WetParams};
 use rain_composite::gpu::uniforms::RainSetup;
@@ -33,7 +33,7 @@ use render::{dry_ground, lit, render_with};
 
 #[path = "common/pictures.rs"]
 mod pictures;
-use pictures::codes;
+use pictures::{codes, interior};
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -180,25 +180,6 @@ fn shot(pose: (f64, f64, f64), seed: u64) -> (RainSetup, RainParams, YuvFrame, S
     (setup, p, f, s, mask)
 }
 
-/// Pixels at least `margin` px from any pixel showing something else.
-fn interior(truth: &[Surface], margin: i64) -> Vec<bool> {
-    (0..(W * H) as usize)
-        .map(|i| {
-            let (x, y) = ((i as u32 % W) as i64, (i as u32 / W) as i64);
-            (-margin..=margin).all(|dy| {
-                (-margin..=margin).all(|dx| {
-                    let (u, v) = (x + dx, y + dy);
-                    u < 0
-                        || v < 0
-                        || u >= W as i64
-                        || v >= H as i64
-                        || truth[(v as u32 * W + u as u32) as usize] == truth[i]
-                })
-            })
-        })
-        .collect()
-}
-
 /// Water 3 cm deep everywhere within 40 m of the camera's foot.
 fn lake() -> Field2 {
     let n = 80;
@@ -212,23 +193,11 @@ fn lake() -> Field2 {
 }
 
 fn puddle_params(water: &Field2) -> PuddleParams {
-    let optics = FilmOptics::water();
-    PuddleParams {
-        origin_m: water.origin_m.to_array(),
-        cell_m: water.cell_m,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [water.nx as u32, water.ny as u32],
-        ring_count: 0,
-        far_slope_rms: 0.0,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
-        resolve_depth_m: 0.0,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
-    }
+    water_params(
+        water.origin_m.to_array(),
+        water.cell_m,
+        [water.nx as u32, water.ny as u32],
+    )
 }
 
 /// The CPU twins' picture: the wet ground and the puddles over the decoded frame, with `mask`.
@@ -287,7 +256,7 @@ fn wetness_and_water_keep_off_the_walls_and_the_railing() {
         let masked = wet_picture(&f, &p, Some(&mask));
         let unmasked = wet_picture(&f, &p, None);
         let changed = |a: &[f64; 3], b: &[f64; 3]| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-4);
-        let inside = interior(&s.truth, 12);
+        let inside = interior(&s.truth, (W, H), 12);
         let (mut standing, mut standing_wet, mut standing_wet_unmasked) = (0, 0, 0);
         let (mut road, mut road_wet) = (0, 0);
         for i in 0..(W * H) as usize {

@@ -23,16 +23,12 @@ use binary::{bin, ok};
 
 const FPS: f64 = 25.0;
 
+#[path = "common/puddle_street.rs"]
+mod puddle_street;
+
 /// A street seen from 1.6 m with a 90° lens, four hours of 20 mm/h before the clip.
 fn street() -> (RenderConfig, Camera) {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    c.rain.rate_mm_per_h = 20.0;
-    c.ground.pre_rain_min = 240.0;
-    c.ground.relief_m = 0.006;
-    let camera = c.camera(320, 240).expect("camera");
-    (c, camera)
+    puddle_street::street(20.0, 240.0, 0.006)
 }
 
 fn settings() -> PuddleSettings {

@@ -5,8 +5,7 @@
 use glam::{DVec2, DVec3, Vec2};
 use rain_composite::config::RenderConfig;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
-use rain_composite::gpu::uniforms::RainSetup;
-use rain_composite::rain::volume::{GroundRain, Impact};
+use rain_composite::rain::volume::Impact;
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
 use std::process::Command;
@@ -17,20 +16,11 @@ mod fixtures;
 #[path = "common/rims.rs"]
 mod rims;
 
-const FPS: f64 = 25.0;
+#[path = "common/puddle_street.rs"]
+mod puddle_street;
+use puddle_street::{assert_drops_counted, assert_particles_balance, ground_rain, street};
 
-/// A camera looking down the street (the horizon 10 % from the top, a 90° lens, 1.6 m up) over
-/// `rain_mm_per_h` of rain that has fallen for `pre_rain_min`, with `relief_m` of micro-relief.
-fn street(rain_mm_per_h: f64, pre_rain_min: f64, relief_m: f64) -> (RenderConfig, Camera) {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    c.rain.rate_mm_per_h = rain_mm_per_h;
-    c.ground.pre_rain_min = pre_rain_min;
-    c.ground.relief_m = relief_m;
-    let camera = c.camera(320, 240).expect("camera");
-    (c, camera)
-}
+const FPS: f64 = 25.0;
 
 /// Small enough for a test: 3 m of ground, 1.5 cm particles.
 fn small() -> PuddleSettings {
@@ -134,27 +124,9 @@ fn the_ledger_balances_in_cubic_metres_before_the_clip_and_to_the_particle_durin
         let hits = impacts_over(3000, f.min_m, f.max_m, t, &mut rng);
         sim.advance_to(t, &hits).expect("step");
         let l = sim.ledger();
-        let p = l.particles;
         assert_eq!(l.particles_present, sim.flow().sph.particle_count() as u64);
-        assert_eq!(
-            p.inserted - p.outflow - p.soaked - p.discarded,
-            l.particles_present
-        );
-        assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
-        // Every drop that landed is in a counter or, S of them at a time, in a particle (5.31).
-        let s = sim.flow().precipitation.scale() as u64;
-        let counted: u64 = sim
-            .flow()
-            .precipitation
-            .counters()
-            .iter()
-            .map(|&c| c as u64)
-            .sum();
-        assert_eq!(
-            l.rain_drops,
-            s * l.rain_particles + counted,
-            "frame {frame}"
-        );
+        assert_particles_balance(&sim);
+        assert_drops_counted(&sim);
     }
     let l = sim.ledger();
     assert_eq!(
@@ -186,15 +158,7 @@ fn the_particle_cap_holds_through_the_rain() {
         sim.advance_to(t, &hits).expect("step");
         let l = sim.ledger();
         assert!(l.particles_present <= 300, "{l:?}");
-        let s = sim.flow().precipitation.scale() as u64;
-        let counted: u64 = sim
-            .flow()
-            .precipitation
-            .counters()
-            .iter()
-            .map(|&c| c as u64)
-            .sum();
-        assert_eq!(l.rain_drops, s * l.rain_particles + counted);
+        assert_drops_counted(&sim);
         assert_eq!(l.rain_drops + l.rain_drops_over_cap, frame * 20_000);
     }
     assert!(sim.ledger().rain_drops_over_cap > 0);
@@ -208,17 +172,7 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
     let (mut config, camera) = street(60.0, 10.0, 0.004);
     let r = &mut config.rain;
     (r.far_m, r.max_drops, r.drop_scale) = (6.0, 100_000, 3.0);
-    let rain = rain_composite::shot::rain::plan(
-        &camera,
-        &config.camera,
-        &config.rain,
-        0.02,
-        0,
-        (camera.width_px, camera.height_px),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let ground = GroundRain::new(rain.rainfall());
+    let ground = ground_rain(&config, &camera);
     // Below the particle cap (drops fill the counters) and at it (drops only wet the ground).
     for cap in [small().max_particles, 50] {
         let every_other = PuddleSettings {
@@ -284,17 +238,7 @@ fn rings_from_the_ground_where_they_resolve_are_the_rings_from_all_of_it() {
     let camera = config.camera(1280, 720).expect("camera");
     let r = &mut config.rain;
     (r.far_m, r.max_drops, r.drop_scale) = (6.0, 100_000, 3.0);
-    let rain = rain_composite::shot::rain::plan(
-        &camera,
-        &config.camera,
-        &config.rain,
-        0.02,
-        0,
-        (camera.width_px, camera.height_px),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let ground = GroundRain::new(rain.rainfall());
+    let ground = ground_rain(&config, &camera);
     let settings = PuddleSettings {
         max_distance_m: 20.0,
         ..small()

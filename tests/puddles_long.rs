@@ -2,11 +2,13 @@
 //! and the feed's ring list are counted (lengths and capacities) after the first minute and
 //! at the end, and the water ledger still balances to the particle.
 
-use rain_composite::config::RenderConfig;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
 use rain_composite::fluid::ripples::{MAX_RINGS, RING_POOL, keep_resolved_rings, rings_on_water};
-use rain_composite::gpu::uniforms::RainSetup;
-use rain_composite::rain::volume::{GroundRain, Impact};
+use rain_composite::rain::volume::Impact;
+
+#[path = "common/puddle_street.rs"]
+mod puddle_street;
+use puddle_street::{assert_drops_counted, assert_particles_balance, ground_rain, street_of};
 
 /// Frames per second of the test clip: few, the memory is per frame, not per second.
 const FPS: f64 = 5.0;
@@ -27,13 +29,7 @@ struct Held {
 /// depends on, so it runs with the other tests.
 #[test]
 fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced() {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    c.rain.rate_mm_per_h = 5.0;
-    c.ground.pre_rain_min = 10.0;
-    c.ground.relief_m = 0.004;
-    let camera = c.camera(1280, 720).expect("camera");
+    let (c, camera) = street_of((1280, 720), 5.0, 10.0, 0.004);
     let settings = PuddleSettings {
         max_distance_m: 2.0,
         particle_spacing_m: 0.02,
@@ -43,10 +39,7 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     let mut sim = PuddleSim::new(&c, &camera, None, FPS, &settings)
         .expect("valid")
         .expect("ground in view");
-    let rain = rain_composite::shot::rain::plan(&camera, &c.camera, &c.rain, 0.02, 0, (1280, 720))
-        .map(RainSetup::pack)
-        .expect("rain");
-    let ground = GroundRain::new(rain.rainfall());
+    let ground = ground_rain(&c, &camera);
     let mut rings: Vec<Impact> = Vec::new();
     let (mut landed, mut drawn_most) = (0u64, 0usize);
     let held = |sim: &PuddleSim, rings: &Vec<Impact>| Held {
@@ -87,21 +80,8 @@ fn ten_minutes_of_rain_on_the_puddles_keep_memory_flat_and_the_ledger_balanced()
     assert!(last.queued <= CAP, "{last:?}");
     assert!(drawn_most <= MAX_RINGS);
     // The ledger to the particle: in − out = present; every drop counted or in a particle.
-    let p = l.particles;
-    assert_eq!(
-        p.inserted - p.outflow - p.soaked - p.discarded,
-        l.particles_present
-    );
-    assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
-    let s = sim.flow().precipitation.scale() as u64;
-    let counted: u64 = sim
-        .flow()
-        .precipitation
-        .counters()
-        .iter()
-        .map(|&c| c as u64)
-        .sum();
-    assert_eq!(l.rain_drops, s * l.rain_particles + counted);
+    assert_particles_balance(&sim);
+    assert_drops_counted(&sim);
     assert!(l.rain_drops + l.rain_drops_over_cap <= landed);
     assert!(l.rain_drops_over_cap > 0, "the cap is reached: {l:?}");
 }

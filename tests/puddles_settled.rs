@@ -8,24 +8,20 @@ use glam::{DVec2, DVec3};
 use rain_composite::config::RenderConfig;
 use rain_composite::fluid::Field2;
 use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
-use rain_composite::gpu::uniforms::RainSetup;
-use rain_composite::rain::volume::{GroundRain, Impact};
+use rain_composite::rain::volume::Impact;
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
 use std::time::Instant;
 
 const FPS: f64 = 25.0;
 
+#[path = "common/puddle_street.rs"]
+mod puddle_street;
+use puddle_street::{assert_particles_balance, ground_rain};
+
 /// A street seen from 1.6 m with a 90° lens, two hours of 20 mm/h before the clip.
 fn street() -> (RenderConfig, Camera) {
-    let mut c = RenderConfig::default();
-    c.ground.mode = "horizon=0.1".parse().expect("mode");
-    c.camera.fov_deg = 90.0;
-    c.rain.rate_mm_per_h = 20.0;
-    c.ground.pre_rain_min = 120.0;
-    c.ground.relief_m = 0.02;
-    let camera = c.camera(320, 240).expect("camera");
-    (c, camera)
+    puddle_street::street(20.0, 120.0, 0.02)
 }
 
 fn small(settled_start: bool) -> PuddleSettings {
@@ -126,13 +122,8 @@ fn water_at_rest_stays_put_while_the_rain_moves_and_the_ledger_balances() {
         assert_eq!(placed[id], *p, "a particle at rest moved");
     }
     let l = sim.ledger();
-    let p = l.particles;
     assert_eq!(l.particles_present, sph.particle_count() as u64);
-    assert_eq!(
-        p.inserted - p.outflow - p.soaked - p.discarded,
-        l.particles_present
-    );
-    assert_eq!(p.inserted, l.initial_particles + l.rain_particles);
+    assert_particles_balance(&sim);
     assert!(l.rain_particles > 0);
 }
 
@@ -192,6 +183,18 @@ fn rain_on_water_at_rest_lies_on_it_not_in_it() {
     );
 }
 
+/// The street sample's ground as the reports take it: 640×360, horizon 0.48, a 30 m scene,
+/// 20 mm/h after two hours.
+fn sample_street() -> (RenderConfig, Camera) {
+    let mut config = RenderConfig::default();
+    config.ground.mode = "horizon=0.48".parse().expect("mode");
+    config.rain.rate_mm_per_h = 20.0;
+    config.rain.scene_depth_m = 30.0;
+    config.ground.pre_rain_min = 120.0;
+    let camera = config.camera(640, 360).expect("camera");
+    (config, camera)
+}
+
 /// Cost of the preview's fast-forward on the street sample's ground (640×360, horizon 0.48,
 /// 30 m scene, 20 mm/h after two hours): build, the ground's stream of impacts, feeding them,
 /// the solver, with and without the settled start; and the difference of the water shown at
@@ -199,23 +202,8 @@ fn rain_on_water_at_rest_lies_on_it_not_in_it() {
 #[test]
 #[ignore]
 fn report() {
-    let mut config = RenderConfig::default();
-    config.ground.mode = "horizon=0.48".parse().expect("mode");
-    config.rain.rate_mm_per_h = 20.0;
-    config.rain.scene_depth_m = 30.0;
-    config.ground.pre_rain_min = 120.0;
-    let camera = config.camera(640, 360).expect("camera");
-    let rain = rain_composite::shot::rain::plan(
-        &camera,
-        &config.camera,
-        &config.rain,
-        0.02,
-        0,
-        (camera.width_px, camera.height_px),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let ground = GroundRain::new(rain.rainfall());
+    let (config, camera) = sample_street();
+    let ground = ground_rain(&config, &camera);
     let frames = 38;
     println!("| start | build s | impacts s | feed s | solver + carpet s | steps | moving |");
     println!("|---|---|---|---|---|---|---|");
@@ -274,23 +262,8 @@ fn report() {
 #[test]
 #[ignore]
 fn report_seek() {
-    let mut config = RenderConfig::default();
-    config.ground.mode = "horizon=0.48".parse().expect("mode");
-    config.rain.rate_mm_per_h = 20.0;
-    config.rain.scene_depth_m = 30.0;
-    config.ground.pre_rain_min = 120.0;
-    let camera = config.camera(640, 360).expect("camera");
-    let rain = rain_composite::shot::rain::plan(
-        &camera,
-        &config.camera,
-        &config.rain,
-        0.02,
-        0,
-        (camera.width_px, camera.height_px),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let ground = GroundRain::new(rain.rainfall());
+    let (config, camera) = sample_street();
+    let ground = ground_rain(&config, &camera);
     let t = Instant::now();
     let mut sim = PuddleSim::new(&config, &camera, None, FPS, &PuddleSettings::of(&config))
         .expect("valid")

@@ -13,7 +13,7 @@ use rain_composite::fluid::Field2;
 use rain_composite::fluid::ripples::{Ring, live_rings};
 use rain_composite::gpu::cpu::puddles::{self, Water};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, LIGHT_LOBE};
+use rain_composite::gpu::stages::puddles::{EDGE_DEPTH_M, water_params};
 use rain_composite::gpu::types::{LightList, PuddleParams, RainParams, Ripple};
 use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::gpu::{Compositor, GpuContext};
@@ -208,22 +208,13 @@ fn render(
 }
 
 fn puddle_params(water: &Field2, rings: usize) -> PuddleParams {
-    let optics = FilmOptics::water();
     PuddleParams {
-        origin_m: water.origin_m.to_array(),
-        cell_m: water.cell_m,
-        edge_depth_m: EDGE_DEPTH_M as f32,
-        cells: [water.nx as u32, water.ny as u32],
         ring_count: rings as u32,
-        far_slope_rms: 0.0,
-        water_index: optics.index as f32,
-        diffuse_external: optics.diffuse_external as f32,
-        diffuse_internal: optics.diffuse_internal as f32,
-        light_lobe: LIGHT_LOBE as f32,
-        resolve_depth_m: 0.0,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
+        ..water_params(
+            water.origin_m.to_array(),
+            water.cell_m,
+            [water.nx as u32, water.ny as u32],
+        )
     }
 }
 

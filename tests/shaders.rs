@@ -263,3 +263,74 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
     assert!(types.contains("array<vec4<f32>, GUSTS>"));
     assert!(types.contains("array<DirectLight, MAX_LIGHTS>"));
 }
+
+/// Every pipeline's inferred bind-group layout (`layout: None`: what its entry point uses, as
+/// naga's analysis reports it) stays within wgpu's downlevel limits per shader stage, so the
+/// device the compositor opens with those limits (GLES 3.1-class adapters offer no more:
+/// four storage buffers a stage) builds every stage.
+#[test]
+fn every_entry_point_fits_the_downlevel_limits() {
+    let limits = wgpu::Limits::downlevel_defaults();
+    let mut over = Vec::new();
+    for stage in Stage::ALL {
+        let src = stage.source();
+        let module = naga::front::wgsl::parse_str(&src).expect("parses");
+        let info = Validator::new(ValidationFlags::all(), Capabilities::all())
+            .validate(&module)
+            .expect("validates");
+        for (i, entry) in module.entry_points.iter().enumerate() {
+            let uses = info.get_entry_point(i);
+            let (mut storage, mut uniform, mut sampled, mut storage_textures, mut samplers) =
+                (0, 0, 0, 0, 0);
+            for (handle, var) in module.global_variables.iter() {
+                if uses[handle].is_empty() || var.binding.is_none() {
+                    continue;
+                }
+                match (var.space, &module.types[var.ty].inner) {
+                    (naga::AddressSpace::Storage { .. }, _) => storage += 1,
+                    (naga::AddressSpace::Uniform, _) => uniform += 1,
+                    (_, naga::TypeInner::Image { class, .. }) => match class {
+                        naga::ImageClass::Storage { .. } => storage_textures += 1,
+                        _ => sampled += 1,
+                    },
+                    (_, naga::TypeInner::Sampler { .. }) => samplers += 1,
+                    (space, ty) => panic!("{}: {space:?} {ty:?}", stage.name()),
+                }
+            }
+            let counts = [
+                (
+                    "storage buffers",
+                    storage,
+                    limits.max_storage_buffers_per_shader_stage,
+                ),
+                (
+                    "uniform buffers",
+                    uniform,
+                    limits.max_uniform_buffers_per_shader_stage,
+                ),
+                (
+                    "sampled textures",
+                    sampled,
+                    limits.max_sampled_textures_per_shader_stage,
+                ),
+                (
+                    "storage textures",
+                    storage_textures,
+                    limits.max_storage_textures_per_shader_stage,
+                ),
+                ("samplers", samplers, limits.max_samplers_per_shader_stage),
+            ];
+            eprintln!("{}::{}: {counts:?}", stage.name(), entry.name);
+            for (what, n, max) in counts {
+                if n > max {
+                    over.push(format!(
+                        "{}::{}: {n} {what} > {max}",
+                        stage.name(),
+                        entry.name
+                    ));
+                }
+            }
+        }
+    }
+    assert!(over.is_empty(), "{over:#?}");
+}

@@ -6,7 +6,6 @@
 //! mask; the mask over time is a smooth, pure function of the frames in its window.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
-use glam::DVec2;
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
@@ -28,7 +27,7 @@ use render::{render_with, water_tables};
 
 #[path = "common/pictures.rs"]
 mod pictures;
-use pictures::plane_codes;
+use pictures::{interior, plane_codes};
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -310,29 +309,7 @@ fn ground_params() -> (RainSetup, RainParams) {
 fn below_horizon(p: &RainParams) -> Vec<bool> {
     let g = grid();
     (0..g.len())
-        .map(|k| {
-            let at = DVec2::new((k % g.width) as f64, (k / g.width) as f64) * f64::from(g.cell_px);
-            yuv_to_rgb::view_ray_at(p, at).z < 0.0
-        })
-        .collect()
-}
-
-/// Pixels at least `margin` px from any pixel of the other kind (sky against not sky).
-fn interior(sky: &[bool], margin: i64) -> Vec<bool> {
-    (0..(W * H) as usize)
-        .map(|i| {
-            let (x, y) = ((i as u32 % W) as i64, (i as u32 / W) as i64);
-            (-margin..=margin).all(|dy| {
-                (-margin..=margin).all(|dx| {
-                    let (u, v) = (x + dx, y + dy);
-                    u < 0
-                        || v < 0
-                        || u >= W as i64
-                        || v >= H as i64
-                        || sky[(v as u32 * W + u as u32) as usize] == sky[i]
-                })
-            })
-        })
+        .map(|k| yuv_to_rgb::view_ray_at(p, g.point_px(k)).z < 0.0)
         .collect()
 }
 
@@ -360,7 +337,7 @@ fn the_sky_keeps_its_radiance_and_the_ground_still_veils() {
         Some(&mask),
     ));
     let without = codes(&yuv_to_rgb::yuv_to_rgb(&f, &p));
-    let inside = interior(&scene.sky, 12);
+    let inside = interior(&scene.sky, (W, H), 12);
     let (mut sky_worst, mut sky_n, mut ground_n, mut ground_veiled) = (0u16, 0, 0, 0);
     for i in 0..(W * H) as usize {
         let y = i as u32 / W;

@@ -4,8 +4,9 @@
 // ground, the water) rewrites the pixel.
 //
 // Needs, declared by the stage that includes it: var<uniform> rain: RainParams;
-// var<uniform> lights: LightList (its count only); var<storage> glow_grid: array<vec4<f32>>
-// (read or read_write).
+// var<uniform> lights: LightList (its count only); var glow_grid: texture_2d<f32> (rgba32float,
+// one texel a grid point, read with textureLoad: a texture rather than a storage buffer keeps
+// the puddles within the four storage buffers a stage that downlevel adapters offer).
 
 // Whether there is a glow to draw.
 fn haze_glows() -> bool {
@@ -15,6 +16,11 @@ fn haze_glows() -> bool {
 // Grid points per row: one every GLOW_CELL_PX coded pixels, both ends included.
 fn glow_grid_width() -> u32 {
     return (u32(rain.coded_size_px.x) + GLOW_CELL_PX - 1u) / GLOW_CELL_PX + 1u;
+}
+
+// The grid point `g`'s glow.
+fn glow_at(g: vec2<u32>) -> vec4<f32> {
+    return textureLoad(glow_grid, g, 0);
 }
 
 // The glow at coded pixel `p`, bilinear between the grid points around its centre, for a ray
@@ -27,9 +33,7 @@ fn haze_glow(p: vec2<u32>, t: f32) -> vec3<f32> {
     let u = (vec2<f32>(p) + vec2<f32>(0.5)) / f32(GLOW_CELL_PX);
     let g = vec2<u32>(floor(u));
     let f = u - floor(u);
-    let w = glow_grid_width();
-    let i = g.y * w + g.x;
-    let top = mix(glow_grid[i].rgb, glow_grid[i + 1u].rgb, f.x);
-    let bottom = mix(glow_grid[i + w].rgb, glow_grid[i + w + 1u].rgb, f.x);
+    let top = mix(glow_at(g).rgb, glow_at(g + vec2<u32>(1u, 0u)).rgb, f.x);
+    let bottom = mix(glow_at(g + vec2<u32>(0u, 1u)).rgb, glow_at(g + vec2<u32>(1u, 1u)).rgb, f.x);
     return share * mix(top, bottom, f.y);
 }

@@ -252,12 +252,22 @@ impl Compositor {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let glow_grid = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glow_grid"),
-            size: 16 * u64::from(gw) * u64::from(gh),
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
+        let glow_grid = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("glow_grid"),
+                size: wgpu::Extent3d {
+                    width: gw,
+                    height: gh,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
         // Ones: everything below the horizon is ground until a mask is set.
         let ground_mask = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ground_mask"),

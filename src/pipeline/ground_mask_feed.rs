@@ -4,11 +4,10 @@
 
 use glam::DVec2;
 
-use super::view_window::Window;
+use super::mask_feed::{MaskDetector, MaskFeed};
 use crate::Result;
 use crate::gpu::Compositor;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
-use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::RainParams;
 use crate::scene::ground_mask::{GroundMaskMode, PointView, detect};
 use crate::scene::sky::{SkyGrid, TopEdge};
@@ -16,69 +15,32 @@ use crate::shot::Shot;
 use crate::video::YuvFrame;
 
 /// The ground of a shot's frames, on the glow's grid; nothing where `ground.mask` is off.
-pub(super) struct GroundMaskFeed {
-    tracker: Option<Window>,
-    grid: SkyGrid,
-}
+pub(super) type GroundMaskFeed = MaskFeed<Ground>;
 
-impl GroundMaskFeed {
-    /// The feed of `shot`: smoothed like the light (`light.smoothing_s`).
-    pub(super) fn new(shot: &Shot) -> GroundMaskFeed {
-        let config = &shot.config;
-        let f = shot.footage.format;
-        let grid = SkyGrid::new(GLOW_CELL_PX, (f.width, f.height));
-        GroundMaskFeed {
-            tracker: (config.ground.mask == GroundMaskMode::Auto).then(|| Window::new(shot, grid)),
-            grid,
-        }
+/// The ground's detector.
+pub(super) struct Ground;
+
+impl MaskDetector for Ground {
+    fn wanted(shot: &Shot) -> bool {
+        shot.config.ground.mask == GroundMaskMode::Auto
     }
 
-    /// How far back frames change the mask of a frame, seconds.
-    pub(super) fn window_s(&self) -> f64 {
-        self.tracker.as_ref().map_or(0.0, Window::window_s)
-    }
-
-    /// The mask of `frame` shown at `t_s` under the uniforms `p` (`cut`: the light saw a scene
-    /// cut); `None` where it is not looked for or there is no ground.
-    pub(super) fn observe(
-        &mut self,
-        frame: &YuvFrame,
-        p: &RainParams,
-        t_s: f64,
-        cut: bool,
-    ) -> Option<&[f32]> {
-        let tracker = self.tracker.as_mut()?;
+    /// `None` where there is no ground.
+    fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, p: &RainParams) -> Option<Vec<f32>> {
         if p.ground_clip == 0 || p.camera_pos_m[2] <= 0.0 {
             return None;
         }
-        let view = point_views(p, self.grid);
-        let m = p.coded_from_display;
-        // Display "up" (0, −1) in coded pixels: display = M coded, M orthogonal.
-        let top = TopEdge::from_up([-f64::from(m[2]), -f64::from(m[3])]);
-        let mask = detect(frame, self.grid, top, &view);
-        Some(tracker.update(mask, p, t_s, cut))
+        Some(detect(frame, grid, top, &point_views(p, grid)))
     }
 
-    /// Sets the mask of `frame` on `compositor` (see [`observe`](Self::observe)).
-    pub(super) fn feed(
-        &mut self,
-        compositor: &mut Compositor,
-        frame: &YuvFrame,
-        p: &RainParams,
-        t_s: f64,
-        cut: bool,
-    ) -> Result<()> {
-        match self.observe(frame, p, t_s, cut) {
-            Some(mask) => compositor.set_ground_mask(mask),
-            None => Ok(()),
-        }
+    fn set(compositor: &mut Compositor, mask: &[f32]) -> Result<()> {
+        compositor.set_ground_mask(mask)
     }
 }
 
 /// What the camera of `p` says about each point of `grid`: whether its ray meets the ground,
 /// and the image of the world's up direction there.
 pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
-    let cell = f64::from(grid.cell_px);
     // World up in the camera's frame: the rows' z (world = Σ row_k · q_k, orthonormal).
     let up = [
         f64::from(p.camera_from_world_0[2]),
@@ -92,7 +54,7 @@ pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
     );
     (0..grid.len())
         .map(|k| {
-            let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * cell;
+            let at = grid.point_px(k);
             let ray = view_ray_at(p, at);
             // The displayed position's normalised coordinates d: the camera-space ray (d, 1).
             let o = at

@@ -10,8 +10,9 @@
 //!   pose file, resolved into pose keys after the ground; [`pose_cache`] keeps an estimate
 //!   beside the water's checkpoints.
 //! - [`renderer`]: the frame renderer every front end uses; it drives the compositor with
-//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed` and `sky_feed`
-//!   (the sky's and the ground mask's windows in `view_window`).
+//!   one feed per input a frame needs: `light_feed`, `water_feed`, `depth_feed`, `sky_feed` and
+//!   `ground_mask_feed` (the last two one `mask_feed` around their own detectors, their windows
+//!   in `view_window`).
 //!
 //! The rain at a frame is a pure function of the frame's time `t = (pts − start) · time_base`
 //! and of that frame alone, so [`preview()`] renders exactly what [`render`] writes at the same
@@ -23,6 +24,7 @@ pub mod ground;
 pub mod ground_mask_feed;
 pub mod job;
 mod light_feed;
+mod mask_feed;
 pub mod motion;
 pub mod pose_cache;
 pub mod preview;

@@ -124,12 +124,7 @@ impl RayWindow {
         let grid = self.grid;
         if self.settle_s > 0.0 && size == grid.len() {
             let cell = f64::from(grid.cell_px);
-            let rays: Vec<DVec3> = (0..size)
-                .map(|k| {
-                    let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * cell;
-                    now.ray(at)
-                })
-                .collect();
+            let rays: Vec<DVec3> = (0..size).map(|k| now.ray(grid.point_px(k))).collect();
             for (t, mask, view) in self.window.iter().rev().skip(1) {
                 let weight = (-(t_s - t) / self.settle_s).exp();
                 for (k, ray) in rays.iter().enumerate() {
@@ -254,10 +249,7 @@ mod tests {
             let p = params_of(&cam);
             let view = View::of(&p);
             let mask: Vec<f32> = (0..grid.len())
-                .map(|k| {
-                    let at = DVec2::new((k % grid.width) as f64, (k / grid.width) as f64) * 8.0;
-                    soft(view.ray(at))
-                })
+                .map(|k| soft(view.ray(grid.point_px(k))))
                 .collect();
             let out = window.update(mask.clone(), &p, t, false).to_vec();
             let plain = on_picture.update(mask.clone(), t, false).to_vec();

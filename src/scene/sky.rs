@@ -160,6 +160,11 @@ impl SkyGrid {
         self.len() == 0
     }
 
+    /// The coded position of point `k` (row-major), pixels.
+    pub fn point_px(&self, k: usize) -> glam::DVec2 {
+        glam::DVec2::new((k % self.width) as f64, (k / self.width) as f64) * f64::from(self.cell_px)
+    }
+
     /// The weight of `mask` (one per point) at coded pixel (`x`, `y`): bilinear between the
     /// points around its centre, as the haze reads it.
     pub fn weight_at(&self, mask: &[f32], x: u32, y: u32) -> f32 {

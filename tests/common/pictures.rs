@@ -114,3 +114,23 @@ pub fn bt709_420_from_rgb(width: u32, height: u32, rgb: &[[f64; 3]]) -> YuvFrame
         }
     })
 }
+
+/// Of a `w`×`h` picture labelled pixel by pixel (row-major), the pixels at least `margin` px
+/// from any pixel of another label.
+pub fn interior<T: PartialEq>(labels: &[T], (w, h): (u32, u32), margin: i64) -> Vec<bool> {
+    (0..(w * h) as usize)
+        .map(|i| {
+            let (x, y) = ((i as u32 % w) as i64, (i as u32 / w) as i64);
+            (-margin..=margin).all(|dy| {
+                (-margin..=margin).all(|dx| {
+                    let (u, v) = (x + dx, y + dy);
+                    u < 0
+                        || v < 0
+                        || u >= w as i64
+                        || v >= h as i64
+                        || labels[(v as u32 * w + u as u32) as usize] == labels[i]
+                })
+            })
+        })
+        .collect()
+}

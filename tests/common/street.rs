@@ -67,6 +67,58 @@ impl Pose {
     }
 }
 
+impl Block {
+    /// Where the ray from `o` along `d` enters this box (slab method): the distance along `d`
+    /// and the axis of the face it enters through; `None` where it misses.
+    pub fn entry(&self, o: DVec3, d: DVec3) -> Option<(f64, usize)> {
+        let lo = DVec3::new(
+            self.centre[0] - self.half[0],
+            self.centre[1] - self.half[1],
+            0.0,
+        );
+        let hi = DVec3::new(
+            self.centre[0] + self.half[0],
+            self.centre[1] + self.half[1],
+            self.top_m,
+        );
+        let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, 0);
+        for k in 0..3 {
+            let inv = 1.0 / d[k];
+            let (mut a, mut e) = ((lo[k] - o[k]) * inv, (hi[k] - o[k]) * inv);
+            if a > e {
+                std::mem::swap(&mut a, &mut e);
+            }
+            if a > t0 {
+                t0 = a;
+                axis = k;
+            }
+            t1 = t1.min(e);
+        }
+        (t0 < t1).then_some((t0, axis))
+    }
+}
+
+/// Luma of a paving of square stones `stone_m` wide, turned by `paving_deg`, with dark
+/// joints, at ground point `p` seen `t` metres away: far away it averages out (as a real lens
+/// would blur it).
+pub fn paving(p: DVec3, t: f64, paving_deg: f64, stone_m: f64) -> f64 {
+    let (s, c) = paving_deg.to_radians().sin_cos();
+    let (u, v) = (
+        (c * p.x + s * p.y) / stone_m,
+        (-s * p.x + c * p.y) / stone_m,
+    );
+    let (fu, fv) = (u - u.floor(), v - v.floor());
+    let joint = fu < 0.08 || fv < 0.08;
+    let stone = if (u.floor() as i64 + v.floor() as i64) % 2 == 0 {
+        0.55
+    } else {
+        0.4
+    };
+    let fade = (-t / 40.0).exp();
+    let value = if joint { 0.15 } else { stone };
+    fade * value + (1.0 - fade) * 0.42
+}
+
 fn uniform(rng: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
     lo + (hi - lo) * rng.next_f64()
 }
@@ -117,22 +169,10 @@ impl Street {
     pub fn radiance(&self, o: DVec3, d: DVec3) -> f64 {
         let mut best = (f64::MAX, 0.0);
         for b in &self.blocks {
-            let lo = DVec3::new(b.centre[0] - b.half[0], b.centre[1] - b.half[1], 0.0);
-            let hi = DVec3::new(b.centre[0] + b.half[0], b.centre[1] + b.half[1], b.top_m);
-            let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, 0);
-            for k in 0..3 {
-                let inv = 1.0 / d[k];
-                let (mut a, mut e) = ((lo[k] - o[k]) * inv, (hi[k] - o[k]) * inv);
-                if a > e {
-                    std::mem::swap(&mut a, &mut e);
-                }
-                if a > t0 {
-                    t0 = a;
-                    axis = k;
-                }
-                t1 = t1.min(e);
-            }
-            if t0 < t1 && t0 < best.0 {
+            let Some((t0, axis)) = b.entry(o, d) else {
+                continue;
+            };
+            if t0 < best.0 {
                 let p = o + d * t0;
                 let face = [0.75, 1.0, 0.85][axis] * b.shade;
                 let value = if b.building && axis < 2 {
@@ -155,23 +195,7 @@ impl Street {
         if d.z < 0.0 {
             let t = -o.z / d.z;
             if t < best.0 {
-                let p = o + d * t;
-                let (s, c) = self.paving_deg.to_radians().sin_cos();
-                let (u, v) = (
-                    (c * p.x + s * p.y) / self.stone_m,
-                    (-s * p.x + c * p.y) / self.stone_m,
-                );
-                let (fu, fv) = (u - u.floor(), v - v.floor());
-                let joint = fu < 0.08 || fv < 0.08;
-                let stone = if (u.floor() as i64 + v.floor() as i64) % 2 == 0 {
-                    0.55
-                } else {
-                    0.4
-                };
-                // Far away the paving averages out (as a real lens would blur it).
-                let fade = (-t / 40.0).exp();
-                let value = if joint { 0.15 } else { stone };
-                return fade * value + (1.0 - fade) * 0.42;
+                return paving(o + d * t, t, self.paving_deg, self.stone_m);
             }
         }
         if best.0 < f64::MAX {

@@ -48,9 +48,10 @@ pub struct FrameResources {
     /// The scene's depth per displayed pixel, metres (0 = unknown), for `rain_streaks`; one
     /// element when the job has no depth map.
     pub scene_depth: wgpu::Buffer,
-    /// The lamps' glow at its grid points (`vec4` each), written by `yuv_to_rgb`'s `glow`
-    /// entry point and read back at each pixel by it, `wet_ground` and `puddles`.
-    pub glow_grid: wgpu::Buffer,
+    /// The lamps' glow at its grid points (an `Rgba32Float` texel each), written by
+    /// `yuv_to_rgb`'s `glow` entry point and read back at each pixel by it, `wet_ground` and
+    /// `puddles`: a texture, so no stage reads more than four storage buffers.
+    pub glow_grid: wgpu::TextureView,
     /// The open sky's weight at the glow's grid points, for `yuv_to_rgb` (zeros: no sky).
     pub sky_mask: wgpu::Buffer,
     /// The ground's weight at the glow's grid points, for `wet_ground` and `puddles` (ones:

@@ -25,6 +25,29 @@ pub const EDGE_DEPTH_M: f64 = shown::EDGE_DEPTH_M as f64;
 /// (1/√κ), the glitter of a surface that is never quite still.
 pub const LIGHT_LOBE: f64 = 1000.0;
 
+/// The uniforms of a water map whose first cell's corner stands at world `origin_m`, with
+/// `cells` cells of `cell_m` metres: water's optics, no rings and no far glitter yet (each frame
+/// sets those).
+pub fn water_params(origin_m: [f32; 2], cell_m: f32, cells: [u32; 2]) -> PuddleParams {
+    let optics = FilmOptics::water();
+    PuddleParams {
+        origin_m,
+        cell_m,
+        edge_depth_m: EDGE_DEPTH_M as f32,
+        cells,
+        ring_count: 0,
+        far_slope_rms: 0.0,
+        water_index: optics.index as f32,
+        diffuse_external: optics.diffuse_external as f32,
+        diffuse_internal: optics.diffuse_internal as f32,
+        light_lobe: LIGHT_LOBE as f32,
+        resolve_depth_m: 0.0,
+        _pad0: 0.0,
+        _pad1: 0.0,
+        _pad2: 0.0,
+    }
+}
+
 /// The stage: the shared resources it binds, and its own once water is set.
 pub struct Puddles {
     device: wgpu::Device,
@@ -34,7 +57,7 @@ pub struct Puddles {
     canvas: wgpu::Texture,
     scene_depth: wgpu::Buffer,
     ground_mask: wgpu::Buffer,
-    glow_grid: wgpu::Buffer,
+    glow_grid: wgpu::TextureView,
     lights: wgpu::Buffer,
     /// Whether frames are pictures; for a layer the water is written as the layer's colour and
     /// alpha over the frame (entry point `layer`).
@@ -134,23 +157,11 @@ impl Puddles {
         if let Some(job) = &self.job {
             queue.write_buffer(&job.depth_m, 0, bytemuck::cast_slice(&metres));
         }
-        let optics = FilmOptics::water();
-        self.base = Some(PuddleParams {
-            origin_m: depth.origin_m.to_array(),
-            cell_m: depth.cell_m,
-            edge_depth_m: EDGE_DEPTH_M as f32,
-            cells: [depth.nx as u32, depth.ny as u32],
-            ring_count: 0,
-            far_slope_rms: 0.0,
-            water_index: optics.index as f32,
-            diffuse_external: optics.diffuse_external as f32,
-            diffuse_internal: optics.diffuse_internal as f32,
-            light_lobe: LIGHT_LOBE as f32,
-            resolve_depth_m: 0.0,
-            _pad0: 0.0,
-            _pad1: 0.0,
-            _pad2: 0.0,
-        });
+        self.base = Some(water_params(
+            depth.origin_m.to_array(),
+            depth.cell_m,
+            [depth.nx as u32, depth.ny as u32],
+        ));
         self.metres = metres;
         Ok(())
     }
@@ -243,7 +254,7 @@ impl Puddles {
                 view(&self.planes[1]),
                 view(&self.planes[2]),
                 buffer(&self.ground_mask),
-                buffer(&self.glow_grid),
+                view(&self.glow_grid),
             ],
         );
         Water {

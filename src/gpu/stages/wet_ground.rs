@@ -63,7 +63,7 @@ impl WetGround {
                         buffer(&r.scene_depth),
                         buffer(&r.ground_mask),
                         buffer(&r.lights.list),
-                        buffer(&r.glow_grid),
+                        view(&r.glow_grid),
                     ],
                 );
                 (pipeline, bind, params)

@@ -39,7 +39,7 @@ fn glow_pass(
         (5, buffer(&r.rain_params)),
         (6, buffer(&r.lights.list)),
         (7, buffer(&r.lights.table)),
-        (8, buffer(&r.glow_grid)),
+        (8, view(&r.glow_grid)),
     ]
     .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -57,7 +57,7 @@ impl YuvToRgb {
     }
 
     /// The layer's start: the haze alone over a transparent canvas (entry point `layer`, which
-    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6, 8, 9 and 10 only).
+    /// reads no planes, so its inferred layout holds bindings 0, 4, 5, 6, 9, 10 and 11 only).
     pub fn layer(device: &wgpu::Device, r: &FrameResources) -> YuvToRgb {
         YuvToRgb::with_entry(device, r, "layer")
     }
@@ -77,9 +77,9 @@ impl YuvToRgb {
             (4, view(&r.canvas)),
             (5, buffer(&r.rain_params)),
             (6, buffer(&r.lights.list)),
-            (8, buffer(&r.glow_grid)),
             (9, buffer(&r.scene_depth)),
             (10, buffer(&r.sky_mask)),
+            (11, view(&r.glow_grid)),
         ]
         .into_iter()
         .chain(planes.into_iter().filter(|_| entry == "main"))
