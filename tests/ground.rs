@@ -266,8 +266,10 @@ fn depth_png_in_millimetres() {
     assert!(e.contains("ground.depth_scale"), "{e}");
 }
 
-/// Cost of one frame's estimate at 1080p (reported, with a generous bound).
+/// Cost of one frame's estimate (a report, not a test: speed is measured side by side, never
+/// asserted). `cargo test --release --test ground cost_per_frame -- --ignored --nocapture`
 #[test]
+#[ignore = "timing report"]
 fn cost_per_frame() {
     let frame = render(8.0, -6.0, radiance);
     let t = std::time::Instant::now();
@@ -277,7 +279,6 @@ fn cost_per_frame() {
     }
     let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
     eprintln!("auto ground: {ms:.2} ms per 640x360 frame");
-    assert!(ms < 200.0);
 }
 
 /// Ground modes as a user writes them: wrong values are refused naming the setting and the
