@@ -6,22 +6,84 @@ use rain_composite::scene::horizon::{self, HorizonEstimate, Luma};
 #[path = "common/street.rs"]
 mod street;
 
-/// One shot of the seeded set: its pose, the estimate, and whether the estimate is right
-/// (horizon within 2 % of the height, roll within 1°).
-fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
-    let (scene, pose) = street::shot(seed, i);
-    let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
-    let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
-    let e = horizon::estimate(&luma, &pose.intrinsics());
+/// A number from the environment variable `name`, or `default`.
+fn env_or(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Which seeded set of shots.
+#[derive(Debug, Clone, Copy)]
+enum Set {
+    /// Streets at eye level ([`street::shot`]).
+    Streets,
+    /// Steep views of a city ([`street::steep_shot`]).
+    Steep,
+}
+
+/// One rendered shot of a seeded set: its index, its pose and its frame.
+struct Shot {
+    i: u64,
+    pose: street::Pose,
+    frame: rain_composite::video::YuvFrame,
+}
+
+impl Shot {
+    /// The frame's luma as the estimator reads it.
+    fn luma(&self) -> Luma {
+        Luma::from_frame(&self.frame, 0, horizon::WORK_WIDTH)
+    }
+}
+
+/// The first `count` shots of `set` drawn from `seed`, rendered one at a time; with `DUMP`
+/// set, each frame's luma is also written there as `{set}{i}.pgm`.
+fn seeded_shots(set: Set, seed: u64, count: u64) -> impl Iterator<Item = Shot> {
+    (0..count).map(move |i| {
+        let (pose, frame) = match set {
+            Set::Streets => {
+                let (scene, pose) = street::shot(seed, i);
+                (
+                    pose,
+                    street::render(&pose.camera(), |o, d| scene.radiance(o, d)),
+                )
+            }
+            Set::Steep => {
+                let (scene, pose, cam) = street::steep_shot(seed, i);
+                (pose, street::render(&cam, |o, d| scene.radiance(o, d)))
+            }
+        };
+        if let Ok(dir) = std::env::var("DUMP") {
+            let mut pgm = format!("P5 {} {} 255\n", street::W, street::H).into_bytes();
+            pgm.extend_from_slice(&frame.planes[0].data[..(street::W * street::H) as usize]);
+            std::fs::write(format!("{dir}/{set:?}{i}.pgm"), pgm).expect("dump");
+        }
+        Shot { i, pose, frame }
+    })
+}
+
+/// The lens read from the frames, for the tables.
+fn lens_read(e: &HorizonEstimate) -> String {
+    e.lens_fov_deg
+        .map_or(String::new(), |f| format!(" lens read {f:.1}°"))
+}
+
+/// A street shot's estimate and whether it is right (horizon within 2 % of the height, roll
+/// within 1°).
+fn judge(shot: &Shot) -> (HorizonEstimate, bool) {
+    let pose = &shot.pose;
+    let e = horizon::estimate(&shot.luma(), &pose.intrinsics());
     let row = pose
         .horizon_row()
         .expect("the horizon crosses the centre line");
     let right = e.horizon_row.is_some_and(|r| (r - row).abs() < 0.02)
         && (e.roll_deg - pose.roll_deg).abs() < 1.0;
     eprintln!(
-        "shot {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
+        "shot {}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
          confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} \
-         level {:+.4} | {}",
+         level {:+.4}{} | {}",
+        shot.i,
         pose.tilt_deg,
         pose.roll_deg,
         pose.fov_deg,
@@ -37,25 +99,25 @@ fn judge(seed: u64, i: u64) -> (street::Pose, HorizonEstimate, bool) {
         e.standing_len,
         e.floating_len,
         e.level_offset,
+        lens_read(&e),
         if right { "right" } else { "WRONG" }
     );
-    (pose, e, right)
+    (e, right)
 }
 
-/// Steep view `i` of `seed`: the estimate and how far its up direction is from the truth,
-/// degrees.
-fn judge_steep(seed: u64, i: u64) -> (HorizonEstimate, f64) {
-    let (scene, pose, cam) = street::steep_shot(seed, i);
-    let frame = street::render(&cam, |o, d| scene.radiance(o, d));
-    let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
+/// A steep view's estimate and how far its up direction is from the truth, degrees.
+fn judge_steep(shot: &Shot) -> (HorizonEstimate, f64) {
+    let pose = &shot.pose;
+    let e = horizon::estimate(&shot.luma(), &pose.intrinsics());
     let truth = rain_composite::scene::ground::up_from_tilt_roll(
         pose.tilt_deg.to_radians(),
         pose.roll_deg.to_radians(),
     );
     let off_deg = e.up_cam.angle_between(truth).to_degrees();
     eprintln!(
-        "steep {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
-         confidence {:.3} lines {} v {} sky {:.2} standing {:.2} floating {:.2}",
+        "steep {}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
+         confidence {:.3} lines {} v {} sky {:.2} level {:+.4}{} | {}",
+        shot.i,
         pose.tilt_deg,
         pose.roll_deg,
         pose.fov_deg,
@@ -65,8 +127,9 @@ fn judge_steep(seed: u64, i: u64) -> (HorizonEstimate, f64) {
         e.steep_lines,
         e.vertical_inliers,
         e.sky_correlation,
-        e.standing_len,
-        e.floating_len,
+        e.level_offset,
+        lens_read(&e),
+        if off_deg < 1.0 { "right" } else { "WRONG" }
     );
     (e, off_deg)
 }
@@ -79,29 +142,23 @@ fn judge_steep(seed: u64, i: u64) -> (HorizonEstimate, f64) {
 #[allow(clippy::needless_range_loop)] // Matrix code reads best with indices.
 fn fit_confidence_weights() {
     const N: usize = horizon::CONFIDENCE_INPUTS;
-    let shots: u64 = std::env::var("SHOTS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(300);
+    let shots = env_or("SHOTS", 300);
     // Steep views in the fit lower the confidence of level streets more than that of the steep
     // views' level misreadings (their evidence looks alike: see the measurements), so the
     // committed weights are fitted on streets alone (`STEEP_SHOTS=0`).
-    let steep: u64 = std::env::var("STEEP_SHOTS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
+    let steep = env_or("STEEP_SHOTS", 0);
     let as_data = |e: &HorizonEstimate, right: bool| {
         (horizon::confidence_inputs(e), if right { 1.0 } else { 0.0 })
     };
-    let mut data: Vec<([f64; N], f64)> = (0..shots)
-        .map(|i| {
-            let (_, e, right) = judge(1000, i);
+    let mut data: Vec<([f64; N], f64)> = seeded_shots(Set::Streets, 1000, shots)
+        .map(|shot| {
+            let (e, right) = judge(&shot);
             as_data(&e, right)
         })
         .collect();
     // Steep views of a city (a seed the steep test does not judge on).
-    data.extend((0..steep).map(|i| {
-        let (e, off_deg) = judge_steep(1007, i);
+    data.extend(seeded_shots(Set::Steep, 1007, steep).map(|shot| {
+        let (e, off_deg) = judge_steep(&shot);
         as_data(&e, off_deg < 1.0)
     }));
     let mut w = [0.0f64; N];
@@ -166,15 +223,13 @@ const BINS: [(f64, f64); 6] = [
 /// 90 % of the street-like shots: on 120 shots of a seed the model was not fitted on.
 #[test]
 fn confidence_is_calibrated_on_random_poses() {
-    let shots: u64 = std::env::var("SHOTS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(120);
-    let seed: u64 = std::env::var("SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
-    let judged: Vec<_> = (0..shots).map(|i| judge(seed, i)).collect();
+    let shots = env_or("SHOTS", 120);
+    let judged: Vec<_> = seeded_shots(Set::Streets, env_or("SEED", 1), shots)
+        .map(|shot| {
+            let (e, right) = judge(&shot);
+            (shot.pose, e, right)
+        })
+        .collect();
     println!("| confidence | shots | mean confidence | fraction right |");
     println!("|---|---|---|---|");
     let mut worst: f64 = 0.0;
@@ -596,8 +651,9 @@ fn straight_down_streaks_converge_to_the_nadir() {
 /// 2°. The same street with its buildings and posts taken away (paving only) has no pose
 /// evidence and is not confident.
 #[test]
-#[ignore = "not reached: the view down is read as a level view (tilt 1.2°), refused (no \
-            receding ground, confidence 0): not confidently wrong, but not posed"]
+#[ignore = "not reached: none of the 52 segments found lies within 20° of passing through \
+            the nadir (the corners are short and seen end-on); the view reads as a level view \
+            (tilt 1.2°), refused (no receding ground): not confidently wrong, but not posed"]
 fn a_straight_down_street_is_posed_from_its_verticals() {
     use rain_composite::rng::SplitMix64;
     let pose = street::Pose {
@@ -639,48 +695,20 @@ fn a_straight_down_street_is_posed_from_its_verticals() {
 /// up direction is right when within 1° of the truth (the horizon is far off the picture; the
 /// streaks' directions follow the up direction). No confident estimate may be wrong.
 #[test]
-#[ignore = "not reached: 6 of 30 steep views are read confidently as level views (the \
-            Manhattan alternative); prints the table"]
+#[ignore = "not reached: 6 of 30 steep views are read confidently as their level Manhattan \
+            alternative (tilt ±(90° − |t|), the same roll), which the lens does not tell apart \
+            (its near-axis family reads the true focal length within 1.5 %); prints the table"]
 fn steep_views_are_posed_or_not_confident() {
-    let shots: u64 = std::env::var("STEEP_SHOTS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(30);
+    let shots = env_or("STEEP_SHOTS", 30);
     let (mut confident, mut wrong, mut right) = (0, 0, 0);
-    for i in 0..shots {
-        let (scene, pose, cam) = street::steep_shot(7, i);
-        let frame = street::render(&cam, |o, d| scene.radiance(o, d));
-        if let Ok(dir) = std::env::var("STEEP_DUMP") {
-            let mut pgm = format!("P5 {} {} 255\n", street::W, street::H).into_bytes();
-            pgm.extend_from_slice(&frame.planes[0].data[..(street::W * street::H) as usize]);
-            std::fs::write(format!("{dir}/steep{i}.pgm"), pgm).expect("dump");
-        }
-        let e = horizon::estimate_frame(&frame, 0, &pose.intrinsics());
-        let truth = rain_composite::scene::ground::up_from_tilt_roll(
-            pose.tilt_deg.to_radians(),
-            pose.roll_deg.to_radians(),
-        );
-        let off_deg = e.up_cam.angle_between(truth).to_degrees();
+    for shot in seeded_shots(Set::Steep, 7, shots) {
+        let (e, off_deg) = judge_steep(&shot);
         let ok = off_deg < 1.0;
         right += usize::from(ok);
         if e.confidence >= horizon::MIN_CONFIDENCE {
             confident += 1;
             wrong += usize::from(!ok);
         }
-        eprintln!(
-            "steep {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} off {off_deg:.2}° | \
-             confidence {:.3} lines {} v {} sky {:.2} | {}",
-            pose.tilt_deg,
-            pose.roll_deg,
-            pose.fov_deg,
-            e.tilt_deg,
-            e.roll_deg,
-            e.confidence,
-            e.steep_lines,
-            e.vertical_inliers,
-            e.sky_correlation,
-            if ok { "right" } else { "WRONG" }
-        );
     }
     println!("{right} of {shots} steep shots right; auto poses {confident}, {wrong} of them wrong");
     assert!(
@@ -890,41 +918,141 @@ fn diagnose_shot() {
     }
 }
 
+/// Largest relative error of a focal length read from the frames in
+/// [`a_wrong_field_of_view_is_refused_or_right`].
+const LENS_READ_TOLERANCE: f64 = 0.1;
+
 /// A street estimated through a field of view 20° off the lens's is not confidently wrong: the
 /// verticals then read their convergence as the wrong tilt, the receding level lines converge
 /// off the horizon it predicts, and the reading is refused ([`horizon::lens_mismatch`]) unless
-/// it is right anyway (a camera near level, whose horizon no focal length moves).
+/// it is right anyway (a camera near level, whose horizon no focal length moves). Where the
+/// frames read consistently through another lens ([`horizon::read_lens`]), that lens is within
+/// [`LENS_READ_TOLERANCE`] of the true focal length.
 #[test]
 fn a_wrong_field_of_view_is_refused_or_right() {
-    let (mut refused, mut shots, mut wrong) = (0, 0, 0);
-    for i in 0..16u64 {
-        let (scene, pose) = street::shot(1, i);
-        let frame = street::render(&pose.camera(), |o, d| scene.radiance(o, d));
-        let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+    let (mut refused, mut read, mut wrong) = (0, 0, 0);
+    let mut worst_lens: f64 = 0.0;
+    let shots = 16;
+    for shot in seeded_shots(Set::Streets, 1, shots) {
+        let pose = shot.pose;
         let fov_deg = if pose.fov_deg < 65.0 {
             pose.fov_deg + 20.0
         } else {
             pose.fov_deg - 20.0
         };
         let assumed = street::Pose { fov_deg, ..pose };
-        let e = horizon::estimate(&luma, &assumed.intrinsics());
+        let e = horizon::estimate(&shot.luma(), &assumed.intrinsics());
         let row = pose.horizon_row().expect("crosses");
         let right = e.horizon_row.is_some_and(|r| (r - row).abs() < 0.02)
             && (e.roll_deg - pose.roll_deg).abs() < 1.0;
+        // The focal length read, over the true one.
+        let focal = |fov: f64| 1.0 / (0.5 * fov.to_radians()).tan();
+        let lens_off = e.lens_fov_deg.map(|f| focal(f) / focal(pose.fov_deg) - 1.0);
         eprintln!(
-            "shot {i}: tilt {:.2} fov {:.1} read at {fov_deg:.1} | row {:.3} (true {row:.3}) \
-             confidence {:.3} level {:+.4} {}",
+            "shot {}: tilt {:.2} fov {:.1} read at {fov_deg:.1} | row {:.3} (true {row:.3}) \
+             confidence {:.3} level {:+.4}{} ({:+.1} % of the focal length) {}",
+            shot.i,
             pose.tilt_deg,
             pose.fov_deg,
             e.horizon_row.unwrap_or(f64::NAN),
             e.confidence,
             e.level_offset,
+            lens_read(&e),
+            100.0 * lens_off.unwrap_or(0.0),
             if right { "right" } else { "WRONG" }
         );
-        shots += 1;
         refused += usize::from(horizon::lens_mismatch(&e));
+        if let Some(off) = lens_off {
+            read += 1;
+            worst_lens = worst_lens.max(off.abs());
+        }
         wrong += usize::from(!right && e.confidence >= horizon::MIN_CONFIDENCE);
     }
-    eprintln!("{refused} of {shots} refused for their lens, {wrong} confidently wrong");
+    eprintln!(
+        "{refused} of {shots} refused for their lens, {read} of them with the lens read from \
+         the frames (worst {:.1} % off the true focal length)",
+        100.0 * worst_lens
+    );
+    eprintln!("{wrong} confidently wrong");
     assert_eq!(wrong, 0, "{wrong} of {shots} confidently wrong");
+    assert!(
+        worst_lens < LENS_READ_TOLERANCE,
+        "a lens read {:.1} % off the true focal length",
+        100.0 * worst_lens
+    );
+}
+
+/// Prints what the lens check ([`vanishing::level_offset`]) costs against the whole estimate of
+/// a frame of `CLIP` (default `samples/street.mp4`) at `AT` seconds (default 0.5) through a 60°
+/// lens: medians of 15 runs, side by side in one process.
+#[test]
+#[ignore = "a timing by hand"]
+fn lens_check_cost() {
+    use glam::DVec3;
+    use rain_composite::scene::vanishing::{self, Edge};
+    let clip = std::env::var("CLIP").unwrap_or("samples/street.mp4".into());
+    let at_s: f64 = std::env::var("AT")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.5);
+    let mut source = rain_composite::video::Source::open(&clip).expect("clip");
+    let frame = source.seek_to_time(at_s).expect("frame");
+    let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+    let cam = rain_composite::scene::Camera::new(
+        frame.format.width,
+        frame.format.height,
+        60f64.to_radians(),
+        1.6,
+        0.0,
+        0.0,
+    );
+    let median = |f: &mut dyn FnMut()| {
+        let mut t: Vec<f64> = (0..15)
+            .map(|_| {
+                let t0 = std::time::Instant::now();
+                f();
+                t0.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t[7]
+    };
+    let e = horizon::estimate(&luma, &cam);
+    let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
+    let (f, c) = (cam.focal_px(), cam.principal_px());
+    let diag = (cam.width_px as f64).hypot(cam.height_px as f64);
+    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
+    let edges: Vec<Edge> = segs
+        .iter()
+        .filter_map(|s| {
+            let (a, b) = (ray(s.a), ray(s.b));
+            Some(Edge {
+                l: a.cross(b).try_normalize()?,
+                m: (a + b).normalize(),
+                ends: [a.normalize(), b.normalize()],
+                cut: [false; 2],
+                w: s.length() / diag,
+            })
+        })
+        .collect();
+    let (n, inliers) = vanishing::refine(&edges, e.up_cam);
+    let whole = median(&mut || {
+        std::hint::black_box(horizon::estimate(&luma, &cam));
+    });
+    let check = median(&mut || {
+        std::hint::black_box(vanishing::level_offset(&edges, &inliers, n));
+    });
+    let detect = median(&mut || {
+        std::hint::black_box(horizon::detect_segments(&luma, horizon::MAX_SEGMENTS));
+    });
+    let fit = median(&mut || {
+        std::hint::black_box(vanishing::refine(&edges, e.up_cam));
+    });
+    println!(
+        "{clip} at {at_s} s: the estimate {whole:.1} ms; of it the segments {detect:.1} ms, \
+         one least-squares fit {fit:.1} ms, the lens check {check:.1} ms ({} segments, {} \
+         verticals)",
+        edges.len(),
+        inliers.vertical.len()
+    );
 }

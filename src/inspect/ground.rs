@@ -88,7 +88,10 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
             "steep_lines": e.steep_lines,
             "families": e.families,
             "level_offset": e.level_offset,
+            "focal_scale_sq": e.focal_scale_sq,
         },
+        "lens_fov_deg": e.lens_fov_deg,
+        "lens_hint": horizon::lens_hint(e),
         "refused": horizon::refusal(e),
     })
 }
@@ -101,6 +104,9 @@ pub fn report(input: &str, at_s: f64, camera: &CameraConfig, plot: Option<&Path>
         "auto"
     } else if let Some(why) = horizon::refusal(&smooth) {
         log::warn!("ground: refused, {why}: no ground");
+        if let Some(hint) = horizon::lens_hint(&smooth) {
+            log::warn!("ground: {hint}");
+        }
         "none"
     } else {
         log::warn!(

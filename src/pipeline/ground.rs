@@ -173,6 +173,9 @@ pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
                 e.confidence,
                 horizon::MIN_CONFIDENCE
             );
+            if let Some(hint) = horizon::lens_hint(e) {
+                log::warn!("ground: {hint}");
+            }
             GroundMode::None
         }
     };

@@ -75,6 +75,9 @@ use glam::{DMat3, DVec3};
 
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
+pub use crate::scene::lens::{
+    LENS_SHIFT_MIN, LEVEL_OFFSET_MAX, lens_hint, lens_mismatch, read_lens,
+};
 pub use crate::scene::segments::{Segment, detect_segments};
 use crate::scene::steep;
 use crate::scene::vanishing::{self, Edge};
@@ -207,6 +210,14 @@ pub struct HorizonEstimate {
     /// How far the horizon lies from the principal point along the picture's up, picture
     /// heights (`f tan(tilt) / height`; see [`lens_mismatch`]).
     pub horizon_shift: f64,
+    /// Evidence: `(f/f_a)²`, the focal length under which the horizontal families lie on the
+    /// verticals' horizon over the one assumed (see [`vanishing::LevelCheck`]), where
+    /// measured.
+    pub focal_scale_sq: Option<f64>,
+    /// Where the given field of view is refused for its lens ([`lens_mismatch`]): the
+    /// horizontal field of view the frames show, degrees, if one reads them consistently (see
+    /// [`read_lens`]). The estimate itself stays refused.
+    pub lens_fov_deg: Option<f64>,
 }
 
 struct Score {
@@ -374,7 +385,7 @@ impl Brightness {
 /// Estimates the horizon of one picture seen through `camera`'s intrinsics (its own tilt and
 /// roll are ignored) from its segments alone (no brightness prior: see [`estimate`]).
 pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonEstimate {
-    estimate_with(segments, None, camera)
+    read_lens(camera, |cam| estimate_with(segments, None, cam))
 }
 
 fn estimate_with(
@@ -563,10 +574,20 @@ fn estimate_with(
             .iter()
             .map(|f| vanishing::family_point(&edges, f, up_cam).z.abs())
             .fold(0.0, f64::max),
-        level_offset: vanishing::level_offset(&edges, &inliers, up_cam)
-            .map_or(0.0, |a| a * f / camera.height_px as f64),
+        level_offset: 0.0,
         horizon_shift: f * t.to_radians().tan() / camera.height_px as f64,
+        focal_scale_sq: None,
+        lens_fov_deg: None,
     };
+    // The lens check matters only where a wrong focal length moves the horizon (see
+    // [`LENS_SHIFT_MIN`]); it regroups the level lines afresh, the costliest step after the
+    // search, so it is skipped elsewhere.
+    if est.horizon_shift.abs() >= LENS_SHIFT_MIN
+        && let Some(c) = vanishing::level_offset(&edges, &inliers, up_cam)
+    {
+        est.level_offset = c.offset_rad * f / camera.height_px as f64;
+        est.focal_scale_sq = c.focal_scale_sq;
+    }
     let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
@@ -605,6 +626,7 @@ fn estimate_with(
                 steep_lines: s.distinct_lines,
                 level_offset: 0.0,
                 horizon_shift: f * t.tan() / camera.height_px as f64,
+                focal_scale_sq: None,
                 ..est
             };
         }
@@ -660,28 +682,6 @@ pub fn floats(e: &HorizonEstimate) -> bool {
 /// a tiled wall seen level (one family of its joints taken for verticals, the other for
 /// frontal horizontals), and nothing in the edges tells the two apart.
 pub const RECEDING_MIN_COS: f64 = 0.17;
-
-/// Horizontal families converging farther than this (picture heights, a weighted mean) off
-/// the horizon the verticals predict make a reading inconsistent with the assumed field of
-/// view: see [`lens_mismatch`].
-pub const LEVEL_OFFSET_MAX: f64 = 0.03;
-
-/// Whether the verticals and the horizontal families disagree on the horizon under the assumed
-/// focal length ([`HorizonEstimate::level_offset`] beyond [`LEVEL_OFFSET_MAX`]). The verticals
-/// set the tilt through the focal length (their vanishing point `v` and the horizon are pole
-/// and polar, `(p − c)·(v − c) = −f²`), the families' vanishing points show the horizon
-/// directly: where they disagree the field of view is not the lens's, and the tilt read from
-/// the verticals (a convergence a wider lens shows at a smaller tilt) is wrong. Synthetic
-/// shots are drawn through an exactly known lens, so the confidence model cannot learn this.
-pub fn lens_mismatch(e: &HorizonEstimate) -> bool {
-    e.level_offset.abs() > LEVEL_OFFSET_MAX && e.horizon_shift.abs() >= LENS_SHIFT_MIN
-}
-
-/// A horizon the verticals put nearer the principal point than this (picture heights) is
-/// exempt from [`lens_mismatch`]: a wrong focal length moves the horizon in proportion to its
-/// distance from there (`y_h f²/f_a²` for `y_h` under the assumed `f_a`), so a level reading is
-/// right under any lens, and an offset there is the level lines' own noise.
-pub const LENS_SHIFT_MIN: f64 = 0.02;
 
 /// Why a reading has confidence 0 regardless of its evidence, if it does.
 pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
@@ -810,11 +810,10 @@ pub const MAX_SEGMENTS: usize = 400;
 
 /// Estimates the horizon of one luma picture through `camera`'s intrinsics.
 pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
-    estimate_with(
-        &detect_segments(luma, MAX_SEGMENTS),
-        Brightness::new(luma, camera).as_ref(),
-        camera,
-    )
+    let segments = detect_segments(luma, MAX_SEGMENTS);
+    read_lens(camera, |cam| {
+        estimate_with(&segments, Brightness::new(luma, cam).as_ref(), cam)
+    })
 }
 
 /// The camera's tilt and roll from one decoded frame (displayed after `rotation_deg`) seen

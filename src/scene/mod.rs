@@ -8,6 +8,7 @@ pub mod depth;
 pub mod ground;
 pub mod ground_mask;
 pub mod horizon;
+pub mod lens;
 pub mod motion;
 pub mod segments;
 pub mod sky;

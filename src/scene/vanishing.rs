@@ -66,6 +66,14 @@ pub fn vertical_angle(e: &Edge, n: DVec3) -> f64 {
     (e.l.dot(n).abs() / mxn).min(1.0).asin()
 }
 
+/// Whether segment `e` lies within the angle whose squared sine is `sin2_tol` of the great
+/// circle through its midpoint and `n`: `vertical_angle(e, n) < tol` without the square root
+/// and the arcsine (the same comparison squared), for the inner loops.
+pub fn within(e: &Edge, n: DVec3, sin2_tol: f64) -> bool {
+    let ln = e.l.dot(n);
+    ln * ln < sin2_tol * e.m.cross(n).length_squared().max(1e-18)
+}
+
 /// The angle between a segment's interpretation plane and the horizon of `n`, radians.
 pub fn horizon_angle(e: &Edge, n: DVec3) -> f64 {
     e.l.cross(n).length().min(1.0).asin()
@@ -322,16 +330,23 @@ pub const LEVEL_FAMILIES: usize = 2;
 /// points lie on it; under a wrong one the verticals' convergence is read as the wrong tilt and
 /// the families sit off its horizon, all on one side. `None` with fewer than
 /// [`LEVEL_CHECK_MIN_VERTICALS`] verticals or no family.
-pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> {
+///
+/// The same families give the lens ([`LevelCheck::focal_scale_sq`]): with `P` and `V` the
+/// families' and the verticals' vanishing points in the picture through the assumed focal
+/// length `f_a` (`x/z`, `y/z` of their rays), `(f/f_a)² = −P·V`, the weighted mean over the
+/// families.
+pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<LevelCheck> {
     if inliers.vertical.len() < LEVEL_CHECK_MIN_VERTICALS {
         return None;
     }
     let nv = free_point(edges, &inliers.vertical, n);
     let tol = INLIER_DEG.to_radians();
+    let sin2_tol = tol.sin().powi(2);
     let mut free: Vec<usize> = (0..edges.len())
         .filter(|&i| vertical_angle(&edges[i], nv) >= tol)
         .collect();
     let (mut sum, mut weight, mut heaviest) = (0.0, 0.0, 0.0f64);
+    let mut polar = 0.0;
     for _ in 0..LEVEL_FAMILIES {
         let mut order = free.clone();
         order.sort_by(|&a, &b| edges[b].w.total_cmp(&edges[a].w));
@@ -348,16 +363,24 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
                 if p.z < LEVEL_MIN_COS {
                     continue;
                 }
-                let members: Vec<usize> = free
-                    .iter()
-                    .copied()
-                    .filter(|&m| vertical_angle(&edges[m], p) < tol)
-                    .collect();
-                let w: f64 = members.iter().map(|&m| edges[m].w).sum();
-                if members.len() >= MIN_FAMILY && w > best.0 {
-                    best = (w, p, members);
+                let (mut count, mut w) = (0, 0.0);
+                for &m in &free {
+                    if within(&edges[m], p, sin2_tol) {
+                        count += 1;
+                        w += edges[m].w;
+                    }
+                }
+                if count >= MIN_FAMILY && w > best.0 {
+                    best = (w, p, Vec::new());
                 }
             }
+        }
+        if best.0 > 0.0 {
+            best.2 = free
+                .iter()
+                .copied()
+                .filter(|&m| within(&edges[m], best.1, sin2_tol))
+                .collect();
         }
         // A second family counts where it is at least half as strong as the first: a few
         // edges meeting by chance make a weak one.
@@ -376,8 +399,70 @@ pub fn level_offset(edges: &[Edge], inliers: &Inliers, n: DVec3) -> Option<f64> 
         if elevation.abs() < LEVEL_MAX_ELEVATION_DEG.to_radians() {
             sum += best.0 * d.z * d.z * elevation;
             weight += best.0 * d.z * d.z;
+            polar += best.0 * d.z * d.z * (d.x * nv.x + d.y * nv.y) / (d.z * nv.z);
         }
         free.retain(|i| !best.2.contains(i));
     }
-    (weight > 1e-12).then(|| sum / weight)
+    (weight > 1e-12).then(|| LevelCheck {
+        offset_rad: sum / weight,
+        focal_scale_sq: (nv.z.abs() > 1e-9).then(|| -polar / weight),
+    })
+}
+
+/// What [`level_offset`] measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelCheck {
+    /// The families' weighted mean elevation over the verticals' horizon, radians.
+    pub offset_rad: f64,
+    /// `(f/f_a)²` of the focal length `f` under which the families lie on the verticals'
+    /// horizon, over the assumed `f_a`; `None` where the verticals' vanishing point lies on
+    /// the picture's plane (a level camera: every focal length fits). Not positive: no lens
+    /// centred on the picture explains both (a picture cropped off its centre).
+    pub focal_scale_sq: Option<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`within`] makes the same decisions as comparing [`vertical_angle`] (its plain
+    /// reference) on random segments and points, near the tolerance included.
+    #[test]
+    fn within_is_the_angle_comparison() {
+        let mut rng = crate::rng::SplitMix64(5);
+        let mut unit = || {
+            DVec3::new(
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+                0.2 + rng.next_f64(),
+            )
+            .normalize()
+        };
+        let mut disagreements = 0;
+        for _ in 0..20_000 {
+            let (a, b, n) = (unit(), unit(), unit());
+            let e = Edge {
+                l: a.cross(b).normalize(),
+                m: (a + b).normalize(),
+                ends: [a, b],
+                cut: [false; 2],
+                w: 1.0,
+            };
+            // Tolerances around the segment's own angle, so that both sides are tested.
+            let angle = vertical_angle(&e, n);
+            for tol in [
+                0.5 * angle,
+                angle * (1.0 - 1e-9),
+                angle * (1.0 + 1e-9),
+                2.0 * angle,
+            ] {
+                if tol <= 0.0 || tol >= 1.5 {
+                    continue;
+                }
+                let plain = vertical_angle(&e, n) < tol;
+                disagreements += usize::from(within(&e, n, tol.sin().powi(2)) != plain);
+            }
+        }
+        assert_eq!(disagreements, 0);
+    }
 }
