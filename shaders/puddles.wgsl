@@ -1,9 +1,9 @@
 // Stage puddles: standing water on the ground, shaded into the picture (docs/method.md,
 // "Puddles: shading"; CPU twin src/gpu/cpu/puddles.rs). A pixel whose view ray meets the ground
-// z = 0 at P takes the water depth there from the map (bilinear; the water covers the ground
-// smoothly as the depth rises from 0 to edge_depth_m). The map is signed, negative where dry
-// (src/fluid/puddles/shown.rs), so the rim, its interpolated zero, falls between cells. The water's normal is the flat normal
-// tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
+// z = 0 at P takes the water depth there from the map (Catmull-Rom, C¹; the water covers the
+// ground smoothly as the depth rises from 0 to edge_depth_m). The map is signed, negative where
+// dry (src/fluid/puddles/shown.rs), so the rim, its interpolated zero, falls between cells and
+// turns smoothly across them. The water's normal is the flat normal tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
 // the ground under it darkened by Lekner & Dorf's k (as the wet ground), plus the exact
 // unpolarised Fresnel reflectance R of the rippled surface times the radiance L_r along the
 // mirrored ray. L_r is the frame itself where the mirrored ray's image lies in it: with a depth
@@ -111,7 +111,7 @@ fn shade(id: vec2<u32>, layer: bool) {
     // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
     let ground_z_m = h / -ray.z;
     let p = rain.camera_pos_m + ground_z_m * ray;
-    let cover = smoothstep(0.0, puddle.edge_depth_m, water_depth(p.xy));
+    let cover = water_cover(p.xy);
     if cover <= 0.0 { return; }
     let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m) * ground_weight(id);
     if shown <= 0.0 { return; }
@@ -164,24 +164,52 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
     return 0.25 * sum;
 }
 
-// Water depth at ground point `xy` (m, signed: negative where dry): bilinear between cell
-// centres, 0 off the map.
-fn water_depth(xy: vec2<f32>) -> f32 {
-    let n = vec2<i32>(puddle.cells);
+// The water's cover at ground point `xy`: smoothstep(0, edge_depth_m, depth), the depth (m,
+// signed: negative where dry) read by Catmull-Rom over the 4×4 cells around it (0 off the map)
+// and clamped to the four nearest cells' range. C¹, so the rim turns smoothly across the
+// cells' edges (a bilinear reading's zero kinks there); exact on planes and quadratics; the
+// clamp keeps its overshoot from making water or dry ground that none of the four nearest
+// cells holds, and settles the cover from those four alone where all are dry or all deeper
+// than the rim (the same value, without the other twelve reads). Each row along x, then the
+// rows along y (the twin's water_depth).
+fn water_cover(xy: vec2<f32>) -> f32 {
     let u = (xy - puddle.origin_m) / puddle.cell_m - vec2<f32>(0.5);
-    let i0 = vec2<i32>(floor(u));
+    let c = vec2<i32>(floor(u));
     let f = u - floor(u);
-    var sum = 0.0;
-    for (var j = 0; j < 2; j++) {
-        for (var i = 0; i < 2; i++) {
-            let c = i0 + vec2<i32>(i, j);
-            if all(c >= vec2<i32>(0)) && all(c < n) {
-                let w = select(1.0 - f.x, f.x, i == 1) * select(1.0 - f.y, f.y, j == 1);
-                sum += w * water_depth_m[c.y * n.x + c.x];
-            }
-        }
-    }
-    return sum;
+    let a = map_cell(c);
+    let b = map_cell(c + vec2<i32>(1, 0));
+    let d = map_cell(c + vec2<i32>(0, 1));
+    let e = map_cell(c + vec2<i32>(1, 1));
+    let lo = min(min(a, b), min(d, e));
+    let hi = max(max(a, b), max(d, e));
+    if hi <= 0.0 { return 0.0; }
+    if lo >= puddle.edge_depth_m { return 1.0; }
+    let wx = catmull_rom(f.x);
+    let r0 = map_row(c + vec2<i32>(-1, -1));
+    let r1 = vec4<f32>(map_cell(c + vec2<i32>(-1, 0)), a, b, map_cell(c + vec2<i32>(2, 0)));
+    let r2 = vec4<f32>(map_cell(c + vec2<i32>(-1, 1)), d, e, map_cell(c + vec2<i32>(2, 1)));
+    let r3 = map_row(c + vec2<i32>(-1, 2));
+    let sum = dot(catmull_rom(f.y), vec4<f32>(dot(wx, r0), dot(wx, r1), dot(wx, r2), dot(wx, r3)));
+    return smoothstep(0.0, puddle.edge_depth_m, clamp(sum, lo, hi));
+}
+
+// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from the
+// second to the third.
+fn catmull_rom(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return 0.5 * vec4<f32>(-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2);
+}
+
+// The map's four cells from `c` along x (0 off the map).
+fn map_row(c: vec2<i32>) -> vec4<f32> {
+    return vec4<f32>(map_cell(c), map_cell(c + vec2<i32>(1, 0)), map_cell(c + vec2<i32>(2, 0)), map_cell(c + vec2<i32>(3, 0)));
+}
+
+fn map_cell(c: vec2<i32>) -> f32 {
+    let n = vec2<i32>(puddle.cells);
+    if any(c < vec2<i32>(0)) || any(c >= n) { return 0.0; }
+    return water_depth_m[c.y * n.x + c.x];
 }
 
 // The gradient of the water's height at `xy`: the radial slope dη/dr along r̂ of every ring

@@ -1075,6 +1075,249 @@ fn puddle_rims_follow_the_level_between_cells() {
     }
 }
 
+/// The water map read bilinearly between cell centres, 0 off the map: how the picture once read
+/// it, whose rim (the zero of a bilinear field: hyperbolic arcs) kinks at every cell edge.
+fn bilinear_depth(params: &PuddleParams, map: &[f32], xy: DVec2) -> f64 {
+    let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
+    let u = (xy - Vec2::from_array(params.origin_m).as_dvec2()) / params.cell_m as f64 - 0.5;
+    let (i0, f) = (u.floor(), u - u.floor());
+    let mut sum = 0.0;
+    for (j, wy) in [(0, 1.0 - f.y), (1, f.y)] {
+        for (i, wx) in [(0, 1.0 - f.x), (1, f.x)] {
+            let (i, j) = (i0.x as i64 + i, i0.y as i64 + j);
+            if (0..nx).contains(&i) && (0..ny).contains(&j) {
+                sum += wx * wy * map[(j * nx + i) as usize] as f64;
+            }
+        }
+    }
+    sum
+}
+
+/// The carpet of a still pool filled to `level_m` over `ground` (surface: the level where wet,
+/// the ground where dry; depth), on `n`×`n` cells of `cell_m` from `origin`.
+fn still_carpet(
+    ground: impl Fn(DVec2) -> f64,
+    level_m: f64,
+    origin: Vec2,
+    n: usize,
+    cell_m: f32,
+) -> (Field2, Field2) {
+    let (mut surface, mut depth) = (Vec::new(), Vec::new());
+    for k in 0..n * n {
+        let c = origin + (Vec2::new((k % n) as f32, (k / n) as f32) + 0.5) * cell_m;
+        let g = ground(c.as_dvec2());
+        let d = (level_m - g).max(0.0);
+        surface.push((g + d) as f32);
+        depth.push(d as f32);
+    }
+    let field = |values| Field2 {
+        nx: n,
+        ny: n,
+        origin_m: origin,
+        cell_m,
+        values,
+    };
+    (field(surface), field(depth))
+}
+
+/// A puddle's rim turns smoothly across the water map's cells: the rim as drawn (where the
+/// map's reading reaches the depth that covers half) traced in steps of about 1/40 of a cell,
+/// on a pool in a bowl (a circle: each step turns by the step's angle about its centre) and on
+/// a trough's straight shores at 17°, 31° and 45° to the cells, one gently and one steeply
+/// banked (each step straight on). The largest turn beyond the true rim's is a kink: a smooth
+/// rim turns there in proportion to the step (under half a degree), a rim that kinks at the
+/// cells' edges by a fixed angle, as the bilinear reading's does (degrees); the rim also stays
+/// on the level's, as before.
+#[test]
+fn puddle_rims_turn_smoothly_across_the_cells() {
+    use rain_composite::fluid::puddles::shown::water_map;
+    let cell_m = 0.03f32;
+    let half = 0.5 * EDGE_DEPTH_M;
+    // (name, map, contour lines, where along each, the true rim's turn per step, its offset).
+    let mut cases = Vec::new();
+    let bowl = Bowl {
+        centre_m: DVec2::new(0.13, 2.4),
+        radius_of_curvature_m: 15.0,
+        level_m: 0.5f64.powi(2) / 30.0,
+    };
+    let (surface, depth) = bowl.carpet(48, cell_m);
+    let steps = 4096;
+    let step_rad = TAU / steps as f64;
+    let true_radius = ((bowl.level_m - half) * 2.0 * bowl.radius_of_curvature_m).sqrt();
+    cases.push((
+        "a pool in a bowl".to_string(),
+        water_map(&surface, &depth),
+        Box::new(move |k: usize| (bowl.centre_m, DVec2::from_angle(k as f64 * step_rad)))
+            as Box<dyn Fn(usize) -> (DVec2, DVec2)>,
+        (0.3, 0.7),
+        step_rad,
+        Box::new(move |p: DVec2| (p - DVec2::new(0.13, 2.4)).length() - true_radius)
+            as Box<dyn Fn(DVec2) -> f64>,
+    ));
+    for angle_deg in [17.0f64, 31.0, 45.0] {
+        for curvature in [0.3, 3.0] {
+            // Ground curvature·(n·(P − c))², filled to 1 cm: shores at n·(P − c) = ±√(level/curvature).
+            let (c, level) = (DVec2::new(0.011, 0.017), 0.01);
+            let n = DVec2::from_angle(angle_deg.to_radians());
+            let (surface, depth) = still_carpet(
+                |p| curvature * n.dot(p - c).powi(2),
+                level,
+                c.as_vec2() - Vec2::splat(24.0 * cell_m),
+                48,
+                cell_m,
+            );
+            let shore = ((level - half) / curvature).sqrt();
+            let length = 1.0;
+            cases.push((
+                format!("a shore at {angle_deg}°, banked {curvature}/m"),
+                water_map(&surface, &depth),
+                Box::new(move |k: usize| {
+                    let along = length * (k as f64 / steps as f64 - 0.5);
+                    (c + along * n.perp(), n)
+                }),
+                (0.0, 0.6),
+                0.0,
+                Box::new(move |p: DVec2| n.dot(p - c) - shore),
+            ));
+        }
+    }
+    for (name, map, line, span, true_turn, off) in &cases {
+        let params = puddle_params(map, 0);
+        let mut kinks = Vec::new();
+        for reading in [puddles::water_depth, bilinear_depth] {
+            let rim = rims::contour_points(
+                |p| reading(&params, &map.values, p) - half,
+                steps,
+                line,
+                *span,
+            )
+            .expect("the rim crosses every line");
+            let closed = *true_turn > 0.0;
+            let kink = rims::turns(&rim, closed)
+                .iter()
+                .map(|t| (t - true_turn).abs().to_degrees())
+                .fold(0.0f64, f64::max);
+            let (_, rms, _, _) = spread(
+                &rim.iter()
+                    .map(|&p| off(p) / cell_m as f64)
+                    .collect::<Vec<_>>(),
+            );
+            kinks.push((kink, rms));
+        }
+        let ((kink, rms), (kink_before, rms_before)) = (kinks[0], kinks[1]);
+        eprintln!(
+            "{name}: largest turn beyond the true rim's {kink:.3}° (bilinear {kink_before:.3}°), \
+             rim off by RMS {rms:.4} cells (bilinear {rms_before:.4})"
+        );
+        assert!(kink < 0.5, "{name}: the rim kinks by {kink:.3}°");
+        assert!(rms < 0.03, "{name}: the rim {rms:.4} cells off the level's");
+        assert!(
+            kink_before > 2.0,
+            "{name}: the measure sees the bilinear reading's kinks: {kink_before:.3}°"
+        );
+    }
+}
+
+/// The map's reading is exact on a quadratic (Catmull-Rom reproduces polynomials to the
+/// second degree: a pool in a bowl is read as the bowl), never leaves the range of the four
+/// nearest cells (so it makes no water and no dry ground that none of them holds, as a
+/// bilinear reading), and is C¹: its slope across a cell's edge is the same from both sides.
+#[test]
+fn the_water_map_is_read_exactly_on_quadratics_within_its_nearest_cells() {
+    use rain_composite::rng::SplitMix64;
+    let (n, cell_m) = (24usize, 0.05f32);
+    let origin = Vec2::new(-0.3, 1.7);
+    let map_of = |f: &dyn Fn(DVec2) -> f64| Field2 {
+        nx: n,
+        ny: n,
+        origin_m: origin,
+        cell_m,
+        values: (0..n * n)
+            .map(|k| f(DVec2::new((k % n) as f64 + 0.5, (k / n) as f64 + 0.5)) as f32)
+            .collect(),
+    };
+    let ground = |c: DVec2| origin.as_dvec2() + c * cell_m as f64;
+    // In cell units, increasing along x and y over the map: its extremes lie on cells' corners.
+    let quadratic = |c: DVec2| {
+        1e-3 * (0.3 * c.x * c.x + 0.2 * c.y * c.y + 0.1 * c.x * c.y + c.x - 2.0 * c.y + 5.0)
+    };
+    let map = map_of(&quadratic);
+    let params = puddle_params(&map, 0);
+    let mut rng = SplitMix64(7);
+    let mut worst = 0.0f64;
+    for _ in 0..2000 {
+        let c = DVec2::new(2.0 + 20.0 * rng.next_f64(), 2.0 + 20.0 * rng.next_f64());
+        let read = puddles::water_depth(&params, &map.values, ground(c));
+        worst = worst.max((read - quadratic(c)).abs());
+    }
+    // The map's f32 rounding (values up to 0.3 m); a bilinear reading is off by up to 1e-3·(0.3
+    // + 0.2)·2/8 = 1.25e-4 m midway between cells.
+    assert!(worst < 1e-7, "a quadratic read {worst} m off");
+    // A random map: within the nearest four, and the slope across cell edges continuous.
+    let noise = Field2 {
+        values: (0..n * n)
+            .map(|_| (0.01 * (rng.next_f64() - 0.5)) as f32)
+            .collect(),
+        ..map.clone()
+    };
+    let params = puddle_params(&noise, 0);
+    let read = |c: DVec2| puddles::water_depth(&params, &noise.values, ground(c));
+    let (mut outside, mut jumps, mut checked) = (0, 0.0f64, 0);
+    for _ in 0..4000 {
+        let c = DVec2::new(1.0 + 20.0 * rng.next_f64(), 1.0 + 20.0 * rng.next_f64());
+        let near = (c - 0.5).floor();
+        let cells: Vec<f64> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .map(|&(i, j)| noise.values[(near.y as usize + j) * n + near.x as usize + i] as f64)
+            .collect();
+        let (lo, hi) = cells
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, &v| (a.0.min(v), a.1.max(v)));
+        let v = read(c);
+        if v < lo - 1e-12 || v > hi + 1e-12 {
+            outside += 1;
+        }
+        // Across the edge x = near.x + 1.5 (a cell centre's column line), the slope along x from
+        // both sides, where the clamp holds neither side.
+        let edge = DVec2::new(near.x + 1.5, c.y);
+        let h = 1e-5;
+        let (a, b, m) = (
+            read(edge - DVec2::X * h),
+            read(edge + DVec2::X * h),
+            read(edge),
+        );
+        let unclamped = |p: DVec2| {
+            let q = (p - 0.5).floor();
+            let (lo, hi) = [(0, 0), (1, 0), (0, 1), (1, 1)].iter().fold(
+                (f64::MAX, f64::MIN),
+                |acc, &(i, j)| {
+                    let v = noise.values[(q.y as usize + j) * n + q.x as usize + i] as f64;
+                    (acc.0.min(v), acc.1.max(v))
+                },
+            );
+            let v = read(p);
+            v > lo + 1e-9 && v < hi - 1e-9
+        };
+        if unclamped(edge - DVec2::X * h) && unclamped(edge + DVec2::X * h) {
+            let (left, right) = ((m - a) / h, (b - m) / h);
+            jumps = jumps.max((right - left).abs());
+            checked += 1;
+        }
+    }
+    eprintln!(
+        "quadratic read to {worst:.2e} m; slope across {checked} edges the same to {jumps:.2e} \
+         m per cell"
+    );
+    assert_eq!(outside, 0, "readings outside the nearest four cells' range");
+    assert!(checked > 1000, "{checked} edges checked");
+    // A kink of a bilinear reading is of the order of the cells' differences (1e-2 per cell);
+    // a C¹ reading's difference of one-sided slopes is its second derivative times h.
+    assert!(
+        jumps < 1e-5,
+        "the slope jumps by {jumps} m per cell across an edge"
+    );
+}
+
 /// At night the water keeps the lamps' halo the haze laid on the ground: on the GPU, within a
 /// code of the twin; in the twin, every pixel the water covers gains at least the glow the
 /// plate had there with the lamp (its reflection of the lit picture only adds), where without

@@ -100,3 +100,53 @@ pub fn roughness_m(crossings: &[(DVec2, f64)], centre: DVec2, scale_m: f64) -> f
         .sum();
     (sum / at.len() as f64).sqrt()
 }
+
+/// Points of the contour `field = 0` on `lines` rays (ray k from `line(k).0` along
+/// `line(k).1`): on each, its first crossing for t in [`t0`, `t1`], found in 400 steps and
+/// then by bisection to the bit. `None` where a ray crosses nowhere.
+pub fn contour_points(
+    field: impl Fn(DVec2) -> f64,
+    lines: usize,
+    line: impl Fn(usize) -> (DVec2, DVec2),
+    (t0, t1): (f64, f64),
+) -> Option<Vec<DVec2>> {
+    (0..lines)
+        .map(|k| {
+            let (base, dir) = line(k);
+            let g = |t: f64| field(base + t * dir);
+            let steps = 400;
+            let mut before = t0;
+            for s in 1..=steps {
+                let t = t0 + (t1 - t0) * s as f64 / steps as f64;
+                if g(before) * g(t) <= 0.0 {
+                    let (mut lo, mut hi) = (before, t);
+                    for _ in 0..60 {
+                        let mid = 0.5 * (lo + hi);
+                        if g(lo) * g(mid) <= 0.0 {
+                            hi = mid;
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    return Some(base + 0.5 * (lo + hi) * dir);
+                }
+                before = t;
+            }
+            None
+        })
+        .collect()
+}
+
+/// The turns of a polyline (`closed`: its last point joins its first), rad, positive to the
+/// left: the angle from each segment to the next.
+pub fn turns(points: &[DVec2], closed: bool) -> Vec<f64> {
+    let n = points.len();
+    let count = if closed { n } else { n.saturating_sub(2) };
+    (0..count)
+        .map(|k| {
+            let (a, b, c) = (points[k], points[(k + 1) % n], points[(k + 2) % n]);
+            let (u, v) = (b - a, c - b);
+            u.perp_dot(v).atan2(u.dot(v))
+        })
+        .collect()
+}

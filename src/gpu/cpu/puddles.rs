@@ -342,23 +342,55 @@ impl Mirror<'_> {
     }
 }
 
-/// Water depth (m, signed: negative where dry) at ground point `xy`: bilinear between cell
-/// centres, 0 off the map.
+/// Water depth (m, signed: negative where dry) at ground point `xy`: Catmull-Rom between cell
+/// centres over the 4×4 cells around it (0 off the map), clamped to the range of the four
+/// nearest. The reading is C¹, so the rim (its zero) turns smoothly across the cells' edges,
+/// where a bilinear reading's zero (hyperbolic arcs) kinks; it reproduces planes and
+/// quadratics (a pool in a bowl is read exactly), and the clamp keeps it from making water or
+/// dry ground that none of the four nearest cells holds (its overshoot would, in a dry groove
+/// between high banks).
 pub fn water_depth(params: &PuddleParams, depth_m: &[f32], xy: DVec2) -> f64 {
     let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
     let origin = DVec2::new(params.origin_m[0] as f64, params.origin_m[1] as f64);
     let u = (xy - origin) / params.cell_m as f64 - DVec2::splat(0.5);
     let (i0, j0) = (u.x.floor() as i64, u.y.floor() as i64);
-    let (fx, fy) = (u.x - u.x.floor(), u.y - u.y.floor());
-    let mut sum = 0.0;
-    for (j, wy) in [(j0, 1.0 - fy), (j0 + 1, fy)] {
-        for (i, wx) in [(i0, 1.0 - fx), (i0 + 1, fx)] {
-            if (0..nx).contains(&i) && (0..ny).contains(&j) {
-                sum += wx * wy * depth_m[(j * nx + i) as usize] as f64;
+    let (wx, wy) = (
+        catmull_rom(u.x - u.x.floor()),
+        catmull_rom(u.y - u.y.floor()),
+    );
+    let cell = |i: i64, j: i64| {
+        if (0..nx).contains(&i) && (0..ny).contains(&j) {
+            depth_m[(j * nx + i) as usize] as f64
+        } else {
+            0.0
+        }
+    };
+    let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
+    for (b, w) in wy.iter().enumerate() {
+        let j = j0 + b as i64 - 1;
+        let mut row = 0.0;
+        for (a, v) in wx.iter().enumerate() {
+            let value = cell(i0 + a as i64 - 1, j);
+            row += v * value;
+            if (1..3).contains(&a) && (1..3).contains(&b) {
+                (lo, hi) = (lo.min(value), hi.max(value));
             }
         }
+        sum += w * row;
     }
-    sum
+    sum.max(lo).min(hi)
+}
+
+/// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from
+/// the second to the third (Keys' cubic convolution, a = −½).
+pub fn catmull_rom(t: f64) -> [f64; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
 }
 
 /// The gradient of the water's height at `xy`: the sum of every ring's radial slope dη/dr

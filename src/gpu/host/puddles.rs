@@ -221,31 +221,56 @@ impl<'a> Puddles<'a> {
         let g = self.ground;
         let ray = g.ray(x, y);
         let ground = g.camera + (g.height_m() / -ray.z) * ray;
-        smoothstep(
-            0.0,
-            self.water.params.edge_depth_m,
-            self.water_depth(Vec2::new(ground.x, ground.y)),
-        )
+        self.water_cover(Vec2::new(ground.x, ground.y))
     }
 
-    /// Water depth at ground point `xy` (m): bilinear between cell centres, 0 off the map.
+    /// The water's cover at ground point `xy`: smoothstep(0, rim depth, depth), the depth read
+    /// by Catmull-Rom over the 4×4 cells around it, 0 off the map, clamped to the four nearest
+    /// cells' range (`water_depth` of puddles.wgsl and of the twin, in their order: each row
+    /// along x, then the rows along y). The clamp settles the cover from the four nearest
+    /// alone where all are dry or all deeper than the rim (most of the ground): the same value,
+    /// without the other twelve reads.
     #[inline]
-    fn water_depth(&self, xy: Vec2) -> f32 {
+    fn water_cover(&self, xy: Vec2) -> f32 {
         let p = &self.water.params;
         let (nx, ny) = (p.cells[0] as i64, p.cells[1] as i64);
         let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
         let i0 = u.floor();
         let f = u - i0;
-        let (i0, j0) = (i0.x as i64, i0.y as i64);
-        let mut sum = 0.0;
-        for (j, wy) in [(j0, 1.0 - f.y), (j0 + 1, f.y)] {
-            for (i, wx) in [(i0, 1.0 - f.x), (i0 + 1, f.x)] {
-                if (0..nx).contains(&i) && (0..ny).contains(&j) {
-                    sum += wx * wy * self.water.depth_m[(j * nx + i) as usize];
-                }
+        let (i0, j0) = (i0.x as i64 - 1, i0.y as i64 - 1);
+        let map = self.water.depth_m;
+        let inside = i0 >= 0 && j0 >= 0 && i0 + 4 <= nx && j0 + 4 <= ny;
+        let cell = |i: i64, j: i64| {
+            if inside || ((0..nx).contains(&i) && (0..ny).contains(&j)) {
+                map[(j * nx + i) as usize]
+            } else {
+                0.0
             }
+        };
+        let near = [
+            cell(i0 + 1, j0 + 1),
+            cell(i0 + 2, j0 + 1),
+            cell(i0 + 1, j0 + 2),
+            cell(i0 + 2, j0 + 2),
+        ];
+        let lo = near[0].min(near[1]).min(near[2].min(near[3]));
+        let hi = near[0].max(near[1]).max(near[2].max(near[3]));
+        let edge = p.edge_depth_m;
+        if hi <= 0.0 {
+            return 0.0;
         }
-        sum
+        if lo >= edge {
+            return 1.0;
+        }
+        let (wx, wy) = (catmull_rom(f.x), catmull_rom(f.y));
+        let row = |j: i64| {
+            wx[0] * cell(i0, j)
+                + wx[1] * cell(i0 + 1, j)
+                + wx[2] * cell(i0 + 2, j)
+                + wx[3] * cell(i0 + 3, j)
+        };
+        let sum = wy[0] * row(j0) + wy[1] * row(j0 + 1) + wy[2] * row(j0 + 2) + wy[3] * row(j0 + 3);
+        smoothstep(0.0, edge, sum.max(lo).min(hi))
     }
 
     /// The rings (indices, in ring order) whose annulus R ± 4 s meets the ground under the
@@ -506,4 +531,17 @@ impl<'a> Puddles<'a> {
         }
         c
     }
+}
+
+/// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from
+/// the second to the third (the twin's [`crate::gpu::cpu::puddles::catmull_rom`], in f32).
+#[inline]
+fn catmull_rom(t: f32) -> [f32; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
 }
