@@ -8,7 +8,7 @@
 //! The WGSL's arithmetic in `f32`, step for step, with the drop's fall and drift from the same
 //! helpers as [`super::simulate`] (so the diameter's CDF complement is `f64` there as here).
 //! A splash lives a tenth of a second of its drop's seconds-long fall, so the drop's impact
-//! time is found first and nearly every drop leaves before its size, wind and place are
+//! time and size are found first and nearly every drop leaves before its drift and place are
 //! formed; those that splash are placed and their crown and droplets turned into streaks
 //! (`segment_streak`), then lit in blocks of [`LANES`] across their ends by
 //! [`super::drop_light`]. rayon's threads take chunks of [`CHUNK`] landing drops, each chunk
