@@ -10,7 +10,8 @@
 //! A splash lives a tenth of a second of its drop's seconds-long fall, so the drop's impact
 //! time and size are found first and nearly every drop leaves before its drift and place are
 //! formed; those that splash are placed and their crown and droplets turned into streaks
-//! (`segment_streak`), then lit in blocks of [`LANES`] across their ends by
+//! (`segment_streak`), the droplets skipped as a whole where none can be a pixel wide wherever
+//! it flies (a bound with wide margins: no bit changes), then lit in blocks of [`LANES`] across their ends by
 //! [`super::drop_light`]. rayon's threads take chunks of [`CHUNK`] landing drops, each chunk
 //! writing its own list, and the lists are joined in chunk order: neither the threads nor the
 //! chunks change a bit. The plain twin ([`crate::gpu::cpu::rain_splashes`], `f64`, from the
@@ -110,7 +111,7 @@ impl HostSplashes {
 
     /// The frame's splash streaks under `p` that can be drawn, in the stage's draw-list order.
     pub fn simulate(&mut self, p: &RainParams) -> &[Streak] {
-        let lists = self.chunks(p);
+        let lists = self.chunks(p, true);
         self.drawn.clear();
         for (streaks, _) in lists {
             self.drawn.extend_from_slice(&streaks);
@@ -121,8 +122,18 @@ impl HostSplashes {
     /// Every slot of every landing drop, as the stage's `splashes` buffer holds them
     /// (`SPLASH_SLOTS` per drop, hidden where nothing is drawn).
     pub fn slots(&self, p: &RainParams) -> Vec<Streak> {
+        self.slots_culled(p, true)
+    }
+
+    /// [`slots`](Self::slots) with every droplet's streak formed, none skipped for being
+    /// thinner than a pixel as a whole splash: the reference the cull is held to.
+    pub fn slots_uncut(&self, p: &RainParams) -> Vec<Streak> {
+        self.slots_culled(p, false)
+    }
+
+    fn slots_culled(&self, p: &RainParams, cull: bool) -> Vec<Streak> {
         let mut out = vec![HIDDEN; self.drops.len() * SPLASH_SLOTS as usize];
-        for (streaks, at) in self.chunks(p) {
+        for (streaks, at) in self.chunks(p, cull) {
             for (s, &i) in streaks.iter().zip(&at) {
                 out[i as usize] = *s;
             }
@@ -131,8 +142,8 @@ impl HostSplashes {
     }
 
     /// Each chunk's drawn streaks and their slots' indices, in chunk order.
-    fn chunks(&self, p: &RainParams) -> Vec<(Vec<Streak>, Vec<u32>)> {
-        let frame = Frame::new(p, &self.lights, self.table.as_ref());
+    fn chunks(&self, p: &RainParams, cull: bool) -> Vec<(Vec<Streak>, Vec<u32>)> {
+        let frame = Frame::new(p, &self.lights, self.table.as_ref(), cull);
         self.drops
             .par_chunks(CHUNK)
             .enumerate()
@@ -157,18 +168,31 @@ struct Frame<'a> {
     tail: f64,
     speed_q: [i32; SPEED_TABLE_LEN],
     k_coefficient: f32,
+    /// sin of the steepest launch, and the droplet's diameter ratio cubed.
+    sin_elevation_max: f32,
+    droplet_cubed: f32,
     lit: Lit<'a>,
+    /// Whether a splash's droplets are skipped where every one is thinner than a pixel.
+    cull: bool,
 }
 
 impl<'a> Frame<'a> {
-    fn new(p: &'a RainParams, lights: &LightList, table: Option<&'a LightTable>) -> Frame<'a> {
+    fn new(
+        p: &'a RainParams,
+        lights: &LightList,
+        table: Option<&'a LightTable>,
+        cull: bool,
+    ) -> Frame<'a> {
         Frame {
             p,
             seed_hash: pcg_hash(p.seed),
             tail: 1.0 - (-p.lambda_per_mm as f64 * (p.d_max_mm - p.d_min_mm) as f64).exp(),
             speed_q: p.speed_q.map(|v| v as i32),
             k_coefficient: splash_k_coefficient() as f32,
+            sin_elevation_max: ELEVATION_DEG[1].to_radians().sin(),
+            droplet_cubed: DROPLET.powf(3.0),
             lit: Lit::new(lights, table),
+            cull,
         }
     }
 }
@@ -279,7 +303,7 @@ fn splash(f: &Frame, id: u32, col: &Column, g: u32, list: &mut List) {
     }
     // Over before the exposure opened: the crown stage, then the longest flight.
     let gravity = p.gravity_mps2;
-    let w_max = v * SPEED[1] * ELEVATION_DEG[1].to_radians().sin();
+    let w_max = v * SPEED[1] * f.sin_elevation_max;
     let z_max = crown_radius_m(d_m, v, CROWN);
     let lifetime = CROWN + (w_max + (w_max * w_max + 2.0 * gravity * z_max).sqrt()) / gravity;
     if since - half >= lifetime {
@@ -339,10 +363,16 @@ fn splash(f: &Frame, id: u32, col: &Column, g: u32, list: &mut List) {
     }
     // Secondary droplets.
     let ratio = THRESHOLD_K / k;
-    let count = EJECTED * (1.0 - ratio) / (DROPLET.powf(3.0) * ratio.powf(0.75));
+    let count = EJECTED * (1.0 - ratio) / (f.droplet_cubed * ratio.powf(0.75));
     let drawn = (count.ceil() as u32).clamp(1, MAX_DROPLETS);
     let droplet_m = DROPLET * d_m * ratio.powf(0.25);
     let weight = count / drawn as f32;
+    let radius_m = 0.5 * droplet_m * scale;
+    // The longest a droplet can have flown when the exposure closes.
+    let flown_s = (lifetime - CROWN).min(b).max(0.0);
+    if f.cull && thinner_than_a_pixel(p, hit, radius_m, reach_m(v, z_max, flown_s, gravity)) {
+        return;
+    }
     let pass_hash = pcg_hash(pass);
     let uniform = |stream: u32| unit(pcg_hash(base ^ stream_key(stream) ^ pass_hash) >> 8);
     for j in 0..drawn {
@@ -374,11 +404,33 @@ fn splash(f: &Frame, id: u32, col: &Column, g: u32, list: &mut List) {
         };
         let (w0, w1) = (at_time(t_lo - launch_s), at_time(t_hi - launch_s));
         let exposed = (t_hi - t_lo) / p.exposure_s;
-        let radius_m = 0.5 * droplet_m * scale;
         if let Some((s, ends)) = segment_streak(p, w0, w1, exposed, radius_m, weight) {
             list.push(f, at + 1 + j, s, ends);
         }
     }
+}
+
+/// How far from its impact, m, a droplet of a splash can be after flying `flown_s`: the crown's
+/// final radius `z_max` (which bounds where it is launched and how high) plus the distance at
+/// the fastest launch speed across, plus the crown and the highest arc up; with a margin for
+/// the f32 arithmetic of the flight.
+fn reach_m(v: f32, z_max: f32, flown_s: f32, gravity: f32) -> f64 {
+    let w = v as f64 * LAUNCH_SPEED[1];
+    let (z_max, flown_s) = (z_max as f64, flown_s as f64);
+    let across = z_max + w * flown_s;
+    let up = z_max + w * w / (2.0 * gravity as f64);
+    1.01 * (across + up) + 1e-3
+}
+
+/// Whether a streak of radius `radius_m` with both ends within `reach_m` of `hit` is
+/// everywhere thinner than a pixel, so that `segment_streak` hides it: its nearer end is no
+/// nearer the camera than the hit's depth less the reach, nor than the near plane it is
+/// clipped to. With margins far wider than the f32 rounding of the streak's own test, so the
+/// cull changes no bit (`tests/splashes.rs` holds it to the uncut run).
+fn thinner_than_a_pixel(p: &RainParams, hit: [f32; 3], radius_m: f32, reach_m: f64) -> bool {
+    let z_hit = to_camera(p, hit)[2] as f64;
+    let z = (z_hit - reach_m).max(p.near_clip_m as f64) * (1.0 - 1e-4);
+    2.0 * radius_m as f64 * p.focal_px as f64 / z < 1.0 - 1e-4
 }
 
 /// The streak of water of radius `radius_m` moving from `w0` to `w1` (world) while in view for
