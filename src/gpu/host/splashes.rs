@@ -209,9 +209,9 @@ struct List {
 
 impl List {
     fn push(&mut self, f: &Frame, at: u32, streak: Streak, ends: [[f32; 3]; 2]) {
-        for (e, end) in ends.iter().enumerate() {
-            for a in 0..3 {
-                self.ends[e][a][self.waiting] = end[a];
+        for (lanes, end) in self.ends.iter_mut().zip(ends) {
+            for (lane, x) in lanes.iter_mut().zip(end) {
+                lane[self.waiting] = x;
             }
         }
         self.streaks.push(streak);
