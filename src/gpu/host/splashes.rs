@@ -7,15 +7,15 @@
 //! ## How it works
 //! The WGSL's arithmetic in `f32`, step for step, with the drop's fall and drift from the same
 //! helpers as [`super::simulate`] (so the diameter's CDF complement is `f64` there as here).
-//! A splash lives a tenth of a second of its drop's seconds-long fall, so the drop's impact
-//! time and size are found first and nearly every drop leaves before its drift and place are
-//! formed; those that splash are placed and their crown and droplets turned into streaks
-//! (`segment_streak`), the droplets skipped as a whole where none can be a pixel wide wherever
-//! it flies (a bound with wide margins: no bit changes), then lit in blocks of [`LANES`] across their ends by
-//! [`super::drop_light`]. rayon's threads take chunks of [`CHUNK`] landing drops, each chunk
-//! writing its own list, and the lists are joined in chunk order: neither the threads nor the
-//! chunks change a bit. The plain twin ([`crate::gpu::cpu::rain_splashes`], `f64`, from the
-//! splash model) is the reference (`tests/splashes.rs`).
+//! The drop's impact time and size are found first, and a drop whose splash is over (or never
+//! was) leaves before its drift and place are formed. A splash's crown and droplets become
+//! streaks (`segment_streak`), the droplets skipped as a whole where none can be a pixel wide
+//! wherever it flies (a bound with wide margins: no bit changes), and the streaks are lit in
+//! blocks of [`LANES`] across their ends by [`super::drop_light`]. rayon's threads take chunks
+//! of [`CHUNK`] landing drops, each chunk writing its own list, and the lists are joined in
+//! chunk order: neither the threads nor the chunks change a bit. The plain twin
+//! ([`crate::gpu::cpu::rain_splashes`], `f64`, from the splash model) is the reference
+//! (`tests/splashes.rs`).
 
 use rayon::prelude::*;
 
