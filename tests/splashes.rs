@@ -343,7 +343,8 @@ struct Shot {
 
 /// Shot `k` over a 320×180 picture: a camera 1.6 m up looking down at random (the horizon
 /// 5–30 % from the top, a 60–100° lens), a random rate, wind and gusts, drops 1–3 times their
-/// size, 1/50 or 1/100 s exposures, a time up to an hour in.
+/// size, 1/50 or 1/100 s exposures, a time up to an hour in; on every third shot a keyed rate
+/// that falls and stops in the second before the frame.
 fn shot(k: u64) -> Shot {
     use rain_composite::lighting::FrameLight;
     use rain_composite::lighting::prt::channel_optics;
@@ -368,8 +369,19 @@ fn shot(k: u64) -> Shot {
         ..RainConfig::default()
     };
     let exposure_s = [1.0 / 50.0, 1.0 / 100.0][k as usize % 2];
-    let (camera, setup) = rain_seen_by(&config, (320, 180), &rain, exposure_s, true);
+    let (camera, mut setup) = rain_seen_by(&config, (320, 180), &rain, exposure_s, true);
     let t_s = [0.8, 3.37, 41.9, 3600.25][k as usize % 4] + u();
+    if k % 3 == 1 {
+        // A keyed rate falling to 40 % of the peak, then stopping: passes born in it thin out.
+        let peak = rain.rate_mm_per_h;
+        let keys = rain_composite::keyframes::Curve::new(vec![
+            ((t_s - 1.2).max(0.0), peak),
+            (t_s - 0.6, 0.4 * peak),
+            (t_s - 0.2, 0.0),
+        ])
+        .expect("keys");
+        setup.plan.model = setup.plan.model.clone().with_rate_keys(&keys);
+    }
     let optics =
         channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default()).expect("optics");
     let rtf = RtfSh::from_optics(&optics, 4).expect("rtf");
@@ -432,8 +444,8 @@ fn twin_light(s: &Shot, tables: &[RtfTable; 3], end: DVec3) -> [f64; 3] {
     std::array::from_fn(|c| (env[c] + direct[c]).max(0.0))
 }
 
-/// The splashes simulated on the CPU match the twin's on random shots (lens, tilt, rate, wind,
-/// gusts, exposure, an hour into the clip, lit by a sky, a sun and a near lamp): the same
+/// The splashes simulated on the CPU match the twin's on random shots (lens, tilt, rate, keyed
+/// rates, wind, gusts, exposure, an hour into the clip, lit by a sky, a sun and a near lamp): the same
 /// streaks in the same slots but for a few at a cut, where f32 and f64 fall on either side
 /// (a pixel wide, the faintest drawn, or a droplet's flight ending as the exposure opens);
 /// where both draw, the ends within 0.01 px, radius and alpha within 10⁻³, the light within
@@ -511,7 +523,7 @@ fn host_splashes_match_the_twin() {
             "shot {k}: {} landing drops, {here} splash streaks drawn alike, {cut} at a cut",
             ids.len()
         );
-        assert!(here > 20, "shot {k}: {here} compared");
+        assert!(here > 0, "shot {k}: nothing compared");
         compared += here;
         borderline += cut;
     }
@@ -524,6 +536,7 @@ fn host_splashes_match_the_twin() {
         "{steep} of {lights} lights beyond 2e-3"
     );
     assert!(shots >= 9, "{shots} shots with splashes");
+    assert!(compared > 5000, "{compared} compared");
     assert!(borderline * 100 < compared, "{borderline} of {compared}");
 }
 
