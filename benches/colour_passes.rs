@@ -370,11 +370,75 @@ fn drop_simulation(c: &mut Criterion) {
     );
 }
 
+/// The splashes of a frame on the CPU back end (`gpu::host::splashes`) against their twin, at
+/// 720p with the default rain over a ground whose horizon is 30 % down the picture.
+fn splash_simulation(c: &mut Criterion) {
+    use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
+    use rain_composite::gpu::host::splashes::HostSplashes;
+    use rain_composite::gpu::types::LightList;
+    use rain_composite::lighting::prt::channel_optics;
+    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+    // 1.6 m up, tilted down so that the horizon is 30 % down the picture.
+    let fov = 60f64.to_radians();
+    let tilt = -((0.5 - 0.3) * 2.0 * (0.5 * fov).tan() * 720.0 / 1280.0).atan();
+    let camera = Camera::new(1280, 720, fov, 1.6, tilt, 0.0);
+    let setup = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        1.0 / 50.0,
+        0,
+        (1280, 720),
+    )
+    .map(RainSetup::pack)
+    .expect("rain")
+    .with_ground(true);
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.8, 0.9, 1.0];
+    let light = FrameLight {
+        env,
+        lights: Vec::new(),
+    };
+    let t_s = 2.5;
+    let p = setup.params_at(t_s, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(1024).expect("table"));
+    let mut host = HostSplashes::new(&setup).expect("landing drops");
+    host.set_transfer_table(&tables);
+    host.set_lights(&LightList::new(&sixteen_lights(&camera)));
+    let ids = host.drop_ids();
+    eprintln!(
+        "{} landing drops of {}, {} splash streaks drawn",
+        ids.len(),
+        p.drop_count,
+        host.simulate(&p).len()
+    );
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    c.bench_function("host splashes 720p, 10 mm/h, 16 lights", |b| {
+        b.iter(|| black_box(host.simulate(&p).len()))
+    });
+    c.bench_function("host splashes 720p, 10 mm/h, 16 lights, one thread", |b| {
+        b.iter(|| one.install(|| black_box(host.simulate(&p).len())))
+    });
+    c.bench_function("twin splashes 720p, 10 mm/h, no light", |b| {
+        b.iter(|| {
+            ids.iter()
+                .map(|&id| splash_streaks(&setup, &p, id as u64, t_s).1.len())
+                .sum::<usize>()
+        })
+    });
+}
+
 criterion_group!(
     benches,
     colour_passes,
     streak_raster,
     ground_passes,
-    drop_simulation
+    drop_simulation,
+    splash_simulation
 );
 criterion_main!(benches);

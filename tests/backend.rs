@@ -469,6 +469,107 @@ fn preview_is_the_render_on_both_back_ends() {
     }
 }
 
+/// The look of the program-level splash tests: heavy rain of drops three times their size over
+/// a street seen from 1.6 m through a 90° lens tilted down (the horizon 10 % from the top).
+const SPLASHING: [&str; 12] = [
+    "--rain",
+    "50",
+    "--drop-scale",
+    "3",
+    "--near",
+    "0.3",
+    "--far",
+    "6",
+    "--fov",
+    "90",
+    "--ground",
+    "horizon=0.1",
+];
+
+/// [`SPLASHING`] as a configuration, seeded `seed`.
+fn splashing(seed: u32) -> rain_composite::config::RenderConfig {
+    let mut c = render::looking_down();
+    c.rain.rate_mm_per_h = 50.0;
+    c.rain.drop_scale = 3.0;
+    c.rain.near_m = 0.3;
+    c.rain.far_m = 6.0;
+    c.rain.seed = seed;
+    c
+}
+
+/// On the CPU back end with splashes drawn: one seed renders the same frames twice, another
+/// seed other frames.
+#[test]
+fn splashes_on_the_cpu_back_end_are_seeded() {
+    use rain_composite::Renderer;
+    use rain_composite::gpu::{AdapterRequest, Backend};
+    use rain_composite::shot::Footage;
+    use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+    if gpu().is_none() {
+        return;
+    }
+    let format = FrameFormat {
+        width: 160,
+        height: 120,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let footage = Footage::picture(format, ColorParams::bt709(8), 25.0);
+    let mut frame = YuvFrame::filled(format, footage.color, [60, 128, 128]);
+    frame.planes[0].data[..160 * 30].fill(220);
+    let cpu = AdapterRequest {
+        backend: Backend::Cpu,
+        ..AdapterRequest::default()
+    };
+    let render = |seed| {
+        let mut r = Renderer::new(&splashing(seed), &footage, &cpu).expect("renderer");
+        assert_eq!(r.backend(), Backend::Cpu);
+        let frames: Vec<Vec<u8>> = (0..10)
+            .map(|k| {
+                let f = r.render(&frame, k as f64 / 25.0).expect("frame");
+                f.planes.iter().flat_map(|p| p.data.clone()).collect()
+            })
+            .collect();
+        (frames, r.gpu_times().splashes_drawn)
+    };
+    let (a, drawn) = render(5);
+    let (b, _) = render(5);
+    let (other, _) = render(6);
+    eprintln!("{drawn} splash streaks drawn over 10 frames");
+    assert!(drawn > 50, "{drawn} splash streaks drawn");
+    assert!(a == b, "one seed, two renders differ");
+    assert!(a != other, "the seed changes nothing");
+}
+
+/// With splashes on the CPU back end, a preview is the frame the full render writes (the look
+/// of [`splashes_on_the_cpu_back_end_are_seeded`], which draws splashes).
+#[test]
+fn preview_with_splashes_is_the_render_on_the_cpu_back_end() {
+    if gpu().is_none() {
+        return;
+    }
+    let dir = TempDir::new().expect("tmp");
+    let input = fixtures::quick_clip(dir.path(), "in.mp4", "160x120", 1.0);
+    let full = dir.path().join("splashes.mkv");
+    let look: Vec<&str> = SPLASHING
+        .iter()
+        .copied()
+        .chain(["--seed", "5", "--backend", "cpu"])
+        .collect();
+    ok(bin()
+        .args([
+            s(&input),
+            "-o",
+            s(&full),
+            "--codec",
+            "ffv1",
+            "--frames",
+            "0..10",
+        ])
+        .args(&look));
+    assert_preview_is_the_render(dir.path(), &input, &full, "8", &look, "cpu");
+}
+
 /// The 16-bit preview of `input`'s frame `frame` under `look` (which names `backend`) is the
 /// frame of the render `rendered` taken through the same still conversion (no rain, no haze
 /// added), byte for byte.

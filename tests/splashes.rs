@@ -1,16 +1,23 @@
 //! Splashes where drops land: the impacts are where the stateless drops meet the ground, as
 //! many per second and square metre as the Marshall–Palmer flux brings, only drops above the
 //! splashing threshold splash, the GPU stage draws what its CPU twin draws (its draw list holding
-//! exactly the drawn slots, in order), and without a ground the stage has nothing to do.
+//! exactly the drawn slots, in order), and without a ground the stage has nothing to do. The
+//! CPU back end's splashes match the twin too (their renders: `tests/backend.rs`).
 
+use glam::{DVec2, DVec3};
 use rain_composite::config::RainConfig;
 use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
+use rain_composite::gpu::host::simulate::HIDDEN;
+use rain_composite::gpu::host::splashes::HostSplashes;
 use rain_composite::gpu::probe::{probe_splash_draw_list, probe_splashes};
-use rain_composite::gpu::types::LightList;
+use rain_composite::gpu::types::{LightList, RainParams, Streak};
 use rain_composite::gpu::uniforms::RainSetup;
+use rain_composite::lighting::rtf::RtfTable;
+use rain_composite::lighting::{EnvironmentSh, LightSource, RtfSh, direct_colour, prt_colour};
 use rain_composite::rain::physics::splash::{SPLASH_SLOTS, splash_number, splashes};
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
 use rain_composite::rain::volume::{impacts_between, landing_columns, sample_drop};
+use rain_composite::scene::Camera;
 
 #[path = "common/gpu.rs"]
 mod shared_gpu;
@@ -318,4 +325,264 @@ fn splashes_are_placed_at_the_impacts() {
         );
         assert!(n > 1000 && worst < bound_m, "{n} {worst}");
     }
+}
+
+// The splashes simulated on the CPU back end (`gpu::host::splashes`, f32 as the WGSL) against
+// the twin (f64, from the splash model).
+
+/// One random shot of splashes, lit by a sky, a sun and a near lamp.
+struct Shot {
+    setup: RainSetup,
+    params: RainParams,
+    camera: Camera,
+    env: EnvironmentSh,
+    sources: Vec<LightSource>,
+    rtf: RtfSh,
+    t_s: f64,
+}
+
+/// Shot `k` over a 320×180 picture: a camera 1.6 m up looking down at random (the horizon
+/// 5–30 % from the top, a 60–100° lens), a random rate, wind and gusts, drops 1–3 times their
+/// size, 1/50 or 1/100 s exposures, a time up to an hour in; on every third shot a keyed rate
+/// that falls and stops in the second before the frame.
+fn shot(k: u64) -> Shot {
+    use rain_composite::lighting::FrameLight;
+    use rain_composite::lighting::prt::channel_optics;
+    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+    let mut r = rain_composite::rng::SplitMix64(77 + k);
+    let mut u = || r.next_f64();
+    let mut config = looking_down();
+    config.ground.mode = format!("horizon={:.3}", 0.05 + 0.25 * u())
+        .parse()
+        .expect("mode");
+    config.camera.fov_deg = 60.0 + 40.0 * u();
+    let rain = RainConfig {
+        rate_mm_per_h: 5.0 + 45.0 * u(),
+        opacity: 1.0 + 3.0 * u(),
+        near_m: 0.3,
+        far_m: 5.0 + 5.0 * u(),
+        max_drops: 400_000,
+        drop_scale: 1.0 + 2.0 * u(),
+        wind_mps: [6.0 * (u() - 0.5), 4.0 * (u() - 0.5)],
+        gust_mps: 2.0 * u(),
+        seed: k as u32 * 13 + 5,
+        ..RainConfig::default()
+    };
+    let exposure_s = [1.0 / 50.0, 1.0 / 100.0][k as usize % 2];
+    let (camera, mut setup) = rain_seen_by(&config, (320, 180), &rain, exposure_s, true);
+    let t_s = [0.8, 3.37, 41.9, 3600.25][k as usize % 4] + u();
+    if k % 3 == 1 {
+        // A keyed rate falling to 40 % of the peak, then stopping: passes born in it thin out.
+        let peak = rain.rate_mm_per_h;
+        let keys = rain_composite::keyframes::Curve::new(vec![
+            ((t_s - 1.2).max(0.0), peak),
+            (t_s - 0.6, 0.4 * peak),
+            (t_s - 0.2, 0.0),
+        ])
+        .expect("keys");
+        setup.plan.model = setup.plan.model.clone().with_rate_keys(&keys);
+    }
+    let optics =
+        channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default()).expect("optics");
+    let rtf = RtfSh::from_optics(&optics, 4).expect("rtf");
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.8, 0.9, 1.0];
+    env.coeffs[2] = [0.3, 0.35, 0.5];
+    env.coeffs[5] = [0.1 * u() as f32, -0.05, 0.02];
+    let sources = vec![
+        LightSource {
+            direction_world: DVec3::new(0.3, -0.8, 0.5).normalize(),
+            solid_angle_sr: 6.8e-5,
+            radiance_rgb: [2e4, 1.9e4, 1.7e4],
+            distance_m: None,
+        },
+        LightSource {
+            direction_world: camera.ray_world(glam::DVec2::new(100.0, 120.0)).normalize(),
+            solid_angle_sr: 2e-3,
+            radiance_rgb: [3000.0, 2500.0, 1500.0],
+            distance_m: Some(2.0 + 3.0 * u()),
+        },
+    ];
+    let zonal = rtf
+        .to_gpu_array()
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect::<Vec<_>>()
+        .try_into()
+        .expect("3 channels");
+    let light = FrameLight {
+        env: env.clone(),
+        lights: sources.clone(),
+    };
+    let params = setup.params_at(t_s, &light, zonal);
+    Shot {
+        setup,
+        params,
+        camera,
+        env,
+        sources,
+        rtf,
+        t_s,
+    }
+}
+
+/// The shot's splashes on the CPU back end: every slot of every landing drop, and the drop
+/// ids; `None` where no column of the view reaches the ground.
+fn host_slots(s: &Shot, tables: &[RtfTable; 3]) -> Option<(Vec<u32>, Vec<Streak>)> {
+    let mut host = HostSplashes::new(&s.setup)?;
+    host.set_transfer_table(tables);
+    host.set_lights(&LightList::new(&s.sources));
+    Some((host.drop_ids(), host.slots(&s.params)))
+}
+
+/// The twin's light at a streak's end (camera frame, m): the sky through the drop's PRT plus
+/// the compact lights through the transfer table, clamped at 0 (`drop_radiance`).
+fn twin_light(s: &Shot, tables: &[RtfTable; 3], end: DVec3) -> [f64; 3] {
+    let offset = s.camera.world_from_camera * end;
+    let env = prt_colour(&s.env, &s.rtf, offset);
+    let direct = direct_colour(&s.sources, tables, Some(offset), offset);
+    std::array::from_fn(|c| (env[c] + direct[c]).max(0.0))
+}
+
+/// The splashes simulated on the CPU match the twin's on random shots (lens, tilt, rate, keyed
+/// rates, wind, gusts, exposure, an hour into the clip, lit by a sky, a sun and a near lamp): the same
+/// streaks in the same slots but for a few at a cut, where f32 and f64 fall on either side
+/// (a pixel wide, the faintest drawn, or a droplet's flight ending as the exposure opens);
+/// where both draw, the ends within 0.01 px, radius and alpha within 10⁻³, the light within
+/// 2 × 10⁻³ of the end's brightest channel (2 % on a few ends on a bow's caustic, where the
+/// transfer table steps, as for the drops).
+#[test]
+fn host_splashes_match_the_twin() {
+    let tables = water_tables(1024);
+    let (mut compared, mut borderline, mut worst_px) = (0, 0, 0.0f64);
+    let (mut worst_alpha, mut worst_light) = (0.0f64, 0.0f64);
+    let (mut shots, mut lights, mut steep) = (0, 0, 0);
+    for k in 0..12 {
+        let s = shot(k);
+        // A steep view of a short rain may end above the ground.
+        let Some((ids, ours)) = host_slots(&s, &tables) else {
+            eprintln!(
+                "shot {k}: no column reaches the ground ({})",
+                s.setup.summary()
+            );
+            continue;
+        };
+        shots += 1;
+        let (mut here, mut cut) = (0, 0);
+        for (g, &id) in ids.iter().enumerate() {
+            let slots = &ours[g * SPLASH_SLOTS as usize..(g + 1) * SPLASH_SLOTS as usize];
+            let (_, twin) = splash_streaks(&s.setup, &s.params, id as u64, s.t_s);
+            for (slot, o) in slots.iter().enumerate() {
+                let t = twin.iter().find(|c| c.slot as usize == slot);
+                let what = format!("shot {k}, drop {id}, slot {slot}: {o:?} against {t:?}");
+                match t {
+                    Some(t) if o.len_px >= 0.0 => {
+                        here += 1;
+                        let t = &t.shape;
+                        let q0 = DVec2::new(o.q0_px[0] as f64, o.q0_px[1] as f64);
+                        let dir = DVec2::new(o.dir[0] as f64, o.dir[1] as f64);
+                        let d0 = (q0 - t.q0_px).length();
+                        let d1 =
+                            (q0 + dir * o.len_px as f64 - (t.q0_px + t.dir * t.len_px)).length();
+                        worst_px = worst_px.max(d0).max(d1);
+                        assert!(d0 < 0.01 && d1 < 0.01, "{what}: {d0} {d1} px");
+                        let rel = |a: f32, b: f64| (a as f64 - b).abs() / b.abs().max(1e-12);
+                        worst_alpha = worst_alpha.max(rel(o.alpha_scale, t.alpha_scale));
+                        assert!(rel(o.alpha_scale, t.alpha_scale) <= 1e-3, "{what}: alpha");
+                        assert!(rel(o.r_eff_px, t.r_eff_px) <= 1e-3, "{what}: radius");
+                        for (e, r) in [o.radiance0, o.radiance1].iter().enumerate() {
+                            let want = twin_light(&s, &tables, t.ends_camera_m[e]);
+                            let scale = want.iter().cloned().fold(1e-3, f64::max);
+                            for c in 0..3 {
+                                let err = (r[c] as f64 - want[c]).abs() / scale;
+                                worst_light = worst_light.max(err);
+                                lights += 1;
+                                if err > 2e-3 {
+                                    steep += 1;
+                                    assert!(err <= 2e-2, "{what}: end {e} channel {c}: {want:?}");
+                                }
+                            }
+                            assert!(rel(r[3], t.ends_camera_m[e].z) <= 1e-4, "{what}: depth");
+                        }
+                    }
+                    // At a cut: a pixel wide, or the faintest drawn.
+                    Some(t) => {
+                        cut += 1;
+                        let t = &t.shape;
+                        assert!(t.r_px < 0.51 || t.peak_alpha() < 0.6 / 255.0, "{what}");
+                    }
+                    None if o.len_px >= 0.0 => {
+                        cut += 1;
+                        assert!(o.r_eff_px < 0.8 || o.alpha_scale < 1e-2, "{what}");
+                    }
+                    None => assert_eq!(*o, HIDDEN, "{what}"),
+                }
+            }
+        }
+        eprintln!(
+            "shot {k}: {} landing drops, {here} splash streaks drawn alike, {cut} at a cut",
+            ids.len()
+        );
+        assert!(here > 0, "shot {k}: nothing compared");
+        compared += here;
+        borderline += cut;
+    }
+    eprintln!(
+        "{compared} splash streaks compared ({borderline} at a cut); worst end {worst_px:.1e} \
+         px, alpha {worst_alpha:.1e}, light {worst_light:.1e} ({steep} of {lights} beyond 2e-3)"
+    );
+    assert!(
+        steep * 200 <= lights,
+        "{steep} of {lights} lights beyond 2e-3"
+    );
+    assert!(shots >= 9, "{shots} shots with splashes");
+    assert!(compared > 5000, "{compared} compared");
+    assert!(borderline * 100 < compared, "{borderline} of {compared}");
+}
+
+/// The splashes on the CPU are the same bits twice, on one thread as on many, and without the
+/// cull of splashes whose droplets are all thinner than a pixel; their draw list is the drawn
+/// slots, in order; another seed gives other splashes.
+#[test]
+fn host_splashes_are_deterministic() {
+    let tables = water_tables(1024);
+    let s = shot(3);
+    let run = || host_slots(&s, &tables).expect("landing drops").1;
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool")
+        .install(run);
+    let (a, b) = (run(), run());
+    assert!(a == b, "two runs differ");
+    assert!(a == one, "one thread differs");
+    // Skipping the droplets of splashes too thin to show changes no bit.
+    for k in 0..6 {
+        let s = shot(k);
+        let Some(mut host) = HostSplashes::new(&s.setup) else {
+            continue;
+        };
+        host.set_transfer_table(&tables);
+        host.set_lights(&LightList::new(&s.sources));
+        let cut = host.slots(&s.params);
+        assert!(
+            host.slots_uncut(&s.params) == cut,
+            "shot {k}: the cull changes a bit"
+        );
+    }
+    let mut host = HostSplashes::new(&s.setup).expect("landing drops");
+    host.set_transfer_table(&tables);
+    host.set_lights(&LightList::new(&s.sources));
+    let drawn: Vec<Streak> = a.iter().filter(|x| x.len_px >= 0.0).copied().collect();
+    assert!(drawn.len() > 100, "{} drawn", drawn.len());
+    assert!(
+        host.simulate(&s.params) == drawn.as_slice(),
+        "the draw list"
+    );
+    let mut other = s.params;
+    other.seed += 1;
+    assert!(
+        host.simulate(&other) != drawn.as_slice(),
+        "the seed changes nothing"
+    );
 }

@@ -16,10 +16,9 @@
 //! drains the ring at the end.
 //!
 //! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) every
-//! per-pixel pass runs on the CPU ([`super::host`]), and the drops are simulated there too: only
-//! the splashes are simulated on the adapter, their streaks read back and drawn on the CPU; a
-//! frame without splashes touches no adapter. The canvas never leaves the CPU and the frame is
-//! done when `submit` returns (`compositor/host.rs`).
+//! per-pixel pass runs on the CPU ([`super::host`]), and the drops and the splashes are
+//! simulated there too: no frame touches the adapter, none of the rain's or the ground's GPU
+//! pipelines is built, and the frame is done when `submit` returns (`compositor/host.rs`).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -31,6 +30,7 @@ use super::GpuContext;
 use super::context::Backend;
 use super::host::HostColour;
 use super::host::rain::HostRain;
+use super::host::splashes::HostSplashes;
 use super::lights::DirectLightBuffers;
 use super::stages::{
     FrameResources, FrameStage, TimestampSlot, puddles::Puddles, rain_simulate::RainSimulate,
@@ -44,7 +44,6 @@ use crate::{Error, Result};
 
 mod host;
 mod masks;
-mod uploads;
 
 /// Frames in flight (readback slots).
 const RING: usize = 3;
@@ -133,15 +132,12 @@ pub struct Compositor {
     gpu_times: GpuStageTimes,
     /// Every per-pixel pass on the CPU (the CPU back end, [`Compositor::render_on_host`]).
     host: Option<HostColour>,
-    /// The streaks' readback where the CPU draws them (the CPU back end).
+    /// The drops simulated and drawn on the CPU (the CPU back end).
     host_rain: Option<HostRain>,
-    /// The splashes' draw list's readback (the CPU back end, with a ground).
-    host_splashes: Option<super::host::splashes::HostSplashes>,
+    /// The splashes simulated on the CPU (the CPU back end, with a ground drops land on).
+    host_splashes: Option<HostSplashes>,
     /// Frames done, oldest first, older than any in flight.
     ready: VecDeque<Rendered>,
-    /// The GPU's inputs not yet written (the CPU back end writes them only for frames with GPU
-    /// stages).
-    stale: uploads::Stale,
 }
 
 /// The most drops one frame can hold on `ctx`'s device: the streak buffer must fit one storage
@@ -274,6 +270,12 @@ impl Compositor {
             contents: bytemuck::cast_slice(&vec![1.0f32; gw as usize * gh as usize]),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
+        // The drops' records live on the CPU there (`host::simulate`): one each for the layouts.
+        let gpu_drops = if on_cpu {
+            1
+        } else {
+            rain.params.drop_count.max(1) as u64
+        };
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -287,7 +289,7 @@ impl Compositor {
             }),
             streaks: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("rain_streaks"),
-                size: std::mem::size_of::<Streak>() as u64 * rain.params.drop_count.max(1) as u64,
+                size: std::mem::size_of::<Streak>() as u64 * gpu_drops,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
@@ -300,7 +302,7 @@ impl Compositor {
                         label: Some("glints"),
                         size: std::mem::size_of::<super::types::Glint>() as u64
                             * super::types::GLINTS_PER_DROP as u64
-                            * rain.params.drop_count.max(1) as u64,
+                            * gpu_drops,
                         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                         mapped_at_creation: false,
                     })
@@ -326,10 +328,7 @@ impl Compositor {
             .filter(|_| layer != Some(Layer::Matte));
         let stages = frame_stages(device, &resources, rain, layer, wetting, on_cpu);
         let host_rain = on_cpu.then(|| HostRain::new(&rain.columns, rain.mattes.clone()));
-        let host_splashes = on_cpu
-            .then(|| host::splash_stage(&stages))
-            .flatten()
-            .map(|s| super::host::splashes::HostSplashes::new(device, s.simulate()));
+        let host_splashes = on_cpu.then(|| HostSplashes::new(rain)).flatten();
         let timed = stages.len() as u64;
         let timestamps = timestamp_queries(device, timed);
         let staging = (0..RING)
@@ -360,7 +359,6 @@ impl Compositor {
             host_rain,
             host_splashes,
             ready: VecDeque::with_capacity(RING),
-            stale: uploads::Stale::default(),
         })
     }
 
@@ -387,20 +385,23 @@ impl Compositor {
     /// Sets the drop's transfer table (R, G, B) the direct light term reads; once per job
     /// (see `LightEstimator::transfer_tables`). Until then the lights add nothing.
     pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
-        self.direct_lights.upload_table(&self.ctx.queue, tables);
+        if self.host.is_none() {
+            self.direct_lights.upload_table(&self.ctx.queue, tables);
+        }
         if let Some(host) = &mut self.host {
             host.set_transfer_table(tables);
         }
         if let Some(drops) = &mut self.host_rain {
             drops.set_transfer_table(tables);
         }
+        if let Some(splashes) = &mut self.host_splashes {
+            splashes.set_transfer_table(tables);
+        }
     }
 
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
-        if self.defers_uploads() {
-            self.stale.lights = Some(*lights);
-        } else {
+        if self.host.is_none() {
             self.direct_lights.upload_lights(&self.ctx.queue, lights);
         }
         if let Some(host) = &mut self.host {
@@ -408,6 +409,9 @@ impl Compositor {
         }
         if let Some(drops) = &mut self.host_rain {
             drops.set_lights(lights);
+        }
+        if let Some(splashes) = &mut self.host_splashes {
+            splashes.set_lights(lights);
         }
     }
 
@@ -428,10 +432,7 @@ impl Compositor {
             .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
             .collect();
         match &mut self.host {
-            Some(host) => {
-                host.set_scene_depth(metres);
-                self.stale.depth = true;
-            }
+            Some(host) => host.set_scene_depth(metres),
             None => {
                 self.ctx
                     .queue
@@ -516,7 +517,6 @@ impl Compositor {
             let f = self.receive()?;
             self.ready.push_back(f);
         }
-        self.write_stale();
         let done = self.ready.pop_front();
         let queue = &self.ctx.queue;
         for (i, plane) in frame.planes.iter().enumerate() {
@@ -744,8 +744,9 @@ fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture 
 }
 
 /// The frame's stages, in order: colour in (the frame, or a layer's transparent start), the
-/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out; the colour
-/// passes left out where the CPU runs them (`on_cpu`).
+/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out. Where the CPU
+/// runs the frame (`on_cpu`) only the wet ground and the puddles, without pipelines: they hold
+/// the ground's and the water's state the CPU reads each frame.
 fn frame_stages(
     device: &wgpu::Device,
     resources: &FrameResources,
@@ -754,7 +755,7 @@ fn frame_stages(
     wetting: Option<&crate::lighting::wetness::Wetting>,
     on_cpu: bool,
 ) -> Vec<Box<dyn FrameStage>> {
-    let between: [Box<dyn FrameStage>; 5] = [
+    let ground: [Box<dyn FrameStage>; 2] = [
         Box::new(WetGround::new(
             device,
             resources,
@@ -763,13 +764,15 @@ fn frame_stages(
             !on_cpu,
         )),
         Box::new(Puddles::new(device, resources, layer.is_none(), !on_cpu)),
-        Box::new(RainSimulate::new(device, resources)),
-        Box::new(RainSplashes::new(device, resources, rain)),
-        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
     ];
     if on_cpu {
-        return between.into_iter().collect();
+        return ground.into_iter().collect();
     }
+    let between = ground.into_iter().chain([
+        Box::new(RainSimulate::new(device, resources)) as Box<dyn FrameStage>,
+        Box::new(RainSplashes::new(device, resources, rain)),
+        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
+    ]);
     let rgba = layer.is_some_and(Layer::is_rgba);
     let start = match layer {
         None => YuvToRgb::new(device, resources),

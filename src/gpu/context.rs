@@ -20,8 +20,8 @@ pub struct AdapterRequest {
 /// Where the per-pixel colour passes (planes → hazed canvas, canvas → code values) run. On a
 /// CPU adapter the GPU's shaders are JIT code on the same cores, at about 100 ns a pixel for a
 /// conversion that plain vectorised Rust does in a few: there the CPU back end
-/// ([`crate::gpu::host`]) runs them, and every other per-pixel pass with them: the canvas never
-/// goes to the adapter, which only simulates the drops and the splashes.
+/// ([`crate::gpu::host`]) runs them, and every other per-frame pass with them (the drops and
+/// the splashes simulated too): no frame goes to the adapter.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {

@@ -18,10 +18,7 @@ impl Compositor {
             )));
         }
         match &mut self.host {
-            Some(host) => {
-                host.set_sky_mask(weights.to_vec());
-                self.stale.sky = true;
-            }
+            Some(host) => host.set_sky_mask(weights.to_vec()),
             None => self
                 .ctx
                 .queue
@@ -44,7 +41,6 @@ impl Compositor {
         }
         if let Some(host) = &mut self.host {
             host.set_ground_mask(weights.to_vec());
-            self.stale.ground = Some(weights.to_vec());
         } else {
             self.ctx
                 .queue

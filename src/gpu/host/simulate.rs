@@ -323,7 +323,7 @@ fn block(
 
 /// PCG integer hash (common/rng.wgsl).
 #[inline(always)]
-fn pcg_hash(v: u32) -> u32 {
+pub(super) fn pcg_hash(v: u32) -> u32 {
     let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
     (word >> 22) ^ word
@@ -331,18 +331,18 @@ fn pcg_hash(v: u32) -> u32 {
 
 /// `stream · 0x9E3779B9`, the stream's key in the drop's hash.
 #[inline(always)]
-fn stream_key(stream: u32) -> u32 {
+pub(super) fn stream_key(stream: u32) -> u32 {
     stream.wrapping_mul(0x9E37_79B9)
 }
 
 /// 24 random bits → [0, 1).
 #[inline(always)]
-fn unit(bits: u32) -> f32 {
+pub(super) fn unit(bits: u32) -> f32 {
     bits as f32 * (1.0 / 16_777_216.0)
 }
 
 #[inline(always)]
-fn fract(x: f32) -> f32 {
+pub(super) fn fract(x: f32) -> f32 {
     x - x.floor()
 }
 
@@ -354,7 +354,7 @@ fn select(c: bool, a: f32, b: f32) -> f32 {
 
 /// WGSL `mix`: `a (1 − t) + b t`.
 #[inline(always)]
-fn mix(a: f32, b: f32, t: f32) -> f32 {
+pub(super) fn mix(a: f32, b: f32, t: f32) -> f32 {
     a * (1.0 - t) + b * t
 }
 
@@ -385,32 +385,15 @@ fn states(f: &Frame, id0: u32, cols: &[u32; LANES]) -> States {
     let mut q_unit = [0f64; LANES];
     let mut speed = [0u32; LANES];
     for l in 0..LANES {
-        let r = 0xFF_FFFF - (pcg_hash(base[l] ^ stream_key(3)) >> 8);
-        let q = 0xFF_FFFF - ((r as u64 * keep[l] as u64) >> 24) as u32;
-        q_unit[l] = q as f64 * (1.0 / 16_777_216.0);
-        let r = (0xFF_FFFF - q).max(1);
-        // ⌊log₂ r⌋ from the exponent of r as f32 (exact below 2²⁴).
-        let e = ((r as f32).to_bits() >> 23) - 127;
-        let f12 = if e >= 12 {
-            (r >> (e - 12)) & 0xFFF
-        } else {
-            (r << (12 - e)) & 0xFFF
-        };
-        let j = (e << SPEED_STEPS_LOG2) + (f12 >> (12 - SPEED_STEPS_LOG2));
-        let g = (f12 & ((1 << (12 - SPEED_STEPS_LOG2)) - 1)) as i32;
-        let k = (j + 1).min(SPEED_TABLE_LEN as u32 - 1);
-        let a = f.speed_q[(j as usize).min(SPEED_TABLE_LEN - 1)];
-        let b = f.speed_q[k as usize];
-        speed[l] = (a + (((b - a) * g) >> (12 - SPEED_STEPS_LOG2))) as u32;
+        (q_unit[l], speed[l]) = size_and_speed(&f.speed_q, base[l], keep[l]);
     }
     // Library calls: the diameter by inverse CDF, the width of the oblate drop. The CDF's
     // complement in f64: for the largest drops 1 − u·tail is a few 10⁻⁶, where f32 (as the
     // WGSL has it) would lose a few per cent of it and ~0.01 mm of the diameter.
     let mut d_mm = [0f32; LANES];
     let mut width_factor = [0f32; LANES];
-    let lambda = p.lambda_per_mm as f64;
     for l in 0..LANES {
-        let d = (p.d_min_mm as f64 - (1.0 - q_unit[l] * f.tail).ln() / lambda) as f32;
+        let d = diameter_mm(p, f.tail, q_unit[l]);
         d_mm[l] = d;
         let x = d.clamp(0.0, 7.0);
         let ratio =
@@ -449,39 +432,17 @@ fn states(f: &Frame, id0: u32, cols: &[u32; LANES]) -> States {
     let mut x = [0f32; LANES];
     let mut pass = [0u32; LANES];
     let mut rate = [0f32; LANES];
-    let shift = SPEED_BITS + INV_HEIGHT_BITS - FALL_RATE_BITS;
     for l in 0..LANES {
-        let prod = speed[l] as u64 * inv_height[l] as u64;
-        let rate_q = if prod >> (32 + shift) != 0 {
-            u32::MAX
-        } else {
-            (prod >> shift) as u32
-        };
-        let whole = rate_q as u64 * p.time_whole_s as u64;
-        let passes = (whole >> FALL_RATE_BITS) as u32;
-        let whole_frac = (whole as u32 & ((1 << FALL_RATE_BITS) - 1)) as f32
-            * (1.0 / (1u32 << FALL_RATE_BITS) as f32);
-        rate[l] = rate_q as f32 * (1.0 / (1u32 << FALL_RATE_BITS) as f32);
-        let u2 = unit(pcg_hash(base[l] ^ stream_key(2)) >> 8);
-        x[l] = u2 - whole_frac - rate[l] * p.time_frac_s;
-        pass[l] = (x[l].floor() as i32 as u32).wrapping_sub(passes);
+        (x[l], pass[l], rate[l]) = fall(p, base[l], speed[l], inv_height[l]);
     }
     // Drift in cells and the pass's own lateral offset (lateral_fractions), the position.
-    let mask = (1u32 << DRIFT_PHASE_BITS) - 1;
-    let drift_unit = 1.0 / (1u32 << DRIFT_PHASE_BITS) as f32;
     let mut pos = [[0f32; LANES]; 3];
     let mut w = [0f32; LANES];
     for l in 0..LANES {
         let cycle = pcg_hash(pass[l]);
         let mut uv = [0f32; 2];
         for a in 0..2 {
-            let drift = (speed[l] as i32).wrapping_mul(p.drift_q[a]) as u32;
-            let whole = (drift.wrapping_mul(p.time_whole_s) & mask) as f32 * drift_unit;
-            let per_s = speed[l] as f32 * p.drift_q[a] as f32 * drift_unit;
-            let duv = whole
-                + per_s * p.time_frac_s
-                + p.mean_travel_cells[a]
-                + gust[a][l] / p.cell_size_m[a];
+            let duv = drift_cells(p, speed[l], gust[a][l], a);
             let own = unit(pcg_hash(base[l] ^ stream_key(a as u32)) >> 8);
             let cyc = unit(pcg_hash(base[l] ^ stream_key(4 + a as u32) ^ cycle) >> 8);
             let frac = fract(own + fract(duv) + cyc);
@@ -521,24 +482,102 @@ fn wind_lag(
     gust: &mut [[f32; LANES]; 2],
 ) {
     for l in 0..LANES {
-        let t = tau[l];
-        let mut vel = [-t * p.wind_slope_mps2[0], -t * p.wind_slope_mps2[1]];
-        let mut disp = [
-            -t * (p.wind_mean_mps[0] - p.wind_start_mps[0]),
-            -t * (p.wind_mean_mps[1] - p.wind_start_mps[1]),
-        ];
-        for k in &p.wind_kinks[..(p.wind_kink_count as usize).min(p.wind_kinks.len())] {
-            let e = (-k[0] / t).exp();
-            for a in 0..2 {
-                vel[a] += k[1 + a] * (t * e);
-                disp[a] += k[1 + a] * (t * t * (1.0 - e));
-            }
-        }
+        let (vel, disp) = lag(p, tau[l]);
         for a in 0..2 {
             vh[a][l] += vel[a];
             gust[a][l] += disp[a];
         }
     }
+}
+
+/// The velocity and displacement a drop with time constant `t` lags a keyed mean wind by
+/// (WGSL `wind_lag`).
+#[inline(always)]
+pub(super) fn lag(p: &RainParams, t: f32) -> ([f32; 2], [f32; 2]) {
+    let mut vel = [-t * p.wind_slope_mps2[0], -t * p.wind_slope_mps2[1]];
+    let mut disp = [
+        -t * (p.wind_mean_mps[0] - p.wind_start_mps[0]),
+        -t * (p.wind_mean_mps[1] - p.wind_start_mps[1]),
+    ];
+    for k in &p.wind_kinks[..(p.wind_kink_count as usize).min(p.wind_kinks.len())] {
+        let e = (-k[0] / t).exp();
+        for a in 0..2 {
+            vel[a] += k[1 + a] * (t * e);
+            disp[a] += k[1 + a] * (t * t * (1.0 - e));
+        }
+    }
+    (vel, disp)
+}
+
+/// The size quantile of the drop whose hash is `base` in a column keeping `keep` (2⁻²⁴) of
+/// the sizes, as a unit (WGSL `size_bits`), and its fall speed, 2^-SPEED_BITS m/s, from the
+/// frame's table `speed_q` (`fall_speed_q`).
+#[inline(always)]
+pub(super) fn size_and_speed(speed_q: &[i32; SPEED_TABLE_LEN], base: u32, keep: u32) -> (f64, u32) {
+    let r = 0xFF_FFFF - (pcg_hash(base ^ stream_key(3)) >> 8);
+    let q = 0xFF_FFFF - ((r as u64 * keep as u64) >> 24) as u32;
+    let q_unit = q as f64 * (1.0 / 16_777_216.0);
+    let r = (0xFF_FFFF - q).max(1);
+    // ⌊log₂ r⌋ from the exponent of r as f32 (exact below 2²⁴).
+    let e = ((r as f32).to_bits() >> 23) - 127;
+    let f12 = if e >= 12 {
+        (r >> (e - 12)) & 0xFFF
+    } else {
+        (r << (12 - e)) & 0xFFF
+    };
+    let j = (e << SPEED_STEPS_LOG2) + (f12 >> (12 - SPEED_STEPS_LOG2));
+    let g = (f12 & ((1 << (12 - SPEED_STEPS_LOG2)) - 1)) as i32;
+    let k = (j + 1).min(SPEED_TABLE_LEN as u32 - 1);
+    let a = speed_q[(j as usize).min(SPEED_TABLE_LEN - 1)];
+    let b = speed_q[k as usize];
+    (
+        q_unit,
+        (a + (((b - a) * g) >> (12 - SPEED_STEPS_LOG2))) as u32,
+    )
+}
+
+/// The diameter, mm, at the size quantile `q_unit` by inverse CDF (WGSL
+/// `diameter_from_unit`), `tail` the truncated distribution's mass; the CDF's complement in
+/// f64 (see [`states`]).
+#[inline(always)]
+pub(super) fn diameter_mm(p: &RainParams, tail: f64, q_unit: f64) -> f32 {
+    (p.d_min_mm as f64 - (1.0 - q_unit * tail).ln() / p.lambda_per_mm as f64) as f32
+}
+
+/// The fall of the drop whose hash is `base`, falling at `speed` (2^-SPEED_BITS m/s) in a
+/// column of inverse height `inv_height` (2^-INV_HEIGHT_BITS m⁻¹), at the frame's time: its
+/// height in column heights before wrapping, its pass and its rate in column heights per
+/// second, the whole seconds in exact integers (WGSL `drop_phase`).
+#[inline(always)]
+pub(super) fn fall(p: &RainParams, base: u32, speed: u32, inv_height: u32) -> (f32, u32, f32) {
+    let shift = SPEED_BITS + INV_HEIGHT_BITS - FALL_RATE_BITS;
+    let prod = speed as u64 * inv_height as u64;
+    let rate_q = if prod >> (32 + shift) != 0 {
+        u32::MAX
+    } else {
+        (prod >> shift) as u32
+    };
+    let whole = rate_q as u64 * p.time_whole_s as u64;
+    let passes = (whole >> FALL_RATE_BITS) as u32;
+    let whole_frac = (whole as u32 & ((1 << FALL_RATE_BITS) - 1)) as f32
+        * (1.0 / (1u32 << FALL_RATE_BITS) as f32);
+    let rate = rate_q as f32 * (1.0 / (1u32 << FALL_RATE_BITS) as f32);
+    let u2 = unit(pcg_hash(base ^ stream_key(2)) >> 8);
+    let x = u2 - whole_frac - rate * p.time_frac_s;
+    (x, (x.floor() as i32 as u32).wrapping_sub(passes), rate)
+}
+
+/// The drift in cells along axis `a` of a drop falling at `speed` (2^-SPEED_BITS m/s) with
+/// the gusts' displacement `gust_m`, before its pass's own offset: the columns' shear (exact
+/// for the whole seconds), the mean wind, the gusts (WGSL `drop_phase`'s `duv`).
+#[inline(always)]
+pub(super) fn drift_cells(p: &RainParams, speed: u32, gust_m: f32, a: usize) -> f32 {
+    let mask = (1u32 << DRIFT_PHASE_BITS) - 1;
+    let drift_unit = 1.0 / (1u32 << DRIFT_PHASE_BITS) as f32;
+    let drift = (speed as i32).wrapping_mul(p.drift_q[a]) as u32;
+    let whole = (drift.wrapping_mul(p.time_whole_s) & mask) as f32 * drift_unit;
+    let per_s = speed as f32 * p.drift_q[a] as f32 * drift_unit;
+    whole + per_s * p.time_frac_s + p.mean_travel_cells[a] + gust_m / p.cell_size_m[a]
 }
 
 /// The keyed rate `s` seconds from the frame's time (WGSL `rate_at`).
@@ -557,7 +596,14 @@ fn rate_at(p: &RainParams, s: f32) -> f32 {
 }
 
 /// Whether drop `id` falls in its pass `pass`, born `age_s` ago (WGSL `falls`).
-fn falls(p: &RainParams, seed_hash: u32, id: u32, pass: u32, age_s: f32, d_mm: f32) -> bool {
+pub(super) fn falls(
+    p: &RainParams,
+    seed_hash: u32,
+    id: u32,
+    pass: u32,
+    age_s: f32,
+    d_mm: f32,
+) -> bool {
     let r = rate_at(p, -age_s);
     if r <= 0.0 {
         return false;
@@ -570,7 +616,7 @@ fn falls(p: &RainParams, seed_hash: u32, id: u32, pass: u32, age_s: f32, d_mm: f
 
 /// World point → camera frame (WGSL `to_camera`).
 #[inline(always)]
-fn to_camera(p: &RainParams, w: [f32; 3]) -> [f32; 3] {
+pub(super) fn to_camera(p: &RainParams, w: [f32; 3]) -> [f32; 3] {
     let d = [
         w[0] - p.camera_pos_m[0],
         w[1] - p.camera_pos_m[1],

@@ -216,11 +216,6 @@ impl RainSplashes {
         );
         RainSplashes { simulate, draw }
     }
-
-    /// The compute half (the CPU back end runs it alone and draws its list on the CPU).
-    pub fn simulate(&self) -> &SplashSimulate {
-        &self.simulate
-    }
 }
 
 impl FrameStage for RainSplashes {

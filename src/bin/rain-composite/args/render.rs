@@ -77,7 +77,7 @@ pub struct GpuArgs {
     /// Use a CPU (software) adapter only.
     #[arg(long)]
     pub cpu: bool,
-    /// Where the colour passes (planes → linear with the haze, linear → code values) run: auto (the CPU on a CPU adapter such as lavapipe, else the GPU), gpu or cpu. On cpu the wet ground, the puddles and the streaks, splashes included, are drawn on the CPU as well; only the drops and the splashes are simulated on the adapter.
+    /// Where the colour passes (planes → linear with the haze, linear → code values) run: auto (the CPU on a CPU adapter such as lavapipe, else the GPU), gpu or cpu. On cpu everything else a frame needs runs on the CPU as well (the wet ground, the puddles, the drops and the splashes, simulated and drawn): the adapter renders nothing.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
 }
