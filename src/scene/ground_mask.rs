@@ -116,13 +116,16 @@ fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
                 }
             }
         });
-    // Empty blocks past the right and bottom edges copy their neighbours.
+    // Empty blocks past the bottom edge copy the point above them, past the right edge the
+    // point left of them (the bottom edge's seeds are the picture's own bottom row).
+    let first = |i: usize| (i * c).saturating_sub(c / 2);
     for k in 0..sums.len() {
         if sums[k][3] == 0.0 {
-            let from = if k % grid.width > 0 {
-                k - 1
+            let (i, j) = (k % grid.width, k / grid.width);
+            let from = if j > 0 && first(j) + 1 >= h {
+                k - grid.width
             } else {
-                k.saturating_sub(grid.width)
+                k.saturating_sub(usize::from(i > 0))
             };
             sums[k] = sums[from];
         }
@@ -149,6 +152,44 @@ fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
     let (nx, ny) = (-up[1] / norm, up[0] / norm);
     let across = nx * nx * t[0] + ny * ny * t[1] + 2.0 * nx * ny * t[2];
     across >= UPRIGHT_SHARE * energy
+}
+
+/// The share of the way from the ground's reference to a newly reached point's own luma and
+/// texture by which the reference moves: the road's shading (a few codes a block) is followed,
+/// a ramp of blocks down a blurred step (a wall's base, a kerb) is not.
+const FOLLOW: f32 = 0.25;
+
+/// A block's texture, 8-bit codes: the RMS gradient of its incoherent part, 2·√λ₋ of its
+/// structure tensor (the RMS gradient itself for isotropic texture). A block that straddles
+/// one edge (a wall's base, a kerb, a shadow's rim) has its gradients all across it and no
+/// texture: the step it holds is not excused as the ground's own.
+fn texture_codes(t: &[f32; 4]) -> f32 {
+    let half_trace = 0.5 * (t[0] + t[1]);
+    let det = t[0] * t[1] - t[2] * t[2];
+    let smaller = half_trace - (half_trace * half_trace - det).max(0.0).sqrt();
+    2.0 * smaller.max(0.0).sqrt()
+}
+
+/// The flood's seeds among the open points `bottom` of the picture's bottom edge: the
+/// median of their lumas and textures is taken for the ground there (most of the edge's open
+/// points show it), and a point is a seed where its luma is within a step of it (its texture
+/// excusing as much as in the flood). The face of a wall or a car standing nearer than the
+/// ground at the bottom edge, run down past the picture's edge, is not a seed.
+fn seeds(bottom: &[usize], t: &[[f32; 4]], texture: &[f32]) -> Vec<usize> {
+    if bottom.is_empty() {
+        return Vec::new();
+    }
+    let median = |mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    let luma = median(bottom.iter().map(|&k| t[k][3]).collect());
+    let rough = median(bottom.iter().map(|&k| texture[k]).collect());
+    bottom
+        .iter()
+        .copied()
+        .filter(|&k| (t[k][3] - luma).abs() <= STEP_CODES + rough.min(texture[k]))
+        .collect()
 }
 
 /// The ground's weight at each grid point of `frame` (row-major over `grid`, in {0, 1}; read
@@ -180,20 +221,21 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         TopEdge::Left => (0..h).map(|j| j * w + w - 1).collect(),
         TopEdge::Right => (0..h).map(|j| j * w).collect(),
     };
-    // The ground's luma and texture along the flood's path to each point (halfway to each new
-    // point's own): a step is measured from the ground behind it, so the base of a wall spread
-    // over two blocks, each half the step and with an edge's texture, is still a step.
-    let rms: Vec<f32> = t.iter().map(|q| (q[0] + q[1]).sqrt()).collect();
+    // The ground's luma and texture along the flood's path to each point (a quarter of the way
+    // to each new point's own): a step is measured from the ground behind it, so the base of a
+    // wall blurred over two or three blocks, each a part of the step, is still a step.
+    let texture: Vec<f32> = t.iter().map(texture_codes).collect();
     let mut reference = vec![[0.0f32; 2]; n];
     let passes = |reference: &[[f32; 2]], from: usize, to: usize| {
-        let [luma, texture] = reference[from];
-        (t[to][3] - luma).abs() <= STEP_CODES + texture.min(rms[to])
+        let [luma, rough] = reference[from];
+        (t[to][3] - luma).abs() <= STEP_CODES + rough.min(texture[to])
     };
     let mut ground = vec![false; n];
-    let mut queue: VecDeque<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
+    let open_bottom: Vec<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
+    let mut queue: VecDeque<usize> = seeds(&open_bottom, &t, &texture).into();
     for &k in &queue {
         ground[k] = true;
-        reference[k] = [t[k][3], rms[k]];
+        reference[k] = [t[k][3], texture[k]];
     }
     while let Some(k) = queue.pop_front() {
         let (i, j) = (k % w, k / w);
@@ -206,8 +248,11 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         for m in next.into_iter().flatten() {
             if open[m] && !ground[m] && passes(&reference, k, m) {
                 ground[m] = true;
-                let [luma, texture] = reference[k];
-                reference[m] = [0.5 * (luma + t[m][3]), 0.5 * (texture + rms[m])];
+                let [luma, rough] = reference[k];
+                reference[m] = [
+                    luma + FOLLOW * (t[m][3] - luma),
+                    rough + FOLLOW * (texture[m] - rough),
+                ];
                 queue.push_back(m);
             }
         }
@@ -222,4 +267,24 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     (0..n)
         .map(|k| f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m]))))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The texture of a block is the RMS gradient of its isotropic part: all of it for
+    /// isotropic gradients, none for one edge whatever its direction, the weaker direction's
+    /// share for a mix (against the eigenvalues worked by hand).
+    #[test]
+    fn texture_is_the_incoherent_part_of_the_gradients() {
+        // Isotropic: E[gx²] = E[gy²] = 50, no correlation: RMS √100 = 10.
+        assert!((texture_codes(&[50.0, 50.0, 0.0, 0.0]) - 10.0).abs() < 1e-4);
+        // One edge at 30° from the x axis, energy 100: the tensor 100·(c², s², c·s).
+        let (s, c) = 30f32.to_radians().sin_cos();
+        let edge = [100.0 * c * c, 100.0 * s * s, 100.0 * c * s, 0.0];
+        assert!(texture_codes(&edge) < 1e-2, "{}", texture_codes(&edge));
+        // An edge along x of energy 64 over isotropic texture of 2 × 9: eigenvalues 73 and 9.
+        assert!((texture_codes(&[73.0, 9.0, 0.0, 0.0]) - 6.0).abs() < 1e-4);
+    }
 }
