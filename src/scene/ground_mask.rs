@@ -21,7 +21,7 @@
 //! - **not upright, nor next to an upright point** (the upright points grown by one closes the
 //!   gaps between a facade's windows and a railing's posts);
 //! - **connected to the picture's bottom edge** as displayed, through such points whose mean
-//!   luma steps by at most [`STEP_CODES`] plus the texture's RMS gradient from the ground
+//!   luma steps by at most [`STEP_CODES`] plus the ground's texture from the ground
 //!   behind them along the flood
 //!   (the road's shading and its texture pass; the step from the road to a wall's base, a kerb
 //!   or a car's side does not): what stands on the road and is enclosed by its verticals and
@@ -169,10 +169,10 @@ fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
 /// a ramp of blocks down a blurred step (a wall's base, a kerb) is not.
 const FOLLOW: f32 = 0.25;
 
-/// A block's texture, 8-bit codes: the RMS gradient of its incoherent part, 2·√λ₋ of its
-/// structure tensor (the RMS gradient itself for isotropic texture). A block that straddles
-/// one edge (a wall's base, a kerb, a shadow's rim) has its gradients all across it and no
-/// texture: the step it holds is not excused as the ground's own.
+/// A block's texture, 8-bit codes: twice the RMS gradient along its weaker direction, 2·√λ₋
+/// of its structure tensor (√2 times the RMS gradient of isotropic texture). A block that
+/// straddles one edge (a wall's base, a kerb, a shadow's rim) has its gradients all across it
+/// and no texture: the step it holds is not excused as the ground's own.
 fn texture_codes(t: &[f32; 4]) -> f32 {
     let half_trace = 0.5 * (t[0] + t[1]);
     let det = t[0] * t[1] - t[2] * t[2];
@@ -285,19 +285,33 @@ mod tests {
     use crate::video::ColorParams;
     use crate::video::frame::{Chroma, FrameFormat};
 
-    /// The texture of a block is the RMS gradient of its isotropic part: all of it for
-    /// isotropic gradients, none for one edge whatever its direction, the weaker direction's
-    /// share for a mix (against the eigenvalues worked by hand).
+    /// The texture of a block is the gradient along its weaker direction: √2 times the RMS
+    /// gradient for isotropic gradients, none for one edge whatever its direction, the weaker
+    /// direction's for a mix (against the eigenvalues worked by hand).
     #[test]
     fn texture_is_the_incoherent_part_of_the_gradients() {
-        // Isotropic: E[gx²] = E[gy²] = 50, no correlation: RMS √100 = 10.
-        assert!((texture_codes(&[50.0, 50.0, 0.0, 0.0]) - 10.0).abs() < 1e-4);
+        // Isotropic: E[gx²] = E[gy²] = 50, no correlation: λ₋ = 50, RMS √100 = 10.
+        let iso = texture_codes(&[50.0, 50.0, 0.0, 0.0]);
+        assert!((iso - 2f32.sqrt() * 10.0).abs() < 1e-3, "{iso}");
         // One edge at 30° from the x axis, energy 100: the tensor 100·(c², s², c·s).
         let (s, c) = 30f32.to_radians().sin_cos();
         let edge = [100.0 * c * c, 100.0 * s * s, 100.0 * c * s, 0.0];
         assert!(texture_codes(&edge) < 1e-2, "{}", texture_codes(&edge));
-        // An edge along x of energy 64 over isotropic texture of 2 × 9: eigenvalues 73 and 9.
+        // An edge along x of energy 64 over isotropic texture of 2 × 9: eigenvalues 73 and 9,
+        // whichever way the edge runs (the tensor turned by 40°).
         assert!((texture_codes(&[73.0, 9.0, 0.0, 0.0]) - 6.0).abs() < 1e-4);
+        let (s, c) = 40f32.to_radians().sin_cos();
+        let turned = [
+            73.0 * c * c + 9.0 * s * s,
+            73.0 * s * s + 9.0 * c * c,
+            (73.0 - 9.0) * c * s,
+            0.0,
+        ];
+        assert!(
+            (texture_codes(&turned) - 6.0).abs() < 1e-2,
+            "{}",
+            texture_codes(&turned)
+        );
     }
 
     /// What finding the ground costs a frame beside finding the sky, on the first frame past
