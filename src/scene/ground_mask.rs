@@ -99,33 +99,120 @@ pub struct PointView {
     pub up_px: [f32; 2],
 }
 
-/// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
-/// coded axes), and its mean luma (8-bit codes).
-fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
+/// Each grid point's sums over its block (the pixels x, y with (x + c/2) / c on the point,
+/// less the last row and column, which have no forward step): gx², gy², gx·gy of the forward
+/// luma steps, pixels, luma (codes of the frame's depth). The plain reference of [`sums`],
+/// one pixel at a time.
+#[cfg(test)]
+fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
     let c = grid.cell_px as usize;
     let point = |x: usize| (x + c / 2) / c;
-    let to_8bit = 255.0 / ((1u32 << f.bit_depth) - 1) as f32;
-    let mut sums = vec![[0.0f32; 5]; grid.len()];
+    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    for (j, points) in sums.chunks_mut(grid.width).enumerate() {
+        let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
+        for y in lo..hi.min(h.saturating_sub(1)) {
+            for x in 0..w.saturating_sub(1) {
+                let v = f64::from(frame.sample(0, x as u32, y as u32));
+                let gx = f64::from(frame.sample(0, x as u32 + 1, y as u32)) - v;
+                let gy = f64::from(frame.sample(0, x as u32, y as u32 + 1)) - v;
+                let s = &mut points[point(x).min(grid.width - 1)];
+                s[0] += gx * gx;
+                s[1] += gy * gy;
+                s[2] += gx * gy;
+                s[3] += 1.0;
+                s[4] += v;
+            }
+        }
+    }
+    sums
+}
+
+/// Row `y` of the luma plane of `frame` as codes into `out` (`n` samples).
+fn luma_row(frame: &YuvFrame, y: usize, n: usize, out: &mut Vec<i64>) {
+    let p = &frame.planes[0];
+    let row = &p.data[y * p.stride..];
+    out.clear();
+    if frame.format.bytes_per_sample() == 1 {
+        out.extend(row[..n].iter().map(|&v| i64::from(v)));
+    } else {
+        out.extend(
+            row[..2 * n]
+                .chunks_exact(2)
+                .map(|b| i64::from(u16::from_le_bytes([b[0], b[1]]))),
+        );
+    }
+}
+
+/// [`sums_plain`] in integers: each row of points' band of pixel rows summed per column over
+/// whole rows (loops that vectorise), then each point's run of columns at once; the same
+/// sums, exact.
+fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
+    let f = frame.format;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let c = grid.cell_px as usize;
+    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    if w < 2 {
+        return sums;
+    }
     sums.par_chunks_mut(grid.width)
         .enumerate()
         .for_each(|(j, points)| {
             let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
-            for y in lo..hi.min(h.saturating_sub(1)) {
-                for x in 0..w.saturating_sub(1) {
-                    let v = f32::from(frame.sample(0, x as u32, y as u32));
-                    let gx = (f32::from(frame.sample(0, x as u32 + 1, y as u32)) - v) * to_8bit;
-                    let gy = (f32::from(frame.sample(0, x as u32, y as u32 + 1)) - v) * to_8bit;
-                    let s = &mut points[point(x).min(grid.width - 1)];
-                    s[0] += gx * gx;
-                    s[1] += gy * gy;
-                    s[2] += gx * gy;
-                    s[3] += 1.0;
-                    s[4] += v * to_8bit;
+            let hi = hi.min(h.saturating_sub(1));
+            if lo >= hi {
+                return;
+            }
+            let m = w - 1;
+            let mut columns = [vec![0i64; m], vec![0i64; m], vec![0i64; m], vec![0i64; m]];
+            let (mut row, mut below) = (Vec::new(), Vec::new());
+            luma_row(frame, lo, w, &mut row);
+            for y in lo..hi {
+                luma_row(frame, y + 1, w, &mut below);
+                let [xx, yy, xy, luma] = &mut columns;
+                for x in 0..m {
+                    let v = row[x];
+                    let (gx, gy) = (row[x + 1] - v, below[x] - v);
+                    xx[x] += gx * gx;
+                    yy[x] += gy * gy;
+                    xy[x] += gx * gy;
+                    luma[x] += v;
+                }
+                std::mem::swap(&mut row, &mut below);
+            }
+            let rows = (hi - lo) as f64;
+            for (i, s) in points.iter_mut().enumerate() {
+                // Point i holds the columns x with (x + c/2) / c == i, the last also those past.
+                let x0 = (i * c).saturating_sub(c / 2).min(m);
+                let x1 = if i + 1 == grid.width {
+                    m
+                } else {
+                    (i * c + c - c / 2).min(m)
+                };
+                if x0 < x1 {
+                    let sum = |col: &[i64]| col[x0..x1].iter().sum::<i64>() as f64;
+                    let [xx, yy, xy, luma] = &columns;
+                    *s = [
+                        sum(xx),
+                        sum(yy),
+                        sum(xy),
+                        (x1 - x0) as f64 * rows,
+                        sum(luma),
+                    ];
                 }
             }
         });
+    sums
+}
+
+/// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
+/// coded axes), and its mean luma (8-bit codes), from `sums` of the frame ([`sums`]).
+fn tensors(frame: &YuvFrame, grid: SkyGrid, mut sums: Vec<[f64; 5]>) -> Vec<[f32; 4]> {
+    let f = frame.format;
+    let h = f.height as usize;
+    let c = grid.cell_px as usize;
+    let to_8bit = 255.0 / ((1u64 << f.bit_depth) - 1) as f64;
     // Empty blocks past the bottom edge copy the point above them, past the right edge the
     // point left of them (the bottom edge's seeds are the picture's own bottom row).
     let first = |i: usize| (i * c).saturating_sub(c / 2);
@@ -143,7 +230,8 @@ fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
     sums.iter()
         .map(|s| {
             let n = s[3].max(1.0);
-            [s[0] / n, s[1] / n, s[2] / n, s[4] / n]
+            let g = to_8bit * to_8bit / n;
+            [s[0] * g, s[1] * g, s[2] * g, s[4] * to_8bit / n].map(|v| v as f32)
         })
         .collect()
 }
@@ -210,7 +298,7 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
     }
-    let t = tensors(frame, grid);
+    let t = tensors(frame, grid, sums(frame, grid));
     let (w, h) = (grid.width, grid.height);
     let neighbours8 = |k: usize| {
         let (i, j) = ((k % w) as i64, (k / w) as i64);
@@ -284,6 +372,56 @@ mod tests {
     use super::*;
     use crate::video::ColorParams;
     use crate::video::frame::{Chroma, FrameFormat};
+
+    /// The block sums in integers over whole rows equal the plain per-pixel ones exactly, at
+    /// 8 and 10 bits, for sizes that are and are not multiples of the cell, and padded rows.
+    #[test]
+    fn the_block_sums_equal_the_plain_ones() {
+        for (size, bit_depth, cell) in [
+            ((64u32, 48u32), 8u8, 8u32),
+            ((101, 37), 8, 8),
+            ((50, 29), 10, 8),
+            ((23, 17), 10, 5),
+            ((2, 2), 8, 8),
+        ] {
+            let format = FrameFormat {
+                width: size.0,
+                height: size.1,
+                chroma: Chroma::Cs420,
+                bit_depth,
+            };
+            let mut f = YuvFrame::filled(format, ColorParams::bt709(bit_depth), [16, 128, 128]);
+            // Rows padded past the picture, as decoders leave them.
+            let bytes = format.bytes_per_sample();
+            let stride = format.packed_stride(0) + 3 * bytes;
+            let max = (1u64 << bit_depth) - 1;
+            let mut data = vec![0u8; stride * size.1 as usize];
+            for y in 0..size.1 as usize {
+                for x in 0..size.0 as usize {
+                    let r = crate::rng::splitmix64((y as u64) << 20 ^ x as u64);
+                    let v = if (x / 7 + y / 5) % 2 == 0 {
+                        r % (max + 1)
+                    } else {
+                        (x as u64 * 3) % (max + 1)
+                    };
+                    let at = y * stride + x * bytes;
+                    if bytes == 2 {
+                        data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
+                    } else {
+                        data[at] = v as u8;
+                    }
+                }
+            }
+            f.planes[0].data = data;
+            f.planes[0].stride = stride;
+            let grid = SkyGrid::new(cell, size);
+            assert_eq!(
+                sums(&f, grid),
+                sums_plain(&f, grid),
+                "{size:?} at {bit_depth} bits"
+            );
+        }
+    }
 
     /// The texture of a block is the gradient along its weaker direction: √2 times the RMS
     /// gradient for isotropic gradients, none for one edge whatever its direction, the weaker
