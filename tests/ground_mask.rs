@@ -3,7 +3,9 @@
 //! found in the frame matches the true road (IoU), the wet ground and the puddles keep off the
 //! walls and the railing (under 1 % of their pixels change) while the road away from its edges
 //! still wets (at least 90 %), and without the mask the walls would have wetted (the test can
-//! fail); the GPU stages match their CPU twins with a mask.
+//! fail); panned right, a low dark wall across the pavement comes into view and runs down past
+//! the picture's bottom edge, where the ground is reached from, and its face stays dry; the GPU
+//! stages match their CPU twins with a mask.
 //! Set `RAIN_COMPOSITE_REQUIRE_GPU=1` to turn a missing adapter into a failure.
 
 use glam::{DVec2, DVec3, Vec2};
@@ -43,11 +45,24 @@ const WALL_X_M: f64 = 5.0;
 /// The railing stands this far left of the road's middle, m, 1 m high.
 const RAILING_X_M: f64 = -3.6;
 
+/// A low stone wall across the pavement on the right (in the streets that have one): this far
+/// ahead of the camera, m, from this far right of it to the façade, facing the camera, so
+/// one panned right sees its face run down past the picture's bottom edge.
+const LOW_WALL_Y_M: f64 = 2.6;
+const LOW_WALL_X_M: f64 = 1.2;
+/// The low wall's height, m.
+const LOW_WALL_H_M: f64 = 1.1;
+/// The depth of the pale coping on the low wall's top, m.
+const COPING_M: f64 = 0.08;
+
 /// What a pixel's ray meets first.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Surface {
     Road,
     Wall,
+    /// The face of the low wall beside the camera, below its coping (in the streets that have
+    /// one).
+    LowWall,
     Railing,
     Sky,
 }
@@ -93,7 +108,23 @@ fn facade(y: f64, z: f64) -> [f64; 3] {
     [v * 1.05, v, v * 0.85]
 }
 
-fn street(camera: &Camera, seed: u64) -> Street {
+/// The low wall's dark stone at height `z` and `x` across the road: long slabs in courses
+/// 0.25 m high with mortar joints, a pale coping.
+fn low_wall(x: f64, z: f64) -> [f64; 3] {
+    let course = (z / 0.25).floor();
+    let joint = z.rem_euclid(0.25) < 0.02 || (x + 0.7 * course).rem_euclid(2.1) < 0.02;
+    let v = if z > LOW_WALL_H_M - COPING_M {
+        0.34
+    } else if joint {
+        0.2
+    } else {
+        0.13 + 0.01 * (course % 3.0)
+    };
+    [v * 1.04, v, v * 0.95]
+}
+
+/// The street seen by `camera`, with the low wall where `with_low_wall` is set.
+fn street(camera: &Camera, seed: u64, with_low_wall: bool) -> Street {
     let eye = camera.position_m;
     let mut rgb = Vec::with_capacity((W * H) as usize);
     let mut truth = Vec::with_capacity((W * H) as usize);
@@ -114,6 +145,24 @@ fn street(camera: &Camera, seed: u64) -> Street {
                 let q = eye + t * r;
                 if t > 0.0 && t < best.0 && (0.0..12.0).contains(&q.z) && q.y > 0.5 {
                     best = (t, Surface::Wall, facade(q.y, q.z));
+                }
+            }
+            if with_low_wall {
+                let t = (LOW_WALL_Y_M - eye.y) / r.y;
+                let q = eye + t * r;
+                if t > 0.0
+                    && t < best.0
+                    && (0.0..LOW_WALL_H_M).contains(&q.z)
+                    && (LOW_WALL_X_M..WALL_X_M).contains(&q.x)
+                {
+                    // Its face is the low wall; its coping counts with the walls.
+                    let face = q.z < LOW_WALL_H_M - COPING_M;
+                    let what = if face {
+                        Surface::LowWall
+                    } else {
+                        Surface::Wall
+                    };
+                    best = (t, what, low_wall(q.x, q.z));
                 }
             }
             let t = (RAILING_X_M - eye.x) / r.x;
@@ -171,10 +220,18 @@ fn camera(pose: (f64, f64, f64)) -> Camera {
 
 /// The setup, uniforms, frame, truth and mask of a street seen at `pose`.
 fn shot(pose: (f64, f64, f64), seed: u64) -> (RainSetup, RainParams, YuvFrame, Street, Vec<f32>) {
-    let cam = camera(pose);
+    shot_of(camera(pose), seed, false)
+}
+
+/// [`shot`] seen by `cam`, with the low wall where `with_low_wall` is set.
+fn shot_of(
+    cam: Camera,
+    seed: u64,
+    with_low_wall: bool,
+) -> (RainSetup, RainParams, YuvFrame, Street, Vec<f32>) {
     let setup = dry_ground(&cam, 0).with_wetting(Some(drying()));
     let p = lit(&setup, 120.0, &SKY, Some(1.0));
-    let s = street(&cam, seed);
+    let s = street(&cam, seed, with_low_wall);
     let f = frame(&s);
     let mask = detect(&f, grid(), TopEdge::Top, &point_views(&p, grid()));
     (setup, p, f, s, mask)
@@ -227,14 +284,16 @@ fn the_mask_matches_the_true_road() {
         let standing = s
             .truth
             .iter()
-            .filter(|t| matches!(t, Surface::Wall | Surface::Railing))
+            .filter(|t| matches!(t, Surface::Wall | Surface::LowWall | Surface::Railing))
             .count();
         for (i, t) in s.truth.iter().enumerate() {
             let w = g.weight_at(&mask, i as u32 % W, i as u32 / W);
             let road = *t == Surface::Road;
             both += usize::from(w >= 0.5 && road);
             either += usize::from(w >= 0.5 || road);
-            off_road += usize::from(w > 0.0 && matches!(t, Surface::Wall | Surface::Railing));
+            off_road += usize::from(
+                w > 0.0 && matches!(t, Surface::Wall | Surface::LowWall | Surface::Railing),
+            );
         }
         let iou = both as f64 / either as f64;
         eprintln!(
@@ -252,42 +311,136 @@ fn the_mask_matches_the_true_road() {
 fn wetness_and_water_keep_off_the_walls_and_the_railing() {
     for (n, pose) in POSES.into_iter().enumerate() {
         let (_, p, f, s, mask) = shot(pose, 11 + n as u64);
-        let dry = yuv_to_rgb::yuv_to_rgb(&f, &p);
-        let masked = wet_picture(&f, &p, Some(&mask));
-        let unmasked = wet_picture(&f, &p, None);
-        let changed = |a: &[f64; 3], b: &[f64; 3]| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-4);
-        let inside = interior(&s.truth, (W, H), 12);
-        let (mut standing, mut standing_wet, mut standing_wet_unmasked) = (0, 0, 0);
-        let (mut road, mut road_wet) = (0, 0);
-        for i in 0..(W * H) as usize {
-            match s.truth[i] {
-                Surface::Wall | Surface::Railing => {
-                    standing += 1;
-                    standing_wet += usize::from(changed(&masked[i], &dry[i]));
-                    standing_wet_unmasked += usize::from(changed(&unmasked[i], &dry[i]));
-                }
-                Surface::Road if inside[i] => {
-                    road += 1;
-                    road_wet += usize::from(changed(&masked[i], &dry[i]));
-                }
-                _ => {}
+        let c = wet_counts(&p, &f, &s, &mask);
+        eprintln!(
+            "pose {pose:?}: walls and railing {} of {} wet ({} without the mask); road away \
+             from its edges {} of {} wet",
+            c.standing_wet, c.standing, c.standing_wet_unmasked, c.road_wet, c.road
+        );
+        c.check();
+    }
+}
+
+/// What wets in a street's frame with its mask and without it.
+struct WetCounts {
+    /// Wall, low wall and railing pixels.
+    standing: usize,
+    /// Those the wet ground or the puddles change with the mask.
+    standing_wet: usize,
+    /// Those they change without it.
+    standing_wet_unmasked: usize,
+    /// Road pixels 12 px or more from anything else.
+    road: usize,
+    /// Those that wet with the mask.
+    road_wet: usize,
+}
+
+impl WetCounts {
+    /// Under 1 % of what stands on the road wets and at least 90 % of the road away from its
+    /// edges does, where without the mask over a tenth of what stands would have: the
+    /// picture's lower part wets whole.
+    fn check(&self) {
+        let c = self;
+        assert!(
+            c.standing > 2000 && c.road > 2000,
+            "{}, {}",
+            c.standing,
+            c.road
+        );
+        assert!(
+            (c.standing_wet as f64) < 0.01 * c.standing as f64,
+            "walls wet: {} of {}",
+            c.standing_wet,
+            c.standing
+        );
+        assert!(
+            c.road_wet as f64 >= 0.9 * c.road as f64,
+            "road wet: {} of {}",
+            c.road_wet,
+            c.road
+        );
+        assert!(c.standing_wet_unmasked as f64 > 0.1 * c.standing as f64);
+    }
+}
+
+/// The wet ground and the puddles over the street `s` in frame `f` under `p`, with `mask`
+/// and without it, counted over what stands on the road and over the road.
+fn wet_counts(p: &RainParams, f: &YuvFrame, s: &Street, mask: &[f32]) -> WetCounts {
+    let dry = yuv_to_rgb::yuv_to_rgb(f, p);
+    let masked = wet_picture(f, p, Some(mask));
+    let unmasked = wet_picture(f, p, None);
+    let changed = |a: &[f64; 3], b: &[f64; 3]| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-4);
+    let inside = interior(&s.truth, (W, H), 12);
+    let mut c = WetCounts {
+        standing: 0,
+        standing_wet: 0,
+        standing_wet_unmasked: 0,
+        road: 0,
+        road_wet: 0,
+    };
+    for i in 0..(W * H) as usize {
+        match s.truth[i] {
+            Surface::Wall | Surface::LowWall | Surface::Railing => {
+                c.standing += 1;
+                c.standing_wet += usize::from(changed(&masked[i], &dry[i]));
+                c.standing_wet_unmasked += usize::from(changed(&unmasked[i], &dry[i]));
+            }
+            Surface::Road if inside[i] => {
+                c.road += 1;
+                c.road_wet += usize::from(changed(&masked[i], &dry[i]));
+            }
+            _ => {}
+        }
+    }
+    c
+}
+
+/// Panned views (field of view in radians; tilt, roll and pan right in degrees, non-integer)
+/// of a street with a low dark wall beside the camera: the wall comes into view and runs
+/// down to the picture's bottom edge, where the ground is reached from.
+const PANNED: [(f64, f64, f64, f64); 3] = [
+    (0.817, -1.3, 0.4, 17.5),
+    (1.2, -4.3, 2.7, 12.2),
+    (1.05, -7.6, -3.1, 23.4),
+];
+
+#[test]
+fn a_wall_panned_into_view_down_to_the_bottom_edge_stays_dry() {
+    for (n, (fov, tilt, roll, pan)) in PANNED.into_iter().enumerate() {
+        let cam = camera((fov, tilt, roll)).panned(pan.to_radians());
+        let (_, p, f, s, mask) = shot_of(cam, 21 + n as u64, true);
+        let g = grid();
+        let at_bottom = (0..W)
+            .filter(|&x| s.truth[((H - 1) * W + x) as usize] == Surface::LowWall)
+            .count();
+        let (mut low, mut low_weighted) = (0usize, 0usize);
+        for (i, t) in s.truth.iter().enumerate() {
+            if *t == Surface::LowWall {
+                low += 1;
+                low_weighted += usize::from(g.weight_at(&mask, i as u32 % W, i as u32 / W) > 0.0);
             }
         }
+        let c = wet_counts(&p, &f, &s, &mask);
         eprintln!(
-            "pose {pose:?}: walls and railing {standing_wet} of {standing} wet ({standing_wet_unmasked} \
-             without the mask); road away from its edges {road_wet} of {road} wet"
+            "pan {pan}°, tilt {tilt}°, roll {roll}°, fov {:.1}°: the low wall {low} px ({at_bottom} \
+             on the bottom row), {low_weighted} weighted; walls {} of {} wet ({} without the \
+             mask); road away from its edges {} of {} wet",
+            fov.to_degrees(),
+            c.standing_wet,
+            c.standing,
+            c.standing_wet_unmasked,
+            c.road_wet,
+            c.road
         );
-        assert!(standing > 2000 && road > 2000, "{standing}, {road}");
         assert!(
-            (standing_wet as f64) < 0.01 * standing as f64,
-            "walls wet: {standing_wet} of {standing}"
+            at_bottom > W as usize / 8,
+            "the wall reaches the bottom edge: {at_bottom}"
         );
         assert!(
-            road_wet as f64 >= 0.9 * road as f64,
-            "road wet: {road_wet} of {road}"
+            (low_weighted as f64) < 0.01 * low as f64,
+            "the low wall weighted: {low_weighted} of {low}"
         );
-        // Without the mask everything below the horizon wets: the walls' lower parts too.
-        assert!(standing_wet_unmasked as f64 > 0.1 * standing as f64);
+        c.check();
     }
 }
 

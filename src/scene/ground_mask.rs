@@ -21,11 +21,18 @@
 //! - **not upright, nor next to an upright point** (the upright points grown by one closes the
 //!   gaps between a facade's windows and a railing's posts);
 //! - **connected to the picture's bottom edge** as displayed, through such points whose mean
-//!   luma steps by at most [`STEP_CODES`] plus the texture's RMS gradient from the ground
+//!   luma steps by at most [`STEP_CODES`] plus the ground's texture from the ground
 //!   behind them along the flood
 //!   (the road's shading and its texture pass; the step from the road to a wall's base, a kerb
 //!   or a car's side does not): what stands on the road and is enclosed by its verticals and
-//!   its base line (a wall's smooth panels) is cut off from it.
+//!   its base line (a wall's smooth panels) is cut off from it. The texture that excuses a
+//!   step is the incoherent part of a block's gradients: a block straddling one blurred edge
+//!   (a wall's base) has none. The ground behind a point follows each new point a quarter of
+//!   the way, so a ramp of blocks down a blurred step is no path of small steps.
+//! - **seeded where the bottom edge shows the ground**: the edge's open points whose luma is
+//!   within such a step of their median. The face of a wall or a car nearer than the ground
+//!   at the bottom edge, running down past the picture's edge (a wall a pan brings into view),
+//!   is not reached from below.
 //!
 //! The region is grown back by one point into the ring it lost next to upright points (where
 //! the step to it is the ground's own), then
@@ -34,9 +41,12 @@
 //! inside the ground. Each frame's mask is a pure function of that frame; averaged over a
 //! window by [`crate::scene::sky::SkyTracker`], it fades instead of switching.
 //!
-//! Not explained: a smooth wall without a vertical edge reaching the ground's region (it is
-//! taken for ground), and lines painted on the road straight ahead right below its vanishing
-//! point (upright, so a narrow dry lane along them).
+//! Not explained: a smooth wall without a vertical edge reaching the ground's region, of the
+//! ground's brightness at its base (it is taken for ground: the lower metres of a brick façade
+//! near the horizon, which the scene's depth mostly fades); a wall covering most of the bottom
+//! edge (its face is taken for the ground there, and the road behind its base is cut off);
+//! and lines painted on the road straight ahead right below its vanishing point (upright, so
+//! a narrow dry lane along them).
 
 use std::collections::VecDeque;
 
@@ -89,40 +99,130 @@ pub struct PointView {
     pub up_px: [f32; 2],
 }
 
-/// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
-/// coded axes), and its mean luma (8-bit codes).
-fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
+/// Each grid point's sums over its block (the pixels x, y with (x + c/2) / c on the point,
+/// less the last row and column, which have no forward step): gx², gy², gx·gy of the forward
+/// luma steps, pixels, luma (codes of the frame's depth). The plain reference of [`sums`],
+/// one pixel at a time.
+#[cfg(test)]
+fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
     let c = grid.cell_px as usize;
     let point = |x: usize| (x + c / 2) / c;
-    let to_8bit = 255.0 / ((1u32 << f.bit_depth) - 1) as f32;
-    let mut sums = vec![[0.0f32; 5]; grid.len()];
+    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    for (j, points) in sums.chunks_mut(grid.width).enumerate() {
+        let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
+        for y in lo..hi.min(h.saturating_sub(1)) {
+            for x in 0..w.saturating_sub(1) {
+                let v = f64::from(frame.sample(0, x as u32, y as u32));
+                let gx = f64::from(frame.sample(0, x as u32 + 1, y as u32)) - v;
+                let gy = f64::from(frame.sample(0, x as u32, y as u32 + 1)) - v;
+                let s = &mut points[point(x).min(grid.width - 1)];
+                s[0] += gx * gx;
+                s[1] += gy * gy;
+                s[2] += gx * gy;
+                s[3] += 1.0;
+                s[4] += v;
+            }
+        }
+    }
+    sums
+}
+
+/// Row `y` of the luma plane of `frame` as codes into `out` (`n` samples).
+fn luma_row(frame: &YuvFrame, y: usize, n: usize, out: &mut Vec<i64>) {
+    let p = &frame.planes[0];
+    let row = &p.data[y * p.stride..];
+    out.clear();
+    if frame.format.bytes_per_sample() == 1 {
+        out.extend(row[..n].iter().map(|&v| i64::from(v)));
+    } else {
+        out.extend(
+            row[..2 * n]
+                .chunks_exact(2)
+                .map(|b| i64::from(u16::from_le_bytes([b[0], b[1]]))),
+        );
+    }
+}
+
+/// [`sums_plain`] in integers: each row of points' band of pixel rows summed per column over
+/// whole rows (loops that vectorise), then each point's run of columns at once; the same
+/// sums, exact.
+fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
+    let f = frame.format;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let c = grid.cell_px as usize;
+    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    if w < 2 {
+        return sums;
+    }
     sums.par_chunks_mut(grid.width)
         .enumerate()
         .for_each(|(j, points)| {
             let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
-            for y in lo..hi.min(h.saturating_sub(1)) {
-                for x in 0..w.saturating_sub(1) {
-                    let v = f32::from(frame.sample(0, x as u32, y as u32));
-                    let gx = (f32::from(frame.sample(0, x as u32 + 1, y as u32)) - v) * to_8bit;
-                    let gy = (f32::from(frame.sample(0, x as u32, y as u32 + 1)) - v) * to_8bit;
-                    let s = &mut points[point(x).min(grid.width - 1)];
-                    s[0] += gx * gx;
-                    s[1] += gy * gy;
-                    s[2] += gx * gy;
-                    s[3] += 1.0;
-                    s[4] += v * to_8bit;
+            let hi = hi.min(h.saturating_sub(1));
+            if lo >= hi {
+                return;
+            }
+            let m = w - 1;
+            let mut columns = [vec![0i64; m], vec![0i64; m], vec![0i64; m], vec![0i64; m]];
+            let (mut row, mut below) = (Vec::new(), Vec::new());
+            luma_row(frame, lo, w, &mut row);
+            for y in lo..hi {
+                luma_row(frame, y + 1, w, &mut below);
+                let [xx, yy, xy, luma] = &mut columns;
+                for x in 0..m {
+                    let v = row[x];
+                    let (gx, gy) = (row[x + 1] - v, below[x] - v);
+                    xx[x] += gx * gx;
+                    yy[x] += gy * gy;
+                    xy[x] += gx * gy;
+                    luma[x] += v;
+                }
+                std::mem::swap(&mut row, &mut below);
+            }
+            let rows = (hi - lo) as f64;
+            for (i, s) in points.iter_mut().enumerate() {
+                // Point i holds the columns x with (x + c/2) / c == i, the last also those past.
+                let x0 = (i * c).saturating_sub(c / 2).min(m);
+                let x1 = if i + 1 == grid.width {
+                    m
+                } else {
+                    (i * c + c - c / 2).min(m)
+                };
+                if x0 < x1 {
+                    let sum = |col: &[i64]| col[x0..x1].iter().sum::<i64>() as f64;
+                    let [xx, yy, xy, luma] = &columns;
+                    *s = [
+                        sum(xx),
+                        sum(yy),
+                        sum(xy),
+                        (x1 - x0) as f64 * rows,
+                        sum(luma),
+                    ];
                 }
             }
         });
-    // Empty blocks past the right and bottom edges copy their neighbours.
+    sums
+}
+
+/// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
+/// coded axes), and its mean luma (8-bit codes), from `sums` of the frame ([`sums`]).
+fn tensors(frame: &YuvFrame, grid: SkyGrid, mut sums: Vec<[f64; 5]>) -> Vec<[f32; 4]> {
+    let f = frame.format;
+    let h = f.height as usize;
+    let c = grid.cell_px as usize;
+    let to_8bit = 255.0 / ((1u64 << f.bit_depth) - 1) as f64;
+    // Empty blocks past the bottom edge copy the point above them, past the right edge the
+    // point left of them (the bottom edge's seeds are the picture's own bottom row).
+    let first = |i: usize| (i * c).saturating_sub(c / 2);
     for k in 0..sums.len() {
         if sums[k][3] == 0.0 {
-            let from = if k % grid.width > 0 {
-                k - 1
+            let (i, j) = (k % grid.width, k / grid.width);
+            let from = if j > 0 && first(j) + 1 >= h {
+                k - grid.width
             } else {
-                k.saturating_sub(grid.width)
+                k.saturating_sub(usize::from(i > 0))
             };
             sums[k] = sums[from];
         }
@@ -130,7 +230,8 @@ fn tensors(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f32; 4]> {
     sums.iter()
         .map(|s| {
             let n = s[3].max(1.0);
-            [s[0] / n, s[1] / n, s[2] / n, s[4] / n]
+            let g = to_8bit * to_8bit / n;
+            [s[0] * g, s[1] * g, s[2] * g, s[4] * to_8bit / n].map(|v| v as f32)
         })
         .collect()
 }
@@ -151,6 +252,44 @@ fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
     across >= UPRIGHT_SHARE * energy
 }
 
+/// The share of the way from the ground's reference to a newly reached point's own luma and
+/// texture by which the reference moves: the road's shading (a few codes a block) is followed,
+/// a ramp of blocks down a blurred step (a wall's base, a kerb) is not.
+const FOLLOW: f32 = 0.25;
+
+/// A block's texture, 8-bit codes: twice the RMS gradient along its weaker direction, 2·√λ₋
+/// of its structure tensor (√2 times the RMS gradient of isotropic texture). A block that
+/// straddles one edge (a wall's base, a kerb, a shadow's rim) has its gradients all across it
+/// and no texture: the step it holds is not excused as the ground's own.
+fn texture_codes(t: &[f32; 4]) -> f32 {
+    let half_trace = 0.5 * (t[0] + t[1]);
+    let det = t[0] * t[1] - t[2] * t[2];
+    let smaller = half_trace - (half_trace * half_trace - det).max(0.0).sqrt();
+    2.0 * smaller.max(0.0).sqrt()
+}
+
+/// The flood's seeds among the open points `bottom` of the picture's bottom edge: the
+/// median of their lumas and textures is taken for the ground there (most of the edge's open
+/// points show it), and a point is a seed where its luma is within a step of it (its texture
+/// excusing as much as in the flood). The face of a wall or a car standing nearer than the
+/// ground at the bottom edge, run down past the picture's edge, is not a seed.
+fn seeds(bottom: &[usize], t: &[[f32; 4]], texture: &[f32]) -> Vec<usize> {
+    if bottom.is_empty() {
+        return Vec::new();
+    }
+    let median = |mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    let luma = median(bottom.iter().map(|&k| t[k][3]).collect());
+    let rough = median(bottom.iter().map(|&k| texture[k]).collect());
+    bottom
+        .iter()
+        .copied()
+        .filter(|&k| (t[k][3] - luma).abs() <= STEP_CODES + rough.min(texture[k]))
+        .collect()
+}
+
 /// The ground's weight at each grid point of `frame` (row-major over `grid`, in {0, 1}; read
 /// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
 /// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
@@ -159,7 +298,7 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
     }
-    let t = tensors(frame, grid);
+    let t = tensors(frame, grid, sums(frame, grid));
     let (w, h) = (grid.width, grid.height);
     let neighbours8 = |k: usize| {
         let (i, j) = ((k % w) as i64, (k / w) as i64);
@@ -180,20 +319,21 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         TopEdge::Left => (0..h).map(|j| j * w + w - 1).collect(),
         TopEdge::Right => (0..h).map(|j| j * w).collect(),
     };
-    // The ground's luma and texture along the flood's path to each point (halfway to each new
-    // point's own): a step is measured from the ground behind it, so the base of a wall spread
-    // over two blocks, each half the step and with an edge's texture, is still a step.
-    let rms: Vec<f32> = t.iter().map(|q| (q[0] + q[1]).sqrt()).collect();
+    // The ground's luma and texture along the flood's path to each point (a quarter of the way
+    // to each new point's own): a step is measured from the ground behind it, so the base of a
+    // wall blurred over two or three blocks, each a part of the step, is still a step.
+    let texture: Vec<f32> = t.iter().map(texture_codes).collect();
     let mut reference = vec![[0.0f32; 2]; n];
     let passes = |reference: &[[f32; 2]], from: usize, to: usize| {
-        let [luma, texture] = reference[from];
-        (t[to][3] - luma).abs() <= STEP_CODES + texture.min(rms[to])
+        let [luma, rough] = reference[from];
+        (t[to][3] - luma).abs() <= STEP_CODES + rough.min(texture[to])
     };
     let mut ground = vec![false; n];
-    let mut queue: VecDeque<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
+    let open_bottom: Vec<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
+    let mut queue: VecDeque<usize> = seeds(&open_bottom, &t, &texture).into();
     for &k in &queue {
         ground[k] = true;
-        reference[k] = [t[k][3], rms[k]];
+        reference[k] = [t[k][3], texture[k]];
     }
     while let Some(k) = queue.pop_front() {
         let (i, j) = (k % w, k / w);
@@ -206,8 +346,11 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         for m in next.into_iter().flatten() {
             if open[m] && !ground[m] && passes(&reference, k, m) {
                 ground[m] = true;
-                let [luma, texture] = reference[k];
-                reference[m] = [0.5 * (luma + t[m][3]), 0.5 * (texture + rms[m])];
+                let [luma, rough] = reference[k];
+                reference[m] = [
+                    luma + FOLLOW * (t[m][3] - luma),
+                    rough + FOLLOW * (texture[m] - rough),
+                ];
                 queue.push_back(m);
             }
         }
@@ -222,4 +365,149 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     (0..n)
         .map(|k| f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m]))))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::video::ColorParams;
+    use crate::video::frame::{Chroma, FrameFormat};
+
+    /// The block sums in integers over whole rows equal the plain per-pixel ones exactly, at
+    /// 8 and 10 bits, for sizes that are and are not multiples of the cell, and padded rows.
+    #[test]
+    fn the_block_sums_equal_the_plain_ones() {
+        for (size, bit_depth, cell) in [
+            ((64u32, 48u32), 8u8, 8u32),
+            ((101, 37), 8, 8),
+            ((50, 29), 10, 8),
+            ((23, 17), 10, 5),
+            ((2, 2), 8, 8),
+        ] {
+            let format = FrameFormat {
+                width: size.0,
+                height: size.1,
+                chroma: Chroma::Cs420,
+                bit_depth,
+            };
+            let mut f = YuvFrame::filled(format, ColorParams::bt709(bit_depth), [16, 128, 128]);
+            // Rows padded past the picture, as decoders leave them.
+            let bytes = format.bytes_per_sample();
+            let stride = format.packed_stride(0) + 3 * bytes;
+            let max = (1u64 << bit_depth) - 1;
+            let mut data = vec![0u8; stride * size.1 as usize];
+            for y in 0..size.1 as usize {
+                for x in 0..size.0 as usize {
+                    let r = crate::rng::splitmix64((y as u64) << 20 ^ x as u64);
+                    let v = if (x / 7 + y / 5) % 2 == 0 {
+                        r % (max + 1)
+                    } else {
+                        (x as u64 * 3) % (max + 1)
+                    };
+                    let at = y * stride + x * bytes;
+                    if bytes == 2 {
+                        data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
+                    } else {
+                        data[at] = v as u8;
+                    }
+                }
+            }
+            f.planes[0].data = data;
+            f.planes[0].stride = stride;
+            let grid = SkyGrid::new(cell, size);
+            assert_eq!(
+                sums(&f, grid),
+                sums_plain(&f, grid),
+                "{size:?} at {bit_depth} bits"
+            );
+        }
+    }
+
+    /// The texture of a block is the gradient along its weaker direction: √2 times the RMS
+    /// gradient for isotropic gradients, none for one edge whatever its direction, the weaker
+    /// direction's for a mix (against the eigenvalues worked by hand).
+    #[test]
+    fn texture_is_the_incoherent_part_of_the_gradients() {
+        // Isotropic: E[gx²] = E[gy²] = 50, no correlation: λ₋ = 50, RMS √100 = 10.
+        let iso = texture_codes(&[50.0, 50.0, 0.0, 0.0]);
+        assert!((iso - 2f32.sqrt() * 10.0).abs() < 1e-3, "{iso}");
+        // One edge at 30° from the x axis, energy 100: the tensor 100·(c², s², c·s).
+        let (s, c) = 30f32.to_radians().sin_cos();
+        let edge = [100.0 * c * c, 100.0 * s * s, 100.0 * c * s, 0.0];
+        assert!(texture_codes(&edge) < 1e-2, "{}", texture_codes(&edge));
+        // An edge along x of energy 64 over isotropic texture of 2 × 9: eigenvalues 73 and 9,
+        // whichever way the edge runs (the tensor turned by 40°).
+        assert!((texture_codes(&[73.0, 9.0, 0.0, 0.0]) - 6.0).abs() < 1e-4);
+        let (s, c) = 40f32.to_radians().sin_cos();
+        let turned = [
+            73.0 * c * c + 9.0 * s * s,
+            73.0 * s * s + 9.0 * c * c,
+            (73.0 - 9.0) * c * s,
+            0.0,
+        ];
+        assert!(
+            (texture_codes(&turned) - 6.0).abs() < 1e-2,
+            "{}",
+            texture_codes(&turned)
+        );
+    }
+
+    /// What finding the ground costs a frame beside finding the sky, on the first frame past
+    /// 1 s of `samples/street.mp4` scaled by ffmpeg to 640×360 and to 1080p (the horizon at
+    /// 0.48 of the height, a level camera): `cargo test --release --lib ground_cost --
+    /// --ignored --nocapture`.
+    #[test]
+    #[ignore = "a timing report, not a check"]
+    fn ground_cost_report() {
+        for (w, h) in [(640u32, 360u32), (1920, 1080)] {
+            let raw = std::process::Command::new("ffmpeg")
+                .args(["-v", "error", "-ss", "1", "-i", "samples/street.mp4"])
+                .args(["-frames:v", "1", "-vf", &format!("scale={w}:{h}")])
+                .args(["-pix_fmt", "yuv420p", "-f", "rawvideo", "-"])
+                .output()
+                .expect("ffmpeg runs")
+                .stdout;
+            let format = FrameFormat {
+                width: w,
+                height: h,
+                chroma: Chroma::Cs420,
+                bit_depth: 8,
+            };
+            let mut f = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
+            let mut at = 0;
+            for p in &mut f.planes {
+                let n = p.data.len();
+                p.data.copy_from_slice(&raw[at..at + n]);
+                at += n;
+            }
+            let grid = SkyGrid::new(8, (w, h));
+            let horizon_px = 0.48 * h as f32;
+            let view: Vec<PointView> = (0..grid.len())
+                .map(|k| PointView {
+                    below_horizon: ((k / grid.width) as f32 * 8.0) > horizon_px,
+                    up_px: [0.0, -1.0],
+                })
+                .collect();
+            let median_ms = |run: &dyn Fn()| {
+                let mut t: Vec<f64> = (0..9)
+                    .map(|_| {
+                        let start = std::time::Instant::now();
+                        run();
+                        start.elapsed().as_secs_f64() * 1e3
+                    })
+                    .collect();
+                t.sort_by(f64::total_cmp);
+                t[t.len() / 2]
+            };
+            let ground = || detect(&f, grid, TopEdge::Top, &view);
+            let sky = || crate::scene::sky::detect(&f, grid, TopEdge::Top, None);
+            let ground_ms = median_ms(&|| drop(std::hint::black_box(ground())));
+            let sky_ms = median_ms(&|| drop(std::hint::black_box(sky())));
+            let share = ground().iter().sum::<f32>() / grid.len() as f32;
+            println!(
+                "{w}x{h} median of 9: ground mask {ground_ms:.2} ms, sky {sky_ms:.2} ms; \
+                 ground share {share:.3}"
+            );
+        }
+    }
 }
