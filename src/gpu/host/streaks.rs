@@ -7,8 +7,10 @@
 //! its bits (f16 → f32 → f16 is exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the
 //! reference (`tests/backend.rs`); every pixel is computed from its own coordinates and its
 //! streak's run direction, so the result does not depend on the tiles or the threads.
+// Lane loops index several arrays by the lane: the form the vectoriser reads best.
+#![allow(clippy::needless_range_loop)]
+
 use half::f16;
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 
 use crate::drops::MatteAtlas;
@@ -121,90 +123,193 @@ pub struct Rain<'a> {
 /// Blends `streaks` (one per drop, `len_px < 0`: not drawn) over `canvas` (RGBA f16, row-major,
 /// the coded picture of `rain.params.coded_size_px`, `width` texels a row).
 pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
+    rasterise_on(canvas, width, rain, streaks, true)
+}
+
+/// [`rasterise`] without the AVX2 build: the same bits (`tests/backend.rs` holds them equal).
+pub fn rasterise_baseline(
+    canvas: &mut [f16],
+    width: usize,
+    rain: &Rain,
+    streaks: &[Streak],
+) -> RasterCount {
+    rasterise_on(canvas, width, rain, streaks, false)
+}
+
+/// Whether the CPU runs the raster's AVX2 build (AVX2 for the lanes, F16C for the tiles).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("f16c");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// What every band of tiles reads: the inputs, the streaks in drop order and their mattes.
+struct Frame<'a> {
+    rain: &'a Rain<'a>,
+    rot: Rotation,
+    prepared: Vec<Prepared>,
+    mattes: Vec<Matte>,
+    width: usize,
+    tiles_x: usize,
+}
+
+fn rasterise_on(
+    canvas: &mut [f16],
+    width: usize,
+    rain: &Rain,
+    streaks: &[Streak],
+    avx2: bool,
+) -> RasterCount {
     let height = canvas.len() / (4 * width.max(1));
     let rot = Rotation::new(rain.params);
-    let items: Vec<(Prepared, Option<Matte>)> = streaks
-        .par_iter()
-        .enumerate()
-        .filter_map(|(id, s)| prepare(rain, &rot, id, s, width, height))
-        .collect();
-    let mut mattes = Vec::new();
-    let prepared: Vec<Prepared> = items
-        .into_iter()
-        .map(|(mut p, matte)| {
-            if let Some(m) = matte {
-                p.matte = mattes.len() as u32;
-                mattes.push(m);
-            }
-            p
-        })
-        .collect();
+    let prepare = |(id, s)| prepare(rain, &rot, id, s, width, height);
+    let (prepared, mattes) = if rain.mattes.is_none() {
+        let prepared: Vec<Prepared> = streaks
+            .par_iter()
+            .enumerate()
+            .filter_map(|s| prepare(s).map(|(p, _)| p))
+            .collect();
+        (prepared, Vec::new())
+    } else {
+        let items: Vec<(Prepared, Option<Matte>)> =
+            streaks.par_iter().enumerate().filter_map(prepare).collect();
+        let mut mattes = Vec::new();
+        let prepared = items
+            .into_iter()
+            .map(|(mut p, matte)| {
+                if let Some(m) = matte {
+                    p.matte = mattes.len() as u32;
+                    mattes.push(m);
+                }
+                p
+            })
+            .collect();
+        (prepared, mattes)
+    };
     let tiles_x = width.div_ceil(TILE_W);
     let tiles_y = height.div_ceil(TILE_H);
-    // Counting sort by tile, drop order kept within each tile.
-    let mut start = vec![0u32; tiles_x * tiles_y + 1];
-    let tile_span = |p: &Prepared| (p.x0 / TILE_W..=p.x1 / TILE_W, p.y0 / TILE_H..=p.y1 / TILE_H);
+    // Each band of tiles' streaks by index, drop order kept (a counting sort); each band sorts
+    // its own by tile.
+    let mut start = vec![0u32; tiles_y + 1];
     for p in &prepared {
-        let (xs, ys) = tile_span(p);
-        for ty in ys {
-            for tx in xs.clone() {
-                start[ty * tiles_x + tx + 1] += 1;
-            }
+        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
+            start[ty + 1] += 1;
         }
     }
     for k in 1..start.len() {
         start[k] += start[k - 1];
     }
     let mut fill = start.clone();
-    let mut binned = vec![Prepared::default(); start[start.len() - 1] as usize];
-    for p in &prepared {
-        let (xs, ys) = tile_span(p);
-        for ty in ys {
-            for tx in xs.clone() {
-                let at = &mut fill[ty * tiles_x + tx];
-                binned[*at as usize] = *p;
-                *at += 1;
-            }
+    let mut in_band = vec![0u32; start[tiles_y] as usize];
+    for (i, p) in prepared.iter().enumerate() {
+        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
+            in_band[fill[ty] as usize] = i as u32;
+            fill[ty] += 1;
         }
     }
-    let count = RasterCount {
-        streaks: prepared.len(),
-        tiles: start.windows(2).filter(|w| w[1] > w[0]).count(),
+    let frame = Frame {
+        rain,
+        rot,
+        prepared,
+        mattes,
+        width,
+        tiles_x,
     };
-    canvas
+    let avx2 = avx2 && has_avx2();
+    let tiles = canvas
         .par_chunks_mut(4 * width * TILE_H)
         .enumerate()
-        .for_each(|(ty, band)| {
-            let rows = band.len() / (4 * width);
-            let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
-            for tx in 0..tiles_x {
-                let k = ty * tiles_x + tx;
-                let list = &binned[start[k] as usize..start[k + 1] as usize];
-                if list.is_empty() {
-                    continue;
-                }
-                let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
-                for r in 0..rows {
-                    band[4 * (r * width + x0)..][..4 * cols]
-                        .convert_to_f32_slice(&mut tile[4 * r * TILE_W..][..4 * cols]);
-                }
-                let area = Area {
-                    x0,
-                    x1: x0 + cols - 1,
-                    y0: ty * TILE_H,
-                    y1: ty * TILE_H + rows - 1,
-                };
-                for p in list {
-                    let matte = mattes.get(p.matte as usize);
-                    draw(rain, &rot, p, matte, &area, &mut tile);
-                }
-                for r in 0..rows {
-                    band[4 * (r * width + x0)..][..4 * cols]
-                        .convert_from_f32_slice(&tile[4 * r * TILE_W..][..4 * cols]);
-                }
-            }
-        });
-    count
+        .map(|(ty, band)| {
+            let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
+            band_on(avx2, &frame, ty, list, band)
+        })
+        .sum();
+    RasterCount {
+        streaks: frame.prepared.len(),
+        tiles,
+    }
+}
+
+/// [`band`], in the AVX2 build where `avx2` (the CPU has it).
+fn band_on(avx2: bool, frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        #[target_feature(enable = "avx2,f16c")]
+        fn fast(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+            band(frame, ty, list, canvas, true)
+        }
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`rasterise_on`).
+        return unsafe { fast(frame, ty, list, canvas) };
+    }
+    band(frame, ty, list, canvas, false)
+}
+
+/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (indices in drop
+/// order): each tile with streaks goes to f32, blends them in drop order and goes back to f16
+/// ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
+#[inline(always)]
+fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) -> usize {
+    let (width, tiles_x) = (frame.width, frame.tiles_x);
+    // The band's streaks side by side (read in one sweep, then from the cache), sorted by
+    // tile with drop order kept.
+    let local: Vec<Prepared> = list.iter().map(|&i| frame.prepared[i as usize]).collect();
+    let span = |p: &Prepared| p.x0 / TILE_W..=p.x1 / TILE_W;
+    let mut start = vec![0u32; tiles_x + 1];
+    for p in &local {
+        for tx in span(p) {
+            start[tx + 1] += 1;
+        }
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut fill = start.clone();
+    let mut order = vec![0u32; start[tiles_x] as usize];
+    for (i, p) in local.iter().enumerate() {
+        for tx in span(p) {
+            order[fill[tx] as usize] = i as u32;
+            fill[tx] += 1;
+        }
+    }
+    let rows = canvas.len() / (4 * width);
+    let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
+    let mut drawn = 0;
+    for tx in 0..tiles_x {
+        let list = &order[start[tx] as usize..start[tx + 1] as usize];
+        if list.is_empty() {
+            continue;
+        }
+        drawn += 1;
+        let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
+        for r in 0..rows {
+            super::tile::load(
+                &canvas[4 * (r * width + x0)..][..4 * cols],
+                &mut tile[4 * r * TILE_W..][..4 * cols],
+                f16c,
+            );
+        }
+        let area = Area {
+            x0,
+            x1: x0 + cols - 1,
+            y0: ty * TILE_H,
+            y1: ty * TILE_H + rows - 1,
+        };
+        for &i in list {
+            let p = &local[i as usize];
+            let matte = frame.mattes.get(p.matte as usize);
+            draw(frame.rain, &frame.rot, p, matte, &area, &mut tile);
+        }
+        for r in 0..rows {
+            super::tile::store(
+                &tile[4 * r * TILE_W..][..4 * cols],
+                &mut canvas[4 * (r * width + x0)..][..4 * cols],
+                f16c,
+            );
+        }
+    }
+    drawn
 }
 
 /// A tile's coded pixels (inclusive).
@@ -348,6 +453,7 @@ fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
 /// row) in `area`: in runs along the coded picture's rows or, for a streak steeper than 45°
 /// there, along its columns, so that the runs are long. The direction is the streak's alone,
 /// so each pixel's value does not depend on the tile.
+#[inline(always)]
 fn draw(
     rain: &Rain,
     rot: &Rotation,
@@ -447,33 +553,51 @@ struct Run {
     stride: usize,
 }
 
+/// Pixels of a run taken side by side: the capsule's arithmetic is one loop over this many
+/// lanes (one AVX2 vector, two SSE ones), the blend a loop of its own over the pixels.
+const LANES: usize = 8;
+
 /// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
 /// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
-/// which leaves it exactly as it was.
-#[inline]
+/// which leaves it exactly as it was. Each lane computes its pixel from the pixel's own
+/// coordinate with the same operations, so the lanes, and the instruction set, change no bit.
+#[inline(always)]
 fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f32) -> f32) {
     let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
     let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
     let still = len < 1e-3;
-    for k in 0..run.count {
-        let uf = (run.first + k) as f32;
-        let along = run.along + uf * run.da;
-        let across = run.across + uf * run.dc;
-        let h = (r2 - across * across).max(0.0).sqrt();
-        let cover = if still {
-            if along.abs() < h { 1.0 } else { 0.0 }
-        } else {
-            ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) * p.inv_len
-        };
-        let a = (cover * p.alpha_scale).clamp(0.0, 1.0) * shown(k, along);
-        let t = (along + p.ext) * p.inv_quad;
-        let keep = 1.0 - a;
-        let px = &mut px[k * run.stride..][..4];
-        px[0] = (r0[0] + dr[0] * t) * a + px[0] * keep;
-        px[1] = (r0[1] + dr[1] * t) * a + px[1] * keep;
-        px[2] = (r0[2] + dr[2] * t) * a + px[2] * keep;
-        px[3] = a + px[3] * keep;
+    // Clamps as selects (the vectoriser's min and max); no value here is NaN.
+    let at_least = |v: f32, lo: f32| if v > lo { v } else { lo };
+    let at_most = |v: f32, hi: f32| if v < hi { v } else { hi };
+    let mut k0 = 0;
+    while k0 < run.count {
+        let (mut alpha, mut t, mut along) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        // Pixel coordinates are far below 2²⁴: exact as i32 and as f32.
+        let u0 = (run.first + k0) as i32;
+        for l in 0..LANES {
+            let uf = (u0 + l as i32) as f32;
+            let a = run.along + uf * run.da;
+            let across = run.across + uf * run.dc;
+            let h = at_least(r2 - across * across, 0.0).sqrt();
+            let swept = (at_most(at_least(a + h, 0.0), len) - at_most(at_least(a - h, 0.0), len))
+                * p.inv_len;
+            let here = if a.abs() < h { 1.0 } else { 0.0 };
+            let cover = if still { here } else { swept };
+            alpha[l] = at_most(at_least(cover * p.alpha_scale, 0.0), 1.0);
+            t[l] = (a + p.ext) * p.inv_quad;
+            along[l] = a;
+        }
+        for l in 0..LANES.min(run.count - k0) {
+            let a = alpha[l] * shown(k0 + l, along[l]);
+            let keep = 1.0 - a;
+            let px = &mut px[(k0 + l) * run.stride..][..4];
+            px[0] = (r0[0] + dr[0] * t[l]) * a + px[0] * keep;
+            px[1] = (r0[1] + dr[1] * t[l]) * a + px[1] * keep;
+            px[2] = (r0[2] + dr[2] * t[l]) * a + px[2] * keep;
+            px[3] = a + px[3] * keep;
+        }
+        k0 += LANES;
     }
 }
 
