@@ -430,7 +430,19 @@ fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
         };
     }
     let (a, b) = ((lo - v0) * inv, (hi - v0) * inv);
-    (a.min(b), a.max(b))
+    if a < b { (a, b) } else { (b, a) }
+}
+
+/// The larger of `a` and `b`, as one instruction (neither is NaN here).
+#[inline(always)]
+fn larger(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The smaller of `a` and `b` (see [`larger`]).
+#[inline(always)]
+fn smaller(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
 }
 
 /// 1 / `slope`, or 0 where it is too small to bound a row.
@@ -454,8 +466,8 @@ fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
 /// there, along its columns, so that the runs are long. The direction is the streak's alone,
 /// so each pixel's value does not depend on the tile.
 #[inline(always)]
-fn draw(
-    rain: &Rain,
+fn draw<'a>(
+    rain: &Rain<'a>,
     rot: &Rotation,
     p: &Prepared,
     matte: Option<&Matte>,
@@ -469,7 +481,6 @@ fn draw(
     }
     // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
     // a matte's colour reaches the whole quad.
-    let simple = matte.is_none();
     let (along_lo, along_hi, across_lim) = if matte.is_none() {
         (-p.r, p.len + p.r, p.r)
     } else {
@@ -496,8 +507,8 @@ fn draw(
         let across_v = p.across[0] + vf * vc;
         let (a0, a1) = span(along_v, da, inv_a, along_lo, along_hi);
         let (c0, c1) = span(across_v, dc, inv_c, -across_lim, across_lim);
-        let lo = (a0.max(c0) - PAD).max(u0 as f32);
-        let hi = (a1.min(c1) + PAD).min(u1 as f32);
+        let lo = larger(larger(a0, c0) - PAD, u0 as f32);
+        let hi = smaller(smaller(a1, c1) + PAD, u1 as f32);
         let Some((first, last)) = whole(lo, hi) else {
             continue;
         };
@@ -516,27 +527,25 @@ fn draw(
             count: last - first + 1,
             stride,
         };
-        if simple {
-            match rain.depth {
-                None => capsule_run(p, &run, &mut tile[at..], |_, _| 1.0),
-                // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
-                Some(map) => capsule_run(p, &run, &mut tile[at..], |k, along| {
-                    let (x, y) = if columns {
-                        (v, first + k)
-                    } else {
-                        (first + k, v)
-                    };
-                    let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
-                    visibility(rain.params, map, at, along, p)
-                }),
+        // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
+        let occluded = |map: &'a [f32]| {
+            move |k: usize, along: f32| {
+                let (x, y) = if columns {
+                    (v, first + k)
+                } else {
+                    (first + k, v)
+                };
+                let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
+                visibility(rain.params, map, at, along, p)
             }
-        } else {
-            for k in 0..run.count {
-                let u = first + k;
-                let (x, y) = if columns { (v, u) } else { (u, v) };
-                let px = &mut tile[at + k * stride..][..4];
-                pixel(rain, rot, p, matte, x as f32, y as f32, px);
-            }
+        };
+        let px = &mut tile[at..];
+        match (matte, rain.mattes, rain.depth) {
+            (None, _, None) => capsule_run(p, &run, px, |_, _| 1.0),
+            (None, _, Some(map)) => capsule_run(p, &run, px, occluded(map)),
+            (Some(m), Some(atlas), None) => matte_run(p, m, atlas, &run, px, |_, _| 1.0),
+            (Some(m), Some(atlas), Some(map)) => matte_run(p, m, atlas, &run, px, occluded(map)),
+            (Some(_), None, _) => {}
         }
     }
 }
@@ -567,9 +576,8 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f3
     let [r0, r1] = p.radiance;
     let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
     let still = len < 1e-3;
-    // Clamps as selects (the vectoriser's min and max); no value here is NaN.
-    let at_least = |v: f32, lo: f32| if v > lo { v } else { lo };
-    let at_most = |v: f32, hi: f32| if v < hi { v } else { hi };
+    // Clamps as selects (the vectoriser's min and max).
+    let (at_least, at_most) = (larger, smaller);
     let mut k0 = 0;
     while k0 < run.count {
         let (mut alpha, mut t, mut along) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
@@ -601,76 +609,121 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f3
     }
 }
 
-/// Blends streak `p` over coded pixel (x, y), as the twin does: behind the scene's depth,
-/// with the streak's matte.
-#[inline]
-fn pixel(
-    rain: &Rain,
-    rot: &Rotation,
+/// Texels in one layer of the mattes.
+const LAYER: usize = ATLAS_WIDTH * ATLAS_HEIGHT;
+
+/// Blends streak `p` with its matte `m` over `run` as the twin does (the capsule's alpha, the
+/// colour spread by the matte and the glints' mattes, sampled bilinearly), the alpha and light
+/// of its `k`-th pixel times `shown(k, along)`; a pixel outside the quad, or with neither
+/// alpha nor light, is left as it was. The layers are chosen once for the streak, and each
+/// pixel is computed from its own coordinate in lanes (as [`capsule_run`]).
+#[inline(always)]
+fn matte_run(
     p: &Prepared,
-    matte: Option<&Matte>,
-    xf: f32,
-    yf: f32,
+    m: &Matte,
+    atlas: &MatteAtlas,
+    run: &Run,
     px: &mut [f32],
+    shown: impl Fn(usize, f32) -> f32,
 ) {
-    let along = p.along[0] + xf * p.along[1] + yf * p.along[2];
-    let across = p.across[0] + xf * p.across[1] + yf * p.across[2];
-    if along < -p.ext || along > p.len + p.ext || across.abs() > p.across_ext {
-        return;
-    }
-    let shown = match rain.depth {
-        None => 1.0,
-        Some(map) => visibility(rain.params, map, rot.display(xf + 0.5, yf + 0.5), along, p),
-    };
-    let a = (coverage(along, across, p.len, p.r) * p.alpha_scale).clamp(0.0, 1.0) * shown;
-    let t = (along + p.ext) * p.inv_quad;
+    let layer = |l: usize| <&[f32; LAYER]>::try_from(&atlas.texels[l * LAYER..][..LAYER]).ok();
+    let Some(env) = layer(m.layer) else { return };
+    let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
-    let rad = [0, 1, 2].map(|k| r0[k] * (1.0 - t) + r1[k] * t);
-    let light = match (matte, rain.mattes) {
-        (Some(m), Some(atlas)) => {
-            let footprint = p.len + 2.0 * p.r;
-            let spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
-            let (u, w) = ((along + p.r) / footprint, -across / p.r);
-            let n = sample(atlas, m.layer, u, w);
-            let mut light = rad.map(|c| c * n);
-            for &(layer, mirror, colour) in &m.glints {
-                let g = sample(atlas, layer, u, if mirror { -w } else { w });
+    let still = len < 1e-3;
+    let footprint = p.len + 2.0 * p.r;
+    let light_spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
+    let mut k0 = 0;
+    while k0 < run.count {
+        // Outside the quad a lane's alpha and light are 0 (`spread[l]` = 0): left as it was.
+        let (mut alpha, mut along, mut spread) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        let (mut u, mut w, mut t) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        let u0 = (run.first + k0) as i32;
+        for l in 0..LANES {
+            let uf = (u0 + l as i32) as f32;
+            let a = run.along + uf * run.da;
+            let across = run.across + uf * run.dc;
+            let h = larger(r2 - across * across, 0.0).sqrt();
+            let swept =
+                (smaller(larger(a + h, 0.0), len) - smaller(larger(a - h, 0.0), len)) * p.inv_len;
+            let here = if a.abs() < h { 1.0 } else { 0.0 };
+            let cover = if still { here } else { swept };
+            alpha[l] = smaller(larger(cover * p.alpha_scale, 0.0), 1.0);
+            t[l] = (a + p.ext) * p.inv_quad;
+            u[l] = (a + p.r) / footprint;
+            w[l] = -across / p.r;
+            along[l] = a;
+            spread[l] = across;
+        }
+        for l in 0..LANES {
+            let (a, across) = (along[l], spread[l]);
+            // `&`, not `&&`: no branch in a lane.
+            let inside = (a >= -p.ext) & (a <= len + p.ext) & (across.abs() <= p.across_ext);
+            alpha[l] = if inside { alpha[l] } else { 0.0 };
+            spread[l] = if inside { light_spread } else { 0.0 };
+        }
+        let mut n = [0f32; LANES];
+        sample_lanes(env, &u, &w, false, &mut n);
+        let mut light = [[0f32; LANES]; 3];
+        for l in 0..LANES {
+            for k in 0..3 {
+                light[k][l] = (r0[k] * (1.0 - t[l]) + r1[k] * t[l]) * n[l];
+            }
+        }
+        for &(glint, mirror, colour) in &m.glints {
+            let Some(texels) = layer(glint) else { continue };
+            sample_lanes(texels, &u, &w, mirror, &mut n);
+            for l in 0..LANES {
                 for k in 0..3 {
-                    light[k] += colour[k] * g;
+                    light[k][l] += colour[k] * n[l];
                 }
             }
-            light.map(|c| c * spread * shown)
         }
-        _ => {
-            if a <= 0.0 {
-                return;
+        for l in 0..LANES.min(run.count - k0) {
+            let s = shown(k0 + l, along[l]);
+            let a = alpha[l] * s;
+            let lit = [0, 1, 2].map(|k| light[k][l] * spread[l] * s);
+            if a <= 0.0 && lit.iter().all(|&c| c <= 0.0) {
+                continue;
             }
-            rad.map(|c| c * a)
+            let keep = 1.0 - a;
+            let px = &mut px[(k0 + l) * run.stride..][..4];
+            for k in 0..3 {
+                px[k] = lit[k] + px[k] * keep;
+            }
+            px[3] = a + px[3] * keep;
         }
-    };
-    if a <= 0.0 && light.iter().all(|&c| c <= 0.0) {
-        return;
+        k0 += LANES;
     }
-    let keep = 1.0 - a;
-    for k in 0..3 {
-        px[k] = light[k] + px[k] * keep;
-    }
-    px[3] = a + px[3] * keep;
 }
 
-/// The fraction of the exposure a disc of radius `r` moving from 0 to `len` along x covers the
-/// point (`along`, `across`) (the twin's `coverage`).
-#[inline]
-fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
-    let h2 = r * r - across * across;
-    if h2 <= 0.0 {
-        return 0.0;
+/// A matte layer at (`u` along, `w` across in radii; `mirror`: at −`w`) in lanes, bilinear
+/// between texel centres, zero outside (`MatteAtlas::sample` in f32).
+#[inline(always)]
+fn sample_lanes(
+    texels: &[f32; LAYER],
+    u: &[f32; LANES],
+    w: &[f32; LANES],
+    mirror: bool,
+    out: &mut [f32; LANES],
+) {
+    let at = |xi: i32, yi: i32| {
+        let on = (xi >= 0) & (yi >= 0) & (xi < ATLAS_WIDTH as i32) & (yi < ATLAS_HEIGHT as i32);
+        let k = ((yi * ATLAS_WIDTH as i32 + xi) as usize).min(LAYER - 1);
+        let v = texels[k];
+        if on { v } else { 0.0 }
+    };
+    for l in 0..LANES {
+        let w = if mirror { -w[l] } else { w[l] };
+        let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
+        let y = u[l] * ATLAS_HEIGHT as f32 - 0.5;
+        let (xf, yf) = (x.floor(), y.floor());
+        let (tx, ty) = (x - xf, y - yf);
+        let (x0, y0) = (xf as i32, yf as i32);
+        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+        let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+        out[l] = top * (1.0 - ty) + bottom * ty;
     }
-    let h = h2.sqrt();
-    if len < 1e-3 {
-        return if along.abs() < h { 1.0 } else { 0.0 };
-    }
-    ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) / len
 }
 
 /// How much of the drop shows at display point `at`, `along` px down its path, in front of
@@ -697,25 +750,4 @@ fn visibility(params: &RainParams, map: &[f32], at: [f32; 2], along: f32, p: &Pr
     let drop = 1.0 / ((1.0 - t) / p.depth_m[0] + t / p.depth_m[1]);
     let x = ((scene - drop) / OCCLUSION_SOFTNESS_M as f32 + 0.5).clamp(0.0, 1.0);
     x * x * (3.0 - 2.0 * x)
-}
-
-/// The matte `layer` at (u along, w across in radii), bilinear between texel centres, zero
-/// outside (`MatteAtlas::sample` in f32).
-#[inline]
-fn sample(atlas: &MatteAtlas, layer: usize, u: f32, w: f32) -> f32 {
-    let texels = &atlas.texels[layer * ATLAS_WIDTH * ATLAS_HEIGHT..][..ATLAS_WIDTH * ATLAS_HEIGHT];
-    let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
-    let y = u * ATLAS_HEIGHT as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (tx, ty) = (x - x0, y - y0);
-    let at = |xi: f32, yi: f32| {
-        if xi < 0.0 || yi < 0.0 || xi >= ATLAS_WIDTH as f32 || yi >= ATLAS_HEIGHT as f32 {
-            0.0
-        } else {
-            texels[yi as usize * ATLAS_WIDTH + xi as usize]
-        }
-    };
-    let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1.0, y0) * tx;
-    let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
-    top * (1.0 - ty) + bottom * ty
 }
