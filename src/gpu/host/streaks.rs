@@ -1,12 +1,16 @@
 //! The streaks rasterised on the CPU (the `rain_streaks` stage's work, for the CPU back end):
-//! each drawn streak is copied into the list of every 64 × 32 px tile its quad's box reaches, in
-//! drop order; rayon's threads take bands of tiles, and each tile with streaks goes to f32 once,
-//! blends its streaks in drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend
-//! state) in runs along each streak's steeper axis over the pixels it can cover, and goes back
-//! to f16. Tiles no streak reaches are not read or written, and a pixel no streak covers keeps
-//! its bits (f16 → f32 → f16 is exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the
-//! reference (`tests/backend.rs`); every pixel is computed from its own coordinates and its
-//! streak's run direction, so the result does not depend on the tiles or the threads.
+//! binned to 64 × 32 px tiles in drop order, each band of tiles (a row of them) sorting its own
+//! streaks on its own thread; each tile with streaks goes to f32 once, blends its streaks in
+//! drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend state) in runs along
+//! each streak's steeper axis over the pixels it can cover, [`LANES`] pixels of a run at a
+//! time (the capsule's coverage, or the matte's bilinear reads with the layers chosen once per
+//! streak), and goes back to f16. Tiles no streak reaches are not read or written, and a pixel
+//! no streak covers keeps its bits (f16 → f32 → f16 is exact). On x86-64 with AVX2 and F16C
+//! the same code is compiled a second time (8 lanes a vector, the tiles converted by F16C) and
+//! picked at run time; it gives the same bits. The plain twin
+//! [`crate::gpu::cpu::rain_streaks`] is the reference (`tests/backend.rs`); every pixel is
+//! computed from its own coordinates and its streak's run direction, so the result does not
+//! depend on the tiles, the threads or the instruction set.
 // Lane loops index several arrays by the lane: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
 
