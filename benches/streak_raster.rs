@@ -38,13 +38,19 @@ fn cpu_ms() -> f64 {
     ns as f64 * 1e-6
 }
 
-/// Medians of wall and CPU ms of `f` over `runs` runs (`setup` before each, not timed).
-fn time(runs: usize, mut setup: impl FnMut(), mut f: impl FnMut()) -> (f64, f64) {
+/// Medians of wall and CPU ms of `f(state)` over `runs` runs (`setup(state)` before each, not
+/// timed).
+fn time<T>(
+    runs: usize,
+    state: &mut T,
+    setup: impl Fn(&mut T),
+    mut f: impl FnMut(&mut T),
+) -> (f64, f64) {
     let (mut wall, mut cpu) = (Vec::new(), Vec::new());
     for _ in 0..runs {
-        setup();
+        setup(state);
         let (t, c) = (Instant::now(), cpu_ms());
-        f();
+        f(state);
         wall.push(t.elapsed().as_secs_f64() * 1e3);
         cpu.push(cpu_ms() - c);
     }
@@ -91,8 +97,9 @@ fn rain_1080p(runs: usize) -> (RainParams, Vec<Streak>) {
     let mut drawable = 0;
     let (wall, cpu) = time(
         runs,
-        || {},
-        || drawable = simulate(&p, &drops, &mut streaks, &mut glints),
+        &mut (),
+        |_| {},
+        |_| drawable = simulate(&p, &drops, &mut streaks, &mut glints),
     );
     println!(
         "simulate: {drawable} of {} drops drawable; {wall:.2} ms wall, {cpu:.2} ms CPU",
@@ -145,8 +152,9 @@ fn main() {
             let mut count = None;
             let (wall, cpu) = time(
                 runs,
-                || canvas.copy_from_slice(&plate),
-                || count = Some(raster(&mut canvas, W as usize, &rain, &streaks)),
+                &mut canvas,
+                |c| c.copy_from_slice(&plate),
+                |c| count = Some(raster(c, W as usize, &rain, &streaks)),
             );
             println!(
                 "raster, {style}, {build} build: {count:?}; {wall:.2} ms wall, {cpu:.2} ms CPU"
