@@ -835,13 +835,13 @@ fn streak_raster_is_deterministic() {
 
 /// The raster's AVX2 build (eight lanes a vector, F16C for the tiles) gives the baseline
 /// build's bits for every way of drawing, wide streaks that cross many tiles included, and the
-/// same bits twice.
+/// same bits twice; on an odd width (the last tile's rows end between two vectors).
 #[test]
 fn streak_raster_avx2_build_matches_the_baseline() {
     use rain_composite::gpu::host::streaks::{Rain, rasterise, rasterise_baseline};
-    let (_, format, color) = formats().remove(0);
+    let (_, format, color) = formats().remove(2);
     let format = FrameFormat {
-        width: 2 * RW,
+        width: 2 * RW - 1,
         height: RH,
         ..format
     };
