@@ -833,6 +833,68 @@ fn streak_raster_is_deterministic() {
     }
 }
 
+/// The raster's AVX2 build (eight lanes a vector, F16C for the tiles) gives the baseline
+/// build's bits for every way of drawing, wide streaks that cross many tiles included, and the
+/// same bits twice; on an odd width (the last tile's rows end between two vectors).
+#[test]
+fn streak_raster_avx2_build_matches_the_baseline() {
+    use rain_composite::gpu::host::streaks::{Rain, rasterise, rasterise_baseline};
+    let (_, format, color) = formats().remove(2);
+    let format = FrameFormat {
+        width: 2 * RW - 1,
+        height: RH,
+        ..format
+    };
+    let frame = picture(format, color);
+    let atlas = atlas();
+    let map = depth_map(format);
+    let depth = metres(&map);
+    for draw in DRAWS {
+        let p = raster_params(format, draw);
+        let [dw, dh] = p.display_size_px;
+        let (mut streaks, glints) = random_streaks(600, dw, dh, 13);
+        for s in streaks.iter_mut().step_by(31) {
+            s.r_eff_px *= 6.0;
+            s.len_px *= 3.0;
+        }
+        let rain = Rain {
+            params: &p,
+            mattes: matches!(draw, Draw::Mattes | Draw::Glints).then_some(&*atlas),
+            glints: if draw == Draw::Glints { &glints } else { &[] },
+            depth: (draw == Draw::Occluded).then_some(&depth[..]),
+        };
+        let mut host = HostColour::new(format, &frame.color);
+        let plate = host.decode(&frame, &p).to_vec();
+        let width = format.width as usize;
+        let run = |raster: fn(&mut [half::f16], usize, &Rain, &[Streak]) -> _| {
+            let mut canvas = plate.clone();
+            let count = raster(&mut canvas, width, &rain, &streaks);
+            (
+                canvas.iter().map(|v| v.to_bits()).collect::<Vec<u16>>(),
+                count,
+            )
+        };
+        let (fast, count) = run(rasterise);
+        let (base, base_count) = run(rasterise_baseline);
+        assert!(
+            count.streaks > 300 && count.tiles > 8,
+            "{draw:?}: {count:?}"
+        );
+        assert_eq!(count, base_count, "{draw:?}");
+        let changed = fast
+            .iter()
+            .zip(&plate)
+            .filter(|(f, p)| **f != p.to_bits())
+            .count();
+        assert!(changed > fast.len() / 10, "{draw:?}: {changed} changed");
+        assert!(fast == base, "{draw:?}: the AVX2 build differs");
+        assert!(
+            run(rasterise).0 == fast,
+            "{draw:?}: not the same bits twice"
+        );
+    }
+}
+
 /// Rain on but nothing drawn (every streak hidden or off the picture): the canvas keeps its
 /// bits, no tile is touched, and without haze the frame comes back as it was.
 #[test]

@@ -15,6 +15,7 @@ pub mod rain;
 pub mod simulate;
 pub mod splashes;
 pub mod streaks;
+pub mod tile;
 pub mod veil;
 pub mod wet_ground;
 

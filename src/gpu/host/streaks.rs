@@ -1,14 +1,20 @@
 //! The streaks rasterised on the CPU (the `rain_streaks` stage's work, for the CPU back end):
-//! each drawn streak is copied into the list of every 64 × 32 px tile its quad's box reaches, in
-//! drop order; rayon's threads take bands of tiles, and each tile with streaks goes to f32 once,
-//! blends its streaks in drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend
-//! state) in runs along each streak's steeper axis over the pixels it can cover, and goes back
-//! to f16. Tiles no streak reaches are not read or written, and a pixel no streak covers keeps
-//! its bits (f16 → f32 → f16 is exact). The plain twin [`crate::gpu::cpu::rain_streaks`] is the
-//! reference (`tests/backend.rs`); every pixel is computed from its own coordinates and its
-//! streak's run direction, so the result does not depend on the tiles or the threads.
+//! binned to 64 × 32 px tiles in drop order, each band of tiles (a row of them) sorting its own
+//! streaks on its own thread; each tile with streaks goes to f32 once, blends its streaks in
+//! drop order (premultiplied, `src + dst·(1 − α)`, as the stage's blend state) in runs along
+//! each streak's steeper axis over the pixels it can cover, [`LANES`] pixels of a run at a
+//! time (the capsule's coverage, or the matte's bilinear reads with the layers chosen once per
+//! streak), and goes back to f16. Tiles no streak reaches are not read or written, and a pixel
+//! no streak covers keeps its bits (f16 → f32 → f16 is exact). On x86-64 with AVX2 and F16C
+//! the same code is compiled a second time (8 lanes a vector, the tiles converted by F16C) and
+//! picked at run time; it gives the same bits. The plain twin
+//! [`crate::gpu::cpu::rain_streaks`] is the reference (`tests/backend.rs`); every pixel is
+//! computed from its own coordinates and its streak's run direction, so the result does not
+//! depend on the tiles, the threads or the instruction set.
+// Lane loops index several arrays by the lane: the form the vectoriser reads best.
+#![allow(clippy::needless_range_loop)]
+
 use half::f16;
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 
 use crate::drops::MatteAtlas;
@@ -121,90 +127,193 @@ pub struct Rain<'a> {
 /// Blends `streaks` (one per drop, `len_px < 0`: not drawn) over `canvas` (RGBA f16, row-major,
 /// the coded picture of `rain.params.coded_size_px`, `width` texels a row).
 pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
+    rasterise_on(canvas, width, rain, streaks, true)
+}
+
+/// [`rasterise`] without the AVX2 build: the same bits (`tests/backend.rs` holds them equal).
+pub fn rasterise_baseline(
+    canvas: &mut [f16],
+    width: usize,
+    rain: &Rain,
+    streaks: &[Streak],
+) -> RasterCount {
+    rasterise_on(canvas, width, rain, streaks, false)
+}
+
+/// Whether the CPU runs the raster's AVX2 build (AVX2 for the lanes, F16C for the tiles).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("f16c");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// What every band of tiles reads: the inputs, the streaks in drop order and their mattes.
+struct Frame<'a> {
+    rain: &'a Rain<'a>,
+    rot: Rotation,
+    prepared: Vec<Prepared>,
+    mattes: Vec<Matte>,
+    width: usize,
+    tiles_x: usize,
+}
+
+fn rasterise_on(
+    canvas: &mut [f16],
+    width: usize,
+    rain: &Rain,
+    streaks: &[Streak],
+    avx2: bool,
+) -> RasterCount {
     let height = canvas.len() / (4 * width.max(1));
     let rot = Rotation::new(rain.params);
-    let items: Vec<(Prepared, Option<Matte>)> = streaks
-        .par_iter()
-        .enumerate()
-        .filter_map(|(id, s)| prepare(rain, &rot, id, s, width, height))
-        .collect();
-    let mut mattes = Vec::new();
-    let prepared: Vec<Prepared> = items
-        .into_iter()
-        .map(|(mut p, matte)| {
-            if let Some(m) = matte {
-                p.matte = mattes.len() as u32;
-                mattes.push(m);
-            }
-            p
-        })
-        .collect();
+    let prepare = |(id, s)| prepare(rain, &rot, id, s, width, height);
+    let (prepared, mattes) = if rain.mattes.is_none() {
+        let prepared: Vec<Prepared> = streaks
+            .par_iter()
+            .enumerate()
+            .filter_map(|s| prepare(s).map(|(p, _)| p))
+            .collect();
+        (prepared, Vec::new())
+    } else {
+        let items: Vec<(Prepared, Option<Matte>)> =
+            streaks.par_iter().enumerate().filter_map(prepare).collect();
+        let mut mattes = Vec::new();
+        let prepared = items
+            .into_iter()
+            .map(|(mut p, matte)| {
+                if let Some(m) = matte {
+                    p.matte = mattes.len() as u32;
+                    mattes.push(m);
+                }
+                p
+            })
+            .collect();
+        (prepared, mattes)
+    };
     let tiles_x = width.div_ceil(TILE_W);
     let tiles_y = height.div_ceil(TILE_H);
-    // Counting sort by tile, drop order kept within each tile.
-    let mut start = vec![0u32; tiles_x * tiles_y + 1];
-    let tile_span = |p: &Prepared| (p.x0 / TILE_W..=p.x1 / TILE_W, p.y0 / TILE_H..=p.y1 / TILE_H);
+    // Each band of tiles' streaks by index, drop order kept (a counting sort); each band sorts
+    // its own by tile.
+    let mut start = vec![0u32; tiles_y + 1];
     for p in &prepared {
-        let (xs, ys) = tile_span(p);
-        for ty in ys {
-            for tx in xs.clone() {
-                start[ty * tiles_x + tx + 1] += 1;
-            }
+        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
+            start[ty + 1] += 1;
         }
     }
     for k in 1..start.len() {
         start[k] += start[k - 1];
     }
     let mut fill = start.clone();
-    let mut binned = vec![Prepared::default(); start[start.len() - 1] as usize];
-    for p in &prepared {
-        let (xs, ys) = tile_span(p);
-        for ty in ys {
-            for tx in xs.clone() {
-                let at = &mut fill[ty * tiles_x + tx];
-                binned[*at as usize] = *p;
-                *at += 1;
-            }
+    let mut in_band = vec![0u32; start[tiles_y] as usize];
+    for (i, p) in prepared.iter().enumerate() {
+        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
+            in_band[fill[ty] as usize] = i as u32;
+            fill[ty] += 1;
         }
     }
-    let count = RasterCount {
-        streaks: prepared.len(),
-        tiles: start.windows(2).filter(|w| w[1] > w[0]).count(),
+    let frame = Frame {
+        rain,
+        rot,
+        prepared,
+        mattes,
+        width,
+        tiles_x,
     };
-    canvas
+    let avx2 = avx2 && has_avx2();
+    let tiles = canvas
         .par_chunks_mut(4 * width * TILE_H)
         .enumerate()
-        .for_each(|(ty, band)| {
-            let rows = band.len() / (4 * width);
-            let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
-            for tx in 0..tiles_x {
-                let k = ty * tiles_x + tx;
-                let list = &binned[start[k] as usize..start[k + 1] as usize];
-                if list.is_empty() {
-                    continue;
-                }
-                let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
-                for r in 0..rows {
-                    band[4 * (r * width + x0)..][..4 * cols]
-                        .convert_to_f32_slice(&mut tile[4 * r * TILE_W..][..4 * cols]);
-                }
-                let area = Area {
-                    x0,
-                    x1: x0 + cols - 1,
-                    y0: ty * TILE_H,
-                    y1: ty * TILE_H + rows - 1,
-                };
-                for p in list {
-                    let matte = mattes.get(p.matte as usize);
-                    draw(rain, &rot, p, matte, &area, &mut tile);
-                }
-                for r in 0..rows {
-                    band[4 * (r * width + x0)..][..4 * cols]
-                        .convert_from_f32_slice(&tile[4 * r * TILE_W..][..4 * cols]);
-                }
-            }
-        });
-    count
+        .map(|(ty, band)| {
+            let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
+            band_on(avx2, &frame, ty, list, band)
+        })
+        .sum();
+    RasterCount {
+        streaks: frame.prepared.len(),
+        tiles,
+    }
+}
+
+/// [`band`], in the AVX2 build where `avx2` (the CPU has it).
+fn band_on(avx2: bool, frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        #[target_feature(enable = "avx2,f16c")]
+        fn fast(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+            band(frame, ty, list, canvas, true)
+        }
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`rasterise_on`).
+        return unsafe { fast(frame, ty, list, canvas) };
+    }
+    band(frame, ty, list, canvas, false)
+}
+
+/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (indices in drop
+/// order): each tile with streaks goes to f32, blends them in drop order and goes back to f16
+/// ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
+#[inline(always)]
+fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) -> usize {
+    let (width, tiles_x) = (frame.width, frame.tiles_x);
+    // The band's streaks side by side (read in one sweep, then from the cache), sorted by
+    // tile with drop order kept.
+    let local: Vec<Prepared> = list.iter().map(|&i| frame.prepared[i as usize]).collect();
+    let span = |p: &Prepared| p.x0 / TILE_W..=p.x1 / TILE_W;
+    let mut start = vec![0u32; tiles_x + 1];
+    for p in &local {
+        for tx in span(p) {
+            start[tx + 1] += 1;
+        }
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut fill = start.clone();
+    let mut order = vec![0u32; start[tiles_x] as usize];
+    for (i, p) in local.iter().enumerate() {
+        for tx in span(p) {
+            order[fill[tx] as usize] = i as u32;
+            fill[tx] += 1;
+        }
+    }
+    let rows = canvas.len() / (4 * width);
+    let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
+    let mut drawn = 0;
+    for tx in 0..tiles_x {
+        let list = &order[start[tx] as usize..start[tx + 1] as usize];
+        if list.is_empty() {
+            continue;
+        }
+        drawn += 1;
+        let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
+        for r in 0..rows {
+            super::tile::load(
+                &canvas[4 * (r * width + x0)..][..4 * cols],
+                &mut tile[4 * r * TILE_W..][..4 * cols],
+                f16c,
+            );
+        }
+        let area = Area {
+            x0,
+            x1: x0 + cols - 1,
+            y0: ty * TILE_H,
+            y1: ty * TILE_H + rows - 1,
+        };
+        for &i in list {
+            let p = &local[i as usize];
+            let matte = frame.mattes.get(p.matte as usize);
+            draw(frame.rain, &frame.rot, p, matte, &area, &mut tile);
+        }
+        for r in 0..rows {
+            super::tile::store(
+                &tile[4 * r * TILE_W..][..4 * cols],
+                &mut canvas[4 * (r * width + x0)..][..4 * cols],
+                f16c,
+            );
+        }
+    }
+    drawn
 }
 
 /// A tile's coded pixels (inclusive).
@@ -325,7 +434,19 @@ fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
         };
     }
     let (a, b) = ((lo - v0) * inv, (hi - v0) * inv);
-    (a.min(b), a.max(b))
+    if a < b { (a, b) } else { (b, a) }
+}
+
+/// The larger of `a` and `b`, as one instruction (neither is NaN here).
+#[inline(always)]
+fn larger(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The smaller of `a` and `b` (see [`larger`]).
+#[inline(always)]
+fn smaller(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
 }
 
 /// 1 / `slope`, or 0 where it is too small to bound a row.
@@ -348,8 +469,9 @@ fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
 /// row) in `area`: in runs along the coded picture's rows or, for a streak steeper than 45°
 /// there, along its columns, so that the runs are long. The direction is the streak's alone,
 /// so each pixel's value does not depend on the tile.
-fn draw(
-    rain: &Rain,
+#[inline(always)]
+fn draw<'a>(
+    rain: &Rain<'a>,
     rot: &Rotation,
     p: &Prepared,
     matte: Option<&Matte>,
@@ -363,7 +485,6 @@ fn draw(
     }
     // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
     // a matte's colour reaches the whole quad.
-    let simple = matte.is_none();
     let (along_lo, along_hi, across_lim) = if matte.is_none() {
         (-p.r, p.len + p.r, p.r)
     } else {
@@ -390,8 +511,8 @@ fn draw(
         let across_v = p.across[0] + vf * vc;
         let (a0, a1) = span(along_v, da, inv_a, along_lo, along_hi);
         let (c0, c1) = span(across_v, dc, inv_c, -across_lim, across_lim);
-        let lo = (a0.max(c0) - PAD).max(u0 as f32);
-        let hi = (a1.min(c1) + PAD).min(u1 as f32);
+        let lo = larger(larger(a0, c0) - PAD, u0 as f32);
+        let hi = smaller(smaller(a1, c1) + PAD, u1 as f32);
         let Some((first, last)) = whole(lo, hi) else {
             continue;
         };
@@ -410,27 +531,25 @@ fn draw(
             count: last - first + 1,
             stride,
         };
-        if simple {
-            match rain.depth {
-                None => capsule_run(p, &run, &mut tile[at..], |_, _| 1.0),
-                // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
-                Some(map) => capsule_run(p, &run, &mut tile[at..], |k, along| {
-                    let (x, y) = if columns {
-                        (v, first + k)
-                    } else {
-                        (first + k, v)
-                    };
-                    let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
-                    visibility(rain.params, map, at, along, p)
-                }),
+        // Unknown depth (0) shows the drop times exactly 1: the same bits as no map.
+        let occluded = |map: &'a [f32]| {
+            move |k: usize, along: f32| {
+                let (x, y) = if columns {
+                    (v, first + k)
+                } else {
+                    (first + k, v)
+                };
+                let at = rot.display(x as f32 + 0.5, y as f32 + 0.5);
+                visibility(rain.params, map, at, along, p)
             }
-        } else {
-            for k in 0..run.count {
-                let u = first + k;
-                let (x, y) = if columns { (v, u) } else { (u, v) };
-                let px = &mut tile[at + k * stride..][..4];
-                pixel(rain, rot, p, matte, x as f32, y as f32, px);
-            }
+        };
+        let px = &mut tile[at..];
+        match (matte, rain.mattes, rain.depth) {
+            (None, _, None) => capsule_run(p, &run, px, |_, _| 1.0),
+            (None, _, Some(map)) => capsule_run(p, &run, px, occluded(map)),
+            (Some(m), Some(atlas), None) => matte_run(p, m, atlas, &run, px, |_, _| 1.0),
+            (Some(m), Some(atlas), Some(map)) => matte_run(p, m, atlas, &run, px, occluded(map)),
+            (Some(_), None, _) => {}
         }
     }
 }
@@ -447,106 +566,168 @@ struct Run {
     stride: usize,
 }
 
+/// Pixels of a run taken side by side: the capsule's arithmetic is one loop over this many
+/// lanes (one AVX2 vector, two SSE ones), the blend a loop of its own over the pixels.
+const LANES: usize = 8;
+
 /// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
 /// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
-/// which leaves it exactly as it was.
-#[inline]
+/// which leaves it exactly as it was. Each lane computes its pixel from the pixel's own
+/// coordinate with the same operations, so the lanes, and the instruction set, change no bit.
+#[inline(always)]
 fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f32) -> f32) {
     let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
     let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
     let still = len < 1e-3;
-    for k in 0..run.count {
-        let uf = (run.first + k) as f32;
-        let along = run.along + uf * run.da;
-        let across = run.across + uf * run.dc;
-        let h = (r2 - across * across).max(0.0).sqrt();
-        let cover = if still {
-            if along.abs() < h { 1.0 } else { 0.0 }
-        } else {
-            ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) * p.inv_len
-        };
-        let a = (cover * p.alpha_scale).clamp(0.0, 1.0) * shown(k, along);
-        let t = (along + p.ext) * p.inv_quad;
-        let keep = 1.0 - a;
-        let px = &mut px[k * run.stride..][..4];
-        px[0] = (r0[0] + dr[0] * t) * a + px[0] * keep;
-        px[1] = (r0[1] + dr[1] * t) * a + px[1] * keep;
-        px[2] = (r0[2] + dr[2] * t) * a + px[2] * keep;
-        px[3] = a + px[3] * keep;
+    // Clamps as selects (the vectoriser's min and max).
+    let (at_least, at_most) = (larger, smaller);
+    let mut k0 = 0;
+    while k0 < run.count {
+        let (mut alpha, mut t, mut along) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        // Pixel coordinates are far below 2²⁴: exact as i32 and as f32.
+        let u0 = (run.first + k0) as i32;
+        for l in 0..LANES {
+            let uf = (u0 + l as i32) as f32;
+            let a = run.along + uf * run.da;
+            let across = run.across + uf * run.dc;
+            let h = at_least(r2 - across * across, 0.0).sqrt();
+            let swept = (at_most(at_least(a + h, 0.0), len) - at_most(at_least(a - h, 0.0), len))
+                * p.inv_len;
+            let here = if a.abs() < h { 1.0 } else { 0.0 };
+            let cover = if still { here } else { swept };
+            alpha[l] = at_most(at_least(cover * p.alpha_scale, 0.0), 1.0);
+            t[l] = (a + p.ext) * p.inv_quad;
+            along[l] = a;
+        }
+        for l in 0..LANES.min(run.count - k0) {
+            let a = alpha[l] * shown(k0 + l, along[l]);
+            let keep = 1.0 - a;
+            let px = &mut px[(k0 + l) * run.stride..][..4];
+            px[0] = (r0[0] + dr[0] * t[l]) * a + px[0] * keep;
+            px[1] = (r0[1] + dr[1] * t[l]) * a + px[1] * keep;
+            px[2] = (r0[2] + dr[2] * t[l]) * a + px[2] * keep;
+            px[3] = a + px[3] * keep;
+        }
+        k0 += LANES;
     }
 }
 
-/// Blends streak `p` over coded pixel (x, y), as the twin does: behind the scene's depth,
-/// with the streak's matte.
-#[inline]
-fn pixel(
-    rain: &Rain,
-    rot: &Rotation,
+/// Texels in one layer of the mattes.
+const LAYER: usize = ATLAS_WIDTH * ATLAS_HEIGHT;
+
+/// Blends streak `p` with its matte `m` over `run` as the twin does (the capsule's alpha, the
+/// colour spread by the matte and the glints' mattes, sampled bilinearly), the alpha and light
+/// of its `k`-th pixel times `shown(k, along)`; a pixel outside the quad, or with neither
+/// alpha nor light, is left as it was. The layers are chosen once for the streak, and each
+/// pixel is computed from its own coordinate in lanes (as [`capsule_run`]).
+#[inline(always)]
+fn matte_run(
     p: &Prepared,
-    matte: Option<&Matte>,
-    xf: f32,
-    yf: f32,
+    m: &Matte,
+    atlas: &MatteAtlas,
+    run: &Run,
     px: &mut [f32],
+    shown: impl Fn(usize, f32) -> f32,
 ) {
-    let along = p.along[0] + xf * p.along[1] + yf * p.along[2];
-    let across = p.across[0] + xf * p.across[1] + yf * p.across[2];
-    if along < -p.ext || along > p.len + p.ext || across.abs() > p.across_ext {
-        return;
-    }
-    let shown = match rain.depth {
-        None => 1.0,
-        Some(map) => visibility(rain.params, map, rot.display(xf + 0.5, yf + 0.5), along, p),
-    };
-    let a = (coverage(along, across, p.len, p.r) * p.alpha_scale).clamp(0.0, 1.0) * shown;
-    let t = (along + p.ext) * p.inv_quad;
+    let layer = |l: usize| <&[f32; LAYER]>::try_from(&atlas.texels[l * LAYER..][..LAYER]).ok();
+    let Some(env) = layer(m.layer) else { return };
+    let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
-    let rad = [0, 1, 2].map(|k| r0[k] * (1.0 - t) + r1[k] * t);
-    let light = match (matte, rain.mattes) {
-        (Some(m), Some(atlas)) => {
-            let footprint = p.len + 2.0 * p.r;
-            let spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
-            let (u, w) = ((along + p.r) / footprint, -across / p.r);
-            let n = sample(atlas, m.layer, u, w);
-            let mut light = rad.map(|c| c * n);
-            for &(layer, mirror, colour) in &m.glints {
-                let g = sample(atlas, layer, u, if mirror { -w } else { w });
+    let still = len < 1e-3;
+    let footprint = p.len + 2.0 * p.r;
+    let light_spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
+    let mut k0 = 0;
+    while k0 < run.count {
+        // Outside the quad a lane's alpha and light are 0 (`spread[l]` = 0): left as it was.
+        let (mut alpha, mut along, mut spread) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        let (mut u, mut w, mut t) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        let u0 = (run.first + k0) as i32;
+        for l in 0..LANES {
+            let uf = (u0 + l as i32) as f32;
+            let a = run.along + uf * run.da;
+            let across = run.across + uf * run.dc;
+            let h = larger(r2 - across * across, 0.0).sqrt();
+            let swept =
+                (smaller(larger(a + h, 0.0), len) - smaller(larger(a - h, 0.0), len)) * p.inv_len;
+            let here = if a.abs() < h { 1.0 } else { 0.0 };
+            let cover = if still { here } else { swept };
+            alpha[l] = smaller(larger(cover * p.alpha_scale, 0.0), 1.0);
+            t[l] = (a + p.ext) * p.inv_quad;
+            u[l] = (a + p.r) / footprint;
+            w[l] = -across / p.r;
+            along[l] = a;
+            spread[l] = across;
+        }
+        for l in 0..LANES {
+            let (a, across) = (along[l], spread[l]);
+            // `&`, not `&&`: no branch in a lane.
+            let inside = (a >= -p.ext) & (a <= len + p.ext) & (across.abs() <= p.across_ext);
+            alpha[l] = if inside { alpha[l] } else { 0.0 };
+            spread[l] = if inside { light_spread } else { 0.0 };
+        }
+        let mut n = [0f32; LANES];
+        sample_lanes(env, &u, &w, false, &mut n);
+        let mut light = [[0f32; LANES]; 3];
+        for l in 0..LANES {
+            for k in 0..3 {
+                light[k][l] = (r0[k] * (1.0 - t[l]) + r1[k] * t[l]) * n[l];
+            }
+        }
+        for &(glint, mirror, colour) in &m.glints {
+            let Some(texels) = layer(glint) else { continue };
+            sample_lanes(texels, &u, &w, mirror, &mut n);
+            for l in 0..LANES {
                 for k in 0..3 {
-                    light[k] += colour[k] * g;
+                    light[k][l] += colour[k] * n[l];
                 }
             }
-            light.map(|c| c * spread * shown)
         }
-        _ => {
-            if a <= 0.0 {
-                return;
+        for l in 0..LANES.min(run.count - k0) {
+            let s = shown(k0 + l, along[l]);
+            let a = alpha[l] * s;
+            let lit = [0, 1, 2].map(|k| light[k][l] * spread[l] * s);
+            if a <= 0.0 && lit.iter().all(|&c| c <= 0.0) {
+                continue;
             }
-            rad.map(|c| c * a)
+            let keep = 1.0 - a;
+            let px = &mut px[(k0 + l) * run.stride..][..4];
+            for k in 0..3 {
+                px[k] = lit[k] + px[k] * keep;
+            }
+            px[3] = a + px[3] * keep;
         }
-    };
-    if a <= 0.0 && light.iter().all(|&c| c <= 0.0) {
-        return;
+        k0 += LANES;
     }
-    let keep = 1.0 - a;
-    for k in 0..3 {
-        px[k] = light[k] + px[k] * keep;
-    }
-    px[3] = a + px[3] * keep;
 }
 
-/// The fraction of the exposure a disc of radius `r` moving from 0 to `len` along x covers the
-/// point (`along`, `across`) (the twin's `coverage`).
-#[inline]
-fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
-    let h2 = r * r - across * across;
-    if h2 <= 0.0 {
-        return 0.0;
+/// A matte layer at (`u` along, `w` across in radii; `mirror`: at −`w`) in lanes, bilinear
+/// between texel centres, zero outside (`MatteAtlas::sample` in f32).
+#[inline(always)]
+fn sample_lanes(
+    texels: &[f32; LAYER],
+    u: &[f32; LANES],
+    w: &[f32; LANES],
+    mirror: bool,
+    out: &mut [f32; LANES],
+) {
+    let at = |xi: i32, yi: i32| {
+        let on = (xi >= 0) & (yi >= 0) & (xi < ATLAS_WIDTH as i32) & (yi < ATLAS_HEIGHT as i32);
+        let k = ((yi * ATLAS_WIDTH as i32 + xi) as usize).min(LAYER - 1);
+        let v = texels[k];
+        if on { v } else { 0.0 }
+    };
+    for l in 0..LANES {
+        let w = if mirror { -w[l] } else { w[l] };
+        let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
+        let y = u[l] * ATLAS_HEIGHT as f32 - 0.5;
+        let (xf, yf) = (x.floor(), y.floor());
+        let (tx, ty) = (x - xf, y - yf);
+        let (x0, y0) = (xf as i32, yf as i32);
+        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+        let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+        out[l] = top * (1.0 - ty) + bottom * ty;
     }
-    let h = h2.sqrt();
-    if len < 1e-3 {
-        return if along.abs() < h { 1.0 } else { 0.0 };
-    }
-    ((along + h).clamp(0.0, len) - (along - h).clamp(0.0, len)) / len
 }
 
 /// How much of the drop shows at display point `at`, `along` px down its path, in front of
@@ -573,25 +754,4 @@ fn visibility(params: &RainParams, map: &[f32], at: [f32; 2], along: f32, p: &Pr
     let drop = 1.0 / ((1.0 - t) / p.depth_m[0] + t / p.depth_m[1]);
     let x = ((scene - drop) / OCCLUSION_SOFTNESS_M as f32 + 0.5).clamp(0.0, 1.0);
     x * x * (3.0 - 2.0 * x)
-}
-
-/// The matte `layer` at (u along, w across in radii), bilinear between texel centres, zero
-/// outside (`MatteAtlas::sample` in f32).
-#[inline]
-fn sample(atlas: &MatteAtlas, layer: usize, u: f32, w: f32) -> f32 {
-    let texels = &atlas.texels[layer * ATLAS_WIDTH * ATLAS_HEIGHT..][..ATLAS_WIDTH * ATLAS_HEIGHT];
-    let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
-    let y = u * ATLAS_HEIGHT as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (tx, ty) = (x - x0, y - y0);
-    let at = |xi: f32, yi: f32| {
-        if xi < 0.0 || yi < 0.0 || xi >= ATLAS_WIDTH as f32 || yi >= ATLAS_HEIGHT as f32 {
-            0.0
-        } else {
-            texels[yi as usize * ATLAS_WIDTH + xi as usize]
-        }
-    };
-    let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1.0, y0) * tx;
-    let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
-    top * (1.0 - ty) + bottom * ty
 }

@@ -1,0 +1,164 @@
+//! The CPU back end's rain of one 1080p frame at the default rate (10 mm/h): the drops
+//! simulated (`gpu::host::simulate`), then their streaks drawn over a plate in tiles
+//! (`gpu::host::streaks`) as capsules and with the shipped mattes, in the AVX2 build and the
+//! baseline one. Prints the medians of wall and CPU time (all threads' time on a CPU, from
+//! /proc on Linux: on a shared machine the CPU time is the steadier figure).
+//! `cargo bench --bench streak_raster [-- RUNS]`.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::drops::MatteAtlas;
+use rain_composite::gpu::host::HostColour;
+use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate};
+use rain_composite::gpu::host::streaks::{Rain, RasterCount, rasterise, rasterise_baseline};
+use rain_composite::gpu::types::{LightList, RainParams, Streak};
+use rain_composite::gpu::uniforms::RainSetup;
+use rain_composite::lighting::prt::channel_optics;
+use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
+use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::scene::Camera;
+use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+
+const W: u32 = 1920;
+const H: u32 = 1080;
+
+/// CPU time of all the process's threads so far, ms (0 where /proc has none).
+fn cpu_ms() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    let ns: u64 = tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    ns as f64 * 1e-6
+}
+
+/// Medians of wall and CPU ms of `f(state)` over `runs` runs (`setup(state)` before each, not
+/// timed).
+fn time<T>(
+    runs: usize,
+    state: &mut T,
+    setup: impl Fn(&mut T),
+    mut f: impl FnMut(&mut T),
+) -> (f64, f64) {
+    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
+    for _ in 0..runs {
+        setup(state);
+        let (t, c) = (Instant::now(), cpu_ms());
+        f(state);
+        wall.push(t.elapsed().as_secs_f64() * 1e3);
+        cpu.push(cpu_ms() - c);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    (median(&mut wall), median(&mut cpu))
+}
+
+/// The default rain's uniforms at 1.5 s and its drops simulated on the CPU.
+fn rain_1080p(runs: usize) -> (RainParams, Vec<Streak>) {
+    let camera = Camera::new(W, H, 60f64.to_radians(), 1.6, 0.0, 0.0);
+    let setup = rain_composite::shot::rain::plan(
+        &camera,
+        &CameraConfig::default(),
+        &RainConfig::default(),
+        1.0 / 50.0,
+        0,
+        (W, H),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.8, 0.9, 1.0];
+    env.coeffs[2] = [0.3, 0.35, 0.5];
+    let light = FrameLight {
+        env,
+        lights: Vec::new(),
+    };
+    let p = setup.params_at(1.5, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
+        .expect("optics")
+        .map(|o| o.tabulate(1024).expect("table"));
+    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(&tables));
+    let none = LightList::new(&[]);
+    let drops = Drops {
+        columns: &setup.columns,
+        lights: &none,
+        table: Some(&table),
+        glints: false,
+    };
+    let (mut streaks, mut glints) = (Vec::new(), Vec::new());
+    let mut drawable = 0;
+    let (wall, cpu) = time(
+        runs,
+        &mut (),
+        |_| {},
+        |_| drawable = simulate(&p, &drops, &mut streaks, &mut glints),
+    );
+    println!(
+        "simulate: {drawable} of {} drops drawable; {wall:.2} ms wall, {cpu:.2} ms CPU",
+        streaks.len()
+    );
+    (p, streaks)
+}
+
+fn main() {
+    let runs = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(15);
+    let (p, streaks) = rain_1080p(runs);
+    let format = FrameFormat {
+        width: W,
+        height: H,
+        chroma: Chroma::Cs420,
+        bit_depth: 8,
+    };
+    let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
+    for (i, plane) in frame.planes.iter_mut().enumerate() {
+        for (k, v) in plane.data.iter_mut().enumerate() {
+            *v = ((k.wrapping_mul(2_654_435_761) >> (9 + i)) as u8 & 63) | 64;
+        }
+    }
+    let mut clear = p;
+    clear.haze = [0.0, 0.0, 0.0, 1.0];
+    let plate = HostColour::new(format, &frame.color)
+        .decode(&frame, &clear)
+        .to_vec();
+    let atlas = Arc::new(
+        MatteAtlas::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("drops"),
+            1.0 / 50.0,
+        )
+        .expect("drops/"),
+    );
+    type Raster = fn(&mut [half::f16], usize, &Rain, &[Streak]) -> RasterCount;
+    let builds: [(&str, Raster); 2] = [("AVX2", rasterise), ("baseline", rasterise_baseline)];
+    for (style, mattes) in [("capsules", None), ("mattes", Some(&*atlas))] {
+        let rain = Rain {
+            params: &clear,
+            mattes,
+            glints: &[],
+            depth: None,
+        };
+        for (build, raster) in builds {
+            let mut canvas = plate.clone();
+            let mut count = None;
+            let (wall, cpu) = time(
+                runs,
+                &mut canvas,
+                |c| c.copy_from_slice(&plate),
+                |c| count = Some(raster(c, W as usize, &rain, &streaks)),
+            );
+            println!(
+                "raster, {style}, {build} build: {count:?}; {wall:.2} ms wall, {cpu:.2} ms CPU"
+            );
+        }
+    }
+}

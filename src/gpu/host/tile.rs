@@ -1,0 +1,78 @@
+//! A tile's rows between the f16 canvas and the raster's f32, eight values at a time with F16C
+//! in the raster's AVX2 build, else through the `half` crate: exact one way, rounded to the
+//! nearest even the other, so both give the same bits.
+
+use half::f16;
+use half::slice::HalfFloatSliceExt;
+
+/// `src` as f32 into `dst` (the same length); `f16c`: the F16C instructions, inlined (only
+/// inside a build with them enabled, run where the CPU has them).
+#[inline(always)]
+pub fn load(src: &[f16], dst: &mut [f32], f16c: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if f16c {
+        // SAFETY: `f16c` is set only in the raster's AVX2 build, which runs only where the CPU
+        // has AVX2 and F16C (`super::streaks`).
+        unsafe { x86::load(src, dst) };
+        return;
+    }
+    let _ = f16c;
+    src.convert_to_f32_slice(dst);
+}
+
+/// `src` rounded to f16 into `dst` (the same length); `f16c` as in [`load`].
+#[inline(always)]
+pub fn store(src: &[f32], dst: &mut [f16], f16c: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if f16c {
+        // SAFETY: as in `load`.
+        unsafe { x86::store(src, dst) };
+        return;
+    }
+    let _ = f16c;
+    dst.convert_from_f32_slice(src);
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use std::arch::x86_64::{
+        __m128i, _MM_FROUND_TO_NEAREST_INT, _mm_loadu_si128, _mm_storeu_si128, _mm256_cvtph_ps,
+        _mm256_cvtps_ph, _mm256_loadu_ps, _mm256_storeu_ps,
+    };
+
+    use half::f16;
+    use half::slice::HalfFloatSliceExt;
+
+    /// See [`super::load`].
+    #[inline]
+    #[target_feature(enable = "avx,f16c")]
+    pub unsafe fn load(src: &[f16], dst: &mut [f32]) {
+        let n = src.len().min(dst.len());
+        let whole = n / 8 * 8;
+        for k in (0..whole).step_by(8) {
+            // SAFETY: k + 8 ≤ n, within both slices; unaligned loads and stores.
+            unsafe {
+                let h = _mm_loadu_si128(src.as_ptr().add(k).cast::<__m128i>());
+                _mm256_storeu_ps(dst.as_mut_ptr().add(k), _mm256_cvtph_ps(h));
+            }
+        }
+        src[whole..n].convert_to_f32_slice(&mut dst[whole..n]);
+    }
+
+    /// See [`super::store`].
+    #[inline]
+    #[target_feature(enable = "avx,f16c")]
+    pub unsafe fn store(src: &[f32], dst: &mut [f16]) {
+        let n = src.len().min(dst.len());
+        let whole = n / 8 * 8;
+        for k in (0..whole).step_by(8) {
+            // SAFETY: as in `load`.
+            unsafe {
+                let v = _mm256_loadu_ps(src.as_ptr().add(k));
+                let h = _mm256_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(v);
+                _mm_storeu_si128(dst.as_mut_ptr().add(k).cast::<__m128i>(), h);
+            }
+        }
+        dst[whole..n].convert_from_f32_slice(&src[whole..n]);
+    }
+}
