@@ -22,6 +22,7 @@
 use glam::{Vec2, Vec3};
 
 use super::fill::{FilledWater, fill_depressions};
+use super::kept_map::KeptWaterMap;
 use super::ledger::{WaterLedger, pre_rain_split};
 use super::relief::{Footprint, ground_footprint, micro_relief, with_relief};
 use crate::config::RenderConfig;
@@ -493,6 +494,12 @@ impl PuddleSim {
     /// a puddle's rim falls where its level meets the ground, between the leaves.
     pub fn shown_depth(&self) -> Field2 {
         super::shown::water_map(&self.flow.carpet.surface_height(), &self.water_depth())
+    }
+
+    /// [`shown_depth`](Self::shown_depth) kept in `kept` from the last frame it was asked
+    /// for, made again only where the water changed since (the same map to the bit).
+    pub fn shown_depth_kept<'a>(&self, kept: &'a mut KeptWaterMap) -> &'a Field2 {
+        kept.update(&self.flow.carpet.surface_height(), &self.water_depth())
     }
 
     /// Wetness on the carpet's grid, [0, 1].
