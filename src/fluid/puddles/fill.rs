@@ -118,11 +118,11 @@ impl<'a> Flood<'a> {
             order: Vec::with_capacity(n),
             pushed: 0,
         };
-        for v in 0..n {
+        for (v, &z) in h.iter().enumerate() {
             let (i, j) = (v % nx, v / nx);
             if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
                 flood.reached[v] = true;
-                queue.push(flood.entry(v, h[v]));
+                queue.push(flood.entry(v, z));
             }
         }
         flood

@@ -1,21 +1,22 @@
 //! The water map kept from frame to frame: a render's next map made again only in the tiles
 //! whose leaves' neighbourhoods changed, the same map bit for bit as [`water_map`] makes anew.
 //!
-//! How it works: a leaf's value in the map reads the carpet's surface and depth within
-//! [`REACH`] leaves of it and nothing else (the wet share's order-8 kernel; the level's and
-//! the rim's neighbourhoods are narrower). Between two frames only the moving water and the
-//! rain's new particles change the carpet, a few hundred of its million leaves, so the map is
-//! made in tiles of [`TILE`] × [`TILE`] leaves, each from its leaves and a margin of
-//! [`REACH`] with the same sums in the same order as [`water_map`]'s passes, and a frame
-//! makes again only the tiles within [`REACH`] of a leaf whose surface or depth changed (to
-//! the bit). A tile's values are a function of the leaves it reads, so a kept tile holds what
-//! making it again would give.
+//! How it works: a leaf's value in the map reads the carpet's wet leaves within [`REACH`]
+//! leaves of it (the wet share's order-8 kernel) and its surface and depth within
+//! [`LEVEL_REACH`] (the level and the rim), and nothing else. Between two frames only the
+//! moving water and the rain's new particles change the carpet, a few thousand of its million
+//! leaves and few of them turning wet or dry, so the map is made in tiles of [`TILE`] ×
+//! [`TILE`] leaves, each from its leaves and a margin with the same sums in the same order as
+//! [`water_map`]'s passes. A frame makes again the tiles within [`LEVEL_REACH`] of a leaf whose
+//! surface or depth changed (to the bit), from the kept wet share, and the wet share too of
+//! those within [`REACH`] of a leaf that turned wet or dry. A tile's values are a function of
+//! the leaves it reads, so a kept tile holds what making it again would give.
 //!
 //! [`water_map`]: super::shown::water_map
 
 use rayon::prelude::*;
 
-use super::shown::{KERNEL, LEVEL_KERNEL, REACH, leaf_value, taps, wet_share};
+use super::shown::{KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value, taps, wet_share};
 use crate::fluid::carpet::Field2;
 
 /// Leaves along a tile's edge: small enough that a scattered change makes few leaves again
@@ -32,6 +33,8 @@ pub struct KeptWaterMap {
     depth_m: Vec<f32>,
     /// The map; `None` before the first frame.
     map: Option<Field2>,
+    /// The wet share of each leaf's neighbourhood the map was made with.
+    share: Vec<f32>,
     /// Tiles made again by the last update, and the tiles in all.
     made: (usize, usize),
 }
@@ -72,24 +75,29 @@ impl KeptWaterMap {
                 cell_m: depth_m.cell_m,
                 values: vec![0.0; nx * ny],
             });
-            vec![true; tx * ty]
+            self.share = vec![0.0; nx * ny];
+            vec![Stale::Share; tx * ty]
         };
-        let made = stale.iter().filter(|&&s| s).count();
+        let made = stale.iter().filter(|&&s| s != Stale::No).count();
         self.made = (made, tx * ty);
         log::debug!(
-            "puddles: the water map made again in {made} of {} tiles",
-            tx * ty
+            "puddles: the water map made again in {made} of {} tiles ({} with their wet share)",
+            tx * ty,
+            stale.iter().filter(|&&s| s == Stale::Share).count()
         );
         let map = self.map.as_mut().expect("made above");
         if made > 0 {
             let (s, d) = (&surface_m.values, &depth_m.values);
+            let band = TILE * nx.max(1);
             map.values
-                .par_chunks_mut(TILE * nx.max(1))
+                .par_chunks_mut(band)
+                .zip(self.share.par_chunks_mut(band))
                 .zip(stale.par_chunks(tx.max(1)))
                 .enumerate()
-                .for_each(|(band, (rows, stale))| {
-                    for (t, _) in stale.iter().enumerate().filter(|(_, s)| **s) {
-                        make_tile(rows, (nx, ny), (t * TILE, band * TILE), s, d);
+                .for_each(|(b, ((rows, share), stale))| {
+                    for (t, &how) in stale.iter().enumerate().filter(|(_, s)| **s != Stale::No) {
+                        let tile = (t * TILE, b * TILE);
+                        make_tile((rows, share), how, (nx, ny), tile, (s, d));
                     }
                 });
             self.surface_m.clone_from(s);
@@ -103,9 +111,10 @@ impl KeptWaterMap {
         self.made
     }
 
-    /// The tiles within [`REACH`] leaves of a leaf whose surface or depth differs (to the bit)
-    /// from the kept carpet's.
-    fn stale_tiles(&self, surface_m: &Field2, depth_m: &Field2) -> Vec<bool> {
+    /// What each tile must make again: its wet share where a leaf within [`REACH`] turned
+    /// wet or dry, its values where a leaf within [`LEVEL_REACH`] changed its surface or depth
+    /// (to the bit), against the kept carpet.
+    fn stale_tiles(&self, surface_m: &Field2, depth_m: &Field2) -> Vec<Stale> {
         let (nx, ny) = (depth_m.nx, depth_m.ny);
         let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
         let differs = |a: &[f32], b: &[f32], k: usize| a[k].to_bits() != b[k].to_bits();
@@ -121,46 +130,72 @@ impl KeptWaterMap {
                     .collect()
             })
             .collect();
-        let mut stale = vec![false; tx * ty];
+        let mut stale = vec![Stale::No; tx * ty];
         for k in changed.into_iter().flatten() {
+            // A leaf turning wet or dry changes the wet share within the wide reach; any
+            // change, the level and the rim within the narrow one.
+            let turned = (depth_m.values[k] > 0.0) != (self.depth_m[k] > 0.0);
+            let (how, reach) = if turned {
+                (Stale::Share, REACH)
+            } else {
+                (Stale::Values, LEVEL_REACH)
+            };
             let (i, j) = (k % nx, k / nx);
             let (i0, i1) = (
-                i.saturating_sub(REACH) / TILE,
-                (i + REACH).min(nx - 1) / TILE,
+                i.saturating_sub(reach) / TILE,
+                (i + reach).min(nx - 1) / TILE,
             );
             let (j0, j1) = (
-                j.saturating_sub(REACH) / TILE,
-                (j + REACH).min(ny - 1) / TILE,
+                j.saturating_sub(reach) / TILE,
+                (j + reach).min(ny - 1) / TILE,
             );
             for row in stale[j0 * tx..(j1 + 1) * tx].chunks_mut(tx) {
-                row[i0..=i1].fill(true);
+                for s in &mut row[i0..=i1] {
+                    *s = (*s).max(how);
+                }
             }
         }
         stale
     }
 }
 
-/// Makes the tile whose first leaf is (`i0`, `j0`) in `rows`, the map's rows of its band
-/// (starting at row `j0`), from the carpet's `surface` and `depth` on a grid of `dims`.
+/// What a tile must make again, least first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Stale {
+    /// Nothing: its leaves' neighbourhoods are as they were.
+    No,
+    /// Its values, from the kept wet share (no leaf within [`REACH`] turned wet or dry).
+    Values,
+    /// Its wet share and its values.
+    Share,
+}
+
+/// Makes the tile whose first leaf is (`i0`, `j0`) in `rows` and `share`, the map's rows of
+/// its band and their wet shares (starting at row `j0`), as `how` says, from the carpet's
+/// `surface` and `depth` on a grid of `dims`.
 fn make_tile(
-    rows: &mut [f32],
+    (rows, share): (&mut [f32], &mut [f32]),
+    how: Stale,
     (nx, ny): (usize, usize),
     (i0, j0): (usize, usize),
-    surface: &[f32],
-    depth: &[f32],
+    (surface, depth): (&[f32], &[f32]),
 ) {
     let (i1, j1) = ((i0 + TILE).min(nx), (j0 + TILE).min(ny));
-    let share = window(&KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| {
-        wet_share(depth[k])
-    });
-    let level = window(&LEVEL_KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| surface[k]);
     let w = i1 - i0;
+    if how == Stale::Share {
+        let made = window(&KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| {
+            wet_share(depth[k])
+        });
+        for (j, line) in made.chunks(w).enumerate() {
+            share[j * nx + i0..j * nx + i1].copy_from_slice(line);
+        }
+    }
+    let level = window(&LEVEL_KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| surface[k]);
     for j in j0..j1 {
         for i in i0..i1 {
-            let t = (j - j0) * w + (i - i0);
-            let k = j * nx + i;
-            rows[(j - j0) * nx + i] =
-                leaf_value(k, (nx, ny), (share[t], level[t]), (surface, depth));
+            let at = (j - j0) * nx + i;
+            let around = (share[at], level[(j - j0) * w + (i - i0)]);
+            rows[at] = leaf_value(j * nx + i, (nx, ny), around, (surface, depth));
         }
     }
 }

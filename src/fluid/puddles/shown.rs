@@ -49,7 +49,7 @@ pub(super) const REACH: usize = 4;
 pub(super) const KERNEL: [f32; 2 * REACH + 1] = [1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0];
 
 /// Leaves on either side whose water gives a leaf its level.
-const LEVEL_REACH: usize = 2;
+pub(super) const LEVEL_REACH: usize = 2;
 
 /// The level's weights along x and along y: the binomial kernel 1-4-6-4-1 (σ = 1 leaf).
 pub(super) const LEVEL_KERNEL: [f32; 2 * LEVEL_REACH + 1] = [1.0, 4.0, 6.0, 4.0, 1.0];
