@@ -9,7 +9,7 @@ use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::keyframes::Curve;
 use rain_composite::rain::physics::terminal_velocity_gk_mps;
 use rain_composite::rain::volume::Rainfall;
-use rain_composite::rain::volume::{GroundRain, GroundRect, Impact, landing_columns};
+use rain_composite::rain::volume::{GroundRain, GroundRect, Impact, StreamSlots, landing_columns};
 
 #[path = "common/render.rs"]
 mod render;
@@ -251,5 +251,22 @@ fn the_streams_landings_are_its_impacts() {
                 }
             );
         }
+        // Frame by frame at 25 fps, the slots kept from frame to frame (2–3 frames share
+        // one): each frame's landings are the plain stream's, in its order.
+        let mut kept = StreamSlots::default();
+        for frame in 0..12 {
+            let (t0, t1) = (0.3 + 0.04 * frame as f64, 0.3 + 0.04 * (frame + 1) as f64);
+            let (mut plain, mut made) = (Vec::new(), Vec::new());
+            g.stream_landings(&r, t0, t1, |l| plain.push(l));
+            g.stream_landings_kept(&mut kept, &r, t0, t1, |l| made.push(l));
+            assert!(!plain.is_empty());
+            assert_eq!(plain, made, "frame {frame}");
+        }
+        // Another rectangle: its own slots.
+        let other = rect(-1.0, 2.0, 2.0, 5.0);
+        let (mut plain, mut made) = (Vec::new(), Vec::new());
+        g.stream_landings(&other, 0.75, 0.79, |l| plain.push(l));
+        g.stream_landings_kept(&mut kept, &other, 0.75, 0.79, |l| made.push(l));
+        assert_eq!(plain, made);
     }
 }

@@ -4,7 +4,7 @@
 
 use glam::{DVec2, DVec3, Vec2};
 use rain_composite::config::RenderConfig;
-use rain_composite::fluid::puddles::{PuddleSettings, PuddleSim};
+use rain_composite::fluid::puddles::{KeptWaterMap, PuddleSettings, PuddleSim};
 use rain_composite::rain::volume::Impact;
 use rain_composite::rng::SplitMix64;
 use rain_composite::scene::Camera;
@@ -186,6 +186,8 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
                 .expect("ground in view")
         };
         let (mut render, mut seek, mut lean) = (build(), build(), build());
+        // The render's water map, kept from frame to frame, is the map made anew each frame.
+        let mut kept = KeptWaterMap::new();
         for frame in 1..=6 {
             let (t0, t1) = ((frame - 1) as f64 / FPS, frame as f64 / FPS);
             let hits = ground.impacts_between(&render.ground_rect(), t0, t1);
@@ -200,7 +202,21 @@ fn a_seek_fast_forwards_to_the_state_a_frame_by_frame_run_reaches() {
                 frame % 2 == 1,
                 "the solver runs every other frame"
             );
+            let (made, fresh) = (render.shown_depth_kept(&mut kept), render.shown_depth());
+            assert_eq!(made.values.len(), fresh.values.len());
+            assert!(
+                made.values
+                    .iter()
+                    .zip(&fresh.values)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "frame {frame}"
+            );
         }
+        assert!(
+            kept.tiles_made().0 < kept.tiles_made().1,
+            "{:?}",
+            kept.tiles_made()
+        );
         seek.advance_with_rain(&ground, 6.0 / FPS)
             .expect("fast-forward");
         let (a, mut b) = (render.ledger(), seek.ledger());

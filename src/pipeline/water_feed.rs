@@ -7,7 +7,7 @@ use std::time::Instant;
 use crate::Result;
 use crate::config::RenderConfig;
 use crate::fluid::puddles::checkpoint::{self, Checkpoints};
-use crate::fluid::puddles::{PuddleSettings, PuddleSim};
+use crate::fluid::puddles::{KeptWaterMap, PuddleSettings, PuddleSim};
 use crate::gpu::Compositor;
 use crate::gpu::uniforms::RainSetup;
 use crate::rain::volume::{GroundRain, Impact};
@@ -64,6 +64,8 @@ pub(super) struct PuddleRun {
     recent: Vec<Impact>,
     /// Where the water is kept.
     keep: Option<Keeping>,
+    /// The last frame's water map, made again only where the water changed.
+    map: KeptWaterMap,
 }
 
 /// Where a run keeps its water, under which fingerprint.
@@ -155,6 +157,7 @@ impl PuddleFeed {
             fed_s: t_s,
             recent: Vec::new(),
             keep,
+            map: KeptWaterMap::new(),
         };
         run.keep(index);
         *self = PuddleFeed::On(Box::new(run));
@@ -188,13 +191,13 @@ impl PuddleFeed {
     ) -> Result<()> {
         use crate::fluid::ripples::{keep_rings_resolved_by, rings_on_water};
         if let PuddleFeed::On(run) = self {
-            let water = run.sim.shown_depth();
+            let water = run.sim.shown_depth_kept(&mut run.map);
             // A ring is judged by the camera of the moment it lands, so which rings are kept
             // depends on the impacts alone, not on the frame a render starts at.
             let track = &run.track;
             keep_rings_resolved_by(&mut run.recent, hits, t_s, |t| track.at(t));
-            compositor.set_water(&water)?;
-            compositor.set_ripples(&rings_on_water(&run.recent, &water))?;
+            compositor.set_water(water)?;
+            compositor.set_ripples(&rings_on_water(&run.recent, water))?;
             let slope_rms = (run.rain.flux_at(t_s) * run.far.slope_variance_per_flux).sqrt();
             let resolve_depth_m = run.far.resolve_depth_m(&run.track.at(t_s));
             compositor.set_far_ripples(slope_rms, resolve_depth_m)?;

@@ -90,28 +90,84 @@ fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     .map(move |(a, b)| b as usize * nx + a as usize)
 }
 
+/// A Priority-Flood under way: the filled heights, receivers and order so far, which
+/// vertices were reached, and how many entered a queue (each entry's order).
+struct Flood<'a> {
+    h: &'a [f32],
+    nx: usize,
+    ny: usize,
+    filled: Vec<f32>,
+    receiver: Vec<u32>,
+    reached: Vec<bool>,
+    order: Vec<u32>,
+    pushed: u32,
+}
+
+impl<'a> Flood<'a> {
+    /// The flood of the heights `h` (`nx × ny`, row-major), its edge vertices reached and
+    /// pushed to `queue` at their own height.
+    fn new(h: &'a [f32], nx: usize, ny: usize, queue: &mut BinaryHeap<Queued>) -> Flood<'a> {
+        let n = nx * ny;
+        let mut flood = Flood {
+            h,
+            nx,
+            ny,
+            filled: h.to_vec(),
+            receiver: vec![NONE; n],
+            reached: vec![false; n],
+            order: Vec::with_capacity(n),
+            pushed: 0,
+        };
+        for (v, &z) in h.iter().enumerate() {
+            let (i, j) = (v % nx, v / nx);
+            if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
+                flood.reached[v] = true;
+                queue.push(flood.entry(v, z));
+            }
+        }
+        flood
+    }
+
+    /// The next queue entry: `vertex` at `level_m`.
+    fn entry(&mut self, vertex: usize, level_m: f32) -> Queued {
+        let q = Queued {
+            level_m,
+            order: self.pushed,
+            vertex: vertex as u32,
+        };
+        self.pushed += 1;
+        q
+    }
+
+    /// Takes `vertex` (next in the flood's order): each neighbour not yet reached gets the
+    /// filled height max(H, F of `vertex`), `vertex` as its receiver, and enters a queue
+    /// through `enqueue`, in the neighbours' order.
+    fn take(&mut self, vertex: u32, mut enqueue: impl FnMut(Queued)) {
+        let c = vertex as usize;
+        self.order.push(vertex);
+        for nb in neighbours(c, self.nx, self.ny) {
+            if !self.reached[nb] {
+                self.reached[nb] = true;
+                self.filled[nb] = self.h[nb].max(self.filled[c]);
+                self.receiver[nb] = vertex;
+                let q = self.entry(nb, self.filled[nb]);
+                enqueue(q);
+            }
+        }
+    }
+
+    /// The filled heights, each vertex's receiver (`NONE` on the edge) and the order the
+    /// vertices were taken.
+    fn finish(self) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
+        (self.filled, self.receiver, self.order)
+    }
+}
+
 /// Priority-Flood of the heights `h` (`nx × ny`, row-major) from the edges: the filled
 /// heights, each vertex's receiver (`NONE` on the edge) and the order the vertices were taken.
 fn priority_flood(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
-    let n = nx * ny;
-    let mut filled = h.to_vec();
-    let mut receiver = vec![NONE; n];
-    let mut reached = vec![false; n];
-    let mut order = Vec::with_capacity(n);
     let mut queue = BinaryHeap::new();
-    let mut pushed = 0u32;
-    for v in 0..n {
-        let (i, j) = (v % nx, v / nx);
-        if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
-            reached[v] = true;
-            queue.push(Queued {
-                level_m: h[v],
-                order: pushed,
-                vertex: v as u32,
-            });
-            pushed += 1;
-        }
-    }
+    let mut flood = Flood::new(h, nx, ny, &mut queue);
     // A vertex flooded at the level being taken (the bulk of a depression) would enter the
     // heap behind every entry of that level and leave it before any higher one: it waits in
     // a first-in first-out queue instead (Barnes et al.'s pit queue), taken whenever its
@@ -139,73 +195,30 @@ fn priority_flood(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u
                 None => break,
             }
         };
-        let c = vertex as usize;
-        order.push(vertex);
-        for nb in neighbours(c, nx, ny) {
-            if !reached[nb] {
-                reached[nb] = true;
-                filled[nb] = h[nb].max(filled[c]);
-                receiver[nb] = vertex;
-                // All in the pit share one level (bit for bit: −0 and +0 differ in the order).
-                let same = |a: f32| a.total_cmp(&level).is_eq();
-                if same(filled[nb]) && (pit.is_empty() || same(pit_level)) {
-                    pit_level = level;
-                    pit.push_back((pushed, nb as u32));
-                } else {
-                    queue.push(Queued {
-                        level_m: filled[nb],
-                        order: pushed,
-                        vertex: nb as u32,
-                    });
-                }
-                pushed += 1;
+        flood.take(vertex, |q| {
+            // All in the pit share one level (bit for bit: −0 and +0 differ in the order).
+            let same = |a: f32| a.total_cmp(&level).is_eq();
+            if same(q.level_m) && (pit.is_empty() || same(pit_level)) {
+                pit_level = level;
+                pit.push_back((q.order, q.vertex));
+            } else {
+                queue.push(q);
             }
-        }
+        });
     }
-    (filled, receiver, order)
+    flood.finish()
 }
 
 /// [`priority_flood`] with the heap alone: the plain reference the pit queue is tested
 /// against.
 #[cfg(test)]
 fn priority_flood_reference(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
-    let n = nx * ny;
-    let mut filled = h.to_vec();
-    let mut receiver = vec![NONE; n];
-    let mut reached = vec![false; n];
-    let mut order = Vec::with_capacity(n);
     let mut queue = BinaryHeap::new();
-    let mut pushed = 0u32;
-    for v in 0..n {
-        let (i, j) = (v % nx, v / nx);
-        if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
-            reached[v] = true;
-            queue.push(Queued {
-                level_m: h[v],
-                order: pushed,
-                vertex: v as u32,
-            });
-            pushed += 1;
-        }
-    }
+    let mut flood = Flood::new(h, nx, ny, &mut queue);
     while let Some(Queued { vertex, .. }) = queue.pop() {
-        let c = vertex as usize;
-        order.push(vertex);
-        for nb in neighbours(c, nx, ny) {
-            if !reached[nb] {
-                reached[nb] = true;
-                filled[nb] = h[nb].max(filled[c]);
-                receiver[nb] = vertex;
-                queue.push(Queued {
-                    level_m: filled[nb],
-                    order: pushed,
-                    vertex: nb as u32,
-                });
-                pushed += 1;
-            }
-        }
+        flood.take(vertex, |q| queue.push(q));
     }
-    (filled, receiver, order)
+    flood.finish()
 }
 
 /// Fills `terrain` with `rain_m` of water over each vertex's cell (a uniform depth, m; the

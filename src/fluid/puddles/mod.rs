@@ -14,10 +14,12 @@
 //!
 //! Modules: [`checkpoint`] (the water kept in files for chunks), [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
 //! [`ledger`] (the water balance), [`shown`] (the water map the picture is shaded from),
+//! [`kept_map`] (that map kept from frame to frame, made again where the water changed),
 //! [`sim`] ([`PuddleSim`], the loop), [`report`]
 //! (`inspect puddles`).
 pub mod checkpoint;
 pub mod fill;
+pub mod kept_map;
 pub mod ledger;
 pub mod relief;
 pub mod shown;
@@ -25,6 +27,7 @@ pub mod sim;
 
 pub use checkpoint::Checkpoints;
 pub use fill::{FilledWater, fill_depressions};
+pub use kept_map::KeptWaterMap;
 pub use ledger::WaterLedger;
 pub use relief::{Footprint, ground_footprint, micro_relief};
 pub use sim::{PuddleSettings, PuddleSim};

@@ -42,17 +42,17 @@ pub const REACH_SHARE: f32 = 0.15;
 pub const RAMP_SHARE: f32 = 0.1;
 
 /// Leaves on either side of a leaf that its neighbourhood takes in.
-const REACH: usize = 4;
+pub(super) const REACH: usize = 4;
 
 /// The neighbourhood's weights along x and along y: the binomial kernel of 2·[`REACH`] (σ = √2
 /// leaves).
-const KERNEL: [f32; 2 * REACH + 1] = [1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0];
+pub(super) const KERNEL: [f32; 2 * REACH + 1] = [1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0];
 
 /// Leaves on either side whose water gives a leaf its level.
-const LEVEL_REACH: usize = 2;
+pub(super) const LEVEL_REACH: usize = 2;
 
 /// The level's weights along x and along y: the binomial kernel 1-4-6-4-1 (σ = 1 leaf).
-const LEVEL_KERNEL: [f32; 2 * LEVEL_REACH + 1] = [1.0, 4.0, 6.0, 4.0, 1.0];
+pub(super) const LEVEL_KERNEL: [f32; 2 * LEVEL_REACH + 1] = [1.0, 4.0, 6.0, 4.0, 1.0];
 
 /// The water map of a carpet whose surface heights (water where wet, ground where dry) are
 /// `surface_m` and whose water depths are `depth_m`, on one grid (see the module docs): a
@@ -69,8 +69,6 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
         "surface and depth on one grid"
     );
     let (nx, ny) = (depth_m.nx, depth_m.ny);
-    let wet: Vec<bool> = depth_m.values.iter().map(|&d| d > 0.0).collect();
-    let front = |share: f32| EDGE_DEPTH_M * (share - REACH_SHARE) / RAMP_SHARE;
     let on_grid = |values: Vec<f32>| Field2 {
         values,
         ..depth_m.clone()
@@ -78,59 +76,87 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
     // The wet share (separable passes: exactly 0 with no wet leaf within reach, exactly 1 with
     // no dry one).
     let share = convolved(
-        &on_grid(wet.iter().map(|&w| if w { 1.0 } else { 0.0 }).collect()),
+        &on_grid(depth_m.values.iter().map(|&d| wet_share(d)).collect()),
         &KERNEL,
     );
     // Under water all around (all of the wide neighbourhood wet), the surface smoothed over
     // the level's neighbourhood.
     let level = convolved(surface_m, &LEVEL_KERNEL);
-    let r = LEVEL_REACH as isize;
     let values = (0..nx * ny)
         .into_par_iter()
         .map(|k| {
-            let w = share.values[k];
-            let ground = surface_m.values[k] - depth_m.values[k];
-            if w <= 0.0 {
-                return front(0.0);
-            }
-            if w >= 1.0 {
-                return level.values[k] - ground;
-            }
-            // The neighbourhood's wet leaves: (weight, surface).
-            let (i, j) = (k % nx, k / nx);
-            let mut leaves = [(0.0f32, 0.0f32); LEVEL_KERNEL.len() * LEVEL_KERNEL.len()];
-            let mut n = 0;
-            for (b, jj) in (j as isize - r..=j as isize + r).enumerate() {
-                if jj < 0 || jj as usize >= ny {
-                    continue;
-                }
-                for (a, ii) in (i as isize - r..=i as isize + r).enumerate() {
-                    if ii < 0 || ii as usize >= nx {
-                        continue;
-                    }
-                    let m = jj as usize * nx + ii as usize;
-                    if wet[m] {
-                        leaves[n] = (LEVEL_KERNEL[a] * LEVEL_KERNEL[b], surface_m.values[m]);
-                        n += 1;
-                    }
-                }
-            }
-            (soft_minimum(&leaves[..n]) - ground).min(front(w))
+            let around = (&surface_m.values[..], &depth_m.values[..]);
+            leaf_value(k, (nx, ny), (share.values[k], level.values[k]), around)
         })
         .collect();
     on_grid(values)
 }
 
-/// A weighted soft minimum of heights h with weights w: their mean weighted by w·(1 − (h −
-/// h_min)/(3 E)) where positive, E = [`EDGE_DEPTH_M`]: the lowest height where one stands
-/// clear below the rest, their mean where they agree to well under E. (An empty set: +∞.)
-fn soft_minimum(held: &[(f32, f32)]) -> f32 {
-    let low = held.iter().fold(f32::INFINITY, |a, h| a.min(h.1));
+/// A leaf's weight in the wet share: 1 where wet, 0 where dry.
+pub(super) fn wet_share(depth_m: f32) -> f32 {
+    if depth_m > 0.0 { 1.0 } else { 0.0 }
+}
+
+/// The shown depth where the wet share of the neighbourhood rises past zero: 0 at
+/// [`REACH_SHARE`], the rim depth [`RAMP_SHARE`] beyond it.
+fn front(share: f32) -> f32 {
+    EDGE_DEPTH_M * (share - REACH_SHARE) / RAMP_SHARE
+}
+
+/// The map's value at leaf `k` of a grid of `dims` leaves (see the module docs), from its
+/// wet share `share`, its smoothed surface `level` and the carpet's `surface` and `depth`: it
+/// reads the leaves within [`LEVEL_REACH`] only.
+#[inline]
+pub(super) fn leaf_value(
+    k: usize,
+    (nx, ny): (usize, usize),
+    (share, level): (f32, f32),
+    (surface, depth): (&[f32], &[f32]),
+) -> f32 {
+    let ground = surface[k] - depth[k];
+    if share <= 0.0 {
+        return front(0.0);
+    }
+    if share >= 1.0 {
+        return level - ground;
+    }
+    (soft_minimum(k, (nx, ny), (surface, depth)) - ground).min(front(share))
+}
+
+/// A weighted soft minimum of the surface heights h of the wet leaves within
+/// [`LEVEL_REACH`] of leaf `k`, weighted w by 1-4-6-4-1 along x and y: their mean weighted by
+/// w·(1 − (h − h_min)/(3 E)) where positive, E = [`EDGE_DEPTH_M`]: the lowest height where
+/// one stands clear below the rest, their mean where they agree to well under E. (No wet
+/// leaf: +∞.) Each sum runs over the leaves row by row.
+fn soft_minimum(k: usize, (nx, ny): (usize, usize), (surface, depth): (&[f32], &[f32])) -> f32 {
+    let r = LEVEL_REACH;
+    let (i, j) = (k % nx, k / nx);
+    let (i0, i1) = (i.saturating_sub(r), (i + r + 1).min(nx));
+    let (j0, j1) = (j.saturating_sub(r), (j + r + 1).min(ny));
+    let row = |jj: usize| {
+        let span = jj * nx + i0..jj * nx + i1;
+        depth[span.clone()].iter().zip(&surface[span])
+    };
+    let mut low = f32::INFINITY;
+    for jj in j0..j1 {
+        for (&d, &h) in row(jj) {
+            if d > 0.0 {
+                low = low.min(h);
+            }
+        }
+    }
     let taper = 3.0 * EDGE_DEPTH_M;
-    let (sum, weight) = held.iter().fold((0.0f32, 0.0f32), |(s, w), h| {
-        let t = h.0 * (1.0 - (h.1 - low) / taper).max(0.0);
-        (s + t * h.1, w + t)
-    });
+    let (mut sum, mut weight) = (0.0f32, 0.0f32);
+    for jj in j0..j1 {
+        let wy = LEVEL_KERNEL[jj + r - j];
+        for ((&d, &h), wx) in row(jj).zip(&LEVEL_KERNEL[i0 + r - i..]) {
+            if d > 0.0 {
+                let t = wx * wy * (1.0 - (h - low) / taper).max(0.0);
+                sum += t * h;
+                weight += t;
+            }
+        }
+    }
     if weight > 0.0 { sum / weight } else { low }
 }
 
@@ -147,18 +173,8 @@ pub fn smoothed(field: &Field2) -> Field2 {
 /// summed in the kernel's order, so the result does not depend on the threads.
 fn convolved(field: &Field2, kernel: &[f32]) -> Field2 {
     let (nx, ny) = (field.nx, field.ny);
-    let half = kernel.len() / 2;
     let total: f32 = kernel.iter().sum();
-    // The taps of position `i` on a line of `n`: (first index, the kernel's weights from there,
-    // whether the whole kernel lies on the line).
-    let taps = |i: usize, n: usize| {
-        let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
-        (
-            lo,
-            &kernel[lo + half - i..lo + half - i + (hi - lo)],
-            hi - lo == kernel.len(),
-        )
-    };
+    let taps = |i: usize, n: usize| taps(kernel, i, n);
     let mut x = vec![0.0; field.values.len()];
     x.par_chunks_mut(nx.max(1))
         .zip(field.values.par_chunks(nx.max(1)))
@@ -204,6 +220,18 @@ fn convolved(field: &Field2, kernel: &[f32]) -> Field2 {
         cell_m: field.cell_m,
         values,
     }
+}
+
+/// The taps of the odd, centred `kernel` at position `i` on a line of `n`: (first index, the
+/// kernel's weights from there, whether the whole kernel lies on the line).
+pub(super) fn taps(kernel: &[f32], i: usize, n: usize) -> (usize, &[f32], bool) {
+    let half = kernel.len() / 2;
+    let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
+    (
+        lo,
+        &kernel[lo + half - i..lo + half - i + (hi - lo)],
+        hi - lo == kernel.len(),
+    )
 }
 
 #[cfg(test)]

@@ -22,6 +22,7 @@
 use glam::{Vec2, Vec3};
 
 use super::fill::{FilledWater, fill_depressions};
+use super::kept_map::KeptWaterMap;
 use super::ledger::{WaterLedger, pre_rain_split};
 use super::relief::{Footprint, ground_footprint, micro_relief, with_relief};
 use crate::config::RenderConfig;
@@ -29,7 +30,7 @@ use crate::fluid::carpet::Field2;
 use crate::fluid::flow::{SurfaceFlow, SurfaceFlowSettings};
 use crate::fluid::terrain::HeightField;
 use crate::lighting::wetness::SurfaceStore;
-use crate::rain::volume::{GroundRain, GroundRect, Impact, impacts_between};
+use crate::rain::volume::{GroundRain, GroundRect, Impact, StreamSlots, impacts_between};
 use crate::scene::Camera;
 use crate::{Error, Result};
 
@@ -108,6 +109,9 @@ pub struct PuddleSim {
     /// Frames per solver step (m).
     frames_per_step: u32,
     steps: u64,
+    /// The ground's stream of drops, its time slots kept for the frames that share them.
+    #[serde(skip)]
+    stream: StreamSlots,
 }
 
 /// A relief grid over `footprint` at `cell_m` or coarser, with at most `max_vertices`.
@@ -297,6 +301,7 @@ impl PuddleSim {
             step_s: s.step_every_frames as f64 / fps,
             frames_per_step: s.step_every_frames,
             steps: 0,
+            stream: StreamSlots::default(),
         }))
     }
 
@@ -429,7 +434,9 @@ impl PuddleSim {
             let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
             self.land(x, y, || hit.diameter_mm, &mut room);
         }
-        rain.stream_landings(&self.ground_rect(), t0_s, t1_s, |landing| {
+        let mut kept = std::mem::take(&mut self.stream);
+        let rect = self.ground_rect();
+        rain.stream_landings_kept(&mut kept, &rect, t0_s, t1_s, |landing| {
             let p = landing.position_m;
             self.land(
                 p.x as f32,
@@ -438,6 +445,7 @@ impl PuddleSim {
                 &mut room,
             );
         });
+        self.stream = kept;
     }
 
     /// The simulated ground as the rectangle the rain is asked for.
@@ -493,6 +501,12 @@ impl PuddleSim {
     /// a puddle's rim falls where its level meets the ground, between the leaves.
     pub fn shown_depth(&self) -> Field2 {
         super::shown::water_map(&self.flow.carpet.surface_height(), &self.water_depth())
+    }
+
+    /// [`shown_depth`](Self::shown_depth) kept in `kept` from the last frame it was asked
+    /// for, made again only where the water changed since (the same map to the bit).
+    pub fn shown_depth_kept<'a>(&self, kept: &'a mut KeptWaterMap) -> &'a Field2 {
+        kept.update(&self.flow.carpet.surface_height(), &self.water_depth())
     }
 
     /// Wetness on the carpet's grid, [0, 1].

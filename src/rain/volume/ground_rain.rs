@@ -71,6 +71,45 @@ pub struct Landing {
     size_q: f64,
 }
 
+/// The stream over a rectangle and a span of time slots.
+struct Stream {
+    rect: GroundRect,
+    /// The share of a drawn cell's other sizes the stream supplies.
+    supplement: f64,
+    /// Mean drops of a cell in a slot, and the chance of none.
+    mean: f64,
+    none: f64,
+    /// Cells along x and y, slots.
+    x: std::ops::Range<i64>,
+    y: std::ops::Range<i64>,
+    slots: std::ops::Range<i64>,
+}
+
+impl Stream {
+    /// The cells, x outer, y inner: the stream's order.
+    fn cells(&self) -> impl Iterator<Item = (i64, i64)> + '_ {
+        self.x
+            .clone()
+            .flat_map(move |ix| self.y.clone().map(move |iy| (ix, iy)))
+    }
+}
+
+/// The stream's landings of whole time slots over one rectangle, kept from one call of
+/// [`GroundRain::stream_landings_kept`] to the next.
+#[derive(Debug, Clone, Default)]
+pub struct StreamSlots {
+    rect: Option<GroundRect>,
+    slots: Vec<SlotLandings>,
+}
+
+/// One slot's landings, cell after cell: cell c's are `landings[starts[c]..starts[c + 1]]`.
+#[derive(Debug, Clone)]
+struct SlotLandings {
+    slot: i64,
+    landings: Vec<Landing>,
+    starts: Vec<u32>,
+}
+
 /// An axis-aligned rectangle of the ground z = 0, m.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GroundRect {
@@ -331,9 +370,75 @@ impl GroundRain {
         t1_s: f64,
         mut f: impl FnMut(Landing),
     ) {
+        let Some(stream) = self.stream_of(rect, t0_s, t1_s) else {
+            return;
+        };
+        let t0_s = t0_s.max(0.0);
+        for (ix, iy) in stream.cells() {
+            for slot in stream.slots.clone() {
+                self.cell_slot(&stream, (ix, iy), slot, |l| {
+                    if l.time_s > t0_s && l.time_s <= t1_s {
+                        f(l)
+                    }
+                });
+            }
+        }
+    }
+
+    /// [`GroundRain::stream_landings`] (the same landings in the same order) with each time
+    /// slot's landings made once and kept in `kept` for the frames that share the slot (a
+    /// slot of 0.1 s spans two or three frames); `kept` holds the slots of the last call.
+    pub fn stream_landings_kept(
+        &self,
+        kept: &mut StreamSlots,
+        rect: &GroundRect,
+        t0_s: f64,
+        t1_s: f64,
+        mut f: impl FnMut(Landing),
+    ) {
+        let Some(stream) = self.stream_of(rect, t0_s, t1_s) else {
+            return;
+        };
+        let t0_s = t0_s.max(0.0);
+        if kept.rect != Some(*rect) {
+            *kept = StreamSlots {
+                rect: Some(*rect),
+                slots: Vec::new(),
+            };
+        }
+        kept.slots.retain(|s| stream.slots.contains(&s.slot));
+        for slot in stream.slots.clone() {
+            if kept.slots.iter().all(|s| s.slot != slot) {
+                let mut made = SlotLandings {
+                    slot,
+                    landings: Vec::new(),
+                    starts: vec![0],
+                };
+                for cell in stream.cells() {
+                    self.cell_slot(&stream, cell, slot, |l| made.landings.push(l));
+                    made.starts.push(made.landings.len() as u32);
+                }
+                kept.slots.push(made);
+            }
+        }
+        kept.slots.sort_by_key(|s| s.slot);
+        for c in 0..stream.cells().count() {
+            for s in &kept.slots {
+                for l in &s.landings[s.starts[c] as usize..s.starts[c + 1] as usize] {
+                    if l.time_s > t0_s && l.time_s <= t1_s {
+                        f(*l)
+                    }
+                }
+            }
+        }
+    }
+
+    /// The stream's cells over `rect` and its slots over (t0_s, t1_s]; `None` where no drop
+    /// can land.
+    fn stream_of(&self, rect: &GroundRect, t0_s: f64, t1_s: f64) -> Option<Stream> {
         let t0_s = t0_s.max(0.0);
         if self.flux_per_m2_s <= 0.0 || t1_s <= t0_s || rect.area_m2() <= 0.0 {
-            return;
+            return None;
         }
         // Where the drawn drops land the stream supplies only what the budget thinned out.
         let supplement = if self.volume.weight > 1.0 {
@@ -342,60 +447,65 @@ impl GroundRain {
             0.0
         };
         let mean = self.flux_per_m2_s * self.cell_m * self.cell_m * SLOT_S;
-        let none = (-mean).exp();
         let lo = (rect.min_m / self.cell_m).floor();
         let hi = (rect.max_m / self.cell_m).ceil();
-        let (s0, s1) = (
-            (t0_s / SLOT_S).floor() as i64,
-            (t1_s / SLOT_S).ceil() as i64,
+        Some(Stream {
+            rect: *rect,
+            supplement,
+            mean,
+            none: (-mean).exp(),
+            x: lo.x as i64..hi.x as i64,
+            y: lo.y as i64..hi.y as i64,
+            slots: (t0_s / SLOT_S).floor() as i64..(t1_s / SLOT_S).ceil() as i64,
+        })
+    }
+
+    /// The landings of cell (`ix`, `iy`) in time slot `slot` that fall in the stream's
+    /// rectangle and that the drawn drops and the rate's keys leave to the stream, in order,
+    /// each handed to `f`.
+    fn cell_slot(
+        &self,
+        stream: &Stream,
+        (ix, iy): (i64, i64),
+        slot: i64,
+        mut f: impl FnMut(Landing),
+    ) {
+        let key = pcg_hash(
+            pcg_hash(pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32)
+                ^ slot as u32,
         );
-        for ix in lo.x as i64..hi.x as i64 {
-            for iy in lo.y as i64..hi.y as i64 {
-                for slot in s0..s1 {
-                    let key = pcg_hash(
-                        pcg_hash(
-                            pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32,
-                        ) ^ slot as u32,
-                    );
-                    let n = poisson(mean, none, unit(key, 0));
-                    for j in 0..n {
-                        let k = 8 * (j + 1);
-                        let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
-                        if !(time_s > t0_s && time_s <= t1_s) {
-                            continue;
-                        }
-                        let p = DVec2::new(
-                            (ix as f64 + unit(key, k + 1)) * self.cell_m,
-                            (iy as f64 + unit(key, k + 2)) * self.cell_m,
-                        );
-                        if !rect.contains(p) {
-                            continue;
-                        }
-                        let size_q = unit(key, k + 4);
-                        // In a drawn cell: the sizes its drops leave out, and the budget's
-                        // supplement of the others.
-                        if let Some(cut) = self.drawn.cut_at(p)
-                            && self.diameter_mm(size_q) >= cut
-                            && unit(key, k + 3) >= supplement
-                        {
-                            continue;
-                        }
-                        if let Some(keys) = &self.model.rate_keys
-                            && unit(key, k + 5)
-                                >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
-                        {
-                            continue;
-                        }
-                        f(Landing {
-                            id: STREAM_ID_BIT | (key as u64) << 16 | j as u64,
-                            pass: slot as u32,
-                            time_s,
-                            position_m: p,
-                            size_q,
-                        });
-                    }
-                }
+        let n = poisson(stream.mean, stream.none, unit(key, 0));
+        for j in 0..n {
+            let k = 8 * (j + 1);
+            let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
+            let p = DVec2::new(
+                (ix as f64 + unit(key, k + 1)) * self.cell_m,
+                (iy as f64 + unit(key, k + 2)) * self.cell_m,
+            );
+            if !stream.rect.contains(p) {
+                continue;
             }
+            let size_q = unit(key, k + 4);
+            // In a drawn cell: the sizes its drops leave out, and the budget's supplement of
+            // the others.
+            if let Some(cut) = self.drawn.cut_at(p)
+                && self.diameter_mm(size_q) >= cut
+                && unit(key, k + 3) >= stream.supplement
+            {
+                continue;
+            }
+            if let Some(keys) = &self.model.rate_keys
+                && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
+            {
+                continue;
+            }
+            f(Landing {
+                id: STREAM_ID_BIT | (key as u64) << 16 | j as u64,
+                pass: slot as u32,
+                time_s,
+                position_m: p,
+                size_q,
+            });
         }
     }
 

@@ -66,7 +66,7 @@ pub use drop::{
     fall_rate_q, falls, inv_height_q, mean_travel_cells, pcg_hash, sample_drop,
 };
 pub use geometry::view_volume_m3;
-pub use ground_rain::{GroundRain, GroundRect, Landing};
+pub use ground_rain::{GroundRain, GroundRect, Landing, StreamSlots};
 pub use impacts::{Impact, impacts_between, landing_columns, latest_impact};
 pub use inspect::inspect_drops;
 pub use rainfall::Rainfall;

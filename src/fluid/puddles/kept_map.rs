@@ -1,0 +1,404 @@
+//! The water map kept from frame to frame: a render's next map made again only in the tiles
+//! whose leaves' neighbourhoods changed, the same map bit for bit as [`water_map`] makes anew.
+//!
+//! How it works: a leaf's value in the map reads the carpet's wet leaves within [`REACH`]
+//! leaves of it (the wet share's order-8 kernel) and its surface and depth within
+//! [`LEVEL_REACH`] (the level and the rim), and nothing else. Between two frames only the
+//! moving water and the rain's new particles change the carpet, a few thousand of its million
+//! leaves and few of them turning wet or dry, so the map is made in tiles of [`TILE`] ×
+//! [`TILE`] leaves, each from its leaves and a margin with the same sums in the same order as
+//! [`water_map`]'s passes. A frame makes again the tiles within [`LEVEL_REACH`] of a leaf whose
+//! surface or depth changed (to the bit), from the kept wet share, and the wet share too of
+//! those within [`REACH`] of a leaf that turned wet or dry. A tile's values are a function of
+//! the leaves it reads, so a kept tile holds what making it again would give.
+//!
+//! [`water_map`]: super::shown::water_map
+
+use rayon::prelude::*;
+
+use super::shown::{KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value, taps, wet_share};
+use crate::fluid::carpet::Field2;
+
+/// Leaves along a tile's edge: small enough that a scattered change makes few leaves again
+/// (a tile and its neighbours within [`REACH`]), large enough that the margin each tile reads
+/// twice stays a fraction of it.
+pub const TILE: usize = 8;
+
+/// The water map of the last frame, with the carpet it was made from (see the module docs).
+#[derive(Debug, Clone, Default)]
+pub struct KeptWaterMap {
+    /// The carpet's surface heights the map was made from, m.
+    surface_m: Vec<f32>,
+    /// The carpet's water depths the map was made from, m.
+    depth_m: Vec<f32>,
+    /// The map; `None` before the first frame.
+    map: Option<Field2>,
+    /// The wet share of each leaf's neighbourhood the map was made with.
+    share: Vec<f32>,
+    /// Tiles made again by the last update, and the tiles in all.
+    made: (usize, usize),
+}
+
+impl KeptWaterMap {
+    /// An empty map: the first update makes every tile.
+    pub fn new() -> KeptWaterMap {
+        KeptWaterMap::default()
+    }
+
+    /// The water map of a carpet with surface heights `surface_m` and water depths
+    /// `depth_m` ([`water_map`](super::shown::water_map)'s arguments, and its value bit for
+    /// bit), making again only the tiles near leaves that changed since the last call (all of
+    /// them on the first call or on another grid).
+    ///
+    /// # Panics
+    /// If the two fields are not on one grid (they are the same carpet's).
+    pub fn update(&mut self, surface_m: &Field2, depth_m: &Field2) -> &Field2 {
+        assert!(
+            surface_m.nx == depth_m.nx
+                && surface_m.ny == depth_m.ny
+                && surface_m.values.len() == depth_m.values.len()
+                && depth_m.values.len() == depth_m.nx * depth_m.ny,
+            "surface and depth on one grid"
+        );
+        let (nx, ny) = (depth_m.nx, depth_m.ny);
+        let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
+        let same_grid = self.map.as_ref().is_some_and(|m| {
+            (m.nx, m.ny, m.origin_m, m.cell_m) == (nx, ny, depth_m.origin_m, depth_m.cell_m)
+        });
+        let stale = if same_grid {
+            self.stale_tiles(surface_m, depth_m)
+        } else {
+            self.map = Some(Field2 {
+                nx,
+                ny,
+                origin_m: depth_m.origin_m,
+                cell_m: depth_m.cell_m,
+                values: vec![0.0; nx * ny],
+            });
+            self.share = vec![0.0; nx * ny];
+            vec![Stale::Share; tx * ty]
+        };
+        let made = stale.iter().filter(|&&s| s != Stale::No).count();
+        self.made = (made, tx * ty);
+        log::debug!(
+            "puddles: the water map made again in {made} of {} tiles ({} with their wet share)",
+            tx * ty,
+            stale.iter().filter(|&&s| s == Stale::Share).count()
+        );
+        let map = self.map.as_mut().expect("made above");
+        if made > 0 {
+            let (s, d) = (&surface_m.values, &depth_m.values);
+            let band = TILE * nx.max(1);
+            map.values
+                .par_chunks_mut(band)
+                .zip(self.share.par_chunks_mut(band))
+                .zip(stale.par_chunks(tx.max(1)))
+                .enumerate()
+                .for_each(|(b, ((rows, share), stale))| {
+                    for (t, &how) in stale.iter().enumerate().filter(|(_, s)| **s != Stale::No) {
+                        let tile = (t * TILE, b * TILE);
+                        make_tile((rows, share), how, (nx, ny), tile, (s, d));
+                    }
+                });
+            self.surface_m.clone_from(s);
+            self.depth_m.clone_from(d);
+        }
+        map
+    }
+
+    /// Tiles the last update made again, and the tiles in all.
+    pub fn tiles_made(&self) -> (usize, usize) {
+        self.made
+    }
+
+    /// What each tile must make again: its wet share where a leaf within [`REACH`] turned
+    /// wet or dry, its values where a leaf within [`LEVEL_REACH`] changed its surface or depth
+    /// (to the bit), against the kept carpet.
+    fn stale_tiles(&self, surface_m: &Field2, depth_m: &Field2) -> Vec<Stale> {
+        let (nx, ny) = (depth_m.nx, depth_m.ny);
+        let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
+        let differs = |a: &[f32], b: &[f32], k: usize| a[k].to_bits() != b[k].to_bits();
+        // The changed leaves, row by row (in order: the result does not depend on threads).
+        let changed: Vec<Vec<usize>> = (0..ny)
+            .into_par_iter()
+            .map(|j| {
+                (j * nx..(j + 1) * nx)
+                    .filter(|&k| {
+                        differs(&surface_m.values, &self.surface_m, k)
+                            || differs(&depth_m.values, &self.depth_m, k)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut stale = vec![Stale::No; tx * ty];
+        for k in changed.into_iter().flatten() {
+            // A leaf turning wet or dry changes the wet share within the wide reach; any
+            // change, the level and the rim within the narrow one.
+            let turned = (depth_m.values[k] > 0.0) != (self.depth_m[k] > 0.0);
+            let (how, reach) = if turned {
+                (Stale::Share, REACH)
+            } else {
+                (Stale::Values, LEVEL_REACH)
+            };
+            let (i, j) = (k % nx, k / nx);
+            let (i0, i1) = (
+                i.saturating_sub(reach) / TILE,
+                (i + reach).min(nx - 1) / TILE,
+            );
+            let (j0, j1) = (
+                j.saturating_sub(reach) / TILE,
+                (j + reach).min(ny - 1) / TILE,
+            );
+            for row in stale[j0 * tx..(j1 + 1) * tx].chunks_mut(tx) {
+                for s in &mut row[i0..=i1] {
+                    *s = (*s).max(how);
+                }
+            }
+        }
+        stale
+    }
+}
+
+/// What a tile must make again, least first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Stale {
+    /// Nothing: its leaves' neighbourhoods are as they were.
+    No,
+    /// Its values, from the kept wet share (no leaf within [`REACH`] turned wet or dry).
+    Values,
+    /// Its wet share and its values.
+    Share,
+}
+
+/// Makes the tile whose first leaf is (`i0`, `j0`) in `rows` and `share`, the map's rows of
+/// its band and their wet shares (starting at row `j0`), as `how` says, from the carpet's
+/// `surface` and `depth` on a grid of `dims`.
+fn make_tile(
+    (rows, share): (&mut [f32], &mut [f32]),
+    how: Stale,
+    (nx, ny): (usize, usize),
+    (i0, j0): (usize, usize),
+    (surface, depth): (&[f32], &[f32]),
+) {
+    let (i1, j1) = ((i0 + TILE).min(nx), (j0 + TILE).min(ny));
+    let w = i1 - i0;
+    if how == Stale::Share {
+        let made = window(&KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| {
+            wet_share(depth[k])
+        });
+        for (j, line) in made.chunks(w).enumerate() {
+            share[j * nx + i0..j * nx + i1].copy_from_slice(line);
+        }
+    }
+    let level = window(&LEVEL_KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| surface[k]);
+    for j in j0..j1 {
+        for i in i0..i1 {
+            let at = (j - j0) * nx + i;
+            let around = (share[at], level[(j - j0) * w + (i - i0)]);
+            rows[at] = leaf_value(j * nx + i, (nx, ny), around, (surface, depth));
+        }
+    }
+}
+
+/// `kernel` convolved along x, then along y, over the field `value(k)` on a grid of `dims`,
+/// at the leaves `i0..i1` × `j0..j1` (row-major): each value summed as
+/// [`water_map`](super::shown::water_map)'s separable passes sum it, the same terms in the same
+/// order, so it is the same to the bit.
+fn window<const N: usize>(
+    kernel: &[f32; N],
+    (nx, ny): (usize, usize),
+    (i0, i1): (usize, usize),
+    (j0, j1): (usize, usize),
+    value: impl Fn(usize) -> f32,
+) -> Vec<f32> {
+    let half = N / 2;
+    let total: f32 = kernel.iter().sum();
+    let w = i1 - i0;
+    // The pass along x on the rows the pass along y reads.
+    let (r0, r1) = (j0.saturating_sub(half), (j1 + half).min(ny));
+    let mut x = Vec::with_capacity((r1 - r0) * w);
+    for r in r0..r1 {
+        for i in i0..i1 {
+            let (lo, weights, whole) = taps(kernel, i, nx);
+            let row = r * nx + lo;
+            let (mut sum, mut weight) = (0.0f32, 0.0f32);
+            if whole {
+                // The whole kernel, a loop of known length.
+                for (t, wt) in kernel.iter().enumerate() {
+                    sum += wt * value(row + t);
+                }
+                x.push(sum / total);
+            } else {
+                for (t, wt) in weights.iter().enumerate() {
+                    sum += wt * value(row + t);
+                    weight += wt;
+                }
+                x.push(sum / weight);
+            }
+        }
+    }
+    let mut out = Vec::with_capacity((j1 - j0) * w);
+    for j in j0..j1 {
+        let (lo, weights, whole) = taps(kernel, j, ny);
+        let norm = if whole {
+            total
+        } else {
+            weights.iter().sum::<f32>()
+        };
+        let mut sum = vec![0.0f32; w];
+        for (t, wt) in weights.iter().enumerate() {
+            let row = &x[(lo + t - r0) * w..(lo + t - r0 + 1) * w];
+            for (s, v) in sum.iter_mut().zip(row) {
+                *s += wt * v;
+            }
+        }
+        out.extend(sum.iter().map(|s| s / norm));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fluid::puddles::shown::water_map;
+    use crate::rng::SplitMix64;
+
+    fn grid(nx: usize, ny: usize, values: Vec<f32>) -> Field2 {
+        Field2 {
+            nx,
+            ny,
+            origin_m: glam::Vec2::new(-1.0, 2.0),
+            cell_m: 0.02,
+            values,
+        }
+    }
+
+    /// A carpet of `nx` × `ny` leaves: ground with a few millimetres of relief, pools where it
+    /// lies below a level, a scatter of single wet leaves (drops) on dry ground.
+    fn carpet(nx: usize, ny: usize, rng: &mut SplitMix64) -> (Field2, Field2) {
+        let (mut surface, mut depth) = (Vec::new(), Vec::new());
+        for j in 0..ny {
+            for i in 0..nx {
+                let ground = 0.004 * ((i as f32 * 0.31).sin() + (j as f32 * 0.23).cos())
+                    + 0.0005 * rng.next_f64() as f32;
+                let d = if rng.next_f64() < 0.02 {
+                    0.017 * rng.next_f64() as f32
+                } else {
+                    (0.002 - ground).max(0.0)
+                };
+                surface.push(ground + d);
+                depth.push(d);
+            }
+        }
+        (grid(nx, ny, surface), grid(nx, ny, depth))
+    }
+
+    fn same_bits(a: &Field2, b: &Field2) -> bool {
+        (a.nx, a.ny, a.origin_m, a.cell_m) == (b.nx, b.ny, b.origin_m, b.cell_m)
+            && a.values.len() == b.values.len()
+            && a.values
+                .iter()
+                .zip(&b.values)
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+    }
+
+    /// Made whole (grids that are and are not multiples of a tile, narrower than the
+    /// kernel), the map is the plain map to the bit; then, changing a few leaves at a time
+    /// (at the grid's edges and corners too), each update is the plain map of the changed
+    /// carpet and makes only the tiles near the changes again.
+    #[test]
+    fn a_kept_map_is_the_plain_map_bit_for_bit_frame_after_frame() {
+        let mut rng = SplitMix64(7);
+        for (nx, ny) in [(3, 2), (16, 16), (37, 21), (64, 50)] {
+            let (mut surface, mut depth) = carpet(nx, ny, &mut rng);
+            let mut kept = KeptWaterMap::new();
+            assert!(same_bits(
+                kept.update(&surface, &depth),
+                &water_map(&surface, &depth)
+            ));
+            let tiles = nx.div_ceil(TILE) * ny.div_ceil(TILE);
+            assert_eq!(kept.tiles_made(), (tiles, tiles));
+            for frame in 0..12 {
+                let changes = if frame == 3 { 0 } else { 1 + frame % 4 };
+                for c in 0..changes {
+                    let k = match (frame + c) % 5 {
+                        0 => 0,
+                        1 => nx * ny - 1,
+                        _ => (rng.next_u64() % (nx * ny) as u64) as usize,
+                    };
+                    let ground = surface.values[k] - depth.values[k];
+                    let d = if depth.values[k] > 0.0 && rng.next_f64() < 0.5 {
+                        0.0
+                    } else {
+                        0.02 * rng.next_f64() as f32
+                    };
+                    (surface.values[k], depth.values[k]) = (ground + d, d);
+                }
+                let fresh = water_map(&surface, &depth);
+                assert!(
+                    same_bits(kept.update(&surface, &depth), &fresh),
+                    "{nx}×{ny}, frame {frame}"
+                );
+                let (made, all) = kept.tiles_made();
+                assert_eq!(all, tiles);
+                // Each changed leaf makes at most the 2 × 2 tiles its reach can span.
+                assert!(made <= 4 * changes, "{made} tiles for {changes} leaves");
+                assert_eq!(made == 0, changes == 0);
+            }
+        }
+    }
+
+    /// A carpet on another grid is made whole again.
+    #[test]
+    fn another_grid_is_made_whole() {
+        let mut rng = SplitMix64(3);
+        let mut kept = KeptWaterMap::new();
+        let (s, d) = carpet(40, 30, &mut rng);
+        kept.update(&s, &d);
+        let (s, mut d) = carpet(30, 40, &mut rng);
+        assert!(same_bits(kept.update(&s, &d), &water_map(&s, &d)));
+        let mut s = s;
+        s.origin_m.x += 0.5;
+        d.origin_m.x += 0.5;
+        assert!(same_bits(kept.update(&s, &d), &water_map(&s, &d)));
+        let tiles = 30usize.div_ceil(TILE) * 40usize.div_ceil(TILE);
+        assert_eq!(kept.tiles_made(), (tiles, tiles));
+    }
+
+    /// The cost of a frame's map, made whole and kept, on a street-sized carpet (1002 × 765
+    /// leaves, pools and scattered drops) with 200 particles a frame changing 3 × 3 leaves each:
+    /// `cargo test --release --lib kept_map::tests::report -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn report() {
+        let mut rng = SplitMix64(11);
+        let (nx, ny) = (1002, 765);
+        let (mut surface, mut depth) = carpet(nx, ny, &mut rng);
+        let mut kept = KeptWaterMap::new();
+        kept.update(&surface, &depth);
+        let (mut whole_s, mut kept_s) = (0.0, 0.0);
+        for _ in 0..10 {
+            for _ in 0..200 {
+                let c = (rng.next_u64() % ((nx - 2) * (ny - 2)) as u64) as usize;
+                let d = 0.02 * rng.next_f64() as f32;
+                for k in (0..9).map(|m| (c / (nx - 2) + m / 3) * nx + c % (nx - 2) + m % 3) {
+                    let ground = surface.values[k] - depth.values[k];
+                    (surface.values[k], depth.values[k]) = (ground + d, d);
+                }
+            }
+            let t = std::time::Instant::now();
+            let fresh = water_map(&surface, &depth);
+            whole_s += t.elapsed().as_secs_f64();
+            let t = std::time::Instant::now();
+            assert!(same_bits(kept.update(&surface, &depth), &fresh));
+            kept_s += t.elapsed().as_secs_f64();
+        }
+        println!(
+            "water map, ms a frame: made whole {:.1}, kept {:.1} ({} of {} tiles made)",
+            whole_s * 100.0,
+            kept_s * 100.0,
+            kept.tiles_made().0,
+            kept.tiles_made().1
+        );
+    }
+}
