@@ -3,7 +3,8 @@
 // z = 0 at P takes the water depth there from the map (Catmull-Rom, C¹; the water covers the
 // ground smoothly as the depth rises from 0 to edge_depth_m). The map is signed, negative where
 // dry (src/fluid/puddles/shown.rs), so the rim, its interpolated zero, falls between cells and
-// turns smoothly across them. The water's normal is the flat normal tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
+// turns smoothly across them; the cover is the share of the pixel's footprint under water (an
+// antialiased rim, water_cover). The water's normal is the flat normal tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
 // the ground under it darkened by Lekner & Dorf's k (as the wet ground), plus the exact
 // unpolarised Fresnel reflectance R of the rippled surface times the radiance L_r along the
 // mirrored ray. L_r is the frame itself where the mirrored ray's image lies in it: with a depth
