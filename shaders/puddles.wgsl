@@ -3,7 +3,8 @@
 // z = 0 at P takes the water depth there from the map (Catmull-Rom, C¹; the water covers the
 // ground smoothly as the depth rises from 0 to edge_depth_m). The map is signed, negative where
 // dry (src/fluid/puddles/shown.rs), so the rim, its interpolated zero, falls between cells and
-// turns smoothly across them. The water's normal is the flat normal tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
+// turns smoothly across them; the cover is the share of the pixel's footprint under water (an
+// antialiased rim, water_cover). The water's normal is the flat normal tilted by the slopes of the ripple rings; its surface shows C' = C + c·T·((k − 1)·L + R·L_r):
 // the ground under it darkened by Lekner & Dorf's k (as the wet ground), plus the exact
 // unpolarised Fresnel reflectance R of the rippled surface times the radiance L_r along the
 // mirrored ray. L_r is the frame itself where the mirrored ray's image lies in it: with a depth
@@ -111,7 +112,7 @@ fn shade(id: vec2<u32>, layer: bool) {
     // The ray has unit camera depth: it meets the ground at camera depth h / −ray.z.
     let ground_z_m = h / -ray.z;
     let p = rain.camera_pos_m + ground_z_m * ray;
-    let cover = water_cover(p.xy);
+    let cover = water_cover(p.xy, ground_per_px(ray, ground_z_m));
     if cover <= 0.0 { return; }
     let shown = ground_shown(scene_depth_m(vec2<f32>(id) + vec2<f32>(0.5)), ground_z_m) * ground_weight(id);
     if shown <= 0.0 { return; }
@@ -164,15 +165,18 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
     return 0.25 * sum;
 }
 
-// The water's cover at ground point `xy`: smoothstep(0, edge_depth_m, depth), the depth (m,
-// signed: negative where dry) read by Catmull-Rom over the 4×4 cells around it (0 off the map)
-// and clamped to the four nearest cells' range. C¹, so the rim turns smoothly across the
-// cells' edges (a bilinear reading's zero kinks there); exact on planes and quadratics; the
-// clamp keeps its overshoot from making water or dry ground that none of the four nearest
-// cells holds, and settles the cover from those four alone where all are dry or all deeper
-// than the rim (the same value, without the other twelve reads). Each row along x, then the
-// rows along y (the twin's water_depth).
-fn water_cover(xy: vec2<f32>) -> f32 {
+// The water's cover at ground point `xy`, the share of the pixel's footprint under water: the
+// mean of smoothstep(0, edge_depth_m, depth) over a box of one pixel's width across the rim
+// (rim_cover), the depth (m, signed: negative where dry) read by Catmull-Rom over the 4×4
+// cells around it (0 off the map) and clamped to the four nearest cells' range. C¹, so the
+// rim turns smoothly across the cells' edges (a bilinear reading's zero kinks there); exact on
+// planes and quadratics; the clamp keeps its overshoot from making water or dry ground that
+// none of the four nearest cells holds, and settles the cover from those four alone where all
+// are dry or all deeper than the rim (the same value, without the other twelve reads). The
+// depth's change per pixel is the reading's own derivative (Catmull-Rom's) along the ground
+// point's change per pixel `per_px` (columns: per pixel along x, along y). Each row along x,
+// then the rows along y (the twin's water_depth).
+fn water_cover(xy: vec2<f32>, per_px: mat2x2<f32>) -> f32 {
     let u = (xy - puddle.origin_m) / puddle.cell_m - vec2<f32>(0.5);
     let c = vec2<i32>(floor(u));
     let f = u - floor(u);
@@ -185,12 +189,54 @@ fn water_cover(xy: vec2<f32>) -> f32 {
     if hi <= 0.0 { return 0.0; }
     if lo >= puddle.edge_depth_m { return 1.0; }
     let wx = catmull_rom(f.x);
+    let dx = catmull_rom_slope(f.x);
     let r0 = map_row(c + vec2<i32>(-1, -1));
     let r1 = vec4<f32>(map_cell(c + vec2<i32>(-1, 0)), a, b, map_cell(c + vec2<i32>(2, 0)));
     let r2 = vec4<f32>(map_cell(c + vec2<i32>(-1, 1)), d, e, map_cell(c + vec2<i32>(2, 1)));
     let r3 = map_row(c + vec2<i32>(-1, 2));
-    let sum = dot(catmull_rom(f.y), vec4<f32>(dot(wx, r0), dot(wx, r1), dot(wx, r2), dot(wx, r3)));
-    return smoothstep(0.0, puddle.edge_depth_m, clamp(sum, lo, hi));
+    let rows = vec4<f32>(dot(wx, r0), dot(wx, r1), dot(wx, r2), dot(wx, r3));
+    let sum = dot(catmull_rom(f.y), rows);
+    let along_x = dot(catmull_rom(f.y), vec4<f32>(dot(dx, r0), dot(dx, r1), dot(dx, r2), dot(dx, r3)));
+    let along_y = dot(catmull_rom_slope(f.y), rows);
+    // The depth's gradient on the ground (m per m), then its change per pixel.
+    let grad = vec2<f32>(along_x, along_y) / puddle.cell_m;
+    let width = length(vec2<f32>(dot(grad, per_px[0]), dot(grad, per_px[1])));
+    return rim_cover(sum, lo, hi, width, puddle.edge_depth_m);
+}
+
+// The mean of smoothstep(0, edge, clamp(s, lo, hi)) for s spread evenly over depth ± width/2
+// (the depth's run across one pixel): the clamped parts at their ends' cover, the rest the
+// ramp's integral. A box whose variance is the pixel's for any direction of the rim (|∇D|²/12);
+// the plain smoothstep where the pixel spans under a thousandth of the ramp. Exactly 0 where
+// hi <= 0 and 1 where lo >= edge (the callers' shortcut).
+fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
+    if width <= 1e-3 * edge { return smoothstep(0.0, edge, clamp(depth, lo, hi)); }
+    let x0 = depth - 0.5 * width;
+    let x1 = depth + 0.5 * width;
+    let below = max(min(x1, lo) - x0, 0.0) * smoothstep(0.0, edge, lo);
+    let above = max(x1 - max(x0, hi), 0.0) * smoothstep(0.0, edge, hi);
+    let a = clamp(x0, lo, hi);
+    let b = clamp(x1, lo, hi);
+    let ramp = max(b - max(a, edge), 0.0) + ramp_area(clamp(b, 0.0, edge), edge) - ramp_area(clamp(a, 0.0, edge), edge);
+    return clamp((below + ramp + above) / width, 0.0, 1.0);
+}
+
+// ∫₀ˢ smoothstep(0, edge, x) dx for 0 <= s <= edge: edge·(t³ − t⁴/2), t = s/edge.
+fn ramp_area(s: f32, edge: f32) -> f32 {
+    let t = s / edge;
+    return edge * t * t * t * (1.0 - 0.5 * t);
+}
+
+// The ground point's change per pixel along x and along y (m, columns) for the view ray `ray`
+// (unit camera depth, meeting the ground at camera depth `ground_z_m`): the ray is affine in the
+// pixel, r' per pixel, and the point h·r/(−r_z) moves by (h/(−r_z))·(r' − r·r'_z/r_z).
+fn ground_per_px(ray: vec3<f32>, ground_z_m: f32) -> mat2x2<f32> {
+    let m = rain.coded_from_display;
+    let along_x = (rain.camera_from_world_0.xyz * m.x + rain.camera_from_world_1.xyz * m.z) / rain.focal_px;
+    let along_y = (rain.camera_from_world_0.xyz * m.y + rain.camera_from_world_1.xyz * m.w) / rain.focal_px;
+    let gx = ground_z_m * (along_x - ray * (along_x.z / ray.z));
+    let gy = ground_z_m * (along_y - ray * (along_y.z / ray.z));
+    return mat2x2<f32>(gx.xy, gy.xy);
 }
 
 // The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from the
@@ -199,6 +245,12 @@ fn catmull_rom(t: f32) -> vec4<f32> {
     let t2 = t * t;
     let t3 = t2 * t;
     return 0.5 * vec4<f32>(-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2);
+}
+
+// The derivative of catmull_rom's weights by `t`.
+fn catmull_rom_slope(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    return 0.5 * vec4<f32>(-3.0 * t2 + 4.0 * t - 1.0, 9.0 * t2 - 10.0 * t, -9.0 * t2 + 8.0 * t + 1.0, 3.0 * t2 - 2.0 * t);
 }
 
 // The map's four cells from `c` along x (0 off the map).

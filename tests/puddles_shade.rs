@@ -1387,3 +1387,162 @@ fn the_water_keeps_the_lamps_glow() {
     eprintln!("the water under the halo: GPU against the twin, worst {worst} codes");
     assert!(worst <= 1, "{worst} codes off");
 }
+
+/// A puddle's rim is antialiased: each pixel's cover is the share of its footprint under
+/// water. At 1:1 (a cell about 2 px), on a straight shore at 17° to the cells and on a pool in
+/// a bowl, both steep enough that the rim's ramp is a fraction of a pixel, every pixel's cover as drawn (by the CPU twin; the GPU stage within a code of it)
+/// is compared with the mean of the cover taken at 16 × 16 points across the pixel (computed
+/// here from the map's reading, point by point): on the rim's pixels inside the map the drawn cover's error
+/// must be well below that of the cover taken at the pixel's centre alone, whose steps are off
+/// by up to half a pixel's share.
+#[test]
+fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
+    use rain_composite::fluid::puddles::shown::water_map;
+    let ctx = gpu();
+    let cell_m = 0.03f32;
+    let bowl = Bowl {
+        centre_m: DVec2::new(0.13, 2.4),
+        radius_of_curvature_m: 1.5,
+        level_m: 0.5f64.powi(2) / 3.0,
+    };
+    let (surface, depth) = bowl.carpet(48, cell_m);
+    // A plane rising at 30 cm per metre across a shore at 17° to the cells, 2.6 m ahead.
+    let (c, n) = (
+        DVec2::new(0.011, 2.617),
+        DVec2::from_angle(17f64.to_radians()),
+    );
+    let (shore_surface, shore_depth) = still_carpet(
+        |p| 0.3 * n.dot(p - c),
+        0.0,
+        c.as_vec2() - Vec2::splat(48.0 * cell_m),
+        96,
+        cell_m,
+    );
+    let cases = [
+        ("a pool in a bowl", water_map(&surface, &depth)),
+        ("a shore at 17°", water_map(&shore_surface, &shore_depth)),
+    ];
+    let lights = LightList::new(&[]);
+    let camera = Camera::new(
+        160,
+        120,
+        f64::to_radians(40.0),
+        1.6,
+        f64::to_radians(-35.0),
+        0.0,
+    );
+    let s = setup(&camera, false);
+    let p = lit(&s, 0.0, &uniform_sky(0.6), Some(1.0));
+    let frame = picture_444(camera.width_px, camera.height_px, |_, _| 400, |_, _, _| 512);
+    let dry = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+    let edge = EDGE_DEPTH_M;
+    let smooth = |x: f64| {
+        let t = (x / edge).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    for (name, map) in &cases {
+        let params = puddle_params(map, 0);
+        let twin = |water: &[f32]| {
+            let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+            puddles::puddles(
+                &mut canvas,
+                &frame,
+                &p,
+                &Water {
+                    params: &params,
+                    depth_m: water,
+                    ripples: &[],
+                    lights: &lights,
+                },
+                None,
+            );
+            canvas
+        };
+        let wet = twin(&vec![1.0; map.values.len()]);
+        let drawn = twin(&map.values);
+        // The cover at a point of the picture, read as the stage reads it at a pixel's centre.
+        let point = |at: DVec2| {
+            let ray = yuv_to_rgb::view_ray_at(&p, at);
+            if ray.z >= 0.0 {
+                return 0.0;
+            }
+            let g = DVec3::from_array(p.camera_pos_m.map(f64::from));
+            let ground = g + (g.z / -ray.z) * ray;
+            smooth(puddles::water_depth(
+                &params,
+                &map.values,
+                ground.truncate(),
+            ))
+        };
+        let (mut err, mut err_centre, mut rim) = (0.0, 0.0, 0usize);
+        let mut worst = 0.0f64;
+        for i in 0..drawn.len() {
+            let (x, y) = ((i % 160) as f64, (i / 160) as f64);
+            let change = wet[i][1] - dry[i][1];
+            let cover = if change.abs() < 1e-4 {
+                0.0
+            } else {
+                (drawn[i][1] - dry[i][1]) / change
+            };
+            let centre = point(DVec2::new(x + 0.5, y + 0.5));
+            // Only the map's inside: beyond its edge it holds no water (the shore runs off it).
+            let ray = yuv_to_rgb::view_ray_at(&p, DVec2::new(x + 0.5, y + 0.5));
+            let ground = p.camera_pos_m[2] as f64 / -ray.z * ray.truncate()
+                + DVec2::new(p.camera_pos_m[0] as f64, p.camera_pos_m[1] as f64);
+            let inset = (ground - map.origin_m.as_dvec2()) / cell_m as f64;
+            if ray.z >= 0.0
+                || inset.min_element() < 3.0
+                || inset.max_element() > map.nx as f64 - 3.0
+            {
+                continue;
+            }
+            let mut sum = 0.0;
+            for k in 0..256 {
+                let sub = DVec2::new((k % 16) as f64 + 0.5, (k / 16) as f64 + 0.5) / 16.0;
+                sum += point(DVec2::new(x, y) + sub);
+            }
+            let reference = sum / 256.0;
+            // The rim's pixels: partly covered by the reference or by either cover.
+            let partial = |v: f64| v > 1e-3 && v < 1.0 - 1e-3;
+            if partial(reference) || partial(cover) || partial(centre) {
+                rim += 1;
+                err += (cover - reference).powi(2);
+                err_centre += (centre - reference).powi(2);
+                worst = worst.max((cover - reference).abs());
+            }
+        }
+        let (rms, rms_centre) = ((err / rim as f64).sqrt(), (err_centre / rim as f64).sqrt());
+        eprintln!(
+            "{name}: {rim} rim pixels, cover off the 16×16 mean by RMS {rms:.4} (at most \
+             {worst:.3}), the centre's {rms_centre:.4}"
+        );
+        assert!(rim > 100, "{name}: {rim} rim pixels");
+        assert!(
+            rms_centre > 0.15,
+            "{name}: the measure sees the centre's steps: {rms_centre:.4}"
+        );
+        assert!(
+            rms < 0.25 * rms_centre,
+            "{name}: RMS {rms:.4} against the centre's {rms_centre:.4}"
+        );
+        if let Some(ctx) = &ctx {
+            let gpu = codes(&render(
+                ctx,
+                &frame,
+                &s,
+                &p,
+                &Inputs {
+                    water: Some(map),
+                    ..Inputs::default()
+                },
+            ));
+            let cpu = rgb_to_yuv::rgb_to_yuv(&drawn, frame.format, &frame.color);
+            let worst = (0..3)
+                .flat_map(|k| gpu[k].iter().zip(&cpu[k]).map(|(a, b)| a.abs_diff(*b)))
+                .max()
+                .unwrap_or(0);
+            eprintln!("{name}: GPU against the twin, worst {worst} codes");
+            assert!(worst <= 1, "{name}: {worst} codes off");
+        }
+    }
+}

@@ -120,10 +120,11 @@ pub fn puddles_lit(
         // `ray` has unit camera depth: the ground lies at camera depth h / −ray.z.
         let ground_z_m = h / -ray.z;
         let ground = camera + ground_z_m * ray;
-        let cover = smoothstep(
-            0.0,
-            w.edge_depth_m as f64,
-            water_depth(w, water.depth_m, ground.truncate()),
+        let cover = water_cover(
+            w,
+            water.depth_m,
+            ground.truncate(),
+            ground_per_px(p, ray, ground_z_m),
         );
         if cover <= 0.0 {
             continue;
@@ -342,6 +343,52 @@ impl Mirror<'_> {
     }
 }
 
+/// The water's cover at ground point `xy`: the share of the pixel's footprint under water, the
+/// mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the rim
+/// ([`rim_cover`]), the depth read by [`water_depth`] and its change per pixel by the reading's
+/// own derivative along the ground point's change per pixel `per_px` ([`ground_per_px`]).
+pub fn water_cover(params: &PuddleParams, depth_m: &[f32], xy: DVec2, per_px: [DVec2; 2]) -> f64 {
+    let (depth, gradient, lo, hi) = water_depth_gradient(params, depth_m, xy);
+    let width = DVec2::new(gradient.dot(per_px[0]), gradient.dot(per_px[1])).length();
+    rim_cover(depth, lo, hi, width, params.edge_depth_m as f64)
+}
+
+/// The mean of smoothstep(0, `edge`, clamp(s, `lo`, `hi`)) for s spread evenly over `depth` ±
+/// `width`/2 (the depth's run across one pixel): the parts beyond the clamp at its ends' cover,
+/// the rest the ramp's integral, ∫₀ˢ smoothstep = edge·(t³ − t⁴/2), t = s/edge. A box of the
+/// pixel's variance for any direction of the rim (|∇D|²/12, a square pixel's); the plain
+/// smoothstep where the pixel spans under a thousandth of the ramp. Exactly 0 where `hi` ≤ 0
+/// and 1 where `lo` ≥ `edge`.
+pub fn rim_cover(depth: f64, lo: f64, hi: f64, width: f64, edge: f64) -> f64 {
+    if width <= 1e-3 * edge {
+        return smoothstep(0.0, edge, depth.max(lo).min(hi));
+    }
+    let area = |s: f64| {
+        let t = s.clamp(0.0, edge) / edge;
+        edge * t * t * t * (1.0 - 0.5 * t)
+    };
+    let (x0, x1) = (depth - 0.5 * width, depth + 0.5 * width);
+    let below = (x1.min(lo) - x0).max(0.0) * smoothstep(0.0, edge, lo);
+    let above = (x1 - x0.max(hi)).max(0.0) * smoothstep(0.0, edge, hi);
+    let (a, b) = (x0.max(lo).min(hi), x1.max(lo).min(hi));
+    let ramp = (b - a.max(edge)).max(0.0) + area(b) - area(a);
+    ((below + ramp + above) / width).clamp(0.0, 1.0)
+}
+
+/// The ground point's change per coded pixel along x and along y (m) for the view ray `ray`
+/// (unit camera depth) meeting the ground at camera depth `ground_z_m`: the ray is affine in
+/// the pixel, r′ per pixel, and the point h·r/(−r_z) moves by (h/(−r_z))·(r′ − r·r′_z/r_z).
+pub fn ground_per_px(p: &RainParams, ray: DVec3, ground_z_m: f64) -> [DVec2; 2] {
+    let m = p.coded_from_display.map(f64::from);
+    let (r0, r1) = (v3(&p.camera_from_world_0), v3(&p.camera_from_world_1));
+    let f = p.focal_px as f64;
+    let along = |a: f64, b: f64| {
+        let r = (r0 * a + r1 * b) / f;
+        (ground_z_m * (r - ray * (r.z / ray.z))).truncate()
+    };
+    [along(m[0], m[2]), along(m[1], m[3])]
+}
+
 /// Water depth (m, signed: negative where dry) at ground point `xy`: Catmull-Rom between cell
 /// centres over the 4×4 cells around it (0 off the map), clamped to the range of the four
 /// nearest. The reading is C¹, so the rim (its zero) turns smoothly across the cells' edges,
@@ -350,14 +397,24 @@ impl Mirror<'_> {
 /// dry ground that none of the four nearest cells holds (its overshoot would, in a dry groove
 /// between high banks).
 pub fn water_depth(params: &PuddleParams, depth_m: &[f32], xy: DVec2) -> f64 {
+    let (sum, _, lo, hi) = water_depth_gradient(params, depth_m, xy);
+    sum.max(lo).min(hi)
+}
+
+/// [`water_depth`] before the clamp, its gradient (m per m, Catmull-Rom's derivative) and the
+/// four nearest cells' range.
+pub fn water_depth_gradient(
+    params: &PuddleParams,
+    depth_m: &[f32],
+    xy: DVec2,
+) -> (f64, DVec2, f64, f64) {
     let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
     let origin = DVec2::new(params.origin_m[0] as f64, params.origin_m[1] as f64);
     let u = (xy - origin) / params.cell_m as f64 - DVec2::splat(0.5);
     let (i0, j0) = (u.x.floor() as i64, u.y.floor() as i64);
-    let (wx, wy) = (
-        catmull_rom(u.x - u.x.floor()),
-        catmull_rom(u.y - u.y.floor()),
-    );
+    let (fx, fy) = (u.x - u.x.floor(), u.y - u.y.floor());
+    let (wx, wy) = (catmull_rom(fx), catmull_rom(fy));
+    let (sx, sy) = (catmull_rom_slope(fx), catmull_rom_slope(fy));
     let cell = |i: i64, j: i64| {
         if (0..nx).contains(&i) && (0..ny).contains(&j) {
             depth_m[(j * nx + i) as usize] as f64
@@ -366,19 +423,22 @@ pub fn water_depth(params: &PuddleParams, depth_m: &[f32], xy: DVec2) -> f64 {
         }
     };
     let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
-    for (b, w) in wy.iter().enumerate() {
+    let mut gradient = DVec2::ZERO;
+    for b in 0..4 {
         let j = j0 + b as i64 - 1;
-        let mut row = 0.0;
-        for (a, v) in wx.iter().enumerate() {
+        let (mut row, mut row_slope) = (0.0, 0.0);
+        for a in 0..4 {
             let value = cell(i0 + a as i64 - 1, j);
-            row += v * value;
+            row += wx[a] * value;
+            row_slope += sx[a] * value;
             if (1..3).contains(&a) && (1..3).contains(&b) {
                 (lo, hi) = (lo.min(value), hi.max(value));
             }
         }
-        sum += w * row;
+        sum += wy[b] * row;
+        gradient += DVec2::new(wy[b] * row_slope, sy[b] * row);
     }
-    sum.max(lo).min(hi)
+    (sum, gradient / params.cell_m as f64, lo, hi)
 }
 
 /// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from
@@ -390,6 +450,17 @@ pub fn catmull_rom(t: f64) -> [f64; 4] {
         0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
         0.5 * (-3.0 * t3 + 4.0 * t2 + t),
         0.5 * (t3 - t2),
+    ]
+}
+
+/// The derivative of [`catmull_rom`]'s weights by `t`.
+pub fn catmull_rom_slope(t: f64) -> [f64; 4] {
+    let t2 = t * t;
+    [
+        0.5 * (-3.0 * t2 + 4.0 * t - 1.0),
+        0.5 * (9.0 * t2 - 10.0 * t),
+        0.5 * (-9.0 * t2 + 8.0 * t + 1.0),
+        0.5 * (3.0 * t2 - 2.0 * t),
     ]
 }
 

@@ -220,18 +220,27 @@ impl<'a> Puddles<'a> {
     fn cover(&self, x: usize, y: usize) -> f32 {
         let g = self.ground;
         let ray = g.ray(x, y);
-        let ground = g.camera + (g.height_m() / -ray.z) * ray;
-        self.water_cover(Vec2::new(ground.x, ground.y))
+        let ground_z_m = g.height_m() / -ray.z;
+        let ground = g.camera + ground_z_m * ray;
+        // The ground point's change per pixel (`ground_per_px`): the ray is affine in the
+        // pixel, `dx` and `dy` per pixel.
+        let per_px = |r: Vec3| {
+            let v = ground_z_m * (r - ray * (r.z / ray.z));
+            Vec2::new(v.x, v.y)
+        };
+        self.water_cover(Vec2::new(ground.x, ground.y), [per_px(g.dx), per_px(g.dy)])
     }
 
-    /// The water's cover at ground point `xy`: smoothstep(0, rim depth, depth), the depth read
-    /// by Catmull-Rom over the 4×4 cells around it, 0 off the map, clamped to the four nearest
-    /// cells' range (`water_depth` of puddles.wgsl and of the twin, in their order: each row
-    /// along x, then the rows along y). The clamp settles the cover from the four nearest
-    /// alone where all are dry or all deeper than the rim (most of the ground): the same value,
-    /// without the other twelve reads.
+    /// The water's cover at ground point `xy`, the share of the pixel's footprint under water:
+    /// the mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the
+    /// rim ([`rim_cover`]), the depth read by Catmull-Rom over the 4×4 cells around it, 0 off
+    /// the map, clamped to the four nearest cells' range, its change per pixel by Catmull-Rom's
+    /// derivative along the ground point's change per pixel `per_px` (`water_cover` of
+    /// puddles.wgsl and of the twin, in their order: each row along x, then the rows along y).
+    /// The clamp settles the cover from the four nearest alone where all are dry or all deeper
+    /// than the rim (most of the ground): the same value, without the other twelve reads.
     #[inline]
-    fn water_cover(&self, xy: Vec2) -> f32 {
+    fn water_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
         let p = &self.water.params;
         let (nx, ny) = (p.cells[0] as i64, p.cells[1] as i64);
         let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
@@ -263,14 +272,34 @@ impl<'a> Puddles<'a> {
             return 1.0;
         }
         let (wx, wy) = (catmull_rom(f.x), catmull_rom(f.y));
-        let row = |j: i64| {
-            wx[0] * cell(i0, j)
-                + wx[1] * cell(i0 + 1, j)
-                + wx[2] * cell(i0 + 2, j)
-                + wx[3] * cell(i0 + 3, j)
+        let sx = catmull_rom_slope(f.x);
+        let row = |w: &[f32; 4], j: i64| {
+            w[0] * cell(i0, j)
+                + w[1] * cell(i0 + 1, j)
+                + w[2] * cell(i0 + 2, j)
+                + w[3] * cell(i0 + 3, j)
         };
-        let sum = wy[0] * row(j0) + wy[1] * row(j0 + 1) + wy[2] * row(j0 + 2) + wy[3] * row(j0 + 3);
-        smoothstep(0.0, edge, sum.max(lo).min(hi))
+        let rows = [
+            row(&wx, j0),
+            row(&wx, j0 + 1),
+            row(&wx, j0 + 2),
+            row(&wx, j0 + 3),
+        ];
+        let dot = |w: [f32; 4], v: [f32; 4]| w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3];
+        let sum = dot(wy, rows);
+        let along_x = dot(
+            wy,
+            [
+                row(&sx, j0),
+                row(&sx, j0 + 1),
+                row(&sx, j0 + 2),
+                row(&sx, j0 + 3),
+            ],
+        );
+        let along_y = dot(catmull_rom_slope(f.y), rows);
+        let grad = Vec2::new(along_x, along_y) / p.cell_m;
+        let width = Vec2::new(grad.dot(per_px[0]), grad.dot(per_px[1])).length();
+        rim_cover(sum, lo, hi, width, edge)
     }
 
     /// The rings (indices, in ring order) whose annulus R ± 4 s meets the ground under the
@@ -544,4 +573,35 @@ fn catmull_rom(t: f32) -> [f32; 4] {
         0.5 * (-3.0 * t3 + 4.0 * t2 + t),
         0.5 * (t3 - t2),
     ]
+}
+
+/// The derivative of [`catmull_rom`]'s weights by `t`.
+#[inline]
+fn catmull_rom_slope(t: f32) -> [f32; 4] {
+    let t2 = t * t;
+    [
+        0.5 * (-3.0 * t2 + 4.0 * t - 1.0),
+        0.5 * (9.0 * t2 - 10.0 * t),
+        0.5 * (-9.0 * t2 + 8.0 * t + 1.0),
+        0.5 * (3.0 * t2 - 2.0 * t),
+    ]
+}
+
+/// The mean of smoothstep(0, `edge`, clamp(s, `lo`, `hi`)) for s spread evenly over `depth` ±
+/// `width`/2 (the twin's [`crate::gpu::cpu::puddles::rim_cover`], in f32).
+#[inline]
+fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
+    if width <= 1e-3 * edge {
+        return smoothstep(0.0, edge, depth.max(lo).min(hi));
+    }
+    let area = |s: f32| {
+        let t = s.clamp(0.0, edge) / edge;
+        edge * t * t * t * (1.0 - 0.5 * t)
+    };
+    let (x0, x1) = (depth - 0.5 * width, depth + 0.5 * width);
+    let below = (x1.min(lo) - x0).max(0.0) * smoothstep(0.0, edge, lo);
+    let above = (x1 - x0.max(hi)).max(0.0) * smoothstep(0.0, edge, hi);
+    let (a, b) = (x0.max(lo).min(hi), x1.max(lo).min(hi));
+    let ramp = (b - a.max(edge)).max(0.0) + area(b) - area(a);
+    ((below + ramp + above) / width).clamp(0.0, 1.0)
 }

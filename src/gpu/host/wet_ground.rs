@@ -26,8 +26,8 @@ pub struct Ground<'a> {
     /// The view ray (unit camera depth) through coded position (x, y) is
     /// `origin + x · dx + y · dy`.
     origin: Vec3,
-    dx: Vec3,
-    dy: Vec3,
+    pub(super) dx: Vec3,
+    pub(super) dy: Vec3,
     /// The camera's position (world, m) and rows of `camera_from_world`.
     pub(super) camera: Vec3,
     pub(super) rows: [Vec3; 3],
