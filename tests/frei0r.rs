@@ -560,7 +560,7 @@ fn melt_frames_out_of_order_and_in_parallel_are_the_same() {
     let times = traced_times(&log);
     assert!(
         times.first() == Some(&0.4) && times.contains(&0.0),
-        "the instance saw 0.4 s first, then 0 s: {times:?}"
+        "the instance saw 0.4 s first, then 0 s: {times:?}\nmelt said:\n{log}"
     );
     assert!(
         shuffled[..10 * FRAME] == in_order[10 * FRAME..],
