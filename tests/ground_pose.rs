@@ -804,7 +804,7 @@ fn steep_reading_finds_the_vertical_vanishing_point() {
 fn diagnose_shot() {
     use glam::DVec3;
     use rain_composite::scene::ground::up_from_tilt_roll;
-    use rain_composite::scene::vanishing::{self, Edge};
+    use rain_composite::scene::vanishing;
     let var = |k: &str, d: u64| {
         std::env::var(k)
             .ok()
@@ -818,22 +818,7 @@ fn diagnose_shot() {
     let cam = pose.intrinsics();
     let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
     let e = horizon::estimate(&luma, &cam);
-    let (f, c) = (cam.focal_px(), cam.principal_px());
-    let diag = (street::W as f64).hypot(street::H as f64);
-    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
-    let edges: Vec<Edge> = segs
-        .iter()
-        .filter_map(|s| {
-            let (a, b) = (ray(s.a), ray(s.b));
-            Some(Edge {
-                l: a.cross(b).try_normalize()?,
-                m: (a + b).normalize(),
-                ends: [a.normalize(), b.normalize()],
-                cut: [false; 2],
-                w: s.length() / diag,
-            })
-        })
-        .collect();
+    let edges = horizon::edges(&segs, &cam);
     let truth = up_from_tilt_roll(pose.tilt_deg.to_radians(), pose.roll_deg.to_radians());
     eprintln!("{pose:?}\n{e:?}");
     eprintln!(
@@ -988,8 +973,7 @@ fn a_wrong_field_of_view_is_refused_or_right() {
 #[test]
 #[ignore = "a timing by hand"]
 fn lens_check_cost() {
-    use glam::DVec3;
-    use rain_composite::scene::vanishing::{self, Edge};
+    use rain_composite::scene::vanishing;
     let clip = std::env::var("CLIP").unwrap_or("samples/street.mp4".into());
     let at_s: f64 = std::env::var("AT")
         .ok()
@@ -1019,22 +1003,7 @@ fn lens_check_cost() {
     };
     let e = horizon::estimate(&luma, &cam);
     let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
-    let (f, c) = (cam.focal_px(), cam.principal_px());
-    let diag = (cam.width_px as f64).hypot(cam.height_px as f64);
-    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
-    let edges: Vec<Edge> = segs
-        .iter()
-        .filter_map(|s| {
-            let (a, b) = (ray(s.a), ray(s.b));
-            Some(Edge {
-                l: a.cross(b).try_normalize()?,
-                m: (a + b).normalize(),
-                ends: [a.normalize(), b.normalize()],
-                cut: [false; 2],
-                w: s.length() / diag,
-            })
-        })
-        .collect();
+    let edges = horizon::edges(&segs, &cam);
     let (n, inliers) = vanishing::refine(&edges, e.up_cam);
     let whole = median(&mut || {
         std::hint::black_box(horizon::estimate(&luma, &cam));

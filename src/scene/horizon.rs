@@ -388,34 +388,40 @@ pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonE
     read_lens(camera, |cam| estimate_with(segments, None, cam))
 }
 
-fn estimate_with(
-    segments: &[Segment],
-    brightness: Option<&Brightness>,
-    camera: &Camera,
-) -> HorizonEstimate {
+/// The picture's segments as great-circle edges through `camera`'s intrinsics, weighted by
+/// length over the diagonal; an end within 1 % of the width of the border is marked cut (it
+/// may be where the picture cuts the line, not where the line ends).
+pub fn edges(segments: &[Segment], camera: &Camera) -> Vec<Edge> {
     let f = camera.focal_px();
     let c = camera.principal_px();
-    let diag = (camera.width_px as f64).hypot(camera.height_px as f64);
-    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
     let (wpx, hpx) = (camera.width_px as f64, camera.height_px as f64);
-    // An end within 1 % of the width of the border may be where the picture cuts the edge.
+    let diag = wpx.hypot(hpx);
+    let ray = |p: [f64; 2]| DVec3::new((p[0] - c.x) / f, (p[1] - c.y) / f, 1.0);
     let border = 0.01 * wpx;
     let cut =
         |p: [f64; 2]| p[0] < border || p[1] < border || p[0] > wpx - border || p[1] > hpx - border;
-    let edges: Vec<Edge> = segments
+    segments
         .iter()
         .filter_map(|s| {
             let (a, b) = (ray(s.a), ray(s.b));
-            let l = a.cross(b).try_normalize()?;
             Some(Edge {
-                l,
+                l: a.cross(b).try_normalize()?,
                 m: (a + b).normalize(),
                 ends: [a.normalize(), b.normalize()],
                 cut: [cut(s.a), cut(s.b)],
                 w: s.length() / diag,
             })
         })
-        .collect();
+        .collect()
+}
+
+fn estimate_with(
+    segments: &[Segment],
+    brightness: Option<&Brightness>,
+    camera: &Camera,
+) -> HorizonEstimate {
+    let f = camera.focal_px();
+    let edges = edges(segments, camera);
     let mut hist = Vec::new();
     let eval = |t: f64, r: f64, sigma: f64, hist: &mut Vec<_>| {
         score(
