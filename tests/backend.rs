@@ -1559,13 +1559,7 @@ fn shot(k: u64, w: u32, h: u32) -> Shot {
         },
     ];
     let t_s = [0.3, 2.7, 3600.25, 41.9][k as usize % 4] + r.next() as f64;
-    let zonal = rtf
-        .to_gpu_array()
-        .chunks_exact(4)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect::<Vec<_>>()
-        .try_into()
-        .expect("3 channels");
+    let zonal = rtf.to_gpu_array();
     let light = FrameLight {
         env: env.clone(),
         lights: sources.clone(),
