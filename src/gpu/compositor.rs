@@ -185,7 +185,13 @@ impl Compositor {
         layer: Option<Layer>,
         backend: Backend,
     ) -> Result<Compositor> {
-        let on_cpu = layer.is_none() && ctx.backend(backend) == Backend::Cpu;
+        // A layer is drawn on the GPU alone.
+        let backend = if layer.is_some() {
+            Backend::Gpu
+        } else {
+            backend
+        };
+        let on_cpu = ctx.backend(backend)? == Backend::Cpu;
         let rgba = layer.filter(|l| l.is_rgba()).map(Layer::samples);
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
