@@ -9,33 +9,32 @@
 //! on all of rayon's threads and on one, and without the AVX2 build.
 //! `cargo bench --bench colour_passes`.
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rain_composite::config::{CameraConfig, RainConfig};
+use rain_composite::config::RainConfig;
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::{GroundFrame, HostColour};
 use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{PuddleParams, RainParams, Ripple, Streak, WetParams};
-use rain_composite::gpu::uniforms::RainSetup;
 use rain_composite::lighting::wetness::FilmOptics;
 use rain_composite::lighting::{EnvironmentSh, FrameLight};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+use rain_composite::video::{ColorParams, YuvFrame};
 
 const W: u32 = 1280;
 const H: u32 = 720;
 
 fn frame() -> YuvFrame {
-    let format = FrameFormat {
-        width: W,
-        height: H,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
-    let mut f = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
+    let mut f = YuvFrame::filled(
+        common::format_420(W, H),
+        ColorParams::bt709(8),
+        [16, 128, 128],
+    );
     for (i, plane) in f.planes.iter_mut().enumerate() {
         for (k, v) in plane.data.iter_mut().enumerate() {
             *v = (k.wrapping_mul(2_654_435_761) >> (7 + i)) as u8 | 16;
@@ -44,17 +43,18 @@ fn frame() -> YuvFrame {
     f
 }
 
+/// No drops: the passes alone.
+fn dry() -> RainConfig {
+    RainConfig {
+        rate_mm_per_h: 0.0,
+        ..RainConfig::default()
+    }
+}
+
 fn colour_passes(c: &mut Criterion) {
     let frame = frame();
     let camera = Camera::new(W, H, 1.0, 1.6, 0.05, 0.0);
-    let rain = RainConfig {
-        rate_mm_per_h: 0.0,
-        ..RainConfig::default()
-    };
-    let setup =
-        rain_composite::shot::rain::plan(&camera, &CameraConfig::default(), &rain, 0.02, 0, (W, H))
-            .map(RainSetup::pack)
-            .expect("rain");
+    let setup = common::rain_setup(&camera, &dry());
     let mut env = EnvironmentSh::zeros(4);
     env.coeffs[0] = [0.9, 1.0, 1.3];
     let light = FrameLight {
@@ -96,18 +96,7 @@ fn colour_passes(c: &mut Criterion) {
 /// The drops of the default rain over a 1080p picture at 1.5 s, as `rain_simulate` draws them
 /// (geometry from the twin; a grey radiance), with the uniforms.
 fn rain_1080p() -> (RainParams, Vec<Streak>) {
-    let (w, h) = (1920, 1080);
-    let camera = Camera::new(w, h, 60f64.to_radians(), 1.6, 0.0, 0.0);
-    let setup = rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig::default(),
-        1.0 / 50.0,
-        0,
-        (w, h),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
+    let setup = common::default_rain(&common::camera_1080p());
     let p = setup.motion_at(1.5);
     let hidden = Streak {
         len_px: -1.0,
@@ -139,12 +128,7 @@ fn rain_1080p() -> (RainParams, Vec<Streak>) {
 
 fn streak_raster(c: &mut Criterion) {
     let (p, streaks) = rain_1080p();
-    let format = FrameFormat {
-        width: 1920,
-        height: 1080,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
+    let format = common::format_420(1920, 1080);
     let frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
     let mut host = HostColour::new(format, &frame.color);
     let mut clear = p;
@@ -173,17 +157,7 @@ fn streak_raster(c: &mut Criterion) {
     c.bench_function("host yuv→rgb 1080p, no haze (the plate alone)", |b| {
         b.iter(|| black_box(host.decode(&frame, &clear).len()))
     });
-    let camera = Camera::new(1920, 1080, 60f64.to_radians(), 1.6, 0.0, 0.0);
-    let setup = rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig::default(),
-        1.0 / 50.0,
-        0,
-        (1920, 1080),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
+    let setup = common::default_rain(&common::camera_1080p());
     let mut slow = c.benchmark_group("twins");
     slow.sample_size(10);
     slow.bench_function("twin drop states and streak geometry 1080p, 10 mm/h", |b| {
@@ -200,15 +174,7 @@ fn streak_raster(c: &mut Criterion) {
 fn ground_passes(c: &mut Criterion) {
     let frame = frame();
     let camera = Camera::new(W, H, 1.0, 1.6, -0.2, 0.0);
-    let rain = RainConfig {
-        rate_mm_per_h: 0.0,
-        ..RainConfig::default()
-    };
-    let setup =
-        rain_composite::shot::rain::plan(&camera, &CameraConfig::default(), &rain, 0.02, 0, (W, H))
-            .map(RainSetup::pack)
-            .expect("rain")
-            .with_ground(true);
+    let setup = common::rain_setup(&camera, &dry()).with_ground(true);
     let mut env = EnvironmentSh::zeros(4);
     env.coeffs[0] = [0.9, 1.0, 1.3];
     env.coeffs[2] = [0.3, 0.3, 0.4];
@@ -302,31 +268,12 @@ fn sixteen_lights(camera: &Camera) -> Vec<rain_composite::lighting::LightSource>
 fn drop_simulation(c: &mut Criterion) {
     use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate, simulate_baseline};
     use rain_composite::gpu::types::LightList;
-    use rain_composite::lighting::prt::channel_optics;
-    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
-    let camera = Camera::new(1920, 1080, 60f64.to_radians(), 1.6, 0.0, 0.0);
-    let setup = rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig::default(),
-        1.0 / 50.0,
-        0,
-        (1920, 1080),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.8, 0.9, 1.0];
-    env.coeffs[2] = [0.3, 0.35, 0.5];
-    let light = FrameLight {
-        env,
-        lights: Vec::new(),
-    };
-    let p = setup.params_at(1.5, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(1024).expect("table"));
-    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(&tables));
+    let camera = common::camera_1080p();
+    let setup = common::default_rain(&camera);
+    let p = common::sky_params(&setup, 1.5);
+    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(
+        &common::water_tables(),
+    ));
     let none = LightList::new(&[]);
     let sixteen = LightList::new(&sixteen_lights(&camera));
     let drops = |lights| Drops {
@@ -376,23 +323,11 @@ fn splash_simulation(c: &mut Criterion) {
     use rain_composite::gpu::cpu::rain_splashes::splash_streaks;
     use rain_composite::gpu::host::splashes::HostSplashes;
     use rain_composite::gpu::types::LightList;
-    use rain_composite::lighting::prt::channel_optics;
-    use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
     // 1.6 m up, tilted down so that the horizon is 30 % down the picture.
     let fov = 60f64.to_radians();
     let tilt = -((0.5 - 0.3) * 2.0 * (0.5 * fov).tan() * 720.0 / 1280.0).atan();
     let camera = Camera::new(1280, 720, fov, 1.6, tilt, 0.0);
-    let setup = rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig::default(),
-        1.0 / 50.0,
-        0,
-        (1280, 720),
-    )
-    .map(RainSetup::pack)
-    .expect("rain")
-    .with_ground(true);
+    let setup = common::default_rain(&camera).with_ground(true);
     let mut env = EnvironmentSh::zeros(4);
     env.coeffs[0] = [0.8, 0.9, 1.0];
     let light = FrameLight {
@@ -401,11 +336,8 @@ fn splash_simulation(c: &mut Criterion) {
     };
     let t_s = 2.5;
     let p = setup.params_at(t_s, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(1024).expect("table"));
     let mut host = HostSplashes::new(&setup).expect("landing drops");
-    host.set_transfer_table(&tables);
+    host.set_transfer_table(&common::water_tables());
     host.set_lights(&LightList::new(&sixteen_lights(&camera)));
     let ids = host.drop_ids();
     eprintln!(

@@ -5,22 +5,18 @@
 //! /proc on Linux: on a shared machine the CPU time is the steadier figure).
 //! `cargo bench --bench streak_raster [-- RUNS]`.
 
+mod common;
+
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::drops::MatteAtlas;
 use rain_composite::gpu::host::HostColour;
 use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate};
 use rain_composite::gpu::host::streaks::{Rain, RasterCount, rasterise, rasterise_baseline};
 use rain_composite::gpu::types::{LightList, RainParams, Streak};
-use rain_composite::gpu::uniforms::RainSetup;
-use rain_composite::lighting::prt::channel_optics;
-use rain_composite::lighting::rtf::{ChannelIndices, Polarisation, WATER_RHO_RGB};
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
-use rain_composite::scene::Camera;
-use rain_composite::video::{Chroma, ColorParams, FrameFormat, YuvFrame};
+use rain_composite::video::{ColorParams, YuvFrame};
 
 const W: u32 = 1920;
 const H: u32 = 1080;
@@ -63,29 +59,11 @@ fn time<T>(
 
 /// The default rain's uniforms at 1.5 s and its drops simulated on the CPU.
 fn rain_1080p(runs: usize) -> (RainParams, Vec<Streak>) {
-    let camera = Camera::new(W, H, 60f64.to_radians(), 1.6, 0.0, 0.0);
-    let setup = rain_composite::shot::rain::plan(
-        &camera,
-        &CameraConfig::default(),
-        &RainConfig::default(),
-        1.0 / 50.0,
-        0,
-        (W, H),
-    )
-    .map(RainSetup::pack)
-    .expect("rain");
-    let mut env = EnvironmentSh::zeros(4);
-    env.coeffs[0] = [0.8, 0.9, 1.0];
-    env.coeffs[2] = [0.3, 0.35, 0.5];
-    let light = FrameLight {
-        env,
-        lights: Vec::new(),
-    };
-    let p = setup.params_at(1.5, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
-    let tables = channel_optics(ChannelIndices(WATER_RHO_RGB), 5, Polarisation::default())
-        .expect("optics")
-        .map(|o| o.tabulate(1024).expect("table"));
-    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(&tables));
+    let setup = common::default_rain(&common::camera_1080p());
+    let p = common::sky_params(&setup, 1.5);
+    let table = LightTable::new(&rain_composite::gpu::lights::table_texels(
+        &common::water_tables(),
+    ));
     let none = LightList::new(&[]);
     let drops = Drops {
         columns: &setup.columns,
@@ -114,12 +92,7 @@ fn main() {
         .find_map(|a| a.parse().ok())
         .unwrap_or(15);
     let (p, streaks) = rain_1080p(runs);
-    let format = FrameFormat {
-        width: W,
-        height: H,
-        chroma: Chroma::Cs420,
-        bit_depth: 8,
-    };
+    let format = common::format_420(W, H);
     let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
     for (i, plane) in frame.planes.iter_mut().enumerate() {
         for (k, v) in plane.data.iter_mut().enumerate() {

@@ -1423,6 +1423,79 @@ fn compositor_ground_on_both_back_ends_agrees() {
     }
 }
 
+/// On the CPU back end a compositor allocates nothing on the adapter (no planes, canvas,
+/// readback ring, masks, streak or matte buffers), with a wet ground, puddles, rings, streak
+/// mattes, a depth map and both masks set and a frame of rain drawn: the allocator report of a
+/// device of its own lists the same allocations after as before. The GPU back end's compositor
+/// on that device does show in it (its canvas at least), so the report sees what it should.
+#[test]
+fn cpu_back_end_allocates_nothing_on_the_adapter() {
+    use rain_composite::gpu::{AdapterRequest, GpuContext};
+    if gpu().is_none() {
+        return;
+    }
+    let ctx = Arc::new(GpuContext::new(&AdapterRequest::default()).expect("adapter"));
+    let report = || {
+        let r = ctx.device.generate_allocator_report();
+        let r = r.expect("the adapter's allocator report (Vulkan keeps one)");
+        let mut names: Vec<String> = r.allocations.into_iter().map(|a| a.name).collect();
+        names.sort();
+        (names, r.total_allocated_bytes)
+    };
+    let (_, format, color) = formats().remove(0);
+    let format = FrameFormat {
+        width: RW,
+        height: RH,
+        ..format
+    };
+    let frame = picture(format, color);
+    let rain = RainConfig {
+        near_m: 0.3,
+        far_m: 6.0,
+        drop_scale: 3.0,
+        ..RainConfig::default()
+    };
+    let (camera, setup) =
+        render::rain_seen_by(&render::looking_down(), (RW, RH), &rain, 1.0 / 50.0, true);
+    let setup = setup
+        .with_wetting(Some(wetting()))
+        .with_scene_depth(true)
+        .with_mattes(Some(atlas()));
+    let mut p = params(&setup, Haze::Ground);
+    p.time_whole_s = 2;
+    let render = |backend| {
+        let mut comp = Compositor::with_backend(ctx.clone(), format, &color, &setup, None, backend)
+            .expect("compositor");
+        comp.set_transfer_table(&water_tables(1024));
+        comp.set_lights(&LightList::new(&render::lamps(&camera)));
+        comp.set_scene_depth(&depth_map(format)).expect("depth");
+        comp.set_sky_mask(&sky_mask(format)).expect("sky");
+        comp.set_ground_mask(&ground_mask(format)).expect("ground");
+        comp.set_water(&pools()).expect("water");
+        comp.render_one(&frame, &p).expect("render");
+        (comp.gpu_times().streaks_drawn, comp)
+    };
+    let (before, before_bytes) = report();
+    let (drawn, cpu) = render(Backend::Cpu);
+    assert_eq!(cpu.backend(), Backend::Cpu);
+    assert!(drawn > 0, "no rain drawn");
+    let (after, after_bytes) = report();
+    let new: Vec<_> = after.iter().filter(|n| !before.contains(n)).collect();
+    assert_eq!(
+        (after.len(), after_bytes),
+        (before.len(), before_bytes),
+        "the CPU back end allocated on the adapter: {new:?}"
+    );
+    let (_, gpu) = render(Backend::Gpu);
+    assert_eq!(gpu.backend(), Backend::Gpu);
+    let (with_gpu, gpu_bytes) = report();
+    let canvas_bytes = u64::from(RW * RH) * 8;
+    assert!(
+        with_gpu.iter().any(|n| n == "canvas") && gpu_bytes >= after_bytes + canvas_bytes,
+        "the GPU back end's compositor is not in the report: {after_bytes} → {gpu_bytes} bytes"
+    );
+}
+
 /// The water map as the compositor takes it.
 fn water_map(water: &Field2) -> Field2 {
     Field2 {
@@ -1559,13 +1632,7 @@ fn shot(k: u64, w: u32, h: u32) -> Shot {
         },
     ];
     let t_s = [0.3, 2.7, 3600.25, 41.9][k as usize % 4] + r.next() as f64;
-    let zonal = rtf
-        .to_gpu_array()
-        .chunks_exact(4)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect::<Vec<_>>()
-        .try_into()
-        .expect("3 channels");
+    let zonal = rtf.to_gpu_array();
     let light = FrameLight {
         env: env.clone(),
         lights: sources.clone(),

@@ -51,8 +51,7 @@ fn lit(setup: &RainSetup, t_s: f64) -> RainParams {
     let mut env = EnvironmentSh::zeros(4);
     env.coeffs[0] = [2.0 * std::f32::consts::PI.sqrt(); 3];
     let rtf = RtfSh::water(1.333, 9, 4).expect("rtf");
-    let z = rtf.to_gpu_array();
-    let zonal = [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]]);
+    let zonal = rtf.to_gpu_array();
     setup.params_at(
         t_s,
         &FrameLight {
@@ -525,12 +524,7 @@ fn gpu_streaks_match_the_cpu_twin_with_lights() {
             env: env.clone(),
             lights: lights.clone(),
         },
-        rtf.to_gpu_array()
-            .chunks_exact(4)
-            .map(|c| [c[0], c[1], c[2], c[3]])
-            .collect::<Vec<_>>()
-            .try_into()
-            .expect("3 channels"),
+        rtf.to_gpu_array(),
     );
     let list = LightList::new(&lights);
     let gpu_streaks = probe_streaks(&ctx, &setup, &params, &list, &tables).expect("streaks");
@@ -730,10 +724,7 @@ fn haze_in_scatter_follows_each_pixels_ray() {
             env: env.clone(),
             lights: Vec::new(),
         },
-        {
-            let z = rtf.to_gpu_array();
-            [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]])
-        },
+        rtf.to_gpu_array(),
     );
     params.drop_count = 0; // the veil alone
     let mut comp = Compositor::new(ctx, format, &color, &setup).expect("compositor");

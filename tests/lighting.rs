@@ -1088,7 +1088,7 @@ fn wgsl_matches_cpu_on_gpu() {
         coeffs: coeffs.iter().map(|c| c.map(|v| v as f32)).collect(),
     };
     let mut params: Vec<f32> = env.to_gpu_array().iter().flatten().cloned().collect();
-    params.extend(rtf.to_gpu_array());
+    params.extend(rtf.to_gpu_array().iter().flatten());
     let mut rng = Rng(21);
     let dirs: Vec<DVec3> = (0..1000)
         .map(|_| rng.dir())

@@ -403,13 +403,7 @@ fn shot(k: u64) -> Shot {
             distance_m: Some(2.0 + 3.0 * u()),
         },
     ];
-    let zonal = rtf
-        .to_gpu_array()
-        .chunks_exact(4)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect::<Vec<_>>()
-        .try_into()
-        .expect("3 channels");
+    let zonal = rtf.to_gpu_array();
     let light = FrameLight {
         env: env.clone(),
         lights: sources.clone(),

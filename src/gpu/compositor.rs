@@ -17,8 +17,10 @@
 //!
 //! On the CPU back end ([`Backend::Cpu`], the picture path only: a layer stays on the GPU) every
 //! per-pixel pass runs on the CPU ([`super::host`]), and the drops and the splashes are
-//! simulated there too: no frame touches the adapter, none of the rain's or the ground's GPU
-//! pipelines is built, and the frame is done when `submit` returns (`compositor/host.rs`).
+//! simulated there too: no frame touches the adapter, nothing is allocated on it (no planes,
+//! canvas, readback ring or masks: `GpuFrames` is the GPU's alone), none of the rain's or the
+//! ground's GPU pipelines is built, and the frame is done when `submit` returns
+//! (`compositor/host.rs`).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -100,6 +102,24 @@ struct InFlight {
     template: YuvFrame,
 }
 
+/// The buffers and textures frames drawn on the adapter use, made once.
+struct GpuFrames {
+    planes: [wgpu::Texture; 3],
+    rain_buffer: wgpu::Buffer,
+    direct_lights: DirectLightBuffers,
+    /// The scene's depth per displayed pixel (see `set_scene_depth`).
+    scene_depth: wgpu::Buffer,
+    /// The open sky's weight at the glow's grid points (see `set_sky_mask`).
+    sky_mask: wgpu::Buffer,
+    /// The ground's weight at the glow's grid points (see `set_ground_mask`).
+    ground_mask: wgpu::Buffer,
+    out_buffer: wgpu::Buffer,
+    out_bytes: u64,
+    /// The readback ring.
+    staging: Vec<wgpu::Buffer>,
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+}
+
 /// Kept here, where the compositor produces it; the type lives in [`crate::video`].
 pub use crate::video::Rendered;
 
@@ -110,25 +130,18 @@ pub struct Compositor {
     /// What the samples of the frames are, where they come back as R'G'B'A layers.
     rgba: Option<LayerSamples>,
     frame_params: FrameParams,
-    planes: [wgpu::Texture; 3],
-    rain_buffer: wgpu::Buffer,
+    /// The adapter's side of the frames; `None` on the CPU back end, which allocates nothing
+    /// on the adapter.
+    gpu: Option<GpuFrames>,
     rain_drops: u32,
-    direct_lights: DirectLightBuffers,
-    /// The scene's depth per displayed pixel (see `set_scene_depth`).
-    scene_depth: wgpu::Buffer,
-    /// The open sky's weight at the glow's grid points (see `set_sky_mask`).
-    sky_mask: wgpu::Buffer,
-    /// The ground's weight at the glow's grid points (see `set_ground_mask`).
-    ground_mask: wgpu::Buffer,
+    /// Whether the rain was built for a depth map (see `set_scene_depth`).
+    has_scene_depth: bool,
     display_size: (u32, u32),
-    out_buffer: wgpu::Buffer,
-    staging: Vec<wgpu::Buffer>,
-    /// The frame's stages in order; a stage's index is its timestamp slot.
+    /// The frame's stages in order; a stage's index is its timestamp slot. On the CPU back end
+    /// only the ground's, without pipelines: they hold the ground's and the water's state.
     stages: Vec<Box<dyn FrameStage>>,
     in_flight: VecDeque<InFlight>,
     next_slot: usize,
-    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
-    out_bytes: u64,
     gpu_times: GpuStageTimes,
     /// Every per-pixel pass on the CPU (the CPU back end, [`Compositor::render_on_host`]).
     host: Option<HostColour>,
@@ -185,7 +198,13 @@ impl Compositor {
         layer: Option<Layer>,
         backend: Backend,
     ) -> Result<Compositor> {
-        let on_cpu = layer.is_none() && ctx.backend(backend) == Backend::Cpu;
+        // A layer is drawn on the GPU alone.
+        let backend = if layer.is_some() {
+            Backend::Gpu
+        } else {
+            backend
+        };
+        let on_cpu = ctx.backend(backend)? == Backend::Cpu;
         let rgba = layer.filter(|l| l.is_rgba()).map(Layer::samples);
         let max = ctx.max_texture_side();
         if format.width > max || format.height > max {
@@ -194,16 +213,65 @@ impl Compositor {
                 format.width, format.height
             )));
         }
-        let device = &ctx.device;
         let frame_params = FrameParams::new(&format, color);
+        // The frame, in order. A layer carries the wet ground as colour and alpha over the
+        // frame it was made from; the matte is the rain's coverage alone.
+        let wetting = rain
+            .wetting
+            .as_ref()
+            .filter(|_| layer != Some(Layer::Matte));
+        let (gpu, stages) = if on_cpu {
+            let ground = ground_stages(&ctx.device, None, layer, wetting);
+            (None, ground.into_iter().collect())
+        } else {
+            let (gpu, stages) =
+                Compositor::gpu_frames(&ctx, &format, frame_params, rain, layer, wetting)?;
+            (Some(gpu), stages)
+        };
+        let host_rain = on_cpu.then(|| HostRain::new(&rain.columns, rain.mattes.clone()));
+        let host_splashes = on_cpu.then(|| HostSplashes::new(rain)).flatten();
+        Ok(Compositor {
+            ctx,
+            format,
+            rgba,
+            frame_params,
+            gpu,
+            rain_drops: rain.params.drop_count,
+            has_scene_depth: rain.scene_depth,
+            display_size: (
+                rain.params.display_size_px[0] as u32,
+                rain.params.display_size_px[1] as u32,
+            ),
+            stages,
+            in_flight: VecDeque::with_capacity(RING),
+            next_slot: 0,
+            gpu_times: GpuStageTimes::default(),
+            host: on_cpu.then(|| HostColour::new(format, color)),
+            host_rain,
+            host_splashes,
+            ready: VecDeque::with_capacity(RING),
+        })
+    }
+
+    /// The buffers and textures of frames of `format` (laid out as `frame_params`) drawn on
+    /// `ctx`'s adapter, and the frame's stages bound to them (see [`frame_stages`]).
+    fn gpu_frames(
+        ctx: &GpuContext,
+        format: &FrameFormat,
+        frame_params: FrameParams,
+        rain: &RainSetup,
+        layer: Option<Layer>,
+        wetting: Option<&crate::lighting::wetness::Wetting>,
+    ) -> Result<(GpuFrames, Vec<Box<dyn FrameStage>>)> {
+        let device = &ctx.device;
         let frame_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("frame_params"),
             contents: bytemuck::bytes_of(&frame_params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let planes = plane_textures(device, &format);
-        let canvas = canvas_texture(device, &format);
-        let out_words = if rgba.is_some() {
+        let planes = plane_textures(device, format);
+        let canvas = canvas_texture(device, format);
+        let out_words = if layer.is_some_and(Layer::is_rgba) {
             u64::from(format.width)
                 * u64::from(format.height)
                 * u64::from(super::stages::rgba_out::WORDS_PER_PIXEL)
@@ -270,12 +338,7 @@ impl Compositor {
             contents: bytemuck::cast_slice(&vec![1.0f32; gw as usize * gh as usize]),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        // The drops' records live on the CPU there (`host::simulate`): one each for the layouts.
-        let gpu_drops = if on_cpu {
-            1
-        } else {
-            rain.params.drop_count.max(1) as u64
-        };
+        let gpu_drops = rain.params.drop_count.max(1) as u64;
         let resources = FrameResources {
             frame_params: frame_buffer,
             frame: frame_params,
@@ -320,46 +383,23 @@ impl Compositor {
             sky_mask: sky_mask.clone(),
             ground_mask: ground_mask.clone(),
         };
-        // The frame, in order. A layer carries the wet ground as colour and alpha over the
-        // frame it was made from; the matte is the rain's coverage alone.
-        let wetting = rain
-            .wetting
-            .as_ref()
-            .filter(|_| layer != Some(Layer::Matte));
-        let stages = frame_stages(device, &resources, rain, layer, wetting, on_cpu);
-        let host_rain = on_cpu.then(|| HostRain::new(&rain.columns, rain.mattes.clone()));
-        let host_splashes = on_cpu.then(|| HostSplashes::new(rain)).flatten();
+        let stages = frame_stages(device, &resources, rain, layer, wetting);
         let timed = stages.len() as u64;
-        let timestamps = timestamp_queries(device, timed);
-        let staging = (0..RING)
-            .map(|_| readback_buffer(device, out_bytes + 16 * timed))
-            .collect();
-        Ok(Compositor {
-            ctx,
-            format,
-            rgba,
-            frame_params,
+        let gpu = GpuFrames {
             planes,
             rain_buffer,
-            rain_drops: rain.params.drop_count,
             direct_lights,
             scene_depth,
             sky_mask,
             ground_mask,
-            display_size: (dw, dh),
             out_buffer,
-            staging,
-            stages,
-            in_flight: VecDeque::with_capacity(RING),
-            next_slot: 0,
-            timestamps,
             out_bytes,
-            gpu_times: GpuStageTimes::default(),
-            host: on_cpu.then(|| HostColour::new(format, color)),
-            host_rain,
-            host_splashes,
-            ready: VecDeque::with_capacity(RING),
-        })
+            staging: (0..RING)
+                .map(|_| readback_buffer(device, out_bytes + 16 * timed))
+                .collect(),
+            timestamps: timestamp_queries(device, timed),
+        };
+        Ok((gpu, stages))
     }
 
     /// Where the colour passes run: [`Backend::Gpu`] or [`Backend::Cpu`].
@@ -385,8 +425,8 @@ impl Compositor {
     /// Sets the drop's transfer table (R, G, B) the direct light term reads; once per job
     /// (see `LightEstimator::transfer_tables`). Until then the lights add nothing.
     pub fn set_transfer_table(&mut self, tables: &[crate::lighting::RtfTable; 3]) {
-        if self.host.is_none() {
-            self.direct_lights.upload_table(&self.ctx.queue, tables);
+        if let Some(gpu) = &self.gpu {
+            gpu.direct_lights.upload_table(&self.ctx.queue, tables);
         }
         if let Some(host) = &mut self.host {
             host.set_transfer_table(tables);
@@ -401,8 +441,8 @@ impl Compositor {
 
     /// Sets the compact lights of the frames submitted from now on (see `LightList::new`).
     pub fn set_lights(&mut self, lights: &LightList) {
-        if self.host.is_none() {
-            self.direct_lights.upload_lights(&self.ctx.queue, lights);
+        if let Some(gpu) = &self.gpu {
+            gpu.direct_lights.upload_lights(&self.ctx.queue, lights);
         }
         if let Some(host) = &mut self.host {
             host.set_lights(lights);
@@ -420,7 +460,7 @@ impl Compositor {
     /// nothing. Needs a rain built `with_scene_depth(true)`.
     pub fn set_scene_depth(&mut self, depth: &crate::scene::DepthMap) -> Result<()> {
         let (w, h) = self.display_size;
-        if self.scene_depth.size() < 4 * w as u64 * h as u64 {
+        if !self.has_scene_depth {
             return Err(Error::Gpu(
                 "a depth map for a rain built without one (RainSetup::with_scene_depth)".into(),
             ));
@@ -431,13 +471,13 @@ impl Compositor {
             .iter()
             .map(|&d| if d.is_finite() && d > 0.0 { d } else { 0.0 })
             .collect();
-        match &mut self.host {
-            Some(host) => host.set_scene_depth(metres),
-            None => {
-                self.ctx
-                    .queue
-                    .write_buffer(&self.scene_depth, 0, bytemuck::cast_slice(&metres))
-            }
+        if let Some(gpu) = &self.gpu {
+            self.ctx
+                .queue
+                .write_buffer(&gpu.scene_depth, 0, bytemuck::cast_slice(&metres));
+        }
+        if let Some(host) = &mut self.host {
+            host.set_scene_depth(metres);
         }
         Ok(())
     }
@@ -517,12 +557,15 @@ impl Compositor {
             let f = self.receive()?;
             self.ready.push_back(f);
         }
+        let Some(gpu) = &self.gpu else {
+            return Err(Error::Gpu("no adapter frames on the CPU back end".into()));
+        };
         let done = self.ready.pop_front();
         let queue = &self.ctx.queue;
         for (i, plane) in frame.planes.iter().enumerate() {
             let (w, h) = self.format.plane_size(i);
             queue.write_texture(
-                self.planes[i].as_image_copy(),
+                gpu.planes[i].as_image_copy(),
                 &plane.data,
                 wgpu::TexelCopyBufferLayout {
                     offset: 0,
@@ -536,7 +579,7 @@ impl Compositor {
                 },
             );
         }
-        queue.write_buffer(&self.rain_buffer, 0, bytemuck::bytes_of(rain));
+        queue.write_buffer(&gpu.rain_buffer, 0, bytemuck::bytes_of(rain));
         let device = &self.ctx.device;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
@@ -544,7 +587,7 @@ impl Compositor {
         for (slot, stage) in self.stages.iter().enumerate() {
             if stage.runs() {
                 stage.prepare(queue, rain);
-                let timestamps = self.timestamps.as_ref().map(|(set, _)| TimestampSlot {
+                let timestamps = gpu.timestamps.as_ref().map(|(set, _)| TimestampSlot {
                     set,
                     slot: slot as u32,
                 });
@@ -553,19 +596,19 @@ impl Compositor {
         }
         let slot = self.next_slot;
         self.next_slot = (self.next_slot + 1) % RING;
-        encoder.copy_buffer_to_buffer(&self.out_buffer, 0, &self.staging[slot], 0, self.out_bytes);
-        if let Some((set, resolve)) = &self.timestamps {
+        encoder.copy_buffer_to_buffer(&gpu.out_buffer, 0, &gpu.staging[slot], 0, gpu.out_bytes);
+        if let Some((set, resolve)) = &gpu.timestamps {
             encoder.resolve_query_set(set, 0..2 * self.stages.len() as u32, resolve, 0);
             encoder.copy_buffer_to_buffer(
                 resolve,
                 0,
-                &self.staging[slot],
-                self.out_bytes,
+                &gpu.staging[slot],
+                gpu.out_bytes,
                 resolve.size(),
             );
         }
         let (tx, rx) = mpsc::channel();
-        encoder.map_buffer_on_submit(&self.staging[slot], wgpu::MapMode::Read, .., move |r| {
+        encoder.map_buffer_on_submit(&gpu.staging[slot], wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
         let submission = queue.submit([encoder.finish()]);
@@ -587,7 +630,7 @@ impl Compositor {
 
     /// Waits for the oldest frame in flight and reads it back.
     fn receive(&mut self) -> Result<Rendered> {
-        let Some(f) = self.in_flight.pop_front() else {
+        let (Some(f), Some(gpu)) = (self.in_flight.pop_front(), &self.gpu) else {
             return Err(Error::Gpu("no frame in flight".into()));
         };
         self.ctx
@@ -601,7 +644,7 @@ impl Compositor {
             .recv()
             .map_err(|_| Error::Gpu("readback callback dropped".into()))?
             .map_err(|e| Error::Gpu(format!("readback of frame {}: {e}", f.template.index)))?;
-        let buffer = &self.staging[f.slot];
+        let buffer = &gpu.staging[f.slot];
         let mut out = f.template;
         let mut layer = None;
         {
@@ -613,7 +656,7 @@ impl Compositor {
                 layer = Some(LayerFrame {
                     width: fp.width,
                     height: fp.height,
-                    rgba: bytemuck::pod_collect_to_vec(&view[..self.out_bytes as usize]),
+                    rgba: bytemuck::pod_collect_to_vec(&view[..gpu.out_bytes as usize]),
                     pts: out.pts,
                     index: out.index,
                     samples,
@@ -637,8 +680,8 @@ impl Compositor {
                     stride: strides[i],
                 };
             }
-            if self.timestamps.is_some() {
-                let at = self.out_bytes as usize;
+            if gpu.timestamps.is_some() {
+                let at = gpu.out_bytes as usize;
                 let ticks: Vec<u64> = view[at..at + 16 * self.stages.len()]
                     .chunks_exact(8)
                     .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
@@ -743,31 +786,31 @@ fn canvas_texture(device: &wgpu::Device, format: &FrameFormat) -> wgpu::Texture 
     })
 }
 
-/// The frame's stages, in order: colour in (the frame, or a layer's transparent start), the
-/// wet ground, the puddles, the rain (simulate, splashes, streaks), colour out. Where the CPU
-/// runs the frame (`on_cpu`) only the wet ground and the puddles, without pipelines: they hold
-/// the ground's and the water's state the CPU reads each frame.
+/// The ground's stages, the wet ground and the puddles, bound to `resources`; without them (the
+/// CPU back end) they build nothing on the adapter and only hold the ground's and the water's
+/// state the CPU reads each frame.
+fn ground_stages(
+    device: &wgpu::Device,
+    resources: Option<&FrameResources>,
+    layer: Option<Layer>,
+    wetting: Option<&crate::lighting::wetness::Wetting>,
+) -> [Box<dyn FrameStage>; 2] {
+    [
+        Box::new(WetGround::new(device, resources, wetting, layer.is_some())),
+        Box::new(Puddles::new(device, resources, layer.is_none())),
+    ]
+}
+
+/// The frame's stages on the adapter, in order: colour in (the frame, or a layer's transparent
+/// start), the wet ground, the puddles, the rain (simulate, splashes, streaks), colour out.
 fn frame_stages(
     device: &wgpu::Device,
     resources: &FrameResources,
     rain: &RainSetup,
     layer: Option<Layer>,
     wetting: Option<&crate::lighting::wetness::Wetting>,
-    on_cpu: bool,
 ) -> Vec<Box<dyn FrameStage>> {
-    let ground: [Box<dyn FrameStage>; 2] = [
-        Box::new(WetGround::new(
-            device,
-            resources,
-            wetting,
-            layer.is_some(),
-            !on_cpu,
-        )),
-        Box::new(Puddles::new(device, resources, layer.is_none(), !on_cpu)),
-    ];
-    if on_cpu {
-        return ground.into_iter().collect();
-    }
+    let ground = ground_stages(device, Some(resources), layer, wetting);
     let between = ground.into_iter().chain([
         Box::new(RainSimulate::new(device, resources)) as Box<dyn FrameStage>,
         Box::new(RainSplashes::new(device, resources, rain)),

@@ -25,7 +25,8 @@ pub struct AdapterRequest {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// The CPU on a CPU adapter (lavapipe, llvmpipe, WARP, SwiftShader), else the GPU.
+    /// The CPU on a CPU adapter (lavapipe, llvmpipe, WARP, SwiftShader) or one the GPU back
+    /// end cannot run on ([`GPU_BACKEND_NEEDS`]), else the GPU.
     #[default]
     Auto,
     /// The GPU's shaders.
@@ -34,13 +35,23 @@ pub enum Backend {
     Cpu,
 }
 
+/// What the GPU back end needs of an adapter beyond compute shaders: the streaks' draw
+/// (`rain_streaks`, and the splashes' through it) reads the streaks from a storage buffer in its
+/// vertex shader, which GLES 3.1-class adapters may not allow (no vertex-stage storage blocks).
+pub const GPU_BACKEND_NEEDS: wgpu::DownlevelFlags = wgpu::DownlevelFlags::VERTEX_STORAGE;
+
 impl Backend {
-    /// `Gpu` or `Cpu`: `Auto` resolved for an adapter of type `device`.
-    pub fn resolve(self, device: wgpu::DeviceType) -> Backend {
+    /// `Gpu` or `Cpu` for an adapter of type `device` with downlevel capabilities `flags`:
+    /// `Auto` picks the CPU back end on a CPU adapter and on one that lacks
+    /// [`GPU_BACKEND_NEEDS`], the GPU elsewhere; `None` where `Gpu` is asked of an adapter that
+    /// lacks them.
+    pub fn resolve(self, device: wgpu::DeviceType, flags: wgpu::DownlevelFlags) -> Option<Backend> {
+        let gpu_runs = flags.contains(GPU_BACKEND_NEEDS);
         match self {
-            Backend::Auto if device == wgpu::DeviceType::Cpu => Backend::Cpu,
-            Backend::Auto => Backend::Gpu,
-            b => b,
+            Backend::Auto if device == wgpu::DeviceType::Cpu || !gpu_runs => Some(Backend::Cpu),
+            Backend::Auto => Some(Backend::Gpu),
+            Backend::Gpu if !gpu_runs => None,
+            b => Some(b),
         }
     }
 
@@ -200,13 +211,59 @@ impl GpuContext {
         summary(&self.adapter.get_info())
     }
 
-    /// The back end `requested` resolves to on this adapter (see [`Backend::resolve`]).
-    pub fn backend(&self, requested: Backend) -> Backend {
-        requested.resolve(self.adapter.get_info().device_type)
+    /// The back end `requested` resolves to on this adapter (see [`Backend::resolve`]); an
+    /// error where the GPU back end is asked of an adapter that cannot run it.
+    pub fn backend(&self, requested: Backend) -> Result<Backend> {
+        let info = self.adapter.get_info();
+        let flags = self.adapter.get_downlevel_capabilities().flags;
+        requested.resolve(info.device_type, flags).ok_or_else(|| {
+            Error::Gpu(format!(
+                "'{}' cannot read storage buffers in vertex shaders (wgpu's VERTEX_STORAGE), \
+                 which the GPU back end draws the streaks with; the CPU back end renders \
+                 pictures (not layers) without it",
+                info.name
+            ))
+        })
     }
 
     /// Largest 2D texture side this device accepts.
     pub fn max_texture_side(&self) -> u32 {
         self.device.limits().max_texture_dimension_2d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::{DeviceType, DownlevelFlags};
+
+    /// `auto` falls back to the CPU back end on an adapter whose vertex shaders cannot read
+    /// storage buffers, whatever its type; `gpu` there is refused rather than left to fail in
+    /// the streak stage's validation; `cpu` needs nothing of the adapter.
+    #[test]
+    fn backend_needs_vertex_storage_for_the_gpu() {
+        let full = DownlevelFlags::all();
+        let gles = DownlevelFlags::all() - DownlevelFlags::VERTEX_STORAGE;
+        let types = [
+            DeviceType::DiscreteGpu,
+            DeviceType::IntegratedGpu,
+            DeviceType::VirtualGpu,
+            DeviceType::Cpu,
+            DeviceType::Other,
+        ];
+        for device in types {
+            let cpu = device == DeviceType::Cpu;
+            let auto_full = Backend::Auto.resolve(device, full);
+            assert_eq!(
+                auto_full,
+                Some(if cpu { Backend::Cpu } else { Backend::Gpu })
+            );
+            assert_eq!(Backend::Auto.resolve(device, gles), Some(Backend::Cpu));
+            assert_eq!(Backend::Gpu.resolve(device, full), Some(Backend::Gpu));
+            assert_eq!(Backend::Gpu.resolve(device, gles), None);
+            for flags in [full, gles, DownlevelFlags::empty()] {
+                assert_eq!(Backend::Cpu.resolve(device, flags), Some(Backend::Cpu));
+            }
+        }
     }
 }

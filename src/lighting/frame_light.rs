@@ -281,8 +281,7 @@ impl LightEstimator {
 
     /// The drop's zonal transfer coefficients per channel, as `RainParams::drop_zonal`.
     pub fn drop_zonal_gpu(&self) -> [[f32; 4]; 3] {
-        let z = self.rtf.to_gpu_array();
-        [0, 1, 2].map(|c| [z[4 * c], z[4 * c + 1], z[4 * c + 2], z[4 * c + 3]])
+        self.rtf.to_gpu_array()
     }
 
     /// The transfer function.

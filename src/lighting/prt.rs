@@ -77,14 +77,14 @@ impl RtfSh {
             .collect()
     }
 
-    /// GPU layout for up to 4 bands: three `vec4<f32>`, one per channel (R, G, B), each holding
-    /// `(z_0, z_1, z_2, z_3)`; missing bands are zero, bands above 4 are dropped (a lower-band
+    /// GPU layout for up to 4 bands, as `RainParams::drop_zonal`: three `vec4<f32>`, one per
+    /// channel (R, G, B), each holding `(z_0, z_1, z_2, z_3)`; missing bands are zero, bands above 4 are dropped (a lower-band
     /// approximation). These are the raw `z_l`: the shader applies `sqrt(4π/(2l+1))`.
-    pub fn to_gpu_array(&self) -> [f32; 12] {
-        let mut out = [0.0f32; 12];
+    pub fn to_gpu_array(&self) -> [[f32; 4]; 3] {
+        let mut out = [[0.0f32; 4]; 3];
         for (l, z) in self.zonal.iter().take(4).enumerate() {
             for c in 0..3 {
-                out[4 * c + l] = z[c] as f32;
+                out[c][l] = z[c] as f32;
             }
         }
         out

@@ -2,27 +2,35 @@
 //! ground's weight for the wet ground and the puddles, both on the glow's grid.
 
 use super::Compositor;
+use crate::gpu::stages::yuv_to_rgb::glow_grid_size;
 use crate::{Error, Result};
 
 impl Compositor {
+    /// The glow's grid points of the coded picture, the masks' size.
+    fn glow_points(&self) -> usize {
+        let (gw, gh) = glow_grid_size((self.format.width, self.format.height));
+        gw as usize * gh as usize
+    }
+
     /// Sets the open sky's weight (in [0, 1]) at the glow's grid points
     /// (`stages::yuv_to_rgb::glow_grid_size` of the coded picture, row-major) for the frames
     /// submitted from now on: the haze leaves the sky its own radiance (`scene::sky`). A mask of
     /// another size is refused.
     pub fn set_sky_mask(&mut self, weights: &[f32]) -> Result<()> {
-        if 4 * weights.len() as u64 != self.sky_mask.size() {
+        if weights.len() != self.glow_points() {
             return Err(Error::Gpu(format!(
                 "a sky mask of {} points for a grid of {}",
                 weights.len(),
-                self.sky_mask.size() / 4
+                self.glow_points()
             )));
         }
-        match &mut self.host {
-            Some(host) => host.set_sky_mask(weights.to_vec()),
-            None => self
-                .ctx
+        if let Some(host) = &mut self.host {
+            host.set_sky_mask(weights.to_vec());
+        }
+        if let Some(gpu) = &self.gpu {
+            self.ctx
                 .queue
-                .write_buffer(&self.sky_mask, 0, bytemuck::cast_slice(weights)),
+                .write_buffer(&gpu.sky_mask, 0, bytemuck::cast_slice(weights));
         }
         Ok(())
     }
@@ -32,19 +40,20 @@ impl Compositor {
     /// submitted from now on: the wet ground and the puddles keep to it where the depth map
     /// does not know the pixel (`scene::ground_mask`). A mask of another size is refused.
     pub fn set_ground_mask(&mut self, weights: &[f32]) -> Result<()> {
-        if 4 * weights.len() as u64 != self.ground_mask.size() {
+        if weights.len() != self.glow_points() {
             return Err(Error::Gpu(format!(
                 "a ground mask of {} points for a grid of {}",
                 weights.len(),
-                self.ground_mask.size() / 4
+                self.glow_points()
             )));
         }
         if let Some(host) = &mut self.host {
             host.set_ground_mask(weights.to_vec());
-        } else {
+        }
+        if let Some(gpu) = &self.gpu {
             self.ctx
                 .queue
-                .write_buffer(&self.ground_mask, 0, bytemuck::cast_slice(weights));
+                .write_buffer(&gpu.ground_mask, 0, bytemuck::cast_slice(weights));
         }
         Ok(())
     }

@@ -50,6 +50,24 @@ pub fn water_params(origin_m: [f32; 2], cell_m: f32, cells: [u32; 2]) -> PuddleP
 
 /// The stage: the shared resources it binds, and its own once water is set.
 pub struct Puddles {
+    /// The shared resources where the pass runs on the adapter; `None` on the CPU back end,
+    /// which shades from [`Puddles::frame_water`] (then nothing is built on the adapter).
+    bound: Option<Bound>,
+    /// Whether frames are pictures; for a layer the water is written as the layer's colour and
+    /// alpha over the frame (entry point `layer`).
+    picture: bool,
+    /// The map's placement (origin, cell, cells) and the water's optics, once water is set.
+    base: Option<PuddleParams>,
+    job: Option<Water>,
+    rings: Vec<Ring>,
+    /// The far water's RMS slope and the camera depth where it takes over, m.
+    far_slope: (f32, f32),
+    /// The water map as uploaded (m per cell), for the CPU back end.
+    metres: Vec<f32>,
+}
+
+/// The frame's shared resources the pass binds, and the device it builds on.
+struct Bound {
     device: wgpu::Device,
     rain_params: wgpu::Buffer,
     frame_params: wgpu::Buffer,
@@ -59,20 +77,6 @@ pub struct Puddles {
     ground_mask: wgpu::Buffer,
     glow_grid: wgpu::TextureView,
     lights: wgpu::Buffer,
-    /// Whether frames are pictures; for a layer the water is written as the layer's colour and
-    /// alpha over the frame (entry point `layer`).
-    picture: bool,
-    /// Whether the pass runs on the adapter (not on the CPU back end, which shades from
-    /// [`Puddles::frame_water`]: then no pipeline is built).
-    on_gpu: bool,
-    /// The map's placement (origin, cell, cells) and the water's optics, once water is set.
-    base: Option<PuddleParams>,
-    job: Option<Water>,
-    rings: Vec<Ring>,
-    /// The far water's RMS slope and the camera depth where it takes over, m.
-    far_slope: (f32, f32),
-    /// The water map as uploaded (m per cell), for the CPU back end.
-    metres: Vec<f32>,
 }
 
 /// The water of one frame as the stage's uniforms and buffers hold it (what the CPU back end
@@ -98,20 +102,21 @@ struct Water {
 
 impl Puddles {
     /// The stage for the frame resources `r` of pictures (`picture`) or layers, idle until
-    /// water is set; its pass on the adapter only with `on_gpu`.
-    pub fn new(device: &wgpu::Device, r: &FrameResources, picture: bool, on_gpu: bool) -> Puddles {
+    /// water is set; its pass on the adapter only with `r` (none on the CPU back end).
+    pub fn new(device: &wgpu::Device, r: Option<&FrameResources>, picture: bool) -> Puddles {
         Puddles {
-            device: device.clone(),
-            rain_params: r.rain_params.clone(),
-            frame_params: r.frame_params.clone(),
-            planes: r.planes.clone(),
-            canvas: r.canvas.texture().clone(),
-            scene_depth: r.scene_depth.clone(),
-            ground_mask: r.ground_mask.clone(),
-            glow_grid: r.glow_grid.clone(),
-            lights: r.lights.list.clone(),
+            bound: r.map(|r| Bound {
+                device: device.clone(),
+                rain_params: r.rain_params.clone(),
+                frame_params: r.frame_params.clone(),
+                planes: r.planes.clone(),
+                canvas: r.canvas.texture().clone(),
+                scene_depth: r.scene_depth.clone(),
+                ground_mask: r.ground_mask.clone(),
+                glow_grid: r.glow_grid.clone(),
+                lights: r.lights.list.clone(),
+            }),
             picture,
-            on_gpu,
             base: None,
             job: None,
             rings: Vec::new(),
@@ -151,8 +156,10 @@ impl Puddles {
             })
             .collect();
         let bytes = 4 * cells as u64;
-        if self.on_gpu && self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes) {
-            self.job = Some(self.build(bytes));
+        if let Some(bound) = &self.bound
+            && self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes)
+        {
+            self.job = Some(bound.build(self.picture, bytes));
         }
         if let Some(job) = &self.job {
             queue.write_buffer(&job.depth_m, 0, bytemuck::cast_slice(&metres));
@@ -200,9 +207,12 @@ impl Puddles {
             ripples,
         })
     }
+}
 
-    /// The pipeline and buffers, for a water map of `depth_bytes`.
-    fn build(&self, depth_bytes: u64) -> Water {
+impl Bound {
+    /// The pipeline and buffers, for a water map of `depth_bytes` (of pictures with
+    /// `picture`, else of layers).
+    fn build(&self, picture: bool, depth_bytes: u64) -> Water {
         let device = &self.device;
         let frame = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("puddles_frame"),
@@ -233,7 +243,7 @@ impl Puddles {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let entry = if self.picture { "main" } else { "layer" };
+        let entry = if picture { "main" } else { "layer" };
         let pipeline = super::compute_pipeline(device, Stage::Puddles, entry);
         let canvas = self.canvas.create_view(&Default::default());
         let bind = bind_group(
@@ -288,11 +298,13 @@ impl FrameStage for Puddles {
     }
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
-        let Some(job) = &self.job else { return };
+        let (Some(job), Some(bound)) = (&self.job, &self.bound) else {
+            return;
+        };
         encoder.copy_texture_to_texture(
-            self.canvas.as_image_copy(),
+            bound.canvas.as_image_copy(),
             job.frame.as_image_copy(),
-            self.canvas.size(),
+            bound.canvas.size(),
         );
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.name()),
@@ -300,7 +312,7 @@ impl FrameStage for Puddles {
         });
         pass.set_pipeline(&job.pipeline);
         pass.set_bind_group(0, &job.bind, &[]);
-        let size = self.canvas.size();
+        let size = bound.canvas.size();
         pass.dispatch_workgroups(
             workgroups(size.width, PIXEL_WORKGROUP),
             workgroups(size.height, PIXEL_WORKGROUP),

@@ -19,10 +19,14 @@ pub struct WetGround {
 
 /// What a wetting ground needs.
 struct Wet {
-    /// The pipeline, its bindings and its uniforms' buffer; `None` on the CPU back end,
-    /// which reads the uniforms from [`WetGround::params_at`].
-    pass: Option<(wgpu::ComputePipeline, wgpu::BindGroup, wgpu::Buffer)>,
-    size: (u32, u32),
+    /// The pipeline, its bindings, its uniforms' buffer and the frame's size; `None` on the
+    /// CPU back end, which reads the uniforms from [`WetGround::params_at`].
+    pass: Option<(
+        wgpu::ComputePipeline,
+        wgpu::BindGroup,
+        wgpu::Buffer,
+        (u32, u32),
+    )>,
     wetting: Wetting,
     optics: FilmOptics,
 }
@@ -30,16 +34,15 @@ struct Wet {
 impl WetGround {
     /// Builds the pipeline and binds `r` for a ground wetting as `wetting`; nothing without one.
     /// With `layer`, the wet ground is written as the layer's premultiplied colour and alpha.
-    /// Without `on_gpu` (the CPU back end draws it) no pipeline is built.
+    /// Without `r` (the CPU back end draws it) no pipeline is built.
     pub fn new(
         device: &wgpu::Device,
-        r: &FrameResources,
+        r: Option<&FrameResources>,
         wetting: Option<&Wetting>,
         layer: bool,
-        on_gpu: bool,
     ) -> WetGround {
         let job = wetting.filter(|w| w.ever_wet()).map(|wetting| {
-            let pass = on_gpu.then(|| {
+            let pass = r.map(|r| {
                 let params = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("wet_params"),
                     size: std::mem::size_of::<WetParams>() as u64,
@@ -66,11 +69,10 @@ impl WetGround {
                         view(&r.glow_grid),
                     ],
                 );
-                (pipeline, bind, params)
+                (pipeline, bind, params, (r.frame.width, r.frame.height))
             });
             Wet {
                 pass,
-                size: (r.frame.width, r.frame.height),
                 wetting: wetting.clone(),
                 optics: FilmOptics::water(),
             }
@@ -102,14 +104,14 @@ impl FrameStage for WetGround {
 
     fn prepare(&self, queue: &wgpu::Queue, rain: &RainParams) {
         let pass = self.job.as_ref().and_then(|j| j.pass.as_ref());
-        if let (Some((_, _, buffer)), Some(params)) = (pass, self.params_at(rain)) {
+        if let (Some((_, _, buffer, _)), Some(params)) = (pass, self.params_at(rain)) {
             queue.write_buffer(buffer, 0, bytemuck::bytes_of(&params));
         }
     }
 
     fn record(&self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<TimestampSlot<'_>>) {
-        let Some(job) = &self.job else { return };
-        let Some((pipeline, bind, _)) = &job.pass else {
+        let Some((pipeline, bind, _, size)) = self.job.as_ref().and_then(|j| j.pass.as_ref())
+        else {
             return;
         };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -119,8 +121,8 @@ impl FrameStage for WetGround {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(
-            workgroups(job.size.0, PIXEL_WORKGROUP),
-            workgroups(job.size.1, PIXEL_WORKGROUP),
+            workgroups(size.0, PIXEL_WORKGROUP),
+            workgroups(size.1, PIXEL_WORKGROUP),
             1,
         );
     }

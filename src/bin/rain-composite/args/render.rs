@@ -77,7 +77,7 @@ pub struct GpuArgs {
     /// Use a CPU (software) adapter only.
     #[arg(long)]
     pub cpu: bool,
-    /// Where the colour passes (planes → linear with the haze, linear → code values) run: auto (the CPU on a CPU adapter such as lavapipe, else the GPU), gpu or cpu. On cpu everything else a frame needs runs on the CPU as well (the wet ground, the puddles, the drops and the splashes, simulated and drawn): the adapter renders nothing.
+    /// Where the colour passes (planes → linear with the haze, linear → code values) run: auto (the CPU on a CPU adapter such as lavapipe or on one whose vertex shaders cannot read storage buffers, else the GPU), gpu or cpu. On cpu everything else a frame needs runs on the CPU as well (the wet ground, the puddles, the drops and the splashes, simulated and drawn): the adapter renders nothing.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
 }
@@ -85,7 +85,7 @@ pub struct GpuArgs {
 /// `--backend`'s values (the library's [`Backend`]).
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq)]
 pub enum BackendArg {
-    /// The CPU on a CPU adapter, else the GPU.
+    /// The CPU on a CPU adapter or one the GPU's streaks cannot run on, else the GPU.
     Auto,
     /// The GPU's shaders.
     Gpu,
