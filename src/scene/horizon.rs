@@ -58,12 +58,12 @@
 //! strong vertical structure floating above its horizon with nothing standing through it
 //! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0, and so has
 //! one whose verticals and receding level lines disagree on the horizon under the assumed
-//! field of view ([`lens_mismatch`]: the lens is not the picture's), and so has a reading whose
-//! steep alternative the sky confirms ([`STEEP_ALTERNATIVE_DEG`]): where the level lines meet
-//! near the optical axis, the same lines read as a view straight down or up with that point as
-//! the nadir or zenith, under the same lens; a level reading looking up with no sky above its
-//! horizon ([`SKY_ABOVE_MIN`]), or looking down with the sky around that point
-//! ([`SKY_AHEAD_MAX`]), is that view. Below
+//! field of view ([`lens_mismatch`]: the lens is not the picture's), and so has one the sky
+//! says is a steep view ([`STEEP_ALTERNATIVE_DEG`]: where level lines meet near the optical
+//! axis, the same lines read, under the same lens, as a view straight down or up with that
+//! point as the nadir or the zenith): a level reading looking up with no sky above its horizon
+//! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
+//! ([`SKY_AHEAD_MAX`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
@@ -547,7 +547,7 @@ fn estimate_with(
     }
     let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
-    let manhattan = manhattan_refusal(&est).is_some();
+    let sky_refused = sky_refusal(&est).is_some();
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
@@ -564,11 +564,11 @@ fn estimate_with(
         let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
             && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
         let unsure = est.confidence < MIN_CONFIDENCE
-            && (manhattan || est.sky_correlation < steep::LEVEL_SKY);
+            && (sky_refused || est.sky_correlation < steep::LEVEL_SKY);
         // A level reading refused for its steep alternative is replaced by that alternative
         // only: the steep point is its point ahead, the nadir where it looked up (no sky above),
         // the zenith where it looked down (the sky around the point).
-        let alternative = !manhattan
+        let alternative = !sky_refused
             || ahead.is_some_and(|p| {
                 let c = s.up_cam.dot(p);
                 c.abs() > ALTERNATIVE_MATCH_DEG.to_radians().cos()
@@ -663,11 +663,11 @@ pub const STEEP_ALTERNATIVE_DEG: f64 = 25.0;
 /// angle of the level reading's point ahead, degrees.
 pub const ALTERNATIVE_MATCH_DEG: f64 = 3.0;
 
-/// A level reading looking up with a steep alternative needs at least this share of sky blocks
-/// in the quarter of the picture highest above its horizon: a camera looking up along a street
-/// sees the sky over it (0.15–0.75 on synthetic streets); a drone looking straight down at a
-/// city sees none (0.01–0.22), and its nadir reads as the street's vanishing point of a level
-/// camera looking up.
+/// A level reading looking up needs at least this share of sky blocks in the quarter of the
+/// picture highest above its horizon: a camera looking up along a street sees the sky over it
+/// (0.15–0.75 on synthetic streets); a drone looking straight down at a city sees none
+/// (0.01–0.22), and its nadir reads as the street's vanishing point of a level camera looking
+/// up (the Manhattan alternative, see [`STEEP_ALTERNATIVE_DEG`]).
 pub const SKY_ABOVE_MIN: f64 = 0.2;
 
 /// A level reading looking down with a steep alternative is refused where at least this share
@@ -676,14 +676,19 @@ pub const SKY_ABOVE_MIN: f64 = 0.2;
 /// between facades, the sky surrounds the zenith (0.44–0.89).
 pub const SKY_AHEAD_MAX: f64 = 0.4;
 
-/// Why a level reading with a steep alternative ([`STEEP_ALTERNATIVE_DEG`]) is refused, if it
-/// is: the sky says the picture is the alternative.
-fn manhattan_refusal(e: &HorizonEstimate) -> Option<&'static str> {
-    if e.steep_lines > 0 || e.receding < STEEP_ALTERNATIVE_DEG.to_radians().cos() {
+/// Why the sky refuses a level reading, if it does: looking up with no sky above the horizon
+/// ([`SKY_ABOVE_MIN`]), or looking down with the sky around its point ahead, where that point
+/// lies near the optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that
+/// the level search read as its Manhattan alternative ([`STEEP_ALTERNATIVE_DEG`]).
+fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
+    if e.steep_lines > 0 {
         None
     } else if e.tilt_deg > 0.0 && e.sky_above < SKY_ABOVE_MIN {
         Some("looking up with no sky above the horizon: a view straight down reads the same")
-    } else if e.tilt_deg < 0.0 && e.sky_ahead >= SKY_AHEAD_MAX {
+    } else if e.tilt_deg < 0.0
+        && e.receding >= STEEP_ALTERNATIVE_DEG.to_radians().cos()
+        && e.sky_ahead >= SKY_AHEAD_MAX
+    {
         Some("the sky surrounds the point the level lines meet: a view up reads the same")
     } else {
         None
@@ -704,7 +709,7 @@ pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
              view is not the lens's (try another --fov)",
         )
     } else {
-        manhattan_refusal(e)
+        sky_refusal(e)
     }
 }
 
