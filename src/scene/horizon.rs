@@ -651,12 +651,12 @@ pub fn floats(e: &HorizonEstimate) -> bool {
 /// frontal horizontals), and nothing in the edges tells the two apart.
 pub const RECEDING_MIN_COS: f64 = 0.17;
 
-/// A level reading whose point ahead (its family of level lines converging nearest the optical
-/// axis) lies within this angle of the axis, degrees, has a steep alternative: the same lines
-/// read with that point as the nadir or the zenith (a view down or up at least 65° steep,
-/// whose verticals converge there). The three directions of a box world are mutually
-/// orthogonal, so both readings fit the same lens; only the sky tells them apart (see
-/// [`SKY_ABOVE_MIN`], [`SKY_AHEAD_MAX`]).
+/// A level reading tilted less than this, degrees, has a steep alternative: the same lines read
+/// with the point ahead (where its level lines converge, within this angle of the optical
+/// axis) as the nadir or the zenith of a view down or up at least 65° steep, whose verticals
+/// converge there. The three directions of a box world are mutually orthogonal, so both
+/// readings fit the same lens; only the sky tells them apart (see [`SKY_ABOVE_MIN`],
+/// [`SKY_AHEAD_MAX`]).
 pub const STEEP_ALTERNATIVE_DEG: f64 = 25.0;
 
 /// A steep reading is the steep alternative of a level reading where its point lies within this
@@ -676,14 +676,17 @@ pub const SKY_ABOVE_MIN: f64 = 0.2;
 /// between facades, the sky surrounds the zenith (0.44–0.89).
 pub const SKY_AHEAD_MAX: f64 = 0.4;
 
-/// Why the sky refuses a level reading, if it does: looking up with no sky above the horizon
-/// ([`SKY_ABOVE_MIN`]), or looking down with the sky around its point ahead, where that point
-/// lies near the optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that
-/// the level search read as its Manhattan alternative ([`STEEP_ALTERNATIVE_DEG`]).
+/// Why the sky refuses a level reading, if it does: looking up less than
+/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), or looking
+/// down with the sky around its point ahead, where that point lies within that angle of the
+/// optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that the level search
+/// read as its Manhattan alternative (a reading at tilt `t` has its alternative at
+/// `±(90° − |t|)`: beyond the level search's range, which weighs the others by its priors).
 fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
     if e.steep_lines > 0 {
         None
-    } else if e.tilt_deg > 0.0 && e.sky_above < SKY_ABOVE_MIN {
+    } else if e.tilt_deg > 0.0 && e.tilt_deg < STEEP_ALTERNATIVE_DEG && e.sky_above < SKY_ABOVE_MIN
+    {
         Some("looking up with no sky above the horizon: a view straight down reads the same")
     } else if e.tilt_deg < 0.0
         && e.receding >= STEEP_ALTERNATIVE_DEG.to_radians().cos()
