@@ -86,6 +86,9 @@ pub use crate::scene::lens::{
 };
 pub use crate::scene::segments::{Segment, detect_segments};
 use crate::scene::steep;
+pub use crate::scene::steep::{
+    ALTERNATIVE_MATCH_DEG, SKY_ABOVE_MIN, SKY_AHEAD_MAX, STEEP_ALTERNATIVE_DEG, sky_refusal,
+};
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
 use crate::video::frame::coded_pixel;
@@ -650,53 +653,6 @@ pub fn floats(e: &HorizonEstimate) -> bool {
 /// a tiled wall seen level (one family of its joints taken for verticals, the other for
 /// frontal horizontals), and nothing in the edges tells the two apart.
 pub const RECEDING_MIN_COS: f64 = 0.17;
-
-/// A level reading tilted less than this, degrees, has a steep alternative: the same lines read
-/// with the point ahead (where its level lines converge, within this angle of the optical
-/// axis) as the nadir or the zenith of a view down or up at least 65° steep, whose verticals
-/// converge there. The three directions of a box world are mutually orthogonal, so both
-/// readings fit the same lens; only the sky tells them apart (see [`SKY_ABOVE_MIN`],
-/// [`SKY_AHEAD_MAX`]).
-pub const STEEP_ALTERNATIVE_DEG: f64 = 25.0;
-
-/// A steep reading is the steep alternative of a level reading where its point lies within this
-/// angle of the level reading's point ahead, degrees.
-pub const ALTERNATIVE_MATCH_DEG: f64 = 3.0;
-
-/// A level reading looking up needs at least this share of sky blocks in the quarter of the
-/// picture highest above its horizon: a camera looking up along a street sees the sky over it
-/// (0.15–0.75 on synthetic streets); a drone looking straight down at a city sees none
-/// (0.01–0.22), and its nadir reads as the street's vanishing point of a level camera looking
-/// up (the Manhattan alternative, see [`STEEP_ALTERNATIVE_DEG`]).
-pub const SKY_ABOVE_MIN: f64 = 0.2;
-
-/// A level reading looking down with a steep alternative is refused where at least this share
-/// of the quarter of the picture around its point ahead is sky blocks: looking down a street,
-/// the far street is around that point (at most 0.30 on synthetic streets); looking up
-/// between facades, the sky surrounds the zenith (0.44–0.89).
-pub const SKY_AHEAD_MAX: f64 = 0.4;
-
-/// Why the sky refuses a level reading, if it does: looking up less than
-/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), or looking
-/// down with the sky around its point ahead, where that point lies within that angle of the
-/// optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that the level search
-/// read as its Manhattan alternative (a reading at tilt `t` has its alternative at
-/// `±(90° − |t|)`: beyond the level search's range, which weighs the others by its priors).
-fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
-    if e.steep_lines > 0 {
-        None
-    } else if e.tilt_deg > 0.0 && e.tilt_deg < STEEP_ALTERNATIVE_DEG && e.sky_above < SKY_ABOVE_MIN
-    {
-        Some("looking up with no sky above the horizon: a view straight down reads the same")
-    } else if e.tilt_deg < 0.0
-        && e.receding >= STEEP_ALTERNATIVE_DEG.to_radians().cos()
-        && e.sky_ahead >= SKY_AHEAD_MAX
-    {
-        Some("the sky surrounds the point the level lines meet: a view up reads the same")
-    } else {
-        None
-    }
-}
 
 /// Why a reading has confidence 0 regardless of its evidence, if it does.
 pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
