@@ -89,6 +89,8 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
             "families": e.families,
             "level_offset": e.level_offset,
             "focal_scale_sq": e.focal_scale_sq,
+            "sky_above": e.sky_above,
+            "sky_ahead": e.sky_ahead,
         },
         "lens_fov_deg": e.lens_fov_deg,
         "lens_hint": horizon::lens_hint(e),

@@ -58,7 +58,12 @@
 //! strong vertical structure floating above its horizon with nothing standing through it
 //! ([`floats`]: a guardrail or a fence rail taken for the horizon) has confidence 0, and so has
 //! one whose verticals and receding level lines disagree on the horizon under the assumed
-//! field of view ([`lens_mismatch`]: the lens is not the picture's). Below
+//! field of view ([`lens_mismatch`]: the lens is not the picture's), and so has one the sky
+//! says is a steep view ([`STEEP_ALTERNATIVE_DEG`]: where level lines meet near the optical
+//! axis, the same lines read, under the same lens, as a view straight down or up with that
+//! point as the nadir or the zenith): a level reading looking up with no sky above its horizon
+//! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
+//! ([`SKY_AHEAD_MAX`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
@@ -71,15 +76,19 @@
 
 use std::collections::VecDeque;
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use crate::scene::Camera;
+use crate::scene::brightness::Brightness;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
 pub use crate::scene::lens::{
     LENS_SHIFT_MIN, LEVEL_OFFSET_MAX, lens_hint, lens_mismatch, read_lens,
 };
 pub use crate::scene::segments::{Segment, detect_segments};
 use crate::scene::steep;
+pub use crate::scene::steep::{
+    ALTERNATIVE_MATCH_DEG, SKY_ABOVE_MIN, SKY_AHEAD_MAX, STEEP_ALTERNATIVE_DEG, sky_refusal,
+};
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
 use crate::video::frame::coded_pixel;
@@ -196,6 +205,14 @@ pub struct HorizonEstimate {
     pub floating_len: f64,
     /// Evidence: correlation of brightness with elevation above the horizon (the sky).
     pub sky_correlation: f64,
+    /// Evidence: the share of sky blocks (smooth and bright, see [`Brightness::sky_share`]) in
+    /// the quarter of the picture highest above the horizon; 1 where not measured. See
+    /// [`SKY_ABOVE_MIN`].
+    pub sky_above: f64,
+    /// Evidence: the share of sky blocks in the quarter of the picture around the point ahead
+    /// where the level lines converge nearest the optical axis; 0 where not measured. See
+    /// [`SKY_AHEAD_MAX`].
+    pub sky_ahead: f64,
     /// Distinct lines through the vertical vanishing point of a steep reading (see
     /// [`steep`]); 0 for a reading of the level search.
     pub steep_lines: usize,
@@ -308,77 +325,6 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
         vertical: nv,
         horizontal: nh,
         horizon: nl,
-    }
-}
-
-/// Moments of the luma's block means and their rays, for the brightness prior (see the module
-/// doc): elevation `r · n` is linear in `n`, so the correlation for any `n` follows from them.
-struct Brightness {
-    /// Number of blocks.
-    count: f64,
-    /// Σ r over the blocks' unit rays.
-    sum_r: DVec3,
-    /// Σ r rᵀ.
-    sum_rr: DMat3,
-    /// Σ (v − v̄) r, `v` the block means.
-    sum_dr: DVec3,
-    /// √Σ (v − v̄)².
-    norm: f64,
-}
-
-impl Brightness {
-    fn new(luma: &Luma, camera: &Camera) -> Option<Brightness> {
-        const COLS: usize = 32;
-        let rows = (COLS * luma.height / luma.width.max(1)).max(2);
-        let (f, c) = (camera.focal_px(), camera.principal_px());
-        let sx = camera.width_px as f64 / luma.width as f64;
-        let sy = camera.height_px as f64 / luma.height as f64;
-        let mut blocks: Vec<(DVec3, f64)> = Vec::with_capacity(COLS * rows);
-        for by in 0..rows {
-            let (y0, y1) = (by * luma.height / rows, (by + 1) * luma.height / rows);
-            for bx in 0..COLS {
-                let (x0, x1) = (bx * luma.width / COLS, (bx + 1) * luma.width / COLS);
-                if x1 <= x0 || y1 <= y0 {
-                    continue;
-                }
-                let mut sum = 0.0f64;
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        sum += luma.data[y * luma.width + x] as f64;
-                    }
-                }
-                let (px, py) = (0.5 * (x0 + x1) as f64 * sx, 0.5 * (y0 + y1) as f64 * sy);
-                let r = DVec3::new((px - c.x) / f, (py - c.y) / f, 1.0).normalize();
-                blocks.push((r, sum / ((x1 - x0) * (y1 - y0)) as f64));
-            }
-        }
-        let count = blocks.len() as f64;
-        let mean = blocks.iter().map(|b| b.1).sum::<f64>() / count.max(1.0);
-        let mut b = Brightness {
-            count,
-            sum_r: DVec3::ZERO,
-            sum_rr: DMat3::ZERO,
-            sum_dr: DVec3::ZERO,
-            norm: 0.0,
-        };
-        for &(r, v) in &blocks {
-            b.sum_r += r;
-            b.sum_rr += DMat3::from_cols(r * r.x, r * r.y, r * r.z);
-            b.sum_dr += r * (v - mean);
-            b.norm += (v - mean) * (v - mean);
-        }
-        b.norm = b.norm.sqrt();
-        (b.norm > 1e-6).then_some(b)
-    }
-
-    /// Correlation of brightness with elevation above the horizon of `n`, in [−1, 1].
-    fn correlation(&self, n: DVec3) -> f64 {
-        let se = self.sum_r.dot(n);
-        let var = (n.dot(self.sum_rr * n) - se * se / self.count).max(0.0);
-        if var < 1e-12 {
-            return 0.0;
-        }
-        self.sum_dr.dot(n) / (self.norm * var.sqrt())
     }
 }
 
@@ -554,6 +500,13 @@ fn estimate_with(
     let (t, r) = tilt_roll_from_up(up_cam);
     let (t, r) = (t.to_degrees(), r.to_degrees());
     let (standing, floating) = vanishing::standing_check(&edges, &inliers.vertical, up_cam);
+    // The point ahead: the fitted family of level lines converging nearest the optical axis.
+    let ahead = inliers
+        .families
+        .iter()
+        .map(|fam| vanishing::family_point(&edges, fam, up_cam))
+        .map(|p| if p.z < 0.0 { -p } else { p })
+        .max_by(|a, b| a.z.total_cmp(&b.z));
     let k = fin.vertical + fin.horizontal + 4 * fin.horizon;
     let support =
         (1.0 - (-fin.total / 0.5).exp()) * (1.0 - (-((k as f64 - 2.0).max(0.0)) / 3.0).exp());
@@ -574,12 +527,10 @@ fn estimate_with(
         standing_len: standing,
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
+        sky_above: brightness.map_or(1.0, |b| b.sky_share(up_cam)),
+        sky_ahead: 0.0,
         steep_lines: 0,
-        receding: inliers
-            .families
-            .iter()
-            .map(|f| vanishing::family_point(&edges, f, up_cam).z.abs())
-            .fold(0.0, f64::max),
+        receding: ahead.map_or(0.0, |p| p.z.abs()),
         level_offset: 0.0,
         horizon_shift: f * t.to_radians().tan() / camera.height_px as f64,
         focal_scale_sq: None,
@@ -594,8 +545,12 @@ fn estimate_with(
         est.level_offset = c.offset_rad * f / camera.height_px as f64;
         est.focal_scale_sq = c.focal_scale_sq;
     }
+    if let (Some(b), Some(p)) = (brightness, ahead) {
+        est.sky_ahead = b.sky_share(p);
+    }
     let sky = |n: DVec3| brightness.map_or(0.0, |b| b.correlation(n));
     est.confidence = calibrated_confidence(&est);
+    let sky_refused = sky_refusal(&est).is_some();
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
@@ -611,9 +566,19 @@ fn estimate_with(
         let steep_sky = sky(s.up_cam);
         let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
             && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
-        let unsure = est.confidence < MIN_CONFIDENCE && est.sky_correlation < steep::LEVEL_SKY;
+        let unsure = est.confidence < MIN_CONFIDENCE
+            && (sky_refused || est.sky_correlation < steep::LEVEL_SKY);
+        // A level reading refused for its steep alternative is replaced by that alternative
+        // only: the steep point is its point ahead, the nadir where it looked up (no sky above),
+        // the zenith where it looked down (the sky around the point).
+        let alternative = !sky_refused
+            || ahead.is_some_and(|p| {
+                let c = s.up_cam.dot(p);
+                c.abs() > ALTERNATIVE_MATCH_DEG.to_radians().cos()
+                    && (c < 0.0) == (est.tilt_deg > 0.0)
+            });
         let confidence = steep::confidence(&s, sky_says_steep);
-        if sky_says_steep || (unsure && confidence > est.confidence) {
+        if sky_says_steep || (unsure && alternative && confidence > est.confidence) {
             let (t, r) = tilt_roll_from_up(s.up_cam);
             est = HorizonEstimate {
                 up_cam: s.up_cam,
@@ -703,14 +668,15 @@ pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
              view is not the lens's (try another --fov)",
         )
     } else {
-        None
+        sky_refusal(e)
     }
 }
 
 /// The calibrated confidence of an estimate (see [`CONFIDENCE_WEIGHTS`]); 0 where there is a
 /// [`refusal`]: without segments, where the reading [`floats`], where it sees no receding
-/// ground ([`RECEDING_MIN_COS`]), or where the assumed lens is not the picture's
-/// ([`lens_mismatch`]).
+/// ground ([`RECEDING_MIN_COS`]), where the assumed lens is not the picture's
+/// ([`lens_mismatch`]), or where the sky says the picture is its steep alternative
+/// ([`STEEP_ALTERNATIVE_DEG`]).
 pub fn calibrated_confidence(e: &HorizonEstimate) -> f64 {
     if refusal(e).is_some() {
         return 0.0;

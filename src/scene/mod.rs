@@ -3,6 +3,7 @@
 //! World frame: right-handed, **z up**, metres. With zero tilt and roll the camera stands at
 //! `(0, 0, height_m)` looking along +y, with +x to the right of the picture. This is the frame the
 //! environment map, the spherical harmonics and the rain all share.
+pub mod brightness;
 pub mod camera;
 pub mod depth;
 pub mod ground;

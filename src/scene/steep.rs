@@ -30,6 +30,11 @@
 //! ([`STEEP_CEILING`]): a pose to inspect, on which `auto` does not engage. Views down have no
 //! sky to choose with.
 //!
+//! **The level search's misreadings.** The level search reads a steep view as its Manhattan
+//! alternative (a level view tilted under [`STEEP_ALTERNATIVE_DEG`], its point ahead the nadir
+//! or the zenith); [`sky_refusal`] refuses such a reading where the sky says it is the steep
+//! view, and the steep reading of that point then replaces it.
+//!
 //! **Down or up.** The nadir and the zenith are the same point of the picture. The sky is
 //! brighter than what stands under it, so the reading looks up when the brightness correlates
 //! with elevation above [`ZENITH_SKY`] for the zenith, and down otherwise (drone shots straight
@@ -37,6 +42,7 @@
 
 use glam::{DMat3, DVec3};
 
+use crate::scene::horizon::HorizonEstimate;
 use crate::scene::vanishing::{Edge, vertical_angle};
 
 /// Largest angle between the vertical vanishing point and the optical axis, degrees: tilts
@@ -230,4 +236,51 @@ pub fn confidence(s: &SteepReading, by_sky: bool) -> f64 {
         w[0] + w[1] * s.distinct_lines.min(16) as f64 + w[2] * s.spread_rad / std::f64::consts::PI;
     let ceiling = if by_sky { 1.0 } else { STEEP_CEILING };
     ceiling / (1.0 + (-z).exp())
+}
+
+/// A level reading tilted less than this, degrees, has a steep alternative: the same lines read
+/// with the point ahead (where its level lines converge, within this angle of the optical
+/// axis) as the nadir or the zenith of a view down or up at least 65° steep, whose verticals
+/// converge there. The three directions of a box world are mutually orthogonal, so both
+/// readings fit the same lens; only the sky tells them apart (see [`SKY_ABOVE_MIN`],
+/// [`SKY_AHEAD_MAX`]).
+pub const STEEP_ALTERNATIVE_DEG: f64 = 25.0;
+
+/// A steep reading is the steep alternative of a level reading where its point lies within this
+/// angle of the level reading's point ahead, degrees.
+pub const ALTERNATIVE_MATCH_DEG: f64 = 3.0;
+
+/// A level reading looking up needs at least this share of sky blocks in the quarter of the
+/// picture highest above its horizon: a camera looking up along a street sees the sky over it
+/// (0.15–0.75 on synthetic streets); a drone looking straight down at a city sees none
+/// (0.01–0.22), and its nadir reads as the street's vanishing point of a level camera looking
+/// up (the Manhattan alternative, see [`STEEP_ALTERNATIVE_DEG`]).
+pub const SKY_ABOVE_MIN: f64 = 0.2;
+
+/// A level reading looking down with a steep alternative is refused where at least this share
+/// of the quarter of the picture around its point ahead is sky blocks: looking down a street,
+/// the far street is around that point (at most 0.30 on synthetic streets); looking up
+/// between facades, the sky surrounds the zenith (0.44–0.89).
+pub const SKY_AHEAD_MAX: f64 = 0.4;
+
+/// Why the sky refuses a level reading, if it does: looking up less than
+/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), or looking
+/// down with the sky around its point ahead, where that point lies within that angle of the
+/// optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that the level search
+/// read as its Manhattan alternative (a reading at tilt `t` has its alternative at
+/// `±(90° − |t|)`: beyond the level search's range, which weighs the others by its priors).
+pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
+    if e.steep_lines > 0 {
+        None
+    } else if e.tilt_deg > 0.0 && e.tilt_deg < STEEP_ALTERNATIVE_DEG && e.sky_above < SKY_ABOVE_MIN
+    {
+        Some("looking up with no sky above the horizon: a view straight down reads the same")
+    } else if e.tilt_deg < 0.0
+        && e.receding >= STEEP_ALTERNATIVE_DEG.to_radians().cos()
+        && e.sky_ahead >= SKY_AHEAD_MAX
+    {
+        Some("the sky surrounds the point the level lines meet: a view up reads the same")
+    } else {
+        None
+    }
 }

@@ -296,3 +296,65 @@ pub fn steep_shot(seed: u64, i: u64) -> (Street, Pose, Camera) {
     camera.position_m = DVec3::new(x, y, pose.height_m);
     (city(&mut rng), pose, camera)
 }
+
+/// The worst angle, degrees, between the streaks drawn (no wind) through a camera posed at
+/// `tilt_deg`, `roll_deg` and the true nadir `nadir` in the picture, over the streaks at least
+/// 60 px from it; and how many were judged.
+pub fn streaks_off_nadir(
+    pose: &Pose,
+    tilt_deg: f64,
+    roll_deg: f64,
+    nadir: glam::DVec2,
+) -> (usize, f64) {
+    use rain_composite::config::{CameraConfig, RainConfig};
+    use rain_composite::gpu::cpu::rain_simulate::streak_of;
+    use rain_composite::gpu::uniforms::RainSetup;
+    use rain_composite::keyframes::Keyframes;
+    use rain_composite::rain::volume::sample_drop;
+    let config = CameraConfig {
+        fov_deg: pose.fov_deg,
+        height_m: pose.height_m,
+        tilt_deg,
+        roll_deg,
+        ..CameraConfig::default()
+    };
+    let camera = config.camera(W, H);
+    let rain = RainConfig {
+        rate_mm_per_h: 20.0,
+        wind_mps: [0.0, 0.0],
+        gust_mps: 0.0,
+        far_m: 15.0,
+        seed: 3,
+        ..RainConfig::default()
+    };
+    let setup = rain_composite::shot::rain::plan_keyed(
+        &camera,
+        &config,
+        &rain,
+        &Keyframes::default(),
+        0.02,
+        0,
+        (W, H),
+    )
+    .map(RainSetup::pack)
+    .expect("rain");
+    let params = setup.motion_at(0.5);
+    let (mut judged, mut worst) = (0, 0.0f64);
+    for id in 0..setup.drop_count() as u64 {
+        let Some(d) = sample_drop(setup.rainfall(), id, 0.5) else {
+            continue;
+        };
+        let Some(s) = streak_of(&params, d.position_m, d.velocity_mps, d.width_mm) else {
+            continue;
+        };
+        let mid = s.q0_px + s.dir * (0.5 * s.len_px);
+        let to_nadir = nadir - mid;
+        if to_nadir.length() < 60.0 || s.len_px < 3.0 {
+            continue;
+        }
+        let sin = s.dir.perp_dot(to_nadir.normalize()).abs();
+        worst = worst.max(sin.asin().to_degrees());
+        judged += 1;
+    }
+    (judged, worst)
+}
