@@ -3,7 +3,8 @@
 //! (`gpu::host::streaks`) as capsules and with the shipped mattes, in the AVX2 build and the
 //! baseline one. Prints the medians of wall and CPU time (all threads' time on a CPU, from
 //! /proc on Linux: on a shared machine the CPU time is the steadier figure).
-//! `cargo bench --bench streak_raster [-- RUNS]`.
+//! `cargo bench --bench streak_raster [-- RUNS] [WORD…]`: words keep only the rasters whose
+//! line names them all (`capsules AVX2`: one raster, for a profile; `simulate`: none).
 
 mod common;
 
@@ -87,10 +88,14 @@ fn rain_1080p(runs: usize) -> (RainParams, Vec<Streak>) {
 }
 
 fn main() {
-    let runs = std::env::args()
-        .skip(1)
-        .find_map(|a| a.parse().ok())
-        .unwrap_or(15);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let runs = args.iter().find_map(|a| a.parse().ok()).unwrap_or(15);
+    // cargo bench passes `--bench`; numbers are the runs.
+    let words: Vec<&str> = args
+        .iter()
+        .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
+        .map(String::as_str)
+        .collect();
     let (p, streaks) = rain_1080p(runs);
     let format = common::format_420(W, H);
     let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
@@ -121,6 +126,9 @@ fn main() {
             depth: None,
         };
         for (build, raster) in builds {
+            if !words.iter().all(|w| [style, build].contains(w)) {
+                continue;
+            }
             let mut canvas = plate.clone();
             let mut count = None;
             let (wall, cpu) = time(
