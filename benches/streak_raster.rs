@@ -15,7 +15,7 @@ use std::time::Instant;
 use rain_composite::drops::MatteAtlas;
 use rain_composite::gpu::host::HostColour;
 use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate};
-use rain_composite::gpu::host::streaks::{Rain, RasterCount, rasterise, rasterise_baseline};
+use rain_composite::gpu::host::streaks::{Rain, Raster, RasterCount};
 use rain_composite::gpu::types::{LightList, RainParams, Streak};
 use rain_composite::video::{ColorParams, YuvFrame};
 
@@ -116,8 +116,9 @@ fn main() {
         )
         .expect("drops/"),
     );
-    type Raster = fn(&mut [half::f16], usize, &Rain, &[Streak]) -> RasterCount;
-    let builds: [(&str, Raster); 2] = [("AVX2", rasterise), ("baseline", rasterise_baseline)];
+    type Draw = fn(&mut Raster, &mut [half::f16], usize, &Rain, &[Streak]) -> RasterCount;
+    // Each build keeps its raster's buffers from run to run, as a render does.
+    let builds: [(&str, Draw); 2] = [("AVX2", Raster::draw), ("baseline", Raster::draw_baseline)];
     for (style, mattes) in [("capsules", None), ("mattes", Some(&*atlas))] {
         let rain = Rain {
             params: &clear,
@@ -130,12 +131,13 @@ fn main() {
                 continue;
             }
             let mut canvas = plate.clone();
+            let mut kept = Raster::default();
             let mut count = None;
             let (wall, cpu) = time(
                 runs,
                 &mut canvas,
                 |c| c.copy_from_slice(&plate),
-                |c| count = Some(raster(c, W as usize, &rain, &streaks)),
+                |c| count = Some(raster(&mut kept, c, W as usize, &rain, &streaks)),
             );
             println!(
                 "raster, {style}, {build} build: {count:?}; {wall:.2} ms wall, {cpu:.2} ms CPU"

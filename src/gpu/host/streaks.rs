@@ -30,13 +30,14 @@ pub const TILE_H: usize = 32;
 
 /// What a streak's matte colour reads: its environment layer and its glints (layer, mirror
 /// image, colour), strongest first.
+#[derive(Default)]
 struct Matte {
     layer: usize,
     glints: Vec<(usize, bool, [f32; 3])>,
 }
 
-/// One drawn streak in the raster's terms (f32); copied into each tile's list, so a tile reads
-/// its streaks from contiguous memory.
+/// One drawn streak in the raster's terms (f32), in the slot of its drop; copied into the list
+/// of each band of tiles it reaches, so a band reads its streaks from contiguous memory.
 #[derive(Clone, Copy, Default)]
 struct Prepared {
     /// Along and across the streak (px from q0) at coded pixel (x, y)'s centre:
@@ -56,10 +57,10 @@ struct Prepared {
     /// The drop's depth at the path's ends (camera z, m).
     depth_m: [f32; 2],
     /// Coded pixels the quad's box reaches (inclusive), clamped to the picture.
-    x0: usize,
-    x1: usize,
-    y0: usize,
-    y1: usize,
+    x0: u32,
+    x1: u32,
+    y0: u32,
+    y1: u32,
     /// Its index in the raster's [`Matte`]s ([`NO_MATTE`]: a capsule).
     matte: u32,
 }
@@ -125,9 +126,10 @@ pub struct Rain<'a> {
 }
 
 /// Blends `streaks` (one per drop, `len_px < 0`: not drawn) over `canvas` (RGBA f16, row-major,
-/// the coded picture of `rain.params.coded_size_px`, `width` texels a row).
+/// the coded picture of `rain.params.coded_size_px`, `width` texels a row), with buffers of its
+/// own (a renderer keeps a [`Raster`] instead).
 pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
-    rasterise_on(canvas, width, rain, streaks, true)
+    Raster::default().draw(canvas, width, rain, streaks)
 }
 
 /// [`rasterise`] without the AVX2 build: the same bits (`tests/backend.rs` holds them equal).
@@ -137,7 +139,7 @@ pub fn rasterise_baseline(
     rain: &Rain,
     streaks: &[Streak],
 ) -> RasterCount {
-    rasterise_on(canvas, width, rain, streaks, false)
+    Raster::default().draw_baseline(canvas, width, rain, streaks)
 }
 
 /// Whether the CPU runs the raster's AVX2 build (AVX2 for the lanes, F16C for the tiles).
@@ -149,119 +151,242 @@ fn has_avx2() -> bool {
     false
 }
 
-/// What every band of tiles reads: the inputs, the streaks in drop order and their mattes.
+/// Streaks prepared per rayon task.
+const PREPARE_CHUNK: usize = 1024;
+
+/// [`Raster::bands`] of a streak not drawn.
+const NO_BANDS: [u32; 2] = [1, 0];
+
+/// The raster's buffers, kept from frame to frame: after the first frame a raster allocates
+/// nothing and touches no fresh page (a 1080p frame's records alone are ~7.6 MB). Each drop's
+/// record is written in its own slot by the thread that prepares it, so nothing is gathered or
+/// concatenated; the bins hold drop indices, and each drop's bands sit in an array of their
+/// own, so binning reads 8 bytes a drop, not its record.
+#[derive(Default)]
+pub struct Raster {
+    /// Each drop's record (valid where its bands are).
+    prepared: Vec<Prepared>,
+    /// Each drop's first and last band of tiles ([`NO_BANDS`]: not drawn).
+    bands: Vec<[u32; 2]>,
+    /// Each drop's matte (with mattes; valid where its bands are).
+    mattes: Vec<Matte>,
+    /// Where each band's drops start in `in_band`, and a cursor per band while binning.
+    band_start: Vec<u32>,
+    fill: Vec<u32>,
+    /// The drops of each band, in drop order.
+    in_band: Vec<u32>,
+    /// Each band of tiles' own buffers.
+    band: Vec<BandBuffers>,
+}
+
+/// What one band of tiles works in: its streaks' records side by side, those of each tile
+/// (indices into them, drop order kept), and a tile in f32.
+#[derive(Default)]
+struct BandBuffers {
+    local: Vec<Prepared>,
+    start: Vec<u32>,
+    fill: Vec<u32>,
+    order: Vec<u32>,
+    tile: Vec<f32>,
+}
+
+/// What every band of tiles reads: the inputs, each drop's record and matte.
 struct Frame<'a> {
     rain: &'a Rain<'a>,
     rot: Rotation,
-    prepared: Vec<Prepared>,
-    mattes: Vec<Matte>,
+    prepared: &'a [Prepared],
+    mattes: &'a [Matte],
     width: usize,
     tiles_x: usize,
 }
 
-fn rasterise_on(
-    canvas: &mut [f16],
-    width: usize,
-    rain: &Rain,
-    streaks: &[Streak],
-    avx2: bool,
-) -> RasterCount {
-    let height = canvas.len() / (4 * width.max(1));
-    let rot = Rotation::new(rain.params);
-    let prepare = |(id, s)| prepare(rain, &rot, id, s, width, height);
-    let (prepared, mattes) = if rain.mattes.is_none() {
-        let prepared: Vec<Prepared> = streaks
-            .par_iter()
-            .enumerate()
-            .filter_map(|s| prepare(s).map(|(p, _)| p))
-            .collect();
-        (prepared, Vec::new())
-    } else {
-        let items: Vec<(Prepared, Option<Matte>)> =
-            streaks.par_iter().enumerate().filter_map(prepare).collect();
-        let mut mattes = Vec::new();
-        let prepared = items
-            .into_iter()
-            .map(|(mut p, matte)| {
-                if let Some(m) = matte {
-                    p.matte = mattes.len() as u32;
-                    mattes.push(m);
+impl Raster {
+    /// [`rasterise`] in this raster's buffers.
+    pub fn draw(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+    ) -> RasterCount {
+        self.draw_on(canvas, width, rain, streaks, true)
+    }
+
+    /// [`Raster::draw`] without the AVX2 build (see [`rasterise_baseline`]).
+    pub fn draw_baseline(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+    ) -> RasterCount {
+        self.draw_on(canvas, width, rain, streaks, false)
+    }
+
+    fn draw_on(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+        avx2: bool,
+    ) -> RasterCount {
+        let height = canvas.len() / (4 * width.max(1));
+        let rot = Rotation::new(rain.params);
+        let n = streaks.len();
+        // Grown, never shrunk: the splashes' few streaks do not cost the drops' slots.
+        if self.prepared.len() < n {
+            self.prepared.resize(n, Prepared::default());
+            self.bands.resize(n, NO_BANDS);
+        }
+        let (prepared, bands) = (&mut self.prepared[..n], &mut self.bands[..n]);
+        prepared
+            .par_chunks_mut(PREPARE_CHUNK)
+            .zip(bands.par_chunks_mut(PREPARE_CHUNK))
+            .zip(streaks.par_chunks(PREPARE_CHUNK))
+            .for_each(|((prepared, bands), streaks)| {
+                for ((slot, band), s) in prepared.iter_mut().zip(bands).zip(streaks) {
+                    *band = match prepare(rain, &rot, s, width, height) {
+                        Some(p) => {
+                            *slot = p;
+                            [p.y0 / TILE_H as u32, p.y1 / TILE_H as u32]
+                        }
+                        None => NO_BANDS,
+                    };
                 }
-                p
+            });
+        let mattes: &[Matte] = match rain.mattes {
+            Some(atlas) => {
+                if self.mattes.len() < n {
+                    self.mattes.resize_with(n, Matte::default);
+                }
+                self.mattes[..n]
+                    .par_iter_mut()
+                    .zip(prepared.par_iter_mut())
+                    .zip(bands.par_iter())
+                    .zip(streaks.par_iter())
+                    .enumerate()
+                    .filter(|(_, ((_, b), _))| b[0] <= b[1])
+                    .for_each(|(id, (((m, p), _), s))| {
+                        *m = matte_of(rain, atlas, id, s);
+                        p.matte = id as u32;
+                    });
+                &self.mattes[..n]
+            }
+            None => &[],
+        };
+        let tiles_x = width.div_ceil(TILE_W);
+        let tiles_y = height.div_ceil(TILE_H);
+        // Each band of tiles' streaks by index, drop order kept (a counting sort); each band
+        // sorts its own by tile.
+        let start = &mut self.band_start;
+        start.clear();
+        start.resize(tiles_y + 1, 0);
+        let mut drawn = 0;
+        for b in bands.iter().filter(|b| b[0] <= b[1]) {
+            drawn += 1;
+            for ty in b[0]..=b[1] {
+                start[ty as usize + 1] += 1;
+            }
+        }
+        for k in 1..start.len() {
+            start[k] += start[k - 1];
+        }
+        let fill = &mut self.fill;
+        fill.clear();
+        fill.extend_from_slice(start);
+        let in_band = &mut self.in_band;
+        in_band.resize(start[tiles_y] as usize, 0);
+        for (i, b) in bands.iter().enumerate() {
+            for ty in b[0]..=b[1] {
+                in_band[fill[ty as usize] as usize] = i as u32;
+                fill[ty as usize] += 1;
+            }
+        }
+        if self.band.len() < tiles_y {
+            self.band.resize_with(tiles_y, BandBuffers::default);
+        }
+        let frame = Frame {
+            rain,
+            rot,
+            prepared,
+            mattes,
+            width,
+            tiles_x,
+        };
+        let avx2 = avx2 && has_avx2();
+        let (start, in_band) = (&*start, &*in_band);
+        let tiles = canvas
+            .par_chunks_mut(4 * width * TILE_H)
+            .zip(self.band[..tiles_y].par_iter_mut())
+            .enumerate()
+            .map(|(ty, (rows, buffers))| {
+                let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
+                band_on(avx2, &frame, ty, list, rows, buffers)
             })
-            .collect();
-        (prepared, mattes)
-    };
-    let tiles_x = width.div_ceil(TILE_W);
-    let tiles_y = height.div_ceil(TILE_H);
-    // Each band of tiles' streaks by index, drop order kept (a counting sort); each band sorts
-    // its own by tile.
-    let mut start = vec![0u32; tiles_y + 1];
-    for p in &prepared {
-        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
-            start[ty + 1] += 1;
+            .sum();
+        RasterCount {
+            streaks: drawn,
+            tiles,
         }
-    }
-    for k in 1..start.len() {
-        start[k] += start[k - 1];
-    }
-    let mut fill = start.clone();
-    let mut in_band = vec![0u32; start[tiles_y] as usize];
-    for (i, p) in prepared.iter().enumerate() {
-        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
-            in_band[fill[ty] as usize] = i as u32;
-            fill[ty] += 1;
-        }
-    }
-    let frame = Frame {
-        rain,
-        rot,
-        prepared,
-        mattes,
-        width,
-        tiles_x,
-    };
-    let avx2 = avx2 && has_avx2();
-    let tiles = canvas
-        .par_chunks_mut(4 * width * TILE_H)
-        .enumerate()
-        .map(|(ty, band)| {
-            let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
-            band_on(avx2, &frame, ty, list, band)
-        })
-        .sum();
-    RasterCount {
-        streaks: frame.prepared.len(),
-        tiles,
     }
 }
 
 /// [`band`], in the AVX2 build where `avx2` (the CPU has it).
-fn band_on(avx2: bool, frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+fn band_on(
+    avx2: bool,
+    frame: &Frame,
+    ty: usize,
+    list: &[u32],
+    canvas: &mut [f16],
+    buffers: &mut BandBuffers,
+) -> usize {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         #[target_feature(enable = "avx2,f16c")]
-        fn fast(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
-            band(frame, ty, list, canvas, true)
+        fn fast(
+            frame: &Frame,
+            ty: usize,
+            list: &[u32],
+            canvas: &mut [f16],
+            buffers: &mut BandBuffers,
+        ) -> usize {
+            band(frame, ty, list, canvas, buffers, true)
         }
-        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`rasterise_on`).
-        return unsafe { fast(frame, ty, list, canvas) };
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`Raster::draw_on`).
+        return unsafe { fast(frame, ty, list, canvas, buffers) };
     }
-    band(frame, ty, list, canvas, false)
+    band(frame, ty, list, canvas, buffers, false)
 }
 
-/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (indices in drop
-/// order): each tile with streaks goes to f32, blends them in drop order and goes back to f16
-/// ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
+/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (drop indices in
+/// drop order), in `buffers`: each tile with streaks goes to f32, blends them in drop order and
+/// goes back to f16 ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
 #[inline(always)]
-fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) -> usize {
+fn band(
+    frame: &Frame,
+    ty: usize,
+    list: &[u32],
+    canvas: &mut [f16],
+    buffers: &mut BandBuffers,
+    f16c: bool,
+) -> usize {
     let (width, tiles_x) = (frame.width, frame.tiles_x);
+    let BandBuffers {
+        local,
+        start,
+        fill,
+        order,
+        tile,
+    } = buffers;
     // The band's streaks side by side (read in one sweep, then from the cache), sorted by
     // tile with drop order kept.
-    let local: Vec<Prepared> = list.iter().map(|&i| frame.prepared[i as usize]).collect();
-    let span = |p: &Prepared| p.x0 / TILE_W..=p.x1 / TILE_W;
-    let mut start = vec![0u32; tiles_x + 1];
-    for p in &local {
+    local.clear();
+    local.extend(list.iter().map(|&i| frame.prepared[i as usize]));
+    let span = |p: &Prepared| p.x0 as usize / TILE_W..=p.x1 as usize / TILE_W;
+    start.clear();
+    start.resize(tiles_x + 1, 0);
+    for p in local.iter() {
         for tx in span(p) {
             start[tx + 1] += 1;
         }
@@ -269,8 +394,9 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
     for k in 1..start.len() {
         start[k] += start[k - 1];
     }
-    let mut fill = start.clone();
-    let mut order = vec![0u32; start[tiles_x] as usize];
+    fill.clear();
+    fill.extend_from_slice(start);
+    order.resize(start[tiles_x] as usize, 0);
     for (i, p) in local.iter().enumerate() {
         for tx in span(p) {
             order[fill[tx] as usize] = i as u32;
@@ -278,7 +404,8 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
         }
     }
     let rows = canvas.len() / (4 * width);
-    let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
+    // Every texel a tile's streaks read is loaded first: the buffer needs no clearing.
+    tile.resize(4 * TILE_W * TILE_H, 0.0);
     let mut drawn = 0;
     for tx in 0..tiles_x {
         let list = &order[start[tx] as usize..start[tx + 1] as usize];
@@ -303,7 +430,7 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
         for &i in list {
             let p = &local[i as usize];
             let matte = frame.mattes.get(p.matte as usize);
-            draw(frame.rain, &frame.rot, p, matte, &area, &mut tile);
+            draw(frame.rain, &frame.rot, p, matte, &area, tile);
         }
         for r in 0..rows {
             super::tile::store(
@@ -324,16 +451,15 @@ struct Area {
     y1: usize,
 }
 
-/// Streak `id` in the raster's terms, or `None` where it is not drawn or its quad misses the
+/// Streak `s` in the raster's terms, or `None` where it is not drawn or its quad misses the
 /// picture.
 fn prepare(
     rain: &Rain,
     rot: &Rotation,
-    id: usize,
     s: &Streak,
     width: usize,
     height: usize,
-) -> Option<(Prepared, Option<Matte>)> {
+) -> Option<Prepared> {
     // Hidden (negative length; NaN as well).
     if s.len_px.is_nan() || s.len_px < 0.0 {
         return None;
@@ -366,7 +492,7 @@ fn prepare(
     if !on_picture {
         return None;
     }
-    let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+    let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1) as u32;
     // display = M (coded − offset): along = dir · (display − q0), across = n · (display − q0).
     let m = rot.m.map(f64::from);
     let (off, q) = (rot.offset.map(f64::from), q0.map(f64::from));
@@ -382,21 +508,6 @@ fn prepare(
         ]
     };
     let (dir64, n64) = (d.map(f64::from), n.map(f64::from));
-    let matte = rain.mattes.map(|atlas| {
-        let own = rain
-            .glints
-            .get(GLINTS_PER_DROP * id..)
-            .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
-        let (layer, glints) = matte_layers(atlas, rain.params.seed, id as u32, s.drop_info, own);
-        Matte {
-            layer,
-            glints: glints
-                .into_iter()
-                .zip(own)
-                .map(|((l, mirror), g)| (l, mirror, [g.colour[0], g.colour[1], g.colour[2]]))
-                .collect(),
-        }
-    });
     let prepared = Prepared {
         along: form(dir64),
         across: form(n64),
@@ -418,7 +529,24 @@ fn prepare(
         y1: clamp((hi[1] + 1.0).ceil(), height),
         matte: NO_MATTE,
     };
-    Some((prepared, matte))
+    Some(prepared)
+}
+
+/// The matte of drawn streak `id`, `s` (its layers chosen once for the streak).
+fn matte_of(rain: &Rain, atlas: &MatteAtlas, id: usize, s: &Streak) -> Matte {
+    let own = rain
+        .glints
+        .get(GLINTS_PER_DROP * id..)
+        .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
+    let (layer, glints) = matte_layers(atlas, rain.params.seed, id as u32, s.drop_info, own);
+    Matte {
+        layer,
+        glints: glints
+            .into_iter()
+            .zip(own)
+            .map(|((l, mirror), g)| (l, mirror, [g.colour[0], g.colour[1], g.colour[2]]))
+            .collect(),
+    }
 }
 
 /// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
@@ -478,8 +606,8 @@ fn draw<'a>(
     area: &Area,
     tile: &mut [f32],
 ) {
-    let (ya, yb) = (p.y0.max(area.y0), p.y1.min(area.y1));
-    let (xa, xb) = (p.x0.max(area.x0), p.x1.min(area.x1));
+    let (ya, yb) = ((p.y0 as usize).max(area.y0), (p.y1 as usize).min(area.y1));
+    let (xa, xb) = ((p.x0 as usize).max(area.x0), (p.x1 as usize).min(area.x1));
     if ya > yb || xa > xb {
         return;
     }
