@@ -239,21 +239,15 @@ impl Raster {
             self.prepared.resize(n, Prepared::default());
             self.bands.resize(n, NO_BANDS);
         }
+        let avx2 = avx2 && has_avx2();
         let (prepared, bands) = (&mut self.prepared[..n], &mut self.bands[..n]);
+        let size = (width, height);
         prepared
             .par_chunks_mut(PREPARE_CHUNK)
             .zip(bands.par_chunks_mut(PREPARE_CHUNK))
             .zip(streaks.par_chunks(PREPARE_CHUNK))
             .for_each(|((prepared, bands), streaks)| {
-                for ((slot, band), s) in prepared.iter_mut().zip(bands).zip(streaks) {
-                    *band = match prepare(rain, &rot, s, width, height) {
-                        Some(p) => {
-                            *slot = p;
-                            [p.y0 / TILE_H as u32, p.y1 / TILE_H as u32]
-                        }
-                        None => NO_BANDS,
-                    };
-                }
+                prepare_on(avx2, rain, &rot, streaks, size, prepared, bands);
             });
         let mattes: &[Matte] = match rain.mattes {
             Some(atlas) => {
@@ -314,7 +308,6 @@ impl Raster {
             width,
             tiles_x,
         };
-        let avx2 = avx2 && has_avx2();
         let (start, in_band) = (&*start, &*in_band);
         let tiles = canvas
             .par_chunks_mut(4 * width * TILE_H)
@@ -330,6 +323,59 @@ impl Raster {
             tiles,
         }
     }
+}
+
+/// [`prepare`] for each of `streaks` into its slot of `prepared` and its bands into `bands`
+/// ([`NO_BANDS`] where it is not drawn), in the AVX2 build where `avx2` (the CPU has it: the
+/// roundings inline, no library calls; the same bits).
+fn prepare_on(
+    avx2: bool,
+    rain: &Rain,
+    rot: &Rotation,
+    streaks: &[Streak],
+    size: (usize, usize),
+    prepared: &mut [Prepared],
+    bands: &mut [[u32; 2]],
+) {
+    #[inline(always)]
+    fn each(
+        rain: &Rain,
+        rot: &Rotation,
+        streaks: &[Streak],
+        (width, height): (usize, usize),
+        prepared: &mut [Prepared],
+        bands: &mut [[u32; 2]],
+    ) {
+        for ((slot, band), s) in prepared.iter_mut().zip(bands).zip(streaks) {
+            *band = match prepare(rain, rot, s, width, height) {
+                Some(p) => {
+                    *slot = p;
+                    [p.y0 / TILE_H as u32, p.y1 / TILE_H as u32]
+                }
+                None => NO_BANDS,
+            };
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        #[target_feature(enable = "avx2,f16c")]
+        fn fast(
+            rain: &Rain,
+            rot: &Rotation,
+            streaks: &[Streak],
+            size: (usize, usize),
+            prepared: &mut [Prepared],
+            bands: &mut [[u32; 2]],
+        ) {
+            each(rain, rot, streaks, size, prepared, bands);
+        }
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`Raster::draw_on`).
+        unsafe { fast(rain, rot, streaks, size, prepared, bands) };
+        return;
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
+    each(rain, rot, streaks, size, prepared, bands);
 }
 
 /// [`band`], in the AVX2 build where `avx2` (the CPU has it).
@@ -453,6 +499,7 @@ struct Area {
 
 /// Streak `s` in the raster's terms, or `None` where it is not drawn or its quad misses the
 /// picture.
+#[inline(always)]
 fn prepare(
     rain: &Rain,
     rot: &Rotation,
