@@ -460,6 +460,11 @@ fn band(
         }
         drawn += 1;
         let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
+        // The next tile's texels are asked for while this one's streaks blend.
+        if tx + 1 < tiles_x {
+            let next = &canvas[4 * (x0 + TILE_W)..];
+            super::tile::prefetch(next, 4 * width, rows, 4 * TILE_W.min(width - x0 - TILE_W));
+        }
         for r in 0..rows {
             super::tile::load(
                 &canvas[4 * (r * width + x0)..][..4 * cols],
