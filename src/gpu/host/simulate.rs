@@ -297,7 +297,7 @@ fn block(
     for (k, &l) in visible.iter().enumerate() {
         let l = l as usize;
         let end = |e: usize| {
-            let c = radiance[e * LANES + k];
+            let c = radiance[e * n + k];
             [c[0], c[1], c[2], sh.ends[e][2][l]]
         };
         out[l] = Streak {
