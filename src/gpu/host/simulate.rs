@@ -198,6 +198,7 @@ with_avx2! {
     fn states_on = states(f: &Frame, id0: u32, cols: &[u32; LANES]) -> States;
     fn shapes_on = shapes(f: &Frame, s: &States) -> Shapes;
     fn views_on = view_cosines(p: &RainParams, s: &States) -> [f32; LANES];
+    fn info_on = drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8]) -> [u32; LANES];
     fn light_on = light_ends(
         p: &RainParams,
         lit: &Lit,
@@ -292,8 +293,7 @@ fn block(
     }
     let visible = &visible[..n];
     let radiance = light_on(f.avx2, f.p, &f.lit, &sh.ends, visible);
-    let mut info = [0u32; LANES];
-    drop_info(&s, &views_on(f.avx2, f.p, &s), visible, &mut info);
+    let info = info_on(f.avx2, &s, &views_on(f.avx2, f.p, &s), visible);
     for (k, &l) in visible.iter().enumerate() {
         let l = l as usize;
         let end = |e: usize| {
@@ -745,12 +745,19 @@ fn view_cosines(p: &RainParams, s: &States) -> [f32; LANES] {
 /// elevation of the view over the plane normal to the fall / 90°), `cosines` from
 /// [`view_cosines`].
 #[inline(always)]
-fn drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8], info: &mut [u32; LANES]) {
+fn drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8]) -> [u32; LANES] {
+    // The library's `asin` one drawn drop at a time, the packing in lanes.
+    let (mut size, mut view) = ([0f32; LANES], [0f32; LANES]);
     for (k, &l) in visible.iter().enumerate() {
         let l = l as usize;
-        let elevation_deg = cosines[l].asin().to_degrees();
-        info[k] = unorm16(s.diameter_mm[l] / 10.0) | unorm16(elevation_deg / 90.0) << 16;
+        size[k] = s.diameter_mm[l] / 10.0;
+        view[k] = cosines[l].asin().to_degrees() / 90.0;
     }
+    let mut info = [0u32; LANES];
+    for k in 0..LANES {
+        info[k] = unorm16(size[k]) | unorm16(view[k]) << 16;
+    }
+    info
 }
 
 /// `x` in [0, 1] to 16 bits, rounded half away from zero as `f32::round` (NaN: 0), without its
@@ -758,8 +765,9 @@ fn drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8], info: &mut [u32
 #[inline(always)]
 fn unorm16(x: f32) -> u32 {
     let y = x.clamp(0.0, 1.0) * 65535.0;
-    let whole = y as u32;
-    whole + u32::from(y - whole as f32 >= 0.5)
+    // Within i32 (NaN: 0): the conversion the lanes have.
+    let whole = y as i32;
+    (whole + i32::from(y - whole as f32 >= 0.5)) as u32
 }
 
 #[cfg(test)]
