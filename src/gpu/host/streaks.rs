@@ -10,7 +10,8 @@
 //! picked at run time; it gives the same bits. The plain twin
 //! [`crate::gpu::cpu::rain_streaks`] is the reference (`tests/backend.rs`); every pixel is
 //! computed from its own coordinates and its streak's run direction, so the result does not
-//! depend on the tiles, the threads or the instruction set.
+//! depend on the tiles, the threads or the instruction set. A renderer keeps one [`Raster`]:
+//! its records, bins and tiles are reused from frame to frame.
 // Lane loops index several arrays by the lane: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
 

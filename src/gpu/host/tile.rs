@@ -1,6 +1,6 @@
 //! A tile's rows between the f16 canvas and the raster's f32, eight values at a time with F16C
 //! in the raster's AVX2 build, else through the `half` crate: exact one way, rounded to the
-//! nearest even the other, so both give the same bits.
+//! nearest even the other, so both give the same bits; and the next tile asked for ahead.
 
 use half::f16;
 use half::slice::HalfFloatSliceExt;
