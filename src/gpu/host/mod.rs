@@ -14,6 +14,7 @@ pub mod puddles;
 pub mod rain;
 pub mod simulate;
 pub mod splashes;
+mod streak_mattes;
 pub mod streaks;
 pub mod tile;
 pub mod veil;

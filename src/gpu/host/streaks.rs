@@ -18,10 +18,11 @@
 use half::f16;
 use rayon::prelude::*;
 
+use super::streak_mattes::{Matte, matte_of, matte_run};
 use crate::drops::MatteAtlas;
-use crate::drops::atlas::{ATLAS_HEIGHT, ATLAS_WIDTH, HALF_WIDTH_RADII};
-use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M, matte_layers};
-use crate::gpu::types::{GLINTS_PER_DROP, Glint, RainParams, Streak};
+use crate::drops::atlas::HALF_WIDTH_RADII;
+use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M};
+use crate::gpu::types::{Glint, RainParams, Streak};
 
 /// A tile's width and height, px: a tile's f32 pixels (32 KiB) stay in the first-level cache
 /// while its streaks blend.
@@ -29,41 +30,33 @@ pub const TILE_W: usize = 64;
 /// See [`TILE_W`].
 pub const TILE_H: usize = 32;
 
-/// What a streak's matte colour reads: its environment layer and its glints (layer, mirror
-/// image, colour), strongest first.
-#[derive(Default)]
-struct Matte {
-    layer: usize,
-    glints: Vec<(usize, bool, [f32; 3])>,
-}
-
 /// One drawn streak in the raster's terms (f32), in the slot of its drop; copied into the list
 /// of each band of tiles it reaches, so a band reads its streaks from contiguous memory.
 #[derive(Clone, Copy, Default)]
-struct Prepared {
+pub(super) struct Prepared {
     /// Along and across the streak (px from q0) at coded pixel (x, y)'s centre:
     /// `f[0] + x f[1] + y f[2]` (formed in f64).
-    along: [f32; 3],
-    across: [f32; 3],
-    len: f32,
+    pub(super) along: [f32; 3],
+    pub(super) across: [f32; 3],
+    pub(super) len: f32,
     /// 1 / len, and 1 / (len + 2 ext) (the radiance's interpolation along the quad).
-    inv_len: f32,
-    inv_quad: f32,
-    r: f32,
+    pub(super) inv_len: f32,
+    pub(super) inv_quad: f32,
+    pub(super) r: f32,
     /// The quad's half-extent along (beyond each end) and across.
-    ext: f32,
-    across_ext: f32,
-    alpha_scale: f32,
-    radiance: [[f32; 3]; 2],
+    pub(super) ext: f32,
+    pub(super) across_ext: f32,
+    pub(super) alpha_scale: f32,
+    pub(super) radiance: [[f32; 3]; 2],
     /// The drop's depth at the path's ends (camera z, m).
-    depth_m: [f32; 2],
+    pub(super) depth_m: [f32; 2],
     /// Coded pixels the quad's box reaches (inclusive), clamped to the picture.
-    x0: u32,
-    x1: u32,
-    y0: u32,
-    y1: u32,
+    pub(super) x0: u32,
+    pub(super) x1: u32,
+    pub(super) y0: u32,
+    pub(super) y1: u32,
     /// Its index in the raster's [`Matte`]s ([`NO_MATTE`]: a capsule).
-    matte: u32,
+    pub(super) matte: u32,
 }
 
 /// [`Prepared::matte`] of a capsule.
@@ -585,23 +578,6 @@ fn prepare(
     Some(prepared)
 }
 
-/// The matte of drawn streak `id`, `s` (its layers chosen once for the streak).
-fn matte_of(rain: &Rain, atlas: &MatteAtlas, id: usize, s: &Streak) -> Matte {
-    let own = rain
-        .glints
-        .get(GLINTS_PER_DROP * id..)
-        .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
-    let (layer, glints) = matte_layers(atlas, rain.params.seed, id as u32, s.drop_info, own);
-    Matte {
-        layer,
-        glints: glints
-            .into_iter()
-            .zip(own)
-            .map(|((l, mirror), g)| (l, mirror, [g.colour[0], g.colour[1], g.colour[2]]))
-            .collect(),
-    }
-}
-
 /// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
 /// slope, 0 where the slope vanishes), as a range of reals (possibly empty).
 #[inline]
@@ -620,13 +596,13 @@ fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
 
 /// The larger of `a` and `b`, as one instruction (neither is NaN here).
 #[inline(always)]
-fn larger(a: f32, b: f32) -> f32 {
+pub(super) fn larger(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
 
 /// The smaller of `a` and `b` (see [`larger`]).
 #[inline(always)]
-fn smaller(a: f32, b: f32) -> f32 {
+pub(super) fn smaller(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
@@ -737,19 +713,19 @@ fn draw<'a>(
 
 /// A run of pixels: at coordinate `u` along it, `along + u · da` and `across + u · dc`; from
 /// `first`, `count` pixels `stride` floats apart.
-struct Run {
-    along: f32,
-    across: f32,
-    da: f32,
-    dc: f32,
-    first: usize,
-    count: usize,
-    stride: usize,
+pub(super) struct Run {
+    pub(super) along: f32,
+    pub(super) across: f32,
+    pub(super) da: f32,
+    pub(super) dc: f32,
+    pub(super) first: usize,
+    pub(super) count: usize,
+    pub(super) stride: usize,
 }
 
 /// Pixels of a run taken side by side: the capsule's arithmetic is one loop over this many
 /// lanes (one AVX2 vector, two SSE ones), the blend a loop of its own over the pixels.
-const LANES: usize = 8;
+pub(super) const LANES: usize = 8;
 
 /// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
 /// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
@@ -791,123 +767,6 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f3
             px[3] = a + px[3] * keep;
         }
         k0 += LANES;
-    }
-}
-
-/// Texels in one layer of the mattes.
-const LAYER: usize = ATLAS_WIDTH * ATLAS_HEIGHT;
-
-/// Blends streak `p` with its matte `m` over `run` as the twin does (the capsule's alpha, the
-/// colour spread by the matte and the glints' mattes, sampled bilinearly), the alpha and light
-/// of its `k`-th pixel times `shown(k, along)`; a pixel outside the quad, or with neither
-/// alpha nor light, is left as it was. The layers are chosen once for the streak, and each
-/// pixel is computed from its own coordinate in lanes (as [`capsule_run`]).
-#[inline(always)]
-fn matte_run(
-    p: &Prepared,
-    m: &Matte,
-    atlas: &MatteAtlas,
-    run: &Run,
-    px: &mut [f32],
-    shown: impl Fn(usize, f32) -> f32,
-) {
-    let layer = |l: usize| <&[f32; LAYER]>::try_from(&atlas.texels[l * LAYER..][..LAYER]).ok();
-    let Some(env) = layer(m.layer) else { return };
-    let (r2, len) = (p.r * p.r, p.len);
-    let [r0, r1] = p.radiance;
-    let still = len < 1e-3;
-    let footprint = p.len + 2.0 * p.r;
-    let light_spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
-    let mut k0 = 0;
-    while k0 < run.count {
-        // Outside the quad a lane's alpha and light are 0 (`spread[l]` = 0): left as it was.
-        let (mut alpha, mut along, mut spread) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
-        let (mut u, mut w, mut t) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
-        let u0 = (run.first + k0) as i32;
-        for l in 0..LANES {
-            let uf = (u0 + l as i32) as f32;
-            let a = run.along + uf * run.da;
-            let across = run.across + uf * run.dc;
-            let h = larger(r2 - across * across, 0.0).sqrt();
-            let swept =
-                (smaller(larger(a + h, 0.0), len) - smaller(larger(a - h, 0.0), len)) * p.inv_len;
-            let here = if a.abs() < h { 1.0 } else { 0.0 };
-            let cover = if still { here } else { swept };
-            alpha[l] = smaller(larger(cover * p.alpha_scale, 0.0), 1.0);
-            t[l] = (a + p.ext) * p.inv_quad;
-            u[l] = (a + p.r) / footprint;
-            w[l] = -across / p.r;
-            along[l] = a;
-            spread[l] = across;
-        }
-        for l in 0..LANES {
-            let (a, across) = (along[l], spread[l]);
-            // `&`, not `&&`: no branch in a lane.
-            let inside = (a >= -p.ext) & (a <= len + p.ext) & (across.abs() <= p.across_ext);
-            alpha[l] = if inside { alpha[l] } else { 0.0 };
-            spread[l] = if inside { light_spread } else { 0.0 };
-        }
-        let mut n = [0f32; LANES];
-        sample_lanes(env, &u, &w, false, &mut n);
-        let mut light = [[0f32; LANES]; 3];
-        for l in 0..LANES {
-            for k in 0..3 {
-                light[k][l] = (r0[k] * (1.0 - t[l]) + r1[k] * t[l]) * n[l];
-            }
-        }
-        for &(glint, mirror, colour) in &m.glints {
-            let Some(texels) = layer(glint) else { continue };
-            sample_lanes(texels, &u, &w, mirror, &mut n);
-            for l in 0..LANES {
-                for k in 0..3 {
-                    light[k][l] += colour[k] * n[l];
-                }
-            }
-        }
-        for l in 0..LANES.min(run.count - k0) {
-            let s = shown(k0 + l, along[l]);
-            let a = alpha[l] * s;
-            let lit = [0, 1, 2].map(|k| light[k][l] * spread[l] * s);
-            if a <= 0.0 && lit.iter().all(|&c| c <= 0.0) {
-                continue;
-            }
-            let keep = 1.0 - a;
-            let px = &mut px[(k0 + l) * run.stride..][..4];
-            for k in 0..3 {
-                px[k] = lit[k] + px[k] * keep;
-            }
-            px[3] = a + px[3] * keep;
-        }
-        k0 += LANES;
-    }
-}
-
-/// A matte layer at (`u` along, `w` across in radii; `mirror`: at −`w`) in lanes, bilinear
-/// between texel centres, zero outside (`MatteAtlas::sample` in f32).
-#[inline(always)]
-fn sample_lanes(
-    texels: &[f32; LAYER],
-    u: &[f32; LANES],
-    w: &[f32; LANES],
-    mirror: bool,
-    out: &mut [f32; LANES],
-) {
-    let at = |xi: i32, yi: i32| {
-        let on = (xi >= 0) & (yi >= 0) & (xi < ATLAS_WIDTH as i32) & (yi < ATLAS_HEIGHT as i32);
-        let k = ((yi * ATLAS_WIDTH as i32 + xi) as usize).min(LAYER - 1);
-        let v = texels[k];
-        if on { v } else { 0.0 }
-    };
-    for l in 0..LANES {
-        let w = if mirror { -w[l] } else { w[l] };
-        let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
-        let y = u[l] * ATLAS_HEIGHT as f32 - 0.5;
-        let (xf, yf) = (x.floor(), y.floor());
-        let (tx, ty) = (x - xf, y - yf);
-        let (x0, y0) = (xf as i32, yf as i32);
-        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
-        let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
-        out[l] = top * (1.0 - ty) + bottom * ty;
     }
 }
 
