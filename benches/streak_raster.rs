@@ -3,7 +3,8 @@
 //! (`gpu::host::streaks`) as capsules and with the shipped mattes, in the AVX2 build and the
 //! baseline one. Prints the medians of wall and CPU time (all threads' time on a CPU, from
 //! /proc on Linux: on a shared machine the CPU time is the steadier figure).
-//! `cargo bench --bench streak_raster [-- RUNS]`.
+//! `cargo bench --bench streak_raster [-- RUNS] [WORD…]`: words keep only the rasters whose
+//! line names them all (`capsules AVX2`: one raster, for a profile; `simulate`: none).
 
 mod common;
 
@@ -14,7 +15,7 @@ use std::time::Instant;
 use rain_composite::drops::MatteAtlas;
 use rain_composite::gpu::host::HostColour;
 use rain_composite::gpu::host::simulate::{Drops, LightTable, simulate};
-use rain_composite::gpu::host::streaks::{Rain, RasterCount, rasterise, rasterise_baseline};
+use rain_composite::gpu::host::streaks::{Rain, Raster, RasterCount};
 use rain_composite::gpu::types::{LightList, RainParams, Streak};
 use rain_composite::video::{ColorParams, YuvFrame};
 
@@ -87,10 +88,14 @@ fn rain_1080p(runs: usize) -> (RainParams, Vec<Streak>) {
 }
 
 fn main() {
-    let runs = std::env::args()
-        .skip(1)
-        .find_map(|a| a.parse().ok())
-        .unwrap_or(15);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let runs = args.iter().find_map(|a| a.parse().ok()).unwrap_or(15);
+    // cargo bench passes `--bench`; numbers are the runs.
+    let words: Vec<&str> = args
+        .iter()
+        .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
+        .map(String::as_str)
+        .collect();
     let (p, streaks) = rain_1080p(runs);
     let format = common::format_420(W, H);
     let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [90, 128, 128]);
@@ -111,8 +116,9 @@ fn main() {
         )
         .expect("drops/"),
     );
-    type Raster = fn(&mut [half::f16], usize, &Rain, &[Streak]) -> RasterCount;
-    let builds: [(&str, Raster); 2] = [("AVX2", rasterise), ("baseline", rasterise_baseline)];
+    type Draw = fn(&mut Raster, &mut [half::f16], usize, &Rain, &[Streak]) -> RasterCount;
+    // Each build keeps its raster's buffers from run to run, as a render does.
+    let builds: [(&str, Draw); 2] = [("AVX2", Raster::draw), ("baseline", Raster::draw_baseline)];
     for (style, mattes) in [("capsules", None), ("mattes", Some(&*atlas))] {
         let rain = Rain {
             params: &clear,
@@ -121,13 +127,17 @@ fn main() {
             depth: None,
         };
         for (build, raster) in builds {
+            if !words.iter().all(|w| [style, build].contains(w)) {
+                continue;
+            }
             let mut canvas = plate.clone();
+            let mut kept = Raster::default();
             let mut count = None;
             let (wall, cpu) = time(
                 runs,
                 &mut canvas,
                 |c| c.copy_from_slice(&plate),
-                |c| count = Some(raster(c, W as usize, &rain, &streaks)),
+                |c| count = Some(raster(&mut kept, c, W as usize, &rain, &streaks)),
             );
             println!(
                 "raster, {style}, {build} build: {count:?}; {wall:.2} ms wall, {cpu:.2} ms CPU"

@@ -838,7 +838,7 @@ fn streak_raster_is_deterministic() {
 /// same bits twice; on an odd width (the last tile's rows end between two vectors).
 #[test]
 fn streak_raster_avx2_build_matches_the_baseline() {
-    use rain_composite::gpu::host::streaks::{Rain, rasterise, rasterise_baseline};
+    use rain_composite::gpu::host::streaks::{Rain, Raster, rasterise, rasterise_baseline};
     let (_, format, color) = formats().remove(2);
     let format = FrameFormat {
         width: 2 * RW - 1,
@@ -876,6 +876,20 @@ fn streak_raster_avx2_build_matches_the_baseline() {
         };
         let (fast, count) = run(rasterise);
         let (base, base_count) = run(rasterise_baseline);
+        // A raster's buffers kept from a frame with more streaks, elsewhere, change no bit.
+        let mut kept = Raster::default();
+        let (more, _) = random_streaks(900, dw, dh, 17);
+        let rain_more = Rain {
+            glints: &[],
+            ..rain
+        };
+        kept.draw(&mut plate.clone(), width, &rain_more, &more);
+        let mut canvas = plate.clone();
+        assert_eq!(kept.draw(&mut canvas, width, &rain, &streaks), count);
+        assert!(
+            canvas.iter().map(|v| v.to_bits()).eq(fast.iter().copied()),
+            "{draw:?}: a kept raster differs"
+        );
         assert!(
             count.streaks > 300 && count.tiles > 8,
             "{draw:?}: {count:?}"
@@ -1917,6 +1931,15 @@ fn simulated_drops_are_deterministic() {
     assert_eq!(glints, a.1, "the baseline build differs");
     let mut other = shot(2, 320, 180);
     other.params.seed += 1;
+    // Records kept from another frame (other drops drawn, other glints) are all rewritten.
+    let mut kept = HostRain::new(&s.setup.columns, s.setup.mattes.clone());
+    kept.set_transfer_table(&tables);
+    kept.set_lights(&s.list);
+    kept.simulate(&other.params);
+    let (streaks, glints, drawable) = kept.simulate(&s.params);
+    assert_eq!(streaks, &a.0[..], "records kept from another frame differ");
+    assert_eq!(glints, &a.1[..], "glints kept from another frame differ");
+    assert_eq!(drawable, a.2);
     assert_ne!(
         simulated(&other, &tables).0,
         a.0,

@@ -135,7 +135,7 @@ fn select(c: bool, a: f32, b: f32) -> f32 {
 
 /// The radiance at both ends of the block's drawn streaks `visible` (lanes): the environment
 /// through the drop's PRT plus the compact lights, clamped at 0 (WGSL `drop_radiance`).
-/// Entry `e · LANES + k` is end e of the k-th drawn streak.
+/// Entry `e · m + k` is end e of the k-th drawn streak (`m` of them): only those are lit.
 #[inline(always)]
 pub(super) fn light_ends(
     p: &RainParams,
@@ -144,7 +144,7 @@ pub(super) fn light_ends(
     visible: &[u8],
 ) -> [[f32; 3]; 2 * LANES] {
     let m = visible.len();
-    // The ends' world offsets from the camera and unit view rays, packed: e · LANES + k.
+    // The ends' world offsets from the camera and unit view rays, packed: e · m + k.
     let mut o = [[0f32; 2 * LANES]; 3];
     let mut v = [[0f32; 2 * LANES]; 3];
     for e in 0..2 {
@@ -153,11 +153,12 @@ pub(super) fn light_ends(
             let c = [ends[e][0][l], ends[e][1][l], ends[e][2][l]];
             let w = world_offset(p, c);
             for a in 0..3 {
-                o[a][e * LANES + k] = w[a];
+                o[a][e * m + k] = w[a];
             }
         }
     }
-    for i in 0..2 * LANES {
+    let ends = 2 * m;
+    for i in 0..ends {
         let len = (o[0][i] * o[0][i] + o[1][i] * o[1][i] + o[2][i] * o[2][i]).sqrt();
         for a in 0..3 {
             v[a][i] = o[a][i] / len;
@@ -169,7 +170,7 @@ pub(super) fn light_ends(
     let t: [[f32; 4]; 3] =
         std::array::from_fn(|c| std::array::from_fn(|l| p.drop_zonal[c][l] * SH_ZONAL_FACTOR[l]));
     let mut sum = [[0f32; 2 * LANES]; 3];
-    for i in 0..2 * LANES {
+    for i in 0..ends {
         let y = basis16_cartesian_f32(v[0][i], v[1][i], v[2][i]);
         for c in 0..3 {
             let e = |k: usize| env[k][c] * y[k];
@@ -180,7 +181,7 @@ pub(super) fn light_ends(
             sum[c][i] = s;
         }
     }
-    for i in 0..2 * LANES {
+    for i in 0..ends {
         for c in 0..3 {
             out[i][c] = sum[c][i];
         }
@@ -195,7 +196,7 @@ pub(super) fn light_ends(
             // Three loops, each simple enough for the vectoriser (one loop of all three is
             // left scalar): the light's direction and solid angle, the angle, the bin.
             let mut omega = [[0f32; 2 * LANES]; 3];
-            for i in 0..2 * LANES {
+            for i in 0..ends {
                 let (w, s) = seen_from(light, [o[0][i], o[1][i], o[2][i]]);
                 omega[0][i] = w[0];
                 omega[1][i] = w[1];
@@ -203,11 +204,11 @@ pub(super) fn light_ends(
                 scale[i] = s;
             }
             let mut angle = [0f32; 2 * LANES];
-            for i in 0..2 * LANES {
+            for i in 0..ends {
                 let w = [omega[0][i], omega[1][i], omega[2][i]];
                 angle[i] = theta(w, [v[0][i], v[1][i], v[2][i]]);
             }
-            for i in 0..2 * LANES {
+            for i in 0..ends {
                 let (b, t) = table_at(f, angle[i]);
                 bin[i] = b;
                 frac[i] = t;
@@ -215,7 +216,7 @@ pub(super) fn light_ends(
             for c in 0..3 {
                 let ch = &table.channels[c];
                 let strength = light.strength[c];
-                for i in 0..2 * LANES {
+                for i in 0..ends {
                     let b = bin[i] as usize & (TABLE_LEN - 1);
                     let lo = ch[b];
                     let hi = ch[(b + 1) & (TABLE_LEN - 1)];
@@ -223,16 +224,14 @@ pub(super) fn light_ends(
                 }
             }
         }
-        for i in 0..2 * LANES {
+        for i in 0..ends {
             for c in 0..3 {
                 out[i][c] += direct[c][i];
             }
         }
     }
-    for (i, c) in out.iter_mut().enumerate() {
-        if i % LANES < m {
-            *c = c.map(|x| x.max(0.0));
-        }
+    for c in &mut out[..ends] {
+        *c = c.map(|x| x.max(0.0));
     }
     out
 }

@@ -14,6 +14,7 @@ pub mod puddles;
 pub mod rain;
 pub mod simulate;
 pub mod splashes;
+mod streak_mattes;
 pub mod streaks;
 pub mod tile;
 pub mod veil;
@@ -42,6 +43,8 @@ pub struct HostColour {
     /// The ground's weight at the glow's grid points.
     ground_mask: Option<Vec<f32>>,
     canvas: Vec<f16>,
+    /// The streak raster's buffers, kept from frame to frame.
+    raster: streaks::Raster,
 }
 
 /// What lies on the ground of one frame: the wet ground's uniforms and the water.
@@ -66,6 +69,7 @@ impl HostColour {
             sky: None,
             ground_mask: None,
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
+            raster: streaks::Raster::default(),
         }
     }
 
@@ -159,7 +163,8 @@ impl HostColour {
             glints,
             depth: self.depth.as_deref(),
         };
-        streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)
+        self.raster
+            .draw(&mut self.canvas, self.format.width as usize, &rain, streaks)
     }
 
     /// Draws the splashes' `streaks` (capsules, behind the scene's depth where set) over the
@@ -171,7 +176,8 @@ impl HostColour {
             glints: &[],
             depth: self.depth.as_deref(),
         };
-        streaks::rasterise(&mut self.canvas, self.format.width as usize, &rain, streaks)
+        self.raster
+            .draw(&mut self.canvas, self.format.width as usize, &rain, streaks)
     }
 
     /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.

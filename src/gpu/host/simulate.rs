@@ -104,11 +104,12 @@ fn simulate_on(
     } else {
         p.drop_count as usize
     };
-    streaks.clear();
+    // Every record is written below (drawn or HIDDEN): the last frame's are not cleared first.
     streaks.resize(n, HIDDEN);
-    glints.clear();
     if drops.glints {
         glints.resize(GLINTS_PER_DROP * n, NO_GLINT);
+    } else {
+        glints.clear();
     }
     if n == 0 {
         return 0;
@@ -196,6 +197,8 @@ macro_rules! with_avx2 {
 with_avx2! {
     fn states_on = states(f: &Frame, id0: u32, cols: &[u32; LANES]) -> States;
     fn shapes_on = shapes(f: &Frame, s: &States) -> Shapes;
+    fn views_on = view_cosines(p: &RainParams, s: &States) -> [f32; LANES];
+    fn info_on = drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8]) -> [u32; LANES];
     fn light_on = light_ends(
         p: &RainParams,
         lit: &Lit,
@@ -280,6 +283,9 @@ fn block(
             n += 1;
         } else {
             out[l] = HIDDEN;
+            if f.glints {
+                glints[GLINTS_PER_DROP * l..][..GLINTS_PER_DROP].fill(NO_GLINT);
+            }
         }
     }
     if n == 0 {
@@ -287,12 +293,11 @@ fn block(
     }
     let visible = &visible[..n];
     let radiance = light_on(f.avx2, f.p, &f.lit, &sh.ends, visible);
-    let mut info = [0u32; LANES];
-    drop_info(f, &s, visible, &mut info);
+    let info = info_on(f.avx2, &s, &views_on(f.avx2, f.p, &s), visible);
     for (k, &l) in visible.iter().enumerate() {
         let l = l as usize;
         let end = |e: usize| {
-            let c = radiance[e * LANES + k];
+            let c = radiance[e * n + k];
             [c[0], c[1], c[2], sh.ends[e][2][l]]
         };
         out[l] = Streak {
@@ -314,9 +319,6 @@ fn block(
                 .expect("glints per drop");
             take_glints(f.p, &f.lit, pos, vel, &mut out[l], g);
         }
-    }
-    for l in (0..out.len()).filter(|&l| f.glints && !sh.drawn[l]) {
-        glints[GLINTS_PER_DROP * l..][..GLINTS_PER_DROP].fill(NO_GLINT);
     }
     n
 }
@@ -718,13 +720,12 @@ fn shapes(f: &Frame, s: &States) -> Shapes {
     sh
 }
 
-/// The matte's bins of each drawn drop (WGSL `drop_info`): pack2x16unorm(diameter / 10 mm,
-/// elevation of the view over the plane normal to the fall / 90°).
+/// |cos| of the angle between each lane's view ray and its fall, at most 1 (WGSL
+/// `drop_info`'s `abs(dot(view, fall))`), for every lane: the lanes side by side.
 #[inline(always)]
-fn drop_info(f: &Frame, s: &States, visible: &[u8], info: &mut [u32; LANES]) {
-    let p = f.p;
-    for (k, &l) in visible.iter().enumerate() {
-        let l = l as usize;
+fn view_cosines(p: &RainParams, s: &States) -> [f32; LANES] {
+    let mut out = [0f32; LANES];
+    for l in 0..LANES {
         let pos = [s.pos[0][l], s.pos[1][l], s.pos[2][l]];
         let view = world_offset(p, to_camera(p, pos));
         let vel = [s.vel[0][l], s.vel[1][l], s.vel[2][l]];
@@ -735,8 +736,64 @@ fn drop_info(f: &Frame, s: &States, visible: &[u8], info: &mut [u32; LANES]) {
         let dot = (view[0] / len) * (vel[0] / speed)
             + (view[1] / len) * (vel[1] / speed)
             + (view[2] / len) * (vel[2] / speed);
-        let elevation_deg = dot.abs().min(1.0).asin().to_degrees();
-        let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
-        info[k] = unorm(s.diameter_mm[l] / 10.0) | unorm(elevation_deg / 90.0) << 16;
+        out[l] = dot.abs().min(1.0);
+    }
+    out
+}
+
+/// The matte's bins of each drawn drop (WGSL `drop_info`): pack2x16unorm(diameter / 10 mm,
+/// elevation of the view over the plane normal to the fall / 90°), `cosines` from
+/// [`view_cosines`].
+#[inline(always)]
+fn drop_info(s: &States, cosines: &[f32; LANES], visible: &[u8]) -> [u32; LANES] {
+    // The library's `asin` one drawn drop at a time, the packing in lanes.
+    let (mut size, mut view) = ([0f32; LANES], [0f32; LANES]);
+    for (k, &l) in visible.iter().enumerate() {
+        let l = l as usize;
+        size[k] = s.diameter_mm[l] / 10.0;
+        view[k] = cosines[l].asin().to_degrees() / 90.0;
+    }
+    let mut info = [0u32; LANES];
+    for k in 0..LANES {
+        info[k] = unorm16(size[k]) | unorm16(view[k]) << 16;
+    }
+    info
+}
+
+/// `x` in [0, 1] to 16 bits, rounded half away from zero as `f32::round` (NaN: 0), without its
+/// library call: below 2¹⁶ a value less its whole part is exact.
+#[inline(always)]
+fn unorm16(x: f32) -> u32 {
+    let y = x.clamp(0.0, 1.0) * 65535.0;
+    // Within i32 (NaN: 0): the conversion the lanes have.
+    let whole = y as i32;
+    (whole + i32::from(y - whole as f32 >= 0.5)) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unorm16;
+
+    /// The rounding without the library call is `f32::round`'s: at every half-way point
+    /// between two codes and the values a few steps either side, across the unit by a stride
+    /// through the bit patterns, and outside it (NaN included).
+    #[test]
+    fn unorm16_rounds_as_the_library() {
+        let library = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
+        let mut xs = vec![f32::NAN, -1.0, -0.0, 0.0, 1.0, 2.0, f32::INFINITY];
+        for k in 0..65535u32 {
+            let half = (k as f32 + 0.5) / 65535.0;
+            for d in -3i32..=3 {
+                xs.push(f32::from_bits(half.to_bits().wrapping_add_signed(d)));
+            }
+        }
+        xs.extend((0..1.0f32.to_bits()).step_by(97).map(f32::from_bits));
+        let mut halves = 0;
+        for x in xs {
+            let y = x.clamp(0.0, 1.0) * 65535.0;
+            halves += usize::from(y.fract() == 0.5);
+            assert_eq!(unorm16(x), library(x), "{x:e}");
+        }
+        assert!(halves > 1000, "{halves} values exactly half-way");
     }
 }

@@ -233,7 +233,7 @@ impl List {
         let first = self.streaks.len() - n;
         for (k, s) in self.streaks[first..].iter_mut().enumerate() {
             let end = |e: usize| {
-                let c = radiance[e * LANES + k];
+                let c = radiance[e * n + k];
                 [c[0], c[1], c[2], self.ends[e][2][k]]
             };
             s.radiance0 = end(0);

@@ -10,17 +10,19 @@
 //! picked at run time; it gives the same bits. The plain twin
 //! [`crate::gpu::cpu::rain_streaks`] is the reference (`tests/backend.rs`); every pixel is
 //! computed from its own coordinates and its streak's run direction, so the result does not
-//! depend on the tiles, the threads or the instruction set.
+//! depend on the tiles, the threads or the instruction set. A renderer keeps one [`Raster`]:
+//! its records, bins and tiles are reused from frame to frame.
 // Lane loops index several arrays by the lane: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
 
 use half::f16;
 use rayon::prelude::*;
 
+use super::streak_mattes::{Matte, matte_of, matte_run};
 use crate::drops::MatteAtlas;
-use crate::drops::atlas::{ATLAS_HEIGHT, ATLAS_WIDTH, HALF_WIDTH_RADII};
-use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M, matte_layers};
-use crate::gpu::types::{GLINTS_PER_DROP, Glint, RainParams, Streak};
+use crate::drops::atlas::HALF_WIDTH_RADII;
+use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M};
+use crate::gpu::types::{Glint, RainParams, Streak};
 
 /// A tile's width and height, px: a tile's f32 pixels (32 KiB) stay in the first-level cache
 /// while its streaks blend.
@@ -28,40 +30,33 @@ pub const TILE_W: usize = 64;
 /// See [`TILE_W`].
 pub const TILE_H: usize = 32;
 
-/// What a streak's matte colour reads: its environment layer and its glints (layer, mirror
-/// image, colour), strongest first.
-struct Matte {
-    layer: usize,
-    glints: Vec<(usize, bool, [f32; 3])>,
-}
-
-/// One drawn streak in the raster's terms (f32); copied into each tile's list, so a tile reads
-/// its streaks from contiguous memory.
+/// One drawn streak in the raster's terms (f32), in the slot of its drop; copied into the list
+/// of each band of tiles it reaches, so a band reads its streaks from contiguous memory.
 #[derive(Clone, Copy, Default)]
-struct Prepared {
+pub(super) struct Prepared {
     /// Along and across the streak (px from q0) at coded pixel (x, y)'s centre:
     /// `f[0] + x f[1] + y f[2]` (formed in f64).
-    along: [f32; 3],
-    across: [f32; 3],
-    len: f32,
+    pub(super) along: [f32; 3],
+    pub(super) across: [f32; 3],
+    pub(super) len: f32,
     /// 1 / len, and 1 / (len + 2 ext) (the radiance's interpolation along the quad).
-    inv_len: f32,
-    inv_quad: f32,
-    r: f32,
+    pub(super) inv_len: f32,
+    pub(super) inv_quad: f32,
+    pub(super) r: f32,
     /// The quad's half-extent along (beyond each end) and across.
-    ext: f32,
-    across_ext: f32,
-    alpha_scale: f32,
-    radiance: [[f32; 3]; 2],
+    pub(super) ext: f32,
+    pub(super) across_ext: f32,
+    pub(super) alpha_scale: f32,
+    pub(super) radiance: [[f32; 3]; 2],
     /// The drop's depth at the path's ends (camera z, m).
-    depth_m: [f32; 2],
+    pub(super) depth_m: [f32; 2],
     /// Coded pixels the quad's box reaches (inclusive), clamped to the picture.
-    x0: usize,
-    x1: usize,
-    y0: usize,
-    y1: usize,
+    pub(super) x0: u32,
+    pub(super) x1: u32,
+    pub(super) y0: u32,
+    pub(super) y1: u32,
     /// Its index in the raster's [`Matte`]s ([`NO_MATTE`]: a capsule).
-    matte: u32,
+    pub(super) matte: u32,
 }
 
 /// [`Prepared::matte`] of a capsule.
@@ -125,9 +120,10 @@ pub struct Rain<'a> {
 }
 
 /// Blends `streaks` (one per drop, `len_px < 0`: not drawn) over `canvas` (RGBA f16, row-major,
-/// the coded picture of `rain.params.coded_size_px`, `width` texels a row).
+/// the coded picture of `rain.params.coded_size_px`, `width` texels a row), with buffers of its
+/// own (a renderer keeps a [`Raster`] instead).
 pub fn rasterise(canvas: &mut [f16], width: usize, rain: &Rain, streaks: &[Streak]) -> RasterCount {
-    rasterise_on(canvas, width, rain, streaks, true)
+    Raster::default().draw(canvas, width, rain, streaks)
 }
 
 /// [`rasterise`] without the AVX2 build: the same bits (`tests/backend.rs` holds them equal).
@@ -137,7 +133,7 @@ pub fn rasterise_baseline(
     rain: &Rain,
     streaks: &[Streak],
 ) -> RasterCount {
-    rasterise_on(canvas, width, rain, streaks, false)
+    Raster::default().draw_baseline(canvas, width, rain, streaks)
 }
 
 /// Whether the CPU runs the raster's AVX2 build (AVX2 for the lanes, F16C for the tiles).
@@ -149,119 +145,288 @@ fn has_avx2() -> bool {
     false
 }
 
-/// What every band of tiles reads: the inputs, the streaks in drop order and their mattes.
+/// Streaks prepared per rayon task.
+const PREPARE_CHUNK: usize = 1024;
+
+/// [`Raster::bands`] of a streak not drawn.
+const NO_BANDS: [u32; 2] = [1, 0];
+
+/// The raster's buffers, kept from frame to frame: after the first frame a raster allocates
+/// nothing and touches no fresh page (a 1080p frame's records alone are ~7.6 MB). Each drop's
+/// record is written in its own slot by the thread that prepares it, so nothing is gathered or
+/// concatenated; the bins hold drop indices, and each drop's bands sit in an array of their
+/// own, so binning reads 8 bytes a drop, not its record.
+#[derive(Default)]
+pub struct Raster {
+    /// Each drop's record (valid where its bands are).
+    prepared: Vec<Prepared>,
+    /// Each drop's first and last band of tiles ([`NO_BANDS`]: not drawn).
+    bands: Vec<[u32; 2]>,
+    /// Each drop's matte (with mattes; valid where its bands are).
+    mattes: Vec<Matte>,
+    /// Where each band's drops start in `in_band`, and a cursor per band while binning.
+    band_start: Vec<u32>,
+    fill: Vec<u32>,
+    /// The drops of each band, in drop order.
+    in_band: Vec<u32>,
+    /// Each band of tiles' own buffers.
+    band: Vec<BandBuffers>,
+}
+
+/// What one band of tiles works in: its streaks' records side by side, those of each tile
+/// (indices into them, drop order kept), and a tile in f32.
+#[derive(Default)]
+struct BandBuffers {
+    local: Vec<Prepared>,
+    start: Vec<u32>,
+    fill: Vec<u32>,
+    order: Vec<u32>,
+    tile: Vec<f32>,
+}
+
+/// What every band of tiles reads: the inputs, each drop's record and matte.
 struct Frame<'a> {
     rain: &'a Rain<'a>,
     rot: Rotation,
-    prepared: Vec<Prepared>,
-    mattes: Vec<Matte>,
+    prepared: &'a [Prepared],
+    mattes: &'a [Matte],
     width: usize,
     tiles_x: usize,
 }
 
-fn rasterise_on(
-    canvas: &mut [f16],
-    width: usize,
-    rain: &Rain,
-    streaks: &[Streak],
-    avx2: bool,
-) -> RasterCount {
-    let height = canvas.len() / (4 * width.max(1));
-    let rot = Rotation::new(rain.params);
-    let prepare = |(id, s)| prepare(rain, &rot, id, s, width, height);
-    let (prepared, mattes) = if rain.mattes.is_none() {
-        let prepared: Vec<Prepared> = streaks
-            .par_iter()
-            .enumerate()
-            .filter_map(|s| prepare(s).map(|(p, _)| p))
-            .collect();
-        (prepared, Vec::new())
-    } else {
-        let items: Vec<(Prepared, Option<Matte>)> =
-            streaks.par_iter().enumerate().filter_map(prepare).collect();
-        let mut mattes = Vec::new();
-        let prepared = items
-            .into_iter()
-            .map(|(mut p, matte)| {
-                if let Some(m) = matte {
-                    p.matte = mattes.len() as u32;
-                    mattes.push(m);
+impl Raster {
+    /// [`rasterise`] in this raster's buffers.
+    pub fn draw(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+    ) -> RasterCount {
+        self.draw_on(canvas, width, rain, streaks, true)
+    }
+
+    /// [`Raster::draw`] without the AVX2 build (see [`rasterise_baseline`]).
+    pub fn draw_baseline(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+    ) -> RasterCount {
+        self.draw_on(canvas, width, rain, streaks, false)
+    }
+
+    fn draw_on(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+        avx2: bool,
+    ) -> RasterCount {
+        let height = canvas.len() / (4 * width.max(1));
+        let rot = Rotation::new(rain.params);
+        let n = streaks.len();
+        // Grown, never shrunk: the splashes' few streaks do not cost the drops' slots.
+        if self.prepared.len() < n {
+            self.prepared.resize(n, Prepared::default());
+            self.bands.resize(n, NO_BANDS);
+        }
+        let avx2 = avx2 && has_avx2();
+        let (prepared, bands) = (&mut self.prepared[..n], &mut self.bands[..n]);
+        let size = (width, height);
+        prepared
+            .par_chunks_mut(PREPARE_CHUNK)
+            .zip(bands.par_chunks_mut(PREPARE_CHUNK))
+            .zip(streaks.par_chunks(PREPARE_CHUNK))
+            .for_each(|((prepared, bands), streaks)| {
+                prepare_on(avx2, rain, &rot, streaks, size, prepared, bands);
+            });
+        let mattes: &[Matte] = match rain.mattes {
+            Some(atlas) => {
+                if self.mattes.len() < n {
+                    self.mattes.resize_with(n, Matte::default);
                 }
-                p
+                self.mattes[..n]
+                    .par_iter_mut()
+                    .zip(prepared.par_iter_mut())
+                    .zip(bands.par_iter())
+                    .zip(streaks.par_iter())
+                    .enumerate()
+                    .filter(|(_, ((_, b), _))| b[0] <= b[1])
+                    .for_each(|(id, (((m, p), _), s))| {
+                        *m = matte_of(rain, atlas, id, s);
+                        p.matte = id as u32;
+                    });
+                &self.mattes[..n]
+            }
+            None => &[],
+        };
+        let tiles_x = width.div_ceil(TILE_W);
+        let tiles_y = height.div_ceil(TILE_H);
+        // Each band of tiles' streaks by index, drop order kept (a counting sort); each band
+        // sorts its own by tile.
+        let start = &mut self.band_start;
+        start.clear();
+        start.resize(tiles_y + 1, 0);
+        let mut drawn = 0;
+        for b in bands.iter().filter(|b| b[0] <= b[1]) {
+            drawn += 1;
+            for ty in b[0]..=b[1] {
+                start[ty as usize + 1] += 1;
+            }
+        }
+        for k in 1..start.len() {
+            start[k] += start[k - 1];
+        }
+        let fill = &mut self.fill;
+        fill.clear();
+        fill.extend_from_slice(start);
+        let in_band = &mut self.in_band;
+        in_band.resize(start[tiles_y] as usize, 0);
+        for (i, b) in bands.iter().enumerate() {
+            for ty in b[0]..=b[1] {
+                in_band[fill[ty as usize] as usize] = i as u32;
+                fill[ty as usize] += 1;
+            }
+        }
+        if self.band.len() < tiles_y {
+            self.band.resize_with(tiles_y, BandBuffers::default);
+        }
+        let frame = Frame {
+            rain,
+            rot,
+            prepared,
+            mattes,
+            width,
+            tiles_x,
+        };
+        let (start, in_band) = (&*start, &*in_band);
+        let tiles = canvas
+            .par_chunks_mut(4 * width * TILE_H)
+            .zip(self.band[..tiles_y].par_iter_mut())
+            .enumerate()
+            .map(|(ty, (rows, buffers))| {
+                let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
+                band_on(avx2, &frame, ty, list, rows, buffers)
             })
-            .collect();
-        (prepared, mattes)
-    };
-    let tiles_x = width.div_ceil(TILE_W);
-    let tiles_y = height.div_ceil(TILE_H);
-    // Each band of tiles' streaks by index, drop order kept (a counting sort); each band sorts
-    // its own by tile.
-    let mut start = vec![0u32; tiles_y + 1];
-    for p in &prepared {
-        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
-            start[ty + 1] += 1;
+            .sum();
+        RasterCount {
+            streaks: drawn,
+            tiles,
         }
-    }
-    for k in 1..start.len() {
-        start[k] += start[k - 1];
-    }
-    let mut fill = start.clone();
-    let mut in_band = vec![0u32; start[tiles_y] as usize];
-    for (i, p) in prepared.iter().enumerate() {
-        for ty in p.y0 / TILE_H..=p.y1 / TILE_H {
-            in_band[fill[ty] as usize] = i as u32;
-            fill[ty] += 1;
-        }
-    }
-    let frame = Frame {
-        rain,
-        rot,
-        prepared,
-        mattes,
-        width,
-        tiles_x,
-    };
-    let avx2 = avx2 && has_avx2();
-    let tiles = canvas
-        .par_chunks_mut(4 * width * TILE_H)
-        .enumerate()
-        .map(|(ty, band)| {
-            let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
-            band_on(avx2, &frame, ty, list, band)
-        })
-        .sum();
-    RasterCount {
-        streaks: frame.prepared.len(),
-        tiles,
     }
 }
 
-/// [`band`], in the AVX2 build where `avx2` (the CPU has it).
-fn band_on(avx2: bool, frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
+/// [`prepare`] for each of `streaks` into its slot of `prepared` and its bands into `bands`
+/// ([`NO_BANDS`] where it is not drawn), in the AVX2 build where `avx2` (the CPU has it: the
+/// roundings inline, no library calls; the same bits).
+fn prepare_on(
+    avx2: bool,
+    rain: &Rain,
+    rot: &Rotation,
+    streaks: &[Streak],
+    size: (usize, usize),
+    prepared: &mut [Prepared],
+    bands: &mut [[u32; 2]],
+) {
+    #[inline(always)]
+    fn each(
+        rain: &Rain,
+        rot: &Rotation,
+        streaks: &[Streak],
+        (width, height): (usize, usize),
+        prepared: &mut [Prepared],
+        bands: &mut [[u32; 2]],
+    ) {
+        for ((slot, band), s) in prepared.iter_mut().zip(bands).zip(streaks) {
+            *band = match prepare(rain, rot, s, width, height) {
+                Some(p) => {
+                    *slot = p;
+                    [p.y0 / TILE_H as u32, p.y1 / TILE_H as u32]
+                }
+                None => NO_BANDS,
+            };
+        }
+    }
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         #[target_feature(enable = "avx2,f16c")]
-        fn fast(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16]) -> usize {
-            band(frame, ty, list, canvas, true)
+        fn fast(
+            rain: &Rain,
+            rot: &Rotation,
+            streaks: &[Streak],
+            size: (usize, usize),
+            prepared: &mut [Prepared],
+            bands: &mut [[u32; 2]],
+        ) {
+            each(rain, rot, streaks, size, prepared, bands);
         }
-        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`rasterise_on`).
-        return unsafe { fast(frame, ty, list, canvas) };
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`Raster::draw_on`).
+        unsafe { fast(rain, rot, streaks, size, prepared, bands) };
+        return;
     }
-    band(frame, ty, list, canvas, false)
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
+    each(rain, rot, streaks, size, prepared, bands);
 }
 
-/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (indices in drop
-/// order): each tile with streaks goes to f32, blends them in drop order and goes back to f16
-/// ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
+/// [`band`], in the AVX2 build where `avx2` (the CPU has it).
+fn band_on(
+    avx2: bool,
+    frame: &Frame,
+    ty: usize,
+    list: &[u32],
+    canvas: &mut [f16],
+    buffers: &mut BandBuffers,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        #[target_feature(enable = "avx2,f16c")]
+        fn fast(
+            frame: &Frame,
+            ty: usize,
+            list: &[u32],
+            canvas: &mut [f16],
+            buffers: &mut BandBuffers,
+        ) -> usize {
+            band(frame, ty, list, canvas, buffers, true)
+        }
+        // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`Raster::draw_on`).
+        return unsafe { fast(frame, ty, list, canvas, buffers) };
+    }
+    band(frame, ty, list, canvas, buffers, false)
+}
+
+/// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (drop indices in
+/// drop order), in `buffers`: each tile with streaks goes to f32, blends them in drop order and
+/// goes back to f16 ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
 #[inline(always)]
-fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) -> usize {
+fn band(
+    frame: &Frame,
+    ty: usize,
+    list: &[u32],
+    canvas: &mut [f16],
+    buffers: &mut BandBuffers,
+    f16c: bool,
+) -> usize {
     let (width, tiles_x) = (frame.width, frame.tiles_x);
+    let BandBuffers {
+        local,
+        start,
+        fill,
+        order,
+        tile,
+    } = buffers;
     // The band's streaks side by side (read in one sweep, then from the cache), sorted by
     // tile with drop order kept.
-    let local: Vec<Prepared> = list.iter().map(|&i| frame.prepared[i as usize]).collect();
-    let span = |p: &Prepared| p.x0 / TILE_W..=p.x1 / TILE_W;
-    let mut start = vec![0u32; tiles_x + 1];
-    for p in &local {
+    local.clear();
+    local.extend(list.iter().map(|&i| frame.prepared[i as usize]));
+    let span = |p: &Prepared| p.x0 as usize / TILE_W..=p.x1 as usize / TILE_W;
+    start.clear();
+    start.resize(tiles_x + 1, 0);
+    for p in local.iter() {
         for tx in span(p) {
             start[tx + 1] += 1;
         }
@@ -269,8 +434,9 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
     for k in 1..start.len() {
         start[k] += start[k - 1];
     }
-    let mut fill = start.clone();
-    let mut order = vec![0u32; start[tiles_x] as usize];
+    fill.clear();
+    fill.extend_from_slice(start);
+    order.resize(start[tiles_x] as usize, 0);
     for (i, p) in local.iter().enumerate() {
         for tx in span(p) {
             order[fill[tx] as usize] = i as u32;
@@ -278,7 +444,8 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
         }
     }
     let rows = canvas.len() / (4 * width);
-    let mut tile = vec![0f32; 4 * TILE_W * TILE_H];
+    // Every texel a tile's streaks read is loaded first: the buffer needs no clearing.
+    tile.resize(4 * TILE_W * TILE_H, 0.0);
     let mut drawn = 0;
     for tx in 0..tiles_x {
         let list = &order[start[tx] as usize..start[tx + 1] as usize];
@@ -287,6 +454,11 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
         }
         drawn += 1;
         let (x0, cols) = (tx * TILE_W, TILE_W.min(width - tx * TILE_W));
+        // The next tile's texels are asked for while this one's streaks blend.
+        if tx + 1 < tiles_x {
+            let next = &canvas[4 * (x0 + TILE_W)..];
+            super::tile::prefetch(next, 4 * width, rows, 4 * TILE_W.min(width - x0 - TILE_W));
+        }
         for r in 0..rows {
             super::tile::load(
                 &canvas[4 * (r * width + x0)..][..4 * cols],
@@ -303,7 +475,7 @@ fn band(frame: &Frame, ty: usize, list: &[u32], canvas: &mut [f16], f16c: bool) 
         for &i in list {
             let p = &local[i as usize];
             let matte = frame.mattes.get(p.matte as usize);
-            draw(frame.rain, &frame.rot, p, matte, &area, &mut tile);
+            draw(frame.rain, &frame.rot, p, matte, &area, tile);
         }
         for r in 0..rows {
             super::tile::store(
@@ -324,16 +496,16 @@ struct Area {
     y1: usize,
 }
 
-/// Streak `id` in the raster's terms, or `None` where it is not drawn or its quad misses the
+/// Streak `s` in the raster's terms, or `None` where it is not drawn or its quad misses the
 /// picture.
+#[inline(always)]
 fn prepare(
     rain: &Rain,
     rot: &Rotation,
-    id: usize,
     s: &Streak,
     width: usize,
     height: usize,
-) -> Option<(Prepared, Option<Matte>)> {
+) -> Option<Prepared> {
     // Hidden (negative length; NaN as well).
     if s.len_px.is_nan() || s.len_px < 0.0 {
         return None;
@@ -366,7 +538,7 @@ fn prepare(
     if !on_picture {
         return None;
     }
-    let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+    let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1) as u32;
     // display = M (coded − offset): along = dir · (display − q0), across = n · (display − q0).
     let m = rot.m.map(f64::from);
     let (off, q) = (rot.offset.map(f64::from), q0.map(f64::from));
@@ -382,21 +554,6 @@ fn prepare(
         ]
     };
     let (dir64, n64) = (d.map(f64::from), n.map(f64::from));
-    let matte = rain.mattes.map(|atlas| {
-        let own = rain
-            .glints
-            .get(GLINTS_PER_DROP * id..)
-            .map_or(&[][..], |g| &g[..g.len().min(GLINTS_PER_DROP)]);
-        let (layer, glints) = matte_layers(atlas, rain.params.seed, id as u32, s.drop_info, own);
-        Matte {
-            layer,
-            glints: glints
-                .into_iter()
-                .zip(own)
-                .map(|((l, mirror), g)| (l, mirror, [g.colour[0], g.colour[1], g.colour[2]]))
-                .collect(),
-        }
-    });
     let prepared = Prepared {
         along: form(dir64),
         across: form(n64),
@@ -418,7 +575,7 @@ fn prepare(
         y1: clamp((hi[1] + 1.0).ceil(), height),
         matte: NO_MATTE,
     };
-    Some((prepared, matte))
+    Some(prepared)
 }
 
 /// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
@@ -439,13 +596,13 @@ fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
 
 /// The larger of `a` and `b`, as one instruction (neither is NaN here).
 #[inline(always)]
-fn larger(a: f32, b: f32) -> f32 {
+pub(super) fn larger(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
 
 /// The smaller of `a` and `b` (see [`larger`]).
 #[inline(always)]
-fn smaller(a: f32, b: f32) -> f32 {
+pub(super) fn smaller(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
@@ -478,8 +635,8 @@ fn draw<'a>(
     area: &Area,
     tile: &mut [f32],
 ) {
-    let (ya, yb) = (p.y0.max(area.y0), p.y1.min(area.y1));
-    let (xa, xb) = (p.x0.max(area.x0), p.x1.min(area.x1));
+    let (ya, yb) = ((p.y0 as usize).max(area.y0), (p.y1 as usize).min(area.y1));
+    let (xa, xb) = ((p.x0 as usize).max(area.x0), (p.x1 as usize).min(area.x1));
     if ya > yb || xa > xb {
         return;
     }
@@ -556,19 +713,19 @@ fn draw<'a>(
 
 /// A run of pixels: at coordinate `u` along it, `along + u · da` and `across + u · dc`; from
 /// `first`, `count` pixels `stride` floats apart.
-struct Run {
-    along: f32,
-    across: f32,
-    da: f32,
-    dc: f32,
-    first: usize,
-    count: usize,
-    stride: usize,
+pub(super) struct Run {
+    pub(super) along: f32,
+    pub(super) across: f32,
+    pub(super) da: f32,
+    pub(super) dc: f32,
+    pub(super) first: usize,
+    pub(super) count: usize,
+    pub(super) stride: usize,
 }
 
 /// Pixels of a run taken side by side: the capsule's arithmetic is one loop over this many
 /// lanes (one AVX2 vector, two SSE ones), the blend a loop of its own over the pixels.
-const LANES: usize = 8;
+pub(super) const LANES: usize = 8;
 
 /// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
 /// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
@@ -610,123 +767,6 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f3
             px[3] = a + px[3] * keep;
         }
         k0 += LANES;
-    }
-}
-
-/// Texels in one layer of the mattes.
-const LAYER: usize = ATLAS_WIDTH * ATLAS_HEIGHT;
-
-/// Blends streak `p` with its matte `m` over `run` as the twin does (the capsule's alpha, the
-/// colour spread by the matte and the glints' mattes, sampled bilinearly), the alpha and light
-/// of its `k`-th pixel times `shown(k, along)`; a pixel outside the quad, or with neither
-/// alpha nor light, is left as it was. The layers are chosen once for the streak, and each
-/// pixel is computed from its own coordinate in lanes (as [`capsule_run`]).
-#[inline(always)]
-fn matte_run(
-    p: &Prepared,
-    m: &Matte,
-    atlas: &MatteAtlas,
-    run: &Run,
-    px: &mut [f32],
-    shown: impl Fn(usize, f32) -> f32,
-) {
-    let layer = |l: usize| <&[f32; LAYER]>::try_from(&atlas.texels[l * LAYER..][..LAYER]).ok();
-    let Some(env) = layer(m.layer) else { return };
-    let (r2, len) = (p.r * p.r, p.len);
-    let [r0, r1] = p.radiance;
-    let still = len < 1e-3;
-    let footprint = p.len + 2.0 * p.r;
-    let light_spread = p.alpha_scale * std::f32::consts::PI * p.r / footprint;
-    let mut k0 = 0;
-    while k0 < run.count {
-        // Outside the quad a lane's alpha and light are 0 (`spread[l]` = 0): left as it was.
-        let (mut alpha, mut along, mut spread) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
-        let (mut u, mut w, mut t) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
-        let u0 = (run.first + k0) as i32;
-        for l in 0..LANES {
-            let uf = (u0 + l as i32) as f32;
-            let a = run.along + uf * run.da;
-            let across = run.across + uf * run.dc;
-            let h = larger(r2 - across * across, 0.0).sqrt();
-            let swept =
-                (smaller(larger(a + h, 0.0), len) - smaller(larger(a - h, 0.0), len)) * p.inv_len;
-            let here = if a.abs() < h { 1.0 } else { 0.0 };
-            let cover = if still { here } else { swept };
-            alpha[l] = smaller(larger(cover * p.alpha_scale, 0.0), 1.0);
-            t[l] = (a + p.ext) * p.inv_quad;
-            u[l] = (a + p.r) / footprint;
-            w[l] = -across / p.r;
-            along[l] = a;
-            spread[l] = across;
-        }
-        for l in 0..LANES {
-            let (a, across) = (along[l], spread[l]);
-            // `&`, not `&&`: no branch in a lane.
-            let inside = (a >= -p.ext) & (a <= len + p.ext) & (across.abs() <= p.across_ext);
-            alpha[l] = if inside { alpha[l] } else { 0.0 };
-            spread[l] = if inside { light_spread } else { 0.0 };
-        }
-        let mut n = [0f32; LANES];
-        sample_lanes(env, &u, &w, false, &mut n);
-        let mut light = [[0f32; LANES]; 3];
-        for l in 0..LANES {
-            for k in 0..3 {
-                light[k][l] = (r0[k] * (1.0 - t[l]) + r1[k] * t[l]) * n[l];
-            }
-        }
-        for &(glint, mirror, colour) in &m.glints {
-            let Some(texels) = layer(glint) else { continue };
-            sample_lanes(texels, &u, &w, mirror, &mut n);
-            for l in 0..LANES {
-                for k in 0..3 {
-                    light[k][l] += colour[k] * n[l];
-                }
-            }
-        }
-        for l in 0..LANES.min(run.count - k0) {
-            let s = shown(k0 + l, along[l]);
-            let a = alpha[l] * s;
-            let lit = [0, 1, 2].map(|k| light[k][l] * spread[l] * s);
-            if a <= 0.0 && lit.iter().all(|&c| c <= 0.0) {
-                continue;
-            }
-            let keep = 1.0 - a;
-            let px = &mut px[(k0 + l) * run.stride..][..4];
-            for k in 0..3 {
-                px[k] = lit[k] + px[k] * keep;
-            }
-            px[3] = a + px[3] * keep;
-        }
-        k0 += LANES;
-    }
-}
-
-/// A matte layer at (`u` along, `w` across in radii; `mirror`: at −`w`) in lanes, bilinear
-/// between texel centres, zero outside (`MatteAtlas::sample` in f32).
-#[inline(always)]
-fn sample_lanes(
-    texels: &[f32; LAYER],
-    u: &[f32; LANES],
-    w: &[f32; LANES],
-    mirror: bool,
-    out: &mut [f32; LANES],
-) {
-    let at = |xi: i32, yi: i32| {
-        let on = (xi >= 0) & (yi >= 0) & (xi < ATLAS_WIDTH as i32) & (yi < ATLAS_HEIGHT as i32);
-        let k = ((yi * ATLAS_WIDTH as i32 + xi) as usize).min(LAYER - 1);
-        let v = texels[k];
-        if on { v } else { 0.0 }
-    };
-    for l in 0..LANES {
-        let w = if mirror { -w[l] } else { w[l] };
-        let x = (w / HALF_WIDTH_RADII as f32 + 1.0) * 0.5 * ATLAS_WIDTH as f32 - 0.5;
-        let y = u[l] * ATLAS_HEIGHT as f32 - 0.5;
-        let (xf, yf) = (x.floor(), y.floor());
-        let (tx, ty) = (x - xf, y - yf);
-        let (x0, y0) = (xf as i32, yf as i32);
-        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
-        let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
-        out[l] = top * (1.0 - ty) + bottom * ty;
     }
 }
 

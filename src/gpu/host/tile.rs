@@ -1,6 +1,6 @@
 //! A tile's rows between the f16 canvas and the raster's f32, eight values at a time with F16C
 //! in the raster's AVX2 build, else through the `half` crate: exact one way, rounded to the
-//! nearest even the other, so both give the same bits.
+//! nearest even the other, so both give the same bits; and the next tile asked for ahead.
 
 use half::f16;
 use half::slice::HalfFloatSliceExt;
@@ -31,6 +31,29 @@ pub fn store(src: &[f32], dst: &mut [f16], f16c: bool) {
     }
     let _ = f16c;
     dst.convert_from_f32_slice(src);
+}
+
+/// Asks the CPU to bring `rows` rows of `len` values, `stride` apart from the start of
+/// `canvas`, into its cache (no effect on any value; nothing where the CPU cannot).
+#[inline(always)]
+pub fn prefetch(canvas: &[f16], stride: usize, rows: usize, len: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // A cache line holds 32 values.
+        for r in 0..rows {
+            let Some(row) = canvas.get(r * stride..r * stride + len) else {
+                return;
+            };
+            for k in (0..len).step_by(32) {
+                // SAFETY: a prefetch reads nothing and faults on no address; this one is
+                // within `row`.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(row.as_ptr().add(k).cast::<i8>()) };
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (canvas, stride, rows, len);
 }
 
 #[cfg(target_arch = "x86_64")]
