@@ -59,6 +59,7 @@ use super::particles::{Particles, PermuteScratch};
 use super::resting::RestingWater;
 use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
 use super::sources::{Emitter, MassLedger, NewParticle, unit_from_hash};
+use super::terrain::TerrainSample;
 use crate::{Error, Result};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -90,6 +91,10 @@ pub struct Muller2003 {
     /// Whether resting water lies above the particle in its column (it is no surface).
     #[serde(skip)]
     covered: Vec<bool>,
+    /// The terrain under each particle, from the density pass for the force pass (the same
+    /// positions: one terrain read a pass fewer).
+    #[serde(skip)]
+    ground: Vec<Option<TerrainSample>>,
     #[serde(skip)]
     keep: Vec<bool>,
     #[serde(skip)]
@@ -126,6 +131,7 @@ impl Muller2003 {
             pair_terms: Vec::new(),
             column_best: Vec::new(),
             covered: Vec::new(),
+            ground: Vec::new(),
             keep: Vec::new(),
             fate: Vec::new(),
             emitters: Vec::new(),
@@ -598,6 +604,7 @@ impl Muller2003 {
         self.neighbours.count.resize(n, 0);
         self.pair_terms.resize(n, [0.0; 2]);
         self.covered.resize(n, false);
+        self.ground.resize(n, None);
         let grid = &self.grid;
         let bounds = &self.boundaries;
         let resting = &self.resting;
@@ -619,12 +626,14 @@ impl Muller2003 {
             .zip(self.neighbours.list.par_chunks_mut(cap))
             .zip(self.neighbours.count.par_iter_mut())
             .zip(self.covered.par_iter_mut())
+            .zip(self.ground.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
-            .for_each(|(i, (((((rho, p), terms), list), count), covered))| {
+            .for_each(|(i, ((((((rho, p), terms), list), count), covered), ground))| {
                 let xi = pos[i];
+                *ground = bounds.terrain_under(xi);
                 // Friction only changes ghost velocities, unused here.
-                let mirrors = bounds.mirrors(xi, h, 0.0);
+                let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
                 let mirrors = mirrors.as_slice();
                 let mut sum = 0.0f32;
                 let mut c = 0usize;
@@ -730,6 +739,7 @@ impl Muller2003 {
         let neighbours = &self.neighbours;
         let terms = &self.pair_terms;
         let resting = &self.resting;
+        let ground = &self.ground;
         let lattice = self.moments;
         let Particles {
             position_m,
@@ -760,7 +770,7 @@ impl Muller2003 {
                 } else {
                     0.0
                 };
-                let mirrors = bounds.mirrors(xi, h, friction);
+                let mirrors = bounds.mirrors_on(xi, h, friction, ground[i]);
                 let mirrors = mirrors.as_slice();
                 let mut add = |r_vec: Vec3, [vol_j, p_over_rho2_j]: [f32; 2], v_j: Vec3| {
                     let r2 = r_vec.length_squared();

@@ -68,10 +68,19 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
             && depth_m.values.len() == depth_m.nx * depth_m.ny,
         "surface and depth on one grid"
     );
+    water_map_and_share(surface_m, depth_m).0
+}
+
+/// [`water_map`] and the wet share of each leaf's neighbourhood it was made with (what
+/// [`super::kept_map`] keeps), by whole-grid passes.
+pub(super) fn water_map_and_share(surface_m: &Field2, depth_m: &Field2) -> (Field2, Vec<f32>) {
     let (nx, ny) = (depth_m.nx, depth_m.ny);
     let on_grid = |values: Vec<f32>| Field2 {
         values,
-        ..depth_m.clone()
+        nx,
+        ny,
+        origin_m: depth_m.origin_m,
+        cell_m: depth_m.cell_m,
     };
     // The wet share (separable passes: exactly 0 with no wet leaf within reach, exactly 1 with
     // no dry one).
@@ -89,7 +98,7 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
             leaf_value(k, (nx, ny), (share.values[k], level.values[k]), around)
         })
         .collect();
-    on_grid(values)
+    (on_grid(values), share.values)
 }
 
 /// A leaf's weight in the wet share: 1 where wet, 0 where dry.
