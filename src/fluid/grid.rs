@@ -8,11 +8,11 @@
 //! fewer candidates for the same radius. The solver permutes its particle arrays
 //! into this order after every rebuild, so a run of slots is also a run of memory.
 //!
-//! Where the particles are few for their box (a few hundred moving over a street's water),
-//! the cells are many and mostly empty: the rebuild then counts by rows of cells (y, z)
-//! instead, sorts each row's particles by their cell along x (stably), and a search finds a
-//! run's ends in its row by bisection — the same order and the same runs, without touching
-//! every cell each step.
+//! A grid made again every step ([`UniformGrid::rebuild_often`]) whose particles are few
+//! for their box (a few hundred moving over a street's water) has many cells, mostly empty:
+//! it is counted by rows of cells (y, z) instead, each row's particles sorted by their cell
+//! along x (stably), and a search finds a run's ends in its row by bisection — the same order
+//! and the same runs, without touching every cell each step.
 //!
 //! Everything here is serial and integer-only, so the order — and hence every float sum the
 //! solver makes over neighbours — is the same whatever the thread count. Buffers are reused:
@@ -54,6 +54,19 @@ impl UniformGrid {
     /// `max_cells` cells (larger cells otherwise), for searches within `radius_m`. Positions
     /// must be finite.
     pub fn rebuild(
+        &mut self,
+        positions_m: &[Vec3],
+        radius_m: f32,
+        min_cell_m: f32,
+        max_cells: usize,
+    ) {
+        self.rebuild_as(positions_m, radius_m, min_cell_m, max_cells, Some(false));
+    }
+
+    /// [`UniformGrid::rebuild`] for a grid made again every step: counted by rows where the
+    /// cells are many for the particles (the same order and runs; a search then bisects
+    /// within rows, so a grid searched many times between rebuilds is better dense).
+    pub fn rebuild_often(
         &mut self,
         positions_m: &[Vec3],
         radius_m: f32,

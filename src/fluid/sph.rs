@@ -575,7 +575,7 @@ impl Muller2003 {
         let h = self.settings.smoothing_length_m;
         let budget = 64 * self.particles.len() + (1 << 16);
         self.grid
-            .rebuild(&self.particles.position_m, h, 0.5 * h, budget);
+            .rebuild_often(&self.particles.position_m, h, 0.5 * h, budget);
         self.particles
             .permute(self.grid.order(), &mut self.permute_scratch);
         self.resting

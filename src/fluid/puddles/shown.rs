@@ -154,6 +154,10 @@ fn soft_minimum(k: usize, (nx, ny): (usize, usize), (surface, depth): (&[f32], &
             }
         }
     }
+    if low == f32::INFINITY {
+        // No wet leaf within reach: what the sums below would return, without them.
+        return low;
+    }
     let taper = 3.0 * EDGE_DEPTH_M;
     let (mut sum, mut weight) = (0.0f32, 0.0f32);
     for jj in j0..j1 {
