@@ -158,15 +158,35 @@ impl Flood {
         let c = vertex as usize;
         self.order.push(vertex);
         let from = self.vertices[c].filled;
-        for nb in neighbours(c, self.nx, self.ny) {
-            let n = &mut self.vertices[nb];
+        let mut visit = |flood: &mut Flood, nb: usize| {
+            let n = &mut flood.vertices[nb];
             if !n.reached {
                 n.reached = true;
                 n.filled = n.h.max(from);
                 n.receiver = vertex;
                 let level = n.filled;
-                let q = self.entry(nb, level);
+                let q = flood.entry(nb, level);
                 enqueue(q);
+            }
+        };
+        let (nx, i, j) = (self.nx, c % self.nx, c / self.nx);
+        if i > 0 && j > 0 && i + 1 < nx && j + 1 < self.ny {
+            // Inside: the eight in [`neighbours`]' order, without its bounds tests.
+            for nb in [
+                c - nx - 1,
+                c - nx,
+                c - nx + 1,
+                c - 1,
+                c + 1,
+                c + nx - 1,
+                c + nx,
+                c + nx + 1,
+            ] {
+                visit(self, nb);
+            }
+        } else {
+            for nb in neighbours(c, nx, self.ny) {
+                visit(self, nb);
             }
         }
     }
