@@ -17,7 +17,8 @@
 use rayon::prelude::*;
 
 use super::shown::{
-    KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value, taps, water_map_and_share, wet_share,
+    KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, front, leaf_value, taps, water_map_and_share,
+    wet_share,
 };
 use crate::fluid::carpet::Field2;
 
@@ -223,13 +224,50 @@ fn make_tile(
         }
     }
     let level = window(&LEVEL_KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| surface[k]);
+    let near = wet_near((nx, ny), (i0, i1), (j0, j1), depth);
     for j in j0..j1 {
         for i in i0..i1 {
             let at = (j - j0) * nx + i;
             let around = (share[at], level[(j - j0) * w + (i - i0)]);
-            rows[at] = leaf_value(j * nx + i, (nx, ny), around, (surface, depth));
+            rows[at] = if around.0 > 0.0 && around.0 < 1.0 && !near[(j - j0) * w + (i - i0)] {
+                // A rim leaf with no wet leaf within the level's reach: its soft minimum is
+                // +∞, so [`leaf_value`] is the front's depth; the same value without the
+                // neighbourhood's two passes.
+                front(around.0)
+            } else {
+                leaf_value(j * nx + i, (nx, ny), around, (surface, depth))
+            };
         }
     }
+}
+
+/// Whether a wet leaf lies within [`LEVEL_REACH`] along x and y (the box the soft minimum
+/// reads) of each leaf `i0..i1` × `j0..j1` (row-major), by a pass along x and one along y.
+fn wet_near(
+    (nx, ny): (usize, usize),
+    (i0, i1): (usize, usize),
+    (j0, j1): (usize, usize),
+    depth: &[f32],
+) -> Vec<bool> {
+    let r = LEVEL_REACH;
+    let w = i1 - i0;
+    let (r0, r1) = (j0.saturating_sub(r), (j1 + r).min(ny));
+    let mut along_x = Vec::with_capacity((r1 - r0) * w);
+    for row in r0..r1 {
+        let line = &depth[row * nx..(row + 1) * nx];
+        for i in i0..i1 {
+            let span = &line[i.saturating_sub(r)..(i + r + 1).min(nx)];
+            along_x.push(span.iter().any(|&d| d > 0.0));
+        }
+    }
+    let mut near = Vec::with_capacity((j1 - j0) * w);
+    for j in j0..j1 {
+        let (a, b) = (j.saturating_sub(r), (j + r + 1).min(ny));
+        for i in 0..w {
+            near.push((a..b).any(|row| along_x[(row - r0) * w + i]));
+        }
+    }
+    near
 }
 
 /// `kernel` convolved along x, then along y, over the field `value(k)` on a grid of `dims`,

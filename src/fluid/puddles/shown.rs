@@ -108,7 +108,7 @@ pub(super) fn wet_share(depth_m: f32) -> f32 {
 
 /// The shown depth where the wet share of the neighbourhood rises past zero: 0 at
 /// [`REACH_SHARE`], the rim depth [`RAMP_SHARE`] beyond it.
-fn front(share: f32) -> f32 {
+pub(super) fn front(share: f32) -> f32 {
     EDGE_DEPTH_M * (share - REACH_SHARE) / RAMP_SHARE
 }
 
