@@ -120,9 +120,8 @@ impl UniformGrid {
         self.dims = dims;
         let n_cells = dims[0] * dims[1] * dims[2];
         let rows = dims[1] * dims[2];
-        let by_rows = by_rows.unwrap_or(
-            n_cells > CELLS_PER_PARTICLE_BY_ROWS * (positions_m.len() + rows),
-        );
+        let by_rows =
+            by_rows.unwrap_or(n_cells > CELLS_PER_PARTICLE_BY_ROWS * (positions_m.len() + rows));
         self.by_rows = by_rows;
         self.slot_x.clear();
         if by_rows {

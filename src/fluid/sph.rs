@@ -629,54 +629,56 @@ impl Muller2003 {
             .zip(self.ground.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
-            .for_each(|(i, ((((((rho, p), terms), list), count), covered), ground))| {
-                let xi = pos[i];
-                *ground = bounds.terrain_under(xi);
-                // Friction only changes ghost velocities, unused here.
-                let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
-                let mirrors = mirrors.as_slice();
-                let mut sum = 0.0f32;
-                let mut c = 0usize;
-                // Ghosts within h are images of neighbours within h (or of i itself).
-                let ghosts = |xj: Vec3| {
-                    let mut g = 0.0;
-                    for mirror in mirrors {
-                        if let Some(ghost) = mirror.point(xj) {
-                            g += Spiky::value_sq((xi - ghost).length_squared(), h);
-                        }
-                    }
-                    g
-                };
-                sum += ghosts(xi);
-                grid.for_each_neighbour_run(xi, |run| {
-                    for j in run {
-                        let xj = pos[j];
-                        let r2 = (xi - xj).length_squared();
-                        if r2 < h2 && j != i {
-                            sum += Spiky::value_sq(r2, h) + ghosts(xj);
-                            if c < cap {
-                                list[c] = j as u32;
+            .for_each(
+                |(i, ((((((rho, p), terms), list), count), covered), ground))| {
+                    let xi = pos[i];
+                    *ground = bounds.terrain_under(xi);
+                    // Friction only changes ghost velocities, unused here.
+                    let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
+                    let mirrors = mirrors.as_slice();
+                    let mut sum = 0.0f32;
+                    let mut c = 0usize;
+                    // Ghosts within h are images of neighbours within h (or of i itself).
+                    let ghosts = |xj: Vec3| {
+                        let mut g = 0.0;
+                        for mirror in mirrors {
+                            if let Some(ghost) = mirror.point(xj) {
+                                g += Spiky::value_sq((xi - ghost).length_squared(), h);
                             }
-                            c += 1;
                         }
-                    }
-                });
-                *count = c as u32;
-                // Water at rest around: its density and its ghosts'; above in the column, it
-                // is the surface there.
-                let mut above = false;
-                resting.for_each_near(xi, h2, |xj, _| {
-                    sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
-                    above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
-                });
-                *covered = above;
-                let r = self_density + m_sum * sum;
-                *rho = r;
-                let pr = eos.pressure_pa(r, rho0);
-                let pr = if clamp { pr.max(0.0) } else { pr };
-                *p = pr;
-                *terms = [m / r, pr / (r * r)];
-            });
+                        g
+                    };
+                    sum += ghosts(xi);
+                    grid.for_each_neighbour_run(xi, |run| {
+                        for j in run {
+                            let xj = pos[j];
+                            let r2 = (xi - xj).length_squared();
+                            if r2 < h2 && j != i {
+                                sum += Spiky::value_sq(r2, h) + ghosts(xj);
+                                if c < cap {
+                                    list[c] = j as u32;
+                                }
+                                c += 1;
+                            }
+                        }
+                    });
+                    *count = c as u32;
+                    // Water at rest around: its density and its ghosts'; above in the column, it
+                    // is the surface there.
+                    let mut above = false;
+                    resting.for_each_near(xi, h2, |xj, _| {
+                        sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
+                        above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
+                    });
+                    *covered = above;
+                    let r = self_density + m_sum * sum;
+                    *rho = r;
+                    let pr = eos.pressure_pa(r, rho0);
+                    let pr = if clamp { pr.max(0.0) } else { pr };
+                    *p = pr;
+                    *terms = [m / r, pr / (r * r)];
+                },
+            );
     }
 
     /// Surface particles: the highest particle in each column of edge Δx (thesis §5.3.1, the

@@ -6,7 +6,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use crate::{Error, Result};
 use crate::config::RenderConfig;
 use crate::fluid::puddles::checkpoint::{self, Checkpoints};
 use crate::fluid::puddles::{KeptWaterMap, PuddleSettings, PuddleSim};
@@ -18,6 +17,7 @@ use crate::scene::depth::DepthSource;
 use crate::shot::Shot;
 use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
+use crate::{Error, Result};
 
 /// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
 /// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
@@ -42,7 +42,7 @@ pub(super) struct Building {
     rain: GroundRain,
     index: u64,
     t_s: f64,
-    thread: JoinHandle<Result<Option<(PuddleSim, Option<Keeping>)>>>,
+    thread: JoinHandle<Result<Built>>,
     /// Stops the thread's fast-forward; set when the build is dropped unfinished.
     stop: StopOnDrop,
 }

@@ -172,7 +172,12 @@ pub fn micro_relief(
             let rows: Vec<LatticeRows> = octaves
                 .iter()
                 .map(|&(k, lambda, _)| {
-                    LatticeRows::new(seed, k, y / lambda, (x_at(0) / lambda, x_at(nx - 1) / lambda))
+                    LatticeRows::new(
+                        seed,
+                        k,
+                        y / lambda,
+                        (x_at(0) / lambda, x_at(nx - 1) / lambda),
+                    )
                 })
                 .collect();
             for (i, z) in out.iter_mut().enumerate() {

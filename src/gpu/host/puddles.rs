@@ -289,10 +289,7 @@ impl<'a> Puddles<'a> {
     fn sees_no_water(&self, (x0, x1): (usize, usize), (y0, y1): (usize, usize)) -> bool {
         let g = self.ground;
         let p = &self.water.params;
-        let (lo, hi) = (
-            Vec2::splat(f32::INFINITY),
-            Vec2::splat(f32::NEG_INFINITY),
-        );
+        let (lo, hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
         let (mut lo, mut hi) = (lo, hi);
         for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
             let ray = g.ray(x, y);
@@ -315,10 +312,9 @@ impl<'a> Puddles<'a> {
             return true;
         }
         let (a, b) = (a.max(Vec2::ZERO), b.min(Vec2::new(nx - 1.0, ny - 1.0)));
-        !self.wet.any(
-            (a.x as usize, b.x as usize),
-            (a.y as usize, b.y as usize),
-        )
+        !self
+            .wet
+            .any((a.x as usize, b.x as usize), (a.y as usize, b.y as usize))
     }
 
     /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
@@ -732,8 +728,8 @@ mod tests {
             for j1 in j0..ny {
                 for i0 in (0..nx).step_by(3) {
                     for i1 in (i0..nx).step_by(2) {
-                        let any_cell = (j0..=j1)
-                            .any(|j| (i0..=i1).any(|i| depth[j * nx + i] > 0.0));
+                        let any_cell =
+                            (j0..=j1).any(|j| (i0..=i1).any(|i| depth[j * nx + i] > 0.0));
                         let blocks = (j0 / WET_BLOCK..=j1 / WET_BLOCK).any(|b| {
                             (i0 / WET_BLOCK..=i1 / WET_BLOCK).any(|a| {
                                 (b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny)).any(|j| {
@@ -743,7 +739,10 @@ mod tests {
                             })
                         });
                         let got = wet.any((i0, i1), (j0, j1));
-                        assert!(got || !any_cell, "missed a wet cell in {i0}..={i1} × {j0}..={j1}");
+                        assert!(
+                            got || !any_cell,
+                            "missed a wet cell in {i0}..={i1} × {j0}..={j1}"
+                        );
                         assert_eq!(got, blocks, "{i0}..={i1} × {j0}..={j1}");
                     }
                 }
