@@ -19,10 +19,11 @@ use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
 use crate::{Error, Result};
 
-/// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
+/// Feeds the puddles (`--puddles`): the simulation is built for the first frame rendered (with
 /// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
 /// start or from kept water, so a preview or a chunk sees the water a whole render shows
-/// there; then each frame
+/// there; at that frame, or beforehand on its own thread ([`PuddleFeed::begin`]); then each
+/// frame
 /// hands it the drops that landed since the last one, and the compositor its water map and
 /// the impacts of the last ring life for the ripples.
 pub(super) enum PuddleFeed {
