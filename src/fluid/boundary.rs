@@ -23,7 +23,7 @@
 //!
 //! Particles beyond an open face leave the simulation and are counted as outflow.
 
-use super::terrain::HeightField;
+use super::terrain::{HeightField, TerrainSample};
 use crate::{Error, Result};
 use glam::Vec3;
 
@@ -169,17 +169,40 @@ impl Mirror {
     }
 }
 
+/// Mirrors held in place: a box corner's 7 images and the terrain; more (a box narrower than
+/// 2h) go to the heap. Made twice a step for every moving particle, so kept small.
+const INLINE_MIRRORS: usize = 8;
+
 /// The mirrors acting on one particle (at most 26 box images plus the terrain).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(crate) struct Mirrors {
-    list: [Mirror; 27],
+    list: [Mirror; INLINE_MIRRORS],
     len: usize,
+    /// All of them, in order, where there are more than [`INLINE_MIRRORS`].
+    more: Vec<Mirror>,
 }
 
 impl Mirrors {
     #[inline]
     pub(crate) fn as_slice(&self) -> &[Mirror] {
-        &self.list[..self.len]
+        if self.more.is_empty() {
+            &self.list[..self.len]
+        } else {
+            &self.more
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, mirror: Mirror) {
+        if self.len < INLINE_MIRRORS {
+            self.list[self.len] = mirror;
+        } else {
+            if self.more.is_empty() {
+                self.more.extend_from_slice(&self.list);
+            }
+            self.more.push(mirror);
+        }
+        self.len += 1;
     }
 }
 
@@ -190,6 +213,26 @@ impl Boundaries {
     /// walls are free-slip (the side walls of the validation tanks stand for symmetry planes).
     #[inline]
     pub(crate) fn mirrors(&self, p: Vec3, h_m: f32, ground_friction: f32) -> Mirrors {
+        self.mirrors_on(p, h_m, ground_friction, self.terrain_under(p))
+    }
+
+    /// The terrain under `p` ([`HeightField::sample`]), if there is a terrain: what
+    /// [`Boundaries::mirrors_on`] takes, kept by a pass that asks for the mirrors of one
+    /// position twice.
+    #[inline]
+    pub(crate) fn terrain_under(&self, p: Vec3) -> Option<TerrainSample> {
+        self.terrain.as_ref().map(|t| t.sample(p.x, p.y))
+    }
+
+    /// [`Boundaries::mirrors`] with the terrain under `p` given (`terrain_under(p)`).
+    #[inline]
+    pub(crate) fn mirrors_on(
+        &self,
+        p: Vec3,
+        h_m: f32,
+        ground_friction: f32,
+        terrain: Option<TerrainSample>,
+    ) -> Mirrors {
         let rough = 1.0 - 2.0 * ground_friction;
         let d = &self.domain;
         let mut m = Mirrors {
@@ -197,8 +240,9 @@ impl Boundaries {
                 normal: Vec3::Z,
                 offset: 0.0,
                 tangential: 1.0,
-            }; 27],
+            }; INLINE_MIRRORS],
             len: 0,
+            more: Vec::new(),
         };
         // Per axis: the planes (twice their coordinate) within h.
         let mut planes = [[0.0f32; 2]; 3];
@@ -225,27 +269,24 @@ impl Boundaries {
                         };
                         let twice_plane = Vec3::new(pick(cx, 0), pick(cy, 1), pick(cz, 2));
                         let floor = cz > 0 && twice_plane.z == 2.0 * d.min_m.z;
-                        m.list[m.len] = Mirror::Axes {
+                        m.push(Mirror::Axes {
                             mask: glam::BVec3::new(cx > 0, cy > 0, cz > 0),
                             twice_plane,
                             tangential: if floor { rough } else { 1.0 },
-                        };
-                        m.len += 1;
+                        });
                     }
                 }
             }
         }
-        if let Some(t) = &self.terrain {
-            let s = t.sample(p.x, p.y);
+        if let Some(s) = terrain {
             let dist = (p.z - s.height_m) * s.normal.z;
-            if dist < h_m && m.len < m.list.len() {
+            if dist < h_m {
                 let foot = Vec3::new(p.x, p.y, s.height_m);
-                m.list[m.len] = Mirror::Plane {
+                m.push(Mirror::Plane {
                     normal: s.normal,
                     offset: s.normal.dot(foot),
                     tangential: rough,
-                };
-                m.len += 1;
+                });
             }
         }
         m

@@ -546,6 +546,19 @@ impl Carpet {
         self.field(|k| self.levels[0].nodes[k].height_m)
     }
 
+    /// Leaf `k`'s surface height and water depth, m: [`Carpet::surface_height`] and
+    /// [`Carpet::water_depth`] at k, read in place.
+    #[inline]
+    pub fn leaf_surface_and_depth(&self, k: usize) -> (f32, f32) {
+        let leaf = &self.levels[0].nodes[k];
+        (leaf.height_m, leaf.max_depth_m)
+    }
+
+    /// The leaves' grid, as a field without values.
+    pub fn leaf_grid(&self) -> Field2 {
+        self.field_of(Vec::new())
+    }
+
     /// Wetness per leaf, in [0, 1] (see the module's wetness model).
     pub fn wetness(&self) -> Field2 {
         self.field(|k| self.leaf_wetness(k))
@@ -553,12 +566,17 @@ impl Carpet {
 
     fn field(&self, f: impl Fn(usize) -> f32) -> Field2 {
         let s = &self.settings;
+        self.field_of((0..s.nx * s.ny).map(f).collect())
+    }
+
+    fn field_of(&self, values: Vec<f32>) -> Field2 {
+        let s = &self.settings;
         Field2 {
             nx: s.nx,
             ny: s.ny,
             origin_m: s.origin_m,
             cell_m: s.cell_m,
-            values: (0..s.nx * s.ny).map(f).collect(),
+            values,
         }
     }
 }

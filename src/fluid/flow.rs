@@ -190,9 +190,10 @@ impl SurfaceFlow {
         self.carpet.add_hits(&mut self.held_hits);
     }
 
-    /// Releases the drained particles, runs SPH for `dt_s` and rebuilds the carpet.
+    /// Releases the drained particles, runs SPH for `dt_s` and rebuilds the carpet; the
+    /// wetting held back is applied beside the SPH steps (it reads and writes only the
+    /// wetness, which neither the release nor the steps read).
     pub fn advance(&mut self, dt_s: f64) -> Result<usize> {
-        self.flush_hits();
         let clearance = 0.5 * self.sph.settings().particle_spacing_m;
         let carpet = &self.carpet;
         let bounds = self.sph.boundaries();
@@ -208,7 +209,9 @@ impl SurfaceFlow {
             &mut self.drained,
         );
         self.sph.queue(&self.drained)?;
-        let steps = self.sph.advance(dt_s)?;
+        let (carpet, held, sph) = (&mut self.carpet, &mut self.held_hits, &mut self.sph);
+        let ((), steps) = rayon::join(|| carpet.add_hits(held), || sph.advance(dt_s));
+        let steps = steps?;
         self.update_carpet(dt_s as f32);
         Ok(steps)
     }

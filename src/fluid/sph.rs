@@ -59,6 +59,7 @@ use super::particles::{Particles, PermuteScratch};
 use super::resting::RestingWater;
 use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
 use super::sources::{Emitter, MassLedger, NewParticle, unit_from_hash};
+use super::terrain::TerrainSample;
 use crate::{Error, Result};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -90,6 +91,10 @@ pub struct Muller2003 {
     /// Whether resting water lies above the particle in its column (it is no surface).
     #[serde(skip)]
     covered: Vec<bool>,
+    /// The terrain under each particle, from the density pass for the force pass (the same
+    /// positions: one terrain read a pass fewer).
+    #[serde(skip)]
+    ground: Vec<Option<TerrainSample>>,
     #[serde(skip)]
     keep: Vec<bool>,
     #[serde(skip)]
@@ -126,6 +131,7 @@ impl Muller2003 {
             pair_terms: Vec::new(),
             column_best: Vec::new(),
             covered: Vec::new(),
+            ground: Vec::new(),
             keep: Vec::new(),
             fate: Vec::new(),
             emitters: Vec::new(),
@@ -569,7 +575,7 @@ impl Muller2003 {
         let h = self.settings.smoothing_length_m;
         let budget = 64 * self.particles.len() + (1 << 16);
         self.grid
-            .rebuild(&self.particles.position_m, h, 0.5 * h, budget);
+            .rebuild_often(&self.particles.position_m, h, 0.5 * h, budget);
         self.particles
             .permute(self.grid.order(), &mut self.permute_scratch);
         self.resting
@@ -598,6 +604,7 @@ impl Muller2003 {
         self.neighbours.count.resize(n, 0);
         self.pair_terms.resize(n, [0.0; 2]);
         self.covered.resize(n, false);
+        self.ground.resize(n, None);
         let grid = &self.grid;
         let bounds = &self.boundaries;
         let resting = &self.resting;
@@ -619,55 +626,59 @@ impl Muller2003 {
             .zip(self.neighbours.list.par_chunks_mut(cap))
             .zip(self.neighbours.count.par_iter_mut())
             .zip(self.covered.par_iter_mut())
+            .zip(self.ground.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
-            .for_each(|(i, (((((rho, p), terms), list), count), covered))| {
-                let xi = pos[i];
-                // Friction only changes ghost velocities, unused here.
-                let mirrors = bounds.mirrors(xi, h, 0.0);
-                let mirrors = mirrors.as_slice();
-                let mut sum = 0.0f32;
-                let mut c = 0usize;
-                // Ghosts within h are images of neighbours within h (or of i itself).
-                let ghosts = |xj: Vec3| {
-                    let mut g = 0.0;
-                    for mirror in mirrors {
-                        if let Some(ghost) = mirror.point(xj) {
-                            g += Spiky::value_sq((xi - ghost).length_squared(), h);
-                        }
-                    }
-                    g
-                };
-                sum += ghosts(xi);
-                grid.for_each_neighbour_run(xi, |run| {
-                    for j in run {
-                        let xj = pos[j];
-                        let r2 = (xi - xj).length_squared();
-                        if r2 < h2 && j != i {
-                            sum += Spiky::value_sq(r2, h) + ghosts(xj);
-                            if c < cap {
-                                list[c] = j as u32;
+            .for_each(
+                |(i, ((((((rho, p), terms), list), count), covered), ground))| {
+                    let xi = pos[i];
+                    *ground = bounds.terrain_under(xi);
+                    // Friction only changes ghost velocities, unused here.
+                    let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
+                    let mirrors = mirrors.as_slice();
+                    let mut sum = 0.0f32;
+                    let mut c = 0usize;
+                    // Ghosts within h are images of neighbours within h (or of i itself).
+                    let ghosts = |xj: Vec3| {
+                        let mut g = 0.0;
+                        for mirror in mirrors {
+                            if let Some(ghost) = mirror.point(xj) {
+                                g += Spiky::value_sq((xi - ghost).length_squared(), h);
                             }
-                            c += 1;
                         }
-                    }
-                });
-                *count = c as u32;
-                // Water at rest around: its density and its ghosts'; above in the column, it
-                // is the surface there.
-                let mut above = false;
-                resting.for_each_near(xi, h2, |xj, _| {
-                    sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
-                    above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
-                });
-                *covered = above;
-                let r = self_density + m_sum * sum;
-                *rho = r;
-                let pr = eos.pressure_pa(r, rho0);
-                let pr = if clamp { pr.max(0.0) } else { pr };
-                *p = pr;
-                *terms = [m / r, pr / (r * r)];
-            });
+                        g
+                    };
+                    sum += ghosts(xi);
+                    grid.for_each_neighbour_run(xi, |run| {
+                        for j in run {
+                            let xj = pos[j];
+                            let r2 = (xi - xj).length_squared();
+                            if r2 < h2 && j != i {
+                                sum += Spiky::value_sq(r2, h) + ghosts(xj);
+                                if c < cap {
+                                    list[c] = j as u32;
+                                }
+                                c += 1;
+                            }
+                        }
+                    });
+                    *count = c as u32;
+                    // Water at rest around: its density and its ghosts'; above in the column, it
+                    // is the surface there.
+                    let mut above = false;
+                    resting.for_each_near(xi, h2, |xj, _| {
+                        sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
+                        above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
+                    });
+                    *covered = above;
+                    let r = self_density + m_sum * sum;
+                    *rho = r;
+                    let pr = eos.pressure_pa(r, rho0);
+                    let pr = if clamp { pr.max(0.0) } else { pr };
+                    *p = pr;
+                    *terms = [m / r, pr / (r * r)];
+                },
+            );
     }
 
     /// Surface particles: the highest particle in each column of edge Δx (thesis §5.3.1, the
@@ -730,6 +741,7 @@ impl Muller2003 {
         let neighbours = &self.neighbours;
         let terms = &self.pair_terms;
         let resting = &self.resting;
+        let ground = &self.ground;
         let lattice = self.moments;
         let Particles {
             position_m,
@@ -760,7 +772,7 @@ impl Muller2003 {
                 } else {
                     0.0
                 };
-                let mirrors = bounds.mirrors(xi, h, friction);
+                let mirrors = bounds.mirrors_on(xi, h, friction, ground[i]);
                 let mirrors = mirrors.as_slice();
                 let mut add = |r_vec: Vec3, [vol_j, p_over_rho2_j]: [f32; 2], v_j: Vec3| {
                     let r2 = r_vec.length_squared();

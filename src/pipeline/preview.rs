@@ -55,6 +55,8 @@ pub fn preview(
     }
     rain = rain.with_cancel(cancel);
     let t_target = frame_time_s(&info, &target);
+    // The water's fast-forward beside the light window's frames.
+    rain.begin_water(target.index, t_target)?;
     let window = rain.light_window_s();
     if window > 0.0 {
         let from = (t_target - window).max(0.0);

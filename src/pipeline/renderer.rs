@@ -130,6 +130,16 @@ impl Renderer {
         self
     }
 
+    /// Starts building the puddles' water for the first frame to be rendered (frame `index`,
+    /// shown at `t_s`) on its own thread, beside the frames observed before it; rendering
+    /// that frame takes it (the same water as built there). No effect without puddles or
+    /// once the water runs. Call after [`with_checkpoints`](Self::with_checkpoints) and
+    /// [`with_cancel`](Self::with_cancel).
+    pub fn begin_water(&mut self, index: u64, t_s: f64) -> Result<()> {
+        self.puddles
+            .begin(&self.rain, &mut self.depth.source, index, t_s)
+    }
+
     /// The uniforms, lights, depth and water of the frame shown at `t_s`, set on the
     /// compositor.
     fn prepare(&mut self, frame: &YuvFrame, t_s: f64) -> Result<RainParams> {

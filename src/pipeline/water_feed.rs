@@ -1,10 +1,11 @@
 //! The water feed: the puddles' simulation, brought to the first frame rendered and advanced
 //! with the rain that lands, handed to the compositor frame by frame.
 
-use std::sync::atomic::AtomicBool;
-use std::time::Instant;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
-use crate::Result;
 use crate::config::RenderConfig;
 use crate::fluid::puddles::checkpoint::{self, Checkpoints};
 use crate::fluid::puddles::{KeptWaterMap, PuddleSettings, PuddleSim};
@@ -16,11 +17,13 @@ use crate::scene::depth::DepthSource;
 use crate::shot::Shot;
 use crate::shot::rain::CameraTrack;
 use crate::video::Layer;
+use crate::{Error, Result};
 
-/// Feeds the puddles (`--puddles`): the simulation is built at the first frame rendered (with
+/// Feeds the puddles (`--puddles`): the simulation is built for the first frame rendered (with
 /// the relief of the clip's first depth map, if any) and brought to its time — from the clip's
 /// start or from kept water, so a preview or a chunk sees the water a whole render shows
-/// there; then each frame
+/// there; at that frame, or beforehand on its own thread ([`PuddleFeed::begin`]); then each
+/// frame
 /// hands it the drops that landed since the last one, and the compositor its water map and
 /// the impacts of the last ring life for the ripples.
 pub(super) enum PuddleFeed {
@@ -28,11 +31,60 @@ pub(super) enum PuddleFeed {
     Off,
     /// Waiting for the first frame.
     Pending(Box<PuddlePlan>),
+    /// Built for the first frame on its own thread ([`PuddleFeed::begin`]).
+    Building(Box<Building>),
     /// Running.
     On(Box<PuddleRun>),
 }
 
+/// The water built on its own thread for the first frame `index`, shown at `t_s`.
+pub(super) struct Building {
+    plan: Box<PuddlePlan>,
+    rain: GroundRain,
+    index: u64,
+    t_s: f64,
+    thread: JoinHandle<Result<Built>>,
+    /// Stops the thread's fast-forward; set when the build is dropped unfinished.
+    stop: StopOnDrop,
+}
+
+/// Sets its flag when dropped: a build no one waits for stops at its next solver step.
+struct StopOnDrop(Arc<AtomicBool>);
+
+impl Drop for StopOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// The water a build made, or that it made none.
+type Built = Option<(PuddleSim, Option<Keeping>)>;
+
+impl Building {
+    /// The thread's water, waited for; the caller's cancel flag, set meanwhile, stops it.
+    fn join(self) -> Result<(Box<PuddlePlan>, GroundRain, Built)> {
+        let Building {
+            plan,
+            rain,
+            thread,
+            stop,
+            ..
+        } = self;
+        while !thread.is_finished() {
+            if plan.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                stop.0.store(true, Ordering::Relaxed);
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let built = thread
+            .join()
+            .map_err(|_| Error::Gpu("the water's thread panicked".into()))??;
+        Ok((plan, rain, built))
+    }
+}
+
 /// What the water is built from at the first frame.
+#[derive(Clone)]
 pub(super) struct PuddlePlan {
     /// The camera at the shot's start.
     camera: Camera,
@@ -69,6 +121,7 @@ pub(super) struct PuddleRun {
 }
 
 /// Where a run keeps its water, under which fingerprint.
+#[derive(Clone)]
 struct Keeping {
     checkpoints: Checkpoints,
     fingerprint: String,
@@ -106,6 +159,44 @@ impl PuddleFeed {
         }))
     }
 
+    /// Starts building the water for the first frame rendered (frame `index`, shown at `t_s`)
+    /// on its own thread, so that it runs beside the work before that frame (a preview's
+    /// light window); [`PuddleFeed::start`] at that frame takes it, the same water as built
+    /// there. No effect unless waiting for the first frame.
+    pub(super) fn begin(
+        &mut self,
+        rain: &RainSetup,
+        depth: &mut Option<DepthSource>,
+        index: u64,
+        t_s: f64,
+    ) -> Result<()> {
+        let PuddleFeed::Pending(plan) = self else {
+            return Ok(());
+        };
+        let map = plan.first_depth_map(depth)?;
+        let ground = GroundRain::new(rain.rainfall());
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (plan, ground, stop) = ((**plan).clone(), ground.clone(), stop.clone());
+            std::thread::Builder::new()
+                .name("water".into())
+                .spawn(move || plan.build(&ground, map.as_deref(), index, t_s, &stop))
+                .map_err(|e| Error::Gpu(format!("the water's thread did not start: {e}")))?
+        };
+        let PuddleFeed::Pending(plan) = std::mem::replace(self, PuddleFeed::Off) else {
+            unreachable!("matched above");
+        };
+        *self = PuddleFeed::Building(Box::new(Building {
+            plan,
+            rain: ground,
+            index,
+            t_s,
+            thread,
+            stop: StopOnDrop(stop),
+        }));
+        Ok(())
+    }
+
     /// Builds the water at the first frame rendered (frame `index`, shown at `t_s`); returns the
     /// impacts of the last ring life, for the ripples (none once running).
     pub(super) fn start(
@@ -116,11 +207,29 @@ impl PuddleFeed {
         t_s: f64,
     ) -> Result<Vec<Impact>> {
         use crate::fluid::ripples::{RING_LIFE_S, ring_ground};
-        let PuddleFeed::Pending(plan) = self else {
-            return Ok(Vec::new());
+        // Built beside the frames before for this very frame, or here.
+        let plan = match std::mem::replace(self, PuddleFeed::Off) {
+            PuddleFeed::Building(b) if b.index == index && b.t_s == t_s => Err(b),
+            // Begun for another frame: that build stops, this one starts anew.
+            PuddleFeed::Building(b) => Ok(b.plan),
+            PuddleFeed::Pending(plan) => Ok(plan),
+            other => {
+                *self = other;
+                return Ok(Vec::new());
+            }
         };
-        let rain = GroundRain::new(rain.rainfall());
-        let Some((sim, keep)) = plan.build(&rain, depth, index, t_s)? else {
+        let (plan, rain, built) = match plan {
+            Err(building) => building.join()?,
+            Ok(plan) => {
+                let rain = GroundRain::new(rain.rainfall());
+                let map = plan.first_depth_map(depth)?;
+                let never = AtomicBool::new(false);
+                let stop = plan.cancel.unwrap_or(&never);
+                let built = plan.build(&rain, map.as_deref(), index, t_s, stop)?;
+                (plan, rain, built)
+            }
+        };
+        let Some((sim, keep)) = built else {
             log::warn!(
                 "ground.puddles: the {} shows no ground within reach; no puddles",
                 if depth.is_some() {
@@ -241,10 +350,11 @@ impl PuddlePlan {
     fn build(
         &self,
         rain: &GroundRain,
-        depth: &mut Option<DepthSource>,
+        depth_m: Option<&[f32]>,
         index: u64,
         t_s: f64,
-    ) -> Result<Option<(PuddleSim, Option<Keeping>)>> {
+        stop: &AtomicBool,
+    ) -> Result<Built> {
         let started = Instant::now();
         let settings = PuddleSettings::of(&self.config);
         let fingerprint = checkpoint::fingerprint(&self.config, &self.camera, self.fps, &settings);
@@ -257,7 +367,7 @@ impl PuddlePlan {
             fingerprint,
         });
         // Built either way: a checkpoint leaves out what the configuration fixes.
-        let Some(fresh) = self.new_sim(depth, &settings)? else {
+        let Some(fresh) = self.new_sim(depth_m, &settings)? else {
             return Ok(None);
         };
         let (from, mut sim) = match kept {
@@ -268,8 +378,7 @@ impl PuddlePlan {
             None => ("from the clip's start".to_string(), fresh),
         };
         if t_s > sim.time_s() {
-            let never = AtomicBool::new(false);
-            sim.advance_with_rain_or_stop(rain, t_s, self.cancel.unwrap_or(&never))?;
+            sim.advance_with_rain_or_stop(rain, t_s, stop)?;
         }
         let (cap, capped) = sim.particle_cap();
         log::info!(
@@ -281,15 +390,11 @@ impl PuddlePlan {
         Ok(Some((sim, keep)))
     }
 
-    /// The water at the clip's start, on the relief of the clip's first depth map (if any):
-    /// the ground a whole render starts from, whichever frame a chunk starts at.
-    fn new_sim(
-        &self,
-        depth: &mut Option<DepthSource>,
-        settings: &PuddleSettings,
-    ) -> Result<Option<PuddleSim>> {
+    /// The clip's first depth map (if any) in the camera's pixels, holes 0: the relief the
+    /// water is built on, whichever frame a chunk starts at.
+    fn first_depth_map(&self, depth: &mut Option<DepthSource>) -> Result<Option<Vec<f32>>> {
         let camera = &self.camera;
-        let map = match depth {
+        Ok(match depth {
             Some(d) => Some(
                 d.at(0)?
                     .resampled(camera.width_px as usize, camera.height_px as usize)
@@ -299,8 +404,17 @@ impl PuddlePlan {
                     .collect::<Vec<f32>>(),
             ),
             None => None,
-        };
+        })
+    }
+
+    /// The water at the clip's start, on the relief of the clip's first depth map `depth_m`
+    /// ([`PuddlePlan::first_depth_map`]): the ground a whole render starts from.
+    fn new_sim(
+        &self,
+        depth_m: Option<&[f32]>,
+        settings: &PuddleSettings,
+    ) -> Result<Option<PuddleSim>> {
         let cameras = self.track.poses(crate::shot::rain::GROUND_VIEW_STEP_DEG);
-        PuddleSim::seen_by(&self.config, &cameras, map.as_deref(), self.fps, settings)
+        PuddleSim::seen_by(&self.config, &cameras, depth_m, self.fps, settings)
     }
 }

@@ -90,38 +90,50 @@ fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     .map(move |(a, b)| b as usize * nx + a as usize)
 }
 
-/// A Priority-Flood under way: the filled heights, receivers and order so far, which
-/// vertices were reached, and how many entered a queue (each entry's order).
-struct Flood<'a> {
-    h: &'a [f32],
+/// A Priority-Flood under way: per vertex its height, filled height, receiver and whether it
+/// was reached (one record, so taking a vertex reads one cache line per neighbour, not four),
+/// the order so far and how many entered a queue (each entry's order).
+struct Flood {
     nx: usize,
     ny: usize,
-    filled: Vec<f32>,
-    receiver: Vec<u32>,
-    reached: Vec<bool>,
+    vertices: Vec<FloodVertex>,
     order: Vec<u32>,
     pushed: u32,
 }
 
-impl<'a> Flood<'a> {
+/// A vertex in the flood.
+#[derive(Clone, Copy)]
+struct FloodVertex {
+    h: f32,
+    filled: f32,
+    receiver: u32,
+    reached: bool,
+}
+
+impl Flood {
     /// The flood of the heights `h` (`nx × ny`, row-major), its edge vertices reached and
     /// pushed to `queue` at their own height.
-    fn new(h: &'a [f32], nx: usize, ny: usize, queue: &mut BinaryHeap<Queued>) -> Flood<'a> {
+    fn new(h: &[f32], nx: usize, ny: usize, queue: &mut BinaryHeap<Queued>) -> Flood {
         let n = nx * ny;
         let mut flood = Flood {
-            h,
             nx,
             ny,
-            filled: h.to_vec(),
-            receiver: vec![NONE; n],
-            reached: vec![false; n],
+            vertices: h
+                .iter()
+                .map(|&z| FloodVertex {
+                    h: z,
+                    filled: z,
+                    receiver: NONE,
+                    reached: false,
+                })
+                .collect(),
             order: Vec::with_capacity(n),
             pushed: 0,
         };
         for (v, &z) in h.iter().enumerate() {
             let (i, j) = (v % nx, v / nx);
             if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
-                flood.reached[v] = true;
+                flood.vertices[v].reached = true;
                 queue.push(flood.entry(v, z));
             }
         }
@@ -145,13 +157,36 @@ impl<'a> Flood<'a> {
     fn take(&mut self, vertex: u32, mut enqueue: impl FnMut(Queued)) {
         let c = vertex as usize;
         self.order.push(vertex);
-        for nb in neighbours(c, self.nx, self.ny) {
-            if !self.reached[nb] {
-                self.reached[nb] = true;
-                self.filled[nb] = self.h[nb].max(self.filled[c]);
-                self.receiver[nb] = vertex;
-                let q = self.entry(nb, self.filled[nb]);
+        let from = self.vertices[c].filled;
+        let mut visit = |flood: &mut Flood, nb: usize| {
+            let n = &mut flood.vertices[nb];
+            if !n.reached {
+                n.reached = true;
+                n.filled = n.h.max(from);
+                n.receiver = vertex;
+                let level = n.filled;
+                let q = flood.entry(nb, level);
                 enqueue(q);
+            }
+        };
+        let (nx, i, j) = (self.nx, c % self.nx, c / self.nx);
+        if i > 0 && j > 0 && i + 1 < nx && j + 1 < self.ny {
+            // Inside: the eight in [`neighbours`]' order, without its bounds tests.
+            for nb in [
+                c - nx - 1,
+                c - nx,
+                c - nx + 1,
+                c - 1,
+                c + 1,
+                c + nx - 1,
+                c + nx,
+                c + nx + 1,
+            ] {
+                visit(self, nb);
+            }
+        } else {
+            for nb in neighbours(c, nx, self.ny) {
+                visit(self, nb);
             }
         }
     }
@@ -159,7 +194,9 @@ impl<'a> Flood<'a> {
     /// The filled heights, each vertex's receiver (`NONE` on the edge) and the order the
     /// vertices were taken.
     fn finish(self) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
-        (self.filled, self.receiver, self.order)
+        let filled = self.vertices.iter().map(|v| v.filled).collect();
+        let receiver = self.vertices.iter().map(|v| v.receiver).collect();
+        (filled, receiver, self.order)
     }
 }
 

@@ -16,7 +16,10 @@
 
 use rayon::prelude::*;
 
-use super::shown::{KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value, taps, wet_share};
+use super::shown::{
+    KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, front, leaf_value, taps, water_map_and_share,
+    wet_share,
+};
 use crate::fluid::carpet::Field2;
 
 /// Leaves along a tile's edge: small enough that a scattered change makes few leaves again
@@ -47,8 +50,9 @@ impl KeptWaterMap {
 
     /// The water map of a carpet with surface heights `surface_m` and water depths
     /// `depth_m` ([`water_map`](super::shown::water_map)'s arguments, and its value bit for
-    /// bit), making again only the tiles near leaves that changed since the last call (all of
-    /// them on the first call or on another grid).
+    /// bit), making again only the tiles near leaves that changed since the last call (the
+    /// whole map, by [`water_map`](super::shown::water_map)'s passes, on the first call or on
+    /// another grid).
     ///
     /// # Panics
     /// If the two fields are not on one grid (they are the same carpet's).
@@ -60,24 +64,45 @@ impl KeptWaterMap {
                 && depth_m.values.len() == depth_m.nx * depth_m.ny,
             "surface and depth on one grid"
         );
-        let (nx, ny) = (depth_m.nx, depth_m.ny);
+        let (s, d) = (&surface_m.values, &depth_m.values);
+        self.update_leaves(depth_m, |k| (s[k], d[k]))
+    }
+
+    /// [`update`](Self::update) with the carpet's leaves read where they are: `leaf(k)` the
+    /// surface height and water depth of leaf k of the grid `grid` (its values unused), the
+    /// map the same to the bit, without copying the carpet into two fields every frame.
+    pub fn update_leaves(
+        &mut self,
+        grid: &Field2,
+        leaf: impl Fn(usize) -> (f32, f32) + Sync,
+    ) -> &Field2 {
+        let (nx, ny) = (grid.nx, grid.ny);
         let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
         let same_grid = self.map.as_ref().is_some_and(|m| {
-            (m.nx, m.ny, m.origin_m, m.cell_m) == (nx, ny, depth_m.origin_m, depth_m.cell_m)
+            (m.nx, m.ny, m.origin_m, m.cell_m) == (nx, ny, grid.origin_m, grid.cell_m)
         });
-        let stale = if same_grid {
-            self.stale_tiles(surface_m, depth_m)
-        } else {
-            self.map = Some(Field2 {
+        if !same_grid {
+            // Every tile: the whole-grid passes make the same map to the bit without the
+            // margins each tile reads again.
+            let on_grid = |values: Vec<f32>| Field2 {
                 nx,
                 ny,
-                origin_m: depth_m.origin_m,
-                cell_m: depth_m.cell_m,
-                values: vec![0.0; nx * ny],
-            });
-            self.share = vec![0.0; nx * ny];
-            vec![Stale::Share; tx * ty]
-        };
+                origin_m: grid.origin_m,
+                cell_m: grid.cell_m,
+                values,
+            };
+            let (surface, depth) = (0..nx * ny).map(&leaf).unzip();
+            let (surface, depth) = (on_grid(surface), on_grid(depth));
+            let (map, share) = water_map_and_share(&surface, &depth);
+            self.map = Some(map);
+            self.share = share;
+            self.made = (tx * ty, tx * ty);
+            log::debug!("puddles: the water map made whole ({} tiles)", tx * ty);
+            self.surface_m = surface.values;
+            self.depth_m = depth.values;
+            return self.map.as_ref().expect("made above");
+        }
+        let stale = self.take_changes(nx, ny, leaf);
         let made = stale.iter().filter(|&&s| s != Stale::No).count();
         self.made = (made, tx * ty);
         log::debug!(
@@ -87,7 +112,7 @@ impl KeptWaterMap {
         );
         let map = self.map.as_mut().expect("made above");
         if made > 0 {
-            let (s, d) = (&surface_m.values, &depth_m.values);
+            let (s, d) = (&self.surface_m, &self.depth_m);
             let band = TILE * nx.max(1);
             map.values
                 .par_chunks_mut(band)
@@ -100,8 +125,6 @@ impl KeptWaterMap {
                         make_tile((rows, share), how, (nx, ny), tile, (s, d));
                     }
                 });
-            self.surface_m.clone_from(s);
-            self.depth_m.clone_from(d);
         }
         map
     }
@@ -111,30 +134,40 @@ impl KeptWaterMap {
         self.made
     }
 
-    /// What each tile must make again: its wet share where a leaf within [`REACH`] turned
-    /// wet or dry, its values where a leaf within [`LEVEL_REACH`] changed its surface or depth
-    /// (to the bit), against the kept carpet.
-    fn stale_tiles(&self, surface_m: &Field2, depth_m: &Field2) -> Vec<Stale> {
-        let (nx, ny) = (depth_m.nx, depth_m.ny);
+    /// Takes the carpet's new leaves `leaf(k)` into the kept ones and says what each tile
+    /// must make again: its wet share where a leaf within [`REACH`] turned wet or dry, its
+    /// values where a leaf within [`LEVEL_REACH`] changed its surface or depth (to the bit).
+    fn take_changes(
+        &mut self,
+        nx: usize,
+        ny: usize,
+        leaf: impl Fn(usize) -> (f32, f32) + Sync,
+    ) -> Vec<Stale> {
         let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
-        let differs = |a: &[f32], b: &[f32], k: usize| a[k].to_bits() != b[k].to_bits();
-        // The changed leaves, row by row (in order: the result does not depend on threads).
-        let changed: Vec<Vec<usize>> = (0..ny)
-            .into_par_iter()
-            .map(|j| {
-                (j * nx..(j + 1) * nx)
-                    .filter(|&k| {
-                        differs(&surface_m.values, &self.surface_m, k)
-                            || differs(&depth_m.values, &self.depth_m, k)
-                    })
-                    .collect()
+        // The changed leaves, row by row (in order: the result does not depend on threads),
+        // each with whether it turned wet or dry.
+        let changed: Vec<Vec<(usize, bool)>> = self
+            .surface_m
+            .par_chunks_mut(nx.max(1))
+            .zip(self.depth_m.par_chunks_mut(nx.max(1)))
+            .enumerate()
+            .map(|(j, (surface, depth))| {
+                let mut row = Vec::new();
+                for (i, (s, d)) in surface.iter_mut().zip(depth.iter_mut()).enumerate() {
+                    let k = j * nx + i;
+                    let (s_new, d_new) = leaf(k);
+                    if s_new.to_bits() != s.to_bits() || d_new.to_bits() != d.to_bits() {
+                        row.push((k, (d_new > 0.0) != (*d > 0.0)));
+                        (*s, *d) = (s_new, d_new);
+                    }
+                }
+                row
             })
             .collect();
         let mut stale = vec![Stale::No; tx * ty];
-        for k in changed.into_iter().flatten() {
+        for (k, turned) in changed.into_iter().flatten() {
             // A leaf turning wet or dry changes the wet share within the wide reach; any
             // change, the level and the rim within the narrow one.
-            let turned = (depth_m.values[k] > 0.0) != (self.depth_m[k] > 0.0);
             let (how, reach) = if turned {
                 (Stale::Share, REACH)
             } else {
@@ -191,13 +224,50 @@ fn make_tile(
         }
     }
     let level = window(&LEVEL_KERNEL, (nx, ny), (i0, i1), (j0, j1), |k| surface[k]);
+    let near = wet_near((nx, ny), (i0, i1), (j0, j1), depth);
     for j in j0..j1 {
         for i in i0..i1 {
             let at = (j - j0) * nx + i;
             let around = (share[at], level[(j - j0) * w + (i - i0)]);
-            rows[at] = leaf_value(j * nx + i, (nx, ny), around, (surface, depth));
+            rows[at] = if around.0 > 0.0 && around.0 < 1.0 && !near[(j - j0) * w + (i - i0)] {
+                // A rim leaf with no wet leaf within the level's reach: its soft minimum is
+                // +∞, so [`leaf_value`] is the front's depth; the same value without the
+                // neighbourhood's two passes.
+                front(around.0)
+            } else {
+                leaf_value(j * nx + i, (nx, ny), around, (surface, depth))
+            };
         }
     }
+}
+
+/// Whether a wet leaf lies within [`LEVEL_REACH`] along x and y (the box the soft minimum
+/// reads) of each leaf `i0..i1` × `j0..j1` (row-major), by a pass along x and one along y.
+fn wet_near(
+    (nx, ny): (usize, usize),
+    (i0, i1): (usize, usize),
+    (j0, j1): (usize, usize),
+    depth: &[f32],
+) -> Vec<bool> {
+    let r = LEVEL_REACH;
+    let w = i1 - i0;
+    let (r0, r1) = (j0.saturating_sub(r), (j1 + r).min(ny));
+    let mut along_x = Vec::with_capacity((r1 - r0) * w);
+    for row in r0..r1 {
+        let line = &depth[row * nx..(row + 1) * nx];
+        for i in i0..i1 {
+            let span = &line[i.saturating_sub(r)..(i + r + 1).min(nx)];
+            along_x.push(span.iter().any(|&d| d > 0.0));
+        }
+    }
+    let mut near = Vec::with_capacity((j1 - j0) * w);
+    for j in j0..j1 {
+        let (a, b) = (j.saturating_sub(r), (j + r + 1).min(ny));
+        for i in 0..w {
+            near.push((a..b).any(|row| along_x[(row - r0) * w + i]));
+        }
+    }
+    near
 }
 
 /// `kernel` convolved along x, then along y, over the field `value(k)` on a grid of `dims`,

@@ -68,10 +68,19 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
             && depth_m.values.len() == depth_m.nx * depth_m.ny,
         "surface and depth on one grid"
     );
+    water_map_and_share(surface_m, depth_m).0
+}
+
+/// [`water_map`] and the wet share of each leaf's neighbourhood it was made with (what
+/// [`super::kept_map`] keeps), by whole-grid passes.
+pub(super) fn water_map_and_share(surface_m: &Field2, depth_m: &Field2) -> (Field2, Vec<f32>) {
     let (nx, ny) = (depth_m.nx, depth_m.ny);
     let on_grid = |values: Vec<f32>| Field2 {
         values,
-        ..depth_m.clone()
+        nx,
+        ny,
+        origin_m: depth_m.origin_m,
+        cell_m: depth_m.cell_m,
     };
     // The wet share (separable passes: exactly 0 with no wet leaf within reach, exactly 1 with
     // no dry one).
@@ -89,7 +98,7 @@ pub fn water_map(surface_m: &Field2, depth_m: &Field2) -> Field2 {
             leaf_value(k, (nx, ny), (share.values[k], level.values[k]), around)
         })
         .collect();
-    on_grid(values)
+    (on_grid(values), share.values)
 }
 
 /// A leaf's weight in the wet share: 1 where wet, 0 where dry.
@@ -99,7 +108,7 @@ pub(super) fn wet_share(depth_m: f32) -> f32 {
 
 /// The shown depth where the wet share of the neighbourhood rises past zero: 0 at
 /// [`REACH_SHARE`], the rim depth [`RAMP_SHARE`] beyond it.
-fn front(share: f32) -> f32 {
+pub(super) fn front(share: f32) -> f32 {
     EDGE_DEPTH_M * (share - REACH_SHARE) / RAMP_SHARE
 }
 
@@ -144,6 +153,10 @@ fn soft_minimum(k: usize, (nx, ny): (usize, usize), (surface, depth): (&[f32], &
                 low = low.min(h);
             }
         }
+    }
+    if low == f32::INFINITY {
+        // No wet leaf within reach: what the sums below would return, without them.
+        return low;
     }
     let taper = 3.0 * EDGE_DEPTH_M;
     let (mut sum, mut weight) = (0.0f32, 0.0f32);

@@ -313,7 +313,6 @@ impl PuddleSim {
             let (x, y) = (hit.position_m.x as f32, hit.position_m.y as f32);
             self.land(x, y, || hit.diameter_mm, &mut room);
         }
-        self.flow.flush_hits();
         self.step_to(t_s)
     }
 
@@ -345,13 +344,15 @@ impl PuddleSim {
         }
     }
 
-    /// Runs the solver in whole steps of m frames up to `t_s`; returns the steps taken.
+    /// Applies the wetting held back and runs the solver in whole steps of m frames up to
+    /// `t_s` (the first step applies it beside the solver); returns the steps taken.
     fn step_to(&mut self, t_s: f64) -> Result<usize> {
         let mut steps = 0;
         while self.time_s + self.step_s <= t_s + 1e-9 {
             steps += self.flow.advance(self.step_s)?;
             self.time_s += self.step_s;
         }
+        self.flow.flush_hits();
         self.steps += steps as u64;
         Ok(steps)
     }
@@ -405,7 +406,6 @@ impl PuddleSim {
                 };
                 self.feed_rain(rain, a, b);
             }
-            self.flow.flush_hits();
             steps += self.step_to(t1)?;
         }
         Ok(steps)
@@ -422,7 +422,6 @@ impl PuddleSim {
         t1_s: f64,
     ) -> Result<usize> {
         self.feed_rain(rain, t0_s, t1_s);
-        self.flow.flush_hits();
         self.step_to(t1_s)
     }
 
@@ -506,7 +505,8 @@ impl PuddleSim {
     /// [`shown_depth`](Self::shown_depth) kept in `kept` from the last frame it was asked
     /// for, made again only where the water changed since (the same map to the bit).
     pub fn shown_depth_kept<'a>(&self, kept: &'a mut KeptWaterMap) -> &'a Field2 {
-        kept.update(&self.flow.carpet.surface_height(), &self.water_depth())
+        let carpet = &self.flow.carpet;
+        kept.update_leaves(&carpet.leaf_grid(), |k| carpet.leaf_surface_and_depth(k))
     }
 
     /// Wetness on the carpet's grid, [0, 1].

@@ -41,6 +41,61 @@ pub struct Puddles<'a> {
     water: &'a FrameWater<'a>,
     lights: &'a LightList,
     e_up: Vec3,
+    /// Where the map holds water, to pass over the blocks of pixels that see none.
+    wet: WetBlocks,
+}
+
+/// Cells along a side of a [`WetBlocks`] block.
+const WET_BLOCK: usize = 8;
+
+/// Which blocks of [`WET_BLOCK`]² cells of the water map hold water (a cell > 0), as a
+/// summed-area table: whether any cell of a rectangle may be wet, at four reads. Most of a
+/// street's ground is dry, and a pixel whose four nearest cells are dry has no cover.
+struct WetBlocks {
+    /// Blocks along x and y.
+    bx: usize,
+    by: usize,
+    /// Wet blocks in the blocks (0..i, 0..j), at j·(bx + 1) + i.
+    sat: Vec<u32>,
+}
+
+impl WetBlocks {
+    /// The wet blocks of the map `depth_m` of `nx × ny` cells.
+    fn new(depth_m: &[f32], nx: usize, ny: usize) -> WetBlocks {
+        let (bx, by) = (nx.div_ceil(WET_BLOCK), ny.div_ceil(WET_BLOCK));
+        let wet: Vec<Vec<bool>> = (0..by)
+            .into_par_iter()
+            .map(|b| {
+                let mut row = vec![false; bx];
+                for j in b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny) {
+                    for (i, &d) in depth_m[j * nx..(j + 1) * nx].iter().enumerate() {
+                        row[i / WET_BLOCK] |= d > 0.0;
+                    }
+                }
+                row
+            })
+            .collect();
+        let mut sat = vec![0u32; (bx + 1) * (by + 1)];
+        for j in 0..by {
+            let mut run = 0;
+            for i in 0..bx {
+                run += wet[j][i] as u32;
+                sat[(j + 1) * (bx + 1) + i + 1] = sat[j * (bx + 1) + i + 1] + run;
+            }
+        }
+        WetBlocks { bx, by, sat }
+    }
+
+    /// Whether a cell of columns `i0..=i1` and rows `j0..=j1` (on the map) may be wet.
+    fn any(&self, (i0, i1): (usize, usize), (j0, j1): (usize, usize)) -> bool {
+        let (a, b) = (i0 / WET_BLOCK, (i1 / WET_BLOCK + 1).min(self.bx));
+        let (c, d) = (j0 / WET_BLOCK, (j1 / WET_BLOCK + 1).min(self.by));
+        if a >= b || c >= d {
+            return false;
+        }
+        let at = |i: usize, j: usize| self.sat[j * (self.bx + 1) + i];
+        at(b, d) + at(a, c) > at(a, d) + at(b, c)
+    }
 }
 
 /// What one pixel's shading reads besides the water: the canvas before the water.
@@ -93,6 +148,11 @@ impl<'a> Puddles<'a> {
             water,
             lights,
             e_up: ground.irradiance_up(),
+            wet: WetBlocks::new(
+                water.depth_m,
+                water.params.cells[0] as usize,
+                water.params.cells[1] as usize,
+            ),
         })
     }
 
@@ -140,11 +200,18 @@ impl<'a> Puddles<'a> {
         // The cover of each pixel first (cheap): most bands of most frames have no water.
         let mut cover = vec![0f32; width * rows];
         let mut any = false;
-        for r in 0..rows {
-            for x in g.downward(y0 + r) {
-                let c = self.cover(x, y0 + r);
-                cover[r * width + x] = c;
-                any |= c > 0.0;
+        for x0 in (0..width).step_by(BLOCK) {
+            let x1 = (x0 + BLOCK).min(width);
+            if self.sees_no_water((x0, x1 - 1), (y0, y0 + rows - 1)) {
+                continue;
+            }
+            for r in 0..rows {
+                let down = g.downward(y0 + r);
+                for x in down.start.max(x0)..down.end.min(x1) {
+                    let c = self.cover(x, y0 + r);
+                    cover[r * width + x] = c;
+                    any |= c > 0.0;
+                }
             }
         }
         if !any {
@@ -212,6 +279,42 @@ impl<'a> Puddles<'a> {
             // Pixels without water keep their bits (f16 → f32 → f16 is exact).
         }
         Some((band, band_out, wet))
+    }
+
+    /// Whether the pixels of columns `x0..=x1` and rows `y0..=y1` surely see no water: every
+    /// corner's ray goes down, so every pixel's ground point lies in the quadrilateral of the
+    /// corners' (the ground is the rays' central projection: convex stays convex), and no
+    /// cell within one of the four nearest cells of that quadrilateral's bounding box is wet
+    /// ([`Puddles::water_cover`] is 0 where its four nearest cells are dry or off the map).
+    fn sees_no_water(&self, (x0, x1): (usize, usize), (y0, y1): (usize, usize)) -> bool {
+        let g = self.ground;
+        let p = &self.water.params;
+        let (lo, hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let (mut lo, mut hi) = (lo, hi);
+        for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+            let ray = g.ray(x, y);
+            if ray.z >= 0.0 {
+                return false;
+            }
+            let ground = g.camera + (g.height_m() / -ray.z) * ray;
+            let u = (Vec2::new(ground.x, ground.y) - Vec2::from_array(p.origin_m)) / p.cell_m
+                - Vec2::splat(0.5);
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return false;
+        }
+        // The nearest cells are ⌊u⌋ and ⌊u⌋ + 1; one more on each side for rounding.
+        let (nx, ny) = (p.cells[0] as f32, p.cells[1] as f32);
+        let (a, b) = ((lo - 1.0).floor(), (hi + 2.0).floor());
+        if b.x < 0.0 || b.y < 0.0 || a.x >= nx || a.y >= ny {
+            return true;
+        }
+        let (a, b) = (a.max(Vec2::ZERO), b.min(Vec2::new(nx - 1.0, ny - 1.0)));
+        !self
+            .wet
+            .any((a.x as usize, b.x as usize), (a.y as usize, b.y as usize))
     }
 
     /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
@@ -604,4 +707,46 @@ fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
     let (a, b) = (x0.max(lo).min(hi), x1.max(lo).min(hi));
     let ramp = (b - a.max(edge)).max(0.0) + area(b) - area(a);
     ((below + ramp + above) / width).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whether a rectangle of cells may be wet, against looking at every cell: never a wet
+    /// cell missed, and a rectangle of dry blocks only is dry.
+    #[test]
+    fn wet_blocks_find_every_wet_cell() {
+        let (nx, ny) = (37, 29);
+        let mut depth = vec![0.0f32; nx * ny];
+        for k in [0, 5 * nx + 9, 17 * nx + 36, 28 * nx + 16, 28 * nx] {
+            depth[k] = 1e-3;
+        }
+        depth[20 * nx + 20] = -1e-3;
+        let wet = WetBlocks::new(&depth, nx, ny);
+        for j0 in 0..ny {
+            for j1 in j0..ny {
+                for i0 in (0..nx).step_by(3) {
+                    for i1 in (i0..nx).step_by(2) {
+                        let any_cell =
+                            (j0..=j1).any(|j| (i0..=i1).any(|i| depth[j * nx + i] > 0.0));
+                        let blocks = (j0 / WET_BLOCK..=j1 / WET_BLOCK).any(|b| {
+                            (i0 / WET_BLOCK..=i1 / WET_BLOCK).any(|a| {
+                                (b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny)).any(|j| {
+                                    (a * WET_BLOCK..((a + 1) * WET_BLOCK).min(nx))
+                                        .any(|i| depth[j * nx + i] > 0.0)
+                                })
+                            })
+                        });
+                        let got = wet.any((i0, i1), (j0, j1));
+                        assert!(
+                            got || !any_cell,
+                            "missed a wet cell in {i0}..={i1} × {j0}..={j1}"
+                        );
+                        assert_eq!(got, blocks, "{i0}..={i1} × {j0}..={j1}");
+                    }
+                }
+            }
+        }
+    }
 }

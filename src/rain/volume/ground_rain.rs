@@ -107,6 +107,9 @@ pub struct StreamSlots {
 struct SlotLandings {
     slot: i64,
     landings: Vec<Landing>,
+    /// Each landing's time, s: what a frame's window is matched against, read without the
+    /// rest of the landing (most of a slot's landings fall in another frame).
+    times_s: Vec<f64>,
     starts: Vec<u32>,
 }
 
@@ -412,21 +415,24 @@ impl GroundRain {
                 let mut made = SlotLandings {
                     slot,
                     landings: Vec::new(),
+                    times_s: Vec::new(),
                     starts: vec![0],
                 };
                 for cell in stream.cells() {
                     self.cell_slot(&stream, cell, slot, |l| made.landings.push(l));
                     made.starts.push(made.landings.len() as u32);
                 }
+                made.times_s.extend(made.landings.iter().map(|l| l.time_s));
                 kept.slots.push(made);
             }
         }
         kept.slots.sort_by_key(|s| s.slot);
         for c in 0..stream.cells().count() {
             for s in &kept.slots {
-                for l in &s.landings[s.starts[c] as usize..s.starts[c + 1] as usize] {
-                    if l.time_s > t0_s && l.time_s <= t1_s {
-                        f(*l)
+                let (a, b) = (s.starts[c] as usize, s.starts[c + 1] as usize);
+                for (k, &t) in s.times_s[a..b].iter().enumerate() {
+                    if t > t0_s && t <= t1_s {
+                        f(s.landings[a + k])
                     }
                 }
             }
