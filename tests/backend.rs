@@ -944,9 +944,15 @@ fn colour_passes_avx2_build_matches_the_baseline() {
             let turned = |make| ground_case_turned(&frame, on, &tables, 1, 0, make);
             let (fast, base) = (turned(HostColour::new), turned(HostColour::baseline));
             assert!(fast.wet_pixels > 0 || on == OnGround::Wet, "{name}, {on:?}");
-            assert!(fast.host_plate == base.host_plate, "{name}, {on:?}: plates differ");
+            assert!(
+                fast.host_plate == base.host_plate,
+                "{name}, {on:?}: plates differ"
+            );
             assert!(fast.host == base.host, "{name}, {on:?}: the ground differs");
-            assert!(fast.host != vec![fast.host_plate.clone()], "{name}, {on:?}: no change");
+            assert!(
+                fast.host != vec![fast.host_plate.clone()],
+                "{name}, {on:?}: no change"
+            );
         }
     }
 }

@@ -222,6 +222,9 @@ pub struct BlockStats {
     pub clip: ClipLevel,
 }
 
+/// A block's mean, clipped share and clipped colour.
+type BlockSums = ([f32; 3], f32, [f32; 3]);
+
 impl BlockStats {
     /// Statistics of a `frame_w × frame_h` picture read through `sample(x, y)` (linear RGB of
     /// displayed pixel (x, y)) in `block_px` blocks, with `samples_per_block` samples per block
@@ -238,7 +241,7 @@ impl BlockStats {
         let (sw, sh) = (dw.div_ceil(block), dh.div_ceil(block));
         // Each block on its own (rows of blocks over rayon's threads): the same sums in the
         // same order whatever the threads.
-        let rows: Vec<Vec<([f32; 3], f32, [f32; 3])>> = (0..sh)
+        let rows: Vec<Vec<BlockSums>> = (0..sh)
             .into_par_iter()
             .map(|by| {
                 (0..sw)

@@ -28,7 +28,10 @@ pub fn gather(table: &[f32], at: [u32; LANES], offset: usize, avx2: bool) -> [f3
     for &i in &at {
         last = last.max(i);
     }
-    assert!(last as usize + offset < table.len(), "a table read past its end");
+    assert!(
+        last as usize + offset < table.len(),
+        "a table read past its end"
+    );
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: AVX2 is enabled in the build that passes `avx2` (see above); every index

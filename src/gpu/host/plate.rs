@@ -247,7 +247,10 @@ impl Decoder {
         self.row_codes(frame, y, s);
         for x0 in (0..w).step_by(LANES) {
             let n = LANES.min(w - x0);
-            put_rgba(&self.plate_lanes(s, x0, false), &mut rgba[4 * x0..][..4 * n]);
+            put_rgba(
+                &self.plate_lanes(s, x0, false),
+                &mut rgba[4 * x0..][..4 * n],
+            );
         }
     }
 
@@ -279,7 +282,11 @@ impl Decoder {
     /// Linear R, G and B of the eight pixels from `x0` of the row in `s` ([`row_codes`](Self::row_codes)).
     #[inline(always)]
     fn plate_lanes(&self, s: &RowScratch, x0: usize, avx2: bool) -> [[f32; LANES]; 3] {
-        let (y, cb, cr) = (&s.y[x0..][..LANES], &s.cb[x0..][..LANES], &s.cr[x0..][..LANES]);
+        let (y, cb, cr) = (
+            &s.y[x0..][..LANES],
+            &s.cb[x0..][..LANES],
+            &s.cr[x0..][..LANES],
+        );
         let mut e = [[0f32; LANES]; 3];
         for l in 0..LANES {
             let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
