@@ -369,15 +369,25 @@ fn veil_lanes(
     b: &GridPoint,
 ) {
     let (t, finite) = (&t[..LANES], &finite[..LANES]);
+    // The pixels' places in their cell: the interpolation's weights.
+    let f: [f32; LANES] = std::array::from_fn(|l| (l as f32 + 0.5) / LANES as f32);
+    let mut veil = [0f32; LANES];
     for l in 0..LANES {
-        // The pixel's place in its cell: the interpolation's weight.
-        let f = (l as f32 + 0.5) / LANES as f32;
-        let at = |c: usize| a[c] + (b[c] - a[c]) * f;
-        let t = t[l];
-        let sky = if finite[l] { 0.0 } else { at(6) };
-        let veil = t + (1.0 - t) * sky;
-        for c in 0..3 {
-            rgb[c][l] = rgb[c][l] * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);
+        let sky = if finite[l] {
+            0.0
+        } else {
+            a[6] + (b[6] - a[6]) * f[l]
+        };
+        veil[l] = t[l] + (1.0 - t[l]) * sky;
+    }
+    // A channel at a time, its lanes side by side.
+    for c in 0..3 {
+        for l in 0..LANES {
+            let (s, g) = (
+                a[c] + (b[c] - a[c]) * f[l],
+                a[c + 3] + (b[c + 3] - a[c + 3]) * f[l],
+            );
+            rgb[c][l] = rgb[c][l] * veil[l] + (1.0 - veil[l]) * s + (1.0 - t[l]) * g;
         }
     }
 }
