@@ -81,6 +81,13 @@ fn colour_passes(c: &mut Criterion) {
     c.bench_function("host rgb→yuv 720p", |b| {
         b.iter(|| black_box(host.encode(&canvas, W as usize)))
     });
+    let mut plain = HostColour::baseline(frame.format, &frame.color);
+    c.bench_function("host yuv→rgb 720p, no haze, no AVX2", |b| {
+        b.iter(|| black_box(plain.decode(&frame, &clear).len()))
+    });
+    c.bench_function("host rgb→yuv 720p, no AVX2", |b| {
+        b.iter(|| black_box(plain.encode(&canvas, W as usize)))
+    });
     let mut slow = c.benchmark_group("twins");
     slow.sample_size(10);
     slow.bench_function("twin yuv_to_rgb 720p, haze to the ground", |b| {

@@ -89,6 +89,7 @@
 //! window, like [`ShSmoother`](super::envmap::ShSmoother)), so `preview` sees what the render sees.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use super::block_grid::{components, distance_to_unclipped};
 use super::sources::LightSource;
@@ -221,6 +222,9 @@ pub struct BlockStats {
     pub clip: ClipLevel,
 }
 
+/// A block's mean, clipped share and clipped colour.
+type BlockSums = ([f32; 3], f32, [f32; 3]);
+
 impl BlockStats {
     /// Statistics of a `frame_w × frame_h` picture read through `sample(x, y)` (linear RGB of
     /// displayed pixel (x, y)) in `block_px` blocks, with `samples_per_block` samples per block
@@ -230,46 +234,63 @@ impl BlockStats {
         block_px: usize,
         samples_per_block: Option<usize>,
         clip: ClipLevel,
-        sample: impl Fn(usize, usize) -> [f64; 3],
+        sample: impl Fn(usize, usize) -> [f64; 3] + Sync,
     ) -> BlockStats {
         let (dw, dh) = frame_px;
         let block = block_px.max(1);
         let (sw, sh) = (dw.div_ceil(block), dh.div_ceil(block));
-        let mut mean = Vec::with_capacity(sw * sh);
-        let mut clipped = Vec::with_capacity(sw * sh);
-        let mut clipped_colour = Vec::with_capacity(sw * sh);
-        for by in 0..sh {
-            for bx in 0..sw {
-                let (x0, y0) = (bx * block, by * block);
-                let (x1, y1) = ((x0 + block).min(dw), (y0 + block).min(dh));
-                let spb = samples_per_block.unwrap_or(block);
-                let n = spb.min(x1 - x0).max(1);
-                let m = spb.min(y1 - y0).max(1);
-                let mut acc = [0.0f64; 3];
-                let mut clip_acc = [0.0f64; 3];
-                let mut clip_n = 0usize;
-                for j in 0..m {
-                    for i in 0..n {
-                        // Sample centres spread evenly over the block.
-                        let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
-                        let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
-                        let rgb = sample(x, y);
-                        let mut any = false;
-                        for k in 0..3 {
-                            acc[k] += rgb[k].clamp(0.0, 1e3);
-                            any |= rgb[k] >= clip.threshold[k];
+        // Each block on its own (rows of blocks over rayon's threads): the same sums in the
+        // same order whatever the threads.
+        let rows: Vec<Vec<BlockSums>> = (0..sh)
+            .into_par_iter()
+            .map(|by| {
+                (0..sw)
+                    .map(|bx| {
+                        let (x0, y0) = (bx * block, by * block);
+                        let (x1, y1) = ((x0 + block).min(dw), (y0 + block).min(dh));
+                        let spb = samples_per_block.unwrap_or(block);
+                        let n = spb.min(x1 - x0).max(1);
+                        let m = spb.min(y1 - y0).max(1);
+                        let mut acc = [0.0f64; 3];
+                        let mut clip_acc = [0.0f64; 3];
+                        let mut clip_n = 0usize;
+                        for j in 0..m {
+                            for i in 0..n {
+                                // Sample centres spread evenly over the block.
+                                let x = x0 + ((2 * i + 1) * (x1 - x0)) / (2 * n);
+                                let y = y0 + ((2 * j + 1) * (y1 - y0)) / (2 * m);
+                                let rgb = sample(x, y);
+                                let mut any = false;
+                                for k in 0..3 {
+                                    acc[k] += rgb[k].clamp(0.0, 1e3);
+                                    any |= rgb[k] >= clip.threshold[k];
+                                }
+                                if any {
+                                    clip_n += 1;
+                                    (0..3).for_each(|k| clip_acc[k] += rgb[k].clamp(0.0, 1e3));
+                                }
+                            }
                         }
-                        if any {
-                            clip_n += 1;
-                            (0..3).for_each(|k| clip_acc[k] += rgb[k].clamp(0.0, 1e3));
-                        }
-                    }
-                }
-                let count = (n * m) as f64;
-                mean.push(acc.map(|v| (v / count) as f32));
-                clipped.push((clip_n as f64 / count) as f32);
-                clipped_colour.push(clip_acc.map(|v| (v / clip_n.max(1) as f64) as f32));
-            }
+                        let count = (n * m) as f64;
+                        (
+                            acc.map(|v| (v / count) as f32),
+                            (clip_n as f64 / count) as f32,
+                            clip_acc.map(|v| (v / clip_n.max(1) as f64) as f32),
+                        )
+                    })
+                    .collect()
+            })
+            .collect();
+        let blocks = rows.into_iter().flatten();
+        let (mut mean, mut clipped, mut clipped_colour) = (
+            Vec::with_capacity(sw * sh),
+            Vec::with_capacity(sw * sh),
+            Vec::with_capacity(sw * sh),
+        );
+        for (m, c, cc) in blocks {
+            mean.push(m);
+            clipped.push(c);
+            clipped_colour.push(cc);
         }
         BlockStats {
             width: sw,

@@ -1,18 +1,29 @@
 //! The canvas → packed code values on the CPU (the `rgb_to_yuv` stage's work), luma and chroma
 //! in one pass over each chroma block's rows. The canvas is f16, so the transfer (linear →
-//! encoded) is an exact table over all 65 536 f16 values; the matrix and the rounding follow.
+//! encoded) is an exact table over all 65 536 f16 values; the matrix and the rounding follow,
+//! a loop over a row's pixels for the compiler to vectorise, compiled a second time for AVX2
+//! and picked at run time: the same bits. (The table is read a load at a time: AVX2's gathers
+//! were no faster on the machine measured, see `docs/measurements.md`.)
+
+// Lane loops index several arrays by the pixel: the form the vectoriser reads best.
+#![allow(clippy::needless_range_loop)]
 
 use rayon::prelude::*;
 
+use super::lanes;
 use crate::gpu::types::FrameParams;
 use crate::video::color::oetf_signed;
 use crate::video::{ColorParams, FrameFormat, Plane};
+
+/// 2²³: adding it to a value in [0, 2²³] and taking it away again rounds the value to an
+/// integer, ties to even (the spacing of f32 there is 1), as WGSL's `round` does.
+const ROUNDER: f32 = 8_388_608.0;
 
 /// Linear → code values for one picture format.
 pub struct Encoder {
     layout: FrameParams,
     /// The encoded value of each f16 (by its bits), computed in f64.
-    oetf: Vec<f32>,
+    oetf: Box<[f32; 1 << 16]>,
     kr: f32,
     kg: f32,
     kb: f32,
@@ -23,6 +34,21 @@ pub struct Encoder {
     y_offset: f32,
     c_offset: f32,
     max_code: f32,
+    /// Whether the AVX2 build runs (the CPU has it, and it was not turned off).
+    avx2: bool,
+}
+
+/// A block row's buffers, reused from one to the next.
+#[derive(Default)]
+struct Scratch {
+    /// A row's luma codes.
+    codes: Vec<u16>,
+    /// A row's B' − Y' and R' − Y' per pixel.
+    b_y: Vec<f32>,
+    r_y: Vec<f32>,
+    /// Their sums over each chroma block, then its codes.
+    sums: [Vec<f32>; 2],
+    chroma: [Vec<u16>; 2],
 }
 
 impl Encoder {
@@ -30,12 +56,12 @@ impl Encoder {
     pub fn new(format: FrameFormat, color: &ColorParams) -> Encoder {
         let s = color.range_scale();
         let (kr, kb) = color.matrix.kr_kb();
-        let oetf = (0..=u16::MAX)
+        let oetf: Vec<f32> = (0..=u16::MAX)
             .map(|bits| oetf_signed(color.transfer, half::f16::from_bits(bits).to_f64()) as f32)
             .collect();
         Encoder {
             layout: FrameParams::new(&format, color),
-            oetf,
+            oetf: oetf.try_into().expect("one entry per f16"),
             kr: kr as f32,
             kg: (1.0 - kr - kb) as f32,
             kb: kb as f32,
@@ -45,7 +71,13 @@ impl Encoder {
             y_offset: s.y_offset as f32,
             c_offset: s.c_offset as f32,
             max_code: s.max_code as f32,
+            avx2: lanes::has_avx2_f16c(),
         }
+    }
+
+    /// This encoder without its AVX2 build where `off` (the same bits, slower).
+    pub(super) fn set_baseline(&mut self, off: bool) {
+        self.avx2 = !off && lanes::has_avx2_f16c();
     }
 
     /// The code planes of `canvas` (RGBA f16 bits, rows `stride` texels apart), each row padded
@@ -61,13 +93,46 @@ impl Encoder {
             .zip(cb.par_chunks_mut(c_row))
             .zip(cr.par_chunks_mut(c_row))
             .enumerate()
-            .for_each(|(cy, ((luma, cb), cr))| {
-                self.block_row(canvas, stride, cy, luma, [cb, cr]);
+            .for_each_init(Scratch::default, |s, (cy, ((luma, cb), cr))| {
+                self.block_row_on(canvas, stride, cy, luma, [cb, cr], s);
             });
         [(y, y_row), (cb, c_row), (cr, c_row)].map(|(data, stride)| Plane { data, stride })
     }
 
-    /// The luma rows of chroma row `cy` into `luma` and its chroma into `chroma`.
+    /// [`block_row`](Self::block_row), in the AVX2 build where the encoder runs it.
+    fn block_row_on(
+        &self,
+        canvas: &[u16],
+        stride: usize,
+        cy: usize,
+        luma: &mut [u8],
+        chroma: [&mut [u8]; 2],
+        s: &mut Scratch,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            #[target_feature(enable = "avx2,f16c")]
+            fn fast(
+                e: &Encoder,
+                canvas: &[u16],
+                stride: usize,
+                cy: usize,
+                luma: &mut [u8],
+                chroma: [&mut [u8]; 2],
+                s: &mut Scratch,
+            ) {
+                e.block_row(canvas, stride, cy, luma, chroma, s)
+            }
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`lanes::has_avx2_f16c`).
+            return unsafe { fast(self, canvas, stride, cy, luma, chroma, s) };
+        }
+        self.block_row(canvas, stride, cy, luma, chroma, s)
+    }
+
+    /// The luma rows of chroma row `cy` into `luma` and its chroma into `chroma`: per row, the
+    /// pixels' luma codes and chroma differences in lanes, then the differences summed over
+    /// each block in the pixels' order.
+    #[inline(always)]
     fn block_row(
         &self,
         canvas: &[u16],
@@ -75,6 +140,7 @@ impl Encoder {
         cy: usize,
         luma: &mut [u8],
         chroma: [&mut [u8]; 2],
+        s: &mut Scratch,
     ) {
         let l = &self.layout;
         let (w, h) = (l.width as usize, l.height as usize);
@@ -83,46 +149,76 @@ impl Encoder {
         let y0 = cy << sy;
         let y1 = (y0 + (1 << sy)).min(h);
         let cw = l.chroma_width as usize;
-        let mut sums = vec![[0f32; 2]; cw];
         let bytes = l.bytes_per_sample as usize;
+        let oetf = &*self.oetf;
+        s.codes.resize(w, 0);
+        s.b_y.resize(w, 0.0);
+        s.r_y.resize(w, 0.0);
+        for sums in &mut s.sums {
+            sums.clear();
+            sums.resize(cw, 0.0);
+        }
         for y in y0..y1 {
             let row = &canvas[4 * y * stride..][..4 * w];
-            let out = &mut luma[(y - y0) * y_row..][..y_row];
             for (x, px) in row.chunks_exact(4).enumerate() {
-                let r = self.oetf[px[0] as usize];
-                let g = self.oetf[px[1] as usize];
-                let b = self.oetf[px[2] as usize];
+                let r = oetf[usize::from(px[0])];
+                let g = oetf[usize::from(px[1])];
+                let b = oetf[usize::from(px[2])];
                 let yv = self.kr * r + self.kg * g + self.kb * b;
-                put(out, x, bytes, self.code(yv * self.y_scale + self.y_offset));
-                let s = &mut sums[x >> sx];
-                s[0] += b - yv;
-                s[1] += r - yv;
+                s.codes[x] = self.code(yv * self.y_scale + self.y_offset);
+                s.b_y[x] = b - yv;
+                s.r_y[x] = r - yv;
+            }
+            put_row(&mut luma[(y - y0) * y_row..][..y_row], &s.codes, bytes);
+            let [sb, sr] = &mut s.sums;
+            let step = 1 << sx;
+            for ((sb, sr), (b, r)) in sb
+                .iter_mut()
+                .zip(sr.iter_mut())
+                .zip(s.b_y.chunks(step).zip(s.r_y.chunks(step)))
+            {
+                for (b, r) in b.iter().zip(r) {
+                    *sb += b;
+                    *sr += r;
+                }
             }
         }
         let rows = (y1 - y0) as f32;
-        let [cb, cr] = chroma;
-        for (cx, s) in sums.iter().enumerate() {
+        let [sb, sr] = &s.sums;
+        let [cb, cr] = &mut s.chroma;
+        cb.resize(cw, 0);
+        cr.resize(cw, 0);
+        for cx in 0..cw {
             let x0 = cx << sx;
             let n = rows * (((x0 + (1 << sx)).min(w) - x0) as f32);
-            let [b, r] = [s[0] * self.cb_per, s[1] * self.cr_per].map(|v| v / n + self.c_offset);
-            put(cb, cx, bytes, self.code(b));
-            put(cr, cx, bytes, self.code(r));
+            let b = sb[cx] * self.cb_per / n + self.c_offset;
+            let r = sr[cx] * self.cr_per / n + self.c_offset;
+            cb[cx] = self.code(b);
+            cr[cx] = self.code(r);
         }
+        let [out_b, out_r] = chroma;
+        put_row(out_b, cb, bytes);
+        put_row(out_r, cr, bytes);
     }
 
-    /// A code value: rounded, clamped to the legal codes.
-    #[inline]
+    /// A code value: clamped to the legal codes, rounded to the nearest (ties to even, as the
+    /// GPU's `round`) without a library call.
+    #[inline(always)]
     fn code(&self, v: f32) -> u16 {
-        v.round().clamp(0.0, self.max_code) as u16
+        ((v.clamp(0.0, self.max_code) + ROUNDER) - ROUNDER) as u16
     }
 }
 
-/// Writes sample `i` of a row of `bytes`-byte samples.
-#[inline]
-fn put(row: &mut [u8], i: usize, bytes: usize, code: u16) {
+/// `codes` into the start of a row of `bytes`-byte samples.
+#[inline(always)]
+fn put_row(row: &mut [u8], codes: &[u16], bytes: usize) {
     if bytes == 1 {
-        row[i] = code as u8;
+        for (o, &c) in row.iter_mut().zip(codes) {
+            *o = c as u8;
+        }
     } else {
-        row[2 * i..2 * i + 2].copy_from_slice(&code.to_le_bytes());
+        for (o, &c) in row.chunks_exact_mut(2).zip(codes) {
+            o.copy_from_slice(&c.to_le_bytes());
+        }
     }
 }

@@ -9,6 +9,7 @@
 
 pub mod drop_light;
 pub mod encode;
+pub mod lanes;
 pub mod plate;
 pub mod puddles;
 pub mod rain;
@@ -71,6 +72,15 @@ impl HostColour {
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
             raster: streaks::Raster::default(),
         }
+    }
+
+    /// [`new`](Self::new) without the AVX2 builds of the decode and the encode: the same bits,
+    /// slower (`tests/backend.rs` holds the two equal).
+    pub fn baseline(format: FrameFormat, color: &ColorParams) -> HostColour {
+        let mut host = HostColour::new(format, color);
+        host.decoder.set_baseline(true);
+        host.encoder.set_baseline(true);
+        host
     }
 
     /// The compact lights whose glow the haze shows from the next frame on.

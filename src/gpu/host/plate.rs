@@ -1,13 +1,21 @@
 //! Planes → the hazed linear canvas on the CPU (the `yuv_to_rgb` stage's work): code values to
-//! normalised Y'CbCr through exact per-code tables, the matrix once per chroma sample, the
-//! transfer through a fine table, the haze's veil ([`super::veil`]), then f16 a row at a time.
+//! normalised Y'CbCr (exact), the matrix, the transfer through a fine table, the haze's veil
+//! ([`super::veil`]), then f16, eight pixels at a time (one cell of the veil's grid) in lanes
+//! the compiler vectorises; on x86-64 with AVX2 and F16C the same code is compiled a second
+//! time, the table read by gathers ([`super::lanes`]), and picked at run time. Every pixel is
+//! computed with the same operations in the same order either way (Rust never fuses a multiply
+//! and an add), so both builds give the same bits (`tests/backend.rs`).
+
+// Lane loops index several arrays by the lane: the form the vectoriser reads best.
+#![allow(clippy::needless_range_loop)]
 
 use half::f16;
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 
-use super::veil::Veil;
+use super::lanes::{self, LANES, gather};
+use super::veil::{GridPoint, Veil};
 use super::wet_ground::WetGround;
+use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::video::color::eotf_signed;
 use crate::video::{ColorParams, FrameFormat, Transfer, YuvFrame};
 
@@ -22,6 +30,9 @@ const EOTF_SPAN: f32 = 4.0;
 /// 1/4096 is within 1e-7 of the function, well inside the f16 canvas's half step (2.4e-4
 /// relative), so the table costs no code value.
 const EOTF_STEPS: usize = 16384;
+
+// A lane block is one cell of the veil's grid: its pixels share the cell's two grid columns.
+const _: () = assert!(GLOW_CELL_PX as usize == LANES);
 
 /// The transfer (encoded → linear, odd-extended) as a table interpolated linearly. The
 /// transfer follows the matrix, so it is a function of three codes, not one: no exact
@@ -53,44 +64,88 @@ impl Eotf {
             eotf_signed(self.transfer, f64::from(e)) as f32
         }
     }
+
+    /// [`apply`](Self::apply) to eight lanes, with the same operations; `avx2`: the table read
+    /// by gathers (see [`lanes::gather`]).
+    #[inline(always)]
+    fn lanes(&self, e: [f32; LANES], avx2: bool) -> [f32; LANES] {
+        let last = (EOTF_STEPS - 1) as f32;
+        let (mut at, mut i) = ([0f32; LANES], [0i32; LANES]);
+        let mut inside = true;
+        for l in 0..LANES {
+            at[l] = e[l].abs() * (EOTF_STEPS as f32 / EOTF_SPAN);
+            inside &= at[l] < EOTF_STEPS as f32;
+            // The far side of the table (and NaN) reads its last step; the exact function
+            // follows.
+            let clamped = at[l].min(last);
+            // SAFETY: `clamped` is finite and in [0, EOTF_STEPS − 1] (`at` is an absolute
+            // value or NaN, and `min` takes `last` over NaN), so it truncates to an i32.
+            i[l] = unsafe { clamped.to_int_unchecked::<i32>() };
+        }
+        let mut step = [0u32; LANES];
+        for l in 0..LANES {
+            step[l] = i[l] as u32;
+        }
+        let (a, b) = (
+            gather(&self.table, step, 0, avx2),
+            gather(&self.table, step, 1, avx2),
+        );
+        let mut out = [0f32; LANES];
+        for l in 0..LANES {
+            out[l] = (a[l] + (b[l] - a[l]) * (at[l] - i[l] as f32)).copysign(e[l]);
+        }
+        if !inside {
+            for l in 0..LANES {
+                out[l] = self.apply(e[l]);
+            }
+        }
+        out
+    }
 }
 
 /// Code values → linear RGB for one picture format.
 pub struct Decoder {
     format: FrameFormat,
-    /// Luma code → Y' ∈ [0, 1] and chroma code → C ∈ [−½, ½]: exact (one rounding to f32).
-    luma: Vec<f32>,
-    chroma: Vec<f32>,
+    /// Y' = (code − `y_offset`) / `y_scale`, C = (code − `c_offset`) / `c_scale`: integers, so
+    /// the f32 quotient is the exact value rounded once.
+    y_offset: f32,
+    y_scale: f32,
+    c_offset: f32,
+    c_scale: f32,
     /// R' = Y' + `cr_r` Cr, G' = Y' − `cb_g` Cb − `cr_g` Cr, B' = Y' + `cb_b` Cb.
     cr_r: f32,
     cb_g: f32,
     cr_g: f32,
     cb_b: f32,
     eotf: Eotf,
+    /// Whether the AVX2 build runs (the CPU has AVX2 and F16C, and it was not turned off).
+    avx2: bool,
 }
 
 impl Decoder {
     /// The decoder of frames of `format` coded in `color`.
     pub fn new(format: FrameFormat, color: &ColorParams) -> Decoder {
         let s = color.range_scale();
-        let codes = 1usize << format.bit_depth;
-        let table = |offset: f64, scale: f64| -> Vec<f32> {
-            (0..codes)
-                .map(|c| ((c as f64 - offset) / scale) as f32)
-                .collect()
-        };
         let (kr, kb) = color.matrix.kr_kb();
         let kg = 1.0 - kr - kb;
         Decoder {
             format,
-            luma: table(s.y_offset, s.y_scale),
-            chroma: table(s.c_offset, s.c_scale),
+            y_offset: s.y_offset as f32,
+            y_scale: s.y_scale as f32,
+            c_offset: s.c_offset as f32,
+            c_scale: s.c_scale as f32,
             cr_r: (2.0 * (1.0 - kr)) as f32,
             cb_g: (2.0 * kb * (1.0 - kb) / kg) as f32,
             cr_g: (2.0 * kr * (1.0 - kr) / kg) as f32,
             cb_b: (2.0 * (1.0 - kb)) as f32,
             eotf: Eotf::new(color.transfer),
+            avx2: lanes::has_avx2_f16c(),
         }
+    }
+
+    /// Turns the AVX2 build off where `off` (the same bits, slower).
+    pub(super) fn set_baseline(&mut self, off: bool) {
+        self.avx2 = !off && lanes::has_avx2_f16c();
     }
 
     /// Writes the linear canvas of `frame` under `veil` (RGBA f16, alpha 1) into `canvas`, the
@@ -107,76 +162,181 @@ impl Decoder {
         canvas
             .par_chunks_mut(4 * w * BAND_ROWS)
             .enumerate()
-            .for_each(|(band, out)| {
-                let mut rgba = vec![0f32; 4 * w];
-                let mut plate = Vec::new();
-                let mut scratch = RowScratch::default();
-                for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
-                    let y = (band * BAND_ROWS + k) as u32;
-                    self.plate_row(frame, y, &mut rgba, &mut scratch);
-                    let wet = wet.filter(|g| g.touches(y as usize));
-                    if wet.is_some() {
-                        plate.clone_from(&rgba);
-                    }
-                    if let Some(v) = veil {
-                        veil_row(v, y, &mut rgba, &mut scratch);
-                    }
-                    if let Some(g) = wet {
-                        let haze = veil.map(|_| (&scratch.transmittance[..], &scratch.grid[..]));
-                        g.row(y as usize, &plate, haze, &mut rgba);
-                    }
-                    row.convert_from_f32_slice(&rgba);
-                }
+            .for_each_init(RowScratch::default, |scratch, (band, out)| {
+                let at = Band {
+                    frame,
+                    veil,
+                    wet,
+                    y0: band * BAND_ROWS,
+                };
+                self.band_on(&at, out, scratch);
             });
     }
 
-    /// The plate's linear RGBA along row `y`.
+    /// The rows of a band of the canvas (`out`), in the AVX2 build where the decoder runs it.
+    fn band_on(&self, at: &Band, out: &mut [f16], s: &mut RowScratch) {
+        let w = self.format.width as usize;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            #[target_feature(enable = "avx2,f16c")]
+            fn fast(d: &Decoder, at: &Band, out: &mut [f16], s: &mut RowScratch, w: usize) {
+                for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
+                    d.row(at, (at.y0 + k) as u32, row, s, true);
+                }
+            }
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C
+            // (`lanes::has_avx2_f16c`).
+            return unsafe { fast(self, at, out, s, w) };
+        }
+        for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
+            self.row(at, (at.y0 + k) as u32, row, s, false);
+        }
+    }
+
+    /// Row `y` of the canvas into `out`, a lane block (one cell of the veil's grid) at a time:
+    /// the plate, the veil, then f16 (through RGBA f32 on a row the wet ground reaches; it
+    /// reads the plate before the haze and the haze's row).
+    #[inline(always)]
+    fn row(&self, at: &Band, y: u32, out: &mut [f16], s: &mut RowScratch, avx2: bool) {
+        let w = self.format.width as usize;
+        self.row_codes(at.frame, y, s);
+        if let Some(v) = at.veil {
+            s.transmittance.resize(w, 0.0);
+            s.finite.resize(w, false);
+            v.transmittance_row(y, &mut s.transmittance, &mut s.finite);
+            s.transmittance.resize(s.y.len(), 1.0);
+            s.finite.resize(s.y.len(), true);
+            v.grid_row(y, &mut s.grid);
+        }
+        let wet = at.wet.filter(|g| g.touches(y as usize));
+        if wet.is_some() {
+            s.plate.resize(4 * w, 0.0);
+            s.rgba.resize(4 * w, 0.0);
+        }
+        for x0 in (0..w).step_by(LANES) {
+            let n = LANES.min(w - x0);
+            let mut rgb = self.plate_lanes(s, x0, avx2);
+            if wet.is_some() {
+                put_rgba(&rgb, &mut s.plate[4 * x0..][..4 * n]);
+            }
+            if at.veil.is_some() {
+                let cell = x0 / LANES;
+                let (t, finite) = (&s.transmittance[x0..], &s.finite[x0..]);
+                veil_lanes(&mut rgb, t, finite, &s.grid[cell], &s.grid[cell + 1]);
+            }
+            if wet.is_some() {
+                put_rgba(&rgb, &mut s.rgba[4 * x0..][..4 * n]);
+            } else if n == LANES {
+                lanes::store_rgb(&rgb, &mut out[4 * x0..], avx2);
+            } else {
+                let mut texels = [f16::ZERO; 4 * LANES];
+                lanes::store_rgb(&rgb, &mut texels, avx2);
+                out[4 * x0..].copy_from_slice(&texels[..4 * n]);
+            }
+        }
+        if let Some(g) = wet {
+            let haze = at.veil.map(|_| (&s.transmittance[..w], &s.grid[..]));
+            g.row(y as usize, &s.plate, haze, &mut s.rgba);
+            super::tile::store(&s.rgba, out, avx2);
+        }
+    }
+
+    /// The plate's linear RGBA along row `y` (alpha 1).
     pub(super) fn plate_row(&self, frame: &YuvFrame, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
+        let w = self.format.width as usize;
+        self.row_codes(frame, y, s);
+        for x0 in (0..w).step_by(LANES) {
+            let n = LANES.min(w - x0);
+            put_rgba(
+                &self.plate_lanes(s, x0, false),
+                &mut rgba[4 * x0..][..4 * n],
+            );
+        }
+    }
+
+    /// The codes of row `y` into `s`: luma, and each chroma code over the pixels that share it,
+    /// padded with zeros to whole lane blocks.
+    #[inline(always)]
+    fn row_codes(&self, frame: &YuvFrame, y: u32, s: &mut RowScratch) {
         let f = self.format;
+        let w = f.width as usize;
         let (sx, sy) = f.chroma.shift();
         let (cw, _) = f.plane_size(1);
         let cy = (y >> sy) as usize;
-        codes(frame, 0, y as usize, f.width as usize, &mut s.y);
-        codes(frame, 1, cy, cw as usize, &mut s.cb);
-        codes(frame, 2, cy, cw as usize, &mut s.cr);
-        // The matrix's chroma terms once per chroma sample.
-        s.chroma.clear();
-        s.chroma.extend(s.cb.iter().zip(&s.cr).map(|(&cb, &cr)| {
-            let (cb, cr) = (self.chroma[cb as usize], self.chroma[cr as usize]);
-            [
-                self.cr_r * cr,
-                -(self.cb_g * cb + self.cr_g * cr),
-                self.cb_b * cb,
-            ]
-        }));
-        for (x, (px, &code)) in rgba.chunks_exact_mut(4).zip(&s.y).enumerate() {
-            let luma = self.luma[code as usize];
-            let c = s.chroma[x >> sx];
-            px[0] = self.eotf.apply(luma + c[0]);
-            px[1] = self.eotf.apply(luma + c[1]);
-            px[2] = self.eotf.apply(luma + c[2]);
-            px[3] = 1.0;
+        let padded = w.div_ceil(LANES) * LANES;
+        codes(frame, 0, y as usize, w, &mut s.y);
+        s.y.resize(padded, 0);
+        for (i, out) in [(1, &mut s.cb), (2, &mut s.cr)] {
+            codes(frame, i, cy, cw as usize, &mut s.chroma);
+            out.clear();
+            if sx == 0 {
+                out.extend_from_slice(&s.chroma);
+            } else {
+                out.extend(s.chroma.iter().flat_map(|&v| [v, v]));
+                out.truncate(w);
+            }
+            out.resize(padded, 0);
         }
     }
+
+    /// Linear R, G and B of the eight pixels from `x0` of the row in `s` ([`row_codes`](Self::row_codes)).
+    #[inline(always)]
+    fn plate_lanes(&self, s: &RowScratch, x0: usize, avx2: bool) -> [[f32; LANES]; 3] {
+        let (y, cb, cr) = (
+            &s.y[x0..][..LANES],
+            &s.cb[x0..][..LANES],
+            &s.cr[x0..][..LANES],
+        );
+        let mut e = [[0f32; LANES]; 3];
+        for l in 0..LANES {
+            let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
+            let cb = (f32::from(cb[l]) - self.c_offset) / self.c_scale;
+            let cr = (f32::from(cr[l]) - self.c_offset) / self.c_scale;
+            e[0][l] = luma + self.cr_r * cr;
+            e[1][l] = luma + -(self.cb_g * cb + self.cr_g * cr);
+            e[2][l] = luma + self.cb_b * cb;
+        }
+        // No closures here: they would leave the AVX2 build.
+        let eotf = &self.eotf;
+        [
+            eotf.lanes(e[0], avx2),
+            eotf.lanes(e[1], avx2),
+            eotf.lanes(e[2], avx2),
+        ]
+    }
+}
+
+/// What a band's rows read.
+struct Band<'a> {
+    frame: &'a YuvFrame,
+    veil: Option<&'a Veil<'a>>,
+    wet: Option<&'a WetGround<'a>>,
+    y0: usize,
 }
 
 /// Per-band buffers, reused row after row.
 #[derive(Default)]
 pub(super) struct RowScratch {
+    /// The row's codes per pixel, padded to whole lane blocks.
     y: Vec<u16>,
     cb: Vec<u16>,
     cr: Vec<u16>,
-    chroma: Vec<[f32; 3]>,
+    /// A chroma row's codes.
+    chroma: Vec<u16>,
+    /// The row as RGBA f32, and the plate before the haze (rows the wet ground reaches).
+    rgba: Vec<f32>,
+    plate: Vec<f32>,
     transmittance: Vec<f32>,
     finite: Vec<bool>,
-    grid: Vec<super::veil::GridPoint>,
+    grid: Vec<GridPoint>,
 }
 
 /// The first `n` codes of row `y` of plane `i` into `out`, clamped to the depth's largest code
-/// (a stray high bit in a 10-bit sample cannot index past the tables).
+/// (a stray high bit in a 10-bit sample stays in range).
+#[inline(always)]
 fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
     let p = &frame.planes[i];
-    let max = (1u32 << frame.format.bit_depth) - 1;
+    let max = ((1u32 << frame.format.bit_depth) - 1) as u16;
     out.clear();
     if frame.format.bytes_per_sample() == 1 {
         out.extend(p.data[y * p.stride..][..n].iter().map(|&v| u16::from(v)));
@@ -184,32 +344,88 @@ fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
         out.extend(
             p.data[y * p.stride..][..2 * n]
                 .chunks_exact(2)
-                .map(|b| u16::from_le_bytes([b[0], b[1]]).min(max as u16)),
+                .map(|b| u16::from_le_bytes([b[0], b[1]]).min(max)),
         );
     }
 }
 
-/// `plate · T' + (1 − T') · S + (1 − T) · L` along row `y`, T' = T + (1 − T) · sky where the
-/// pixel's distance is not known finite (see [`super::veil`]).
-fn veil_row(v: &Veil, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
-    let w = rgba.len() / 4;
-    s.transmittance.resize(w, 0.0);
-    s.finite.resize(w, false);
-    v.transmittance_row(y, &mut s.transmittance, &mut s.finite);
-    v.grid_row(y, &mut s.grid);
-    let cell = crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX as usize;
-    let pixels = rgba
-        .chunks_exact_mut(4)
-        .zip(&s.transmittance)
-        .zip(&s.finite);
-    for (x, ((px, &t), &finite)) in pixels.enumerate() {
-        let (g, f) = (x / cell, ((x % cell) as f32 + 0.5) / cell as f32);
-        let (a, b) = (s.grid[g], s.grid[g + 1]);
-        let at = |c: usize| a[c] + (b[c] - a[c]) * f;
-        let sky = if finite { 0.0 } else { at(6) };
-        let veil = t + (1.0 - t) * sky;
-        for (c, v) in px[..3].iter_mut().enumerate() {
-            *v = *v * veil + (1.0 - veil) * at(c) + (1.0 - t) * at(c + 3);
+/// The first `out.len() / 4` lanes of `rgb` as RGBA f32 (alpha 1) into `out`.
+#[inline(always)]
+fn put_rgba(rgb: &[[f32; LANES]; 3], out: &mut [f32]) {
+    for (l, px) in out.chunks_exact_mut(4).enumerate() {
+        px.copy_from_slice(&[rgb[0][l], rgb[1][l], rgb[2][l], 1.0]);
+    }
+}
+
+/// `plate · T' + (1 − T') · S + (1 − T) · L` over a lane block (`t`, `finite`: from its first
+/// pixel; `a`, `b`: its cell's grid columns), T' = T + (1 − T) · sky where the pixel's
+/// distance is not known finite (see [`super::veil`]).
+#[inline(always)]
+fn veil_lanes(
+    rgb: &mut [[f32; LANES]; 3],
+    t: &[f32],
+    finite: &[bool],
+    a: &GridPoint,
+    b: &GridPoint,
+) {
+    let (t, finite) = (&t[..LANES], &finite[..LANES]);
+    // The pixels' places in their cell: the interpolation's weights.
+    let f: [f32; LANES] = std::array::from_fn(|l| (l as f32 + 0.5) / LANES as f32);
+    let mut veil = [0f32; LANES];
+    for l in 0..LANES {
+        let sky = if finite[l] {
+            0.0
+        } else {
+            a[6] + (b[6] - a[6]) * f[l]
+        };
+        veil[l] = t[l] + (1.0 - t[l]) * sky;
+    }
+    // A channel at a time, its lanes side by side.
+    for c in 0..3 {
+        for l in 0..LANES {
+            let (s, g) = (
+                a[c] + (b[c] - a[c]) * f[l],
+                a[c + 3] + (b[c + 3] - a[c + 3]) * f[l],
+            );
+            rgb[c][l] = rgb[c][l] * veil[l] + (1.0 - veil[l]) * s + (1.0 - t[l]) * g;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::video::{ColorParams, Matrix, Transfer};
+
+    /// The normalised Y'CbCr in f32 (code − offset) / scale is the exact value rounded once:
+    /// the same as the f64 quotient rounded to f32, for every code of every depth and range.
+    #[test]
+    fn f32_quotients_are_the_exact_values_rounded() {
+        for bit_depth in 8..=16 {
+            for full_range in [false, true] {
+                let color = ColorParams {
+                    matrix: Matrix::Bt709,
+                    full_range,
+                    transfer: Transfer::Bt709,
+                    bit_depth,
+                };
+                let s = color.range_scale();
+                let d = super::Decoder::new(
+                    crate::video::FrameFormat {
+                        width: 2,
+                        height: 2,
+                        chroma: crate::video::Chroma::Cs420,
+                        bit_depth,
+                    },
+                    &color,
+                );
+                for c in 0..1u32 << bit_depth {
+                    let y = ((f64::from(c) - s.y_offset) / s.y_scale) as f32;
+                    let cb = ((f64::from(c) - s.c_offset) / s.c_scale) as f32;
+                    let code = c as f32;
+                    assert_eq!(y, (code - d.y_offset) / d.y_scale, "{bit_depth}, {c}");
+                    assert_eq!(cb, (code - d.c_offset) / d.c_scale, "{bit_depth}, {c}");
+                }
+            }
         }
     }
 }

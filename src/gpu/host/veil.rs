@@ -119,6 +119,7 @@ impl<'a> Veil<'a> {
     /// The transmittance of each pixel of row `y` into `out` (`out.len()` pixels), and into
     /// `finite` whether the pixel's distance is known finite (the depth map knows it, or a given
     /// ground lies below its ray): there the sky's mask does not apply.
+    #[inline(always)]
     pub fn transmittance_row(&self, y: u32, out: &mut [f32], finite: &mut [bool]) {
         finite.fill(false);
         match &self.along {
@@ -163,34 +164,67 @@ fn along<'a>(p: &RainParams, depth: Option<&'a [f32]>) -> Along<'a> {
 }
 
 impl Rays<'_> {
+    /// The transmittance along the rays of row `y`: first where each ray ends (the depth
+    /// map, the ground, or the scene), then `exp(−β · max(d − near, 0))` over the row in lanes.
+    #[inline(always)]
     fn row(&self, y: u32, out: &mut [f32], known: &mut [bool]) {
         let yc = y as f32 + 0.5;
         let base: [f32; 3] = std::array::from_fn(|k| self.origin[k] + self.dy[k] * yc);
-        for (x, (t, known)) in out.iter_mut().zip(known).enumerate() {
+        let h = self.ground_h_m.unwrap_or(0.0);
+        for (x, (t, known)) in out.iter_mut().zip(known.iter_mut()).enumerate() {
             let xc = x as f32 + 0.5;
             let r: [f32; 3] = std::array::from_fn(|k| base[k] + self.dx[k] * xc);
             let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
             let mapped = self.depth.as_ref().map_or(0.0, |d| d.at(xc, yc));
-            *known = mapped > 0.0 || (self.ground_h_m.is_some() && r[2] < 0.0);
-            let along_m = if mapped > 0.0 {
-                // The ray has unit camera depth: a camera z of z metres lies z · |ray| along it.
+            let below = self.ground_h_m.is_some() && r[2] < 0.0;
+            *known = mapped > 0.0 || below;
+            // The distance along the ray (unit camera depth: a camera z of z metres lies
+            // z · |ray| along it); NaN where the scene's own transmittance holds.
+            *t = if mapped > 0.0 {
                 mapped * len
+            } else if below && h * len < -r[2] * self.far_m {
+                h * len / -r[2]
             } else {
-                match self.ground_h_m {
-                    Some(h) if r[2] < 0.0 && h * len < -r[2] * self.far_m => h * len / -r[2],
-                    _ => {
-                        *t = self.scene_t;
-                        continue;
-                    }
-                }
+                f32::NAN
             };
-            *t = (-self.beta_per_m * (along_m - self.near_m).max(0.0)).exp();
+        }
+        for t in out.iter_mut() {
+            let along_m = *t;
+            let v = exp_nonpositive(-self.beta_per_m * (along_m - self.near_m).max(0.0));
+            *t = if along_m.is_nan() { self.scene_t } else { v };
         }
     }
 }
 
+/// e^x for x ≤ 0 (x > 0 reads as 0, NaN as −87) within 2 ulp, without a library call so that a
+/// row of them vectorises: x = n ln 2 + r with |r| ≤ ln 2 / 2, e^r by its Taylor polynomial to
+/// r⁷ (the next term is below 2⁻²⁶), times 2ⁿ. Below −87 (e^x < 2⁻¹²⁵) it gives 2⁻¹²⁶·e^r's
+/// floor, about 1e-38: no transmittance a canvas can show.
+#[inline(always)]
+fn exp_nonpositive(x: f32) -> f32 {
+    const LN2_HI: f32 = 0.693_145_75;
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    // 1.5 · 2²³: adding it rounds to an integer (ties to even) in its low bits.
+    const ROUND: f32 = 12_582_912.0;
+    // Not `clamp`, which keeps NaN: NaN goes to −87 here.
+    #[allow(clippy::manual_clamp)]
+    let x = x.max(-87.0).min(0.0);
+    let n = (x * std::f32::consts::LOG2_E + ROUND) - ROUND;
+    let r = (x - n * LN2_HI) - n * LN2_LO;
+    let p = 1.0
+        + r * (1.0
+            + r * (0.5
+                + r * (1.0 / 6.0
+                    + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r / 5040.0))))));
+    // SAFETY: n is an integer in [−126, 0] (x is in [−87, 0]), so it converts exactly.
+    let n = unsafe { n.to_int_unchecked::<i32>() };
+    // 2ⁿ from its exponent bits.
+    p * f32::from_bits(((n + 127) as u32) << 23)
+}
+
 impl Depth<'_> {
     /// The depth at coded position (`x`, `y`), 0 where unknown.
+    #[inline(always)]
     fn at(&self, x: f32, y: f32) -> f32 {
         let (cx, cy) = (x - self.offset[0], y - self.offset[1]);
         let m = self.m;
@@ -198,5 +232,23 @@ impl Depth<'_> {
         let px = (sx.max(0.0) as usize).min(self.size.0 - 1);
         let py = (sy.max(0.0) as usize).min(self.size.1 - 1);
         self.metres[py * self.size.0 + px]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The row's exponential against the library's, over the transmittances a haze can have.
+    #[test]
+    fn exp_nonpositive_is_within_two_ulp() {
+        let mut worst = 0f64;
+        for k in 0..=200_000 {
+            let x = -87.0 * k as f32 / 200_000.0;
+            let (ours, libm) = (super::exp_nonpositive(x), x.exp());
+            let ulp = f64::from(libm) * f64::from(f32::EPSILON);
+            worst = worst.max((f64::from(ours) - f64::from(libm)).abs() / ulp);
+        }
+        assert!(worst <= 2.0, "{worst} ulp");
+        assert_eq!(super::exp_nonpositive(0.0), 1.0);
+        assert!(super::exp_nonpositive(-200.0) < 1e-37);
     }
 }
