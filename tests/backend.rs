@@ -909,9 +909,10 @@ fn streak_raster_avx2_build_matches_the_baseline() {
     }
 }
 
-/// The decode's and the encode's AVX2 builds (eight lanes a vector, gathers from the tables,
-/// F16C for the canvas) give the baseline builds' bits: for every picture (odd sizes, 4:2:2,
-/// 10-bit) under every haze, and with the wet ground fused into the decode and the puddles.
+/// The decode's, the puddles' and the encode's AVX2 builds (eight lanes a vector, gathers from
+/// the tables, F16C for the canvas and the puddles' reads of the picture) give the baseline
+/// builds' bits: for every picture (odd sizes, 4:2:2, 10-bit) under every haze, and with the
+/// wet ground fused into the decode and the puddles, upright and turned.
 #[test]
 fn colour_passes_avx2_build_matches_the_baseline() {
     let tables = water_tables(1024);
@@ -940,8 +941,8 @@ fn colour_passes_avx2_build_matches_the_baseline() {
             assert!(fast.0 == base.0, "{name}, {haze:?}: the decodes differ");
             assert!(fast.1 == base.1, "{name}, {haze:?}: the encodes differ");
         }
-        for on in GROUNDS {
-            let turned = |make| ground_case_turned(&frame, on, &tables, 1, 0, make);
+        for (on, rotation_deg) in GROUNDS.into_iter().flat_map(|on| [(on, 0), (on, 90)]) {
+            let turned = |make| ground_case_turned(&frame, on, &tables, 1, rotation_deg, make);
             let (fast, base) = (turned(HostColour::new), turned(HostColour::baseline));
             assert!(fast.wet_pixels > 0 || on == OnGround::Wet, "{name}, {on:?}");
             assert!(

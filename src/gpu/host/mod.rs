@@ -46,6 +46,8 @@ pub struct HostColour {
     canvas: Vec<f16>,
     /// The streak raster's buffers, kept from frame to frame.
     raster: streaks::Raster,
+    /// Whether the puddles run their AVX2 build where the CPU has it.
+    puddles_avx2: bool,
 }
 
 /// What lies on the ground of one frame: the wet ground's uniforms and the water.
@@ -71,15 +73,17 @@ impl HostColour {
             ground_mask: None,
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
             raster: streaks::Raster::default(),
+            puddles_avx2: true,
         }
     }
 
-    /// [`new`](Self::new) without the AVX2 builds of the decode and the encode: the same bits,
-    /// slower (`tests/backend.rs` holds the two equal).
+    /// [`new`](Self::new) without the AVX2 builds of the decode, the puddles and the encode:
+    /// the same bits, slower (`tests/backend.rs` holds the two equal).
     pub fn baseline(format: FrameFormat, color: &ColorParams) -> HostColour {
         let mut host = HostColour::new(format, color);
         host.decoder.set_baseline(true);
         host.encoder.set_baseline(true);
+        host.puddles_avx2 = false;
         host
     }
 
@@ -153,7 +157,12 @@ impl HostColour {
         };
         let started = std::time::Instant::now();
         let wet = puddles::Puddles::new(&on_ground, water, &self.lights).map_or(0, |w| {
-            w.shade(&mut self.canvas, frame, &self.decoder, veil.as_ref())
+            let (canvas, decoder, veil) = (&mut self.canvas, &self.decoder, veil.as_ref());
+            if self.puddles_avx2 {
+                w.shade(canvas, frame, decoder, veil)
+            } else {
+                w.shade_baseline(canvas, frame, decoder, veil)
+            }
         });
         (started.elapsed().as_secs_f64(), wet)
     }

@@ -7,14 +7,17 @@
 //! that can reach their ground (as the shader's workgroups do); the mirror reads the canvas as
 //! it was before the water (each band is written to a copy, put back once all are done), so no
 //! pixel depends on the order. Pixels without water keep their bits. In f32 as the shader; the
-//! plain twin [`crate::gpu::cpu::puddles`] is the reference (`tests/backend.rs`).
+//! plain twin [`crate::gpu::cpu::puddles`] is the reference (`tests/backend.rs`). On x86-64
+//! with AVX2 and F16C each band is compiled a second time (the picture's texels converted by
+//! F16C, the floors rounded inline, no library calls for either) and picked at run time, as the
+//! streak raster's ([`super::streaks`]); it gives the same bits.
 
 use glam::{Vec2, Vec3};
 use half::f16;
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 
 use super::plate::Decoder;
+use super::tile::load_texel;
 use super::veil::Veil;
 use super::wet_ground::{Ground, PI, darkening, ground_shown, reflectance, smoothstep};
 use crate::gpu::stages::puddles::FrameWater;
@@ -68,8 +71,10 @@ impl WetBlocks {
             .map(|b| {
                 let mut row = vec![false; bx];
                 for j in b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny) {
-                    for (i, &d) in depth_m[j * nx..(j + 1) * nx].iter().enumerate() {
-                        row[i / WET_BLOCK] |= d > 0.0;
+                    let cells = depth_m[j * nx..(j + 1) * nx].chunks(WET_BLOCK);
+                    for (w, cells) in row.iter_mut().zip(cells) {
+                        // `|`, not `any`: no branch per cell, eight compares at a time.
+                        *w |= cells.iter().fold(false, |a, &d| a | (d > 0.0));
                     }
                 }
                 row
@@ -103,20 +108,24 @@ struct Picture<'a> {
     canvas: &'a [f16],
     width: usize,
     height: usize,
+    /// Texels converted by F16C (only in the AVX2 build: [`Puddles::band_on`]).
+    f16c: bool,
 }
 
 impl Picture<'_> {
     /// The picture at coded pixel (`x`, `y`), clamped at the border.
-    #[inline]
+    #[inline(always)]
     fn at(&self, x: i64, y: i64) -> Vec3 {
         let x = x.clamp(0, self.width as i64 - 1) as usize;
         let y = y.clamp(0, self.height as i64 - 1) as usize;
-        let px = &self.canvas[4 * (y * self.width + x)..][..3];
-        Vec3::new(px[0].to_f32(), px[1].to_f32(), px[2].to_f32())
+        let k = 4 * (y * self.width + x);
+        let texel: &[f16; 4] = self.canvas[k..k + 4].try_into().expect("four values");
+        let [r, g, b, _] = load_texel(texel, self.f16c);
+        Vec3::new(r, g, b)
     }
 
     /// The picture at coded position `at` (px), bilinear between pixel centres.
-    #[inline]
+    #[inline(always)]
     fn sample(&self, at: Vec2) -> Vec3 {
         let u = at - Vec2::splat(0.5);
         let i = u.floor();
@@ -127,6 +136,7 @@ impl Picture<'_> {
         a.lerp(b, f.x).lerp(c.lerp(e, f.x), f.y)
     }
 
+    #[inline(always)]
     fn inside(&self, at: Vec2) -> f32 {
         at.x.min(at.y)
             .min(self.width as f32 - at.x)
@@ -157,7 +167,8 @@ impl<'a> Puddles<'a> {
     }
 
     /// Puts the water on `canvas` (RGBA f16, the frame `frame` decoded by `decoder` under
-    /// `veil`, with the wet ground if any); returns the pixels under water.
+    /// `veil`, with the wet ground if any); returns the pixels under water. Runs the AVX2
+    /// build where the CPU has AVX2 and F16C.
     pub fn shade(
         &self,
         canvas: &mut [f16],
@@ -165,16 +176,40 @@ impl<'a> Puddles<'a> {
         decoder: &Decoder,
         veil: Option<&Veil>,
     ) -> usize {
+        self.shade_on(canvas, frame, decoder, veil, true)
+    }
+
+    /// [`Puddles::shade`] without the AVX2 build: the same bits (`tests/backend.rs`).
+    pub fn shade_baseline(
+        &self,
+        canvas: &mut [f16],
+        frame: &YuvFrame,
+        decoder: &Decoder,
+        veil: Option<&Veil>,
+    ) -> usize {
+        self.shade_on(canvas, frame, decoder, veil, false)
+    }
+
+    fn shade_on(
+        &self,
+        canvas: &mut [f16],
+        frame: &YuvFrame,
+        decoder: &Decoder,
+        veil: Option<&Veil>,
+        avx2: bool,
+    ) -> usize {
         let (width, height) = self.ground.coded_size;
         let bands = height.div_ceil(BLOCK);
+        let avx2 = avx2 && has_avx2();
         let picture = Picture {
             canvas,
             width,
             height,
+            f16c: avx2,
         };
         let done: Vec<(usize, Vec<f16>, usize)> = (0..bands)
             .into_par_iter()
-            .filter_map(|band| self.band(band, &picture, frame, decoder, veil))
+            .filter_map(|band| self.band_on(band, &picture, frame, decoder, veil))
             .collect();
         let mut wet = 0;
         for (band, rows, n) in done {
@@ -184,7 +219,36 @@ impl<'a> Puddles<'a> {
         wet
     }
 
+    /// [`Puddles::band`], in the AVX2 build where `picture.f16c` (the CPU has AVX2 and F16C).
+    fn band_on(
+        &self,
+        band: usize,
+        picture: &Picture,
+        frame: &YuvFrame,
+        decoder: &Decoder,
+        veil: Option<&Veil>,
+    ) -> Option<(usize, Vec<f16>, usize)> {
+        #[cfg(target_arch = "x86_64")]
+        if picture.f16c {
+            #[target_feature(enable = "avx2,f16c")]
+            fn fast(
+                puddles: &Puddles,
+                band: usize,
+                picture: &Picture,
+                frame: &YuvFrame,
+                decoder: &Decoder,
+                veil: Option<&Veil>,
+            ) -> Option<(usize, Vec<f16>, usize)> {
+                puddles.band(band, picture, frame, decoder, veil)
+            }
+            // SAFETY: `f16c` is set only where the CPU has AVX2 and F16C (`shade_on`).
+            return unsafe { fast(self, band, picture, frame, decoder, veil) };
+        }
+        self.band(band, picture, frame, decoder, veil)
+    }
+
     /// Band `band`'s rows with the water, or `None` where none of its pixels is under water.
+    #[inline(always)]
     fn band(
         &self,
         band: usize,
@@ -249,7 +313,7 @@ impl<'a> Puddles<'a> {
                 dst.copy_from_slice(row);
                 continue;
             }
-            row.convert_to_f32_slice(&mut out);
+            super::tile::load(row, &mut out, picture.f16c);
             decoder.plate_row(frame, y as u32, &mut plate, &mut scratch);
             if let Some(v) = veil {
                 v.transmittance_row(y as u32, &mut t, &mut finite);
@@ -275,7 +339,7 @@ impl<'a> Puddles<'a> {
                     wet += 1;
                 }
             }
-            dst.convert_from_f32_slice(&out);
+            super::tile::store(&out, dst, picture.f16c);
             // Pixels without water keep their bits (f16 → f32 → f16 is exact).
         }
         Some((band, band_out, wet))
@@ -319,7 +383,7 @@ impl<'a> Puddles<'a> {
 
     /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
     /// rises to the rim's.
-    #[inline]
+    #[inline(always)]
     fn cover(&self, x: usize, y: usize) -> f32 {
         let g = self.ground;
         let ray = g.ray(x, y);
@@ -342,7 +406,7 @@ impl<'a> Puddles<'a> {
     /// puddles.wgsl and of the twin, in their order: each row along x, then the rows along y).
     /// The clamp settles the cover from the four nearest alone where all are dry or all deeper
     /// than the rim (most of the ground): the same value, without the other twelve reads.
-    #[inline]
+    #[inline(always)]
     fn water_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
         let p = &self.water.params;
         let (nx, ny) = (p.cells[0] as i64, p.cells[1] as i64);
@@ -447,7 +511,7 @@ impl<'a> Puddles<'a> {
     /// opacity, as the decode laid them), `held` the picture before the
     /// water, `rings` the block's; `None` where the pixel does not show the ground.
     #[allow(clippy::too_many_arguments)]
-    #[inline]
+    #[inline(always)]
     fn pixel(
         &self,
         x: usize,
@@ -487,7 +551,7 @@ impl<'a> Puddles<'a> {
     }
 
     /// The gradient of the water's height at `xy`: each kept ring's radial slope along r̂.
-    #[inline]
+    #[inline(always)]
     fn ripple_slope(&self, xy: Vec2, rings: &[u32]) -> Vec2 {
         let all = self.ripples();
         let mut g = Vec2::ZERO;
@@ -512,6 +576,7 @@ impl<'a> Puddles<'a> {
 
     /// The reflection along `mirrored`, blurred beyond the resolved depth by the far water's
     /// RMS slope (the mean of four slopes moved by ±σ along x and y; `rough_reflected`).
+    #[inline(always)]
     fn rough_reflected(
         &self,
         p: Vec3,
@@ -522,26 +587,38 @@ impl<'a> Puddles<'a> {
         picture: &Picture,
     ) -> Vec3 {
         let w = &self.water.params;
-        if w.far_slope_rms <= 0.0 {
-            return self.reflected(p, mirrored, picture);
-        }
         let s = w.resolve_depth_m;
-        let sigma = w.far_slope_rms * smoothstep(s, 2.0 * s, depth_m);
-        if sigma <= 0.0 {
-            return self.reflected(p, mirrored, picture);
-        }
+        let sigma = if w.far_slope_rms <= 0.0 {
+            0.0
+        } else {
+            w.far_slope_rms * smoothstep(s, 2.0 * s, depth_m)
+        };
+        // The smooth water's one ray, else the four rough ones; one call of the (inlined)
+        // reflection.
+        let smooth = sigma <= 0.0;
+        let rough = !smooth;
         let mut sum = Vec3::ZERO;
-        for i in 0..4 {
-            let axis = if i < 2 { Vec2::X } else { Vec2::Y };
-            let tilt = if i & 1 == 0 { sigma } else { -sigma } * axis;
-            let n = Vec3::new(-(slope.x + tilt.x), -(slope.y + tilt.y), 1.0).normalize();
-            let c = (-d.dot(n)).max(0.0);
-            sum += self.reflected(p, d + 2.0 * c * n, picture);
+        for i in 0..if rough { 4 } else { 1 } {
+            let dir = if rough {
+                let axis = if i < 2 { Vec2::X } else { Vec2::Y };
+                let tilt = if i & 1 == 0 { sigma } else { -sigma } * axis;
+                let n = Vec3::new(-(slope.x + tilt.x), -(slope.y + tilt.y), 1.0).normalize();
+                let c = (-d.dot(n)).max(0.0);
+                d + 2.0 * c * n
+            } else {
+                mirrored
+            };
+            let seen = self.reflected(p, dir, picture);
+            if !rough {
+                return seen;
+            }
+            sum += seen;
         }
         0.25 * sum
     }
 
     /// The radiance the water at ground point `p` mirrors along unit direction `dir`.
+    #[inline(always)]
     fn reflected(&self, p: Vec3, dir: Vec3, picture: &Picture) -> Vec3 {
         let q = self
             .march(p, dir, picture)
@@ -562,6 +639,7 @@ impl<'a> Puddles<'a> {
 
     /// Where the mirrored ray from `p` along `dir` first passes behind the filmed scene
     /// (camera space), if a depth map is set and it does within the frame (`march`).
+    #[inline(always)]
     fn march(&self, p: Vec3, dir: Vec3, picture: &Picture) -> Option<Vec3> {
         if !self.ground.has_depth() {
             return None;
@@ -604,6 +682,7 @@ impl<'a> Puddles<'a> {
 
     /// Whether camera-space point `q` lies behind the scene's surface at its pixel (but not
     /// far), where that surface stands on the ground (`behind`).
+    #[inline(always)]
     fn behind(&self, q: Vec3) -> bool {
         if q.z <= 0.0 {
             return false;
@@ -620,20 +699,20 @@ impl<'a> Puddles<'a> {
     }
 
     /// World direction `dir` in the camera's frame.
-    #[inline]
+    #[inline(always)]
     fn camera_dir(&self, dir: Vec3) -> Vec3 {
         let r = &self.ground.rows;
         Vec3::new(r[0].dot(dir), r[1].dot(dir), r[2].dot(dir))
     }
 
     /// World point `w` in the camera's frame.
-    #[inline]
+    #[inline(always)]
     fn to_camera(&self, w: Vec3) -> Vec3 {
         self.camera_dir(w - self.ground.camera)
     }
 
     /// Coded pixel position of camera-space point `q` (`project`).
-    #[inline]
+    #[inline(always)]
     fn project(&self, q: Vec3) -> Vec2 {
         let g = self.ground;
         let s = g.principal + g.focal * Vec2::new(q.x, q.y) / q.z;
@@ -642,6 +721,7 @@ impl<'a> Puddles<'a> {
 
     /// What lies along `dir` from ground point `p` outside the frame: the SH environment, and
     /// each lamp as a normalised von Mises–Fisher lobe about its direction from `p`.
+    #[inline(always)]
     fn environment(&self, p: Vec3, dir: Vec3) -> Vec3 {
         let mut c = self.ground.sky(dir);
         let kappa = self.water.params.light_lobe;
@@ -663,6 +743,15 @@ impl<'a> Puddles<'a> {
         }
         c
     }
+}
+
+/// Whether the CPU runs the puddles' AVX2 build (AVX2, and F16C for the picture's texels).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("f16c");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from

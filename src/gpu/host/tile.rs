@@ -1,6 +1,7 @@
 //! A tile's rows between the f16 canvas and the raster's f32, eight values at a time with F16C
-//! in the raster's AVX2 build, else through the `half` crate: exact one way, rounded to the
-//! nearest even the other, so both give the same bits; and the next tile asked for ahead.
+//! in the raster's and the puddles' AVX2 builds (a texel's four at a time for the puddles'
+//! scattered reads), else through the `half` crate: exact one way, rounded to the nearest even
+//! the other, so both give the same bits; and the next tile asked for ahead.
 
 use half::f16;
 use half::slice::HalfFloatSliceExt;
@@ -33,6 +34,18 @@ pub fn store(src: &[f32], dst: &mut [f16], f16c: bool) {
     dst.convert_from_f32_slice(src);
 }
 
+/// One RGBA texel as f32; `f16c` as in [`load`] (one F16C conversion of four values).
+#[inline(always)]
+pub fn load_texel(src: &[f16; 4], f16c: bool) -> [f32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if f16c {
+        // SAFETY: as in `load`.
+        return unsafe { x86::load_texel(src) };
+    }
+    let _ = f16c;
+    src.map(f16::to_f32)
+}
+
 /// Asks the CPU to bring `rows` rows of `len` values, `stride` apart from the start of
 /// `canvas`, into its cache (no effect on any value; nothing where the CPU cannot).
 #[inline(always)]
@@ -59,8 +72,9 @@ pub fn prefetch(canvas: &[f16], stride: usize, rows: usize, len: usize) {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::{
-        __m128i, _MM_FROUND_TO_NEAREST_INT, _mm_loadu_si128, _mm_storeu_si128, _mm256_cvtph_ps,
-        _mm256_cvtps_ph, _mm256_loadu_ps, _mm256_storeu_ps,
+        __m128i, _MM_FROUND_TO_NEAREST_INT, _mm_cvtph_ps, _mm_loadl_epi64, _mm_loadu_si128,
+        _mm_storeu_ps, _mm_storeu_si128, _mm256_cvtph_ps, _mm256_cvtps_ph, _mm256_loadu_ps,
+        _mm256_storeu_ps,
     };
 
     use half::f16;
@@ -80,6 +94,19 @@ mod x86 {
             }
         }
         src[whole..n].convert_to_f32_slice(&mut dst[whole..n]);
+    }
+
+    /// See [`super::load_texel`].
+    #[inline]
+    #[target_feature(enable = "avx,f16c")]
+    pub unsafe fn load_texel(src: &[f16; 4]) -> [f32; 4] {
+        let mut out = [0f32; 4];
+        // SAFETY: eight bytes read from `src`, sixteen written to `out`; unaligned.
+        unsafe {
+            let h = _mm_loadl_epi64(src.as_ptr().cast::<__m128i>());
+            _mm_storeu_ps(out.as_mut_ptr(), _mm_cvtph_ps(h));
+        }
+        out
     }
 
     /// See [`super::store`].

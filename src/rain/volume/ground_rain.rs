@@ -94,12 +94,18 @@ impl Stream {
     }
 }
 
+/// The spare slots a [`StreamSlots`] keeps at most.
+const SPARE_SLOTS: usize = 4;
+
 /// The stream's landings of whole time slots over one rectangle, kept from one call of
 /// [`GroundRain::stream_landings_kept`] to the next.
 #[derive(Debug, Clone, Default)]
 pub struct StreamSlots {
     rect: Option<GroundRect>,
     slots: Vec<SlotLandings>,
+    /// Slots gone by, their lists kept to be filled again: a slot's hundreds of thousands of
+    /// landings then land in memory already mapped and grown (no fresh pages each slot).
+    spare: Vec<SlotLandings>,
 }
 
 /// One slot's landings, cell after cell: cell c's are `landings[starts[c]..starts[c + 1]]`.
@@ -404,20 +410,29 @@ impl GroundRain {
         };
         let t0_s = t0_s.max(0.0);
         if kept.rect != Some(*rect) {
-            *kept = StreamSlots {
-                rect: Some(*rect),
-                slots: Vec::new(),
-            };
+            kept.rect = Some(*rect);
+            kept.spare.append(&mut kept.slots);
         }
-        kept.slots.retain(|s| stream.slots.contains(&s.slot));
+        let (gone, live): (Vec<_>, Vec<_>) = std::mem::take(&mut kept.slots)
+            .into_iter()
+            .partition(|s| !stream.slots.contains(&s.slot));
+        kept.slots = live;
+        kept.spare.extend(gone);
+        // As many as a call makes at most (a frame spans two or three slots).
+        kept.spare.truncate(SPARE_SLOTS);
         for slot in stream.slots.clone() {
             if kept.slots.iter().all(|s| s.slot != slot) {
-                let mut made = SlotLandings {
+                let mut made = kept.spare.pop().unwrap_or_else(|| SlotLandings {
                     slot,
                     landings: Vec::new(),
                     times_s: Vec::new(),
-                    starts: vec![0],
-                };
+                    starts: Vec::new(),
+                });
+                made.slot = slot;
+                made.landings.clear();
+                made.times_s.clear();
+                made.starts.clear();
+                made.starts.push(0);
                 for cell in stream.cells() {
                     self.cell_slot(&stream, cell, slot, |l| made.landings.push(l));
                     made.starts.push(made.landings.len() as u32);
