@@ -2035,7 +2035,7 @@ fn wild_picture(format: FrameFormat, color: ColorParams) -> YuvFrame {
     let max = (1u32 << format.bit_depth) - 1;
     pictures::padded_picture(format, color, 5, |i, x, y| {
         let v = scatter(i, x, y);
-        if format.bit_depth > 8 && v % 97 == 0 {
+        if format.bit_depth > 8 && v.is_multiple_of(97) {
             (v % (max + 1)) as u16 | 0x8000
         } else {
             (v % (max + 1)) as u16

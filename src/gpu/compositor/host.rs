@@ -57,7 +57,10 @@ impl Compositor {
             let started = std::time::Instant::now();
             let list = splashes.simulate(rain);
             let count = host.draw_splashes(frame, rain, list);
-            self.gpu_times.rain_splashes_s += started.elapsed().as_secs_f64();
+            // The plate laid inside a draw is the decode's work, not the rain's.
+            let laying_s = host.take_laying_s();
+            self.gpu_times.yuv_to_rgb_s += laying_s;
+            self.gpu_times.rain_splashes_s += started.elapsed().as_secs_f64() - laying_s;
             self.gpu_times.splashes_drawn += count.streaks as u64;
         }
         if self.rain_drops > 0 {
@@ -65,7 +68,9 @@ impl Compositor {
                 host.draw_streaks(frame, rain, streaks, mattes, glints)
             });
             self.gpu_times.rain_simulate_s += t.simulate_s;
-            self.gpu_times.rain_streaks_s += t.streaks_s;
+            let laying_s = host.take_laying_s();
+            self.gpu_times.yuv_to_rgb_s += laying_s;
+            self.gpu_times.rain_streaks_s += t.streaks_s - laying_s;
             self.gpu_times.streaks_drawn += t.raster.streaks as u64;
         }
         let started = std::time::Instant::now();

@@ -20,7 +20,7 @@ use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
 
 // A tile's rows and columns hold whole chroma blocks (at most 2 × 2 pixels), so a tile's
 // codes depend on its own pixels alone.
-const _: () = assert!(TILE_W % 2 == 0 && TILE_H % 2 == 0);
+const _: () = assert!(TILE_W.is_multiple_of(2) && TILE_H.is_multiple_of(2));
 
 /// 2²³: adding it to a value in [0, 2²³] and taking it away again rounds the value to an
 /// integer, ties to even (the spacing of f32 there is 1), as WGSL's `round` does.

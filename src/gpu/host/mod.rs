@@ -49,6 +49,9 @@ pub struct HostColour {
     laid: Option<Vec<bool>>,
     /// Whether [`HostColour::lay_plate`] may let untouched tiles pass through.
     pass_through: bool,
+    /// Seconds the draws spent laying the plate in the tiles they reach, since last taken
+    /// ([`HostColour::take_laying_s`]).
+    laying_s: f64,
     /// The streak raster's buffers, kept from frame to frame.
     raster: streaks::Raster,
     /// Whether the puddles run their AVX2 build where the CPU has it.
@@ -95,6 +98,7 @@ impl HostColour {
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
             laid: None,
             pass_through: true,
+            laying_s: 0.0,
             raster: streaks::Raster::default(),
             puddles_avx2: true,
         }
@@ -287,6 +291,7 @@ impl HostColour {
             canvas,
             laid,
             raster,
+            laying_s,
             ..
         } = self;
         let rain = streaks::Rain {
@@ -298,6 +303,7 @@ impl HostColour {
         let width = format.width as usize;
         raster.draw_over(canvas, width, &rain, streaks, |canvas, reached| {
             let Some(laid) = laid else { return };
+            let started = std::time::Instant::now();
             let mut need = vec![false; laid.len()];
             reached.mark(&mut need);
             for (need, laid) in need.iter_mut().zip(laid.iter_mut()) {
@@ -305,7 +311,14 @@ impl HostColour {
                 *laid |= *need;
             }
             decoder.decode_tiles(frame, &need, canvas);
+            *laying_s += started.elapsed().as_secs_f64();
         })
+    }
+
+    /// The seconds the draws spent laying the plate in the tiles they reach since the last
+    /// call (the decode's share of a frame whose tiles pass through, timed inside the draws).
+    pub fn take_laying_s(&mut self) -> f64 {
+        std::mem::take(&mut self.laying_s)
     }
 
     /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.

@@ -35,7 +35,7 @@ const EOTF_STEPS: usize = 16384;
 // A lane block is one cell of the veil's grid: its pixels share the cell's two grid columns.
 const _: () = assert!(GLOW_CELL_PX as usize == LANES);
 // A tile is whole lane blocks.
-const _: () = assert!(TILE_W % LANES == 0);
+const _: () = assert!(TILE_W.is_multiple_of(LANES));
 
 /// The transfer (encoded → linear, odd-extended) as a table interpolated linearly. The
 /// transfer follows the matrix, so it is a function of three codes, not one: no exact
