@@ -321,7 +321,9 @@ impl HostColour {
         std::mem::take(&mut self.laying_s)
     }
 
-    /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.
+    /// The canvas as it stands: RGBA f16, row-major, `width` texels a row (after a
+    /// [`lay_plate`](Self::lay_plate) that let tiles pass through, only the tiles drawn on
+    /// hold the frame).
     pub fn canvas(&self) -> &[f16] {
         &self.canvas
     }
