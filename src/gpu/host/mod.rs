@@ -115,8 +115,8 @@ impl HostColour {
     }
 
     /// Whether [`lay_plate`](Self::lay_plate) lets the tiles nothing is drawn on pass through
-    /// (the default) or decodes and encodes every tile (the same codes where the frame's
-    /// codes survive the round trip, as legal codes do; slower).
+    /// (the default) or decodes and encodes every tile (slower; the same codes wherever the
+    /// round trip keeps the frame's, as it does on every picture `tests/backend.rs` tries).
     pub fn set_pass_through(&mut self, on: bool) {
         self.pass_through = on;
     }
