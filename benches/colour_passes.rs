@@ -158,7 +158,7 @@ fn streak_raster(c: &mut Criterion) {
     c.bench_function("host streaks 1080p, 10 mm/h (plate + raster)", |b| {
         b.iter(|| {
             host.decode(&frame, &clear);
-            black_box(host.draw_streaks(&clear, &streaks, None, &[]))
+            black_box(host.draw_streaks(&frame, &clear, &streaks, None, &[]))
         })
     });
     c.bench_function("host yuv→rgb 1080p, no haze (the plate alone)", |b| {

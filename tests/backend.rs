@@ -743,7 +743,7 @@ fn raster_pair(
     let glints = if draw == Draw::Glints { glints } else { &[] };
     let depth = (draw == Draw::Occluded).then_some(&map);
     rain_streaks::rain_streaks_with(&mut canvas, &p, streaks, mattes, glints, depth);
-    let count = host.draw_streaks(&p, streaks, mattes, glints);
+    let count = host.draw_streaks(frame, &p, streaks, mattes, glints);
     assert!(
         count.streaks > 0 && count.tiles > 0,
         "{draw:?}: nothing drawn"
@@ -934,7 +934,7 @@ fn colour_passes_avx2_build_matches_the_baseline() {
                     host.set_sky_mask(sky_mask(format));
                 }
                 let canvas = bits(host.decode(&frame, &p));
-                let planes = codes(&with_planes(&frame, host.encode_canvas()));
+                let planes = codes(&with_planes(&frame, host.encode_canvas(&frame)));
                 (canvas, planes)
             };
             let (fast, base) = (run(HostColour::new), run(HostColour::baseline));
@@ -980,13 +980,13 @@ fn nothing_drawn_leaves_the_canvas_untouched() {
             .iter()
             .map(|v| v.to_bits())
             .collect();
-        let count = host.draw_streaks(&p, &streaks, Some(&atlas()), &glints);
+        let count = host.draw_streaks(&frame, &p, &streaks, Some(&atlas()), &glints);
         assert_eq!(count.streaks, 0, "{name}");
         assert_eq!(count.tiles, 0, "{name}");
         let after: Vec<u16> = host.canvas().iter().map(|v| v.to_bits()).collect();
         assert_eq!(after, plate, "{name}");
         assert_eq!(
-            codes(&with_planes(&frame, host.encode_canvas())),
+            codes(&with_planes(&frame, host.encode_canvas(&frame))),
             codes(&frame),
             "{name}: the frame changed"
         );
@@ -1079,7 +1079,7 @@ fn unknown_depth_draws_as_no_map() {
             host.set_scene_depth(vec![0.0; (RW * RH) as usize]);
         }
         host.decode(&frame, &p);
-        host.draw_streaks(&p, &streaks, None, &[]);
+        host.draw_streaks(&frame, &p, &streaks, None, &[]);
         host.canvas()
             .iter()
             .map(|v| v.to_bits())
@@ -1930,8 +1930,14 @@ fn frames_from_simulated_drops_match_the_twin() {
                 host.set_scene_depth(metres(&map));
             }
             host.decode(&frame, &s.params);
-            host.draw_streaks(&s.params, streaks, s.setup.mattes.as_deref(), glints);
-            codes(&with_planes(&frame, host.encode_canvas()))
+            host.draw_streaks(
+                &frame,
+                &s.params,
+                streaks,
+                s.setup.mattes.as_deref(),
+                glints,
+            );
+            codes(&with_planes(&frame, host.encode_canvas(&frame)))
         };
         let (a, b) = (draw(&ours, &our_glints), draw(&twin, &twin_glints));
         let (worst, share) = compare(&a, &b);
@@ -2012,12 +2018,219 @@ fn simulated_rain_with_nothing_drawn_leaves_the_frame() {
         assert!(streaks.len() > 100, "{name}: {} drops", streaks.len());
         let mut host = HostColour::new(format, &color);
         host.decode(&frame, &s.params);
-        let count = host.draw_streaks(&s.params, &streaks, None, &glints);
+        let count = host.draw_streaks(&frame, &s.params, &streaks, None, &glints);
         assert_eq!(count.tiles, 0, "{name}");
         assert_eq!(
-            codes(&with_planes(&frame, host.encode_canvas())),
+            codes(&with_planes(&frame, host.encode_canvas(&frame))),
             codes(&frame),
             "{name}: the frame changed"
         );
     }
+}
+
+/// A picture of `format` whose chroma spans every code (far out of gamut in places), 10-bit
+/// samples with stray high bits here and there, rows padded.
+fn wild_picture(format: FrameFormat, color: ColorParams) -> YuvFrame {
+    let max = (1u32 << format.bit_depth) - 1;
+    pictures::padded_picture(format, color, 5, |i, x, y| {
+        let v = scatter(i, x, y);
+        if format.bit_depth > 8 && v.is_multiple_of(97) {
+            (v % (max + 1)) as u16 | 0x8000
+        } else {
+            (v % (max + 1)) as u16
+        }
+    })
+}
+
+/// `codes` of `frame`'s planes with each sample clamped to its depth's largest code (as the
+/// decode reads them).
+fn clamped(frame: &YuvFrame) -> [Vec<u16>; 3] {
+    let max = ((1u32 << frame.format.bit_depth) - 1) as u16;
+    codes(frame).map(|p| p.into_iter().map(|c| c.min(max)).collect())
+}
+
+/// Whether every sample of tile (`tx`, `ty`) of `format` is the same in `a` and `b`.
+fn tile_equal(format: FrameFormat, a: &[Vec<u16>; 3], b: &[Vec<u16>; 3], tx: u32, ty: u32) -> bool {
+    use rain_composite::gpu::host::streaks::{TILE_H, TILE_W};
+    (0..3).all(|i| {
+        let (w, h) = format.plane_size(i);
+        let (sx, sy) = if i == 0 {
+            (0, 0)
+        } else {
+            format.chroma.shift()
+        };
+        let (tw, th) = (TILE_W as u32 >> sx, TILE_H as u32 >> sy);
+        (ty * th..((ty + 1) * th).min(h)).all(|y| {
+            (tx * tw..((tx + 1) * tw).min(w))
+                .all(|x| a[i][(y * w + x) as usize] == b[i][(y * w + x) as usize])
+        })
+    })
+}
+
+/// Rain drawn on some tiles only, no haze, no ground: every tile comes out either as the full
+/// decode → draw → encode gives it or as the frame came in, bit for bit; tiles far from every
+/// streak and splash come out as they came in; the whole frame is the full path's; and only
+/// the tiles reached were converted.
+#[test]
+fn untouched_tiles_pass_through_bit_for_bit() {
+    use rain_composite::gpu::host::streaks::{TILE_H, TILE_W};
+    for (name, format, color) in formats() {
+        // Five tiles across (the last partial on the odd picture), seven down.
+        let format = FrameFormat {
+            width: format.width + 221,
+            height: format.height + 141,
+            ..format
+        };
+        let p = params(&dry(format), Haze::None);
+        // Within 100 px of the left edge (q0 within 130 px, 60 px long, 36 px across with the
+        // mattes' widest reach): nothing reaches x = 256.
+        let (streaks, glints) = random_streaks(300, 100.0, format.height as f32, 5);
+        let splashes: Vec<Streak> = random_streaks(20, 100.0, format.height as f32, 9)
+            .0
+            .into_iter()
+            .map(|s| Streak {
+                q0_px: [s.q0_px[0], format.height as f32 - 20.0],
+                ..s
+            })
+            .collect();
+        let (tiles_x, tiles_y) = (
+            format.width.div_ceil(TILE_W as u32),
+            format.height.div_ceil(TILE_H as u32),
+        );
+        for (kind, frame) in [
+            ("mild", picture(format, color)),
+            ("wild", wild_picture(format, color)),
+        ] {
+            let render = |pass: bool| {
+                let mut host = HostColour::new(format, &color);
+                host.set_pass_through(pass);
+                host.lay_plate(&frame, &p, &GroundFrame::default());
+                host.draw_splashes(&frame, &p, &splashes);
+                let count = host.draw_streaks(&frame, &p, &streaks, Some(&atlas()), &glints);
+                assert!(count.tiles > 0, "{name}: nothing drawn");
+                let out = codes(&with_planes(&frame, host.encode_canvas(&frame)));
+                (out, host.tiles_converted())
+            };
+            let ((ours, (converted, all)), (full, (full_converted, _))) =
+                (render(true), render(false));
+            assert_eq!(all as u32, tiles_x * tiles_y, "{name}");
+            assert_eq!(
+                full_converted, all,
+                "{name}: the full path converts every tile"
+            );
+            assert!(
+                converted > 0 && converted < all,
+                "{name}, {kind}: {converted} of {all} tiles converted"
+            );
+            let input = clamped(&frame);
+            for ty in 0..tiles_y {
+                for tx in 0..tiles_x {
+                    let passed = tile_equal(format, &ours, &input, tx, ty);
+                    assert!(
+                        passed || tile_equal(format, &ours, &full, tx, ty),
+                        "{name}, {kind}: tile ({tx}, {ty}) is neither the input nor the full path"
+                    );
+                    if tx * TILE_W as u32 >= 256 {
+                        assert!(passed, "{name}, {kind}: tile ({tx}, {ty}) changed");
+                    }
+                }
+            }
+            assert_eq!(
+                ours, full,
+                "{name}, {kind}: the pass-through changed a sample"
+            );
+        }
+    }
+}
+
+/// Rain off through the compositor on the CPU back end: the frame comes back bit for bit (its
+/// stray high bits cleared, as the decode reads it), as the full path gives it, and no tile is
+/// decoded or encoded; with haze every tile is.
+#[test]
+fn rain_off_converts_no_tile() {
+    let Some(ctx) = gpu() else { return };
+    for (name, format, color) in formats() {
+        let setup = dry(format);
+        for haze in [Haze::None, Haze::Scene] {
+            let mut comp =
+                Compositor::with_backend(ctx.clone(), format, &color, &setup, None, Backend::Cpu)
+                    .expect("compositor");
+            let frame = wild_picture(format, color);
+            let out = codes(
+                &comp
+                    .render_one(&frame, &params(&setup, haze))
+                    .expect("render"),
+            );
+            let t = comp.gpu_times();
+            assert!(t.tiles > 0, "{name}");
+            if haze == Haze::None {
+                assert_eq!(t.tiles_converted, 0, "{name}");
+                assert_eq!(out, clamped(&frame), "{name}: a dry frame changed");
+                // The full path gives the same codes: the skip changes no sample.
+                comp.set_pass_through(false);
+                let full = codes(
+                    &comp
+                        .render_one(&frame, &params(&setup, haze))
+                        .expect("render"),
+                );
+                assert_eq!(full, out, "{name}: the pass-through changed a sample");
+                assert_eq!(comp.gpu_times().tiles_converted, t.tiles, "{name}");
+            } else {
+                assert_eq!(
+                    t.tiles_converted, t.tiles,
+                    "{name}: the haze reaches every tile"
+                );
+            }
+        }
+    }
+}
+
+/// Light rain through the compositor on the CPU back end: the frame with the tiles nothing
+/// reaches passed through is the frame converted whole, bit for bit, and fewer tiles are
+/// converted.
+#[test]
+fn compositor_rain_passes_untouched_tiles_through() {
+    let Some(ctx) = gpu() else { return };
+    let (name, format, color) = formats().remove(2);
+    let format = FrameFormat {
+        width: 317,
+        height: 203,
+        ..format
+    };
+    let frame = picture(format, color);
+    let rain = RainConfig {
+        rate_mm_per_h: 0.5,
+        ..RainConfig::default()
+    };
+    let setup = rain_composite::shot::rain::plan(
+        &camera(format),
+        &CameraConfig::default(),
+        &rain,
+        1.0 / 50.0,
+        0,
+        (format.width, format.height),
+    )
+    .map(RainSetup::pack)
+    .expect("rain")
+    .with_mattes(Some(atlas()));
+    let mut p = params(&setup, Haze::None);
+    p.time_frac_s = 0.4;
+    let render = |pass: bool| {
+        let mut comp =
+            Compositor::with_backend(ctx.clone(), format, &color, &setup, None, Backend::Cpu)
+                .expect("compositor");
+        comp.set_pass_through(pass);
+        let out = codes(&comp.render_one(&frame, &p).expect("render"));
+        (out, comp.gpu_times())
+    };
+    let ((ours, t), (full, t_full)) = (render(true), render(false));
+    eprintln!(
+        "{name}: {} streaks drawn, {} of {} tiles converted",
+        t.streaks_drawn, t.tiles_converted, t.tiles
+    );
+    assert!(t.streaks_drawn > 0, "{name}: no rain drawn");
+    assert_ne!(ours, codes(&frame), "{name}: no rain shows");
+    assert_eq!(ours, full, "{name}: the pass-through changed a sample");
+    assert_eq!(t_full.tiles_converted, t_full.tiles, "{name}");
+    assert!(t.tiles_converted < t.tiles, "{name}: every tile converted");
 }

@@ -75,6 +75,11 @@ pub struct GpuStageTimes {
     pub streaks_drawn: u64,
     /// Splash streaks drawn, summed over the frames (counted where the CPU draws them).
     pub splashes_drawn: u64,
+    /// The CPU back end's canvas tiles decoded and encoded, summed over the frames (the rest
+    /// of [`tiles`](Self::tiles) passed through, their codes copied).
+    pub tiles_converted: u64,
+    /// The CPU back end's canvas tiles, summed over the frames.
+    pub tiles: u64,
 }
 
 impl GpuStageTimes {

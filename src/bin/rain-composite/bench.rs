@@ -143,12 +143,15 @@ fn run(template: &Job, input: &str, heights: &[u32], runs: usize) -> anyhow::Res
             eprintln!(
                 "{h}p on {adapter}; of GPU rain, splashes {:.1} ms/frame, rain_simulate {:.1}, \
                  rain_streaks {:.1}; streaks drawn {:.0} per frame of {drops} drops simulated, \
-                 splash streaks drawn {:.0} per frame",
+                 splash streaks drawn {:.0} per frame; tiles decoded and encoded {:.0} of {:.0} \
+                 per frame (the rest passed through)",
                 per_frame(|s| s.gpu.rain_splashes_s),
                 per_frame(|s| s.gpu.rain_simulate_s),
                 per_frame(|s| s.gpu.rain_streaks_s),
                 per_frame(|s| s.gpu.streaks_drawn as f64) / 1000.0,
                 per_frame(|s| s.gpu.splashes_drawn as f64) / 1000.0,
+                per_frame(|s| s.gpu.tiles_converted as f64) / 1000.0,
+                per_frame(|s| s.gpu.tiles as f64) / 1000.0,
             );
         }
         Ok(())

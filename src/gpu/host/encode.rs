@@ -8,12 +8,19 @@
 // Lane loops index several arrays by the pixel: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::lanes;
+use super::streaks::{TILE_H, TILE_W};
 use crate::gpu::types::FrameParams;
 use crate::video::color::oetf_signed;
-use crate::video::{ColorParams, FrameFormat, Plane};
+use crate::video::{ColorParams, FrameFormat, Plane, YuvFrame};
+
+// A tile's rows and columns hold whole chroma blocks (at most 2 × 2 pixels), so a tile's
+// codes depend on its own pixels alone.
+const _: () = assert!(TILE_W.is_multiple_of(2) && TILE_H.is_multiple_of(2));
 
 /// 2²³: adding it to a value in [0, 2²³] and taking it away again rounds the value to an
 /// integer, ties to even (the spacing of f32 there is 1), as WGSL's `round` does.
@@ -83,9 +90,24 @@ impl Encoder {
     /// The code planes of `canvas` (RGBA f16 bits, rows `stride` texels apart), each row padded
     /// to whole 32-bit words as the GPU packs them.
     pub fn encode(&self, canvas: &[u16], stride: usize) -> [Plane; 3] {
+        self.encode_tiles(canvas, stride, None)
+    }
+
+    /// [`encode`](Self::encode) where `from` is `None`; else only the tiles set in `from`'s
+    /// flags (one per [`TILE_W`] × [`TILE_H`] tile, row-major) are encoded from the canvas,
+    /// and every other tile's codes are `from`'s frame's own, copied (clamped to the depth's
+    /// largest code, as the decode reads them).
+    pub fn encode_tiles(
+        &self,
+        canvas: &[u16],
+        stride: usize,
+        from: Option<(&YuvFrame, &[bool])>,
+    ) -> [Plane; 3] {
         let l = &self.layout;
         let (y_row, c_row) = (4 * l.y_row_words as usize, 4 * l.c_row_words as usize);
         let rows = 1usize << l.chroma_shift_y;
+        let w = l.width as usize;
+        let tiles_x = w.div_ceil(TILE_W);
         let mut y = vec![0u8; y_row * l.height as usize];
         let mut cb = vec![0u8; c_row * l.chroma_height as usize];
         let mut cr = cb.clone();
@@ -94,17 +116,68 @@ impl Encoder {
             .zip(cr.par_chunks_mut(c_row))
             .enumerate()
             .for_each_init(Scratch::default, |s, (cy, ((luma, cb), cr))| {
-                self.block_row_on(canvas, stride, cy, luma, [cb, cr], s);
+                let Some((frame, tiles)) = from else {
+                    return self.block_row_on(canvas, stride, cy, 0..w, luma, [cb, cr], s);
+                };
+                self.copy_block_row(frame, cy, luma, [cb, cr]);
+                let ty = (cy << l.chroma_shift_y) / TILE_H;
+                let need = &tiles[ty * tiles_x..][..tiles_x];
+                let mut tx = 0;
+                while tx < tiles_x {
+                    if !need[tx] {
+                        tx += 1;
+                        continue;
+                    }
+                    let run = need[tx..].iter().take_while(|&&n| n).count();
+                    let cols = tx * TILE_W..((tx + run) * TILE_W).min(w);
+                    self.block_row_on(canvas, stride, cy, cols, luma, [cb, cr], s);
+                    tx += run;
+                }
             });
         [(y, y_row), (cb, c_row), (cr, c_row)].map(|(data, stride)| Plane { data, stride })
     }
 
+    /// `frame`'s codes of chroma row `cy` (and of its luma rows) into `luma` and `chroma`, as
+    /// [`block_row`](Self::block_row) lays them out, each clamped to the depth's largest code.
+    fn copy_block_row(&self, frame: &YuvFrame, cy: usize, luma: &mut [u8], chroma: [&mut [u8]; 2]) {
+        let l = &self.layout;
+        let bytes = l.bytes_per_sample as usize;
+        let y_row = 4 * l.y_row_words as usize;
+        let max = ((1u32 << frame.format.bit_depth) - 1) as u16;
+        let copy = |src: &[u8], dst: &mut [u8]| {
+            if bytes == 1 {
+                dst.copy_from_slice(src);
+            } else {
+                for (o, i) in dst.chunks_exact_mut(2).zip(src.chunks_exact(2)) {
+                    let code = u16::from_le_bytes([i[0], i[1]]).min(max);
+                    o.copy_from_slice(&code.to_le_bytes());
+                }
+            }
+        };
+        let (w, cw) = (l.width as usize * bytes, l.chroma_width as usize * bytes);
+        let y0 = cy << l.chroma_shift_y;
+        let y1 = (y0 + (1 << l.chroma_shift_y)).min(l.height as usize);
+        let p = &frame.planes[0];
+        for y in y0..y1 {
+            copy(
+                &p.data[y * p.stride..][..w],
+                &mut luma[(y - y0) * y_row..][..w],
+            );
+        }
+        for (i, out) in chroma.into_iter().enumerate() {
+            let p = &frame.planes[i + 1];
+            copy(&p.data[cy * p.stride..][..cw], &mut out[..cw]);
+        }
+    }
+
     /// [`block_row`](Self::block_row), in the AVX2 build where the encoder runs it.
+    #[allow(clippy::too_many_arguments)]
     fn block_row_on(
         &self,
         canvas: &[u16],
         stride: usize,
         cy: usize,
+        cols: Range<usize>,
         luma: &mut [u8],
         chroma: [&mut [u8]; 2],
         s: &mut Scratch,
@@ -117,27 +190,32 @@ impl Encoder {
                 canvas: &[u16],
                 stride: usize,
                 cy: usize,
+                cols: Range<usize>,
                 luma: &mut [u8],
                 chroma: [&mut [u8]; 2],
                 s: &mut Scratch,
             ) {
-                e.block_row(canvas, stride, cy, luma, chroma, s)
+                e.block_row(canvas, stride, cy, cols, luma, chroma, s)
             }
             // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`lanes::has_avx2_f16c`).
-            return unsafe { fast(self, canvas, stride, cy, luma, chroma, s) };
+            return unsafe { fast(self, canvas, stride, cy, cols, luma, chroma, s) };
         }
-        self.block_row(canvas, stride, cy, luma, chroma, s)
+        self.block_row(canvas, stride, cy, cols, luma, chroma, s)
     }
 
-    /// The luma rows of chroma row `cy` into `luma` and its chroma into `chroma`: per row, the
-    /// pixels' luma codes and chroma differences in lanes, then the differences summed over
-    /// each block in the pixels' order.
+    /// The luma rows of chroma row `cy` over the columns `cols` (from the start of a chroma
+    /// block to the end of one, or of the row) into `luma` and that span's chroma into
+    /// `chroma`: per row, the pixels' luma codes and chroma differences in lanes, then the
+    /// differences summed over each block in the pixels' order. A pixel's codes depend on its
+    /// block alone, so a span's are those of the whole row.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn block_row(
         &self,
         canvas: &[u16],
         stride: usize,
         cy: usize,
+        cols: Range<usize>,
         luma: &mut [u8],
         chroma: [&mut [u8]; 2],
         s: &mut Scratch,
@@ -148,18 +226,19 @@ impl Encoder {
         let y_row = 4 * l.y_row_words as usize;
         let y0 = cy << sy;
         let y1 = (y0 + (1 << sy)).min(h);
-        let cw = l.chroma_width as usize;
         let bytes = l.bytes_per_sample as usize;
         let oetf = &*self.oetf;
-        s.codes.resize(w, 0);
-        s.b_y.resize(w, 0.0);
-        s.r_y.resize(w, 0.0);
+        let (xa, n) = (cols.start, cols.len());
+        let (ca, cn) = (xa >> sx, n.div_ceil(1 << sx));
+        s.codes.resize(n, 0);
+        s.b_y.resize(n, 0.0);
+        s.r_y.resize(n, 0.0);
         for sums in &mut s.sums {
             sums.clear();
-            sums.resize(cw, 0.0);
+            sums.resize(cn, 0.0);
         }
         for y in y0..y1 {
-            let row = &canvas[4 * y * stride..][..4 * w];
+            let row = &canvas[4 * (y * stride + xa)..][..4 * n];
             for (x, px) in row.chunks_exact(4).enumerate() {
                 let r = oetf[usize::from(px[0])];
                 let g = oetf[usize::from(px[1])];
@@ -169,7 +248,7 @@ impl Encoder {
                 s.b_y[x] = b - yv;
                 s.r_y[x] = r - yv;
             }
-            put_row(&mut luma[(y - y0) * y_row..][..y_row], &s.codes, bytes);
+            put_row(&mut luma[(y - y0) * y_row + xa * bytes..], &s.codes, bytes);
             let [sb, sr] = &mut s.sums;
             let step = 1 << sx;
             for ((sb, sr), (b, r)) in sb
@@ -186,19 +265,19 @@ impl Encoder {
         let rows = (y1 - y0) as f32;
         let [sb, sr] = &s.sums;
         let [cb, cr] = &mut s.chroma;
-        cb.resize(cw, 0);
-        cr.resize(cw, 0);
-        for cx in 0..cw {
-            let x0 = cx << sx;
+        cb.resize(cn, 0);
+        cr.resize(cn, 0);
+        for k in 0..cn {
+            let x0 = (ca + k) << sx;
             let n = rows * (((x0 + (1 << sx)).min(w) - x0) as f32);
-            let b = sb[cx] * self.cb_per / n + self.c_offset;
-            let r = sr[cx] * self.cr_per / n + self.c_offset;
-            cb[cx] = self.code(b);
-            cr[cx] = self.code(r);
+            let b = sb[k] * self.cb_per / n + self.c_offset;
+            let r = sr[k] * self.cr_per / n + self.c_offset;
+            cb[k] = self.code(b);
+            cr[k] = self.code(r);
         }
         let [out_b, out_r] = chroma;
-        put_row(out_b, cb, bytes);
-        put_row(out_r, cr, bytes);
+        put_row(&mut out_b[ca * bytes..], cb, bytes);
+        put_row(&mut out_r[ca * bytes..], cr, bytes);
     }
 
     /// A code value: clamped to the legal codes, rounded to the nearest (ties to even, as the

@@ -44,10 +44,34 @@ pub struct HostColour {
     /// The ground's weight at the glow's grid points.
     ground_mask: Option<Vec<f32>>,
     canvas: Vec<f16>,
+    /// Which of the raster's tiles the canvas holds the plate in (`None`: all of them); the
+    /// others pass through ([`HostColour::lay_plate`]).
+    laid: Option<Vec<bool>>,
+    /// Whether [`HostColour::lay_plate`] may let untouched tiles pass through.
+    pass_through: bool,
+    /// Seconds the draws spent laying the plate in the tiles they reach, since last taken
+    /// ([`HostColour::take_laying_s`]).
+    laying_s: f64,
     /// The streak raster's buffers, kept from frame to frame.
     raster: streaks::Raster,
     /// Whether the puddles run their AVX2 build where the CPU has it.
     puddles_avx2: bool,
+}
+
+/// Whether every pixel no streak or splash is drawn over leaves the frame as it came in:
+/// no haze (`veil`: the in-scatter, the lamps' glow and the open sky's weight all ride on it,
+/// and it is `None` exactly when the haze is off), no wet ground (`wet`: `None` where the
+/// ground is dry or no ray reaches it) and no water. Nothing else changes the plate: the
+/// exposure, the highlight recovery and the light estimate change only what the haze and
+/// the streaks add, the depth map and the masks only where the haze, the ground or a streak
+/// falls, and the mattes' glints are drawn inside their streaks' boxes. This is the one place
+/// that decides; where it says no, the whole frame is decoded and encoded.
+fn plate_passes(
+    veil: Option<&veil::Veil>,
+    wet: Option<&wet_ground::WetGround>,
+    water: Option<&FrameWater>,
+) -> bool {
+    veil.is_none() && wet.is_none() && water.is_none()
 }
 
 /// What lies on the ground of one frame: the wet ground's uniforms and the water.
@@ -72,6 +96,9 @@ impl HostColour {
             sky: None,
             ground_mask: None,
             canvas: vec![f16::ZERO; 4 * format.width as usize * format.height as usize],
+            laid: None,
+            pass_through: true,
+            laying_s: 0.0,
             raster: streaks::Raster::default(),
             puddles_avx2: true,
         }
@@ -85,6 +112,13 @@ impl HostColour {
         host.encoder.set_baseline(true);
         host.puddles_avx2 = false;
         host
+    }
+
+    /// Whether [`lay_plate`](Self::lay_plate) lets the tiles nothing is drawn on pass through
+    /// (the default) or decodes and encodes every tile (slower; the same codes wherever the
+    /// round trip keeps the frame's, as it does on every picture `tests/backend.rs` tries).
+    pub fn set_pass_through(&mut self, on: bool) {
+        self.pass_through = on;
     }
 
     /// The compact lights whose glow the haze shows from the next frame on.
@@ -141,6 +175,30 @@ impl HostColour {
         p: &RainParams,
         ground: &GroundFrame,
     ) -> (f64, usize) {
+        self.plate(frame, p, ground, false)
+    }
+
+    /// [`decode_ground`](Self::decode_ground) for a frame rendered whole: where nothing but
+    /// the streaks and the splashes changes the picture ([`plate_passes`]) and pass-through is
+    /// on, nothing is decoded yet; the draws of [`draw_streaks`](Self::draw_streaks) and
+    /// [`draw_splashes`](Self::draw_splashes) decode the tiles they reach first, and
+    /// [`encode_canvas`](Self::encode_canvas) copies the frame's codes for the others.
+    pub fn lay_plate(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        ground: &GroundFrame,
+    ) -> (f64, usize) {
+        self.plate(frame, p, ground, self.pass_through)
+    }
+
+    fn plate(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        ground: &GroundFrame,
+        defer: bool,
+    ) -> (f64, usize) {
         let lit = self.tables.as_deref().map(|t| (&self.lights, t));
         let size = (self.format.width, self.format.height);
         let veil = veil::Veil::new(p, lit, self.depth.as_deref(), self.sky.as_deref(), size);
@@ -150,6 +208,15 @@ impl HostColour {
             .wet
             .as_ref()
             .and_then(|w| wet_ground::WetGround::new(&on_ground, w));
+        if defer && plate_passes(veil.as_ref(), wet.as_ref(), ground.water.as_ref()) {
+            let (tiles_x, tiles_y) = self.tiles();
+            let mut laid = self.laid.take().unwrap_or_default();
+            laid.clear();
+            laid.resize(tiles_x * tiles_y, false);
+            self.laid = Some(laid);
+            return (0.0, 0);
+        }
+        self.laid = None;
         self.decoder
             .decode(frame, veil.as_ref(), wet.as_ref(), &mut self.canvas);
         let Some(water) = &ground.water else {
@@ -167,47 +234,107 @@ impl HostColour {
         (started.elapsed().as_secs_f64(), wet)
     }
 
+    /// The raster's tiles across and down the picture.
+    fn tiles(&self) -> (usize, usize) {
+        let (w, h) = (self.format.width as usize, self.format.height as usize);
+        (w.div_ceil(streaks::TILE_W), h.div_ceil(streaks::TILE_H))
+    }
+
+    /// The tiles of the last frame laid that went through the decode and the encode, and the
+    /// picture's tiles: the rest passed through.
+    pub fn tiles_converted(&self) -> (usize, usize) {
+        let (tiles_x, tiles_y) = self.tiles();
+        let all = tiles_x * tiles_y;
+        let laid = self.laid.as_ref();
+        (laid.map_or(all, |l| l.iter().filter(|&&t| t).count()), all)
+    }
+
     /// Draws `streaks` (with their `glints`, streak `mattes` where given, behind the scene's
-    /// depth where set) over the canvas [`decode`](Self::decode) wrote last.
+    /// depth where set) over `frame`'s canvas, laid by [`decode`](Self::decode) or
+    /// [`lay_plate`](Self::lay_plate) last.
     pub fn draw_streaks(
         &mut self,
+        frame: &YuvFrame,
         p: &RainParams,
         streaks: &[Streak],
         mattes: Option<&MatteAtlas>,
         glints: &[Glint],
     ) -> streaks::RasterCount {
+        self.draw(frame, p, streaks, mattes, glints)
+    }
+
+    /// Draws the splashes' `streaks` (capsules, behind the scene's depth where set) over
+    /// `frame`'s canvas, before the drops' own: the `rain_splashes` stage's draw.
+    pub fn draw_splashes(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        streaks: &[Streak],
+    ) -> streaks::RasterCount {
+        self.draw(frame, p, streaks, None, &[])
+    }
+
+    /// The raster over the canvas, the plate of `frame` laid first in the tiles it reaches
+    /// that do not hold it yet.
+    fn draw(
+        &mut self,
+        frame: &YuvFrame,
+        p: &RainParams,
+        streaks: &[Streak],
+        mattes: Option<&MatteAtlas>,
+        glints: &[Glint],
+    ) -> streaks::RasterCount {
+        let HostColour {
+            format,
+            decoder,
+            depth,
+            canvas,
+            laid,
+            raster,
+            laying_s,
+            ..
+        } = self;
         let rain = streaks::Rain {
             params: p,
             mattes,
             glints,
-            depth: self.depth.as_deref(),
+            depth: depth.as_deref(),
         };
-        self.raster
-            .draw(&mut self.canvas, self.format.width as usize, &rain, streaks)
+        let width = format.width as usize;
+        raster.draw_over(canvas, width, &rain, streaks, |canvas, reached| {
+            let Some(laid) = laid else { return };
+            let started = std::time::Instant::now();
+            let mut need = vec![false; laid.len()];
+            reached.mark(&mut need);
+            for (need, laid) in need.iter_mut().zip(laid.iter_mut()) {
+                *need &= !*laid;
+                *laid |= *need;
+            }
+            decoder.decode_tiles(frame, &need, canvas);
+            *laying_s += started.elapsed().as_secs_f64();
+        })
     }
 
-    /// Draws the splashes' `streaks` (capsules, behind the scene's depth where set) over the
-    /// canvas, before the drops' own: the `rain_splashes` stage's draw.
-    pub fn draw_splashes(&mut self, p: &RainParams, streaks: &[Streak]) -> streaks::RasterCount {
-        let rain = streaks::Rain {
-            params: p,
-            mattes: None,
-            glints: &[],
-            depth: self.depth.as_deref(),
-        };
-        self.raster
-            .draw(&mut self.canvas, self.format.width as usize, &rain, streaks)
+    /// The seconds the draws spent laying the plate in the tiles they reach since the last
+    /// call (the decode's share of a frame whose tiles pass through, timed inside the draws).
+    pub fn take_laying_s(&mut self) -> f64 {
+        std::mem::take(&mut self.laying_s)
     }
 
-    /// The canvas as it stands: RGBA f16, row-major, `width` texels a row.
+    /// The canvas as it stands: RGBA f16, row-major, `width` texels a row (after a
+    /// [`lay_plate`](Self::lay_plate) that let tiles pass through, only the tiles drawn on
+    /// hold the frame).
     pub fn canvas(&self) -> &[f16] {
         &self.canvas
     }
 
-    /// The code planes of the canvas as it stands (see [`encode`](Self::encode)).
-    pub fn encode_canvas(&self) -> [Plane; 3] {
+    /// The code planes of `frame`'s canvas as it stands (see [`encode`](Self::encode)): the
+    /// tiles that passed through ([`lay_plate`](Self::lay_plate)) are `frame`'s codes.
+    pub fn encode_canvas(&self, frame: &YuvFrame) -> [Plane; 3] {
         let texels: &[u16] = bytemuck::cast_slice(&self.canvas);
-        self.encoder.encode(texels, self.format.width as usize)
+        let from = self.laid.as_deref().map(|laid| (frame, laid));
+        self.encoder
+            .encode_tiles(texels, self.format.width as usize, from)
     }
 
     /// The code planes of the canvas `canvas` (RGBA f16 bits, rows `stride_texels` apart), laid

@@ -13,6 +13,7 @@ use half::f16;
 use rayon::prelude::*;
 
 use super::lanes::{self, LANES, gather};
+use super::streaks::{TILE_H, TILE_W};
 use super::veil::{GridPoint, Veil};
 use super::wet_ground::WetGround;
 use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
@@ -33,6 +34,8 @@ const EOTF_STEPS: usize = 16384;
 
 // A lane block is one cell of the veil's grid: its pixels share the cell's two grid columns.
 const _: () = assert!(GLOW_CELL_PX as usize == LANES);
+// A tile is whole lane blocks.
+const _: () = assert!(TILE_W.is_multiple_of(LANES));
 
 /// The transfer (encoded → linear, odd-extended) as a table interpolated linearly. The
 /// transfer follows the matrix, so it is a function of three codes, not one: no exact
@@ -226,18 +229,82 @@ impl Decoder {
             }
             if wet.is_some() {
                 put_rgba(&rgb, &mut s.rgba[4 * x0..][..4 * n]);
-            } else if n == LANES {
-                lanes::store_rgb(&rgb, &mut out[4 * x0..], avx2);
             } else {
-                let mut texels = [f16::ZERO; 4 * LANES];
-                lanes::store_rgb(&rgb, &mut texels, avx2);
-                out[4 * x0..].copy_from_slice(&texels[..4 * n]);
+                store_lanes(&rgb, &mut out[4 * x0..][..4 * n], avx2);
             }
         }
         if let Some(g) = wet {
             let haze = at.veil.map(|_| (&s.transmittance[..w], &s.grid[..]));
             g.row(y as usize, &s.plate, haze, &mut s.rgba);
             super::tile::store(&s.rgba, out, avx2);
+        }
+    }
+
+    /// Lays the plate of `frame` alone (no haze, no wet ground: then the canvas is the plate)
+    /// in the tiles set in `need` (one flag per [`TILE_W`] × [`TILE_H`] tile, row-major) of
+    /// `canvas`, each pixel as [`decode`](Self::decode) lays it; the other tiles keep their bits.
+    pub fn decode_tiles(&self, frame: &YuvFrame, need: &[bool], canvas: &mut [f16]) {
+        let w = self.format.width as usize;
+        canvas
+            .par_chunks_mut(4 * w * TILE_H)
+            .zip(need.par_chunks(w.div_ceil(TILE_W)))
+            .enumerate()
+            .filter(|(_, (_, need))| need.contains(&true))
+            .for_each_init(RowScratch::default, |s, (ty, (out, need))| {
+                self.tiles_on(frame, ty * TILE_H, need, out, s);
+            });
+    }
+
+    /// [`tiles`](Self::tiles), in the AVX2 build where the decoder runs it.
+    fn tiles_on(
+        &self,
+        frame: &YuvFrame,
+        y0: usize,
+        need: &[bool],
+        out: &mut [f16],
+        s: &mut RowScratch,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            #[target_feature(enable = "avx2,f16c")]
+            fn fast(
+                d: &Decoder,
+                frame: &YuvFrame,
+                y0: usize,
+                need: &[bool],
+                out: &mut [f16],
+                s: &mut RowScratch,
+            ) {
+                d.tiles(frame, y0, need, out, s, true);
+            }
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C
+            // (`lanes::has_avx2_f16c`).
+            return unsafe { fast(self, frame, y0, need, out, s) };
+        }
+        self.tiles(frame, y0, need, out, s, false);
+    }
+
+    /// The plate in the tiles set in `need` along the rows from `y0` (`out`: those rows).
+    #[inline(always)]
+    fn tiles(
+        &self,
+        frame: &YuvFrame,
+        y0: usize,
+        need: &[bool],
+        out: &mut [f16],
+        s: &mut RowScratch,
+        avx2: bool,
+    ) {
+        let w = self.format.width as usize;
+        for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
+            self.row_codes(frame, (y0 + k) as u32, s);
+            for (tx, _) in need.iter().enumerate().filter(|(_, n)| **n) {
+                for x0 in (tx * TILE_W..((tx + 1) * TILE_W).min(w)).step_by(LANES) {
+                    let n = LANES.min(w - x0);
+                    let rgb = self.plate_lanes(s, x0, avx2);
+                    store_lanes(&rgb, &mut row[4 * x0..][..4 * n], avx2);
+                }
+            }
         }
     }
 
@@ -346,6 +413,18 @@ fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
                 .chunks_exact(2)
                 .map(|b| u16::from_le_bytes([b[0], b[1]]).min(max)),
         );
+    }
+}
+
+/// The first `out.len() / 4` lanes of `rgb` as RGBA f16 texels (alpha 1) into `out`.
+#[inline(always)]
+fn store_lanes(rgb: &[[f32; LANES]; 3], out: &mut [f16], avx2: bool) {
+    if out.len() == 4 * LANES {
+        lanes::store_rgb(rgb, out, avx2);
+    } else {
+        let mut texels = [f16::ZERO; 4 * LANES];
+        lanes::store_rgb(rgb, &mut texels, avx2);
+        out.copy_from_slice(&texels[..out.len()]);
     }
 }
 

@@ -203,7 +203,21 @@ impl Raster {
         rain: &Rain,
         streaks: &[Streak],
     ) -> RasterCount {
-        self.draw_on(canvas, width, rain, streaks, true)
+        self.draw_on(canvas, width, rain, streaks, true, |_, _| {})
+    }
+
+    /// [`Raster::draw`], `ready` called once the streaks are binned and before any tile is
+    /// drawn, with the canvas and the tiles the draw will read and write: where the canvas
+    /// holds the plate only in some tiles, it lays the plate in the others first.
+    pub fn draw_over(
+        &mut self,
+        canvas: &mut [f16],
+        width: usize,
+        rain: &Rain,
+        streaks: &[Streak],
+        ready: impl FnOnce(&mut [f16], &Reached),
+    ) -> RasterCount {
+        self.draw_on(canvas, width, rain, streaks, true, ready)
     }
 
     /// [`Raster::draw`] without the AVX2 build (see [`rasterise_baseline`]).
@@ -214,7 +228,7 @@ impl Raster {
         rain: &Rain,
         streaks: &[Streak],
     ) -> RasterCount {
-        self.draw_on(canvas, width, rain, streaks, false)
+        self.draw_on(canvas, width, rain, streaks, false, |_, _| {})
     }
 
     fn draw_on(
@@ -224,6 +238,7 @@ impl Raster {
         rain: &Rain,
         streaks: &[Streak],
         avx2: bool,
+        ready: impl FnOnce(&mut [f16], &Reached),
     ) -> RasterCount {
         let height = canvas.len() / (4 * width.max(1));
         let rot = Rotation::new(rain.params);
@@ -303,6 +318,15 @@ impl Raster {
             tiles_x,
         };
         let (start, in_band) = (&*start, &*in_band);
+        ready(
+            canvas,
+            &Reached {
+                prepared,
+                start,
+                in_band,
+                tiles_x,
+            },
+        );
         let tiles = canvas
             .par_chunks_mut(4 * width * TILE_H)
             .zip(self.band[..tiles_y].par_iter_mut())
@@ -316,6 +340,31 @@ impl Raster {
             streaks: drawn,
             tiles,
         }
+    }
+}
+
+/// The tiles one raster reads and writes: those within a drawn streak's box (see
+/// [`Raster::draw_over`]).
+pub struct Reached<'a> {
+    prepared: &'a [Prepared],
+    start: &'a [u32],
+    in_band: &'a [u32],
+    tiles_x: usize,
+}
+
+impl Reached<'_> {
+    /// Sets `map[ty · tiles_x + tx]` for every tile reached, `tiles_x` tiles a row (leaving
+    /// the rest as they are): the tiles [`band`] draws.
+    pub fn mark(&self, map: &mut [bool]) {
+        map.par_chunks_mut(self.tiles_x)
+            .enumerate()
+            .for_each(|(ty, row)| {
+                let list = &self.in_band[self.start[ty] as usize..self.start[ty + 1] as usize];
+                for &i in list {
+                    let p = &self.prepared[i as usize];
+                    row[p.x0 as usize / TILE_W..=p.x1 as usize / TILE_W].fill(true);
+                }
+            });
     }
 }
 
