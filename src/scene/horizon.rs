@@ -591,7 +591,7 @@ fn estimate_with<'a>(
         // with no sky in any direction (see [`steep::alternative_sky`]).
         let no_sky = est.confidence < MIN_CONFIDENCE
             && !matches
-            && s.distinct_lines >= steep::SKY_MIN_LINES
+            && s.distinct_lines >= steep::NO_SKY_MIN_LINES
             && s.up_cam.z < 0.0
             && brightness.is_some_and(|b| {
                 steep::alternative_sky(-s.up_cam, |n| b.sky_share(n)) < SKY_ABOVE_MIN

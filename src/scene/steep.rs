@@ -30,7 +30,7 @@
 //! ([`STEEP_CEILING`]): a pose to inspect, on which `auto` does not engage.
 //!
 //! **Views down.** They have no sky to choose with, and that absence is their evidence: a
-//! steep reading looking down, with [`SKY_MIN_LINES`] distinct lines, replaces an unsure level
+//! steep reading looking down, with [`NO_SKY_MIN_LINES`] distinct lines, replaces an unsure level
 //! reading confidently where that level reading is not its Manhattan alternative (its point
 //! ahead is not the steep point) and no direction of the picture shows sky
 //! ([`alternative_sky`]): every level reading of the point would be refused for the sky it
@@ -359,6 +359,13 @@ pub fn alternative_sky(d: DVec3, sky_share: impl Fn(DVec3) -> f64) -> f64 {
         })
         .fold(sky_share(d), f64::max)
 }
+
+/// Fewest distinct lines with which a view down replaces a level reading for the sky no
+/// direction shows ([`alternative_sky`]): on a real oblique aerial view of a town (the horizon
+/// above the picture, no sky), the finer pass finds chance meeting points of 6–8 lines (rms
+/// 0.46–0.63°) near the middle; the synthetic street seen straight down from 30 m gives 11
+/// (rms 0.36°). A thin margin, set between those two.
+pub const NO_SKY_MIN_LINES: usize = 10;
 
 /// Rolls of the level alternatives weighed by [`alternative_sky`], evenly around the circle.
 pub const ALTERNATIVE_ROLLS: usize = 24;
