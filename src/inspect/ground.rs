@@ -50,7 +50,17 @@ pub fn estimate_at(
     let mut feed = |frame: &YuvFrame, tracker: &mut GroundTracker| {
         let t0 = std::time::Instant::now();
         let luma = Luma::from_frame(frame, rot, horizon::WORK_WIDTH);
-        let raw = horizon::estimate(&luma, &cam);
+        let raw = horizon::estimate_finer(
+            &luma,
+            || {
+                Some(Luma::from_frame(
+                    frame,
+                    rot,
+                    crate::scene::steep::FINE_WIDTH,
+                ))
+            },
+            &cam,
+        );
         let smooth = tracker.update(raw, &luma, &cam);
         cost_s += t0.elapsed().as_secs_f64();
         frames += 1;

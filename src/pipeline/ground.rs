@@ -108,7 +108,17 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
         }
         prev = Some(thumb);
         if i % every == 0 {
-            readings.push(horizon::estimate(&luma, &cam));
+            readings.push(horizon::estimate_finer(
+                &luma,
+                || {
+                    Some(Luma::from_frame(
+                        &frame,
+                        rot,
+                        crate::scene::steep::FINE_WIDTH,
+                    ))
+                },
+                &cam,
+            ));
         }
     }
     let estimate = combine(&readings, &cam)

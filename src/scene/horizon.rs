@@ -61,7 +61,7 @@
 //! field of view ([`lens_mismatch`]: the lens is not the picture's), and so has one the sky
 //! says is a steep view ([`STEEP_ALTERNATIVE_DEG`]: where level lines meet near the optical
 //! axis, the same lines read, under the same lens, as a view straight down or up with that
-//! point as the nadir or the zenith): a level reading looking up with no sky above its horizon
+//! point as the nadir or the sky): a level reading looking up with no sky above its horizon
 //! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
 //! ([`SKY_AHEAD_MAX`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
@@ -331,7 +331,7 @@ fn score(edges: &[Edge], n: DVec3, sigma: f64, hist: &mut Vec<(f64, f64, u32)>) 
 /// Estimates the horizon of one picture seen through `camera`'s intrinsics (its own tilt and
 /// roll are ignored) from its segments alone (no brightness prior: see [`estimate`]).
 pub fn estimate_from_segments(segments: &[Segment], camera: &Camera) -> HorizonEstimate {
-    read_lens(camera, |cam| estimate_with(segments, None, cam))
+    read_lens(camera, |cam| estimate_with(segments, None, cam, &|| None))
 }
 
 /// The picture's segments as great-circle edges through `camera`'s intrinsics, weighted by
@@ -361,10 +361,11 @@ pub fn edges(segments: &[Segment], camera: &Camera) -> Vec<Edge> {
         .collect()
 }
 
-fn estimate_with(
+fn estimate_with<'a>(
     segments: &[Segment],
     brightness: Option<&Brightness>,
     camera: &Camera,
+    fine: &dyn Fn() -> Option<&'a [Segment]>,
 ) -> HorizonEstimate {
     let f = camera.focal_px();
     let edges = edges(segments, camera);
@@ -554,7 +555,8 @@ fn estimate_with(
     // A steep reading (see [`steep`]) replaces an unsure level one where the level reading
     // sees no sky (a picture of a level street has a point where many lines converge too), or
     // where its own sky is clearly brighter: looking up between facades, the sky is around
-    // the zenith, and the level reading (the Manhattan alternative) is then a guess.
+    // the zenith, and the level reading (the Manhattan alternative) is then a guess; or,
+    // looking down, where no direction shows sky (see the steep module's "Views down").
     // A level reading refused for its lens keeps its refusal (the user's remedy is a field of
     // view, and a steep reading of a level street is a guess).
     let steep = if lens_mismatch(&est) {
@@ -562,11 +564,40 @@ fn estimate_with(
     } else {
         steep::read(&edges, sky)
     };
-    if let Some(s) = steep {
+    // An unsure level reading with no steep reading of enough lines: the finer pass (see
+    // [`steep::FINE_WIDTH`]) reads the short verticals of a view straight down; its reading
+    // replaces the level one only where no direction shows sky (`no_sky` below).
+    let fine_steep = if est.confidence < MIN_CONFIDENCE
+        && steep
+            .as_ref()
+            .is_none_or(|s| s.distinct_lines < steep::SKY_MIN_LINES)
+    {
+        fine().and_then(|fine| steep::read(&crate::scene::horizon::edges(fine, camera), sky))
+    } else {
+        None
+    };
+    let (level, mut posed) = (est, est);
+    let readings = steep.map(|s| (s, false)).into_iter();
+    for (s, fine_pass) in readings.chain(fine_steep.map(|s| (s, true))) {
+        let est = level;
         let steep_sky = sky(s.up_cam);
-        let sky_says_steep = s.distinct_lines >= steep::SKY_MIN_LINES
+        let sky_says_steep = !fine_pass
+            && s.distinct_lines >= steep::SKY_MIN_LINES
             && steep_sky > est.sky_correlation + steep::SKY_MARGIN;
-        let unsure = est.confidence < MIN_CONFIDENCE
+        // The level reading's point ahead at the steep point: the same lines read two ways.
+        let matches =
+            ahead.is_some_and(|p| s.up_cam.dot(p).abs() > ALTERNATIVE_MATCH_DEG.to_radians().cos());
+        // An unsure level reading that is not the steep reading's alternative, and a view down
+        // with no sky in any direction (see [`steep::alternative_sky`]).
+        let no_sky = est.confidence < MIN_CONFIDENCE
+            && !matches
+            && s.distinct_lines >= steep::NO_SKY_MIN_LINES
+            && s.up_cam.z < 0.0
+            && brightness.is_some_and(|b| {
+                steep::alternative_sky(-s.up_cam, |n| b.sky_share(n)) < SKY_ABOVE_MIN
+            });
+        let unsure = !fine_pass
+            && est.confidence < MIN_CONFIDENCE
             && (sky_refused || est.sky_correlation < steep::LEVEL_SKY);
         // A level reading refused for its steep alternative is replaced by that alternative
         // only: the steep point is its point ahead, the nadir where it looked up (no sky above),
@@ -577,32 +608,12 @@ fn estimate_with(
                 c.abs() > ALTERNATIVE_MATCH_DEG.to_radians().cos()
                     && (c < 0.0) == (est.tilt_deg > 0.0)
             });
-        let confidence = steep::confidence(&s, sky_says_steep);
-        if sky_says_steep || (unsure && alternative && confidence > est.confidence) {
-            let (t, r) = tilt_roll_from_up(s.up_cam);
-            est = HorizonEstimate {
-                up_cam: s.up_cam,
-                tilt_deg: t.to_degrees(),
-                roll_deg: r.to_degrees(),
-                horizon_row: horizon_row_of_up(s.up_cam, camera),
-                confidence,
-                vertical_inliers: s.inliers.len(),
-                horizontal_inliers: 0,
-                horizon_inliers: 0,
-                families: 0,
-                fitted_inliers: s.inliers.len(),
-                standing_len: 0.0,
-                floating_len: 0.0,
-                sky_correlation: steep_sky,
-                steep_lines: s.distinct_lines,
-                level_offset: 0.0,
-                horizon_shift: f * t.tan() / camera.height_px as f64,
-                focal_scale_sq: None,
-                ..est
-            };
+        let confidence = steep::confidence(&s, sky_says_steep || no_sky);
+        if sky_says_steep || no_sky || (unsure && alternative && confidence > est.confidence) {
+            posed = s.estimate(&est, confidence, steep_sky, camera);
         }
     }
-    est
+    posed
 }
 
 /// Number of inputs of the confidence model.
@@ -782,9 +793,25 @@ pub const MAX_SEGMENTS: usize = 400;
 
 /// Estimates the horizon of one luma picture through `camera`'s intrinsics.
 pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
+    estimate_finer(luma, || None, camera)
+}
+
+/// [`estimate`], with `fine()` the same picture at [`steep::FINE_WIDTH`] for the steep
+/// reading's second pass, made only where that pass is needed.
+pub fn estimate_finer(
+    luma: &Luma,
+    fine: impl Fn() -> Option<Luma>,
+    camera: &Camera,
+) -> HorizonEstimate {
     let segments = detect_segments(luma, MAX_SEGMENTS);
+    let fine_segments = std::cell::OnceCell::new();
+    let fine = || {
+        fine_segments
+            .get_or_init(|| fine().map(|l| detect_segments(&l, MAX_SEGMENTS)))
+            .as_deref()
+    };
     read_lens(camera, |cam| {
-        estimate_with(&segments, Brightness::new(luma, cam).as_ref(), cam)
+        estimate_with(&segments, Brightness::new(luma, cam).as_ref(), cam, &fine)
     })
 }
 
@@ -792,7 +819,11 @@ pub fn estimate(luma: &Luma, camera: &Camera) -> HorizonEstimate {
 /// through `camera`'s intrinsics (its own tilt and roll are ignored): [`estimate`] on the
 /// frame's luma at [`WORK_WIDTH`].
 pub fn estimate_frame(frame: &YuvFrame, rotation_deg: i32, camera: &Camera) -> HorizonEstimate {
-    estimate(&Luma::from_frame(frame, rotation_deg, WORK_WIDTH), camera)
+    estimate_finer(
+        &Luma::from_frame(frame, rotation_deg, WORK_WIDTH),
+        || Some(Luma::from_frame(frame, rotation_deg, steep::FINE_WIDTH)),
+        camera,
+    )
 }
 
 /// Smoothing of the per-frame estimates over a window of past frames, reset at cuts (see the
