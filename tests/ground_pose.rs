@@ -652,6 +652,65 @@ fn steep_views_are_posed_or_not_confident() {
     );
 }
 
+/// A dusk over a paved square: the sky glows at the horizon (0.9) and darkens upwards (0.3 at
+/// 30° up, darker than the glow but brighter than the ground, 0.1–0.3, under it), as at sunset
+/// over the sea. Seen level-ish looking up 11.5°, the quarter highest above the true horizon
+/// is sky to the sky cue (`SKY_ABOVE_MIN`), although the picture's brightest blocks are the
+/// glow alone; and the pose read from the frame is not refused by the sky rule.
+#[test]
+fn a_dusk_sky_darker_than_its_glow_is_sky() {
+    use glam::DVec3;
+    use rain_composite::scene::brightness::Brightness;
+    use rain_composite::scene::steep;
+    let dusk = |o: DVec3, d: DVec3| {
+        if d.z < 0.0 {
+            let t = -o.z / d.z;
+            0.1 + 0.4 * (street::paving(o + d * t, t, 20.0, 0.6) - 0.15)
+        } else {
+            0.3 + 0.6 * (-d.z.asin().to_degrees() / 8.0).exp()
+        }
+    };
+    for (tilt_deg, roll_deg, fov_deg) in [(11.5, 0.3, 60.0), (8.7, -2.4, 50.0), (14.2, 1.6, 70.0)] {
+        let pose = street::Pose {
+            tilt_deg,
+            roll_deg,
+            fov_deg,
+            height_m: 1.6,
+        };
+        let cam = pose.camera();
+        let frame = street::render(&cam, dusk);
+        let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+        let lens = pose.intrinsics();
+        let up_cam = (cam.camera_from_world_point(cam.position_m + DVec3::Z)
+            - cam.camera_from_world_point(cam.position_m))
+        .normalize();
+        let b = Brightness::new(&luma, &lens).expect("a picture with contrast");
+        let sky_above = b.sky_above(up_cam);
+        let e = horizon::estimate(&luma, &lens);
+        println!(
+            "tilt {tilt_deg}° roll {roll_deg}° fov {fov_deg}°: true sky_above {sky_above:.2} \
+             (brightest blocks alone {:.2}); \
+             read row {:?} (true {:.3}) tilt {:.1}° sky_above {:.2} confidence {:.2} {:?}",
+            b.sky_share(up_cam),
+            e.horizon_row,
+            pose.horizon_row().unwrap_or(f64::NAN),
+            e.tilt_deg,
+            e.sky_above,
+            e.confidence,
+            steep::sky_refusal(&e)
+        );
+        assert!(
+            sky_above >= steep::SKY_ABOVE_MIN,
+            "the dusk sky above the true horizon reads as {sky_above:.2} sky"
+        );
+        assert!(
+            steep::sky_refusal(&e).is_none(),
+            "the sky rule refuses the dusk view: {:?}",
+            steep::sky_refusal(&e)
+        );
+    }
+}
+
 /// Exact segments of verticals seen through cameras looking 72–89° down or up at random rolls:
 /// the steep reading finds the vertical vanishing point within 0.01° (its position in the
 /// picture is the pose, without a horizon), counts each line once, and a paving of two families

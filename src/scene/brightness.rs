@@ -13,6 +13,11 @@
 //!   a view up between facades (the sky all around the point where the verticals meet) and a
 //!   level view looking up (the sky across the top of the picture) from the Manhattan
 //!   alternatives that read the same lines (see [`crate::scene::horizon`]).
+//! - [`Brightness::sky_above`]: the same share in the quarter highest above the horizon of an
+//!   up direction, where a smooth block is bright also when it is brighter than
+//!   [`SKY_BELOW_QUANTILE`] of the blocks below that horizon. A dusk sky is darker at the top
+//!   than its glow at the horizon, so the picture's brightest blocks are the glow alone; its
+//!   top is still brighter than the sea or land under it.
 
 use glam::{DMat3, DVec3};
 
@@ -25,6 +30,15 @@ pub const SKY_GRADIENT_MAX: f64 = 0.008;
 
 /// A block is bright, for the sky, where its mean is at least this quantile of the blocks'.
 pub const SKY_BRIGHT_QUANTILE: f64 = 0.7;
+
+/// A smooth block above the horizon is bright, for [`Brightness::sky_above`], where its mean
+/// is at least this quantile of the means of the blocks below that horizon (not their
+/// maximum: a sun's glitter on water or a street light is brighter than the sky's top).
+pub const SKY_BELOW_QUANTILE: f64 = 0.9;
+
+/// Fewest blocks below the horizon with which [`SKY_BELOW_QUANTILE`] is judged (one row of
+/// blocks); with fewer, only the picture's brightest blocks are sky.
+const SKY_BELOW_MIN_BLOCKS: usize = 32;
 
 /// Moments of the luma's block means and their rays, and each block's smoothness.
 #[derive(Debug, Clone)]
@@ -41,6 +55,8 @@ pub struct Brightness {
     norm: f64,
     /// Each block's unit ray and whether it is a sky block (smooth and bright).
     blocks: Vec<(DVec3, bool)>,
+    /// Each block's mean and whether it is smooth.
+    means: Vec<(f64, bool)>,
 }
 
 impl Brightness {
@@ -97,6 +113,10 @@ impl Brightness {
                 .iter()
                 .map(|&(r, v, g)| (r, g < SKY_GRADIENT_MAX && v >= bright))
                 .collect(),
+            means: blocks
+                .iter()
+                .map(|&(_, v, g)| (v, g < SKY_GRADIENT_MAX))
+                .collect(),
         };
         for &(r, v, _) in &blocks {
             b.sum_r += r;
@@ -123,6 +143,29 @@ impl Brightness {
     /// the horizon; with `d` a point in the picture, the quarter around it.
     pub fn sky_share(&self, d: DVec3) -> f64 {
         let mut near: Vec<(f64, bool)> = self.blocks.iter().map(|b| (b.0.dot(d), b.1)).collect();
+        near.sort_by(|a, b| b.0.total_cmp(&a.0));
+        near.truncate(near.len().div_ceil(4));
+        near.iter().filter(|b| b.1).count() as f64 / near.len().max(1) as f64
+    }
+
+    /// The share of sky blocks among the quarter of the blocks highest above the horizon of
+    /// the up direction `up`, a smooth block counting as sky where it is among the picture's
+    /// brightest or brighter than [`SKY_BELOW_QUANTILE`] of the blocks below that horizon: the
+    /// sky is judged against what stands under it, not against its own glow.
+    pub fn sky_above(&self, up: DVec3) -> f64 {
+        let mut below: Vec<f64> = (self.blocks.iter().zip(&self.means))
+            .filter(|(b, _)| b.0.dot(up) < 0.0)
+            .map(|(_, m)| m.0)
+            .collect();
+        below.sort_by(f64::total_cmp);
+        let under = if below.len() >= SKY_BELOW_MIN_BLOCKS {
+            below[((SKY_BELOW_QUANTILE * below.len() as f64) as usize).min(below.len() - 1)]
+        } else {
+            f64::MAX
+        };
+        let mut near: Vec<(f64, bool)> = (self.blocks.iter().zip(&self.means))
+            .map(|(b, m)| (b.0.dot(up), b.1 || (m.1 && m.0 >= under)))
+            .collect();
         near.sort_by(|a, b| b.0.total_cmp(&a.0));
         near.truncate(near.len().div_ceil(4));
         near.iter().filter(|b| b.1).count() as f64 / near.len().max(1) as f64

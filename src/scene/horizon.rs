@@ -205,7 +205,7 @@ pub struct HorizonEstimate {
     pub floating_len: f64,
     /// Evidence: correlation of brightness with elevation above the horizon (the sky).
     pub sky_correlation: f64,
-    /// Evidence: the share of sky blocks (smooth and bright, see [`Brightness::sky_share`]) in
+    /// Evidence: the share of sky blocks (smooth and bright, see [`Brightness::sky_above`]) in
     /// the quarter of the picture highest above the horizon; 1 where not measured. See
     /// [`SKY_ABOVE_MIN`].
     pub sky_above: f64,
@@ -528,7 +528,7 @@ fn estimate_with<'a>(
         standing_len: standing,
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
-        sky_above: brightness.map_or(1.0, |b| b.sky_share(up_cam)),
+        sky_above: brightness.map_or(1.0, |b| b.sky_above(up_cam)),
         sky_ahead: 0.0,
         steep_lines: 0,
         receding: ahead.map_or(0.0, |p| p.z.abs()),
