@@ -1406,6 +1406,28 @@ fn ground_passes_are_deterministic() {
     }
 }
 
+/// A camera looking down at a wet ground two seconds into rain of `rate_mm_per_h`, drops
+/// from 0.3 to 6 m drawn three times their size, streak mattes on and the haze reaching the
+/// ground: the scene both compositor ground tests draw.
+fn wet_ground_scene(rate_mm_per_h: f64) -> (Camera, RainSetup, RainParams) {
+    let rain = RainConfig {
+        rate_mm_per_h,
+        near_m: 0.3,
+        far_m: 6.0,
+        drop_scale: 3.0,
+        ..RainConfig::default()
+    };
+    let (camera, setup) =
+        render::rain_seen_by(&render::looking_down(), (RW, RH), &rain, 1.0 / 50.0, true);
+    let setup = setup
+        .with_wetting(Some(wetting()))
+        .with_scene_depth(true)
+        .with_mattes(Some(atlas()));
+    let mut p = params(&setup, Haze::Ground);
+    p.time_whole_s = 2;
+    (camera, setup, p)
+}
+
 /// Rain over a wet ground with puddles, rings, splashes, streak mattes with glints, a depth
 /// map and a ground mask, through the compositor: the CPU back end (the canvas never on the
 /// adapter) agrees with the GPU's stages within one code on 99.9 % of the samples, on 8-bit
@@ -1425,21 +1447,7 @@ fn compositor_ground_on_both_back_ends_agrees() {
         // the other pictures: where many wide streaks overlap a pixel the two rasters part by
         // more than a 10-bit code even without a ground (the adapter's canvas is rounded to
         // f16 after each streak, the CPU's tile once).
-        let rain = RainConfig {
-            rate_mm_per_h: if k == 0 { 10.0 } else { 2.0 },
-            near_m: 0.3,
-            far_m: 6.0,
-            drop_scale: 3.0,
-            ..RainConfig::default()
-        };
-        let (camera, setup) =
-            render::rain_seen_by(&render::looking_down(), (RW, RH), &rain, 1.0 / 50.0, true);
-        let setup = setup
-            .with_wetting(Some(wetting()))
-            .with_scene_depth(true)
-            .with_mattes(Some(atlas()));
-        let mut p = params(&setup, Haze::Ground);
-        p.time_whole_s = 2;
+        let (camera, setup, mut p) = wet_ground_scene(if k == 0 { 10.0 } else { 2.0 });
         p.time_frac_s = 0.4;
         let water = pools();
         let impacts: Vec<Impact> = (0..60)
@@ -1513,20 +1521,7 @@ fn cpu_back_end_allocates_nothing_on_the_adapter() {
         ..format
     };
     let frame = picture(format, color);
-    let rain = RainConfig {
-        near_m: 0.3,
-        far_m: 6.0,
-        drop_scale: 3.0,
-        ..RainConfig::default()
-    };
-    let (camera, setup) =
-        render::rain_seen_by(&render::looking_down(), (RW, RH), &rain, 1.0 / 50.0, true);
-    let setup = setup
-        .with_wetting(Some(wetting()))
-        .with_scene_depth(true)
-        .with_mattes(Some(atlas()));
-    let mut p = params(&setup, Haze::Ground);
-    p.time_whole_s = 2;
+    let (camera, setup, p) = wet_ground_scene(RainConfig::default().rate_mm_per_h);
     let render = |backend| {
         let mut comp = Compositor::with_backend(ctx.clone(), format, &color, &setup, None, backend)
             .expect("compositor");
