@@ -636,7 +636,7 @@ fn a_straight_down_street_is_posed_from_its_verticals() {
 fn steep_views_are_posed_or_not_confident() {
     let shots = env_or("STEEP_SHOTS", 30);
     let (mut confident, mut wrong, mut right) = (0, 0, 0);
-    for shot in seeded_shots(Set::Steep, 7, shots) {
+    for shot in seeded_shots(Set::Steep, env_or("STEEP_SEED", 7), shots) {
         let (e, off_deg) = judge_steep(&shot);
         let ok = off_deg < 1.0;
         right += usize::from(ok);

@@ -594,7 +594,8 @@ fn estimate_with<'a>(
             && s.distinct_lines >= steep::NO_SKY_MIN_LINES
             && s.up_cam.z < 0.0
             && brightness.is_some_and(|b| {
-                steep::alternative_sky(-s.up_cam, |n| b.sky_share(n)) < SKY_ABOVE_MIN
+                steep::alternative_sky(-s.up_cam, |n| b.sky_share(n), |u| b.sky_above(u))
+                    < SKY_ABOVE_MIN
             });
         let unsure = !fine_pass
             && est.confidence < MIN_CONFIDENCE

@@ -340,24 +340,32 @@ pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
 pub const FINE_WIDTH: usize = 640;
 
 /// A view down is confident, without a sky to choose it, where no direction of the picture
-/// shows sky: the largest share of sky blocks
-/// ([`crate::scene::brightness::Brightness::sky_share`]) in the quarter of the picture around
-/// the point `d` and in the quarter highest above the horizon of each level alternative of it
-/// (a level camera looking at `d`, at [`ALTERNATIVE_ROLLS`] rolls around the circle). Each
-/// such level reading looking up would be refused under [`SKY_ABOVE_MIN`] (see
-/// [`sky_refusal`]); a camera looking up between facades has the sky around `d`; a level
-/// street's own vanishing point has the sky above it; looking straight down at a street over
-/// buildings (seen from 30 m), at most 0.17 of any quarter is sky blocks (flat roofs).
-pub fn alternative_sky(d: DVec3, sky_share: impl Fn(DVec3) -> f64) -> f64 {
+/// shows sky: the largest of the share of sky blocks in the quarter of the picture around the
+/// point `d` (`sky_ahead`, as a level reading's
+/// [`crate::scene::horizon::HorizonEstimate::sky_ahead`]) and the sky above the horizon of
+/// each level alternative of it (`sky_above` of its up direction, the rule
+/// [`sky_refusal`] applies: [`crate::scene::brightness::Brightness::sky_above`]; a level
+/// camera looking at `d`, at [`ALTERNATIVE_ROLLS`] rolls around the circle). Each such level
+/// reading looking up would be refused under [`SKY_ABOVE_MIN`]; a camera looking up between
+/// facades has the sky around `d`; a level street's own vanishing point has the sky above it;
+/// looking straight down at a street over buildings (seen from 30 m), at most 0.16 of any
+/// quarter is sky (flat roofs).
+pub fn alternative_sky(
+    d: DVec3,
+    sky_ahead: impl Fn(DVec3) -> f64,
+    sky_above: impl Fn(DVec3) -> f64,
+) -> f64 {
     // The picture's up (−y in camera space) made normal to `d`, turned about `d`.
     let u0 = (DVec3::NEG_Y - d * -d.y).normalize_or(DVec3::NEG_Y);
     let u1 = d.cross(u0);
     (0..ALTERNATIVE_ROLLS)
         .map(|k| {
             let a = std::f64::consts::TAU * k as f64 / ALTERNATIVE_ROLLS as f64;
-            sky_share(u0 * a.cos() + u1 * a.sin())
+            // The level alternative looking at `d` with its picture's up along this roll: its
+            // up direction is the roll's, made normal to `d`.
+            sky_above(u0 * a.cos() + u1 * a.sin())
         })
-        .fold(sky_share(d), f64::max)
+        .fold(sky_ahead(d), f64::max)
 }
 
 /// Fewest distinct lines with which a view down replaces a level reading for the sky no
