@@ -81,8 +81,8 @@ fn judge(shot: &Shot) -> (HorizonEstimate, bool) {
         && (e.roll_deg - pose.roll_deg).abs() < 1.0;
     eprintln!(
         "shot {}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
-         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} standing {:.2} floating {:.2} \
-         level {:+.4}{} | {}",
+         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} above {:.2} ahead {:.2} standing \
+         {:.2} floating {:.2} level {:+.4}{} | {}",
         shot.i,
         pose.tilt_deg,
         pose.roll_deg,
@@ -96,12 +96,17 @@ fn judge(shot: &Shot) -> (HorizonEstimate, bool) {
         e.vertical_inliers,
         e.fitted_inliers,
         e.sky_correlation,
+        e.sky_above,
+        e.sky_ahead,
         e.standing_len,
         e.floating_len,
         e.level_offset,
         lens_read(&e),
         if right { "right" } else { "WRONG" }
     );
+    if e.confidence >= horizon::MIN_CONFIDENCE && !right {
+        eprintln!("  confidently wrong: {e:?}");
+    }
     (e, right)
 }
 
@@ -131,6 +136,9 @@ fn judge_steep(shot: &Shot) -> (HorizonEstimate, f64) {
         lens_read(&e),
         if off_deg < 1.0 { "right" } else { "WRONG" }
     );
+    if e.confidence >= horizon::MIN_CONFIDENCE && off_deg >= 1.0 {
+        eprintln!("  confidently wrong: {e:?}");
+    }
     (e, off_deg)
 }
 

@@ -610,7 +610,11 @@ fn estimate_with<'a>(
                     && (c < 0.0) == (est.tilt_deg > 0.0)
             });
         let confidence = steep::confidence(&s, sky_says_steep || no_sky);
-        if sky_says_steep || no_sky || (unsure && alternative && confidence > est.confidence) {
+        let up_without_sky =
+            brightness.is_some_and(|b| steep::up_without_sky(&s, |n| b.sky_share(n)));
+        if !up_without_sky
+            && (sky_says_steep || no_sky || (unsure && alternative && confidence > est.confidence))
+        {
             posed = s.estimate(&est, confidence, steep_sky, camera);
         }
     }
@@ -680,7 +684,7 @@ pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
              view is not the lens's (try another --fov)",
         )
     } else {
-        sky_refusal(e)
+        sky_refusal(e).or_else(|| steep::unmarked_horizon(e))
     }
 }
 

@@ -310,9 +310,12 @@ pub const SKY_ABOVE_MIN: f64 = 0.2;
 pub const SKY_AHEAD_MAX: f64 = 0.4;
 
 /// Why the sky refuses a level reading, if it does: looking up less than
-/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), or looking
+/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), looking
 /// down with the sky around its point ahead, where that point lies within that angle of the
-/// optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that the level search
+/// optical axis ([`SKY_AHEAD_MAX`]), or looking down with its horizon above the picture and as
+/// much sky in the picture's quarter nearest that horizon (the sky cannot lie below the
+/// horizon; streets seen so measure at most 0.22 there, a view up between towers read that way
+/// 0.77). Both say the picture is a steep view that the level search
 /// read as its Manhattan alternative (a reading at tilt `t` has its alternative at
 /// `±(90° − |t|)`: beyond the level search's range, which weighs the others by its priors).
 pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
@@ -326,9 +329,40 @@ pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
         && e.sky_ahead >= SKY_AHEAD_MAX
     {
         Some("the sky surrounds the point the level lines meet: a view up reads the same")
+    } else if e.tilt_deg < 0.0
+        && e.horizon_row.is_some_and(|r| r < 0.0)
+        && e.sky_above >= SKY_AHEAD_MAX
+    {
+        Some("sky below a horizon above the picture: a view up reads the same")
     } else {
         None
     }
+}
+
+/// Whether a steep reading looks up with too little sky around its zenith to be a view up: a
+/// camera looking up between facades sees the sky surround the point its verticals meet
+/// (0.44–0.89 of the quarter of the picture around it, as [`SKY_AHEAD_MAX`] judges a level
+/// reading looking down), while a level street's vanishing point, where its receding lines meet
+/// as a view up's verticals would, has the far street around it (at most 0.30). Such a reading
+/// replaces no level reading. `sky_share` is the share of sky blocks around a direction.
+pub fn up_without_sky(s: &SteepReading, sky_share: impl Fn(DVec3) -> f64) -> bool {
+    s.up_cam.z > 0.0 && sky_share(s.up_cam) < SKY_AHEAD_MAX
+}
+
+/// Why a level reading's horizon is unfounded, if it is: it crosses the picture, yet no
+/// vertical stands across it and no edge runs along it. Families of parallel lines fix the
+/// vanishing line of the plane they lie in, not that this plane is level: a flat roof, a
+/// town's street grid or a paving seen steeply from above gives one as well. A horizon in
+/// view is marked by what stands on the ground (verticals crossing it) or by the ground's far
+/// edge (the sea's line, a far treeline); a reading with neither says nothing of gravity. With
+/// the horizon off the picture nothing of it can be seen, and the ground's own texture and
+/// lines decide (streets looking down steeply show no verticals).
+pub fn unmarked_horizon(e: &HorizonEstimate) -> Option<&'static str> {
+    (e.steep_lines == 0
+        && e.vertical_inliers == 0
+        && e.horizon_inliers == 0
+        && e.horizon_row.is_some_and(|r| (0.0..=1.0).contains(&r)))
+    .then_some("the horizon crosses the picture but no vertical stands on it and no edge marks it")
 }
 
 /// Width of the finer luma a second detection pass reads where the working luma shows no
