@@ -1027,3 +1027,49 @@ fn lens_check_cost() {
         inliers.vertical.len()
     );
 }
+
+/// The cost of the finer line pass ([`rain_composite::scene::steep::FINE_WIDTH`]) in the
+/// ground's pre-pass: for frames of `CLIP` (default the street sample) at 0.2, 0.6, 1.0 and
+/// 1.4 s, the median of 9 runs of the frame's estimate with the finer pass offered (as the
+/// pre-pass runs it) and without it (`horizon::estimate`, the working width alone).
+#[test]
+#[ignore = "a timing by hand"]
+fn fine_pass_cost() {
+    let clip = std::env::var("CLIP").unwrap_or("samples/street.mp4".into());
+    let mut source = rain_composite::video::Source::open(&clip).expect("clip");
+    for at_s in [0.2, 0.6, 1.0, 1.4] {
+        let frame = source.seek_to_time(at_s).expect("frame");
+        let cam = rain_composite::scene::Camera::new(
+            frame.format.width,
+            frame.format.height,
+            60f64.to_radians(),
+            1.6,
+            0.0,
+            0.0,
+        );
+        let median = |f: &mut dyn FnMut()| {
+            let mut t: Vec<f64> = (0..9)
+                .map(|_| {
+                    let t0 = std::time::Instant::now();
+                    f();
+                    t0.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            t.sort_by(f64::total_cmp);
+            t[4]
+        };
+        let e = horizon::estimate_frame(&frame, 0, &cam);
+        let with = median(&mut || {
+            std::hint::black_box(horizon::estimate_frame(&frame, 0, &cam));
+        });
+        let without = median(&mut || {
+            let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
+            std::hint::black_box(horizon::estimate(&luma, &cam));
+        });
+        println!(
+            "{clip} at {at_s} s: {with:.1} ms with the finer pass offered, {without:.1} ms \
+             without (confidence {:.2}, steep lines {})",
+            e.confidence, e.steep_lines
+        );
+    }
+}
