@@ -63,7 +63,8 @@
 //! axis, the same lines read, under the same lens, as a view straight down or up with that
 //! point as the nadir or the sky): a level reading looking up with no sky above its horizon
 //! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
-//! ([`SKY_AHEAD_MAX`]). Below
+//! ([`SKY_AHEAD_MAX`]) or below a horizon above the picture; so has a horizon in view that no
+//! vertical crosses and no edge marks ([`steep::unmarked_horizon`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
