@@ -471,3 +471,174 @@ fn the_gpu_stages_match_their_twins_with_a_mask() {
         .expect("compositor");
     assert!(comp.set_ground_mask(&mask[1..]).is_err());
 }
+
+/// The sunset seen over water: a sky whose glow round a low sun and whose islands on the
+/// horizon vary across azimuth, at the direction `d` (world, unit).
+fn dusk_sky(d: DVec3) -> [f64; 3] {
+    let elevation = d.z.asin();
+    let azimuth = d.x.atan2(d.y);
+    // Islands on the horizon: a low hump on the left, a long headland on the right (rad).
+    let hump = |from: f64, to: f64, height: f64| {
+        let u = (azimuth - from) / (to - from);
+        if (0.0..1.0).contains(&u) {
+            height * (4.0 * u * (1.0 - u)).sqrt()
+        } else {
+            -1.0
+        }
+    };
+    if elevation >= 0.0 && elevation < hump(-0.36, -0.08, 0.025).max(hump(0.22, 0.6, 0.014)) {
+        return [0.1, 0.08, 0.08];
+    }
+    let up = (elevation / 0.45).clamp(0.0, 1.0);
+    let base = [0.95 - 0.5 * up, 0.55 - 0.05 * up, 0.32 + 0.33 * up];
+    let sun = DVec3::new(0.14_f64.sin(), 0.14_f64.cos(), 0.0)
+        .normalize()
+        .lerp(DVec3::Z, 0.1)
+        .normalize();
+    let angle = d.angle_between(sun);
+    let glow = 0.45 * (-angle * angle / (2.0 * 0.2 * 0.2)).exp();
+    let disk = if angle < 0.012 { 0.6 } else { 0.0 };
+    [
+        (base[0] + glow + disk).min(1.0),
+        (base[1] + 0.75 * glow + disk).min(1.0),
+        (base[2] + 0.3 * glow + 0.5 * disk).min(1.0),
+    ]
+}
+
+/// What is below the horizon in [`dusk_shore`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Below {
+    /// A rippled sea mirroring the sky.
+    Sea,
+    /// A dry road of asphalt.
+    Road,
+}
+
+/// The sunset over `below`, seen by `camera`: R'G'B' (0–1), 3 × 3 samples a pixel, and
+/// whether each pixel shows the ground. The sea is a Fresnel mirror (n = 1.33) over dark water,
+/// its slopes a few long swells, so the sun's reflection stretches into a column.
+fn dusk_shore(camera: &Camera, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<bool>) {
+    let eye = camera.position_m;
+    let swells: Vec<(DVec2, f64, f64)> = (0..5)
+        .map(|k| {
+            let angle = std::f64::consts::TAU * uniform(seed, 30 + k);
+            let wavelength_m = 1.5 + 4.0 * uniform(seed, 40 + k);
+            let k_vec = DVec2::new(angle.cos(), angle.sin()) * std::f64::consts::TAU / wavelength_m;
+            (k_vec, std::f64::consts::TAU * uniform(seed, 50 + k), 0.005)
+        })
+        .collect();
+    let mut rgb = Vec::with_capacity((W * H) as usize);
+    let mut ground = Vec::with_capacity((W * H) as usize);
+    for y in 0..H {
+        for x in 0..W {
+            let mut sum = [0.0; 3];
+            let mut hits = 0;
+            for s in 0..9 {
+                let at = DVec2::new(
+                    x as f64 + (f64::from(s % 3) + 0.5) / 3.0,
+                    y as f64 + (f64::from(s / 3) + 0.5) / 3.0,
+                );
+                let r = camera.ray_world(at).normalize();
+                let c = if r.z < 0.0 {
+                    hits += 1;
+                    let q = eye + (eye.z / -r.z) * r;
+                    match below {
+                        Below::Road => [asphalt(q, seed); 3],
+                        Below::Sea => {
+                            // The surface's normal tilted by the swells' slopes.
+                            let slope = swells.iter().fold(DVec2::ZERO, |acc, (k, phase, a)| {
+                                acc + *k / k.length() * a * (k.dot(q.truncate()) + phase).cos()
+                            });
+                            let n = DVec3::new(-slope.x, -slope.y, 1.0).normalize();
+                            let mut m = r - 2.0 * r.dot(n) * n;
+                            m.z = m.z.max(1e-4);
+                            let cos_i = (-r.dot(n)).clamp(0.0, 1.0);
+                            let f = 0.02 + 0.98 * (1.0 - cos_i).powi(5);
+                            let sky = dusk_sky(m.normalize());
+                            let deep = [0.03, 0.04, 0.05];
+                            [0, 1, 2].map(|i| f * sky[i] + (1.0 - f) * deep[i])
+                        }
+                    }
+                } else {
+                    dusk_sky(r)
+                };
+                (0..3).for_each(|i| sum[i] += c[i] / 9.0);
+            }
+            let grain = (uniform(seed, 7 * (y as u64 * 4096 + x as u64)) - 0.5) * 2.5 / 255.0;
+            rgb.push(sum.map(|v| v + grain));
+            ground.push(hits == 9);
+        }
+    }
+    (rgb, ground)
+}
+
+/// Poses over the shore: field of view (rad), tilt and roll (degrees), non-integer.
+const SHORE_POSES: [(f64, f64, f64); 2] = [(1.1, 4.3, 1.7), (0.95, 2.6, -2.4)];
+
+/// A sea that mirrors the sky is water already: the wet ground and the puddles leave it as it
+/// was (all but a few of its pixels within a code), where without the water rule they wash it
+/// over; the same sky over a dry road still wets it.
+#[test]
+fn a_sea_mirroring_the_sky_is_not_wetted_but_a_road_under_it_is() {
+    for (n, pose) in SHORE_POSES.into_iter().enumerate() {
+        let cam = camera(pose);
+        let setup = dry_ground(&cam, 0).with_wetting(Some(drying()));
+        let p = lit(&setup, 120.0, &SKY, Some(1.0));
+        let views = point_views(&p, grid());
+        let no_mirror: Vec<_> = views
+            .iter()
+            .map(|v| rain_composite::scene::ground_mask::PointView {
+                mirror_px: None,
+                ..*v
+            })
+            .collect();
+        for below in [Below::Sea, Below::Road] {
+            let (rgb, ground) = dusk_shore(&cam, below, 40 + n as u64);
+            let f = pictures::bt709_420_from_rgb(W, H, &rgb);
+            let mask = detect(&f, grid(), TopEdge::Top, &views);
+            let blind = detect(&f, grid(), TopEdge::Top, &no_mirror);
+            let dry = yuv_to_rgb::yuv_to_rgb(&f, &p);
+            let wet = wet_picture(&f, &p, Some(&mask));
+            let washed = wet_picture(&f, &p, Some(&blind));
+            let inside = interior(&ground, (W, H), 12);
+            let (mut total, mut changed, mut changed_blind, mut worst) = (0usize, 0, 0, 0.0f64);
+            for i in 0..(W * H) as usize {
+                if !inside[i] || !ground[i] {
+                    continue;
+                }
+                let diff =
+                    |a: &[f64; 3]| (0..3).map(|k| (a[k] - dry[i][k]).abs()).fold(0.0, f64::max);
+                total += 1;
+                changed += usize::from(diff(&wet[i]) > 1.0 / 255.0);
+                changed_blind += usize::from(diff(&washed[i]) > 1.0 / 255.0);
+                worst = worst.max(diff(&wet[i]));
+            }
+            eprintln!(
+                "pose {pose:?}, {below:?}: {changed} of {total} ground pixels changed by over a \
+                 code ({changed_blind} without the mirror), worst {:.1} codes",
+                worst * 255.0
+            );
+            assert!(total > 3000, "{total}");
+            match below {
+                Below::Sea => {
+                    assert!(
+                        (changed as f64) < 0.01 * total as f64,
+                        "sea wetted: {changed} of {total}"
+                    );
+                    assert!(
+                        worst < 4.0 / 255.0,
+                        "sea changed by {} codes",
+                        worst * 255.0
+                    );
+                    assert!(changed_blind as f64 > 0.3 * total as f64, "{changed_blind}");
+                }
+                Below::Road => {
+                    assert!(
+                        changed as f64 >= 0.9 * total as f64,
+                        "road wet: {changed} of {total}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -2,11 +2,12 @@
 //! ground's horizon, averaged over the frames shortly before it, handed to the compositor so
 //! that wetness and puddles keep to it.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 use super::mask_feed::{MaskDetector, MaskFeed};
 use crate::Result;
 use crate::gpu::Compositor;
+use crate::gpu::cpu::puddles::project;
 use crate::gpu::cpu::yuv_to_rgb::view_ray_at;
 use crate::gpu::types::RainParams;
 use crate::scene::ground_mask::{GroundMaskMode, PointView, detect};
@@ -39,7 +40,8 @@ impl MaskDetector for Ground {
 }
 
 /// What the camera of `p` says about each point of `grid`: whether its ray meets the ground,
-/// and the image of the world's up direction there.
+/// the image of the world's up direction there, and where its ray reflected in the ground
+/// lands in the picture.
 pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
     // World up in the camera's frame: the rows' z (world = Σ row_k · q_k, orthonormal).
     let up = [
@@ -52,6 +54,7 @@ pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
         f64::from(p.focal_px),
         DVec2::new(f64::from(p.principal_px[0]), f64::from(p.principal_px[1])),
     );
+    let row = |r: [f32; 4]| DVec3::new(f64::from(r[0]), f64::from(r[1]), f64::from(r[2]));
     (0..grid.len())
         .map(|k| {
             let at = grid.point_px(k);
@@ -68,9 +71,19 @@ pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
             let s = DVec2::new(up[0] - d.x * up[2], up[1] - d.y * up[2]);
             // Coded = Mᵀ display.
             let coded = [m[0] * s.x + m[2] * s.y, m[1] * s.x + m[3] * s.y];
+            // The ray reflected in the ground, in the camera's frame (rows of camera_from_world).
+            let mirrored = DVec3::new(ray.x, ray.y, -ray.z);
+            let q = DVec3::new(
+                row(p.camera_from_world_0).dot(mirrored),
+                row(p.camera_from_world_1).dot(mirrored),
+                row(p.camera_from_world_2).dot(mirrored),
+            );
+            let below_horizon = ray.z < 0.0;
             PointView {
-                below_horizon: ray.z < 0.0,
+                below_horizon,
                 up_px: coded.map(|v| v as f32),
+                mirror_px: (below_horizon && q.z > 1e-9)
+                    .then(|| project(p, q).to_array().map(|v| v as f32)),
             }
         })
         .collect()

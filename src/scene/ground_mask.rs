@@ -38,7 +38,8 @@
 //! the step to it is the ground's own), then
 //! eroded by one point, so every point whose block touches a vertical structure or the step to
 //! one leaves it, and read bilinearly between points: its edge is soft over one cell, and lies
-//! inside the ground. Each frame's mask is a pure function of that frame; averaged over a
+//! inside the ground. A ground that mirrors the sky is water already, and leaves the mask by
+//! its weight as water ([`super::water`]), softly. Each frame's mask is a pure function of that frame; averaged over a
 //! window by [`crate::scene::sky::SkyTracker`], it fades instead of switching.
 //!
 //! Not explained: a smooth wall without a vertical edge reaching the ground's region, of the
@@ -53,6 +54,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use super::sky::{SkyGrid, TopEdge};
+use super::water;
 use crate::video::YuvFrame;
 
 /// Smallest RMS luma gradient between neighbouring pixels, 8-bit codes, of a block with
@@ -97,6 +99,9 @@ pub struct PointView {
     pub below_horizon: bool,
     /// The image of the world's up direction there, in coded pixels (any length, not zero).
     pub up_px: [f32; 2],
+    /// Where the ground, were it a mirror, shows the sky: the coded pixel of the ray reflected
+    /// in the ground plane (`None` above the horizon or behind the camera).
+    pub mirror_px: Option<[f32; 2]>,
 }
 
 /// Each grid point's sums over its block (the pixels x, y with (x + c/2) / c on the point,
@@ -290,7 +295,7 @@ fn seeds(bottom: &[usize], t: &[[f32; 4]], texture: &[f32]) -> Vec<usize> {
         .collect()
 }
 
-/// The ground's weight at each grid point of `frame` (row-major over `grid`, in {0, 1}; read
+/// The ground's weight at each grid point of `frame` (row-major over `grid`, 0–1; read
 /// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
 /// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
 pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
@@ -362,8 +367,15 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         .filter(|&k| neighbours8(k).any(|m| ground[m] && passes(&reference, m, k)))
         .collect();
     ring.into_iter().for_each(|k| ground[k] = true);
+    // A ground that mirrors the sky is water already: out of the mask, softly.
+    let luma: Vec<f32> = t.iter().map(|t| t[3]).collect();
+    let mirror: Vec<Option<[f32; 2]>> = view.iter().map(|v| v.mirror_px).collect();
+    let (wet, _) = water::weights(grid, top, &luma, &texture, &ground, &mirror);
     (0..n)
-        .map(|k| f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m]))))
+        .map(|k| {
+            let open = f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m])));
+            open * (1.0 - wet[k])
+        })
         .collect()
 }
 
@@ -486,6 +498,7 @@ mod tests {
                 .map(|k| PointView {
                     below_horizon: ((k / grid.width) as f32 * 8.0) > horizon_px,
                     up_px: [0.0, -1.0],
+                    mirror_px: None,
                 })
                 .collect();
             let median_ms = |run: &dyn Fn()| {

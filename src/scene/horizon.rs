@@ -63,7 +63,8 @@
 //! axis, the same lines read, under the same lens, as a view straight down or up with that
 //! point as the nadir or the sky): a level reading looking up with no sky above its horizon
 //! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
-//! ([`SKY_AHEAD_MAX`]). Below
+//! ([`SKY_AHEAD_MAX`]) or below a horizon above the picture; so has a horizon in view that no
+//! vertical crosses and no edge marks ([`steep::unmarked_horizon`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
 //!
 //! # Over time
@@ -594,7 +595,8 @@ fn estimate_with<'a>(
             && s.distinct_lines >= steep::NO_SKY_MIN_LINES
             && s.up_cam.z < 0.0
             && brightness.is_some_and(|b| {
-                steep::alternative_sky(-s.up_cam, |n| b.sky_share(n)) < SKY_ABOVE_MIN
+                steep::alternative_sky(-s.up_cam, |n| b.sky_share(n), |u| b.sky_above(u))
+                    < SKY_ABOVE_MIN
             });
         let unsure = !fine_pass
             && est.confidence < MIN_CONFIDENCE
@@ -609,7 +611,11 @@ fn estimate_with<'a>(
                     && (c < 0.0) == (est.tilt_deg > 0.0)
             });
         let confidence = steep::confidence(&s, sky_says_steep || no_sky);
-        if sky_says_steep || no_sky || (unsure && alternative && confidence > est.confidence) {
+        let up_without_sky =
+            brightness.is_some_and(|b| steep::up_without_sky(&s, |n| b.sky_share(n)));
+        if !up_without_sky
+            && (sky_says_steep || no_sky || (unsure && alternative && confidence > est.confidence))
+        {
             posed = s.estimate(&est, confidence, steep_sky, camera);
         }
     }
@@ -679,7 +685,7 @@ pub fn refusal(e: &HorizonEstimate) -> Option<&'static str> {
              view is not the lens's (try another --fov)",
         )
     } else {
-        sky_refusal(e)
+        sky_refusal(e).or_else(|| steep::unmarked_horizon(e))
     }
 }
 

@@ -15,6 +15,7 @@ pub mod segments;
 pub mod sky;
 pub mod steep;
 pub mod vanishing;
+pub mod water;
 
 pub use camera::Camera;
 pub use depth::DepthMap;

@@ -310,9 +310,12 @@ pub const SKY_ABOVE_MIN: f64 = 0.2;
 pub const SKY_AHEAD_MAX: f64 = 0.4;
 
 /// Why the sky refuses a level reading, if it does: looking up less than
-/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), or looking
+/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), looking
 /// down with the sky around its point ahead, where that point lies within that angle of the
-/// optical axis ([`SKY_AHEAD_MAX`]). Both say the picture is a steep view that the level search
+/// optical axis ([`SKY_AHEAD_MAX`]), or looking down with its horizon above the picture and as
+/// much sky in the picture's quarter nearest that horizon (the sky cannot lie below the
+/// horizon; streets seen so measure at most 0.22 there, a view up between towers read that way
+/// 0.77). Both say the picture is a steep view that the level search
 /// read as its Manhattan alternative (a reading at tilt `t` has its alternative at
 /// `±(90° − |t|)`: beyond the level search's range, which weighs the others by its priors).
 pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
@@ -326,9 +329,40 @@ pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
         && e.sky_ahead >= SKY_AHEAD_MAX
     {
         Some("the sky surrounds the point the level lines meet: a view up reads the same")
+    } else if e.tilt_deg < 0.0
+        && e.horizon_row.is_some_and(|r| r < 0.0)
+        && e.sky_above >= SKY_AHEAD_MAX
+    {
+        Some("sky below a horizon above the picture: a view up reads the same")
     } else {
         None
     }
+}
+
+/// Whether a steep reading looks up with too little sky around its zenith to be a view up: a
+/// camera looking up between facades sees the sky surround the point its verticals meet
+/// (0.44–0.89 of the quarter of the picture around it, as [`SKY_AHEAD_MAX`] judges a level
+/// reading looking down), while a level street's vanishing point, where its receding lines meet
+/// as a view up's verticals would, has the far street around it (at most 0.30). Such a reading
+/// replaces no level reading. `sky_share` is the share of sky blocks around a direction.
+pub fn up_without_sky(s: &SteepReading, sky_share: impl Fn(DVec3) -> f64) -> bool {
+    s.up_cam.z > 0.0 && sky_share(s.up_cam) < SKY_AHEAD_MAX
+}
+
+/// Why a level reading's horizon is unfounded, if it is: it crosses the picture, yet no
+/// vertical stands across it and no edge runs along it. Families of parallel lines fix the
+/// vanishing line of the plane they lie in, not that this plane is level: a flat roof, a
+/// town's street grid or a paving seen steeply from above gives one as well. A horizon in
+/// view is marked by what stands on the ground (verticals crossing it) or by the ground's far
+/// edge (the sea's line, a far treeline); a reading with neither says nothing of gravity. With
+/// the horizon off the picture nothing of it can be seen, and the ground's own texture and
+/// lines decide (streets looking down steeply show no verticals).
+pub fn unmarked_horizon(e: &HorizonEstimate) -> Option<&'static str> {
+    (e.steep_lines == 0
+        && e.vertical_inliers == 0
+        && e.horizon_inliers == 0
+        && e.horizon_row.is_some_and(|r| (0.0..=1.0).contains(&r)))
+    .then_some("the horizon crosses the picture but no vertical stands on it and no edge marks it")
 }
 
 /// Width of the finer luma a second detection pass reads where the working luma shows no
@@ -340,24 +374,32 @@ pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
 pub const FINE_WIDTH: usize = 640;
 
 /// A view down is confident, without a sky to choose it, where no direction of the picture
-/// shows sky: the largest share of sky blocks
-/// ([`crate::scene::brightness::Brightness::sky_share`]) in the quarter of the picture around
-/// the point `d` and in the quarter highest above the horizon of each level alternative of it
-/// (a level camera looking at `d`, at [`ALTERNATIVE_ROLLS`] rolls around the circle). Each
-/// such level reading looking up would be refused under [`SKY_ABOVE_MIN`] (see
-/// [`sky_refusal`]); a camera looking up between facades has the sky around `d`; a level
-/// street's own vanishing point has the sky above it; looking straight down at a street over
-/// buildings (seen from 30 m), at most 0.17 of any quarter is sky blocks (flat roofs).
-pub fn alternative_sky(d: DVec3, sky_share: impl Fn(DVec3) -> f64) -> f64 {
+/// shows sky: the largest of the share of sky blocks in the quarter of the picture around the
+/// point `d` (`sky_ahead`, as a level reading's
+/// [`crate::scene::horizon::HorizonEstimate::sky_ahead`]) and the sky above the horizon of
+/// each level alternative of it (`sky_above` of its up direction, the rule
+/// [`sky_refusal`] applies: [`crate::scene::brightness::Brightness::sky_above`]; a level
+/// camera looking at `d`, at [`ALTERNATIVE_ROLLS`] rolls around the circle). Each such level
+/// reading looking up would be refused under [`SKY_ABOVE_MIN`]; a camera looking up between
+/// facades has the sky around `d`; a level street's own vanishing point has the sky above it;
+/// looking straight down at a street over buildings (seen from 30 m), at most 0.16 of any
+/// quarter is sky (flat roofs).
+pub fn alternative_sky(
+    d: DVec3,
+    sky_ahead: impl Fn(DVec3) -> f64,
+    sky_above: impl Fn(DVec3) -> f64,
+) -> f64 {
     // The picture's up (−y in camera space) made normal to `d`, turned about `d`.
     let u0 = (DVec3::NEG_Y - d * -d.y).normalize_or(DVec3::NEG_Y);
     let u1 = d.cross(u0);
     (0..ALTERNATIVE_ROLLS)
         .map(|k| {
             let a = std::f64::consts::TAU * k as f64 / ALTERNATIVE_ROLLS as f64;
-            sky_share(u0 * a.cos() + u1 * a.sin())
+            // The level alternative looking at `d` with its picture's up along this roll: its
+            // up direction is the roll's, made normal to `d`.
+            sky_above(u0 * a.cos() + u1 * a.sin())
         })
-        .fold(sky_share(d), f64::max)
+        .fold(sky_ahead(d), f64::max)
 }
 
 /// Fewest distinct lines with which a view down replaces a level reading for the sky no

@@ -114,7 +114,7 @@ pub struct LookArgs {
     /// The open sky: auto (found in each frame: smooth, sky-coloured regions reaching the picture's top edge, above a given ground's horizon; there the scene is infinitely far and the haze leaves the sky its own radiance) or off (veil every pixel without a depth to the ground or --scene-depth, for footage whose sky is found wrongly).
     #[arg(long, value_enum, value_name = "MODE")]
     pub sky: Option<SkyArg>,
-    /// Where the ground is: auto (found in each frame: below the horizon, connected to the picture's bottom edge, without the vertical structure of walls, railings, poles and vehicles' sides; wetness and puddles keep to it) or off (every pixel below the horizon is ground). A depth map, where given, decides.
+    /// Where the ground is: auto (found in each frame: below the horizon, connected to the picture's bottom edge, without the vertical structure of walls, railings, poles and vehicles' sides, and not water that already mirrors the sky; wetness and puddles keep to it) or off (every pixel below the horizon is ground). A depth map, where given, decides.
     #[arg(long, value_enum, value_name = "MODE")]
     pub ground_mask: Option<GroundMaskArg>,
     /// Standard deviation of the seeded fractal micro-relief the puddle simulation lays over the ground, metres (0: none); the ground's image is not displaced.
