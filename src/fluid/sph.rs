@@ -368,14 +368,26 @@ impl Muller2003 {
                     // Kick, drift (leapfrog KDK, first half), collide (§5.3.1).
                     *v += *a * half;
                     *x += *v * dt;
-                    *fate = match bounds.collide(x, v, damping, max_push) {
+                    let mut sampled = None;
+                    *fate = match bounds.collide_sampled(x, v, damping, max_push, &mut sampled) {
                         Fate::Stays => KEEP,
                         Fate::Leaves => OUTFLOW,
                         Fate::Invalid => INVALID,
                     };
                     if *fate == KEEP && soak_per_step > 0.0 {
                         if let Some(t) = &bounds.terrain {
-                            let ts = t.sample(x.x, x.y);
+                            // The collision's terrain read, unless a wall moved x or y (the
+                            // same bits either way: the same point).
+                            let at = x.truncate();
+                            let ts = match sampled {
+                                Some((xy, ts))
+                                    if xy.to_array().map(f32::to_bits)
+                                        == at.to_array().map(f32::to_bits) =>
+                                {
+                                    ts
+                                }
+                                _ => t.sample(x.x, x.y),
+                            };
                             if (x.z - ts.height_m) * ts.normal.z < contact {
                                 *soaked += soak_per_step;
                                 if *soaked >= volume {
