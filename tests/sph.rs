@@ -166,6 +166,43 @@ fn hydrostatic_column_settles_to_rho_g_h() {
     assert!(late < 0.05 * peak_ke, "late KE {late} vs peak {peak_ke}");
 }
 
+/// The rain films' sound speed c = 10√(gH) ([`EquationOfState::for_film`]) on the 10 cm column:
+/// water at rest still holds dp/dz = ρ₀g, and its compression is the linear law's, ρ − ρ₀ =
+/// ρ₀g·depth/c² (analytic): 1 % at the floor, a mean of 0.55 % over the particles a full
+/// kernel below the surface (depths h to H) — twice the 0.5 %-at-the-floor of the default law.
+#[test]
+fn film_sound_speed_compresses_a_column_by_g_depth_over_c_squared() {
+    let (dx, depth) = (0.005f32, 0.1f32);
+    let eos = EquationOfState::for_film(depth);
+    let c = eos.sound_speed_mps();
+    assert!((c - 10.0 * (G * depth).sqrt()).abs() < 1e-4, "c = {c}");
+    let h = 2.0 * dx;
+    let mut sph = scenes::column(&SceneOptions {
+        eos: Some(eos),
+        // The viscosity follows the sound speed, as `SphSettings::water_with` sets it.
+        viscosity_pa_s: Some(998.29 * 0.05 * h * c / 10.0),
+        ..SceneOptions::default()
+    })
+    .expect("column");
+    while sph.time_s() < 1.0 {
+        sph.step();
+    }
+    let hs = scenes::hydrostatics(&sph);
+    let rho_g = 998.29 * G;
+    assert!(
+        (hs.pressure_gradient_pa_per_m / rho_g - 1.0).abs() <= 0.05,
+        "{hs:?}"
+    );
+    assert!((hs.free_surface_m - depth).abs() < dx, "{hs:?}");
+    let mean = 0.5 * (h + depth) * G / (c * c);
+    assert!(
+        (hs.density_error_mean / mean - 1.0).abs() <= 0.2,
+        "mean compression {} against g·depth/c² {mean}: {hs:?}",
+        hs.density_error_mean
+    );
+    assert!(hs.density_error_max <= 1.2 * G * depth / (c * c), "{hs:?}");
+}
+
 /// Martin & Moyce (1952), a = 2.25 in, n² = 2: (T = t√(2g/a), Z = front/a), as transcribed by
 /// PySPH's `db_exp_data.py`.
 const MARTIN_MOYCE: [(f32, f32); 5] = [

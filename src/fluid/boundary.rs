@@ -311,11 +311,27 @@ impl Boundaries {
         damping: f32,
         max_push_m: f32,
     ) -> Fate {
+        self.collide_sampled(p, v, damping, max_push_m, &mut None)
+    }
+
+    /// [`Boundaries::collide`], leaving in `sampled` the terrain it read and where (x, y):
+    /// the terrain under the particle after the collision wherever the walls left x and y
+    /// alone, which a caller reads again only where they moved.
+    #[inline]
+    pub(crate) fn collide_sampled(
+        &self,
+        p: &mut Vec3,
+        v: &mut Vec3,
+        damping: f32,
+        max_push_m: f32,
+        sampled: &mut Option<(glam::Vec2, TerrainSample)>,
+    ) -> Fate {
         if !(p.is_finite() && v.is_finite()) {
             return Fate::Invalid;
         }
         if let Some(t) = &self.terrain {
             let s = t.sample(p.x, p.y);
+            *sampled = Some((p.truncate(), s));
             let gap = p.z - s.height_m;
             if gap < 0.0 {
                 p.z = s.height_m + (damping * -gap).min(max_push_m);

@@ -50,6 +50,17 @@ impl EquationOfState {
         EquationOfState::weakly_compressible((2.0 * STANDARD_GRAVITY_MPS2 * depth_m).sqrt())
     }
 
+    /// The linear law for thin sheets of moving water up to `depth_m` deep, such as the rain's
+    /// films over water held at rest: c = 10√(gH), ten times their long-wave speed, so the
+    /// hydrostatic compression gH/c² is 1 % (Monaghan 1994's bound; [`for_depth`](Self::for_depth)
+    /// keeps 0.5 % and a dam break's 2√(gH) front below c/5). For films whose speed stays near
+    /// √(gH): rain films on a street at 1.6 cm spacing (H = 2Δx) reached 0.49–0.51 m/s against
+    /// √(gH) = 0.56 m/s (docs/measurements.md, "The rain's films: a sound speed from their
+    /// depth"); a steep or fast sheet needs [`for_depth`](Self::for_depth)'s rule.
+    pub fn for_film(depth_m: f32) -> EquationOfState {
+        EquationOfState::weakly_compressible((STANDARD_GRAVITY_MPS2 * depth_m).sqrt())
+    }
+
     /// Pressure, Pa, at density `density_kg_m3` for rest density `rest_kg_m3`.
     #[inline]
     pub fn pressure_pa(&self, density_kg_m3: f32, rest_kg_m3: f32) -> f32 {

@@ -11,6 +11,7 @@
 
 use super::boundary::{Boundaries, Domain};
 use super::carpet::{Carpet, CarpetSettings, Field2};
+use super::eos::EquationOfState;
 use super::settings::SphSettings;
 use super::sources::{NewParticle, PrecipitationGrid};
 use super::sph::Muller2003;
@@ -45,7 +46,13 @@ impl SurfaceFlowSettings {
     /// partly slipping ground (friction 0.3): the stabilising viscosity is hundreds of times
     /// water's, so a no-slip ground would hold thin films back by as much.
     pub fn new(particle_spacing_m: f32, depth_m: f32) -> SurfaceFlowSettings {
-        let mut sph = SphSettings::water(particle_spacing_m, depth_m);
+        SurfaceFlowSettings::with_eos(particle_spacing_m, EquationOfState::for_depth(depth_m))
+    }
+
+    /// [`SurfaceFlowSettings::new`] with the pressure law `eos` (the viscosity follows its sound
+    /// speed).
+    pub fn with_eos(particle_spacing_m: f32, eos: EquationOfState) -> SurfaceFlowSettings {
+        let mut sph = SphSettings::water_with(particle_spacing_m, eos);
         sph.ground_friction = 0.3;
         SurfaceFlowSettings {
             sph,

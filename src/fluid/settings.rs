@@ -77,10 +77,14 @@ impl SphSettings {
     /// the water of one lattice cell. The ground is no-slip, as real walls are (with it the
     /// dam-break front follows Martin & Moyce; free slip leads it by 11–15 %).
     pub fn water(particle_spacing_m: f32, depth_m: f32) -> SphSettings {
+        SphSettings::water_with(particle_spacing_m, EquationOfState::for_depth(depth_m))
+    }
+
+    /// [`SphSettings::water`] with the pressure law `eos`; the viscosity follows its sound speed.
+    pub fn water_with(particle_spacing_m: f32, eos: EquationOfState) -> SphSettings {
         let dx = particle_spacing_m;
         let h = 2.0 * dx;
         let rho0 = WATER_REST_DENSITY_KG_M3;
-        let eos = EquationOfState::for_depth(depth_m);
         let c = eos.sound_speed_mps();
         SphSettings {
             particle_spacing_m: dx,

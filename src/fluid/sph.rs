@@ -95,6 +95,11 @@ pub struct Muller2003 {
     /// positions: one terrain read a pass fewer).
     #[serde(skip)]
     ground: Vec<Option<TerrainSample>>,
+    /// The terrain the drift read under each particle where it ended (`None`: not read),
+    /// from the drift to the next force computation, which takes it instead of reading it
+    /// again (the same point: the same bits).
+    #[serde(skip)]
+    drift_ground: Vec<Option<TerrainSample>>,
     #[serde(skip)]
     keep: Vec<bool>,
     #[serde(skip)]
@@ -132,6 +137,7 @@ impl Muller2003 {
             column_best: Vec::new(),
             covered: Vec::new(),
             ground: Vec::new(),
+            drift_ground: Vec::new(),
             keep: Vec::new(),
             fate: Vec::new(),
             emitters: Vec::new(),
@@ -357,25 +363,37 @@ impl Muller2003 {
             let contact = 0.75 * s.particle_spacing_m;
             self.fate.clear();
             self.fate.resize(position_m.len(), KEEP);
+            self.drift_ground.clear();
+            self.drift_ground.resize(position_m.len(), None);
             position_m
                 .par_iter_mut()
                 .zip(velocity_mps.par_iter_mut())
                 .zip(acceleration_mps2.par_iter())
                 .zip(soaked_m3.par_iter_mut())
                 .zip(self.fate.par_iter_mut())
+                .zip(self.drift_ground.par_iter_mut())
                 .with_min_len(MIN_TASK)
-                .for_each(|((((x, v), a), soaked), fate)| {
+                .for_each(|(((((x, v), a), soaked), fate), known)| {
                     // Kick, drift (leapfrog KDK, first half), collide (§5.3.1).
                     *v += *a * half;
                     *x += *v * dt;
-                    *fate = match bounds.collide(x, v, damping, max_push) {
+                    let mut sampled = None;
+                    *fate = match bounds.collide_sampled(x, v, damping, max_push, &mut sampled) {
                         Fate::Stays => KEEP,
                         Fate::Leaves => OUTFLOW,
                         Fate::Invalid => INVALID,
                     };
+                    // The collision's terrain read, unless a wall moved x or y (the same
+                    // bits either way: the same point).
+                    let at = x.truncate().to_array().map(f32::to_bits);
+                    *known = match sampled {
+                        Some((xy, ts)) if xy.to_array().map(f32::to_bits) == at => Some(ts),
+                        _ => None,
+                    };
                     if *fate == KEEP && soak_per_step > 0.0 {
                         if let Some(t) = &bounds.terrain {
-                            let ts = t.sample(x.x, x.y);
+                            let ts = known.unwrap_or_else(|| t.sample(x.x, x.y));
+                            *known = Some(ts);
                             if (x.z - ts.height_m) * ts.normal.z < contact {
                                 *soaked += soak_per_step;
                                 if *soaked >= volume {
@@ -451,6 +469,16 @@ impl Muller2003 {
             }
         }
         self.particles.retain(&self.keep);
+        if self.drift_ground.len() == self.keep.len() {
+            let mut w = 0;
+            for r in 0..self.keep.len() {
+                if self.keep[r] {
+                    self.drift_ground[w] = self.drift_ground[r];
+                    w += 1;
+                }
+            }
+            self.drift_ground.truncate(w);
+        }
     }
 
     fn insert_pending(&mut self) {
@@ -578,6 +606,18 @@ impl Muller2003 {
             .rebuild_often(&self.particles.position_m, h, 0.5 * h, budget);
         self.particles
             .permute(self.grid.order(), &mut self.permute_scratch);
+        // The drift's terrain reads in the new order; particles inserted since (at the end)
+        // and a computation without a drift before it read theirs in the density pass.
+        let n = self.particles.len();
+        self.drift_ground.resize(n, None);
+        self.ground.clear();
+        self.ground.extend(
+            self.grid
+                .order()
+                .iter()
+                .map(|&k| self.drift_ground[k as usize]),
+        );
+        self.drift_ground.clear();
         self.resting
             .prepare(&self.settings, &self.moments, &self.boundaries);
         self.density_pass();
@@ -604,6 +644,7 @@ impl Muller2003 {
         self.neighbours.count.resize(n, 0);
         self.pair_terms.resize(n, [0.0; 2]);
         self.covered.resize(n, false);
+        debug_assert_eq!(self.ground.len(), n);
         self.ground.resize(n, None);
         let grid = &self.grid;
         let bounds = &self.boundaries;
@@ -632,7 +673,9 @@ impl Muller2003 {
             .for_each(
                 |(i, ((((((rho, p), terms), list), count), covered), ground))| {
                     let xi = pos[i];
-                    *ground = bounds.terrain_under(xi);
+                    if ground.is_none() {
+                        *ground = bounds.terrain_under(xi);
+                    }
                     // Friction only changes ghost velocities, unused here.
                     let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
                     let mirrors = mirrors.as_slice();

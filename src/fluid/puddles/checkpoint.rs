@@ -20,8 +20,9 @@ use std::path::{Path, PathBuf};
 use super::PuddleSim;
 use crate::{Error, Result};
 
-/// Changes whenever the layout of the state changes.
-pub const FORMAT: u32 = 3;
+/// Changes whenever the layout of the state changes, or the solver's settings for the same
+/// configuration do (a kept state would go on under the settings it was made with).
+pub const FORMAT: u32 = 4;
 
 /// Largest checkpoint read, bytes: the water of the most particles `--puddle-particles` allows
 /// takes a few hundred MiB; the bound keeps a wrong file from filling the memory.

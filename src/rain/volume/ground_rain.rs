@@ -152,6 +152,10 @@ struct DrawnCells {
     /// lookup is needed.
     lo: (i64, i64),
     hi: (i64, i64),
+    /// The same cells over the range row by row, NaN where none (empty where the range
+    /// would hold many more slots than cells): each of the ground's hundreds of thousands of
+    /// landings a slot is looked up by an index, not a hash.
+    dense: Vec<f64>,
 }
 
 impl DrawnCells {
@@ -186,12 +190,23 @@ impl DrawnCells {
             lo = (lo.0.min(i), lo.1.min(j));
             hi = (hi.0.max(i), hi.1.max(j));
         }
+        let (w, h) = ((hi.0 - lo.0 + 1) as u64, (hi.1 - lo.1 + 1) as u64);
+        let dense = if w * h <= 4 * cells.len() as u64 + 4096 {
+            let mut dense = vec![f64::NAN; (w * h) as usize];
+            for (&(i, j), &cut) in &cells {
+                dense[((j - lo.1) as u64 * w + (i - lo.0) as u64) as usize] = cut;
+            }
+            dense
+        } else {
+            Vec::new()
+        };
         DrawnCells {
             origin_m,
             cell_m,
             cells,
             lo,
             hi,
+            dense,
         }
     }
 
@@ -206,7 +221,12 @@ impl DrawnCells {
         if i < self.lo.0 || j < self.lo.1 || i > self.hi.0 || j > self.hi.1 {
             return None;
         }
-        self.cells.get(&(i, j)).copied()
+        if self.dense.is_empty() {
+            return self.cells.get(&(i, j)).copied();
+        }
+        let w = self.hi.0 - self.lo.0 + 1;
+        let cut = self.dense[((j - self.lo.1) * w + (i - self.lo.0)) as usize];
+        (!cut.is_nan()).then_some(cut)
     }
 }
 
@@ -555,9 +575,31 @@ impl GroundRain {
 }
 
 /// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits).
+#[inline]
 fn unit(key: u32, k: u32) -> f64 {
-    (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64 * (1.0 / 16_777_216.0)
+    let salt = match UNIT_SALTS.get(k as usize) {
+        Some(&salt) => salt,
+        None => unit_salt(k),
+    };
+    (pcg_hash(key ^ salt) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
+
+/// The hash of number `k` in [`unit`], which depends on `k` alone.
+const fn unit_salt(k: u32) -> u32 {
+    pcg_hash(k.wrapping_mul(0x9E37_79B9))
+}
+
+/// [`unit_salt`] of the numbers a cell-slot of up to 63 landings asks for (8 per landing): half
+/// the hashing of the hundreds of thousands of landings a slot makes.
+static UNIT_SALTS: [u32; 512] = {
+    let mut t = [0u32; 512];
+    let mut k = 0;
+    while k < t.len() {
+        t[k] = unit_salt(k as u32);
+        k += 1;
+    }
+    t
+};
 
 /// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
 /// e^−mean, the chance of none.
@@ -576,6 +618,17 @@ fn poisson(mean: f64, none: f64, u: f64) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unit_from_the_table_equals_the_two_hashes() {
+        for k in [0u32, 1, 7, 8, 13, 255, 511, 512, 513, 4000] {
+            for key in [0u32, 1, 0xDEAD_BEEF, u32::MAX] {
+                let two = (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64
+                    * (1.0 / 16_777_216.0);
+                assert_eq!(unit(key, k).to_bits(), two.to_bits(), "k {k} key {key}");
+            }
+        }
+    }
 
     #[test]
     fn poisson_counts_have_their_mean_and_variance() {
