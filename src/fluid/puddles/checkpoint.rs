@@ -22,7 +22,7 @@ use crate::{Error, Result};
 
 /// Changes whenever the layout of the state changes, or the solver's settings for the same
 /// configuration do (a kept state would go on under the settings it was made with).
-pub const FORMAT: u32 = 4;
+pub const FORMAT: u32 = 3;
 
 /// Largest checkpoint read, bytes: the water of the most particles `--puddle-particles` allows
 /// takes a few hundred MiB; the bound keeps a wrong file from filling the memory.

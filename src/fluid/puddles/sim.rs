@@ -12,9 +12,7 @@
 //! `settled_start`) places them at rest ([`crate::fluid::resting`]), each column hanging from
 //! the fill's level: water at rest in its hollows is not stepped, only the rain's particles
 //! are, which makes a seek to 1.5 s some 30 times cheaper (docs/measurements.md, "The settled
-//! start"). Without it they stand on the relief and are all stepped. At the settled start only
-//! films of rain move, and the solver's sound speed is a film's
-//! ([`EquationOfState::for_film`]), not that of the fill's depth: some 30 % fewer steps. Only the columns the picture shows get particles (the footprint is the
+//! start"). Without it they stand on the relief and are all stepped. Only the columns the picture shows get particles (the footprint is the
 //! bounding box of a wedge): the water of the others is counted, not simulated. The spacing is
 //! the configured one unless the water would need more particles than `max_particles`; then
 //! it grows to (water / cap)^⅓ and [`PuddleSim::particle_cap`] says so. [`PuddleSim::advance_to`] feeds impacts to the precipitation counters (5.29–5.31) and
@@ -65,10 +63,9 @@ pub struct PuddleSettings {
     /// Place the filled water at rest, not stepped (the settled start): only the rain's
     /// particles move. Off: every particle is stepped from the start.
     pub settled_start: bool,
-    /// The solver's sound speed, m/s; `None`: from the depth of the water that moves
-    /// ([`EquationOfState::for_film`] of two spacings at the settled start,
-    /// [`EquationOfState::for_depth`] of the deepest fill otherwise). The viscosity is that of
-    /// the fill's depth either way.
+    /// The solver's sound speed, m/s; `None`: [`EquationOfState::for_depth`] of the deepest
+    /// fill. A film's ([`EquationOfState::for_film`] of two spacings) suits moderate rain over
+    /// water at rest and takes fewer steps. The viscosity is that of the fill's depth either way.
     pub sound_speed_mps: Option<f32>,
 }
 
@@ -256,21 +253,18 @@ impl PuddleSim {
             s.particle_spacing_m
         };
         let deepest = filled.depth_m.iter().fold(0.0f32, |a, &b| a.max(b));
-        // Stepped, the whole fill moves: the sound speed of its depth. At rest, only the rain's
-        // particles move, in films a couple of spacings deep over the water at rest (whose
-        // pressure is that of a free surface): the sound speed of a film, 27 % fewer steps
-        // (docs/measurements.md, "The rain's films: a sound speed from their depth").
-        // The viscosity stays that of the fill's depth: it sets how fast a film runs (it is
-        // hundreds of times water's), and only the step should change.
+        // The sound speed of the fill's depth unless one is given. At the settled start only the
+        // rain's films move, and a film's own ([`EquationOfState::for_film`]) takes some 27 %
+        // fewer steps with the same water on a street in moderate rain, but where the films
+        // pile deeper (a cloudburst) it changes the outflow by more than the flow's own noise
+        // (docs/measurements.md, "The rain's films: a sound speed from their depth"), so it is
+        // not the default. The viscosity stays that of the fill's depth: only the step changes.
         let mut flow_settings = SurfaceFlowSettings::new(spacing, deepest.max(2.0 * spacing));
         match s.sound_speed_mps {
             Some(c) => {
                 flow_settings.sph.eos = EquationOfState::Linear {
                     stiffness_m2ps2: c * c,
                 }
-            }
-            None if s.settled_start => {
-                flow_settings.sph.eos = EquationOfState::for_film(2.0 * spacing)
             }
             None => {}
         }
