@@ -348,40 +348,22 @@ impl Rays<'_> {
         let yc = y as f32 + 0.5;
         let base: [f32; 3] = std::array::from_fn(|k| self.origin[k] + self.dy[k] * yc);
         let h = self.ground_h_m.unwrap_or(0.0);
-        let ground = self.ground_h_m.is_some();
-        // A lane block at a time: the depth map read a pixel at a time, then the rays in
-        // lanes, every branch computed and one kept.
-        for (b, (t, known)) in out
-            .chunks_mut(LANES)
-            .zip(known.chunks_mut(LANES))
-            .enumerate()
-        {
-            let (x0, n) = (b * LANES, t.len());
-            let mut mapped = [0f32; LANES];
-            if let Some(d) = &self.depth {
-                for l in 0..n {
-                    mapped[l] = d.at((x0 + l) as f32 + 0.5, yc);
-                }
-            }
-            let (mut along, mut finite) = ([0f32; LANES], [false; LANES]);
-            for l in 0..LANES {
-                let xc = (x0 + l) as f32 + 0.5;
-                let r: [f32; 3] = std::array::from_fn(|k| base[k] + self.dx[k] * xc);
-                let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
-                let below = ground && r[2] < 0.0;
-                finite[l] = mapped[l] > 0.0 || below;
-                // The distance along the ray (unit camera depth: a camera z of z metres lies
-                // z · |ray| along it); NaN where the scene's own transmittance holds.
-                along[l] = if mapped[l] > 0.0 {
-                    mapped[l] * len
-                } else if below && h * len < -r[2] * self.far_m {
-                    h * len / -r[2]
-                } else {
-                    f32::NAN
-                };
-            }
-            t.copy_from_slice(&along[..n]);
-            known.copy_from_slice(&finite[..n]);
+        for (x, (t, known)) in out.iter_mut().zip(known.iter_mut()).enumerate() {
+            let xc = x as f32 + 0.5;
+            let r: [f32; 3] = std::array::from_fn(|k| base[k] + self.dx[k] * xc);
+            let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+            let mapped = self.depth.as_ref().map_or(0.0, |d| d.at(xc, yc));
+            let below = self.ground_h_m.is_some() && r[2] < 0.0;
+            *known = mapped > 0.0 || below;
+            // The distance along the ray (unit camera depth: a camera z of z metres lies
+            // z · |ray| along it); NaN where the scene's own transmittance holds.
+            *t = if mapped > 0.0 {
+                mapped * len
+            } else if below && h * len < -r[2] * self.far_m {
+                h * len / -r[2]
+            } else {
+                f32::NAN
+            };
         }
         for t in out.iter_mut() {
             let along_m = *t;
