@@ -63,17 +63,3 @@ pub fn format_420(width: u32, height: u32) -> FrameFormat {
         bit_depth: 8,
     }
 }
-
-/// The CPU time all of this process's threads have run, from the kernel's per-thread
-/// scheduler statistics (nanoseconds): on a shared machine a bench timed by it does not
-/// count the time other work held the cores.
-pub fn process_cpu() -> std::time::Duration {
-    let ns: u64 = std::fs::read_dir("/proc/self/task")
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|task| std::fs::read_to_string(task.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    std::time::Duration::from_nanos(ns)
-}
