@@ -1,4 +1,6 @@
-//! The CPU back end's colour passes at 720p (`gpu::host`): planes → hazed f16 canvas, with and
+//! First what a 1080p frame costs the CPU back end before any rain: the decode with and without
+//! the haze (its grid made each frame) and the frame light's estimate. Then the CPU back end's
+//! colour passes at 720p (`gpu::host`): planes → hazed f16 canvas, with and
 //! without the haze, and canvas → code values; the plain `f64` twins on the same frame for
 //! scale. Then the streaks of the default rain (10 mm/h) drawn over a 1080p canvas in tiles,
 //! beside the twin of `rain_simulate`'s geometry for the same drops (what simulating them on
@@ -21,7 +23,7 @@ use rain_composite::gpu::host::{GroundFrame, HostColour};
 use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{PuddleParams, RainParams, Ripple, Streak, WetParams};
 use rain_composite::lighting::wetness::FilmOptics;
-use rain_composite::lighting::{EnvironmentSh, FrameLight};
+use rain_composite::lighting::{EnvironmentSh, FrameLight, LightConfig, LightEstimator};
 use rain_composite::rain::volume::sample_drop;
 use rain_composite::scene::Camera;
 use rain_composite::video::{ColorParams, YuvFrame};
@@ -372,8 +374,85 @@ fn splash_simulation(c: &mut Criterion) {
     });
 }
 
+/// What the haze and the light cost a 1080p frame on their own, in CPU time (all threads:
+/// the machine these run on is shared): the decode without the haze, with the haze to the
+/// scene's depth (every pixel veiled, the veil's grid made each frame, as at the defaults)
+/// and to the ground (each ray's own transmittance), and the frame light's estimate (the
+/// block statistics of the thumbnail, its projection on the SH and the recovery).
+fn frame_fixed_costs(c: &mut Criterion) {
+    let camera = common::camera_1080p();
+    let format = common::format_420(1920, 1080);
+    let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
+    for (i, plane) in frame.planes.iter_mut().enumerate() {
+        for (k, v) in plane.data.iter_mut().enumerate() {
+            *v = (k.wrapping_mul(2_654_435_761) >> (7 + i)) as u8 | 16;
+        }
+    }
+    let setup = common::rain_setup(&camera, &dry());
+    let mut env = EnvironmentSh::zeros(4);
+    env.coeffs[0] = [0.9, 1.0, 1.3];
+    env.coeffs[2] = [0.3, 0.3, 0.4];
+    let light = FrameLight {
+        env,
+        lights: Vec::new(),
+    };
+    let mut scene = setup.params_at(0.0, &light, [[1.0, 0.4, 0.2, 0.1]; 3]);
+    scene.haze = [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()];
+    let mut ground = scene;
+    ground.ground_clip = 1;
+    let mut clear = scene;
+    clear.haze = [0.0, 0.0, 0.0, 1.0];
+    let mut host = HostColour::new(format, &frame.color);
+    for (name, p) in [
+        ("host yuv→rgb 1080p, no haze, CPU", &clear),
+        ("host yuv→rgb 1080p, haze to the scene, CPU", &scene),
+        ("host yuv→rgb 1080p, haze to the ground, CPU", &ground),
+    ] {
+        c.bench_function(name, |b| {
+            b.iter_custom(|n| {
+                let start = process_cpu();
+                for _ in 0..n {
+                    black_box(host.decode(&frame, p).len());
+                }
+                process_cpu() - start
+            })
+        });
+    }
+    let mut estimator =
+        LightEstimator::new(&camera, 0, &LightConfig::default()).expect("light estimator");
+    let mut t_s = 0.0;
+    c.bench_function(
+        "frame light 1080p (block statistics, SH, recovery), CPU",
+        |b| {
+            b.iter_custom(|n| {
+                let start = process_cpu();
+                for _ in 0..n {
+                    t_s += 1.0 / 30.0;
+                    black_box(estimator.update(&frame, t_s).lights.len());
+                }
+                process_cpu() - start
+            })
+        },
+    );
+}
+
+/// The CPU time all of this process's threads have run, from the kernel's per-thread
+/// scheduler statistics (nanoseconds): on a shared machine a bench timed by it does not
+/// count the time other work held the cores.
+pub fn process_cpu() -> std::time::Duration {
+    let ns: u64 = std::fs::read_dir("/proc/self/task")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|task| std::fs::read_to_string(task.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    std::time::Duration::from_nanos(ns)
+}
+
 criterion_group!(
     benches,
+    frame_fixed_costs,
     colour_passes,
     streak_raster,
     ground_passes,

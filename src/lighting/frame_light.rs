@@ -22,7 +22,7 @@ use super::sources::{LightSource, UserLight};
 use super::tracker::LightTracker;
 use crate::scene::Camera;
 use crate::video::YuvFrame;
-use crate::video::color::eotf_signed;
+use crate::video::color::{EotfTable, eotf_signed};
 use crate::video::frame::coded_pixel;
 use crate::video::{ColorParams, Transfer};
 use crate::{Error, Result};
@@ -166,6 +166,9 @@ pub struct LightEstimator {
     /// than the codes carry (an editor's 8-bit RGBA in 16-bit planes): clipping is judged at
     /// that precision.
     source_bits: Option<u8>,
+    /// The frames' transfer as a table (made at the first frame): the block statistics'
+    /// conversions.
+    eotf: std::sync::OnceLock<EotfTable>,
 }
 
 /// The drop's exact transfer table per channel (R, G, B) for `config`, [`GPU_RTF_BINS`] bins:
@@ -210,6 +213,7 @@ impl LightEstimator {
             user_lights,
             frames_seen: 0,
             source_bits: None,
+            eotf: std::sync::OnceLock::new(),
         })
     }
 
@@ -340,6 +344,15 @@ impl LightEstimator {
     /// Linear RGB of the frame box-filtered to the mapper's small size, displayed orientation,
     /// with the fraction of clipped samples per block.
     fn block_stats(&self, frame: &YuvFrame) -> BlockStats {
+        let transfer = frame.color.transfer;
+        let table = self.eotf.get_or_init(|| EotfTable::new(transfer));
+        self.block_stats_with(frame, (table.transfer() == transfer).then_some(table))
+    }
+
+    /// [`block_stats`](Self::block_stats), each sample through the transfer's `table` where
+    /// given (the plain form, a `pow` a channel, where not): the same clipped samples, and
+    /// means within [`EotfTable::RELATIVE_ERROR`] of the plain form's.
+    fn block_stats_with(&self, frame: &YuvFrame, table: Option<&EotfTable>) -> BlockStats {
         let cam = self.mapper.camera();
         let (dw, dh) = (cam.width_px as usize, cam.height_px as usize);
         let f = &frame.format;
@@ -370,9 +383,26 @@ impl LightEstimator {
                     frame.sample(1, cx >> sx, cy >> sy) as f64,
                     frame.sample(2, cx >> sx, cy >> sy) as f64,
                 ];
-                frame.color.code_to_linear(code)
+                let Some(table) = table else {
+                    return frame.color.code_to_linear(code);
+                };
+                let e = frame.color.code_to_encoded(code);
+                std::array::from_fn(|k| linear_beside(table, e[k], clip.threshold[k]))
             },
         )
+    }
+}
+
+/// Linear light of encoded value `e` through `table`, on the same side of `level` as the
+/// function puts it: a tabled value this near the level could lie on the other side (the
+/// chord of a convex curve lies above it), so there the function runs.
+#[inline]
+fn linear_beside(table: &EotfTable, e: f64, level: f64) -> f64 {
+    let v = table.apply(e);
+    if (v - level).abs() <= 4.0 * EotfTable::RELATIVE_ERROR * level.abs() {
+        eotf_signed(table.transfer(), e)
+    } else {
+        v
     }
 }
 
@@ -413,5 +443,140 @@ fn log_lights(t_s: f64, lights: &[LightSource]) {
             l.radiance_rgb[1],
             l.radiance_rgb[2],
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{LightConfig, LightEstimator};
+    use crate::rng::SplitMix64;
+    use crate::scene::Camera;
+    use crate::video::color::{EotfTable, eotf_signed};
+    use crate::video::{Chroma, ColorParams, FrameFormat, Matrix, Transfer, YuvFrame};
+
+    /// A picture of scattered codes with a bright patch at and around the clip level (the
+    /// ceiling and one to three codes under it, where the level lies), neutral and tinted.
+    fn picture(format: FrameFormat, color: ColorParams, seed: u64) -> YuvFrame {
+        let mut frame = YuvFrame::filled(format, color, [0, 0, 0]);
+        let s = color.range_scale();
+        let top = (s.y_offset + s.y_scale) as u16;
+        let mid = s.c_offset as u16;
+        let max = (1u32 << format.bit_depth) - 1;
+        let mut rng = SplitMix64(seed);
+        for i in 0..3 {
+            let (w, h) = format.plane_size(i);
+            let (sx, sy) = if i == 0 {
+                (0, 0)
+            } else {
+                format.chroma.shift()
+            };
+            for y in 0..h as usize {
+                for x in 0..w as usize {
+                    let r = rng.next_u64();
+                    let bright = (x << sx) < w as usize * (1 << sx) / 3 && (y << sy) < 40;
+                    let v = if bright && i == 0 {
+                        top - [0, 1, 2, 2, 3][(r % 5) as usize]
+                    } else if bright {
+                        mid + [0, 0, 0, 6][(r % 4) as usize]
+                    } else {
+                        (r % u64::from(max + 1)) as u16
+                    };
+                    let p = &mut frame.planes[i];
+                    let at = y * p.stride + x * format.bytes_per_sample();
+                    if format.bytes_per_sample() == 1 {
+                        p.data[at] = v as u8;
+                    } else {
+                        p.data[at..at + 2].copy_from_slice(&v.to_le_bytes());
+                    }
+                }
+            }
+        }
+        frame
+    }
+
+    /// Around the clip levels of 8- to 12-bit codes, every encoded value 10⁻⁹ apart (far
+    /// finer than codes and their mixes fall): the tabled light lies on the side of the level
+    /// the function puts it on, and where it runs the function, it is the function.
+    #[test]
+    fn tabled_light_takes_the_side_of_the_clip_level_the_function_takes() {
+        for transfer in [Transfer::Bt709, Transfer::Srgb, Transfer::Gamma22] {
+            let table = EotfTable::new(transfer);
+            for codes_per_unit in [219.0, 255.0, 876.0, 1023.0, 3504.0] {
+                let at = 1.0 - super::super::recovery::CLIP_TOLERANCE_CODES / codes_per_unit;
+                let level = eotf_signed(transfer, at);
+                for i in -20_000..=20_000 {
+                    let e = at + f64::from(i) * 1e-9;
+                    let (ours, exact) = (
+                        super::linear_beside(&table, e, level),
+                        eotf_signed(transfer, e),
+                    );
+                    assert_eq!(
+                        ours >= level,
+                        exact >= level,
+                        "{transfer:?} {codes_per_unit} at {e}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The block statistics through the transfer's table against the plain form (a `pow` a
+    /// channel): the same clipped share in every block (the samples at the clip level
+    /// decided by the function), the means and clipped colours within the table's bound.
+    #[test]
+    fn block_statistics_through_the_table_are_the_plain_ones() {
+        let format = |bit_depth, chroma| FrameFormat {
+            width: 320,
+            height: 180,
+            chroma,
+            bit_depth,
+        };
+        let cases = [
+            (format(8, Chroma::Cs420), ColorParams::bt709(8)),
+            (
+                format(8, Chroma::Cs422),
+                ColorParams {
+                    matrix: Matrix::Bt601,
+                    full_range: true,
+                    transfer: Transfer::Srgb,
+                    bit_depth: 8,
+                },
+            ),
+            (
+                format(10, Chroma::Cs420),
+                ColorParams {
+                    matrix: Matrix::Bt2020Ncl,
+                    full_range: false,
+                    transfer: Transfer::Bt709,
+                    bit_depth: 10,
+                },
+            ),
+        ];
+        let camera = Camera::new(320, 180, 1.0, 1.6, 0.05, 0.0);
+        let est = LightEstimator::new(&camera, 0, &LightConfig::default()).expect("estimator");
+        for (k, (format, color)) in cases.into_iter().enumerate() {
+            let frame = picture(format, color, k as u64);
+            let table = EotfTable::new(color.transfer);
+            let plain = est.block_stats_with(&frame, None);
+            let fast = est.block_stats_with(&frame, Some(&table));
+            assert_eq!(fast.clipped, plain.clipped, "{color:?}");
+            let partly = plain.clipped.iter().filter(|f| **f > 0.0 && **f < 1.0);
+            assert!(partly.count() > 0, "{color:?}: no block partly clipped");
+            let mut worst = 0f64;
+            for (a, b) in [
+                (&fast.mean, &plain.mean),
+                (&fast.clipped_colour, &plain.clipped_colour),
+            ] {
+                for (a, b) in a.iter().flatten().zip(b.iter().flatten()) {
+                    let off = f64::from((a - b).abs()) / f64::from(b.abs()).max(1e-30);
+                    worst = worst.max(off);
+                }
+            }
+            eprintln!("{color:?}: worst {worst:.2e} relative");
+            assert!(
+                worst <= 2.0 * EotfTable::RELATIVE_ERROR,
+                "{color:?}: {worst}"
+            );
+        }
     }
 }

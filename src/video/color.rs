@@ -128,12 +128,17 @@ impl ColorParams {
     /// Code values (Y, Cb, Cr) → linear RGB. Not clamped: out-of-gamut values survive the round
     /// trip, so a frame without rain comes back unchanged.
     pub fn code_to_linear(&self, yuv: [f64; 3]) -> [f64; 3] {
+        self.code_to_encoded(yuv)
+            .map(|v| eotf_signed(self.transfer, v))
+    }
+
+    /// Code values (Y, Cb, Cr) → encoded R'G'B' (before the transfer).
+    pub fn code_to_encoded(&self, yuv: [f64; 3]) -> [f64; 3] {
         let s = self.range_scale();
         let y = (yuv[0] - s.y_offset) / s.y_scale;
         let cb = (yuv[1] - s.c_offset) / s.c_scale;
         let cr = (yuv[2] - s.c_offset) / s.c_scale;
-        let rgb = ycbcr_to_rgb(self.matrix, [y, cb, cr]);
-        rgb.map(|v| eotf_signed(self.transfer, v))
+        ycbcr_to_rgb(self.matrix, [y, cb, cr])
     }
 
     /// Linear RGB → code values (rounded and clamped to the legal code range).
@@ -180,6 +185,86 @@ pub fn eotf_signed(t: Transfer, v: f64) -> f64 {
 /// Linear light → encoded value, odd-extended.
 pub fn oetf_signed(t: Transfer, v: f64) -> f64 {
     v.signum() * from_linear(t, v.abs())
+}
+
+/// A transfer's [`eotf_signed`] as a fine table read by linear interpolation, for loops that
+/// convert many samples (a `pow` a channel is the cost otherwise): the transfer follows the
+/// matrix, so its input is a mix of three codes and no exact per-code table exists. The steps
+/// are 2⁻¹⁰ of each power of two (the top ten bits of the mantissa), so a power curve is
+/// followed as closely at black as at white; steps the line does not follow within
+/// [`EotfTable::RELATIVE_ERROR`] (the linear segments' knees, PQ's foot) and values outside
+/// [2⁻²⁴, 4) are computed by the function itself.
+#[derive(Debug, Clone)]
+pub struct EotfTable {
+    transfer: Transfer,
+    /// Linear light at the steps' starts (and the last step's end).
+    table: Vec<f64>,
+    /// Per step: whether its line strays from the curve (then the function runs).
+    exact: Vec<bool>,
+}
+
+impl EotfTable {
+    /// Mantissa bits that pick a step within a power of two.
+    const STEP_BITS: u32 = 10;
+    /// The table's first power of two, 2^`LOWEST`; it ends at 4 (out-of-gamut chroma reaches
+    /// about 2.6).
+    const LOWEST: i32 = -24;
+    const STEPS: usize = ((2 - Self::LOWEST) as usize) << Self::STEP_BITS;
+    /// How far, relative to the value, the table may stray from the function: a block mean of
+    /// the frame's light moves by at most this, and a sample compared with a level decides as
+    /// the function does where it lies farther than this from it.
+    pub const RELATIVE_ERROR: f64 = 1e-6;
+
+    /// The encoded value where step `i` starts.
+    fn start(i: usize) -> f64 {
+        let (e, m) = (i >> Self::STEP_BITS, i & ((1 << Self::STEP_BITS) - 1));
+        2f64.powi(Self::LOWEST + e as i32) * (1.0 + m as f64 / f64::from(1u32 << Self::STEP_BITS))
+    }
+
+    /// The table of `transfer`.
+    pub fn new(transfer: Transfer) -> EotfTable {
+        let f = |e: f64| eotf_signed(transfer, e);
+        let table: Vec<f64> = (0..=Self::STEPS).map(|i| f(Self::start(i))).collect();
+        // The line's largest miss in a step lies at most twice as far as its miss at the
+        // midpoint (at a knee; less on a smooth curve): hold the midpoint to half the bound.
+        let exact = table
+            .windows(2)
+            .enumerate()
+            .map(|(i, ab)| {
+                let mid = f(0.5 * (Self::start(i) + Self::start(i + 1)));
+                (0.5 * (ab[0] + ab[1]) - mid).abs() > 0.5 * Self::RELATIVE_ERROR * mid.abs()
+            })
+            .collect();
+        EotfTable {
+            transfer,
+            table,
+            exact,
+        }
+    }
+
+    /// The transfer tabulated.
+    pub fn transfer(&self) -> Transfer {
+        self.transfer
+    }
+
+    /// Linear light of encoded value `e` (odd-extended), within [`Self::RELATIVE_ERROR`] of
+    /// [`eotf_signed`].
+    #[inline]
+    pub fn apply(&self, e: f64) -> f64 {
+        let bits = e.abs().to_bits();
+        // The power of two and the step within it, from the bits; the rest of the mantissa is
+        // the place within the step.
+        let power = (bits >> 52) as i64 - 1023 - i64::from(Self::LOWEST);
+        let low = 52 - Self::STEP_BITS;
+        let i = ((power << Self::STEP_BITS) + ((bits >> low) & ((1 << Self::STEP_BITS) - 1)) as i64)
+            as usize;
+        if (0..2 - i64::from(Self::LOWEST)).contains(&power) && !self.exact[i] {
+            let t = (bits & ((1 << low) - 1)) as f64 / (1u64 << low) as f64;
+            let (a, b) = (self.table[i], self.table[i + 1]);
+            return (a + (b - a) * t).copysign(e);
+        }
+        eotf_signed(self.transfer, e)
+    }
 }
 
 // BT.709 OETF constants to full precision (as BT.2020 states them), so both branches meet.
@@ -283,6 +368,26 @@ mod tests {
         Transfer::Pq,
         Transfer::Hlg,
     ];
+
+    /// The table against the function over [−5, 5], densely and off the table's steps: within
+    /// its bound everywhere (where it runs the function, exactly).
+    #[test]
+    fn the_transfer_table_follows_the_function() {
+        for t in ALL_TRANSFERS {
+            let table = EotfTable::new(t);
+            let (mut worst, mut exact) = (0f64, 0);
+            for i in -5_000_000..=5_000_000 {
+                let e = i as f64 * 1e-6 + 3.7e-8;
+                let (ours, exact_v) = (table.apply(e), eotf_signed(t, e));
+                let off = (ours - exact_v).abs() / exact_v.abs().max(f64::MIN_POSITIVE);
+                worst = worst.max(off);
+                exact += usize::from(ours == exact_v);
+            }
+            eprintln!("{t:?}: worst {worst:.2e} relative, {exact} of 10⁷ exact");
+            assert!(worst <= EotfTable::RELATIVE_ERROR, "{t:?}: {worst}");
+            assert_eq!(table.apply(-0.3), -table.apply(0.3), "{t:?}");
+        }
+    }
 
     #[test]
     fn transfers_invert_and_are_continuous() {

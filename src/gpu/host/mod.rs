@@ -54,6 +54,8 @@ pub struct HostColour {
     laying_s: f64,
     /// The streak raster's buffers, kept from frame to frame.
     raster: streaks::Raster,
+    /// The SH basis at the haze grid's rays, kept while the camera stays.
+    rays: veil::GridRays,
     /// Whether the puddles run their AVX2 build where the CPU has it.
     puddles_avx2: bool,
 }
@@ -100,6 +102,7 @@ impl HostColour {
             pass_through: true,
             laying_s: 0.0,
             raster: streaks::Raster::default(),
+            rays: veil::GridRays::default(),
             puddles_avx2: true,
         }
     }
@@ -201,7 +204,8 @@ impl HostColour {
     ) -> (f64, usize) {
         let lit = self.tables.as_deref().map(|t| (&self.lights, t));
         let size = (self.format.width, self.format.height);
-        let veil = veil::Veil::new(p, lit, self.depth.as_deref(), self.sky.as_deref(), size);
+        let (depth, sky) = (self.depth.as_deref(), self.sky.as_deref());
+        let veil = veil::Veil::new(p, lit, depth, sky, size, &mut self.rays);
         let on_ground =
             wet_ground::Ground::new(p, size, self.depth.as_deref(), self.ground_mask.as_deref());
         let wet = ground
