@@ -759,8 +759,9 @@ fn capsule_run(
             along[l] = a;
         }
         let n = LANES.min(run.count - k0);
-        let mut a = alpha;
-        for l in 0..n {
+        // Every lane (those past the run are not blended; `shown` reads any pixel safely).
+        let mut a = [0f32; LANES];
+        for l in 0..LANES {
             a[l] = alpha[l] * shown(k0 + l, along[l]);
         }
         blend(
