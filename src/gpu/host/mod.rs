@@ -7,6 +7,7 @@
 //! work in a few. The plain `f64` twins of [`super::cpu`] are their references
 //! (`tests/backend.rs`).
 
+mod blend;
 pub mod drop_light;
 pub mod encode;
 pub mod lanes;
@@ -16,6 +17,7 @@ pub mod rain;
 pub mod simulate;
 pub mod splashes;
 mod streak_mattes;
+mod streak_runs;
 pub mod streaks;
 pub mod tile;
 pub mod veil;

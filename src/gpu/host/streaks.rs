@@ -18,7 +18,9 @@
 use half::f16;
 use rayon::prelude::*;
 
+use super::blend::blend;
 use super::streak_mattes::{Matte, matte_of, matte_run};
+use super::streak_runs::runs_of;
 use crate::drops::MatteAtlas;
 use crate::drops::atlas::HALF_WIDTH_RADII;
 use crate::gpu::cpu::rain_streaks::{AA_MARGIN_PX, OCCLUSION_SOFTNESS_M};
@@ -450,7 +452,8 @@ fn band_on(
 
 /// Draws band `ty` of tiles (`canvas`: its rows), whose streaks are `list` (drop indices in
 /// drop order), in `buffers`: each tile with streaks goes to f32, blends them in drop order and
-/// goes back to f16 ([`super::tile`]; `f16c`: with F16C). Returns the tiles drawn.
+/// goes back to f16 ([`super::tile`]; `simd`: in the AVX2 build, the tiles converted by F16C and the
+/// capsules blended eight pixels at a time, [`super::blend`]). Returns the tiles drawn.
 #[inline(always)]
 fn band(
     frame: &Frame,
@@ -458,7 +461,7 @@ fn band(
     list: &[u32],
     canvas: &mut [f16],
     buffers: &mut BandBuffers,
-    f16c: bool,
+    simd: bool,
 ) -> usize {
     let (width, tiles_x) = (frame.width, frame.tiles_x);
     let BandBuffers {
@@ -512,7 +515,7 @@ fn band(
             super::tile::load(
                 &canvas[4 * (r * width + x0)..][..4 * cols],
                 &mut tile[4 * r * TILE_W..][..4 * cols],
-                f16c,
+                simd,
             );
         }
         let area = Area {
@@ -524,13 +527,13 @@ fn band(
         for &i in list {
             let p = &local[i as usize];
             let matte = frame.mattes.get(p.matte as usize);
-            draw(frame.rain, &frame.rot, p, matte, &area, tile);
+            draw(frame.rain, &frame.rot, p, matte, &area, tile, simd);
         }
         for r in 0..rows {
             super::tile::store(
                 &tile[4 * r * TILE_W..][..4 * cols],
                 &mut canvas[4 * (r * width + x0)..][..4 * cols],
-                f16c,
+                simd,
             );
         }
     }
@@ -538,11 +541,11 @@ fn band(
 }
 
 /// A tile's coded pixels (inclusive).
-struct Area {
-    x0: usize,
-    x1: usize,
-    y0: usize,
-    y1: usize,
+pub(super) struct Area {
+    pub(super) x0: usize,
+    pub(super) x1: usize,
+    pub(super) y0: usize,
+    pub(super) y1: usize,
 }
 
 /// Streak `s` in the raster's terms, or `None` where it is not drawn or its quad misses the
@@ -627,22 +630,6 @@ fn prepare(
     Some(prepared)
 }
 
-/// The pixels x of a row where `value(x) = v0 + x · slope` lies in [lo, hi] (`inv` = 1 /
-/// slope, 0 where the slope vanishes), as a range of reals (possibly empty).
-#[inline]
-fn span(v0: f32, slope: f32, inv: f32, lo: f32, hi: f32) -> (f32, f32) {
-    if inv == 0.0 {
-        let inside = v0 >= lo - 1e-3 && v0 <= hi + 1e-3 && slope.abs() < 1e-6;
-        return if inside {
-            (f32::NEG_INFINITY, f32::INFINITY)
-        } else {
-            (f32::INFINITY, f32::NEG_INFINITY)
-        };
-    }
-    let (a, b) = ((lo - v0) * inv, (hi - v0) * inv);
-    if a < b { (a, b) } else { (b, a) }
-}
-
 /// The larger of `a` and `b`, as one instruction (neither is NaN here).
 #[inline(always)]
 pub(super) fn larger(a: f32, b: f32) -> f32 {
@@ -655,26 +642,11 @@ pub(super) fn smaller(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
-/// 1 / `slope`, or 0 where it is too small to bound a row.
-fn inverse(slope: f32) -> f32 {
-    if slope.abs() < 1e-6 { 0.0 } else { 1.0 / slope }
-}
-
-/// The whole pixels in [lo, hi] (both ≥ 0 or the range empty), without libm's rounding.
-#[inline]
-fn whole(lo: f32, hi: f32) -> Option<(usize, usize)> {
-    if lo.is_nan() || hi.is_nan() || lo > hi || hi < 0.0 {
-        return None;
-    }
-    let first = lo as usize + usize::from((lo as usize as f32) < lo);
-    let last = hi as usize;
-    (first <= last).then_some((first, last))
-}
-
 /// Blends streak `p` (with its `matte`) over the part of `tile` (f32 RGBA, [`TILE_W`] texels a
 /// row) in `area`: in runs along the coded picture's rows or, for a streak steeper than 45°
 /// there, along its columns, so that the runs are long. The direction is the streak's alone,
-/// so each pixel's value does not depend on the tile.
+/// so each pixel's value does not depend on the tile. `simd`: capsules blended in the AVX2
+/// build's form ([`super::blend`]).
 #[inline(always)]
 fn draw<'a>(
     rain: &Rain<'a>,
@@ -683,43 +655,16 @@ fn draw<'a>(
     matte: Option<&Matte>,
     area: &Area,
     tile: &mut [f32],
+    simd: bool,
 ) {
-    let (ya, yb) = ((p.y0 as usize).max(area.y0), (p.y1 as usize).min(area.y1));
-    let (xa, xb) = ((p.x0 as usize).max(area.x0), (p.x1 as usize).min(area.x1));
-    if ya > yb || xa > xb {
+    let Some((rows, columns, (v0, v1))) = runs_of(p, matte.is_none(), area) else {
         return;
-    }
-    // A capsule covers nothing beyond its disc's path (coverage 0 leaves a pixel as it was);
-    // a matte's colour reaches the whole quad.
-    let (along_lo, along_hi, across_lim) = if matte.is_none() {
-        (-p.r, p.len + p.r, p.r)
-    } else {
-        (-p.ext, p.len + p.ext, p.across_ext)
     };
-    // Runs along coordinate `u` (x or y) at each `v`: `along = along_v + u · da`.
-    let columns = p.along[2].abs() > p.along[1].abs();
-    let (da, dc, va, vc) = if columns {
-        (p.along[2], p.across[2], p.along[1], p.across[1])
-    } else {
-        (p.along[1], p.across[1], p.along[2], p.across[2])
+    let Some((v0, v1)) = rows.reached(v0, v1) else {
+        return;
     };
-    let (inv_a, inv_c) = (inverse(da), inverse(dc));
-    let ((v0, v1), (u0, u1)) = if columns {
-        ((xa, xb), (ya, yb))
-    } else {
-        ((ya, yb), (xa, xb))
-    };
-    // Rounding between the bounds and the pixels' own values: the pixel decides.
-    const PAD: f32 = 0.01;
     for v in v0..=v1 {
-        let vf = v as f32;
-        let along_v = p.along[0] + vf * va;
-        let across_v = p.across[0] + vf * vc;
-        let (a0, a1) = span(along_v, da, inv_a, along_lo, along_hi);
-        let (c0, c1) = span(across_v, dc, inv_c, -across_lim, across_lim);
-        let lo = larger(larger(a0, c0) - PAD, u0 as f32);
-        let hi = smaller(smaller(a1, c1) + PAD, u1 as f32);
-        let Some((first, last)) = whole(lo, hi) else {
+        let Some((along_v, across_v, first, last)) = rows.row(v) else {
             continue;
         };
         let (x, y, stride) = if columns {
@@ -731,8 +676,8 @@ fn draw<'a>(
         let run = Run {
             along: along_v,
             across: across_v,
-            da,
-            dc,
+            da: rows.along[2],
+            dc: rows.across[2],
             first,
             count: last - first + 1,
             stride,
@@ -751,8 +696,8 @@ fn draw<'a>(
         };
         let px = &mut tile[at..];
         match (matte, rain.mattes, rain.depth) {
-            (None, _, None) => capsule_run(p, &run, px, |_, _| 1.0),
-            (None, _, Some(map)) => capsule_run(p, &run, px, occluded(map)),
+            (None, _, None) => capsule_run(p, &run, px, simd, |_, _| 1.0),
+            (None, _, Some(map)) => capsule_run(p, &run, px, simd, occluded(map)),
             (Some(m), Some(atlas), None) => matte_run(p, m, atlas, &run, px, |_, _| 1.0),
             (Some(m), Some(atlas), Some(map)) => matte_run(p, m, atlas, &run, px, occluded(map)),
             (Some(_), None, _) => {}
@@ -774,14 +719,21 @@ pub(super) struct Run {
 
 /// Pixels of a run taken side by side: the capsule's arithmetic is one loop over this many
 /// lanes (one AVX2 vector, two SSE ones), the blend a loop of its own over the pixels.
-pub(super) const LANES: usize = 8;
+pub(super) const LANES: usize = super::blend::LANES;
 
 /// Blends capsule `p` over `run` (its first pixel at `px[0..4]`) without branches, the alpha
 /// of its `k`-th pixel times `shown(k, along)`: a pixel the disc misses blends with α = 0,
 /// which leaves it exactly as it was. Each lane computes its pixel from the pixel's own
-/// coordinate with the same operations, so the lanes, and the instruction set, change no bit.
+/// coordinate with the same operations, so the lanes, and the instruction set, change no bit;
+/// the blend takes eight pixels at once where `simd` ([`super::blend`]: the same bits).
 #[inline(always)]
-fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f32) -> f32) {
+fn capsule_run(
+    p: &Prepared,
+    run: &Run,
+    px: &mut [f32],
+    simd: bool,
+    shown: impl Fn(usize, f32) -> f32,
+) {
     let (r2, len) = (p.r * p.r, p.len);
     let [r0, r1] = p.radiance;
     let dr = [r1[0] - r0[0], r1[1] - r0[1], r1[2] - r0[2]];
@@ -806,15 +758,22 @@ fn capsule_run(p: &Prepared, run: &Run, px: &mut [f32], shown: impl Fn(usize, f3
             t[l] = (a + p.ext) * p.inv_quad;
             along[l] = a;
         }
-        for l in 0..LANES.min(run.count - k0) {
-            let a = alpha[l] * shown(k0 + l, along[l]);
-            let keep = 1.0 - a;
-            let px = &mut px[(k0 + l) * run.stride..][..4];
-            px[0] = (r0[0] + dr[0] * t[l]) * a + px[0] * keep;
-            px[1] = (r0[1] + dr[1] * t[l]) * a + px[1] * keep;
-            px[2] = (r0[2] + dr[2] * t[l]) * a + px[2] * keep;
-            px[3] = a + px[3] * keep;
+        let n = LANES.min(run.count - k0);
+        // Every lane (those past the run are not blended; `shown` reads any pixel safely).
+        let mut a = [0f32; LANES];
+        for l in 0..LANES {
+            a[l] = alpha[l] * shown(k0 + l, along[l]);
         }
+        blend(
+            &mut px[k0 * run.stride..],
+            run.stride,
+            n,
+            &a,
+            &t,
+            r0,
+            dr,
+            simd,
+        );
         k0 += LANES;
     }
 }
