@@ -19,7 +19,8 @@
 use rayon::prelude::*;
 
 use super::shown::{
-    KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value, taps, water_map_and_share, wet_share,
+    KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value_bounded, taps, water_map_and_share,
+    wet_share,
 };
 use crate::fluid::carpet::Field2;
 
@@ -266,7 +267,8 @@ fn make_tile(
             } else {
                 f32::NAN
             };
-            rows[at] = leaf_value(j * nx + i, (nx, ny), (share[at], level), (surface, depth));
+            let around = (share[at], level);
+            rows[at] = leaf_value_bounded(j * nx + i, (nx, ny), around, (surface, depth));
         }
     }
     leaves

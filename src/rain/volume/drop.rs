@@ -184,7 +184,7 @@ pub fn drop_bits(seed: u32, id: u32, stream: u32) -> u32 {
 
 /// PCG hash of a `u32` (Jarzynski & Olano 2020, "Hash functions for GPU rendering"), the
 /// per-drop random source; WGSL has the same `u32` wrapping arithmetic.
-pub fn pcg_hash(x: u32) -> u32 {
+pub const fn pcg_hash(x: u32) -> u32 {
     let state = x.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
     (word >> 22) ^ word

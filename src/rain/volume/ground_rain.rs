@@ -495,28 +495,29 @@ impl GroundRain {
             pcg_hash(pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32)
                 ^ slot as u32,
         );
-        let n = poisson(stream.mean, stream.none, unit(key, 0));
+        let n = poisson(stream.mean, stream.none, unit_hashed(key, 0));
         for j in 0..n {
             let k = 8 * (j + 1);
-            let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
+            let time_s = (slot as f64 + unit_hashed(key, k)) * SLOT_S;
             let p = DVec2::new(
-                (ix as f64 + unit(key, k + 1)) * self.cell_m,
-                (iy as f64 + unit(key, k + 2)) * self.cell_m,
+                (ix as f64 + unit_hashed(key, k + 1)) * self.cell_m,
+                (iy as f64 + unit_hashed(key, k + 2)) * self.cell_m,
             );
             if !stream.rect.contains(p) {
                 continue;
             }
-            let size_q = unit(key, k + 4);
+            let size_q = unit_hashed(key, k + 4);
             // In a drawn cell: the sizes its drops leave out, and the budget's supplement of
             // the others.
             if let Some(cut) = self.drawn.cut_at(p)
                 && self.diameter_mm(size_q) >= cut
-                && unit(key, k + 3) >= stream.supplement
+                && unit_hashed(key, k + 3) >= stream.supplement
             {
                 continue;
             }
             if let Some(keys) = &self.model.rate_keys
-                && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
+                && unit_hashed(key, k + 5)
+                    >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
             {
                 continue;
             }
@@ -554,9 +555,38 @@ impl GroundRain {
     }
 }
 
-/// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits).
+/// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits): the plain form of
+/// [`unit_hashed`].
+#[cfg(test)]
 fn unit(key: u32, k: u32) -> f64 {
     (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64 * (1.0 / 16_777_216.0)
+}
+
+/// Numbers `k` whose inner hash [`NUMBER_HASHES`] holds: a cell-slot's first 63 landings
+/// (a slot holds [`IMPACTS_PER_CELL_SLOT`] on average).
+const HASHED_NUMBERS: usize = 8 * 64;
+
+/// [`unit`]'s inner hash of each number `k` below [`HASHED_NUMBERS`], made at compile time:
+/// the stream makes hundreds of thousands of landings a slot, each reading four to six
+/// numbers, and half of [`unit`]'s hashing depends on the number alone.
+const NUMBER_HASHES: [u32; HASHED_NUMBERS] = {
+    let mut hashes = [0; HASHED_NUMBERS];
+    let mut k = 0;
+    while k < HASHED_NUMBERS {
+        hashes[k] = pcg_hash((k as u32).wrapping_mul(0x9E37_79B9));
+        k += 1;
+    }
+    hashes
+};
+
+/// [`unit`] with the inner hash read from [`NUMBER_HASHES`]: the same number.
+#[inline(always)]
+fn unit_hashed(key: u32, k: u32) -> f64 {
+    let inner = match NUMBER_HASHES.get(k as usize) {
+        Some(&h) => h,
+        None => pcg_hash(k.wrapping_mul(0x9E37_79B9)),
+    };
+    (pcg_hash(key ^ inner) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
 
 /// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
@@ -576,6 +606,20 @@ fn poisson(mean: f64, none: f64, u: f64) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The numbers read through the table are [`unit`]'s, below, at and beyond its end.
+    #[test]
+    fn hashed_numbers_are_the_plain_ones() {
+        for key in (0..64u32).map(pcg_hash).chain([0, u32::MAX]) {
+            for k in 0..HASHED_NUMBERS as u32 + 40 {
+                assert_eq!(
+                    unit_hashed(key, k).to_bits(),
+                    unit(key, k).to_bits(),
+                    "{key} {k}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn poisson_counts_have_their_mean_and_variance() {
