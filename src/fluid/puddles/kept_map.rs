@@ -22,7 +22,7 @@ use super::shown::{
     KERNEL, LEVEL_KERNEL, LEVEL_REACH, REACH, leaf_value_bounded, taps, water_map_and_share,
     wet_share,
 };
-use crate::fluid::carpet::Field2;
+use crate::fluid::carpet::{Field2, VisitedLeaves};
 
 /// Leaves along a tile's edge: small enough that a scattered change makes few leaves again
 /// (a tile and its neighbours within [`REACH`]), large enough that the margin each tile reads
@@ -47,6 +47,11 @@ pub struct KeptWaterMap {
     /// Per leaf, whether the update under way makes its value again (all false between
     /// updates: kept to spare a fresh array a frame).
     stale_leaf: Vec<bool>,
+    /// The carpet's stamp ([`VisitedLeaves::next`]) when the kept leaves were taken from
+    /// it: its next list of visited leaves is complete for them if it starts there.
+    stamp: Option<u64>,
+    /// The last list of visited leaves, handed back to the carpet to fill again.
+    spare: Vec<u32>,
 }
 
 impl KeptWaterMap {
@@ -83,6 +88,52 @@ impl KeptWaterMap {
         grid: &Field2,
         leaf: impl Fn(usize) -> (f32, f32) + Sync,
     ) -> &Field2 {
+        self.stamp = None;
+        self.update_from(grid, None, leaf);
+        self.map.as_ref().expect("made by the update")
+    }
+
+    /// [`update_leaves`](Self::update_leaves) comparing only the leaves the carpet lists in
+    /// `visited` ([`Carpet::take_visited`]) where that list is complete for the kept leaves
+    /// (it starts at the stamp they were taken at), every leaf otherwise: the same map to
+    /// the bit, without reading the million leaves every frame.
+    pub fn update_visited(
+        &mut self,
+        grid: &Field2,
+        visited: VisitedLeaves,
+        leaf: impl Fn(usize) -> (f32, f32) + Sync,
+    ) -> &Field2 {
+        let complete = self.stamp == Some(visited.since);
+        self.stamp = Some(visited.next);
+        match visited.leaves {
+            Some(list) if complete => {
+                self.update_from(grid, Some(&list), leaf);
+                self.spare = list;
+            }
+            other => {
+                if let Some(list) = other {
+                    self.spare = list;
+                }
+                self.update_from(grid, None, leaf);
+            }
+        }
+        self.map.as_ref().expect("made by the update")
+    }
+
+    /// A list for the carpet to fill with the leaves it visits next (the last one, emptied).
+    pub fn take_spare_list(&mut self) -> Vec<u32> {
+        let mut list = std::mem::take(&mut self.spare);
+        list.clear();
+        list
+    }
+
+    /// The update: the leaves `listed` compared (all if `None`).
+    fn update_from(
+        &mut self,
+        grid: &Field2,
+        listed: Option<&[u32]>,
+        leaf: impl Fn(usize) -> (f32, f32) + Sync,
+    ) {
         let (nx, ny) = (grid.nx, grid.ny);
         let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
         let same_grid = self.map.as_ref().is_some_and(|m| {
@@ -109,9 +160,9 @@ impl KeptWaterMap {
             log::debug!("puddles: the water map made whole ({} tiles)", tx * ty);
             self.surface_m = surface.values;
             self.depth_m = depth.values;
-            return self.map.as_ref().expect("made above");
+            return;
         }
-        let stale = self.take_changes(nx, ny, leaf);
+        let stale = self.take_changes(nx, ny, listed, leaf);
         let made = stale.iter().filter(|&&s| s != Stale::No).count();
         self.made = (made, tx * ty);
         let map = self.map.as_mut().expect("made above");
@@ -143,7 +194,6 @@ impl KeptWaterMap {
             tx * ty,
             stale.iter().filter(|&&s| s == Stale::Share).count()
         );
-        map
     }
 
     /// Leaves whose value the last update made again.
@@ -165,31 +215,47 @@ impl KeptWaterMap {
         &mut self,
         nx: usize,
         ny: usize,
+        listed: Option<&[u32]>,
         leaf: impl Fn(usize) -> (f32, f32) + Sync,
     ) -> Vec<Stale> {
         let (tx, ty) = (nx.div_ceil(TILE), ny.div_ceil(TILE));
-        // The changed leaves, row by row (in order: the result does not depend on threads),
-        // each with whether it turned wet or dry.
-        let changed: Vec<Vec<(usize, bool)>> = self
-            .surface_m
-            .par_chunks_mut(nx.max(1))
-            .zip(self.depth_m.par_chunks_mut(nx.max(1)))
-            .enumerate()
-            .map(|(j, (surface, depth))| {
-                let mut row = Vec::new();
-                for (i, (s, d)) in surface.iter_mut().zip(depth.iter_mut()).enumerate() {
-                    let k = j * nx + i;
+        // The changed leaves, each with whether it turned wet or dry (the stale marks below
+        // do not depend on their order).
+        let changed: Vec<(usize, bool)> = match listed {
+            Some(list) => {
+                let mut changed = Vec::new();
+                for &k in list {
+                    let k = k as usize;
+                    let (s, d) = (&mut self.surface_m[k], &mut self.depth_m[k]);
                     let (s_new, d_new) = leaf(k);
                     if s_new.to_bits() != s.to_bits() || d_new.to_bits() != d.to_bits() {
-                        row.push((k, (d_new > 0.0) != (*d > 0.0)));
+                        changed.push((k, (d_new > 0.0) != (*d > 0.0)));
                         (*s, *d) = (s_new, d_new);
                     }
                 }
-                row
-            })
-            .collect();
+                changed
+            }
+            None => self
+                .surface_m
+                .par_chunks_mut(nx.max(1))
+                .zip(self.depth_m.par_chunks_mut(nx.max(1)))
+                .enumerate()
+                .flat_map_iter(|(j, (surface, depth))| {
+                    let mut row = Vec::new();
+                    for (i, (s, d)) in surface.iter_mut().zip(depth.iter_mut()).enumerate() {
+                        let k = j * nx + i;
+                        let (s_new, d_new) = leaf(k);
+                        if s_new.to_bits() != s.to_bits() || d_new.to_bits() != d.to_bits() {
+                            row.push((k, (d_new > 0.0) != (*d > 0.0)));
+                            (*s, *d) = (s_new, d_new);
+                        }
+                    }
+                    row
+                })
+                .collect(),
+        };
         let mut stale = vec![Stale::No; tx * ty];
-        for (k, turned) in changed.into_iter().flatten() {
+        for (k, turned) in changed {
             // A leaf turning wet or dry changes the wet share within the wide reach; any
             // change, the level and the rim within the narrow one.
             let (how, reach) = if turned {
@@ -464,6 +530,77 @@ mod tests {
                 assert_eq!(leaves == 0, changes == 0);
             }
         }
+    }
+
+    /// A map kept from the leaves a carpet lists as visited is the plain map of the carpet
+    /// bit for bit, frame after frame: water moving and resting, trails falling, the
+    /// resting water changed, a full update, the carpet cloned (the clone lists nothing: every
+    /// leaf compared), and a second map reading the same carpet in turn (each list is
+    /// complete only for the map that took the one before it).
+    #[test]
+    fn a_map_kept_from_the_carpets_visited_leaves_is_the_plain_map() {
+        use crate::fluid::carpet::{Carpet, CarpetSettings};
+        use crate::fluid::terrain::HeightField;
+        use glam::{Vec2, Vec3};
+        let (nx, ny, cell) = (45, 33, 0.01);
+        let terrain = HeightField::from_fn(nx + 1, ny + 1, Vec2::ZERO, cell, |x, y| {
+            0.004 * ((x * 31.0).sin() + (y * 23.0).cos())
+        })
+        .expect("terrain");
+        let settings = CarpetSettings {
+            nx,
+            ny,
+            origin_m: Vec2::ZERO,
+            cell_m: cell,
+            particle_radius_m: 0.006,
+            trail_acceleration_mps2: 9.81,
+            drying_time_s: 10.0,
+            wetting_per_hit: 0.25,
+        };
+        let mut carpet = Carpet::new(settings, &terrain).expect("carpet");
+        let mut rng = SplitMix64(17);
+        let mut at = |w: f64| {
+            let x = (rng.next_f64() * w) as f32;
+            let y = (rng.next_f64() * ny as f64 * cell as f64) as f32;
+            Vec3::new(x, y, 0.002 + 0.004 * rng.next_f64() as f32)
+        };
+        let mut resting: Vec<Vec3> = (0..40).map(|_| at(0.2)).collect();
+        let mut moving: Vec<Vec3> = (0..25).map(|_| at(0.45)).collect();
+        let (mut first, mut second) = (KeptWaterMap::new(), KeptWaterMap::new());
+        let mut version = 0;
+        let mut listed = 0;
+        for frame in 0..40 {
+            for p in &mut moving {
+                p.x = (p.x + 0.007).rem_euclid(0.45);
+                p.z *= 0.97;
+            }
+            if frame % 9 == 4 {
+                resting.truncate(resting.len() - 5);
+                version += 1;
+            }
+            if frame == 23 {
+                carpet.update(&[resting.clone(), moving.clone()].concat(), 1.0 / 30.0);
+            } else {
+                carpet.update_split(&resting, version, &moving, 1.0 / 30.0);
+            }
+            if frame == 15 {
+                carpet = carpet.clone();
+            }
+            let plain = water_map(&carpet.surface_height(), &carpet.water_depth());
+            let kept = if frame >= 30 && frame % 2 == 1 {
+                &mut second
+            } else {
+                &mut first
+            };
+            let visited = carpet.take_visited(kept.take_spare_list());
+            listed += visited.leaves.as_ref().map_or(0, |l| l.len());
+            let map = kept.update_visited(&carpet.leaf_grid(), visited, |k| {
+                carpet.leaf_surface_and_depth(k)
+            });
+            assert!(same_bits(map, &plain), "frame {frame}");
+        }
+        // The lists were used, and shorter than the leaves.
+        assert!(listed > 0 && listed < 40 * nx * ny / 2, "{listed}");
     }
 
     /// A carpet on another grid is made whole again.
