@@ -152,7 +152,15 @@ struct DrawnCells {
     /// lookup is needed.
     lo: (i64, i64),
     hi: (i64, i64),
+    /// `cells` over the index range, row by row (`None`: no cell there), where the range
+    /// holds at most [`DENSE_CELLS`] cells; empty otherwise. The stream asks for every one
+    /// of its hundreds of thousands of landings a slot, and a hashed lookup cost a fifth of
+    /// making them.
+    dense: Vec<Option<f64>>,
 }
+
+/// The most cells [`DrawnCells::dense`] spans (16 MiB).
+const DENSE_CELLS: i64 = 1 << 20;
 
 impl DrawnCells {
     /// The landing columns' cells, indexed from the first one's corner (the grid's cells are
@@ -181,17 +189,34 @@ impl DrawnCells {
                 (index(c.cell_min_m), cut)
             })
             .collect();
+        DrawnCells::from_cells(origin_m, cell_m, cells)
+    }
+
+    /// The drawn cells `cells` (indices from `origin_m` in steps of `cell_m`, each with its
+    /// cut), with their range and dense table.
+    fn from_cells(origin_m: DVec2, cell_m: DVec2, cells: HashMap<(i64, i64), f64>) -> DrawnCells {
         let (mut lo, mut hi) = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
         for &(i, j) in cells.keys() {
             lo = (lo.0.min(i), lo.1.min(j));
             hi = (hi.0.max(i), hi.1.max(j));
         }
+        let (w, h) = (hi.0 - lo.0 + 1, hi.1 - lo.1 + 1);
+        let dense = if w.saturating_mul(h) <= DENSE_CELLS {
+            let mut dense = vec![None; (w * h) as usize];
+            for (&(i, j), &cut) in &cells {
+                dense[((j - lo.1) * w + (i - lo.0)) as usize] = Some(cut);
+            }
+            dense
+        } else {
+            Vec::new()
+        };
         DrawnCells {
             origin_m,
             cell_m,
             cells,
             lo,
             hi,
+            dense,
         }
     }
 
@@ -205,6 +230,10 @@ impl DrawnCells {
         let (i, j) = (i.x as i64, i.y as i64);
         if i < self.lo.0 || j < self.lo.1 || i > self.hi.0 || j > self.hi.1 {
             return None;
+        }
+        if !self.dense.is_empty() {
+            let w = self.hi.0 - self.lo.0 + 1;
+            return self.dense[((j - self.lo.1) * w + (i - self.lo.0)) as usize];
         }
         self.cells.get(&(i, j)).copied()
     }
@@ -617,6 +646,36 @@ mod tests {
                     unit(key, k).to_bits(),
                     "{key} {k}"
                 );
+            }
+        }
+    }
+
+    /// The dense table answers as the hashed cells do, inside and around their range, and
+    /// a range too wide for a table is looked up in the hash.
+    #[test]
+    fn drawn_cells_answer_as_the_hash() {
+        let mut rng = crate::rng::SplitMix64(9);
+        let (origin, cell) = (DVec2::new(-3.2, 1.5), DVec2::new(0.7, 0.45));
+        for wide in [false, true] {
+            let mut cells = HashMap::new();
+            for _ in 0..300 {
+                let (i, j) = (
+                    (rng.next_u64() % 40) as i64,
+                    (rng.next_u64() % 25) as i64 - 7,
+                );
+                cells.insert((i, j), 0.1 + rng.next_f64());
+            }
+            if wide {
+                cells.insert((5_000_000, 3), 0.5);
+            }
+            let drawn = DrawnCells::from_cells(origin, cell, cells.clone());
+            assert_eq!(drawn.dense.is_empty(), wide);
+            for _ in 0..20_000 {
+                let p = origin
+                    + DVec2::new(rng.next_f64() * 50.0 - 5.0, rng.next_f64() * 40.0 - 12.0) * cell;
+                let i = ((p - origin) / cell).floor();
+                let hashed = cells.get(&(i.x as i64, i.y as i64)).copied();
+                assert_eq!(drawn.cut_at(p), hashed, "{p}");
             }
         }
     }
