@@ -568,7 +568,7 @@ impl Carpet {
         let mut reuse = reuse;
         reuse.clear();
         let since = std::mem::replace(&mut self.visited.since, next);
-        let leaves = std::mem::replace(&mut self.visited.leaves, Some(reuse));
+        let leaves = self.visited.leaves.replace(reuse);
         VisitedLeaves {
             since,
             next,
