@@ -1,5 +1,5 @@
-//! The water map kept from frame to frame: a render's next map made again only in the tiles
-//! whose leaves' neighbourhoods changed, the same map bit for bit as [`water_map`] makes anew.
+//! The water map kept from frame to frame: a render's next map made again only in the leaves
+//! whose neighbourhoods changed, the same map bit for bit as [`water_map`] makes anew.
 //!
 //! How it works: a leaf's value in the map reads the carpet's wet leaves within [`REACH`]
 //! leaves of it (the wet share's order-8 kernel) and its surface and depth within
