@@ -100,6 +100,59 @@ pub struct Carpet {
     /// [`Carpet::update_split`]'s memory, rebuilt when missing (left out of checkpoints).
     #[serde(skip)]
     incremental: Option<Incremental>,
+    /// The leaves updated since [`Carpet::take_visited`] last took them (left out of
+    /// checkpoints and clones: a carpet read or cloned lists none).
+    #[serde(skip)]
+    visited: Visited,
+}
+
+/// The leaves [`Carpet::update_leaf`] visited since the stamp `since`, so that a reader that
+/// keeps a copy of the leaves ([`crate::fluid::puddles::KeptWaterMap`]) compares only those,
+/// not every leaf every frame. Every other leaf has kept its height and depth to the bit:
+/// only `update_leaf` writes them.
+#[derive(Debug)]
+struct Visited {
+    /// When the list started: a stamp no other list of any carpet has.
+    since: u64,
+    /// The leaves, repeats allowed; `None` when unknown (a carpet made, read or cloned, or a
+    /// list grown past the leaves' count, never taken).
+    leaves: Option<Vec<u32>>,
+}
+
+/// The next [`Visited`] stamp: unique in the process.
+fn next_stamp() -> u64 {
+    static STAMPS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    STAMPS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+impl Default for Visited {
+    /// No list, under a fresh stamp.
+    fn default() -> Visited {
+        Visited {
+            since: next_stamp(),
+            leaves: None,
+        }
+    }
+}
+
+impl Clone for Visited {
+    /// No list, under a fresh stamp: a reader kept from the original must compare every leaf
+    /// of the clone.
+    fn clone(&self) -> Visited {
+        Visited::default()
+    }
+}
+
+/// The leaves a carpet updated since a reader last asked ([`Carpet::take_visited`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisitedLeaves {
+    /// The stamp the list starts from: the reader's list is complete only if it took the
+    /// carpet's leaves at this stamp.
+    pub since: u64,
+    /// The stamp the next list will start from.
+    pub next: u64,
+    /// The leaves (repeats allowed); `None`: unknown, compare them all.
+    pub leaves: Option<Vec<u32>>,
 }
 
 /// A leaf's wetness state, in one record so a raindrop reads and writes one cache line: under
@@ -230,6 +283,7 @@ impl Carpet {
             time_s: 0.0,
             sort_scratch: Vec::new(),
             incremental: None,
+            visited: Visited::default(),
         })
     }
 
@@ -507,8 +561,31 @@ impl Carpet {
         self.levels[level].nodes[k] = combine(&self.levels[below], i, j);
     }
 
+    /// The leaves updated since the last call (see [`VisitedLeaves`]), a new list started;
+    /// `reuse`: a list to fill next (its leaves dropped), to spare an allocation a frame.
+    pub fn take_visited(&mut self, reuse: Vec<u32>) -> VisitedLeaves {
+        let next = next_stamp();
+        let mut reuse = reuse;
+        reuse.clear();
+        let since = std::mem::replace(&mut self.visited.since, next);
+        let leaves = self.visited.leaves.replace(reuse);
+        VisitedLeaves {
+            since,
+            next,
+            leaves,
+        }
+    }
+
     /// One leaf's step with `splat_m` the highest particle top over it (−∞: none).
     fn update_leaf(&mut self, k: usize, splat_m: f32, dt_s: f32) {
+        if let Some(list) = &mut self.visited.leaves {
+            if list.len() < self.leaf_terrain_m.len() {
+                list.push(k as u32);
+            } else {
+                // As long as every leaf: a reader compares them all instead.
+                self.visited.leaves = None;
+            }
+        }
         let terrain = self.leaf_terrain_m[k];
         let node = &mut self.levels[0].nodes[k];
         let was_wet = node.max_depth_m > 0.0;

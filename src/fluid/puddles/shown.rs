@@ -132,6 +132,55 @@ pub(super) fn leaf_value(
     (soft_minimum(k, (nx, ny), (surface, depth)) - ground).min(front(share))
 }
 
+/// [`leaf_value`] (the same value to the bit) without the soft minimum's weighted sums where
+/// the front bounds the leaf anyway: the soft minimum is a weighted mean of heights no lower
+/// than the lowest wet one, h_min, so where the front's depth lies below h_min − ground by
+/// more than the sums' rounding, the minimum is the front's depth whatever the sums give.
+/// On ground around scattered drops (a small wet share, a negative front) that is most
+/// leaves.
+#[inline]
+pub(super) fn leaf_value_bounded(
+    k: usize,
+    (nx, ny): (usize, usize),
+    (share, level): (f32, f32),
+    (surface, depth): (&[f32], &[f32]),
+) -> f32 {
+    if share <= 0.0 || share >= 1.0 {
+        return leaf_value(k, (nx, ny), (share, level), (surface, depth));
+    }
+    let ground = surface[k] - depth[k];
+    let low = lowest_wet(k, (nx, ny), (surface, depth));
+    let edge = front(share);
+    // The weighted mean of ≤ 25 terms, each within [h_min, h_min + 3 E], rounds to within
+    // 32 ulp of that range (f32: 2⁻²³ each), and the difference with the ground within one
+    // more: a margin of 2⁻¹⁶ of the magnitudes is more than enough.
+    let margin = (low.abs() + 3.0 * EDGE_DEPTH_M + ground.abs()) * (1.0 / 65_536.0);
+    if low.is_finite() && edge < (low - ground) - margin {
+        return edge;
+    }
+    leaf_value(k, (nx, ny), (share, level), (surface, depth))
+}
+
+/// The lowest surface height of the wet leaves within [`LEVEL_REACH`] of leaf `k` (+∞: none),
+/// as [`soft_minimum`] finds it.
+#[inline]
+fn lowest_wet(k: usize, (nx, ny): (usize, usize), (surface, depth): (&[f32], &[f32])) -> f32 {
+    let r = LEVEL_REACH;
+    let (i, j) = (k % nx, k / nx);
+    let (i0, i1) = (i.saturating_sub(r), (i + r + 1).min(nx));
+    let (j0, j1) = (j.saturating_sub(r), (j + r + 1).min(ny));
+    let mut low = f32::INFINITY;
+    for jj in j0..j1 {
+        let span = jj * nx + i0..jj * nx + i1;
+        for (&d, &h) in depth[span.clone()].iter().zip(&surface[span]) {
+            if d > 0.0 {
+                low = low.min(h);
+            }
+        }
+    }
+    low
+}
+
 /// A weighted soft minimum of the surface heights h of the wet leaves within
 /// [`LEVEL_REACH`] of leaf `k`, weighted w by 1-4-6-4-1 along x and y: their mean weighted by
 /// w·(1 − (h − h_min)/(3 E)) where positive, E = [`EDGE_DEPTH_M`]: the lowest height where

@@ -525,9 +525,12 @@ impl PuddleSim {
 
     /// [`shown_depth`](Self::shown_depth) kept in `kept` from the last frame it was asked
     /// for, made again only where the water changed since (the same map to the bit).
-    pub fn shown_depth_kept<'a>(&self, kept: &'a mut KeptWaterMap) -> &'a Field2 {
+    pub fn shown_depth_kept<'a>(&mut self, kept: &'a mut KeptWaterMap) -> &'a Field2 {
+        let visited = self.flow.carpet.take_visited(kept.take_spare_list());
         let carpet = &self.flow.carpet;
-        kept.update_leaves(&carpet.leaf_grid(), |k| carpet.leaf_surface_and_depth(k))
+        kept.update_visited(&carpet.leaf_grid(), visited, |k| {
+            carpet.leaf_surface_and_depth(k)
+        })
     }
 
     /// Wetness on the carpet's grid, [0, 1].

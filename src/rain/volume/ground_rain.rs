@@ -152,11 +152,15 @@ struct DrawnCells {
     /// lookup is needed.
     lo: (i64, i64),
     hi: (i64, i64),
-    /// The same cells over the range row by row, NaN where none (empty where the range
-    /// would hold many more slots than cells): each of the ground's hundreds of thousands of
-    /// landings a slot is looked up by an index, not a hash.
-    dense: Vec<f64>,
+    /// `cells` over the index range, row by row (`None`: no cell there), where the range
+    /// holds at most [`DENSE_CELLS`] cells; empty otherwise. The stream asks for every one
+    /// of its hundreds of thousands of landings a slot, and a hashed lookup cost a fifth of
+    /// making them.
+    dense: Vec<Option<f64>>,
 }
+
+/// The most cells [`DrawnCells::dense`] spans (16 MiB).
+const DENSE_CELLS: i64 = 1 << 20;
 
 impl DrawnCells {
     /// The landing columns' cells, indexed from the first one's corner (the grid's cells are
@@ -185,16 +189,22 @@ impl DrawnCells {
                 (index(c.cell_min_m), cut)
             })
             .collect();
+        DrawnCells::from_cells(origin_m, cell_m, cells)
+    }
+
+    /// The drawn cells `cells` (indices from `origin_m` in steps of `cell_m`, each with its
+    /// cut), with their range and dense table.
+    fn from_cells(origin_m: DVec2, cell_m: DVec2, cells: HashMap<(i64, i64), f64>) -> DrawnCells {
         let (mut lo, mut hi) = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
         for &(i, j) in cells.keys() {
             lo = (lo.0.min(i), lo.1.min(j));
             hi = (hi.0.max(i), hi.1.max(j));
         }
-        let (w, h) = ((hi.0 - lo.0 + 1) as u64, (hi.1 - lo.1 + 1) as u64);
-        let dense = if w * h <= 4 * cells.len() as u64 + 4096 {
-            let mut dense = vec![f64::NAN; (w * h) as usize];
+        let (w, h) = (hi.0 - lo.0 + 1, hi.1 - lo.1 + 1);
+        let dense = if w.saturating_mul(h) <= DENSE_CELLS {
+            let mut dense = vec![None; (w * h) as usize];
             for (&(i, j), &cut) in &cells {
-                dense[((j - lo.1) as u64 * w + (i - lo.0) as u64) as usize] = cut;
+                dense[((j - lo.1) * w + (i - lo.0)) as usize] = Some(cut);
             }
             dense
         } else {
@@ -221,12 +231,11 @@ impl DrawnCells {
         if i < self.lo.0 || j < self.lo.1 || i > self.hi.0 || j > self.hi.1 {
             return None;
         }
-        if self.dense.is_empty() {
-            return self.cells.get(&(i, j)).copied();
+        if !self.dense.is_empty() {
+            let w = self.hi.0 - self.lo.0 + 1;
+            return self.dense[((j - self.lo.1) * w + (i - self.lo.0)) as usize];
         }
-        let w = self.hi.0 - self.lo.0 + 1;
-        let cut = self.dense[((j - self.lo.1) * w + (i - self.lo.0)) as usize];
-        (!cut.is_nan()).then_some(cut)
+        self.cells.get(&(i, j)).copied()
     }
 }
 
@@ -515,28 +524,29 @@ impl GroundRain {
             pcg_hash(pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32)
                 ^ slot as u32,
         );
-        let n = poisson(stream.mean, stream.none, unit(key, 0));
+        let n = poisson(stream.mean, stream.none, unit_hashed(key, 0));
         for j in 0..n {
             let k = 8 * (j + 1);
-            let time_s = (slot as f64 + unit(key, k)) * SLOT_S;
+            let time_s = (slot as f64 + unit_hashed(key, k)) * SLOT_S;
             let p = DVec2::new(
-                (ix as f64 + unit(key, k + 1)) * self.cell_m,
-                (iy as f64 + unit(key, k + 2)) * self.cell_m,
+                (ix as f64 + unit_hashed(key, k + 1)) * self.cell_m,
+                (iy as f64 + unit_hashed(key, k + 2)) * self.cell_m,
             );
             if !stream.rect.contains(p) {
                 continue;
             }
-            let size_q = unit(key, k + 4);
+            let size_q = unit_hashed(key, k + 4);
             // In a drawn cell: the sizes its drops leave out, and the budget's supplement of
             // the others.
             if let Some(cut) = self.drawn.cut_at(p)
                 && self.diameter_mm(size_q) >= cut
-                && unit(key, k + 3) >= stream.supplement
+                && unit_hashed(key, k + 3) >= stream.supplement
             {
                 continue;
             }
             if let Some(keys) = &self.model.rate_keys
-                && unit(key, k + 5) >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
+                && unit_hashed(key, k + 5)
+                    >= self.model.keeps(keys.at(time_s), self.diameter_mm(size_q))
             {
                 continue;
             }
@@ -574,32 +584,39 @@ impl GroundRain {
     }
 }
 
-/// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits).
-#[inline]
+/// Uniform in [0, 1) number `k` of the cell-slot `key` (24 bits): the plain form of
+/// [`unit_hashed`].
+#[cfg(test)]
 fn unit(key: u32, k: u32) -> f64 {
-    let salt = match UNIT_SALTS.get(k as usize) {
-        Some(&salt) => salt,
-        None => unit_salt(k),
-    };
-    (pcg_hash(key ^ salt) >> 8) as f64 * (1.0 / 16_777_216.0)
+    (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
 
-/// The hash of number `k` in [`unit`], which depends on `k` alone.
-const fn unit_salt(k: u32) -> u32 {
-    pcg_hash(k.wrapping_mul(0x9E37_79B9))
-}
+/// Numbers `k` whose inner hash [`NUMBER_HASHES`] holds: a cell-slot's first 63 landings
+/// (a slot holds [`IMPACTS_PER_CELL_SLOT`] on average).
+const HASHED_NUMBERS: usize = 8 * 64;
 
-/// [`unit_salt`] of the numbers a cell-slot of up to 63 landings asks for (8 per landing): half
-/// the hashing of the hundreds of thousands of landings a slot makes.
-static UNIT_SALTS: [u32; 512] = {
-    let mut t = [0u32; 512];
+/// [`unit`]'s inner hash of each number `k` below [`HASHED_NUMBERS`], made at compile time:
+/// the stream makes hundreds of thousands of landings a slot, each reading four to six
+/// numbers, and half of [`unit`]'s hashing depends on the number alone.
+const NUMBER_HASHES: [u32; HASHED_NUMBERS] = {
+    let mut hashes = [0; HASHED_NUMBERS];
     let mut k = 0;
-    while k < t.len() {
-        t[k] = unit_salt(k as u32);
+    while k < HASHED_NUMBERS {
+        hashes[k] = pcg_hash((k as u32).wrapping_mul(0x9E37_79B9));
         k += 1;
     }
-    t
+    hashes
 };
+
+/// [`unit`] with the inner hash read from [`NUMBER_HASHES`]: the same number.
+#[inline(always)]
+fn unit_hashed(key: u32, k: u32) -> f64 {
+    let inner = match NUMBER_HASHES.get(k as usize) {
+        Some(&h) => h,
+        None => pcg_hash(k.wrapping_mul(0x9E37_79B9)),
+    };
+    (pcg_hash(key ^ inner) >> 8) as f64 * (1.0 / 16_777_216.0)
+}
 
 /// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
 /// e^−mean, the chance of none.
@@ -619,13 +636,46 @@ fn poisson(mean: f64, none: f64, u: f64) -> u32 {
 mod tests {
     use super::*;
 
+    /// The numbers read through the table are [`unit`]'s, below, at and beyond its end.
     #[test]
-    fn unit_from_the_table_equals_the_two_hashes() {
-        for k in [0u32, 1, 7, 8, 13, 255, 511, 512, 513, 4000] {
-            for key in [0u32, 1, 0xDEAD_BEEF, u32::MAX] {
-                let two = (pcg_hash(key ^ pcg_hash(k.wrapping_mul(0x9E37_79B9))) >> 8) as f64
-                    * (1.0 / 16_777_216.0);
-                assert_eq!(unit(key, k).to_bits(), two.to_bits(), "k {k} key {key}");
+    fn hashed_numbers_are_the_plain_ones() {
+        for key in (0..64u32).map(pcg_hash).chain([0, u32::MAX]) {
+            for k in 0..HASHED_NUMBERS as u32 + 40 {
+                assert_eq!(
+                    unit_hashed(key, k).to_bits(),
+                    unit(key, k).to_bits(),
+                    "{key} {k}"
+                );
+            }
+        }
+    }
+
+    /// The dense table answers as the hashed cells do, inside and around their range, and
+    /// a range too wide for a table is looked up in the hash.
+    #[test]
+    fn drawn_cells_answer_as_the_hash() {
+        let mut rng = crate::rng::SplitMix64(9);
+        let (origin, cell) = (DVec2::new(-3.2, 1.5), DVec2::new(0.7, 0.45));
+        for wide in [false, true] {
+            let mut cells = HashMap::new();
+            for _ in 0..300 {
+                let (i, j) = (
+                    (rng.next_u64() % 40) as i64,
+                    (rng.next_u64() % 25) as i64 - 7,
+                );
+                cells.insert((i, j), 0.1 + rng.next_f64());
+            }
+            if wide {
+                cells.insert((5_000_000, 3), 0.5);
+            }
+            let drawn = DrawnCells::from_cells(origin, cell, cells.clone());
+            assert_eq!(drawn.dense.is_empty(), wide);
+            for _ in 0..20_000 {
+                let p = origin
+                    + DVec2::new(rng.next_f64() * 50.0 - 5.0, rng.next_f64() * 40.0 - 12.0) * cell;
+                let i = ((p - origin) / cell).floor();
+                let hashed = cells.get(&(i.x as i64, i.y as i64)).copied();
+                assert_eq!(drawn.cut_at(p), hashed, "{p}");
             }
         }
     }
