@@ -260,13 +260,10 @@ impl PuddleSim {
         // (docs/measurements.md, "The rain's films: a sound speed from their depth"), so it is
         // not the default. The viscosity stays that of the fill's depth: only the step changes.
         let mut flow_settings = SurfaceFlowSettings::new(spacing, deepest.max(2.0 * spacing));
-        match s.sound_speed_mps {
-            Some(c) => {
-                flow_settings.sph.eos = EquationOfState::Linear {
-                    stiffness_m2ps2: c * c,
-                }
-            }
-            None => {}
+        if let Some(c) = s.sound_speed_mps {
+            flow_settings.sph.eos = EquationOfState::Linear {
+                stiffness_m2ps2: c * c,
+            };
         }
         flow_settings.sph.infiltration_rate_mps = infiltration_mps as f32;
         flow_settings.precipitation_scale = s.precipitation_scale;
