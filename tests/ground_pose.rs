@@ -969,6 +969,31 @@ fn a_wrong_field_of_view_is_refused_or_right() {
     );
 }
 
+/// A level camera 1.6 m up with a 60° lens over `frame`: the pose the timings by hand assume.
+fn level_camera_60(frame: &rain_composite::video::YuvFrame) -> rain_composite::scene::Camera {
+    rain_composite::scene::Camera::new(
+        frame.format.width,
+        frame.format.height,
+        60f64.to_radians(),
+        1.6,
+        0.0,
+        0.0,
+    )
+}
+
+/// The median of `runs` timings of `f`, ms.
+fn median_ms(runs: usize, f: &mut dyn FnMut()) -> f64 {
+    let mut t: Vec<f64> = (0..runs)
+        .map(|_| {
+            let t0 = std::time::Instant::now();
+            f();
+            t0.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[runs / 2]
+}
+
 /// Prints what the lens check ([`vanishing::level_offset`]) costs against the whole estimate of
 /// a frame of `CLIP` (default `samples/street.mp4`) at `AT` seconds (default 0.5) through a 60°
 /// lens: medians of 15 runs, side by side in one process.
@@ -984,25 +1009,8 @@ fn lens_check_cost() {
     let mut source = rain_composite::video::Source::open(&clip).expect("clip");
     let frame = source.seek_to_time(at_s).expect("frame");
     let luma = Luma::from_frame(&frame, 0, horizon::WORK_WIDTH);
-    let cam = rain_composite::scene::Camera::new(
-        frame.format.width,
-        frame.format.height,
-        60f64.to_radians(),
-        1.6,
-        0.0,
-        0.0,
-    );
-    let median = |f: &mut dyn FnMut()| {
-        let mut t: Vec<f64> = (0..15)
-            .map(|_| {
-                let t0 = std::time::Instant::now();
-                f();
-                t0.elapsed().as_secs_f64() * 1e3
-            })
-            .collect();
-        t.sort_by(f64::total_cmp);
-        t[7]
-    };
+    let cam = level_camera_60(&frame);
+    let median = |f: &mut dyn FnMut()| median_ms(15, f);
     let e = horizon::estimate(&luma, &cam);
     let segs = horizon::detect_segments(&luma, horizon::MAX_SEGMENTS);
     let edges = horizon::edges(&segs, &cam);
@@ -1039,25 +1047,8 @@ fn fine_pass_cost() {
     let mut source = rain_composite::video::Source::open(&clip).expect("clip");
     for at_s in [0.2, 0.6, 1.0, 1.4] {
         let frame = source.seek_to_time(at_s).expect("frame");
-        let cam = rain_composite::scene::Camera::new(
-            frame.format.width,
-            frame.format.height,
-            60f64.to_radians(),
-            1.6,
-            0.0,
-            0.0,
-        );
-        let median = |f: &mut dyn FnMut()| {
-            let mut t: Vec<f64> = (0..9)
-                .map(|_| {
-                    let t0 = std::time::Instant::now();
-                    f();
-                    t0.elapsed().as_secs_f64() * 1e3
-                })
-                .collect();
-            t.sort_by(f64::total_cmp);
-            t[4]
-        };
+        let cam = level_camera_60(&frame);
+        let median = |f: &mut dyn FnMut()| median_ms(9, f);
         let e = horizon::estimate_frame(&frame, 0, &cam);
         let with = median(&mut || {
             std::hint::black_box(horizon::estimate_frame(&frame, 0, &cam));
