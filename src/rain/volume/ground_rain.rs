@@ -108,15 +108,63 @@ pub struct StreamSlots {
     spare: Vec<SlotLandings>,
 }
 
-/// One slot's landings, cell after cell: cell c's are `landings[starts[c]..starts[c + 1]]`.
+/// One slot's landings, cell after cell (cell c's are `starts[c]..starts[c + 1]`), a field
+/// to an array: a frame reads each landing's time, and the position of those in its window
+/// only (most of a slot's landings fall in another frame), so it streams through a third of
+/// the memory a whole landing would cost it.
 #[derive(Debug, Clone)]
 struct SlotLandings {
     slot: i64,
-    landings: Vec<Landing>,
-    /// Each landing's time, s: what a frame's window is matched against, read without the
-    /// rest of the landing (most of a slot's landings fall in another frame).
+    /// Each landing's time, s: what a frame's window is matched against.
     times_s: Vec<f64>,
+    positions_m: Vec<DVec2>,
+    ids: Vec<u64>,
+    size_qs: Vec<f64>,
     starts: Vec<u32>,
+    /// The landings in the window of the last call, `times_s`' indices in order.
+    picked: Vec<u32>,
+}
+
+impl SlotLandings {
+    fn clear(&mut self) {
+        self.times_s.clear();
+        self.positions_m.clear();
+        self.ids.clear();
+        self.size_qs.clear();
+        self.starts.clear();
+    }
+
+    fn push(&mut self, l: Landing) {
+        self.times_s.push(l.time_s);
+        self.positions_m.push(l.position_m);
+        self.ids.push(l.id);
+        self.size_qs.push(l.size_q);
+    }
+
+    /// Picks the landings with time in (t0_s, t1_s], in order, into `picked`: without a
+    /// branch on each time (a slot's times are in no order, so a branch on them would be
+    /// mispredicted at every other landing).
+    fn pick(&mut self, t0_s: f64, t1_s: f64) {
+        self.picked.clear();
+        self.picked.resize(self.times_s.len(), 0);
+        let mut n = 0;
+        for (i, &t) in self.times_s.iter().enumerate() {
+            self.picked[n] = i as u32;
+            n += (t > t0_s && t <= t1_s) as usize;
+        }
+        self.picked.truncate(n);
+    }
+
+    /// Landing `i`, as [`SlotLandings::push`] was handed it.
+    fn landing(&self, i: usize) -> Landing {
+        Landing {
+            id: self.ids[i],
+            pass: self.slot as u32,
+            time_s: self.times_s[i],
+            position_m: self.positions_m[i],
+            size_q: self.size_qs[i],
+        }
+    }
 }
 
 /// An axis-aligned rectangle of the ground z = 0, m.
@@ -453,31 +501,36 @@ impl GroundRain {
             if kept.slots.iter().all(|s| s.slot != slot) {
                 let mut made = kept.spare.pop().unwrap_or_else(|| SlotLandings {
                     slot,
-                    landings: Vec::new(),
                     times_s: Vec::new(),
+                    positions_m: Vec::new(),
+                    ids: Vec::new(),
+                    size_qs: Vec::new(),
                     starts: Vec::new(),
+                    picked: Vec::new(),
                 });
                 made.slot = slot;
-                made.landings.clear();
-                made.times_s.clear();
-                made.starts.clear();
+                made.clear();
                 made.starts.push(0);
                 for cell in stream.cells() {
-                    self.cell_slot(&stream, cell, slot, |l| made.landings.push(l));
-                    made.starts.push(made.landings.len() as u32);
+                    self.cell_slot(&stream, cell, slot, |l| made.push(l));
+                    made.starts.push(made.times_s.len() as u32);
                 }
-                made.times_s.extend(made.landings.iter().map(|l| l.time_s));
                 kept.slots.push(made);
             }
         }
         kept.slots.sort_by_key(|s| s.slot);
+        for s in &mut kept.slots {
+            s.pick(t0_s, t1_s);
+        }
+        let mut next = vec![0usize; kept.slots.len()];
         for c in 0..stream.cells().count() {
-            for s in &kept.slots {
-                let (a, b) = (s.starts[c] as usize, s.starts[c + 1] as usize);
-                for (k, &t) in s.times_s[a..b].iter().enumerate() {
-                    if t > t0_s && t <= t1_s {
-                        f(s.landings[a + k])
-                    }
+            for (s, next) in kept.slots.iter().zip(&mut next) {
+                let b = s.starts[c + 1];
+                while let Some(&i) = s.picked.get(*next)
+                    && i < b
+                {
+                    f(s.landing(i as usize));
+                    *next += 1;
                 }
             }
         }
