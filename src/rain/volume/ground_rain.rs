@@ -76,9 +76,8 @@ struct Stream {
     rect: GroundRect,
     /// The share of a drawn cell's other sizes the stream supplies.
     supplement: f64,
-    /// Mean drops of a cell in a slot, and the chance of none.
-    mean: f64,
-    none: f64,
+    /// The counts of drops a cell has in a slot.
+    counts: PoissonTable,
     /// Cells along x and y, slots.
     x: std::ops::Range<i64>,
     y: std::ops::Range<i64>,
@@ -147,9 +146,10 @@ impl SlotLandings {
     fn pick(&mut self, t0_s: f64, t1_s: f64) {
         self.picked.clear();
         self.picked.resize(self.times_s.len(), 0);
+        let picked = self.picked.as_mut_slice();
         let mut n = 0;
         for (i, &t) in self.times_s.iter().enumerate() {
-            self.picked[n] = i as u32;
+            picked[n] = i as u32;
             n += (t > t0_s && t <= t1_s) as usize;
         }
         self.picked.truncate(n);
@@ -555,8 +555,7 @@ impl GroundRain {
         Some(Stream {
             rect: *rect,
             supplement,
-            mean,
-            none: (-mean).exp(),
+            counts: PoissonTable::new(mean, (-mean).exp()),
             x: lo.x as i64..hi.x as i64,
             y: lo.y as i64..hi.y as i64,
             slots: (t0_s / SLOT_S).floor() as i64..(t1_s / SLOT_S).ceil() as i64,
@@ -577,7 +576,7 @@ impl GroundRain {
             pcg_hash(pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32)
                 ^ slot as u32,
         );
-        let n = poisson(stream.mean, stream.none, unit_hashed(key, 0));
+        let n = stream.counts.count(unit_hashed(key, 0));
         for j in 0..n {
             let k = 8 * (j + 1);
             let time_s = (slot as f64 + unit_hashed(key, k)) * SLOT_S;
@@ -671,8 +670,41 @@ fn unit_hashed(key: u32, k: u32) -> f64 {
     (pcg_hash(key ^ inner) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
 
+/// [`poisson`]'s cumulative sums for one mean, made once: the same counts, without its
+/// division at every step for each of a slot's tens of thousands of cells.
+#[derive(Debug, Clone)]
+struct PoissonTable {
+    /// The cumulative sum after each count, up to where the terms reach zero.
+    cdf: Vec<f64>,
+}
+
+impl PoissonTable {
+    /// The sums [`poisson`] makes for `mean` and `none` (the same operations in order).
+    fn new(mean: f64, none: f64) -> PoissonTable {
+        let (mut p, mut cdf) = (none, vec![none]);
+        let mut n = 0;
+        while p > 0.0 {
+            n += 1;
+            p *= mean / n as f64;
+            cdf.push(cdf[n - 1] + p);
+        }
+        // The last sum's term is zero: poisson stops there whatever u is.
+        cdf.pop();
+        PoissonTable { cdf }
+    }
+
+    /// [`poisson`]'s count for `u`.
+    fn count(&self, u: f64) -> u32 {
+        self.cdf
+            .iter()
+            .position(|&c| u < c)
+            .unwrap_or(self.cdf.len()) as u32
+    }
+}
+
 /// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
-/// e^−mean, the chance of none.
+/// e^−mean, the chance of none: the plain form of [`PoissonTable::count`].
+#[cfg(test)]
 fn poisson(mean: f64, none: f64, u: f64) -> u32 {
     let mut p = none;
     let mut cdf = p;
@@ -729,6 +761,28 @@ mod tests {
                 let i = ((p - origin) / cell).floor();
                 let hashed = cells.get(&(i.x as i64, i.y as i64)).copied();
                 assert_eq!(drawn.cut_at(p), hashed, "{p}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_poisson_table_counts_as_the_sums() {
+        for mean in [0.0f64, 1e-3, 0.7, 8.0, 37.5] {
+            let table = PoissonTable::new(mean, (-mean).exp());
+            for i in 0..100_000u32 {
+                let u = unit(pcg_hash(i), 0);
+                assert_eq!(
+                    table.count(u),
+                    poisson(mean, (-mean).exp(), u),
+                    "{mean} {u}"
+                );
+            }
+            for u in [0.0, 1.0 - 1.0 / 16_777_216.0, 1.0, 2.0] {
+                assert_eq!(
+                    table.count(u),
+                    poisson(mean, (-mean).exp(), u),
+                    "{mean} {u}"
+                );
             }
         }
     }
