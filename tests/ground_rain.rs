@@ -268,5 +268,14 @@ fn the_streams_landings_are_its_impacts() {
         g.stream_landings(&other, 0.75, 0.79, |l| plain.push(l));
         g.stream_landings_kept(&mut kept, &other, 0.75, 0.79, |l| made.push(l));
         assert_eq!(plain, made);
+        // Windows over more slots than a frame's (a long step), on slots' edges, and back in
+        // time: each slot's landings picked and merged cell by cell as the plain stream's.
+        for (t0, t1) in [(0.05, 0.83), (0.2, 0.4), (0.0, 0.1), (0.35, 0.36)] {
+            let (mut plain, mut made) = (Vec::new(), Vec::new());
+            g.stream_landings(&other, t0, t1, |l| plain.push(l));
+            g.stream_landings_kept(&mut kept, &other, t0, t1, |l| made.push(l));
+            assert!(!plain.is_empty());
+            assert_eq!(plain, made, "({t0}, {t1}]");
+        }
     }
 }

@@ -76,9 +76,8 @@ struct Stream {
     rect: GroundRect,
     /// The share of a drawn cell's other sizes the stream supplies.
     supplement: f64,
-    /// Mean drops of a cell in a slot, and the chance of none.
-    mean: f64,
-    none: f64,
+    /// The counts of drops a cell has in a slot.
+    counts: PoissonTable,
     /// Cells along x and y, slots.
     x: std::ops::Range<i64>,
     y: std::ops::Range<i64>,
@@ -108,15 +107,64 @@ pub struct StreamSlots {
     spare: Vec<SlotLandings>,
 }
 
-/// One slot's landings, cell after cell: cell c's are `landings[starts[c]..starts[c + 1]]`.
+/// One slot's landings, cell after cell (cell c's are `starts[c]..starts[c + 1]`), a field
+/// to an array: a frame reads each landing's time, and the position of those in its window
+/// only (most of a slot's landings fall in another frame), so it streams through a third of
+/// the memory a whole landing would cost it.
 #[derive(Debug, Clone)]
 struct SlotLandings {
     slot: i64,
-    landings: Vec<Landing>,
-    /// Each landing's time, s: what a frame's window is matched against, read without the
-    /// rest of the landing (most of a slot's landings fall in another frame).
+    /// Each landing's time, s: what a frame's window is matched against.
     times_s: Vec<f64>,
+    positions_m: Vec<DVec2>,
+    ids: Vec<u64>,
+    size_qs: Vec<f64>,
     starts: Vec<u32>,
+    /// The landings in the window of the last call, `times_s`' indices in order.
+    picked: Vec<u32>,
+}
+
+impl SlotLandings {
+    fn clear(&mut self) {
+        self.times_s.clear();
+        self.positions_m.clear();
+        self.ids.clear();
+        self.size_qs.clear();
+        self.starts.clear();
+    }
+
+    fn push(&mut self, l: Landing) {
+        self.times_s.push(l.time_s);
+        self.positions_m.push(l.position_m);
+        self.ids.push(l.id);
+        self.size_qs.push(l.size_q);
+    }
+
+    /// Picks the landings with time in (t0_s, t1_s], in order, into `picked`: without a
+    /// branch on each time (a slot's times are in no order, so a branch on them would be
+    /// mispredicted at every other landing).
+    fn pick(&mut self, t0_s: f64, t1_s: f64) {
+        self.picked.clear();
+        self.picked.resize(self.times_s.len(), 0);
+        let picked = self.picked.as_mut_slice();
+        let mut n = 0;
+        for (i, &t) in self.times_s.iter().enumerate() {
+            picked[n] = i as u32;
+            n += (t > t0_s && t <= t1_s) as usize;
+        }
+        self.picked.truncate(n);
+    }
+
+    /// Landing `i`, as [`SlotLandings::push`] was handed it.
+    fn landing(&self, i: usize) -> Landing {
+        Landing {
+            id: self.ids[i],
+            pass: self.slot as u32,
+            time_s: self.times_s[i],
+            position_m: self.positions_m[i],
+            size_q: self.size_qs[i],
+        }
+    }
 }
 
 /// An axis-aligned rectangle of the ground z = 0, m.
@@ -453,31 +501,36 @@ impl GroundRain {
             if kept.slots.iter().all(|s| s.slot != slot) {
                 let mut made = kept.spare.pop().unwrap_or_else(|| SlotLandings {
                     slot,
-                    landings: Vec::new(),
                     times_s: Vec::new(),
+                    positions_m: Vec::new(),
+                    ids: Vec::new(),
+                    size_qs: Vec::new(),
                     starts: Vec::new(),
+                    picked: Vec::new(),
                 });
                 made.slot = slot;
-                made.landings.clear();
-                made.times_s.clear();
-                made.starts.clear();
+                made.clear();
                 made.starts.push(0);
                 for cell in stream.cells() {
-                    self.cell_slot(&stream, cell, slot, |l| made.landings.push(l));
-                    made.starts.push(made.landings.len() as u32);
+                    self.cell_slot(&stream, cell, slot, |l| made.push(l));
+                    made.starts.push(made.times_s.len() as u32);
                 }
-                made.times_s.extend(made.landings.iter().map(|l| l.time_s));
                 kept.slots.push(made);
             }
         }
         kept.slots.sort_by_key(|s| s.slot);
+        for s in &mut kept.slots {
+            s.pick(t0_s, t1_s);
+        }
+        let mut next = vec![0usize; kept.slots.len()];
         for c in 0..stream.cells().count() {
-            for s in &kept.slots {
-                let (a, b) = (s.starts[c] as usize, s.starts[c + 1] as usize);
-                for (k, &t) in s.times_s[a..b].iter().enumerate() {
-                    if t > t0_s && t <= t1_s {
-                        f(s.landings[a + k])
-                    }
+            for (s, next) in kept.slots.iter().zip(&mut next) {
+                let b = s.starts[c + 1];
+                while let Some(&i) = s.picked.get(*next)
+                    && i < b
+                {
+                    f(s.landing(i as usize));
+                    *next += 1;
                 }
             }
         }
@@ -502,8 +555,7 @@ impl GroundRain {
         Some(Stream {
             rect: *rect,
             supplement,
-            mean,
-            none: (-mean).exp(),
+            counts: PoissonTable::new(mean, (-mean).exp()),
             x: lo.x as i64..hi.x as i64,
             y: lo.y as i64..hi.y as i64,
             slots: (t0_s / SLOT_S).floor() as i64..(t1_s / SLOT_S).ceil() as i64,
@@ -524,7 +576,7 @@ impl GroundRain {
             pcg_hash(pcg_hash(pcg_hash(self.seed ^ STREAM_SALT) ^ ix as u32) ^ iy as u32)
                 ^ slot as u32,
         );
-        let n = poisson(stream.mean, stream.none, unit_hashed(key, 0));
+        let n = stream.counts.count(unit_hashed(key, 0));
         for j in 0..n {
             let k = 8 * (j + 1);
             let time_s = (slot as f64 + unit_hashed(key, k)) * SLOT_S;
@@ -618,8 +670,41 @@ fn unit_hashed(key: u32, k: u32) -> f64 {
     (pcg_hash(key ^ inner) >> 8) as f64 * (1.0 / 16_777_216.0)
 }
 
+/// [`poisson`]'s cumulative sums for one mean, made once: the same counts, without its
+/// division at every step for each of a slot's tens of thousands of cells.
+#[derive(Debug, Clone)]
+struct PoissonTable {
+    /// The cumulative sum after each count, up to where the terms reach zero.
+    cdf: Vec<f64>,
+}
+
+impl PoissonTable {
+    /// The sums [`poisson`] makes for `mean` and `none` (the same operations in order).
+    fn new(mean: f64, none: f64) -> PoissonTable {
+        let (mut p, mut cdf) = (none, vec![none]);
+        let mut n = 0;
+        while p > 0.0 {
+            n += 1;
+            p *= mean / n as f64;
+            cdf.push(cdf[n - 1] + p);
+        }
+        // The last sum's term is zero: poisson stops there whatever u is.
+        cdf.pop();
+        PoissonTable { cdf }
+    }
+
+    /// [`poisson`]'s count for `u`.
+    fn count(&self, u: f64) -> u32 {
+        self.cdf
+            .iter()
+            .position(|&c| u < c)
+            .unwrap_or(self.cdf.len()) as u32
+    }
+}
+
 /// The Poisson count of mean `mean` at quantile `u` (inversion; `mean` is a few); `none`:
-/// e^−mean, the chance of none.
+/// e^−mean, the chance of none: the plain form of [`PoissonTable::count`].
+#[cfg(test)]
 fn poisson(mean: f64, none: f64, u: f64) -> u32 {
     let mut p = none;
     let mut cdf = p;
@@ -676,6 +761,28 @@ mod tests {
                 let i = ((p - origin) / cell).floor();
                 let hashed = cells.get(&(i.x as i64, i.y as i64)).copied();
                 assert_eq!(drawn.cut_at(p), hashed, "{p}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_poisson_table_counts_as_the_sums() {
+        for mean in [0.0f64, 1e-3, 0.7, 8.0, 37.5] {
+            let table = PoissonTable::new(mean, (-mean).exp());
+            for i in 0..100_000u32 {
+                let u = unit(pcg_hash(i), 0);
+                assert_eq!(
+                    table.count(u),
+                    poisson(mean, (-mean).exp(), u),
+                    "{mean} {u}"
+                );
+            }
+            for u in [0.0, 1.0 - 1.0 / 16_777_216.0, 1.0, 2.0] {
+                assert_eq!(
+                    table.count(u),
+                    poisson(mean, (-mean).exp(), u),
+                    "{mean} {u}"
+                );
             }
         }
     }
