@@ -161,7 +161,7 @@ impl<'a> Ground<'a> {
     }
 
     /// The environment's radiance from unit direction `dir`, clamped at 0.
-    #[inline]
+    #[inline(always)]
     pub(super) fn sky(&self, dir: Vec3) -> Vec3 {
         let b = basis16_cartesian_f32(dir.x, dir.y, dir.z);
         let mut c = Vec3::ZERO;
