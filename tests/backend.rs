@@ -112,13 +112,19 @@ fn camera(format: FrameFormat) -> Camera {
 
 /// No drops over `format`'s picture.
 fn dry(format: FrameFormat) -> RainSetup {
+    let rain = RainConfig {
+        rate_mm_per_h: 0.0,
+        ..RainConfig::default()
+    };
+    planned(&camera(format), &rain, format)
+}
+
+/// `rain` seen by `camera` over `format`'s upright picture at a 1/50 s exposure.
+fn planned(camera: &Camera, rain: &RainConfig, format: FrameFormat) -> RainSetup {
     rain_composite::shot::rain::plan(
-        &camera(format),
+        camera,
         &CameraConfig::default(),
-        &RainConfig {
-            rate_mm_per_h: 0.0,
-            ..RainConfig::default()
-        },
+        rain,
         1.0 / 50.0,
         0,
         (format.width, format.height),
@@ -1013,17 +1019,7 @@ fn compositor_rain_on_both_back_ends_agrees() {
         ..RainConfig::default()
     };
     for mattes in [false, true] {
-        let setup = rain_composite::shot::rain::plan(
-            &camera,
-            &CameraConfig::default(),
-            &rain,
-            1.0 / 50.0,
-            0,
-            (format.width, format.height),
-        )
-        .map(RainSetup::pack)
-        .expect("rain")
-        .with_mattes(mattes.then(atlas));
+        let setup = planned(&camera, &rain, format).with_mattes(mattes.then(atlas));
         let mut p = params(&setup, Haze::Scene);
         p.time_frac_s = 0.4;
         let render = |backend| {
@@ -2197,17 +2193,7 @@ fn compositor_rain_passes_untouched_tiles_through() {
         rate_mm_per_h: 0.5,
         ..RainConfig::default()
     };
-    let setup = rain_composite::shot::rain::plan(
-        &camera(format),
-        &CameraConfig::default(),
-        &rain,
-        1.0 / 50.0,
-        0,
-        (format.width, format.height),
-    )
-    .map(RainSetup::pack)
-    .expect("rain")
-    .with_mattes(Some(atlas()));
+    let setup = planned(&camera(format), &rain, format).with_mattes(Some(atlas()));
     let mut p = params(&setup, Haze::None);
     p.time_frac_s = 0.4;
     let render = |pass: bool| {

@@ -281,7 +281,7 @@ impl RainSetup {
 }
 
 /// The camera's fields of `p`: its centre, focal length and rotation.
-fn set_camera(p: &mut RainParams, camera: &Camera) {
+pub(crate) fn set_camera(p: &mut RainParams, camera: &Camera) {
     let r = camera.world_from_camera.transpose();
     let row = |k: usize| {
         let v = r.row(k);

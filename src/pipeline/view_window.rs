@@ -216,15 +216,7 @@ mod tests {
     fn params_of(camera: &Camera) -> RainParams {
         let mut p = bytemuck::Zeroable::zeroed();
         let p: &mut RainParams = &mut p;
-        let r = camera.world_from_camera.transpose();
-        let row = |k: usize| {
-            let v = r.row(k);
-            [v.x as f32, v.y as f32, v.z as f32, 0.0]
-        };
-        p.camera_from_world_0 = row(0);
-        p.camera_from_world_1 = row(1);
-        p.camera_from_world_2 = row(2);
-        p.focal_px = camera.focal_px() as f32;
+        crate::gpu::uniforms::set_camera(p, camera);
         let c = camera.principal_px();
         p.principal_px = [c.x as f32, c.y as f32];
         p.coded_from_display = [1.0, 0.0, 0.0, 1.0];
