@@ -187,15 +187,25 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
                 return;
             }
             let m = w - 1;
-            let mut columns: [Vec<i64>; 6] = std::array::from_fn(|_| vec![0i64; m]);
+            let mut columns = [vec![0i64; m], vec![0i64; m], vec![0i64; m], vec![0i64; m]];
+            // Cb and Cr summed per chroma column over the band's rows (each chroma row as many
+            // times as luma rows lie on it), spread to the luma columns per point below.
+            let mut chroma = [vec![0i64; chroma_w], vec![0i64; chroma_w]];
+            let mut chroma_row = Vec::new();
+            for r in (lo >> sy)..=((hi - 1) >> sy) {
+                let times = (hi.min((r + 1) << sy) - lo.max(r << sy)) as i64;
+                for (i, sums) in chroma.iter_mut().enumerate() {
+                    plane_row(frame, i + 1, r, chroma_w, &mut chroma_row);
+                    for (sum, v) in sums.iter_mut().zip(&chroma_row) {
+                        *sum += times * v;
+                    }
+                }
+            }
             let (mut row, mut below) = (Vec::new(), Vec::new());
-            let (mut cb_row, mut cr_row) = (Vec::new(), Vec::new());
             plane_row(frame, 0, lo, w, &mut row);
             for y in lo..hi {
                 plane_row(frame, 0, y + 1, w, &mut below);
-                plane_row(frame, 1, y >> sy, chroma_w, &mut cb_row);
-                plane_row(frame, 2, y >> sy, chroma_w, &mut cr_row);
-                let [xx, yy, xy, luma, cb, cr] = &mut columns;
+                let [xx, yy, xy, luma] = &mut columns;
                 for x in 0..m {
                     let v = row[x];
                     let (gx, gy) = (row[x + 1] - v, below[x] - v);
@@ -203,10 +213,6 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
                     yy[x] += gy * gy;
                     xy[x] += gx * gy;
                     luma[x] += v;
-                }
-                for x in 0..m {
-                    cb[x] += cb_row[x >> sx];
-                    cr[x] += cr_row[x >> sx];
                 }
                 std::mem::swap(&mut row, &mut below);
             }
@@ -221,15 +227,17 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
                 };
                 if x0 < x1 {
                     let sum = |col: &[i64]| col[x0..x1].iter().sum::<i64>() as f64;
-                    let [xx, yy, xy, luma, cb, cr] = &columns;
+                    let spread = |col: &[i64]| (x0..x1).map(|x| col[x >> sx]).sum::<i64>() as f64;
+                    let [xx, yy, xy, luma] = &columns;
+                    let [cb, cr] = &chroma;
                     *s = [
                         sum(xx),
                         sum(yy),
                         sum(xy),
                         (x1 - x0) as f64 * rows,
                         sum(luma),
-                        sum(cb),
-                        sum(cr),
+                        spread(cb),
+                        spread(cr),
                     ];
                 }
             }
