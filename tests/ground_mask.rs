@@ -646,26 +646,68 @@ fn dusk_sky(d: DVec3) -> [f64; 3] {
     ]
 }
 
-/// What is below the horizon in [`dusk_shore`].
+/// An overcast sky: brighter toward the horizon, the same in every azimuth (nothing for the
+/// water to show but the brightness its Fresnel factor lends), at the direction `d` (world,
+/// unit).
+fn overcast_sky(d: DVec3) -> [f64; 3] {
+    let up = (d.z.max(0.0).asin() / 0.7).min(1.0);
+    let v = 0.8 - 0.14 * up;
+    [v * 0.97, v, v * 1.04]
+}
+
+/// The sky over the shore.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Sky {
+    /// [`dusk_sky`]: a glow round a low sun, islands on the horizon.
+    Dusk,
+    /// [`overcast_sky`].
+    Overcast,
+}
+
+impl Sky {
+    fn at(self, d: DVec3) -> [f64; 3] {
+        match self {
+            Sky::Dusk => dusk_sky(d),
+            Sky::Overcast => overcast_sky(d),
+        }
+    }
+}
+
+/// What is below the horizon in [`shore`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Below {
-    /// A rippled sea mirroring the sky.
-    Sea,
+    /// A rippled sea mirroring the sky, its swells' slope amplitude.
+    Sea(f64),
     /// A dry road of asphalt.
     Road,
 }
 
-/// The sunset over `below`, seen by `camera`: R'G'B' (0–1), 3 × 3 samples a pixel, and
-/// whether each pixel shows the ground. The sea is a Fresnel mirror (n = 1.33) over dark water,
-/// its slopes a few long swells, so the sun's reflection stretches into a column.
-fn dusk_shore(camera: &Camera, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<bool>) {
+/// The swells' slope amplitude of a calm sea and of a choppier one (the sun's column broken
+/// into glints, the islands' reflections into texture).
+const CALM: f64 = 0.005;
+const CHOPPY: f64 = 0.012;
+
+/// `sky` over `below`, seen by `camera`: R'G'B' (0–1), 3 × 3 samples a pixel, and whether
+/// each pixel shows the ground. The sea is a Fresnel mirror (n = 1.33) over dark water, the
+/// sky's and the water's light added in linear light, its slopes a few long swells, so the
+/// sun's reflection stretches into a column.
+fn shore(camera: &Camera, sky: Sky, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<bool>) {
+    use rain_composite::video::color::{Transfer, eotf_signed, oetf_signed};
     let eye = camera.position_m;
+    let slope_amplitude = match below {
+        Below::Sea(a) => a,
+        Below::Road => 0.0,
+    };
     let swells: Vec<(DVec2, f64, f64)> = (0..5)
         .map(|k| {
             let angle = std::f64::consts::TAU * uniform(seed, 30 + k);
             let wavelength_m = 1.5 + 4.0 * uniform(seed, 40 + k);
             let k_vec = DVec2::new(angle.cos(), angle.sin()) * std::f64::consts::TAU / wavelength_m;
-            (k_vec, std::f64::consts::TAU * uniform(seed, 50 + k), 0.005)
+            (
+                k_vec,
+                std::f64::consts::TAU * uniform(seed, 50 + k),
+                slope_amplitude,
+            )
         })
         .collect();
     let mut rgb = Vec::with_capacity((W * H) as usize);
@@ -685,7 +727,7 @@ fn dusk_shore(camera: &Camera, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<b
                     let q = eye + (eye.z / -r.z) * r;
                     match below {
                         Below::Road => [asphalt(q, seed); 3],
-                        Below::Sea => {
+                        Below::Sea(_) => {
                             // The surface's normal tilted by the swells' slopes.
                             let slope = swells.iter().fold(DVec2::ZERO, |acc, (k, phase, a)| {
                                 acc + *k / k.length() * a * (k.dot(q.truncate()) + phase).cos()
@@ -695,13 +737,17 @@ fn dusk_shore(camera: &Camera, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<b
                             m.z = m.z.max(1e-4);
                             let cos_i = (-r.dot(n)).clamp(0.0, 1.0);
                             let f = 0.02 + 0.98 * (1.0 - cos_i).powi(5);
-                            let sky = dusk_sky(m.normalize());
+                            let sky = sky.at(m.normalize());
                             let deep = [0.03, 0.04, 0.05];
-                            [0, 1, 2].map(|i| f * sky[i] + (1.0 - f) * deep[i])
+                            let lin = |v: f64| eotf_signed(Transfer::Bt709, v);
+                            [0, 1, 2].map(|i| {
+                                let l = f * lin(sky[i]) + (1.0 - f) * lin(deep[i]);
+                                oetf_signed(Transfer::Bt709, l)
+                            })
                         }
                     }
                 } else {
-                    dusk_sky(r)
+                    sky.at(r)
                 };
                 (0..3).for_each(|i| sum[i] += c[i] / 9.0);
             }
@@ -716,11 +762,12 @@ fn dusk_shore(camera: &Camera, below: Below, seed: u64) -> (Vec<[f64; 3]>, Vec<b
 /// Poses over the shore: field of view (rad), tilt and roll (degrees), non-integer.
 const SHORE_POSES: [(f64, f64, f64); 2] = [(1.1, 4.3, 1.7), (0.95, 2.6, -2.4)];
 
-/// A sea that mirrors the sky is water already: the wet ground and the puddles leave it as it
-/// was (all but a few of its pixels within a code), where without the water rule they wash it
-/// over; the same sky over a dry road still wets it.
-#[test]
-fn a_sea_mirroring_the_sky_is_not_wetted_but_a_road_under_it_is() {
+/// Of `sky` over `below` at each shore pose: the ground pixels away from the horizon and the
+/// picture's edges, those the wet ground and the puddles change by over a code with the mask,
+/// those they change with the mask found without the mirrors' rays (no water rule), and the
+/// largest change (codes).
+fn shore_changes(sky: Sky, below: Below) -> Vec<(usize, usize, usize, f64)> {
+    let mut out = Vec::new();
     for (n, pose) in SHORE_POSES.into_iter().enumerate() {
         let cam = camera(pose);
         let setup = dry_ground(&cam, 0).with_wetting(Some(drying()));
@@ -733,53 +780,75 @@ fn a_sea_mirroring_the_sky_is_not_wetted_but_a_road_under_it_is() {
                 ..*v
             })
             .collect();
-        for below in [Below::Sea, Below::Road] {
-            let (rgb, ground) = dusk_shore(&cam, below, 40 + n as u64);
-            let f = pictures::bt709_420_from_rgb(W, H, &rgb);
-            let mask = detect(&f, grid(), TopEdge::Top, &views);
-            let blind = detect(&f, grid(), TopEdge::Top, &no_mirror);
-            let dry = yuv_to_rgb::yuv_to_rgb(&f, &p);
-            let wet = wet_picture(&f, &p, Some(&mask));
-            let washed = wet_picture(&f, &p, Some(&blind));
-            let inside = interior(&ground, (W, H), 12);
-            let (mut total, mut changed, mut changed_blind, mut worst) = (0usize, 0, 0, 0.0f64);
-            for i in 0..(W * H) as usize {
-                if !inside[i] || !ground[i] {
-                    continue;
-                }
-                let diff =
-                    |a: &[f64; 3]| (0..3).map(|k| (a[k] - dry[i][k]).abs()).fold(0.0, f64::max);
-                total += 1;
-                changed += usize::from(diff(&wet[i]) > 1.0 / 255.0);
-                changed_blind += usize::from(diff(&washed[i]) > 1.0 / 255.0);
-                worst = worst.max(diff(&wet[i]));
+        let (rgb, ground) = shore(&cam, sky, below, 40 + n as u64);
+        let f = pictures::bt709_420_from_rgb(W, H, &rgb);
+        let mask = detect(&f, grid(), TopEdge::Top, &views);
+        let blind = detect(&f, grid(), TopEdge::Top, &no_mirror);
+        let dry = yuv_to_rgb::yuv_to_rgb(&f, &p);
+        let wet = wet_picture(&f, &p, Some(&mask));
+        let washed = wet_picture(&f, &p, Some(&blind));
+        let inside = interior(&ground, (W, H), 12);
+        let (mut total, mut changed, mut changed_blind, mut worst) = (0usize, 0, 0, 0.0f64);
+        for i in 0..(W * H) as usize {
+            if !inside[i] || !ground[i] {
+                continue;
             }
-            eprintln!(
-                "pose {pose:?}, {below:?}: {changed} of {total} ground pixels changed by over a \
-                 code ({changed_blind} without the mirror), worst {:.1} codes",
-                worst * 255.0
-            );
-            assert!(total > 3000, "{total}");
-            match below {
-                Below::Sea => {
-                    assert!(
-                        (changed as f64) < 0.01 * total as f64,
-                        "sea wetted: {changed} of {total}"
-                    );
-                    assert!(
-                        worst < 4.0 / 255.0,
-                        "sea changed by {} codes",
-                        worst * 255.0
-                    );
-                    assert!(changed_blind as f64 > 0.1 * total as f64, "{changed_blind}");
-                }
-                Below::Road => {
-                    assert!(
-                        changed as f64 >= 0.9 * total as f64,
-                        "road wet: {changed} of {total}"
-                    );
-                }
-            }
+            let diff = |a: &[f64; 3]| (0..3).map(|k| (a[k] - dry[i][k]).abs()).fold(0.0, f64::max);
+            total += 1;
+            changed += usize::from(diff(&wet[i]) > 1.0 / 255.0);
+            changed_blind += usize::from(diff(&washed[i]) > 1.0 / 255.0);
+            worst = worst.max(diff(&wet[i]) * 255.0);
         }
+        eprintln!(
+            "pose {pose:?}, {sky:?} sky, {below:?}: {changed} of {total} ground pixels changed by \
+             over a code ({changed_blind} without the mirror), worst {worst:.1} codes"
+        );
+        assert!(total > 3000, "{total}");
+        out.push((total, changed, changed_blind, worst));
     }
+    out
+}
+
+/// A sea is left as it was (all but a few of its pixels within a code, none changed by 4
+/// codes), where without the water rule the wet ground and the puddles wash over a tenth of it.
+fn sea_is_left(changes: &[(usize, usize, usize, f64)]) {
+    for &(total, changed, changed_blind, worst) in changes {
+        assert!(
+            (changed as f64) < 0.01 * total as f64,
+            "sea wetted: {changed} of {total}"
+        );
+        assert!(worst < 4.0, "sea changed by {worst} codes");
+        assert!(changed_blind as f64 > 0.1 * total as f64, "{changed_blind}");
+    }
+}
+
+/// A road is wetted: at least 90 % of its pixels.
+fn road_wets(changes: &[(usize, usize, usize, f64)]) {
+    for &(total, changed, _, _) in changes {
+        assert!(
+            changed as f64 >= 0.9 * total as f64,
+            "road wet: {changed} of {total}"
+        );
+    }
+}
+
+/// A sea that mirrors the sky is water already: the wet ground and the puddles leave it as it
+/// was, where without the water rule they wash it over; the same sky over a dry road still
+/// wets it.
+#[test]
+fn a_sea_mirroring_the_sky_is_not_wetted_but_a_road_under_it_is() {
+    sea_is_left(&shore_changes(Sky::Dusk, Below::Sea(CALM)));
+    road_wets(&shore_changes(Sky::Dusk, Below::Road));
+}
+
+/// A choppier sea, whose swells break the islands' reflections into texture under rows of
+/// uniform sky, and a sea under an overcast sky, which shows no feature to correlate with but
+/// the brightness its Fresnel factor lends it toward the horizon, are left as they were; a dry
+/// road under the overcast sky still wets.
+#[test]
+fn a_choppy_sea_and_a_sea_under_a_featureless_sky_are_not_wetted() {
+    sea_is_left(&shore_changes(Sky::Dusk, Below::Sea(CHOPPY)));
+    sea_is_left(&shore_changes(Sky::Overcast, Below::Sea(CALM)));
+    sea_is_left(&shore_changes(Sky::Overcast, Below::Sea(CHOPPY)));
+    road_wets(&shore_changes(Sky::Overcast, Below::Road));
 }

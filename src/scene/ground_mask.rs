@@ -62,6 +62,7 @@ use rayon::prelude::*;
 use super::sky::{SkyGrid, TopEdge};
 use super::water;
 use crate::video::YuvFrame;
+use crate::video::color::eotf_signed;
 
 /// Smallest RMS luma gradient between neighbouring pixels, 8-bit codes, of a block with
 /// structure: compressed noise on a smooth wall is one or two codes; the edge of a window or a
@@ -113,6 +114,8 @@ pub struct PointView {
     /// Where the ground, were it a mirror, shows the sky: the coded pixel of the ray reflected
     /// in the ground plane (`None` above the horizon or behind the camera).
     pub mirror_px: Option<[f32; 2]>,
+    /// The sine of the angle its ray dips below the horizon (0 at or above it).
+    pub sin_depression: f32,
 }
 
 /// Each grid point's sums over its block (the pixels x, y with (x + c/2) / c on the point,
@@ -347,6 +350,19 @@ fn seeds(bottom: &[usize], t: &[[f32; 6]], texture: &[f32]) -> Vec<usize> {
         .collect()
 }
 
+/// Mean lumas (8-bit codes) of `frame`'s blocks as linear light through its range and
+/// transfer (white 1), as a grey of that luma.
+fn linear_luma(frame: &YuvFrame, luma: &[f32]) -> Vec<f32> {
+    let s = frame.color.range_scale();
+    let from_8bit = ((1u64 << frame.format.bit_depth) - 1) as f64 / 255.0;
+    luma.iter()
+        .map(|&l| {
+            let e = (f64::from(l) * from_8bit - s.y_offset) / s.y_scale;
+            eotf_signed(frame.color.transfer, e) as f32
+        })
+        .collect()
+}
+
 /// The ground's weight at each grid point of `frame` (row-major over `grid`, 0–1; read
 /// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
 /// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
@@ -422,8 +438,18 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     ring.into_iter().for_each(|k| ground[k] = true);
     // A ground that mirrors the sky is water already: out of the mask, softly.
     let luma: Vec<f32> = t.iter().map(|t| t[3]).collect();
+    let linear = linear_luma(frame, &luma);
     let mirror: Vec<Option<[f32; 2]>> = view.iter().map(|v| v.mirror_px).collect();
-    let (wet, _) = water::weights(grid, top, &luma, &texture, &ground, &mirror);
+    let sin_depression: Vec<f32> = view.iter().map(|v| v.sin_depression).collect();
+    let points = water::Points {
+        luma: &luma,
+        linear: &linear,
+        texture: &texture,
+        ground: &ground,
+        mirror: &mirror,
+        sin_depression: &sin_depression,
+    };
+    let (wet, _, _) = water::weights(grid, top, points);
     (0..n)
         .map(|k| {
             let open = f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m])));
@@ -558,6 +584,7 @@ mod tests {
                     below_horizon: ((k / grid.width) as f32 * 8.0) > horizon_px,
                     up_px: [0.0, -1.0],
                     mirror_px: None,
+                    sin_depression: 0.0,
                 })
                 .collect();
             let median_ms = |run: &dyn Fn()| {
