@@ -84,6 +84,11 @@ pub fn point_views(p: &RainParams, grid: SkyGrid) -> Vec<PointView> {
                 up_px: coded.map(|v| v as f32),
                 mirror_px: (below_horizon && q.z > 1e-9)
                     .then(|| project(p, q).to_array().map(|v| v as f32)),
+                sin_depression: if below_horizon {
+                    (-ray.z / ray.length()) as f32
+                } else {
+                    0.0
+                },
             }
         })
         .collect()

@@ -29,6 +29,11 @@
 //!   step is the incoherent part of a block's gradients: a block straddling one blurred edge
 //!   (a wall's base) has none. The ground behind a point follows each new point a quarter of
 //!   the way, so a ramp of blocks down a blurred step is no path of small steps.
+//! - **of the ground's colour**: its mean chroma within [`CHROMA_STEP_CODES`] of the ground's
+//!   behind it, which follows each new point only a tenth of the way. Shading changes a
+//!   surface's luma, hardly its chroma; a brick façade of the pavement's brightness (nothing
+//!   in its luma or its verticals tells its base) is a little redder, and its red comes in
+//!   over three or four blocks where the lens blurs its base.
 //! - **seeded where the bottom edge shows the ground**: the edge's open points whose luma is
 //!   within such a step of their median. The face of a wall or a car nearer than the ground
 //!   at the bottom edge, running down past the picture's edge (a wall a pan brings into view),
@@ -43,11 +48,12 @@
 //! window by [`crate::scene::sky::SkyTracker`], it fades instead of switching.
 //!
 //! Not explained: a smooth wall without a vertical edge reaching the ground's region, of the
-//! ground's brightness at its base (it is taken for ground: the lower metres of a brick façade
-//! near the horizon, which the scene's depth mostly fades); a wall covering most of the bottom
-//! edge (its face is taken for the ground there, and the road behind its base is cut off);
-//! and lines painted on the road straight ahead right below its vanishing point (upright, so
-//! a narrow dry lane along them).
+//! ground's brightness and colour at its base (it is taken for ground: a brick façade over a
+//! brick pavement); a wall covering most of the bottom edge (its face is taken for the ground
+//! there, and the road behind its base is cut off); lines painted on the road straight ahead
+//! right below its vanishing point (upright, so a narrow dry lane along them); and ground of
+//! another colour than the ground at the bottom edge's, beyond a sharp change (a red cycle lane
+//! across the road, a lawn): it stays dry.
 
 use std::collections::VecDeque;
 
@@ -56,6 +62,7 @@ use rayon::prelude::*;
 use super::sky::{SkyGrid, TopEdge};
 use super::water;
 use crate::video::YuvFrame;
+use crate::video::color::eotf_signed;
 
 /// Smallest RMS luma gradient between neighbouring pixels, 8-bit codes, of a block with
 /// structure: compressed noise on a smooth wall is one or two codes; the edge of a window or a
@@ -70,6 +77,11 @@ pub const UPRIGHT_SHARE: f32 = 0.62;
 /// Largest step of mean luma between neighbouring ground points beyond their texture, 8-bit
 /// codes: the shading of a road is gentle, the base of a wall or a kerb is a step.
 pub const STEP_CODES: f32 = 8.0;
+
+/// Largest step of mean chroma (the distance in Cb, Cr, 8-bit codes) between neighbouring
+/// ground points: shading leaves a grey road's chroma within a code or two a block; the base
+/// of a brick façade of the pavement's brightness, or a painted car's side, steps by 6–10.
+pub const CHROMA_STEP_CODES: f32 = 4.0;
 
 /// Whether wetness and puddles keep to the ground found in the frames (`ground.mask`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -102,41 +114,47 @@ pub struct PointView {
     /// Where the ground, were it a mirror, shows the sky: the coded pixel of the ray reflected
     /// in the ground plane (`None` above the horizon or behind the camera).
     pub mirror_px: Option<[f32; 2]>,
+    /// The sine of the angle its ray dips below the horizon (0 at or above it).
+    pub sin_depression: f32,
 }
 
 /// Each grid point's sums over its block (the pixels x, y with (x + c/2) / c on the point,
 /// less the last row and column, which have no forward step): gx², gy², gx·gy of the forward
-/// luma steps, pixels, luma (codes of the frame's depth). The plain reference of [`sums`],
-/// one pixel at a time.
+/// luma steps, pixels, luma, and the Cb and Cr samples under each pixel (codes of the frame's
+/// depth). The plain reference of [`sums`], one pixel at a time.
 #[cfg(test)]
-fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
+fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
+    let (sx, sy) = f.chroma.shift();
     let c = grid.cell_px as usize;
     let point = |x: usize| (x + c / 2) / c;
-    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    let mut sums = vec![[0.0f64; 7]; grid.len()];
     for (j, points) in sums.chunks_mut(grid.width).enumerate() {
         let (lo, hi) = ((j * c).saturating_sub(c / 2), (j * c + c - c / 2).min(h));
         for y in lo..hi.min(h.saturating_sub(1)) {
             for x in 0..w.saturating_sub(1) {
-                let v = f64::from(frame.sample(0, x as u32, y as u32));
-                let gx = f64::from(frame.sample(0, x as u32 + 1, y as u32)) - v;
-                let gy = f64::from(frame.sample(0, x as u32, y as u32 + 1)) - v;
+                let (xu, yu) = (x as u32, y as u32);
+                let v = f64::from(frame.sample(0, xu, yu));
+                let gx = f64::from(frame.sample(0, xu + 1, yu)) - v;
+                let gy = f64::from(frame.sample(0, xu, yu + 1)) - v;
                 let s = &mut points[point(x).min(grid.width - 1)];
                 s[0] += gx * gx;
                 s[1] += gy * gy;
                 s[2] += gx * gy;
                 s[3] += 1.0;
                 s[4] += v;
+                s[5] += f64::from(frame.sample(1, xu >> sx, yu >> sy));
+                s[6] += f64::from(frame.sample(2, xu >> sx, yu >> sy));
             }
         }
     }
     sums
 }
 
-/// Row `y` of the luma plane of `frame` as codes into `out` (`n` samples).
-fn luma_row(frame: &YuvFrame, y: usize, n: usize, out: &mut Vec<i64>) {
-    let p = &frame.planes[0];
+/// Row `y` of plane `i` of `frame` as codes into `out` (`n` samples).
+fn plane_row(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<i64>) {
+    let p = &frame.planes[i];
     let row = &p.data[y * p.stride..];
     out.clear();
     if frame.format.bytes_per_sample() == 1 {
@@ -153,11 +171,13 @@ fn luma_row(frame: &YuvFrame, y: usize, n: usize, out: &mut Vec<i64>) {
 /// [`sums_plain`] in integers: each row of points' band of pixel rows summed per column over
 /// whole rows (loops that vectorise), then each point's run of columns at once; the same
 /// sums, exact.
-fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
+fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
     let f = frame.format;
     let (w, h) = (f.width as usize, f.height as usize);
+    let (sx, sy) = f.chroma.shift();
+    let chroma_w = f.plane_size(1).0 as usize;
     let c = grid.cell_px as usize;
-    let mut sums = vec![[0.0f64; 5]; grid.len()];
+    let mut sums = vec![[0.0f64; 7]; grid.len()];
     if w < 2 {
         return sums;
     }
@@ -171,10 +191,23 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
             }
             let m = w - 1;
             let mut columns = [vec![0i64; m], vec![0i64; m], vec![0i64; m], vec![0i64; m]];
+            // Cb and Cr summed per chroma column over the band's rows (each chroma row as many
+            // times as luma rows lie on it), spread to the luma columns per point below.
+            let mut chroma = [vec![0i64; chroma_w], vec![0i64; chroma_w]];
+            let mut chroma_row = Vec::new();
+            for r in (lo >> sy)..=((hi - 1) >> sy) {
+                let times = (hi.min((r + 1) << sy) - lo.max(r << sy)) as i64;
+                for (i, sums) in chroma.iter_mut().enumerate() {
+                    plane_row(frame, i + 1, r, chroma_w, &mut chroma_row);
+                    for (sum, v) in sums.iter_mut().zip(&chroma_row) {
+                        *sum += times * v;
+                    }
+                }
+            }
             let (mut row, mut below) = (Vec::new(), Vec::new());
-            luma_row(frame, lo, w, &mut row);
+            plane_row(frame, 0, lo, w, &mut row);
             for y in lo..hi {
-                luma_row(frame, y + 1, w, &mut below);
+                plane_row(frame, 0, y + 1, w, &mut below);
                 let [xx, yy, xy, luma] = &mut columns;
                 for x in 0..m {
                     let v = row[x];
@@ -197,13 +230,17 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
                 };
                 if x0 < x1 {
                     let sum = |col: &[i64]| col[x0..x1].iter().sum::<i64>() as f64;
+                    let spread = |col: &[i64]| (x0..x1).map(|x| col[x >> sx]).sum::<i64>() as f64;
                     let [xx, yy, xy, luma] = &columns;
+                    let [cb, cr] = &chroma;
                     *s = [
                         sum(xx),
                         sum(yy),
                         sum(xy),
                         (x1 - x0) as f64 * rows,
                         sum(luma),
+                        spread(cb),
+                        spread(cr),
                     ];
                 }
             }
@@ -212,12 +249,14 @@ fn sums(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 5]> {
 }
 
 /// Each grid point's structure tensor: mean gx², gy², gx·gy over its block (8-bit codes²,
-/// coded axes), and its mean luma (8-bit codes), from `sums` of the frame ([`sums`]).
-fn tensors(frame: &YuvFrame, grid: SkyGrid, mut sums: Vec<[f64; 5]>) -> Vec<[f32; 4]> {
+/// coded axes), its mean luma, and its mean Cb and Cr less their neutral value (8-bit codes),
+/// from `sums` of the frame ([`sums`]).
+fn tensors(frame: &YuvFrame, grid: SkyGrid, mut sums: Vec<[f64; 7]>) -> Vec<[f32; 6]> {
     let f = frame.format;
     let h = f.height as usize;
     let c = grid.cell_px as usize;
     let to_8bit = 255.0 / ((1u64 << f.bit_depth) - 1) as f64;
+    let neutral = f64::from(1u32 << (f.bit_depth - 1));
     // Empty blocks past the bottom edge copy the point above them, past the right edge the
     // point left of them (the bottom edge's seeds are the picture's own bottom row).
     let first = |i: usize| (i * c).saturating_sub(c / 2);
@@ -236,13 +275,22 @@ fn tensors(frame: &YuvFrame, grid: SkyGrid, mut sums: Vec<[f64; 5]>) -> Vec<[f32
         .map(|s| {
             let n = s[3].max(1.0);
             let g = to_8bit * to_8bit / n;
-            [s[0] * g, s[1] * g, s[2] * g, s[4] * to_8bit / n].map(|v| v as f32)
+            let mean = |v: f64| v / n * to_8bit;
+            [
+                s[0] * g,
+                s[1] * g,
+                s[2] * g,
+                mean(s[4]),
+                mean(s[5] - neutral * s[3]),
+                mean(s[6] - neutral * s[3]),
+            ]
+            .map(|v| v as f32)
         })
         .collect()
 }
 
 /// Whether a block of structure tensor `t` has edges along the image direction `up`.
-fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
+fn upright(t: &[f32], up: [f32; 2]) -> bool {
     let energy = t[0] + t[1];
     if energy < UPRIGHT_ENERGY_CODES * UPRIGHT_ENERGY_CODES {
         return false;
@@ -262,11 +310,18 @@ fn upright(t: &[f32; 4], up: [f32; 2]) -> bool {
 /// a ramp of blocks down a blurred step (a wall's base, a kerb) is not.
 const FOLLOW: f32 = 0.25;
 
+/// The share of the way by which the ground's reference chroma moves to a newly reached
+/// point's: shading, which the luma's reference follows, leaves a surface's chroma nearly
+/// where it was, so the chroma keeps to the material the flood came from, and a façade whose
+/// red comes in over three or four blocks above the pavement (its base blurred) is the step
+/// it is.
+const FOLLOW_CHROMA: f32 = 0.1;
+
 /// A block's texture, 8-bit codes: twice the RMS gradient along its weaker direction, 2·√λ₋
 /// of its structure tensor (√2 times the RMS gradient of isotropic texture). A block that
 /// straddles one edge (a wall's base, a kerb, a shadow's rim) has its gradients all across it
 /// and no texture: the step it holds is not excused as the ground's own.
-fn texture_codes(t: &[f32; 4]) -> f32 {
+fn texture_codes(t: &[f32]) -> f32 {
     let half_trace = 0.5 * (t[0] + t[1]);
     let det = t[0] * t[1] - t[2] * t[2];
     let smaller = half_trace - (half_trace * half_trace - det).max(0.0).sqrt();
@@ -278,7 +333,7 @@ fn texture_codes(t: &[f32; 4]) -> f32 {
 /// points show it), and a point is a seed where its luma is within a step of it (its texture
 /// excusing as much as in the flood). The face of a wall or a car standing nearer than the
 /// ground at the bottom edge, run down past the picture's edge, is not a seed.
-fn seeds(bottom: &[usize], t: &[[f32; 4]], texture: &[f32]) -> Vec<usize> {
+fn seeds(bottom: &[usize], t: &[[f32; 6]], texture: &[f32]) -> Vec<usize> {
     if bottom.is_empty() {
         return Vec::new();
     }
@@ -292,6 +347,19 @@ fn seeds(bottom: &[usize], t: &[[f32; 4]], texture: &[f32]) -> Vec<usize> {
         .iter()
         .copied()
         .filter(|&k| (t[k][3] - luma).abs() <= STEP_CODES + rough.min(texture[k]))
+        .collect()
+}
+
+/// Mean lumas (8-bit codes) of `frame`'s blocks as linear light through its range and
+/// transfer (white 1), as a grey of that luma.
+fn linear_luma(frame: &YuvFrame, luma: &[f32]) -> Vec<f32> {
+    let s = frame.color.range_scale();
+    let from_8bit = ((1u64 << frame.format.bit_depth) - 1) as f64 / 255.0;
+    luma.iter()
+        .map(|&l| {
+            let e = (f64::from(l) * from_8bit - s.y_offset) / s.y_scale;
+            eotf_signed(frame.color.transfer, e) as f32
+        })
         .collect()
 }
 
@@ -327,18 +395,19 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     // The ground's luma and texture along the flood's path to each point (a quarter of the way
     // to each new point's own): a step is measured from the ground behind it, so the base of a
     // wall blurred over two or three blocks, each a part of the step, is still a step.
-    let texture: Vec<f32> = t.iter().map(texture_codes).collect();
-    let mut reference = vec![[0.0f32; 2]; n];
-    let passes = |reference: &[[f32; 2]], from: usize, to: usize| {
-        let [luma, rough] = reference[from];
+    let texture: Vec<f32> = t.iter().map(|t| texture_codes(t)).collect();
+    let mut reference = vec![[0.0f32; 4]; n];
+    let passes = |reference: &[[f32; 4]], from: usize, to: usize| {
+        let [luma, rough, cb, cr] = reference[from];
         (t[to][3] - luma).abs() <= STEP_CODES + rough.min(texture[to])
+            && (t[to][4] - cb).hypot(t[to][5] - cr) <= CHROMA_STEP_CODES
     };
     let mut ground = vec![false; n];
     let open_bottom: Vec<usize> = bottom.into_iter().filter(|&k| open[k]).collect();
     let mut queue: VecDeque<usize> = seeds(&open_bottom, &t, &texture).into();
     for &k in &queue {
         ground[k] = true;
-        reference[k] = [t[k][3], texture[k]];
+        reference[k] = [t[k][3], texture[k], t[k][4], t[k][5]];
     }
     while let Some(k) = queue.pop_front() {
         let (i, j) = (k % w, k / w);
@@ -351,11 +420,11 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
         for m in next.into_iter().flatten() {
             if open[m] && !ground[m] && passes(&reference, k, m) {
                 ground[m] = true;
-                let [luma, rough] = reference[k];
-                reference[m] = [
-                    luma + FOLLOW * (t[m][3] - luma),
-                    rough + FOLLOW * (texture[m] - rough),
-                ];
+                let own = [t[m][3], texture[m], t[m][4], t[m][5]];
+                reference[m] = std::array::from_fn(|i| {
+                    let follow = if i < 2 { FOLLOW } else { FOLLOW_CHROMA };
+                    reference[k][i] + follow * (own[i] - reference[k][i])
+                });
                 queue.push_back(m);
             }
         }
@@ -369,8 +438,18 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
     ring.into_iter().for_each(|k| ground[k] = true);
     // A ground that mirrors the sky is water already: out of the mask, softly.
     let luma: Vec<f32> = t.iter().map(|t| t[3]).collect();
+    let linear = linear_luma(frame, &luma);
     let mirror: Vec<Option<[f32; 2]>> = view.iter().map(|v| v.mirror_px).collect();
-    let (wet, _) = water::weights(grid, top, &luma, &texture, &ground, &mirror);
+    let sin_depression: Vec<f32> = view.iter().map(|v| v.sin_depression).collect();
+    let points = water::Points {
+        luma: &luma,
+        linear: &linear,
+        texture: &texture,
+        ground: &ground,
+        mirror: &mirror,
+        sin_depression: &sin_depression,
+    };
+    let (wet, _, _) = water::weights(grid, top, points);
     (0..n)
         .map(|k| {
             let open = f32::from(u8::from(ground[k] && neighbours8(k).all(|m| ground[m])));
@@ -386,51 +465,57 @@ mod tests {
     use crate::video::frame::{Chroma, FrameFormat};
 
     /// The block sums in integers over whole rows equal the plain per-pixel ones exactly, at
-    /// 8 and 10 bits, for sizes that are and are not multiples of the cell, and padded rows.
+    /// 8 and 10 bits, in 4:2:0, 4:2:2 and 4:4:4, for sizes that are and are not multiples of
+    /// the cell (odd ones with a chroma sample past the last luma pair), and padded rows.
     #[test]
     fn the_block_sums_equal_the_plain_ones() {
-        for (size, bit_depth, cell) in [
-            ((64u32, 48u32), 8u8, 8u32),
-            ((101, 37), 8, 8),
-            ((50, 29), 10, 8),
-            ((23, 17), 10, 5),
-            ((2, 2), 8, 8),
+        for (size, bit_depth, cell, chroma) in [
+            ((64u32, 48u32), 8u8, 8u32, Chroma::Cs420),
+            ((101, 37), 8, 8, Chroma::Cs420),
+            ((50, 29), 10, 8, Chroma::Cs420),
+            ((23, 17), 10, 5, Chroma::Cs422),
+            ((31, 19), 8, 8, Chroma::Cs444),
+            ((2, 2), 8, 8, Chroma::Cs420),
         ] {
             let format = FrameFormat {
                 width: size.0,
                 height: size.1,
-                chroma: Chroma::Cs420,
+                chroma,
                 bit_depth,
             };
             let mut f = YuvFrame::filled(format, ColorParams::bt709(bit_depth), [16, 128, 128]);
             // Rows padded past the picture, as decoders leave them.
             let bytes = format.bytes_per_sample();
-            let stride = format.packed_stride(0) + 3 * bytes;
             let max = (1u64 << bit_depth) - 1;
-            let mut data = vec![0u8; stride * size.1 as usize];
-            for y in 0..size.1 as usize {
-                for x in 0..size.0 as usize {
-                    let r = crate::rng::splitmix64((y as u64) << 20 ^ x as u64);
-                    let v = if (x / 7 + y / 5) % 2 == 0 {
-                        r % (max + 1)
-                    } else {
-                        (x as u64 * 3) % (max + 1)
-                    };
-                    let at = y * stride + x * bytes;
-                    if bytes == 2 {
-                        data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
-                    } else {
-                        data[at] = v as u8;
+            for (i, plane) in f.planes.iter_mut().enumerate() {
+                let (w, h) = format.plane_size(i);
+                let stride = format.packed_stride(i) + 3 * bytes;
+                let mut data = vec![0u8; stride * h as usize];
+                for y in 0..h as usize {
+                    for x in 0..w as usize {
+                        let r =
+                            crate::rng::splitmix64((i as u64) << 40 ^ (y as u64) << 20 ^ x as u64);
+                        let v = if (x / 7 + y / 5) % 2 == 0 {
+                            r % (max + 1)
+                        } else {
+                            (x as u64 * 3) % (max + 1)
+                        };
+                        let at = y * stride + x * bytes;
+                        if bytes == 2 {
+                            data[at..at + 2].copy_from_slice(&(v as u16).to_le_bytes());
+                        } else {
+                            data[at] = v as u8;
+                        }
                     }
                 }
+                plane.data = data;
+                plane.stride = stride;
             }
-            f.planes[0].data = data;
-            f.planes[0].stride = stride;
             let grid = SkyGrid::new(cell, size);
             assert_eq!(
                 sums(&f, grid),
                 sums_plain(&f, grid),
-                "{size:?} at {bit_depth} bits"
+                "{size:?} at {bit_depth} bits, {chroma:?}"
             );
         }
     }
@@ -499,6 +584,7 @@ mod tests {
                     below_horizon: ((k / grid.width) as f32 * 8.0) > horizon_px,
                     up_px: [0.0, -1.0],
                     mirror_px: None,
+                    sin_depression: 0.0,
                 })
                 .collect();
             let median_ms = |run: &dyn Fn()| {

@@ -22,10 +22,26 @@
 //!   sea seen from its shore measures 1–3 codes, cobbles, asphalt in daylight and grass 6–25;
 //! - the weights are spread by a 3 × 3 box, so the mask's edge at the shore is soft.
 //!
-//! Not explained: a sea under a featureless sky (nothing to correlate with, it wets as ground);
-//! smooth dry ground beside water under a structured sky (the evidence is the frame's, so it
-//! dries with the water); a street whose two sides mirror each other across the horizon, if its
-//! ground is also smooth (measured on the samples' streets: row medians 0.2–0.4, texture ≥ 6).
+//! A sky without features across azimuth (an overcast) leaves nothing to correlate, but water
+//! still shows it with the brightness its reflectance lends: near the horizon nearly all of the
+//! sky's, looking down 20° a tenth, straight down 2 % ([`fresnel`]), over the light from the
+//! water's body, while a dry ground's brightness keeps to its own albedo. So, in linear light:
+//!
+//! - each row's ground points give the mean of their luma and of their mirror's luma times the
+//!   reflectance at their ray's depression; a line is fitted through the rows' means
+//!   ([`MirrorFit`]). Water lies on a line of gain near 1 (the camera's tone curve moves it;
+//!   [`GAIN_RANGE`]) that explains the rows ([`FIT_R2_LO`] → [`FIT_R2_HI`] of their variance),
+//!   over rows whose mirrored light differs by [`MIN_FIT_SPREAD`] or more; a dry road lies on a
+//!   flat line (gain near 0), a street darkening toward the horizon on a falling one;
+//! - by that evidence a point is water where it is smooth, or where its neighbourhood along its
+//!   row is as bright as the line says (within [`FIT_OFF_LO`] → [`FIT_OFF_HI`]), as a choppy
+//!   sea's is on average though its swells break the reflection into texture.
+//!
+//! Not explained: smooth dry ground beside water (the evidence is the frame's, so it dries with
+//! the water); a street whose two sides mirror each other across the horizon, if its ground is
+//! also smooth (measured on the samples' streets: row medians 0.2–0.47, texture ≥ 6); a dry
+//! ground whose brightness happens to rise toward the horizon as a mirror's would (a glossy
+//! floor, a low sun's sheen); water seen where its mirror's sky lies outside the picture.
 
 use super::sky::{SkyGrid, TopEdge};
 
@@ -53,6 +69,36 @@ pub const SMOOTH_CODES: f32 = 4.0;
 
 /// Texture (8-bit codes) from which a point is too rough for water.
 pub const ROUGH_CODES: f32 = 8.0;
+
+/// The refractive index of water.
+pub const WATER_INDEX: f32 = 1.333;
+
+/// Fewest rows for the fit of the ground's brightness to a mirror's to count.
+pub const MIN_FIT_ROWS: usize = 4;
+
+/// Least ratio of the rows' most to least mirrored light for a fit: the reflectance must
+/// change over the rows, or a mirror is no different from a uniform ground.
+pub const MIN_FIT_SPREAD: f32 = 1.5;
+
+/// Share of the rows' variance the mirror's line explains at which the evidence starts.
+pub const FIT_R2_LO: f32 = 0.8;
+
+/// … and from which the ground is taken for water.
+pub const FIT_R2_HI: f32 = 0.9;
+
+/// The gains of the mirror's line that count (water under the camera's own tone curve).
+pub const GAIN_RANGE: (f32, f32) = (0.5, 2.0);
+
+/// Least intercept of the mirror's line that counts (linear, white 1): the water's body adds
+/// light to what it reflects, it takes none away.
+pub const MIN_BODY: f32 = -0.05;
+
+/// Relative difference of a neighbourhood's linear luma from the mirror's line up to which it
+/// is water …
+pub const FIT_OFF_LO: f32 = 0.2;
+
+/// … and from which it is not.
+pub const FIT_OFF_HI: f32 = 0.4;
 
 fn ramp(lo: f32, hi: f32, x: f32) -> f32 {
     ((x - lo) / (hi - lo)).clamp(0.0, 1.0)
@@ -112,26 +158,91 @@ fn counted(pairs: &[(f32, f32)], fewest: usize) -> Option<f32> {
     (sky_rms >= MIN_SKY_CODES).then_some(r)
 }
 
-/// Each point's weight as water, 0–1 (row-major over `grid`), and the rows' median
-/// correlation the frame's evidence came from (`None` with too few rows): see the module's
-/// method. `luma` and `texture` (8-bit codes) and `ground` hold one entry per point, `mirror`
-/// the coded pixel of each point's reflected ray; `top` is the coded edge shown at the top.
+/// What the water rule reads of each grid point (one entry per point, row-major over the grid).
+#[derive(Debug, Clone, Copy)]
+pub struct Points<'a> {
+    /// Mean luma, 8-bit codes.
+    pub luma: &'a [f32],
+    /// The same as linear light (through the frame's transfer, white 1).
+    pub linear: &'a [f32],
+    /// Texture, 8-bit codes (twice the RMS gradient along the weaker direction).
+    pub texture: &'a [f32],
+    /// Whether the point is ground.
+    pub ground: &'a [bool],
+    /// The coded pixel of its ray reflected in the ground plane.
+    pub mirror: &'a [Option<[f32; 2]>],
+    /// The sine of the angle its ray dips below the horizon (0 at or above it).
+    pub sin_depression: &'a [f32],
+}
+
+/// The reflectance of still water (n = [`WATER_INDEX`]) to unpolarised light arriving at the
+/// cosine `cos_i` of its incidence (Fresnel's equations): 0.020 straight down, 1 at grazing.
+pub fn fresnel(cos_i: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin_t = (1.0 - cos_i * cos_i).sqrt() / WATER_INDEX;
+    let cos_t = (1.0 - sin_t * sin_t).max(0.0).sqrt();
+    let rs = (cos_i - WATER_INDEX * cos_t) / (cos_i + WATER_INDEX * cos_t);
+    let rp = (cos_t - WATER_INDEX * cos_i) / (cos_t + WATER_INDEX * cos_i);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// How a frame's ground follows a mirror's brightness: the ground's linear luma against the
+/// sky its mirrors show times the water's reflectance there, row means fitted by a line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MirrorFit {
+    /// The line's slope: 1 where the ground reflects the sky as water does.
+    pub gain: f32,
+    /// Its intercept: the light from the water's body.
+    pub body: f32,
+    /// The share of the rows' variance it explains.
+    pub r2: f32,
+    /// Rows fitted.
+    pub rows: usize,
+}
+
+impl MirrorFit {
+    /// The evidence for water, 0–1: a line through [`MIN_FIT_ROWS`] rows or more that explains
+    /// them ([`FIT_R2_LO`] → [`FIT_R2_HI`]) with a gain a camera's tone curve leaves near 1
+    /// ([`GAIN_RANGE`]) and an intercept not below [`MIN_BODY`].
+    pub fn evidence(&self) -> f32 {
+        let gain = (GAIN_RANGE.0..=GAIN_RANGE.1).contains(&self.gain);
+        if self.rows < MIN_FIT_ROWS || !gain || self.body < MIN_BODY {
+            return 0.0;
+        }
+        ramp(FIT_R2_LO, FIT_R2_HI, self.r2)
+    }
+
+    /// The linear luma water shows where its mirror's sky times its reflectance is `x`.
+    fn predict(&self, x: f32) -> f32 {
+        self.gain * x + self.body
+    }
+}
+
+/// Each point's weight as water, 0–1 (row-major over `grid`), the rows' median correlation
+/// the frame's evidence came from (`None` with too few rows), and the fit of the ground's
+/// brightness to a mirror's (`None` with too few rows): see the module's method. `top` is the
+/// coded edge shown at the top.
 pub fn weights(
     grid: SkyGrid,
     top: TopEdge,
-    luma: &[f32],
-    texture: &[f32],
-    ground: &[bool],
-    mirror: &[Option<[f32; 2]>],
-) -> (Vec<f32>, Option<f32>) {
+    points: Points,
+) -> (Vec<f32>, Option<f32>, Option<MirrorFit>) {
+    let Points {
+        luma,
+        linear,
+        texture,
+        ground,
+        mirror,
+        sin_depression,
+    } = points;
     let n = grid.len();
     let (w, h) = (grid.width, grid.height);
     let c = grid.cell_px as f32;
-    let mirror_luma = |k: usize| {
+    let mirror_at = |k: usize| {
         let [x, y] = mirror[k]?;
         let (i, j) = ((x / c).round(), (y / c).round());
         (i >= 0.0 && j >= 0.0 && (i as usize) < w && (j as usize) < h)
-            .then(|| luma[j as usize * w + i as usize])
+            .then(|| j as usize * w + i as usize)
     };
     let rows = rows(grid, top);
     // Each row's ground points with a mirror in the picture: (point, its luma, its mirror's).
@@ -140,7 +251,7 @@ pub fn weights(
         .map(|row| {
             row.iter()
                 .filter(|&&k| ground[k])
-                .filter_map(|&k| Some((k, luma[k], mirror_luma(k)?)))
+                .filter_map(|&k| Some((k, luma[k], luma[mirror_at(k)?])))
                 .collect()
         })
         .collect();
@@ -155,12 +266,17 @@ pub fn weights(
         median(correlations)
     };
     let evidence = found.map_or(0.0, |r| ramp(CORRELATION_LO, CORRELATION_HI, r));
-    if evidence <= 0.0 {
-        return (vec![0.0; n], found);
+    // Each ground point's mirrored sky times the water's reflectance there (linear light).
+    let lent = |k: usize| {
+        let m = mirror_at(k)?;
+        (sin_depression[k] > 0.0).then(|| fresnel(sin_depression[k]) * linear[m])
+    };
+    let fit = mirror_fit(&paired, linear, &lent);
+    let mirrored = fit.map_or(0.0, |f| f.evidence());
+    if evidence <= 0.0 && mirrored <= 0.0 {
+        return (vec![0.0; n], found, fit);
     }
-    // A point is water by its neighbourhood's mirroring (along its row, where the mirrors
-    // vary), or else by its smoothness.
-    let mut own: Vec<f32> = (0..n)
+    let smooth: Vec<f32> = (0..n)
         .map(|k| {
             if ground[k] {
                 1.0 - ramp(SMOOTH_CODES, ROUGH_CODES, texture[k])
@@ -169,12 +285,33 @@ pub fn weights(
             }
         })
         .collect();
+    // A point is water by its neighbourhood's mirroring (along its row, where the mirrors
+    // vary), or by its neighbourhood's brightness where a mirror's would be, or else by its
+    // smoothness.
+    let mut own: Vec<f32> = smooth.iter().map(|&s| s * evidence.max(mirrored)).collect();
     for row in &paired {
         for (m, &(k, _, _)) in row.iter().enumerate() {
             let window =
                 &row[m.saturating_sub(LOCAL_POINTS)..(m + LOCAL_POINTS + 1).min(row.len())];
-            if let Some(r) = counted(&pairs(window), LOCAL_POINTS + 1) {
-                own[k] = own[k].max(ramp(CORRELATION_LO, CORRELATION_HI, r));
+            if evidence > 0.0
+                && let Some(r) = counted(&pairs(window), LOCAL_POINTS + 1)
+            {
+                own[k] = own[k].max(evidence * ramp(CORRELATION_LO, CORRELATION_HI, r));
+            }
+            if let Some(f) = fit.filter(|_| mirrored > 0.0) {
+                let (mut x, mut y, mut count) = (0.0, 0.0, 0.0);
+                for &(j, _, _) in window {
+                    if let Some(l) = lent(j) {
+                        x += l;
+                        y += linear[j];
+                        count += 1.0;
+                    }
+                }
+                if count > LOCAL_POINTS as f32 {
+                    let expected = f.predict(x / count);
+                    let off = (y / count - expected).abs() / expected.max(1e-4);
+                    own[k] = own[k].max(mirrored * (1.0 - ramp(FIT_OFF_LO, FIT_OFF_HI, off)));
+                }
             }
         }
     }
@@ -190,10 +327,64 @@ pub fn weights(
                     sum += own[(y * wi + x) as usize];
                 }
             }
-            evidence * sum / 9.0
+            sum / 9.0
         })
         .collect();
-    (spread, found)
+    (spread, found, fit)
+}
+
+/// The line through the rows' mean (mirrored sky × reflectance, linear luma) of the ground
+/// points `paired` with a mirror ([`MIN_ROW_POINTS`] or more a row), weighted by their points;
+/// `None` with fewer than two rows or rows whose mirrored light hardly differs (under
+/// [`MIN_FIT_SPREAD`] from the least to the most).
+fn mirror_fit(
+    paired: &[Vec<(usize, f32, f32)>],
+    linear: &[f32],
+    lent: &dyn Fn(usize) -> Option<f32>,
+) -> Option<MirrorFit> {
+    let means: Vec<(f64, f64, f64)> = paired
+        .iter()
+        .filter_map(|row| {
+            let (mut x, mut y, mut count) = (0.0f64, 0.0f64, 0.0f64);
+            for &(k, _, _) in row {
+                if let Some(l) = lent(k) {
+                    x += f64::from(l);
+                    y += f64::from(linear[k]);
+                    count += 1.0;
+                }
+            }
+            (count >= MIN_ROW_POINTS as f64).then(|| (x / count, y / count, count))
+        })
+        .collect();
+    if means.len() < 2 {
+        return None;
+    }
+    let (lo, hi) = means.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), m| {
+        (lo.min(m.0), hi.max(m.0))
+    });
+    if hi < f64::from(MIN_FIT_SPREAD) * lo.max(1e-6) {
+        return None;
+    }
+    let total: f64 = means.iter().map(|m| m.2).sum();
+    let (mx, my) = means.iter().fold((0.0, 0.0), |(x, y), m| {
+        (x + m.0 * m.2 / total, y + m.1 * m.2 / total)
+    });
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for &(x, y, count) in &means {
+        sxy += count * (x - mx) * (y - my);
+        sxx += count * (x - mx) * (x - mx);
+        syy += count * (y - my) * (y - my);
+    }
+    if sxx <= 0.0 || syy <= 0.0 {
+        return None;
+    }
+    let gain = sxy / sxx;
+    Some(MirrorFit {
+        gain: gain as f32,
+        body: (my - gain * mx) as f32,
+        r2: (sxy * sxy / (sxx * syy)) as f32,
+        rows: means.len(),
+    })
 }
 
 #[cfg(test)]
@@ -225,5 +416,33 @@ mod tests {
         assert!((correlation(&reversed).expect("varies").0 + 1.0).abs() < 1e-6);
         let flat: Vec<(f32, f32)> = a.iter().map(|&x| (x, 7.0)).collect();
         assert!(correlation(&flat).is_none());
+    }
+
+    /// Against Fresnel's equations in their angle form (rs = −sin(i − t)/sin(i + t), rp =
+    /// tan(i − t)/tan(i + t), f64): ((n − 1)/(n + 1))² straight down, rp's zero at Brewster's
+    /// angle (tan i = n), 1 at grazing, and the form at every degree between.
+    #[test]
+    fn the_reflectance_is_fresnels() {
+        let n = f64::from(WATER_INDEX);
+        let straight = ((n - 1.0) / (n + 1.0)).powi(2);
+        assert!((f64::from(fresnel(1.0)) - straight).abs() < 1e-6);
+        assert!(fresnel(0.0) > 0.999_99);
+        for degrees in 1..90 {
+            let i = f64::from(degrees).to_radians();
+            let t = (i.sin() / n).asin();
+            let rs = -(i - t).sin() / (i + t).sin();
+            let rp = (i - t).tan() / (i + t).tan();
+            let reference = 0.5 * (rs * rs + rp * rp);
+            let got = f64::from(fresnel(i.cos() as f32));
+            assert!(
+                (got - reference).abs() < 2e-5,
+                "{degrees}°: {got} vs {reference}"
+            );
+        }
+        let brewster = n.atan();
+        let t = (brewster.sin() / n).asin();
+        let rs = (brewster - t).sin() / (brewster + t).sin();
+        let at = f64::from(fresnel(brewster.cos() as f32));
+        assert!((at - 0.5 * rs * rs).abs() < 1e-5, "{at}");
     }
 }
