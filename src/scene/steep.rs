@@ -420,10 +420,11 @@ pub const ALTERNATIVE_ROLLS: usize = 24;
 /// Least share of a level reading's sky above (smooth blocks among the picture's brightest,
 /// [`SKY_ABOVE_MIN`]) that must also be brighter than most of the picture below its horizon
 /// ([`crate::scene::brightness::Brightness::sky_over_ground`]), where it looks up with a steep
-/// alternative. The sky is brighter than what stands under it: on synthetic streets 0.80–1.0
-/// of it is. A view straight down has no sky, and what its level reading takes for sky above
-/// the horizon (flat roofs, the brightest smooth surfaces) is drawn from the same surfaces as
-/// what lies under that horizon: of the blocks among the picture's brightest 30 %, a third
-/// is brighter than nine tenths of the same surfaces. The threshold lies midway between that
-/// third and one.
-pub const SKY_OVER_GROUND: f64 = 2.0 / 3.0;
+/// alternative. The sky is brighter than what stands under it: on synthetic streets 0.80–1.0 of
+/// it is, and 0.66 over a bright paving under a sky no brighter near the horizon. A view
+/// straight down has no sky, and what its level reading takes for sky above the horizon (flat
+/// roofs, the brightest smooth surfaces) is drawn from the same surfaces as what lies under
+/// that horizon: of the blocks among the picture's brightest 30 %, about a third are brighter
+/// than nine tenths of those surfaces. The threshold is the geometric mean of that third and
+/// one.
+pub const SKY_OVER_GROUND: f64 = 0.577_350_269_189_625_8;
