@@ -84,8 +84,8 @@ fn judge(shot: &Shot) -> (HorizonEstimate, bool) {
         && (e.roll_deg - pose.roll_deg).abs() < 1.0;
     eprintln!(
         "shot {}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} row {:.3} (true {:.3}) | \
-         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} above {:.2} og {:.3} ahead {:.2} standing \
-         {:.2} floating {:.2} level {:+.4}{} | {}",
+         confidence {:.3} ambiguity {:.2} v {} k {} sky {:.2} above {:.2} og {:.3} ahead {:.2} \
+         standing {:.2} floating {:.2} level {:+.4}{} | {}",
         shot.i,
         pose.tilt_deg,
         pose.roll_deg,
@@ -1174,7 +1174,8 @@ fn diagnose_steep() {
         );
         let e = horizon::estimate_frame(&frame, 0, &intr);
         eprintln!(
-            "shot {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} conf {:.3} off {:.2} | {e:?}",
+            "shot {i}: tilt {:.2} roll {:.2} fov {:.1} | est {:.2} {:.2} conf {:.3} off {:.2} \
+             | {e:?}",
             pose.tilt_deg,
             pose.roll_deg,
             pose.fov_deg,
@@ -1236,7 +1237,8 @@ fn diagnose_steep() {
                     steep::alternative_sky(-s.up_cam, |n| b.sky_share(n), |u| b.sky_above(u))
                 });
                 eprintln!(
-                    "  {width}: steep lines {} spread {:.0}° rms {:.2}° inl {} up {:.3?} off {:.2}° sky {:.2} alt_sky {alt:.3?} conf {:.3}",
+                    "  {width}: steep lines {} spread {:.0}° rms {:.2}° inl {} up {:.3?} off \
+                     {:.2}° sky {:.2} alt_sky {alt:.3?} conf {:.3}",
                     s.distinct_lines,
                     s.spread_rad.to_degrees(),
                     s.rms_deg,
