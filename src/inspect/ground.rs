@@ -100,6 +100,7 @@ fn estimate_json(e: &HorizonEstimate) -> Value {
             "level_offset": e.level_offset,
             "focal_scale_sq": e.focal_scale_sq,
             "sky_above": e.sky_above,
+            "sky_over_ground": e.sky_over_ground,
             "sky_ahead": e.sky_ahead,
         },
         "lens_fov_deg": e.lens_fov_deg,

@@ -17,7 +17,8 @@
 //!   up direction, where a smooth block is bright also when it is brighter than
 //!   [`SKY_BELOW_QUANTILE`] of the blocks below that horizon. A dusk sky is darker at the top
 //!   than its glow at the horizon, so the picture's brightest blocks are the glow alone; its
-//!   top is still brighter than the sea or land under it.
+//!   top is still brighter than the sea or land under it. [`Brightness::sky_over_ground`]
+//!   counts only the latter.
 
 use glam::{DMat3, DVec3};
 
@@ -153,18 +154,33 @@ impl Brightness {
     /// brightest or brighter than [`SKY_BELOW_QUANTILE`] of the blocks below that horizon: the
     /// sky is judged against what stands under it, not against its own glow.
     pub fn sky_above(&self, up: DVec3) -> f64 {
+        self.sky_above_by(up, true)
+    }
+
+    /// [`Brightness::sky_above`] with only the smooth blocks brighter than
+    /// [`SKY_BELOW_QUANTILE`] of the blocks below the horizon counting as sky (the picture's
+    /// brightest where fewer than a row of blocks lie below it): the sky over what stands
+    /// under it. Bright smooth surfaces on both sides of a horizon (flat roofs seen from above,
+    /// read as a level view) count in [`Brightness::sky_above`] but mostly not here; see
+    /// [`crate::scene::steep::SKY_OVER_GROUND`].
+    pub fn sky_over_ground(&self, up: DVec3) -> f64 {
+        self.sky_above_by(up, false)
+    }
+
+    fn sky_above_by(&self, up: DVec3, brightest: bool) -> f64 {
         let mut below: Vec<f64> = (self.blocks.iter().zip(&self.means))
             .filter(|(b, _)| b.0.dot(up) < 0.0)
             .map(|(_, m)| m.0)
             .collect();
         below.sort_by(f64::total_cmp);
+        let brightest = brightest || below.len() < SKY_BELOW_MIN_BLOCKS;
         let under = if below.len() >= SKY_BELOW_MIN_BLOCKS {
             below[((SKY_BELOW_QUANTILE * below.len() as f64) as usize).min(below.len() - 1)]
         } else {
             f64::MAX
         };
         let mut near: Vec<(f64, bool)> = (self.blocks.iter().zip(&self.means))
-            .map(|(b, m)| (b.0.dot(up), b.1 || (m.1 && m.0 >= under)))
+            .map(|(b, m)| (b.0.dot(up), (brightest && b.1) || (m.1 && m.0 >= under)))
             .collect();
         near.sort_by(|a, b| b.0.total_cmp(&a.0));
         near.truncate(near.len().div_ceil(4));

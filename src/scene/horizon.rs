@@ -62,7 +62,8 @@
 //! says is a steep view ([`STEEP_ALTERNATIVE_DEG`]: where level lines meet near the optical
 //! axis, the same lines read, under the same lens, as a view straight down or up with that
 //! point as the nadir or the sky): a level reading looking up with no sky above its horizon
-//! ([`SKY_ABOVE_MIN`]), or looking down with the sky around the point its level lines meet
+//! ([`SKY_ABOVE_MIN`]) or none brighter than the ground under it ([`steep::SKY_OVER_GROUND`]),
+//! or looking down with the sky around the point its level lines meet
 //! ([`SKY_AHEAD_MAX`]) or below a horizon above the picture; so has a horizon in view that no
 //! vertical crosses and no edge marks ([`steep::unmarked_horizon`]). Below
 //! [`MIN_CONFIDENCE`] the ground falls back to `none` with a warning.
@@ -74,8 +75,6 @@
 //! luma above 0.12) with [`aggregate`]: the mode of their up directions, with the mean
 //! confidence of the readings that agree with it — a pure function of the window's frames, so a
 //! preview of frame *t* that feeds the same window gets the same answer as the render.
-
-use std::collections::VecDeque;
 
 use glam::DVec3;
 
@@ -90,6 +89,7 @@ use crate::scene::steep;
 pub use crate::scene::steep::{
     ALTERNATIVE_MATCH_DEG, SKY_ABOVE_MIN, SKY_AHEAD_MAX, STEEP_ALTERNATIVE_DEG, sky_refusal,
 };
+pub use crate::scene::tracker::{CUT_THRESHOLD, GroundTracker};
 use crate::scene::vanishing::{self, Edge};
 use crate::video::YuvFrame;
 use crate::video::frame::coded_pixel;
@@ -210,6 +210,9 @@ pub struct HorizonEstimate {
     /// the quarter of the picture highest above the horizon; 1 where not measured. See
     /// [`SKY_ABOVE_MIN`].
     pub sky_above: f64,
+    /// Evidence: the same share counting only blocks brighter than most of the picture below
+    /// the horizon ([`Brightness::sky_over_ground`]); see [`steep::SKY_OVER_GROUND`].
+    pub sky_over_ground: f64,
     /// Evidence: the share of sky blocks in the quarter of the picture around the point ahead
     /// where the level lines converge nearest the optical axis; 0 where not measured. See
     /// [`SKY_AHEAD_MAX`].
@@ -530,6 +533,7 @@ fn estimate_with<'a>(
         floating_len: floating,
         sky_correlation: brightness.map_or(0.0, |b| b.correlation(up_cam)),
         sky_above: brightness.map_or(1.0, |b| b.sky_above(up_cam)),
+        sky_over_ground: brightness.map_or(1.0, |b| b.sky_over_ground(up_cam)),
         sky_ahead: 0.0,
         steep_lines: 0,
         receding: ahead.map_or(0.0, |p| p.z.abs()),
@@ -830,54 +834,6 @@ pub fn estimate_frame(frame: &YuvFrame, rotation_deg: i32, camera: &Camera) -> H
         || Some(Luma::from_frame(frame, rotation_deg, steep::FINE_WIDTH)),
         camera,
     )
-}
-
-/// Smoothing of the per-frame estimates over a window of past frames, reset at cuts (see the
-/// module doc).
-#[derive(Debug, Clone)]
-pub struct GroundTracker {
-    window: usize,
-    frames: VecDeque<(HorizonEstimate, [f32; 144])>,
-}
-
-/// Mean absolute thumbnail change above which two consecutive frames are a cut.
-pub const CUT_THRESHOLD: f32 = 0.12;
-
-impl GroundTracker {
-    /// A tracker averaging over the last `window` frames (1 = no smoothing).
-    pub fn new(window: usize) -> GroundTracker {
-        GroundTracker {
-            window: window.max(1),
-            frames: VecDeque::new(),
-        }
-    }
-
-    /// Adds a frame's estimate and returns the smoothed one.
-    pub fn update(
-        &mut self,
-        est: HorizonEstimate,
-        luma: &Luma,
-        camera: &Camera,
-    ) -> HorizonEstimate {
-        let thumb = luma.thumbnail();
-        if let Some((_, prev)) = self.frames.back() {
-            let change: f32 = prev
-                .iter()
-                .zip(&thumb)
-                .map(|(a, b)| (a - b).abs())
-                .sum::<f32>()
-                / 144.0;
-            if change > CUT_THRESHOLD {
-                self.frames.clear();
-            }
-        }
-        self.frames.push_back((est, thumb));
-        while self.frames.len() > self.window {
-            self.frames.pop_front();
-        }
-        let readings: Vec<HorizonEstimate> = self.frames.iter().map(|f| f.0).collect();
-        aggregate(&readings, camera).unwrap_or(est)
-    }
 }
 
 /// Step of the coarse search over tilt and roll, degrees.

@@ -14,6 +14,7 @@ pub mod motion;
 pub mod segments;
 pub mod sky;
 pub mod steep;
+pub mod tracker;
 pub mod vanishing;
 pub mod water;
 

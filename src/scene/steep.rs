@@ -310,7 +310,8 @@ pub const SKY_ABOVE_MIN: f64 = 0.2;
 pub const SKY_AHEAD_MAX: f64 = 0.4;
 
 /// Why the sky refuses a level reading, if it does: looking up less than
-/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]), looking
+/// [`STEEP_ALTERNATIVE_DEG`] with no sky above the horizon ([`SKY_ABOVE_MIN`]) or with a
+/// sky no brighter than what lies under that horizon ([`SKY_OVER_GROUND`]), looking
 /// down with the sky around its point ahead, where that point lies within that angle of the
 /// optical axis ([`SKY_AHEAD_MAX`]), or looking down with its horizon above the picture and as
 /// much sky in the picture's quarter nearest that horizon (the sky cannot lie below the
@@ -321,7 +322,9 @@ pub const SKY_AHEAD_MAX: f64 = 0.4;
 pub fn sky_refusal(e: &HorizonEstimate) -> Option<&'static str> {
     if e.steep_lines > 0 {
         None
-    } else if e.tilt_deg > 0.0 && e.tilt_deg < STEEP_ALTERNATIVE_DEG && e.sky_above < SKY_ABOVE_MIN
+    } else if e.tilt_deg > 0.0
+        && e.tilt_deg < STEEP_ALTERNATIVE_DEG
+        && (e.sky_above < SKY_ABOVE_MIN || e.sky_over_ground < SKY_OVER_GROUND * e.sky_above)
     {
         Some("looking up with no sky above the horizon: a view straight down reads the same")
     } else if e.tilt_deg < 0.0
@@ -380,7 +383,9 @@ pub const FINE_WIDTH: usize = 640;
 /// each level alternative of it (`sky_above` of its up direction, the rule
 /// [`sky_refusal`] applies: [`crate::scene::brightness::Brightness::sky_above`]; a level
 /// camera looking at `d`, at [`ALTERNATIVE_ROLLS`] rolls around the circle). Each such level
-/// reading looking up would be refused under [`SKY_ABOVE_MIN`]; a camera looking up between
+/// reading looking up would be refused under [`SKY_ABOVE_MIN`] (the looser of the two sky
+/// rules [`sky_refusal`] applies to such a reading: the stricter [`SKY_OVER_GROUND`] here
+/// would let a level street without bright sky read as a view down); a camera looking up between
 /// facades has the sky around `d`; a level street's own vanishing point has the sky above it;
 /// looking straight down at a street over buildings (seen from 30 m), at most 0.16 of any
 /// quarter is sky (flat roofs).
@@ -411,3 +416,15 @@ pub const NO_SKY_MIN_LINES: usize = 10;
 
 /// Rolls of the level alternatives weighed by [`alternative_sky`], evenly around the circle.
 pub const ALTERNATIVE_ROLLS: usize = 24;
+
+/// Least share of a level reading's sky above (smooth blocks among the picture's brightest,
+/// [`SKY_ABOVE_MIN`]) that must also be brighter than most of the picture below its horizon
+/// ([`crate::scene::brightness::Brightness::sky_over_ground`]), where it looks up with a steep
+/// alternative. The sky is brighter than what stands under it: on synthetic streets 0.80–1.0 of
+/// it is, and 0.66 over a bright paving under a sky no brighter near the horizon. A view
+/// straight down has no sky, and what its level reading takes for sky above the horizon (flat
+/// roofs, the brightest smooth surfaces) is drawn from the same surfaces as what lies under
+/// that horizon: of the blocks among the picture's brightest 30 %, about a third are brighter
+/// than nine tenths of those surfaces. The threshold is the geometric mean of that third and
+/// one.
+pub const SKY_OVER_GROUND: f64 = 0.577_350_269_189_625_8;
