@@ -224,8 +224,10 @@ impl Boundaries {
         self.terrain.as_ref().map(|t| t.sample(p.x, p.y))
     }
 
-    /// [`Boundaries::mirrors`] with the terrain under `p` given (`terrain_under(p)`).
-    #[inline]
+    /// [`Boundaries::mirrors`] with the terrain under `p` given (`terrain_under(p)`). Always
+    /// inlined: the solver's passes call it twice a step per particle, and a call returns the
+    /// list through a copy of its whole inline storage.
+    #[inline(always)]
     pub(crate) fn mirrors_on(
         &self,
         p: Vec3,

@@ -159,15 +159,17 @@ pub const RING_POOL: usize = 64 * MAX_RINGS;
 /// (λ f / z, the ground's foreshortening left out: it only shrinks crests across the view).
 pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
     let p_cam = camera.camera_from_world_point(impact.position_m);
-    let Some(px) = camera.project_camera(p_cam) else {
+    if p_cam.z <= 0.0 {
         return false;
-    };
-    let inside = px.x >= 0.0
-        && px.y >= 0.0
-        && px.x < camera.width_px as f64
-        && px.y < camera.height_px as f64;
+    }
+    // `project_camera`'s arithmetic, its focal length (a tangent) made once for both tests.
+    let f = camera.focal_px();
     let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
-    inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+    if !(wavelength_m * f / p_cam.z >= MIN_RING_WAVELENGTH_PX) {
+        return false;
+    }
+    let px = camera.principal_px() + DVec2::new(p_cam.x, p_cam.y) * (f / p_cam.z);
+    px.x >= 0.0 && px.y >= 0.0 && px.x < camera.width_px as f64 && px.y < camera.height_px as f64
 }
 
 /// The part of `rect` (ground z = 0) where a ring of a drop up to `max_diameter_mm` can be

@@ -84,6 +84,14 @@ pub struct Muller2003 {
     permute_scratch: PermuteScratch,
     #[serde(skip)]
     neighbours: NeighbourLists,
+    /// Each particle's neighbours among the water at rest, from the density pass for the
+    /// force pass (the same positions: the same list, one search a step fewer).
+    #[serde(skip)]
+    rest_neighbours: NeighbourLists,
+    /// The force pass searches the water at rest again instead of reading `rest_neighbours`:
+    /// the plain form the lists are tested against.
+    #[serde(skip)]
+    search_rest_again: bool,
     #[serde(skip)]
     pair_terms: Vec<[f32; 2]>,
     #[serde(skip)]
@@ -133,6 +141,8 @@ impl Muller2003 {
             grid: UniformGrid::new(),
             permute_scratch: PermuteScratch::default(),
             neighbours: NeighbourLists::default(),
+            rest_neighbours: NeighbourLists::default(),
+            search_rest_again: false,
             pair_terms: Vec::new(),
             column_best: Vec::new(),
             covered: Vec::new(),
@@ -642,6 +652,9 @@ impl Muller2003 {
         self.neighbours.capacity = cap;
         self.neighbours.list.resize(n * cap, 0);
         self.neighbours.count.resize(n, 0);
+        self.rest_neighbours.capacity = cap;
+        self.rest_neighbours.list.resize(n * cap, 0);
+        self.rest_neighbours.count.resize(n, 0);
         self.pair_terms.resize(n, [0.0; 2]);
         self.covered.resize(n, false);
         debug_assert_eq!(self.ground.len(), n);
@@ -666,12 +679,18 @@ impl Muller2003 {
             .zip(self.pair_terms.par_iter_mut())
             .zip(self.neighbours.list.par_chunks_mut(cap))
             .zip(self.neighbours.count.par_iter_mut())
+            .zip(
+                self.rest_neighbours
+                    .list
+                    .par_chunks_mut(cap)
+                    .zip(self.rest_neighbours.count.par_iter_mut()),
+            )
             .zip(self.covered.par_iter_mut())
             .zip(self.ground.par_iter_mut())
             .enumerate()
             .with_min_len(MIN_TASK)
             .for_each(
-                |(i, ((((((rho, p), terms), list), count), covered), ground))| {
+                |(i, (((((((rho, p), terms), list), count), rest), covered), ground))| {
                     let xi = pos[i];
                     if ground.is_none() {
                         *ground = bounds.terrain_under(xi);
@@ -709,10 +728,17 @@ impl Muller2003 {
                     // Water at rest around: its density and its ghosts'; above in the column, it
                     // is the surface there.
                     let mut above = false;
-                    resting.for_each_near(xi, h2, |xj, _| {
+                    let (rest_list, rest_count) = rest;
+                    let mut rc = 0usize;
+                    resting.for_each_near_indexed(xi, h2, |j, xj, _| {
                         sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
                         above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
+                        if rc < cap {
+                            rest_list[rc] = j as u32;
+                        }
+                        rc += 1;
                     });
+                    *rest_count = rc as u32;
                     *covered = above;
                     let r = self_density + m_sum * sum;
                     *rho = r;
@@ -784,6 +810,8 @@ impl Muller2003 {
         let neighbours = &self.neighbours;
         let terms = &self.pair_terms;
         let resting = &self.resting;
+        let rest_neighbours = &self.rest_neighbours;
+        let search_rest_again = self.search_rest_again;
         let ground = &self.ground;
         let lattice = self.moments;
         let Particles {
@@ -844,10 +872,19 @@ impl Muller2003 {
                 neighbours.for_each(i, grid, pos, h2, |j| {
                     with_ghosts(pos[j], terms[j], vel[j], true)
                 });
-                // Water at rest: a neighbour with zero velocity.
-                resting.for_each_near(xi, h2, |xj, terms_j| {
-                    with_ghosts(xj, terms_j, Vec3::ZERO, true)
-                });
+                // Water at rest: a neighbour with zero velocity (the density pass's list, in its
+                // order, unless it overflowed).
+                let (cap, rc) = (rest_neighbours.capacity, rest_neighbours.count[i] as usize);
+                if rc <= cap && !search_rest_again {
+                    for &j in &rest_neighbours.list[i * cap..i * cap + rc] {
+                        let (xj, terms_j) = resting.at(j as usize);
+                        with_ghosts(xj, terms_j, Vec3::ZERO, true);
+                    }
+                } else {
+                    resting.for_each_near(xi, h2, |xj, terms_j| {
+                        with_ghosts(xj, terms_j, Vec3::ZERO, true)
+                    });
+                }
                 let mut f = lap_v * (mu / lattice.laplacian);
                 if at_surface {
                     let n_len = normal.length();
