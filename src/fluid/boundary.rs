@@ -238,10 +238,11 @@ impl Boundaries {
         let rough = 1.0 - 2.0 * ground_friction;
         let d = &self.domain;
         let mut m = Mirrors {
-            list: [Mirror::Plane {
-                normal: Vec3::Z,
-                offset: 0.0,
-                tangential: 1.0,
+            // A filler of zero bits (never read past `len`): cleared in a few wide stores.
+            list: [Mirror::Axes {
+                mask: glam::BVec3::FALSE,
+                twice_plane: Vec3::ZERO,
+                tangential: 0.0,
             }; INLINE_MIRRORS],
             len: 0,
             more: Vec::new(),

@@ -349,6 +349,10 @@ impl Carpet {
     pub fn add_hits(&mut self, leaves: &mut Vec<u32>) {
         radix_sort(leaves, &mut self.sort_scratch, self.wet.len());
         let a = self.settings.wetting_per_hit;
+        // A leaf's decay depends only on when it was last wetted, and a batch's leaves were
+        // last wetted at a few dozen times at most (one per update): each time's factor is
+        // made once, the same bits as `leaf_wetness` makes it.
+        let mut decay = [(f64::NAN.to_bits(), 0.0f32); 64];
         for (n, &k) in leaves.iter().enumerate() {
             // The leaves are sorted but sparse (a drop every ten or so a frame): each is a cache
             // miss the hardware does not foresee, so the one some hits ahead is asked for now.
@@ -356,8 +360,20 @@ impl Carpet {
                 prefetch(self.wet.get(ahead as usize));
             }
             let k = k as usize;
-            if k < self.wet.len() {
-                let w = self.leaf_wetness(k);
+            if let Some(&leaf) = self.wet.get(k) {
+                let w = if leaf.under_water {
+                    1.0
+                } else if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
+                    leaf.wet_ref
+                } else {
+                    let bits = leaf.wet_ref_time_s.to_bits();
+                    let slot =
+                        &mut decay[(bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 58) as usize];
+                    if slot.0 != bits {
+                        *slot = (bits, self.decay(leaf.wet_ref_time_s));
+                    }
+                    leaf.wet_ref * slot.1
+                };
                 let leaf = &mut self.wet[k];
                 leaf.wet_ref = (w + a).min(1.0);
                 leaf.wet_ref_time_s = self.time_s;
@@ -375,8 +391,14 @@ impl Carpet {
         if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
             return leaf.wet_ref;
         }
-        let age = (self.time_s - leaf.wet_ref_time_s).max(0.0);
-        leaf.wet_ref * (-age / self.settings.drying_time_s as f64).exp() as f32
+        leaf.wet_ref * self.decay(leaf.wet_ref_time_s)
+    }
+
+    /// The factor a wetness set at `since_s` has decayed by now.
+    #[inline]
+    fn decay(&self, since_s: f64) -> f32 {
+        let age = (self.time_s - since_s).max(0.0);
+        (-age / self.settings.drying_time_s as f64).exp() as f32
     }
 
     /// Rebuilds the surface from particle positions and advances the trails and the drying by
