@@ -165,7 +165,8 @@ pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
     // `project_camera`'s arithmetic, its focal length (a tangent) made once for both tests.
     let f = camera.focal_px();
     let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
-    if !(wavelength_m * f / p_cam.z >= MIN_RING_WAVELENGTH_PX) {
+    let fine_enough = wavelength_m * f / p_cam.z >= MIN_RING_WAVELENGTH_PX;
+    if !fine_enough {
         return false;
     }
     let px = camera.principal_px() + DVec2::new(p_cam.x, p_cam.y) * (f / p_cam.z);
