@@ -279,3 +279,28 @@ fn the_streams_landings_are_its_impacts() {
         }
     }
 }
+
+/// The impacts a filter keeps, asked for with the filter, are the impacts asked for without
+/// it and then filtered: the same ones in the same order, the drawn drops' and the stream's
+/// (a filter that keeps each in turn of both sorts, by id).
+#[test]
+fn impacts_kept_by_a_filter_are_the_filtered_impacts() {
+    let s = setup(20.0);
+    let g = ground_rain(&s);
+    let r = rect(-3.0, 0.0, 3.0, 12.0);
+    for modulus in [1u64, 3, 1000] {
+        let keep = |h: &Impact| (h.id ^ h.pass as u64).is_multiple_of(modulus);
+        let plain: Vec<Impact> = g
+            .impacts_between(&r, 0.2, 0.5)
+            .into_iter()
+            .filter(keep)
+            .collect();
+        let kept = g.impacts_between_kept(&r, 0.2, 0.5, keep);
+        assert!(plain.len() > 20, "{modulus}: {}", plain.len());
+        assert!(
+            plain.iter().any(|h| g.drawn_at(h.position_m.truncate())),
+            "{modulus}: some land among the drawn drops"
+        );
+        assert_eq!(plain, kept, "{modulus}");
+    }
+}

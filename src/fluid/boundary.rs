@@ -182,6 +182,23 @@ pub(crate) struct Mirrors {
     more: Vec<Mirror>,
 }
 
+impl Default for Mirrors {
+    /// None.
+    #[inline(always)]
+    fn default() -> Mirrors {
+        Mirrors {
+            // A filler of zero bits (never read past `len`): cleared in a few wide stores.
+            list: [Mirror::Axes {
+                mask: glam::BVec3::FALSE,
+                twice_plane: Vec3::ZERO,
+                tangential: 0.0,
+            }; INLINE_MIRRORS],
+            len: 0,
+            more: Vec::new(),
+        }
+    }
+}
+
 impl Mirrors {
     #[inline]
     pub(crate) fn as_slice(&self) -> &[Mirror] {
@@ -224,8 +241,10 @@ impl Boundaries {
         self.terrain.as_ref().map(|t| t.sample(p.x, p.y))
     }
 
-    /// [`Boundaries::mirrors`] with the terrain under `p` given (`terrain_under(p)`).
-    #[inline]
+    /// [`Boundaries::mirrors`] with the terrain under `p` given (`terrain_under(p)`). Always
+    /// inlined: the solver's passes call it twice a step per particle, and a call returns the
+    /// list through a copy of its whole inline storage.
+    #[inline(always)]
     pub(crate) fn mirrors_on(
         &self,
         p: Vec3,
@@ -235,15 +254,7 @@ impl Boundaries {
     ) -> Mirrors {
         let rough = 1.0 - 2.0 * ground_friction;
         let d = &self.domain;
-        let mut m = Mirrors {
-            list: [Mirror::Plane {
-                normal: Vec3::Z,
-                offset: 0.0,
-                tangential: 1.0,
-            }; INLINE_MIRRORS],
-            len: 0,
-            more: Vec::new(),
-        };
+        let mut m = Mirrors::default();
         // Per axis: the planes (twice their coordinate) within h.
         let mut planes = [[0.0f32; 2]; 3];
         let mut count = [0usize; 3];

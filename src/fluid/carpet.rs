@@ -349,10 +349,31 @@ impl Carpet {
     pub fn add_hits(&mut self, leaves: &mut Vec<u32>) {
         radix_sort(leaves, &mut self.sort_scratch, self.wet.len());
         let a = self.settings.wetting_per_hit;
-        for &k in leaves.iter() {
+        // A leaf's decay depends only on when it was last wetted, and a batch's leaves were
+        // last wetted at a few dozen times at most (one per update): each time's factor is
+        // made once, the same bits as `leaf_wetness` makes it.
+        let mut decay = [(f64::NAN.to_bits(), 0.0f32); 64];
+        for (n, &k) in leaves.iter().enumerate() {
+            // The leaves are sorted but sparse (a drop every ten or so a frame): each is a cache
+            // miss the hardware does not foresee, so the one some hits ahead is asked for now.
+            if let Some(&ahead) = leaves.get(n + HITS_AHEAD) {
+                prefetch(self.wet.get(ahead as usize));
+            }
             let k = k as usize;
-            if k < self.wet.len() {
-                let w = self.leaf_wetness(k);
+            if let Some(&leaf) = self.wet.get(k) {
+                let w = if leaf.under_water {
+                    1.0
+                } else if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
+                    leaf.wet_ref
+                } else {
+                    let bits = leaf.wet_ref_time_s.to_bits();
+                    let slot =
+                        &mut decay[(bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 58) as usize];
+                    if slot.0 != bits {
+                        *slot = (bits, self.decay(leaf.wet_ref_time_s));
+                    }
+                    leaf.wet_ref * slot.1
+                };
                 let leaf = &mut self.wet[k];
                 leaf.wet_ref = (w + a).min(1.0);
                 leaf.wet_ref_time_s = self.time_s;
@@ -370,8 +391,14 @@ impl Carpet {
         if leaf.wet_ref == 0.0 || self.time_s == leaf.wet_ref_time_s {
             return leaf.wet_ref;
         }
-        let age = (self.time_s - leaf.wet_ref_time_s).max(0.0);
-        leaf.wet_ref * (-age / self.settings.drying_time_s as f64).exp() as f32
+        leaf.wet_ref * self.decay(leaf.wet_ref_time_s)
+    }
+
+    /// The factor a wetness set at `since_s` has decayed by now.
+    #[inline]
+    fn decay(&self, since_s: f64) -> f32 {
+        let age = (self.time_s - since_s).max(0.0);
+        (-age / self.settings.drying_time_s as f64).exp() as f32
     }
 
     /// Rebuilds the surface from particle positions and advances the trails and the drying by
@@ -656,6 +683,24 @@ impl Carpet {
             values,
         }
     }
+}
+
+/// How many hits ahead [`Carpet::add_hits`] asks for a leaf's record.
+const HITS_AHEAD: usize = 16;
+
+/// Asks the CPU to bring `item` into its cache (no effect on any value; nothing where the CPU
+/// cannot, or for `None`).
+#[inline(always)]
+fn prefetch<T>(item: Option<&T>) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(item) = item {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: a prefetch reads nothing and faults on no address; this one is a live
+        // reference's.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((item as *const T).cast::<i8>()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = item;
 }
 
 /// Sorts `keys` (all below `bound`) ascending: least significant digit first, 11 bits a pass,

@@ -196,6 +196,18 @@ impl RestingWater {
     /// (after [`RestingWater::prepare`]).
     #[inline]
     pub(crate) fn for_each_near(&self, x: Vec3, h2: f32, mut f: impl FnMut(Vec3, [f32; 2])) {
+        self.for_each_near_indexed(x, h2, |_, xj, terms_j| f(xj, terms_j));
+    }
+
+    /// [`RestingWater::for_each_near`], handing each particle's index first (for
+    /// [`RestingWater::at`]); the indices come in increasing order.
+    #[inline]
+    pub(crate) fn for_each_near_indexed(
+        &self,
+        x: Vec3,
+        h2: f32,
+        mut f: impl FnMut(usize, Vec3, [f32; 2]),
+    ) {
         if self.is_empty() {
             return;
         }
@@ -203,10 +215,17 @@ impl RestingWater {
         self.grid.for_each_neighbour_run(x, |run| {
             for j in run {
                 if (x - pos[j]).length_squared() < h2 {
-                    f(pos[j], self.terms[j]);
+                    f(j, pos[j], self.terms[j]);
                 }
             }
         });
+    }
+
+    /// Particle `j`'s position and density terms, as [`RestingWater::for_each_near`] hands
+    /// them (after [`RestingWater::prepare`]).
+    #[inline]
+    pub(crate) fn at(&self, j: usize) -> (Vec3, [f32; 2]) {
+        (self.position_m[j], self.terms[j])
     }
 
     /// Feeds every stored bit to `eat` (for the solver's state digest).

@@ -159,15 +159,18 @@ pub const RING_POOL: usize = 64 * MAX_RINGS;
 /// (λ f / z, the ground's foreshortening left out: it only shrinks crests across the view).
 pub fn ring_resolved(impact: &Impact, camera: &Camera) -> bool {
     let p_cam = camera.camera_from_world_point(impact.position_m);
-    let Some(px) = camera.project_camera(p_cam) else {
+    if p_cam.z <= 0.0 {
         return false;
-    };
-    let inside = px.x >= 0.0
-        && px.y >= 0.0
-        && px.x < camera.width_px as f64
-        && px.y < camera.height_px as f64;
+    }
+    // `project_camera`'s arithmetic, its focal length (a tangent) made once for both tests.
+    let f = camera.focal_px();
     let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
-    inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+    let fine_enough = wavelength_m * f / p_cam.z >= MIN_RING_WAVELENGTH_PX;
+    if !fine_enough {
+        return false;
+    }
+    let px = camera.principal_px() + DVec2::new(p_cam.x, p_cam.y) * (f / p_cam.z);
+    px.x >= 0.0 && px.y >= 0.0 && px.x < camera.width_px as f64 && px.y < camera.height_px as f64
 }
 
 /// The part of `rect` (ground z = 0) where a ring of a drop up to `max_diameter_mm` can be
@@ -332,6 +335,57 @@ pub fn rain_slope_variance(flux_per_m2_s: f64, diameters_mm: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The plain form of [`ring_resolved`]: the camera's own projection, then both tests.
+    fn ring_resolved_plain(impact: &Impact, camera: &Camera) -> bool {
+        let p_cam = camera.camera_from_world_point(impact.position_m);
+        let Some(px) = camera.project_camera(p_cam) else {
+            return false;
+        };
+        let inside = px.x >= 0.0
+            && px.y >= 0.0
+            && px.x < camera.width_px as f64
+            && px.y < camera.height_px as f64;
+        let wavelength_m = WAVELENGTH_PER_DIAMETER * impact.diameter_mm * 1e-3;
+        inside && wavelength_m * camera.focal_px() / p_cam.z >= MIN_RING_WAVELENGTH_PX
+    }
+
+    /// Whether a ring is resolved agrees with the plain form on drops in front of, beside and
+    /// behind cameras of several lenses and tilts, near and far, small and large (both answers
+    /// occur).
+    #[test]
+    fn ring_resolved_is_its_plain_form() {
+        let mut rng = crate::rng::SplitMix64(17);
+        let (mut yes, mut no) = (0, 0);
+        for k in 0..40 {
+            let cam = Camera::new(
+                320 + 8 * k,
+                240,
+                0.4 + 2.0 * rng.next_f64(),
+                0.5 + 2.0 * rng.next_f64(),
+                -0.2 - 0.8 * rng.next_f64(),
+                0.0,
+            );
+            for _ in 0..2000 {
+                let impact = Impact {
+                    id: 0,
+                    pass: 0,
+                    time_s: 0.0,
+                    position_m: glam::DVec3::new(
+                        8.0 * rng.next_f64() - 4.0,
+                        12.0 * rng.next_f64() - 2.0,
+                        0.0,
+                    ),
+                    diameter_mm: 0.2 + 5.0 * rng.next_f64(),
+                    velocity_mps: glam::DVec3::ZERO,
+                };
+                let plain = ring_resolved_plain(&impact, &cam);
+                assert_eq!(ring_resolved(&impact, &cam), plain, "{impact:?} {cam:?}");
+                (yes, no) = if plain { (yes + 1, no) } else { (yes, no + 1) };
+            }
+        }
+        assert!(yes > 1000 && no > 1000, "{yes} {no}");
+    }
 
     #[test]
     fn capillary_and_gravity_waves_meet_at_the_slowest_phase_speed() {

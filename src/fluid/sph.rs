@@ -52,9 +52,9 @@
 //! its neighbours in that fixed order, and the only parallel reductions are maxima, so the state
 //! after N steps is bit-identical whatever the number of rayon threads.
 
-use super::boundary::{Boundaries, Fate};
-use super::grid::{NeighbourLists, UniformGrid, neighbour_capacity};
-use super::kernels::{Kernel, LatticeMoments, Poly6, Spiky, Viscosity};
+use super::boundary::{Boundaries, Fate, Mirrors};
+use super::grid::{NeighbourLists, UniformGrid};
+use super::kernels::LatticeMoments;
 use super::particles::{Particles, PermuteScratch};
 use super::resting::RestingWater;
 use super::settings::{DEFAULT_COURANT, SphSettings, TimeStep};
@@ -63,6 +63,9 @@ use super::terrain::TerrainSample;
 use crate::{Error, Result};
 use glam::Vec3;
 use rayon::prelude::*;
+
+#[path = "sph_passes.rs"]
+mod passes;
 
 /// Smallest number of particles a rayon task handles.
 const MIN_TASK: usize = 128;
@@ -84,6 +87,14 @@ pub struct Muller2003 {
     permute_scratch: PermuteScratch,
     #[serde(skip)]
     neighbours: NeighbourLists,
+    /// Each particle's neighbours among the water at rest, from the density pass for the
+    /// force pass (the same positions: the same list, one search a step fewer).
+    #[serde(skip)]
+    rest_neighbours: NeighbourLists,
+    /// The force pass makes its mirrors and searches the water at rest again instead of
+    /// reading `mirrors` and `rest_neighbours`: the plain form they are tested against.
+    #[serde(skip)]
+    plain_force_inputs: bool,
     #[serde(skip)]
     pair_terms: Vec<[f32; 2]>,
     #[serde(skip)]
@@ -91,6 +102,10 @@ pub struct Muller2003 {
     /// Whether resting water lies above the particle in its column (it is no surface).
     #[serde(skip)]
     covered: Vec<bool>,
+    /// Each particle's mirrors, from the density pass (which reads only their points, the
+    /// same whatever the ghosts' friction) for the force pass.
+    #[serde(skip)]
+    mirrors: Vec<Mirrors>,
     /// The terrain under each particle, from the density pass for the force pass (the same
     /// positions: one terrain read a pass fewer).
     #[serde(skip)]
@@ -133,9 +148,12 @@ impl Muller2003 {
             grid: UniformGrid::new(),
             permute_scratch: PermuteScratch::default(),
             neighbours: NeighbourLists::default(),
+            rest_neighbours: NeighbourLists::default(),
+            plain_force_inputs: false,
             pair_terms: Vec::new(),
             column_best: Vec::new(),
             covered: Vec::new(),
+            mirrors: Vec::new(),
             ground: Vec::new(),
             drift_ground: Vec::new(),
             keep: Vec::new(),
@@ -624,239 +642,83 @@ impl Muller2003 {
         self.surface_pass();
         self.force_pass();
     }
+}
 
-    /// (5.18) and (5.19): density with self term and wall ghosts, then pressure; records each
-    /// particle's neighbours (within h, in grid order) for the force pass.
-    fn density_pass(&mut self) {
-        let s = &self.settings;
-        let (h, m, rho0, eos, clamp) = (
-            s.smoothing_length_m,
-            s.particle_mass_kg,
-            s.rest_density_kg_m3,
-            s.eos,
-            s.clamp_negative_pressure,
-        );
-        let h2 = h * h;
-        let n = self.particles.len();
-        let cap = neighbour_capacity(s.smoothing_length_m, s.particle_spacing_m);
-        self.neighbours.capacity = cap;
-        self.neighbours.list.resize(n * cap, 0);
-        self.neighbours.count.resize(n, 0);
-        self.pair_terms.resize(n, [0.0; 2]);
-        self.covered.resize(n, false);
-        debug_assert_eq!(self.ground.len(), n);
-        self.ground.resize(n, None);
-        let grid = &self.grid;
-        let bounds = &self.boundaries;
-        let resting = &self.resting;
-        let half_dx2 = (0.5 * s.particle_spacing_m).powi(2);
-        let Particles {
-            position_m,
-            density_kg_m3,
-            pressure_pa,
-            ..
-        } = &mut self.particles;
-        let pos = &*position_m;
-        // The density sum, divided by its lattice value (see `LatticeMoments`).
-        let m_sum = m / self.moments.density;
-        let self_density = m_sum * Spiky::value_sq(0.0, h);
-        density_kg_m3
-            .par_iter_mut()
-            .zip(pressure_pa.par_iter_mut())
-            .zip(self.pair_terms.par_iter_mut())
-            .zip(self.neighbours.list.par_chunks_mut(cap))
-            .zip(self.neighbours.count.par_iter_mut())
-            .zip(self.covered.par_iter_mut())
-            .zip(self.ground.par_iter_mut())
-            .enumerate()
-            .with_min_len(MIN_TASK)
-            .for_each(
-                |(i, ((((((rho, p), terms), list), count), covered), ground))| {
-                    let xi = pos[i];
-                    if ground.is_none() {
-                        *ground = bounds.terrain_under(xi);
-                    }
-                    // Friction only changes ghost velocities, unused here.
-                    let mirrors = bounds.mirrors_on(xi, h, 0.0, *ground);
-                    let mirrors = mirrors.as_slice();
-                    let mut sum = 0.0f32;
-                    let mut c = 0usize;
-                    // Ghosts within h are images of neighbours within h (or of i itself).
-                    let ghosts = |xj: Vec3| {
-                        let mut g = 0.0;
-                        for mirror in mirrors {
-                            if let Some(ghost) = mirror.point(xj) {
-                                g += Spiky::value_sq((xi - ghost).length_squared(), h);
-                            }
-                        }
-                        g
-                    };
-                    sum += ghosts(xi);
-                    grid.for_each_neighbour_run(xi, |run| {
-                        for j in run {
-                            let xj = pos[j];
-                            let r2 = (xi - xj).length_squared();
-                            if r2 < h2 && j != i {
-                                sum += Spiky::value_sq(r2, h) + ghosts(xj);
-                                if c < cap {
-                                    list[c] = j as u32;
-                                }
-                                c += 1;
-                            }
-                        }
-                    });
-                    *count = c as u32;
-                    // Water at rest around: its density and its ghosts'; above in the column, it
-                    // is the surface there.
-                    let mut above = false;
-                    resting.for_each_near(xi, h2, |xj, _| {
-                        sum += Spiky::value_sq((xi - xj).length_squared(), h) + ghosts(xj);
-                        above |= xj.z > xi.z && (xj - xi).truncate().length_squared() < half_dx2;
-                    });
-                    *covered = above;
-                    let r = self_density + m_sum * sum;
-                    *rho = r;
-                    let pr = eos.pressure_pa(r, rho0);
-                    let pr = if clamp { pr.max(0.0) } else { pr };
-                    *p = pr;
-                    *terms = [m / r, pr / (r * r)];
-                },
-            );
-    }
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fluid::boundary::Domain;
+    use crate::fluid::terrain::HeightField;
+    use glam::Vec2;
 
-    /// Surface particles: the highest particle in each column of edge Δx (thesis §5.3.1, the
-    /// carpet-cell criterion). Ties go to the lower index, so the result is deterministic.
-    fn surface_pass(&mut self) {
-        let pos = &self.particles.position_m;
-        let (lo, hi) = pos.iter().fold(
-            (
-                glam::Vec2::splat(f32::INFINITY),
-                glam::Vec2::splat(f32::NEG_INFINITY),
-            ),
-            |(lo, hi), p| (lo.min(p.truncate()), hi.max(p.truncate())),
-        );
-        let budget = (4 * pos.len() + 1024) as u64;
-        let mut cell = self.settings.particle_spacing_m;
-        let (nx, ny) = loop {
-            let d = ((hi - lo) / cell)
-                .floor()
-                .min(glam::Vec2::splat(1e6))
-                .as_uvec2()
-                + 1;
-            if d.x as u64 * d.y as u64 <= budget {
-                break (d.x as usize, d.y as usize);
-            }
-            cell *= 1.25;
+    /// A film running over water at rest on a sloped, bumpy ground with friction: the force
+    /// pass reading the density pass's mirrors and neighbours at rest gives the state its plain
+    /// form (mirrors made again, the water at rest searched again) gives, bit for bit — where a
+    /// particle's list overflows (water at rest packed at half the spacing) too.
+    #[test]
+    fn kept_force_inputs_are_the_plain_ones() {
+        let dx = 0.005;
+        let terrain = HeightField::from_fn(31, 31, Vec2::ZERO, 0.005, |x, y| {
+            0.01 + 0.05 * x + 0.002 * (40.0 * y).sin()
+        })
+        .expect("terrain");
+        let mut s = SphSettings::water(dx, 0.02);
+        s.ground_friction = 0.3;
+        s.infiltration_rate_mps = 0.0;
+        let bounds = Boundaries {
+            domain: Domain::open_sides(Vec3::ZERO, Vec3::new(0.15, 0.15, 0.1)),
+            terrain: Some(terrain.clone()),
         };
-        self.column_best.clear();
-        self.column_best.resize(nx * ny, u32::MAX);
-        for (i, p) in pos.iter().enumerate() {
-            let g = ((p.truncate() - lo) / cell).max(glam::Vec2::ZERO);
-            let c = (g.y as usize).min(ny - 1) * nx + (g.x as usize).min(nx - 1);
-            let b = &mut self.column_best[c];
-            if *b == u32::MAX || p.z > pos[*b as usize].z {
-                *b = i as u32;
-            }
-        }
-        let surface = &mut self.particles.surface;
-        surface.fill(false);
-        for &b in &self.column_best {
-            if b != u32::MAX {
-                surface[b as usize] = !self.covered[b as usize];
-            }
-        }
-    }
-
-    /// (5.20)–(5.26): pressure, viscosity, surface tension and gravity → acceleration.
-    fn force_pass(&mut self) {
-        let s = &self.settings;
-        let (h, m, mu, sigma, friction) = (
-            s.smoothing_length_m,
-            s.particle_mass_kg,
-            s.viscosity_pa_s,
-            s.surface_tension_n_per_m,
-            s.ground_friction,
-        );
-        let g = s.gravity_mps2 * self.gravity_factor();
-        let h2 = h * h;
-        let grid = &self.grid;
-        let bounds = &self.boundaries;
-        let neighbours = &self.neighbours;
-        let terms = &self.pair_terms;
-        let resting = &self.resting;
-        let ground = &self.ground;
-        let lattice = self.moments;
-        let Particles {
-            position_m,
-            velocity_mps,
-            acceleration_mps2,
-            density_kg_m3,
-            surface,
-            ..
-        } = &mut self.particles;
-        let (pos, vel, rho, surf) = (&*position_m, &*velocity_mps, &*density_kg_m3, &*surface);
-        // |n| below this is no surface at all (n ~ 1/h at a real surface).
-        let n_min = 1e-3 / h * lattice.colour;
-        acceleration_mps2
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(MIN_TASK)
-            .for_each(|(i, acc)| {
-                let (xi, vi, rho_i) = (pos[i], vel[i], rho[i]);
-                let [vol_i, p_over_rho2_i] = terms[i];
-                let at_surface = surf[i] && sigma > 0.0;
-                // Σ m (pᵢ/ρᵢ² + pⱼ/ρⱼ²) ∇W: minus the pressure acceleration.
-                let mut a_press = Vec3::ZERO;
-                // Σ Vⱼ (vⱼ − vᵢ) ∇²W: the velocity Laplacian.
-                let mut lap_v = Vec3::ZERO;
-                let mut normal = Vec3::ZERO;
-                let mut lap_colour = if at_surface {
-                    vol_i * Poly6::laplacian(0.0, h)
-                } else {
-                    0.0
-                };
-                let mirrors = bounds.mirrors_on(xi, h, friction, ground[i]);
-                let mirrors = mirrors.as_slice();
-                let mut add = |r_vec: Vec3, [vol_j, p_over_rho2_j]: [f32; 2], v_j: Vec3| {
-                    let r2 = r_vec.length_squared();
-                    if r2 >= h2 {
-                        return;
-                    }
-                    let r = r2.sqrt();
-                    a_press += Spiky::gradient(r_vec, h) * (m * (p_over_rho2_i + p_over_rho2_j));
-                    lap_v += (v_j - vi) * (vol_j * Viscosity::laplacian(r, h));
-                    if at_surface {
-                        normal += Poly6::gradient(r_vec, h) * vol_j;
-                        lap_colour += vol_j * Poly6::laplacian(r, h);
-                    }
-                };
-                let mut with_ghosts = |xj: Vec3, terms_j: [f32; 2], vj: Vec3, real: bool| {
-                    if real {
-                        add(xi - xj, terms_j, vj);
-                    }
-                    for mirror in mirrors {
-                        if let Some(ghost) = mirror.point(xj) {
-                            add(xi - ghost, terms_j, mirror.velocity(vj));
-                        }
-                    }
-                };
-                with_ghosts(xi, terms[i], vi, false);
-                neighbours.for_each(i, grid, pos, h2, |j| {
-                    with_ghosts(pos[j], terms[j], vel[j], true)
-                });
-                // Water at rest: a neighbour with zero velocity.
-                resting.for_each_near(xi, h2, |xj, terms_j| {
-                    with_ghosts(xj, terms_j, Vec3::ZERO, true)
-                });
-                let mut f = lap_v * (mu / lattice.laplacian);
-                if at_surface {
-                    let n_len = normal.length();
-                    if n_len > n_min {
-                        // Müller 2003 eq. 19: f = −σ ∇²c n/|n| (n points into the fluid).
-                        f += normal * (-sigma * lap_colour / (n_len * lattice.colour));
-                    }
+        let mut kept = Muller2003::new(s, bounds).expect("solver");
+        let mut rng = crate::rng::SplitMix64(3);
+        for j in 0..24 {
+            for i in 0..24 {
+                let (x, y) = (0.01 + i as f32 * dx, 0.01 + j as f32 * dx);
+                let z = terrain.height_at_m(x, y) + 0.5 * dx;
+                // Packed twice as densely in one corner: more neighbours than a list holds.
+                let dense = i < 6 && j < 6;
+                for k in 0..if dense { 16 } else { 1 } {
+                    let off =
+                        0.5 * dx * Vec3::new((k % 2) as f32, (k / 2 % 2) as f32, (k / 4) as f32);
+                    kept.add_resting_particle(Vec3::new(x, y, z) + off)
+                        .expect("inside");
                 }
-                *acc = f / rho_i - a_press / lattice.gradient + g;
-            });
+            }
+        }
+        // Over the water at rest, and on the bare ground beside it (ghosts in reach).
+        for k in 0..200 {
+            let (x, y) = (
+                0.01 + 0.1 * rng.next_f64() as f32,
+                0.01 + 0.1 * rng.next_f64() as f32,
+            );
+            let (x, lift) = if k % 4 == 0 {
+                (0.127 + 0.015 * rng.next_f64() as f32, 0.3)
+            } else {
+                (x, 1.5)
+            };
+            let z = terrain.height_at_m(x, y) + dx * (lift + 0.6 * rng.next_f64() as f32);
+            kept.add_particle(Vec3::new(x, y, z), Vec3::new(0.1, -0.05, 0.0))
+                .expect("inside");
+        }
+        let mut plain = kept.clone();
+        plain.plain_force_inputs = true;
+        let mut overflowed = false;
+        for step in 0..30 {
+            kept.step();
+            plain.step();
+            let cap = kept.rest_neighbours.capacity;
+            overflowed |= kept.rest_neighbours.count.iter().any(|&c| c as usize > cap);
+            let bits = |m: &Muller2003| {
+                m.particles()
+                    .accelerations_mps2()
+                    .iter()
+                    .map(|a| a.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&kept), bits(&plain), "step {step}");
+            assert_eq!(kept.state_digest(), plain.state_digest(), "step {step}");
+        }
+        assert!(overflowed, "no list overflowed");
+        assert!(kept.particles().len() > 100, "the film left");
     }
 }

@@ -198,7 +198,8 @@ impl PuddleFeed {
     }
 
     /// Builds the water at the first frame rendered (frame `index`, shown at `t_s`); returns the
-    /// impacts of the last ring life, for the ripples (none once running).
+    /// impacts of the last ring life whose rings the picture resolves, for the ripples (none
+    /// once running).
     pub(super) fn start(
         &mut self,
         rain: &RainSetup,
@@ -206,7 +207,7 @@ impl PuddleFeed {
         index: u64,
         t_s: f64,
     ) -> Result<Vec<Impact>> {
-        use crate::fluid::ripples::{RING_LIFE_S, ring_ground};
+        use crate::fluid::ripples::{RING_LIFE_S, ring_ground, ring_resolved};
         // Built beside the frames before for this very frame, or here.
         let plan = match std::mem::replace(self, PuddleFeed::Off) {
             PuddleFeed::Building(b) if b.index == index && b.t_s == t_s => Err(b),
@@ -248,7 +249,11 @@ impl PuddleFeed {
             [still] => ring_ground(still, &sim.ground_rect(), rain.max_diameter_mm()),
             _ => sim.ground_rect(),
         };
-        let hits = rain.impacts_between(&rings, (t_s - RING_LIFE_S).max(0.0), t_s);
+        // Only the impacts whose rings the picture resolves (those `show` keeps): a few dozen
+        // of the hundreds of thousands landing there in a ring's life.
+        let hits = rain.impacts_between_kept(&rings, (t_s - RING_LIFE_S).max(0.0), t_s, |h| {
+            ring_resolved(h, &track.at(h.time_s))
+        });
         let far = FarRipples::new(&rain);
         log::info!(
             "puddles: {:.0} drops land per m²·s; single rings to {:.1} m, beyond them water of \
@@ -274,7 +279,7 @@ impl PuddleFeed {
     }
 
     /// Feeds running water the rain that landed since the last frame and runs it to `t_s`
-    /// (frame `index`, kept if due); returns those impacts where rings can be resolved.
+    /// (frame `index`, kept if due); returns those impacts whose rings the picture resolves.
     pub(super) fn advance(&mut self, index: u64, t_s: f64) -> Result<Vec<Impact>> {
         let PuddleFeed::On(run) = self else {
             return Ok(Vec::new());
@@ -284,7 +289,12 @@ impl PuddleFeed {
         }
         run.sim
             .advance_with_rain_between(&run.rain, run.fed_s, t_s)?;
-        let hits = run.rain.impacts_between(&run.rings, run.fed_s, t_s);
+        let track = &run.track;
+        let hits = run
+            .rain
+            .impacts_between_kept(&run.rings, run.fed_s, t_s, |h| {
+                crate::fluid::ripples::ring_resolved(h, &track.at(h.time_s))
+            });
         run.fed_s = t_s;
         run.keep(index);
         Ok(hits)

@@ -18,6 +18,6 @@ pub mod tracker;
 pub mod vanishing;
 pub mod water;
 
-pub use camera::Camera;
+pub use camera::{Camera, Projector};
 pub use depth::DepthMap;
 pub use ground::{GroundMode, GroundPlane, GroundPose};

@@ -227,14 +227,18 @@ impl PuddleSim {
 
         // Particles, where the picture shows the ground: the configured spacing unless the cap
         // asks for a coarser one (with 2 % to spare for the columns' edges).
+        // Asked for every wet vertex: each camera's constants made once (the same pixels).
+        let views: Vec<_> = cameras
+            .iter()
+            .map(|c| (c.projector(), c.width_px as f64, c.height_px as f64))
+            .collect();
         let in_view = |x: f32, y: f32, z: f32| {
             let p = glam::DVec3::new(x as f64, y as f64, z as f64);
             let ahead = (p - camera.position_m).truncate().length() <= s.max_distance_m;
             ahead
-                && cameras.iter().any(|c| {
-                    let (w, h) = (c.width_px as f64, c.height_px as f64);
+                && views.iter().any(|(c, w, h)| {
                     c.project_world(p)
-                        .is_some_and(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= w && q.y <= h)
+                        .is_some_and(|q| q.x >= 0.0 && q.y >= 0.0 && q.x <= *w && q.y <= *h)
                 })
         };
         let shown_m3: f64 = (0..nx * ny)

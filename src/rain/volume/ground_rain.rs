@@ -428,21 +428,48 @@ impl GroundRain {
         self.stream_between(rect, t0_s, t1_s, out);
     }
 
+    /// [`GroundRain::impacts_between`] less the impacts `keep` turns down, in the same order:
+    /// for a caller that keeps a few of hundreds of thousands (the rings a picture resolves
+    /// out of a second and a half of rain), so the others are never stored.
+    pub fn impacts_between_kept(
+        &self,
+        rect: &GroundRect,
+        t0_s: f64,
+        t1_s: f64,
+        mut keep: impl FnMut(&Impact) -> bool,
+    ) -> Vec<Impact> {
+        let mut out = impacts_between(self.rainfall(), t0_s, t1_s);
+        out.retain(&mut keep);
+        self.stream_landings(rect, t0_s, t1_s, |landing| {
+            let hit = self.impact_of(&landing);
+            if keep(&hit) {
+                out.push(hit);
+            }
+        });
+        out
+    }
+
     /// The stream's impacts in `rect` with time in (t0_s, t1_s], appended to `out`: cell by
     /// cell (x, then y), slot by slot.
     pub fn stream_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64, out: &mut Vec<Impact>) {
         self.stream_landings(rect, t0_s, t1_s, |landing| {
-            let d_mm = self.landing_diameter_mm(&landing);
-            let p = landing.position_m;
-            out.push(Impact {
-                id: landing.id,
-                pass: landing.pass,
-                time_s: landing.time_s,
-                position_m: DVec3::new(p.x, p.y, 0.0),
-                diameter_mm: d_mm,
-                velocity_mps: DVec3::new(0.0, 0.0, -self.model.fall.terminal_velocity_mps(d_mm)),
-            });
+            out.push(self.impact_of(&landing))
         });
+    }
+
+    /// A stream landing as an impact: its size and fall speed looked up.
+    #[inline]
+    fn impact_of(&self, landing: &Landing) -> Impact {
+        let d_mm = self.landing_diameter_mm(landing);
+        let p = landing.position_m;
+        Impact {
+            id: landing.id,
+            pass: landing.pass,
+            time_s: landing.time_s,
+            position_m: DVec3::new(p.x, p.y, 0.0),
+            diameter_mm: d_mm,
+            velocity_mps: DVec3::new(0.0, 0.0, -self.model.fall.terminal_velocity_mps(d_mm)),
+        }
     }
 
     /// The stream's impacts in `rect` with time in (t0_s, t1_s] as [`Landing`]s, in the order
