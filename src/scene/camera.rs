@@ -89,6 +89,17 @@ impl Camera {
         self.project_camera(self.camera_from_world_point(p_world))
     }
 
+    /// [`Camera::project_world`] with the focal length and the rotation's transpose worked out
+    /// once, for many points: the same pixel positions to the bit.
+    pub fn projector(&self) -> impl Fn(DVec3) -> Option<DVec2> + use<> {
+        let (camera_from_world, position_m) = (self.world_from_camera.transpose(), self.position_m);
+        let (f, principal) = (self.focal_px(), self.principal_px());
+        move |p_world| {
+            let p_cam = camera_from_world * (p_world - position_m);
+            (p_cam.z > 0.0).then(|| principal + DVec2::new(p_cam.x, p_cam.y) * (f / p_cam.z))
+        }
+    }
+
     /// Unit world direction of the ray through pixel position `px` (pixel centres at
     /// half-integers).
     pub fn ray_world(&self, px: DVec2) -> DVec3 {
@@ -100,6 +111,29 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The projector projects as `project_world` does, to the bit, behind the camera too.
+    #[test]
+    fn the_projector_is_project_world() {
+        let cam = Camera::new(640, 360, 1.2, 1.6, -0.3, 0.2).panned(0.7);
+        let project = cam.projector();
+        let mut state = 5u64;
+        let mut next = || {
+            state = crate::rng::splitmix64(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 20.0
+        };
+        let mut behind = 0;
+        for _ in 0..2000 {
+            let p = DVec3::new(next(), next(), 0.1 * next());
+            let (a, b) = (project(p), cam.project_world(p));
+            behind += a.is_none() as usize;
+            assert_eq!(
+                a.map(|q| q.to_array().map(f64::to_bits)),
+                b.map(|q| q.to_array().map(f64::to_bits))
+            );
+        }
+        assert!(behind > 100 && behind < 1900, "{behind} behind");
+    }
 
     #[test]
     fn ray_and_projection_are_inverse() {
