@@ -15,8 +15,9 @@ pub(super) type Grids = ((usize, f32, Vec2), (usize, Vec2, f32));
 /// Replaces each column's binned water in `water` by the fill's depth `depth_m` at its centre
 /// (bilinear between the fill's vertices) times its area, scaled so the total stays the
 /// binned total. The columns of a row share their place between two rows of vertices: where
-/// both rows are dry (most of the ground), the depth is 0 without reading it, and the sums skip the zeros (adding +0 changes no sum that is not ±0, and
-/// one that is stays ≤ 0, so the total's test is the same).
+/// both rows are dry, the depth is 0 without reading it and the sum skips it (adding +0
+/// changes no sum that is not ±0, and one that is stays ≤ 0, so the total's test is the
+/// same).
 pub(super) fn resample(water: &mut [f64], depth_m: &[f32], grids: Grids) {
     let ((nx, cell, origin), (cx, lo, spacing)) = grids;
     let d = depth_m;
@@ -25,43 +26,45 @@ pub(super) fn resample(water: &mut [f64], depth_m: &[f32], grids: Grids) {
         return;
     }
     let most = Vec2::new((nx - 1) as f32, (ny - 1) as f32);
-    // The vertices' row and the share of the way to the next, of a column's centre.
-    let grid_at = |p: Vec2| -> (usize, usize, f64, f64) {
-        let g = ((p - origin) / cell).clamp(Vec2::ZERO, most);
-        let (i, j) = ((g.x as usize).min(nx - 2), (g.y as usize).min(ny - 2));
-        (i, j, (g.x - i as f32) as f64, (g.y - j as f32) as f64)
-    };
-    let centre = |c: usize| lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
     // Whether each vertex row holds water.
     let wet: Vec<bool> = d
         .chunks_exact(nx)
         .map(|row| row.iter().any(|&z| z != 0.0))
         .collect();
     let area = (spacing as f64).powi(2);
-    let mut sampled: Vec<(usize, f64)> = Vec::new();
-    for (r, columns) in water.chunks(cx).enumerate() {
+    // Zeroed pages: the dry rows' are never touched.
+    let mut sampled = vec![0.0f64; water.len()];
+    let mut total_sampled = 0.0f64;
+    for (r, row) in sampled.chunks_mut(cx).enumerate() {
+        // A column's centre, its place on the vertices' grid, clamped: the row's (x and y
+        // apart, as the plain form's vectors compute them), without a division per column.
+        let at = |c: usize| {
+            let xy = lo + (Vec2::new(c as f32, r as f32) + 0.5) * spacing;
+            ((xy - origin) / cell).clamp(Vec2::ZERO, most)
+        };
+        let gy = at(0).y;
+        let j = (gy as usize).min(ny - 2);
         // The row's columns read vertex rows j and j + 1 only.
-        let (_, j, _, _) = grid_at(centre(r * cx));
         if !wet[j] && !wet[j + 1] {
             continue;
         }
-        for c in r * cx..r * cx + columns.len() {
-            let (i, j, u, v) = grid_at(centre(c));
-            let at = |i: usize, j: usize| d[j * nx + i] as f64;
-            let z = (1.0 - v) * ((1.0 - u) * at(i, j) + u * at(i + 1, j))
-                + v * ((1.0 - u) * at(i, j + 1) + u * at(i + 1, j + 1));
-            if z != 0.0 {
-                sampled.push((c, z * area));
-            }
+        let v = (gy - j as f32) as f64;
+        let (lower, upper) = (&d[j * nx..][..nx], &d[(j + 1) * nx..][..nx]);
+        for (c, s) in row.iter_mut().enumerate() {
+            let gx = at(c).x;
+            let i = (gx as usize).min(nx - 2);
+            let u = (gx - i as f32) as f64;
+            let z = (1.0 - v) * ((1.0 - u) * lower[i] as f64 + u * lower[i + 1] as f64)
+                + v * ((1.0 - u) * upper[i] as f64 + u * upper[i + 1] as f64);
+            *s = z * area;
+            total_sampled += *s;
         }
     }
     let total = water.iter().sum::<f64>();
-    let total_sampled = sampled.iter().map(|&(_, s)| s).sum::<f64>();
     if total_sampled > 0.0 {
         let scale = total / total_sampled;
-        water.fill(0.0 * scale);
-        for (c, s) in sampled {
-            water[c] = s * scale;
+        for (w, s) in water.iter_mut().zip(sampled) {
+            *w = s * scale;
         }
     }
 }

@@ -133,50 +133,40 @@ fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     .map(move |(a, b)| b as usize * nx + a as usize)
 }
 
-/// A Priority-Flood under way: per vertex its height, filled height, receiver and whether it
-/// was reached (one record, so taking a vertex reads one cache line per neighbour, not four),
-/// the order so far and how many entered a queue (each entry's order).
-struct Flood {
+/// A Priority-Flood under way: the heights, per vertex its filled height, receiver and
+/// whether it was reached (arrays of their own: the first two are the flood's result as they
+/// stand, and `reached`, read for every neighbour, takes a byte), the order so far and how
+/// many entered a queue (each entry's order).
+struct Flood<'a> {
     nx: usize,
     ny: usize,
-    vertices: Vec<FloodVertex>,
+    h: &'a [f32],
+    filled: Vec<f32>,
+    receiver: Vec<u32>,
+    reached: Vec<bool>,
     order: Vec<u32>,
     pushed: u32,
 }
 
-/// A vertex in the flood.
-#[derive(Clone, Copy)]
-struct FloodVertex {
-    h: f32,
-    filled: f32,
-    receiver: u32,
-    reached: bool,
-}
-
-impl Flood {
+impl<'a> Flood<'a> {
     /// The flood of the heights `h` (`nx × ny`, row-major), its edge vertices reached and
     /// handed to `enqueue` at their own height.
-    fn new(h: &[f32], nx: usize, ny: usize, mut enqueue: impl FnMut(Queued)) -> Flood {
+    fn new(h: &'a [f32], nx: usize, ny: usize, mut enqueue: impl FnMut(Queued)) -> Flood<'a> {
         let n = nx * ny;
         let mut flood = Flood {
             nx,
             ny,
-            vertices: h
-                .iter()
-                .map(|&z| FloodVertex {
-                    h: z,
-                    filled: z,
-                    receiver: NONE,
-                    reached: false,
-                })
-                .collect(),
+            h,
+            filled: h.to_vec(),
+            receiver: vec![NONE; n],
+            reached: vec![false; n],
             order: Vec::with_capacity(n),
             pushed: 0,
         };
         for (v, &z) in h.iter().enumerate() {
             let (i, j) = (v % nx, v / nx);
             if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
-                flood.vertices[v].reached = true;
+                flood.reached[v] = true;
                 enqueue(flood.entry(v, z));
             }
         }
@@ -200,14 +190,13 @@ impl Flood {
     fn take(&mut self, vertex: u32, mut enqueue: impl FnMut(Queued)) {
         let c = vertex as usize;
         self.order.push(vertex);
-        let from = self.vertices[c].filled;
+        let from = self.filled[c];
         let mut visit = |flood: &mut Flood, nb: usize| {
-            let n = &mut flood.vertices[nb];
-            if !n.reached {
-                n.reached = true;
-                n.filled = n.h.max(from);
-                n.receiver = vertex;
-                let level = n.filled;
+            if !flood.reached[nb] {
+                flood.reached[nb] = true;
+                let level = flood.h[nb].max(from);
+                flood.filled[nb] = level;
+                flood.receiver[nb] = vertex;
                 let q = flood.entry(nb, level);
                 enqueue(q);
             }
@@ -237,9 +226,7 @@ impl Flood {
     /// The filled heights, each vertex's receiver (`NONE` on the edge) and the order the
     /// vertices were taken.
     fn finish(self) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
-        let filled = self.vertices.iter().map(|v| v.filled).collect();
-        let receiver = self.vertices.iter().map(|v| v.receiver).collect();
-        (filled, receiver, self.order)
+        (self.filled, self.receiver, self.order)
     }
 }
 
