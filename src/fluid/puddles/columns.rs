@@ -145,7 +145,7 @@ mod tests {
             let mut binned = vec![0.0f64; cx * cy];
             for (k, w) in binned.iter_mut().enumerate() {
                 state = splitmix64(state);
-                if state % 3 == 0 {
+                if state.is_multiple_of(3) {
                     *w = 1e-7 * (k % 13) as f64;
                 }
             }
