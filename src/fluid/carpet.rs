@@ -229,13 +229,14 @@ impl Carpet {
             });
         }
         let n = s.nx * s.ny;
-        let leaf_terrain_m: Vec<f32> = (0..n)
-            .map(|k| {
-                let c =
-                    s.origin_m + (Vec2::new((k % s.nx) as f32, (k / s.nx) as f32) + 0.5) * s.cell_m;
+        // Row by row: no division per leaf to find its row and column.
+        let mut leaf_terrain_m = Vec::with_capacity(n);
+        for j in 0..s.ny {
+            leaf_terrain_m.extend((0..s.nx).map(|i| {
+                let c = s.origin_m + (Vec2::new(i as f32, j as f32) + 0.5) * s.cell_m;
                 terrain.height_at_m(c.x, c.y)
-            })
-            .collect();
+            }));
+        }
         let leaves = Level {
             nx: s.nx,
             ny: s.ny,

@@ -80,9 +80,12 @@ impl HeightField {
             heights_m,
             normals: Vec::new(),
         };
-        field.normals = (0..nx * ny)
-            .map(|k| field.vertex_normal(k % nx, k / nx))
-            .collect();
+        // Row by row: no division per vertex to find its row and column.
+        let mut normals = Vec::with_capacity(nx * ny);
+        for j in 0..ny {
+            normals.extend((0..nx).map(|i| field.vertex_normal(i, j)));
+        }
+        field.normals = normals;
         Ok(field)
     }
 

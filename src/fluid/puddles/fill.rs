@@ -69,6 +69,49 @@ impl PartialOrd for Queued {
     }
 }
 
+/// A heap entry of the flood: the level and the order as one integer key (ties on the level
+/// go first-come first-served, as [`Queued`]'s), compared in one instruction instead of a
+/// float's total order and then the order's.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Keyed {
+    key: u64,
+    vertex: u32,
+}
+
+impl Keyed {
+    fn of(q: Queued) -> Keyed {
+        Keyed {
+            key: (level_key(q.level_m) as u64) << 32 | q.order as u64,
+            vertex: q.vertex,
+        }
+    }
+}
+
+impl Ord for Keyed {
+    // A min-queue on the key.
+    fn cmp(&self, other: &Self) -> Ordering {
+        other.key.cmp(&self.key)
+    }
+}
+
+impl PartialOrd for Keyed {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// An f32's place in `f32::total_cmp`'s order as an unsigned integer: a negative's bits
+/// inverted (larger magnitudes come first), a positive's with the sign bit set (after every
+/// negative), so −0 < +0 as there.
+fn level_key(level_m: f32) -> u32 {
+    let bits = level_m.to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    }
+}
+
 const NONE: u32 = u32::MAX;
 
 /// The eight neighbours of vertex `v` on an `nx × ny` grid.
@@ -90,51 +133,41 @@ fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     .map(move |(a, b)| b as usize * nx + a as usize)
 }
 
-/// A Priority-Flood under way: per vertex its height, filled height, receiver and whether it
-/// was reached (one record, so taking a vertex reads one cache line per neighbour, not four),
-/// the order so far and how many entered a queue (each entry's order).
-struct Flood {
+/// A Priority-Flood under way: the heights, per vertex its filled height, receiver and
+/// whether it was reached (arrays of their own: the first two are the flood's result as they
+/// stand, and `reached`, read for every neighbour, takes a byte), the order so far and how
+/// many entered a queue (each entry's order).
+struct Flood<'a> {
     nx: usize,
     ny: usize,
-    vertices: Vec<FloodVertex>,
+    h: &'a [f32],
+    filled: Vec<f32>,
+    receiver: Vec<u32>,
+    reached: Vec<bool>,
     order: Vec<u32>,
     pushed: u32,
 }
 
-/// A vertex in the flood.
-#[derive(Clone, Copy)]
-struct FloodVertex {
-    h: f32,
-    filled: f32,
-    receiver: u32,
-    reached: bool,
-}
-
-impl Flood {
+impl<'a> Flood<'a> {
     /// The flood of the heights `h` (`nx × ny`, row-major), its edge vertices reached and
-    /// pushed to `queue` at their own height.
-    fn new(h: &[f32], nx: usize, ny: usize, queue: &mut BinaryHeap<Queued>) -> Flood {
+    /// handed to `enqueue` at their own height.
+    fn new(h: &'a [f32], nx: usize, ny: usize, mut enqueue: impl FnMut(Queued)) -> Flood<'a> {
         let n = nx * ny;
         let mut flood = Flood {
             nx,
             ny,
-            vertices: h
-                .iter()
-                .map(|&z| FloodVertex {
-                    h: z,
-                    filled: z,
-                    receiver: NONE,
-                    reached: false,
-                })
-                .collect(),
+            h,
+            filled: h.to_vec(),
+            receiver: vec![NONE; n],
+            reached: vec![false; n],
             order: Vec::with_capacity(n),
             pushed: 0,
         };
         for (v, &z) in h.iter().enumerate() {
             let (i, j) = (v % nx, v / nx);
             if i == 0 || j == 0 || i == nx - 1 || j == ny - 1 {
-                flood.vertices[v].reached = true;
-                queue.push(flood.entry(v, z));
+                flood.reached[v] = true;
+                enqueue(flood.entry(v, z));
             }
         }
         flood
@@ -157,14 +190,13 @@ impl Flood {
     fn take(&mut self, vertex: u32, mut enqueue: impl FnMut(Queued)) {
         let c = vertex as usize;
         self.order.push(vertex);
-        let from = self.vertices[c].filled;
+        let from = self.filled[c];
         let mut visit = |flood: &mut Flood, nb: usize| {
-            let n = &mut flood.vertices[nb];
-            if !n.reached {
-                n.reached = true;
-                n.filled = n.h.max(from);
-                n.receiver = vertex;
-                let level = n.filled;
+            if !flood.reached[nb] {
+                flood.reached[nb] = true;
+                let level = flood.h[nb].max(from);
+                flood.filled[nb] = level;
+                flood.receiver[nb] = vertex;
                 let q = flood.entry(nb, level);
                 enqueue(q);
             }
@@ -194,9 +226,7 @@ impl Flood {
     /// The filled heights, each vertex's receiver (`NONE` on the edge) and the order the
     /// vertices were taken.
     fn finish(self) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
-        let filled = self.vertices.iter().map(|v| v.filled).collect();
-        let receiver = self.vertices.iter().map(|v| v.receiver).collect();
-        (filled, receiver, self.order)
+        (self.filled, self.receiver, self.order)
     }
 }
 
@@ -204,40 +234,35 @@ impl Flood {
 /// heights, each vertex's receiver (`NONE` on the edge) and the order the vertices were taken.
 fn priority_flood(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
     let mut queue = BinaryHeap::new();
-    let mut flood = Flood::new(h, nx, ny, &mut queue);
+    let mut flood = Flood::new(h, nx, ny, |q| queue.push(Keyed::of(q)));
     // A vertex flooded at the level being taken (the bulk of a depression) would enter the
     // heap behind every entry of that level and leave it before any higher one: it waits in
-    // a first-in first-out queue instead (Barnes et al.'s pit queue), taken whenever its
-    // (level, order) is the smaller, so the order is the heap's alone, without its cost
-    // (the pit's entries share one level and come in order, so its front is its least).
-    let mut pit: VecDeque<(u32, u32)> = VecDeque::new();
-    let mut pit_level = 0.0f32;
+    // a first-in first-out queue instead (Barnes et al.'s pit queue), taken whenever its key
+    // is the smaller, so the order is the heap's alone, without its cost (the pit's entries
+    // share one level and come in order, so its front is its least).
+    let mut pit: VecDeque<Keyed> = VecDeque::new();
+    let mut pit_level = 0u32;
     loop {
         let from_pit = match (pit.front(), queue.peek()) {
-            (Some(&(o, _)), Some(top)) => pit_level
-                .total_cmp(&top.level_m)
-                .then(o.cmp(&top.order))
-                .is_lt(),
+            (Some(p), Some(top)) => p.key < top.key,
             (Some(_), None) => true,
             (None, _) => false,
         };
-        let (level, vertex) = if from_pit {
-            let Some((_, v)) = pit.pop_front() else {
-                break;
-            };
-            (pit_level, v)
+        let taken = if from_pit {
+            pit.pop_front()
         } else {
-            match queue.pop() {
-                Some(q) => (q.level_m, q.vertex),
-                None => break,
-            }
+            queue.pop()
         };
+        let Some(Keyed { key, vertex }) = taken else {
+            break;
+        };
+        let level = (key >> 32) as u32;
         flood.take(vertex, |q| {
             // All in the pit share one level (bit for bit: −0 and +0 differ in the order).
-            let same = |a: f32| a.total_cmp(&level).is_eq();
-            if same(q.level_m) && (pit.is_empty() || same(pit_level)) {
+            let q = Keyed::of(q);
+            if (q.key >> 32) as u32 == level && (pit.is_empty() || pit_level == level) {
                 pit_level = level;
-                pit.push_back((q.order, q.vertex));
+                pit.push_back(q);
             } else {
                 queue.push(q);
             }
@@ -246,71 +271,194 @@ fn priority_flood(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u
     flood.finish()
 }
 
-/// [`priority_flood`] with the heap alone: the plain reference the pit queue is tested
-/// against.
+/// [`priority_flood`] with a heap of [`Queued`] alone: the plain reference the keys and the
+/// pit queue are tested against.
 #[cfg(test)]
 fn priority_flood_reference(h: &[f32], nx: usize, ny: usize) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
     let mut queue = BinaryHeap::new();
-    let mut flood = Flood::new(h, nx, ny, &mut queue);
+    let mut flood = Flood::new(h, nx, ny, |q| queue.push(q));
     while let Some(Queued { vertex, .. }) = queue.pop() {
         flood.take(vertex, |q| queue.push(q));
     }
     flood.finish()
 }
 
+/// The depressions of a flood: the 8-connected sets of flooded vertices (F > H), labelled in
+/// flood order (so each one's first vertex is its first flooded one), their vertices listed
+/// in vertex order, one array for all.
+#[derive(Debug, PartialEq)]
+struct Depressions {
+    /// Each vertex's depression (`NONE` where not flooded).
+    label: Vec<u32>,
+    /// Each depression's first flooded vertex.
+    first: Vec<usize>,
+    /// Depression d's vertices are `members[start[d]..start[d + 1]]`.
+    start: Vec<u32>,
+    members: Vec<u32>,
+}
+
+impl Depressions {
+    /// The depressions of the flood of `h` (`filled`, taken in `order`), each set found by a
+    /// search from its first flooded vertex.
+    fn of(h: &[f32], filled: &[f32], order: &[u32], (nx, ny): (usize, usize)) -> Depressions {
+        let flooded: Vec<bool> = filled.iter().zip(h).map(|(f, z)| f > z).collect();
+        let mut label = vec![NONE; h.len()];
+        let mut first = Vec::new();
+        let mut stack = Vec::new();
+        for &v in order {
+            let v = v as usize;
+            if !flooded[v] || label[v] != NONE {
+                continue;
+            }
+            let id = first.len() as u32;
+            first.push(v);
+            label[v] = id;
+            stack.push(v);
+            while let Some(c) = stack.pop() {
+                let mut visit = |nb: usize| {
+                    if flooded[nb] && label[nb] == NONE {
+                        label[nb] = id;
+                        stack.push(nb);
+                    }
+                };
+                let (i, j) = (c % nx, c / nx);
+                if i > 0 && j > 0 && i + 1 < nx && j + 1 < ny {
+                    // Inside: the eight in [`neighbours`]' order, without its bounds tests.
+                    for nb in [
+                        c - nx - 1,
+                        c - nx,
+                        c - nx + 1,
+                        c - 1,
+                        c + 1,
+                        c + nx - 1,
+                        c + nx,
+                        c + nx + 1,
+                    ] {
+                        visit(nb);
+                    }
+                } else {
+                    neighbours(c, nx, ny).for_each(visit);
+                }
+            }
+        }
+        // Counted, then placed: each depression's vertices in vertex order.
+        let mut start = vec![0u32; first.len() + 1];
+        for &d in label.iter().filter(|&&d| d != NONE) {
+            start[d as usize + 1] += 1;
+        }
+        for d in 0..first.len() {
+            start[d + 1] += start[d];
+        }
+        let mut next = start.clone();
+        let mut members = vec![0u32; start[first.len()] as usize];
+        for (v, &d) in label.iter().enumerate().filter(|&(_, &d)| d != NONE) {
+            members[next[d as usize] as usize] = v as u32;
+            next[d as usize] += 1;
+        }
+        Depressions {
+            label,
+            first,
+            start,
+            members,
+        }
+    }
+
+    /// [`Depressions::of`] in its plain form, the reference it is tested against: the
+    /// neighbours by [`neighbours`], one list per depression.
+    #[cfg(test)]
+    fn plain(h: &[f32], filled: &[f32], order: &[u32], (nx, ny): (usize, usize)) -> Depressions {
+        let flooded = |v: usize| filled[v] > h[v];
+        let mut label = vec![NONE; h.len()];
+        let mut first = Vec::new();
+        let mut stack = Vec::new();
+        for &v in order {
+            let v = v as usize;
+            if !flooded(v) || label[v] != NONE {
+                continue;
+            }
+            let id = first.len() as u32;
+            first.push(v);
+            label[v] = id;
+            stack.push(v);
+            while let Some(c) = stack.pop() {
+                for nb in neighbours(c, nx, ny) {
+                    if flooded(nb) && label[nb] == NONE {
+                        label[nb] = id;
+                        stack.push(nb);
+                    }
+                }
+            }
+        }
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); first.len()];
+        for (v, &d) in label.iter().enumerate() {
+            if d != NONE {
+                lists[d as usize].push(v as u32);
+            }
+        }
+        let mut start = vec![0u32];
+        for m in &lists {
+            start.push(start.last().copied().unwrap_or(0) + m.len() as u32);
+        }
+        Depressions {
+            label,
+            first,
+            start,
+            members: lists.concat(),
+        }
+    }
+
+    fn count(&self) -> usize {
+        self.first.len()
+    }
+
+    /// Depression `d`'s vertices, in vertex order.
+    fn members(&self, d: usize) -> &[u32] {
+        &self.members[self.start[d] as usize..self.start[d + 1] as usize]
+    }
+}
+
+/// The heights' flood: filled heights, receivers and the order taken.
+type FloodOf = fn(&[f32], usize, usize) -> (Vec<f32>, Vec<u32>, Vec<u32>);
+/// A flood's depressions.
+type DepressionsOf = fn(&[f32], &[f32], &[u32], (usize, usize)) -> Depressions;
+
 /// Fills `terrain` with `rain_m` of water over each vertex's cell (a uniform depth, m; the
 /// water each cell received and did not lose otherwise).
 pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
+    fill_with(terrain, rain_m, priority_flood, Depressions::of)
+}
+
+/// [`fill_depressions`] by the given flood and depressions (the fast ones, or the plain ones
+/// they are tested against).
+fn fill_with(
+    terrain: &HeightField,
+    rain_m: f64,
+    flood: FloodOf,
+    depressions: DepressionsOf,
+) -> FilledWater {
     let (nx, ny) = (terrain.nx(), terrain.ny());
     let h = terrain.heights_m();
     let n = nx * ny;
     let area_m2 = (terrain.spacing_m() as f64).powi(2);
 
     // 1. Priority-Flood.
-    let (filled, receiver, order) = priority_flood(h, nx, ny);
+    let (filled, receiver, order) = flood(h, nx, ny);
 
-    // 2. Depressions: 8-connected flooded sets, labelled in flood order (so each label's
-    // first vertex is the depression's first flooded one).
-    let flooded = |v: usize| filled[v] > h[v];
-    let mut label = vec![NONE; n];
-    let mut first = Vec::new();
-    let mut stack = Vec::new();
-    for &v in &order {
-        let v = v as usize;
-        if !flooded(v) || label[v] != NONE {
-            continue;
-        }
-        let id = first.len() as u32;
-        first.push(v);
-        label[v] = id;
-        stack.push(v);
-        while let Some(c) = stack.pop() {
-            for nb in neighbours(c, nx, ny) {
-                if flooded(nb) && label[nb] == NONE {
-                    label[nb] = id;
-                    stack.push(nb);
-                }
-            }
-        }
-    }
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); first.len()];
-    for v in 0..n {
-        if label[v] != NONE {
-            members[label[v] as usize].push(v);
-        }
-    }
-    let capacity: Vec<f64> = members
-        .iter()
-        .map(|m| {
-            m.iter()
-                .map(|&v| (filled[v] as f64 - h[v] as f64) * area_m2)
+    // 2. Depressions.
+    let sets = depressions(h, &filled, &order, (nx, ny));
+    let (label, first) = (&sets.label, &sets.first);
+    let capacity: Vec<f64> = (0..sets.count())
+        .map(|d| {
+            sets.members(d)
+                .iter()
+                .map(|&v| (filled[v as usize] as f64 - h[v as usize] as f64) * area_m2)
                 .sum()
         })
         .collect();
 
     // 3. Routing, givers before receivers.
     let mut water = vec![rain_m * area_m2; n];
-    let mut pool = vec![0.0f64; first.len()];
+    let mut pool = vec![0.0f64; sets.count()];
     let mut run_off_m3 = 0.0;
     for &v in order.iter().rev() {
         let v = v as usize;
@@ -333,15 +481,19 @@ pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
     // 4. Levels.
     let mut depth_m = vec![0.0f32; n];
     let mut held_m3 = 0.0;
-    for (d, m) in members.iter().enumerate() {
+    let mut heights = Vec::new();
+    for d in 0..sets.count() {
+        let m = sets.members(d);
         let level = if pool[d] >= capacity[d] {
-            filled[m[0]] as f64
+            filled[m[0] as usize] as f64
         } else {
-            level_holding(m.iter().map(|&v| h[v] as f64).collect(), pool[d] / area_m2)
+            heights.clear();
+            heights.extend(m.iter().map(|&v| h[v as usize] as f64));
+            level_holding(&mut heights, pool[d] / area_m2)
         };
         for &v in m {
-            let z = (level - h[v] as f64).max(0.0);
-            depth_m[v] = z as f32;
+            let z = (level - h[v as usize] as f64).max(0.0);
+            depth_m[v as usize] = z as f32;
             held_m3 += z * area_m2;
         }
     }
@@ -350,14 +502,15 @@ pub fn fill_depressions(terrain: &HeightField, rain_m: f64) -> FilledWater {
         held_m3,
         run_off_m3,
         capacity_m3: capacity.iter().sum(),
-        depressions: first.len(),
+        depressions: sets.count(),
     }
 }
 
 /// The level L with Σ max(0, L − hᵢ) = `volume` (in height × cells): between consecutive
-/// sorted heights the sum is linear in L, so walk up to the bracket and solve it.
-fn level_holding(mut heights: Vec<f64>, volume: f64) -> f64 {
-    heights.sort_by(f64::total_cmp);
+/// sorted heights the sum is linear in L, so walk up to the bracket and solve it. (Sorted
+/// unstably: equal in `total_cmp` is equal to the bit, so the order is the stable sort's.)
+fn level_holding(heights: &mut [f64], volume: f64) -> f64 {
+    heights.sort_unstable_by(f64::total_cmp);
     let mut below = 0.0; // Σ of the k lowest heights
     for k in 1..=heights.len() {
         below += heights[k - 1];
@@ -370,23 +523,20 @@ fn level_holding(mut heights: Vec<f64>, volume: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod pit_queue_tests {
+mod fast_flood_tests {
     use super::*;
+    use glam::Vec2;
 
-    /// The pit queue takes the vertices in the heap's order: the same filled heights,
-    /// receivers and order as the heap alone, on a rough relief with many pits, flat runs
-    /// (equal heights) and a plateau.
-    #[test]
-    fn the_pit_queue_floods_as_the_heap_alone() {
-        let (nx, ny) = (97, 61);
+    /// A rough relief with many pits, flat runs (equal heights), both zeros (−0 and +0 are
+    /// apart in the order), heights below zero, a plateau in a corner and pits on the edge.
+    fn rough(nx: usize, ny: usize) -> Vec<f32> {
         let mut state = 0x1234_5678_9abc_def0u64;
-        let h: Vec<f32> = (0..nx * ny)
+        (0..nx * ny)
             .map(|v| {
                 state = crate::rng::splitmix64(state);
                 let (x, y) = ((v % nx) as f32, (v / nx) as f32);
                 let noise = (state >> 40) as f32 / (1u64 << 24) as f32;
-                // Quantised to 1 mm, so many neighbours share a height (both zeros among them: −0
-                // and +0 are apart in the order); a plateau in a corner.
+                // Quantised to 1 mm, so many neighbours share a height.
                 let z = 0.01 * (0.3 * x).sin() * (0.2 * y).cos() + 0.004 * noise;
                 if x < 20.0 && y < 15.0 {
                     0.02
@@ -394,11 +544,20 @@ mod pit_queue_tests {
                     (z * 1000.0).round() / 1000.0
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    /// The keyed heap and the pit queue take the vertices in the plain heap's order: the
+    /// same filled heights, receivers and order.
+    #[test]
+    fn the_keyed_pit_queue_floods_as_the_plain_heap() {
+        let (nx, ny) = (97, 61);
+        let h = rough(nx, ny);
         let fast = priority_flood(&h, nx, ny);
         let plain = priority_flood_reference(&h, nx, ny);
         let pits = (0..nx * ny).filter(|&v| fast.0[v] > h[v]).count();
         assert!(pits > 500, "{pits} flooded vertices");
+        assert!(h.iter().any(|z| z.to_bits() == (-0.0f32).to_bits()));
         assert!(
             fast.0
                 .iter()
@@ -407,6 +566,84 @@ mod pit_queue_tests {
         );
         assert_eq!(fast.1, plain.1);
         assert_eq!(fast.2, plain.2);
+    }
+
+    /// The key orders levels as `f32::total_cmp`: random bit patterns (NaNs, infinities and
+    /// subnormals among them) and the values at the sign's seam, every pair.
+    #[test]
+    fn the_level_key_orders_as_total_cmp() {
+        let mut state = 7u64;
+        let mut levels: Vec<f32> = (0..400)
+            .map(|_| {
+                state = crate::rng::splitmix64(state);
+                f32::from_bits(state as u32)
+            })
+            .collect();
+        levels.extend([
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::from_bits(0x8000_0001),
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            1.0,
+            -1.0,
+        ]);
+        for a in &levels {
+            for b in &levels {
+                assert_eq!(
+                    level_key(*a).cmp(&level_key(*b)),
+                    a.total_cmp(b),
+                    "{a:e} ({:#x}) vs {b:e} ({:#x})",
+                    a.to_bits(),
+                    b.to_bits()
+                );
+            }
+        }
+    }
+
+    /// The depressions found with the inside's neighbours unrolled and listed in one array
+    /// are the plain ones.
+    #[test]
+    fn the_depressions_are_the_plain_ones() {
+        let (nx, ny) = (97, 61);
+        let h = rough(nx, ny);
+        let (filled, _, order) = priority_flood_reference(&h, nx, ny);
+        let fast = Depressions::of(&h, &filled, &order, (nx, ny));
+        let plain = Depressions::plain(&h, &filled, &order, (nx, ny));
+        assert!(fast.count() > 50, "{} depressions", fast.count());
+        // Some reach the edge's inner ring, where the neighbours are bounds-tested.
+        assert!(
+            fast.members
+                .iter()
+                .any(|&v| matches!(v as usize % nx, 1) || matches!(v as usize / nx, 1))
+        );
+        assert_eq!(fast, plain);
+    }
+
+    /// The whole fill by the fast flood and depressions is the fill by the plain ones, to
+    /// the bit, where the rain fills some depressions partly and where it floods them all.
+    #[test]
+    fn the_fill_is_the_plain_fill_to_the_bit() {
+        let (nx, ny) = (97, 61);
+        let t =
+            HeightField::new(nx, ny, Vec2::new(-1.0, 2.0), 0.03, rough(nx, ny)).expect("relief");
+        for rain_m in [0.0005, 0.002, 0.5] {
+            let fast = fill_depressions(&t, rain_m);
+            let plain = fill_with(&t, rain_m, priority_flood_reference, Depressions::plain);
+            assert!(fast.held_m3 > 0.0);
+            let bits = |f: &FilledWater| {
+                let mut b: Vec<u64> = f.depth_m.iter().map(|d| d.to_bits() as u64).collect();
+                b.extend([f.held_m3, f.run_off_m3, f.capacity_m3].map(f64::to_bits));
+                b.push(f.depressions as u64);
+                b
+            };
+            assert!(bits(&fast) == bits(&plain), "rain {rain_m} m");
+        }
     }
 }
 

@@ -13,11 +13,13 @@
 //! ```
 //!
 //! Modules: [`checkpoint`] (the water kept in files for chunks), [`relief`] (footprint and micro-relief), [`fill`] (depression filling),
+//! `columns` (the fill's water laid into the particle columns),
 //! [`ledger`] (the water balance), [`shown`] (the water map the picture is shaded from),
 //! [`kept_map`] (that map kept from frame to frame, made again where the water changed),
 //! [`sim`] ([`PuddleSim`], the loop), [`report`]
 //! (`inspect puddles`).
 pub mod checkpoint;
+mod columns;
 pub mod fill;
 pub mod kept_map;
 pub mod ledger;

@@ -21,6 +21,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::columns::resample;
 use super::fill::{FilledWater, fill_depressions};
 use super::kept_map::KeptWaterMap;
 use super::ledger::{WaterLedger, pre_rain_split};
@@ -602,7 +603,11 @@ fn place_particles(
             water[j * cx + i] += d as f64 * area;
         }
     }
-    resample(&mut water, filled, (nx, cell, origin), (cx, lo, spacing));
+    resample(
+        &mut water,
+        &filled.depth_m,
+        ((nx, cell, origin), (cx, lo, spacing)),
+    );
     let volume = (spacing as f64).powi(3);
     let (mut carry, mut outside) = (0.0, 0.0);
     for (c, &w) in water.iter().enumerate() {
@@ -644,44 +649,4 @@ fn place_particles(
         }
     }
     Ok((carry, outside))
-}
-
-/// Replaces each column's binned water by the fill's depth at its centre (bilinear between
-/// the fill's vertices) times its area, scaled so the total stays the binned total. Binning
-/// vertices into columns of another spacing aliases (columns of one, two or no vertices), a
-/// pattern of spikes and holes the stepped water smooths out but water at rest would keep.
-fn resample(
-    water: &mut [f64],
-    filled: &FilledWater,
-    (nx, cell, origin): (usize, f32, Vec2),
-    (cx, lo, spacing): (usize, Vec2, f32),
-) {
-    let d = &filled.depth_m;
-    let ny = d.len() / nx.max(1);
-    if nx < 2 || ny < 2 {
-        return;
-    }
-    let depth_at = |p: Vec2| -> f64 {
-        let g =
-            ((p - origin) / cell).clamp(Vec2::ZERO, Vec2::new((nx - 1) as f32, (ny - 1) as f32));
-        let (i, j) = ((g.x as usize).min(nx - 2), (g.y as usize).min(ny - 2));
-        let (u, v) = ((g.x - i as f32) as f64, (g.y - j as f32) as f64);
-        let at = |i: usize, j: usize| d[j * nx + i] as f64;
-        (1.0 - v) * ((1.0 - u) * at(i, j) + u * at(i + 1, j))
-            + v * ((1.0 - u) * at(i, j + 1) + u * at(i + 1, j + 1))
-    };
-    let area = (spacing as f64).powi(2);
-    let sampled: Vec<f64> = (0..water.len())
-        .map(|c| {
-            let xy = lo + (Vec2::new((c % cx) as f32, (c / cx) as f32) + 0.5) * spacing;
-            depth_at(xy) * area
-        })
-        .collect();
-    let (total, total_sampled) = (water.iter().sum::<f64>(), sampled.iter().sum::<f64>());
-    if total_sampled > 0.0 {
-        let scale = total / total_sampled;
-        for (w, s) in water.iter_mut().zip(sampled) {
-            *w = s * scale;
-        }
-    }
 }
