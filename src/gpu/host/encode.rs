@@ -1,9 +1,10 @@
 //! The canvas → packed code values on the CPU (the `rgb_to_yuv` stage's work), luma and chroma
 //! in one pass over each chroma block's rows. The canvas is f16, so the transfer (linear →
 //! encoded) is an exact table over all 65 536 f16 values; the matrix and the rounding follow,
-//! a loop over a row's pixels for the compiler to vectorise, compiled a second time for AVX2
-//! and picked at run time: the same bits. (The table is read a load at a time: AVX2's gathers
-//! were no faster on the machine measured, see `docs/measurements.md`.)
+//! eight pixels at a time: in the AVX2 build (picked at run time) each channel's bits taken
+//! from the texels with shifts and the table read by one gather, else lanes the compiler
+//! vectorises; the chroma blocks' sums eight at a time. The plain loop, one pixel at a time,
+//! is the reference (the baseline build): the same bits.
 
 // Lane loops index several arrays by the pixel: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]

@@ -2,9 +2,11 @@
 //! normalised Y'CbCr (exact), the matrix, the transfer through a fine table, the haze's veil
 //! ([`super::veil`]), then f16, eight pixels at a time (one cell of the veil's grid) in lanes
 //! the compiler vectorises; on x86-64 with AVX2 and F16C the same code is compiled a second
-//! time, the table read by gathers ([`super::lanes`]), and picked at run time. Every pixel is
-//! computed with the same operations in the same order either way (Rust never fuses a multiply
-//! and an add), so both builds give the same bits (`tests/backend.rs`).
+//! time, the table read by gathers ([`super::lanes`]), and picked at run time. On 8-bit
+//! pictures R and B, which depend on two codes each, come from exact tables by code
+//! (`CodeTables`). Every pixel is computed with the same operations in the same order either
+//! way (Rust never fuses a multiply and an add), so both builds give the same bits
+//! (`tests/backend.rs`).
 
 // Lane loops index several arrays by the lane: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
