@@ -1,5 +1,6 @@
 //! First what a 1080p frame costs the CPU back end before any rain: the decode with and without
-//! the haze (its grid made each frame) and the frame light's estimate. Then the CPU back end's
+//! the haze (its grid made each frame), the encode of the hazed canvas and the frame light's
+//! estimate. Then the CPU back end's
 //! colour passes at 720p (`gpu::host`): planes → hazed f16 canvas, with and
 //! without the haze, and canvas → code values; the plain `f64` twins on the same frame for
 //! scale. Then the streaks of the default rain (10 mm/h) drawn over a 1080p canvas in tiles,
@@ -418,6 +419,21 @@ fn frame_fixed_costs(c: &mut Criterion) {
             })
         });
     }
+    // The encode of the hazed canvas (every tile: the haze is on).
+    let canvas: Vec<u16> = host
+        .decode(&frame, &scene)
+        .iter()
+        .map(|v| v.to_bits())
+        .collect();
+    c.bench_function("host rgb→yuv 1080p, CPU", |b| {
+        b.iter_custom(|n| {
+            let start = process_cpu();
+            for _ in 0..n {
+                black_box(host.encode(&canvas, 1920)[0].data.len());
+            }
+            process_cpu() - start
+        })
+    });
     let mut estimator =
         LightEstimator::new(&camera, 0, &LightConfig::default()).expect("light estimator");
     let mut t_s = 0.0;

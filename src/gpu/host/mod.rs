@@ -109,11 +109,13 @@ impl HostColour {
         }
     }
 
-    /// [`new`](Self::new) without the AVX2 builds of the decode, the puddles and the encode:
-    /// the same bits, slower (`tests/backend.rs` holds the two equal).
+    /// [`new`](Self::new) without the AVX2 builds of the decode, the puddles and the encode,
+    /// and without the decode's tables by code (each routine in its plain form): the same
+    /// bits, slower (`tests/backend.rs` holds the two equal).
     pub fn baseline(format: FrameFormat, color: &ColorParams) -> HostColour {
         let mut host = HostColour::new(format, color);
         host.decoder.set_baseline(true);
+        host.decoder.set_code_tables(false);
         host.encoder.set_baseline(true);
         host.puddles_avx2 = false;
         host

@@ -2,9 +2,11 @@
 //! normalised Y'CbCr (exact), the matrix, the transfer through a fine table, the haze's veil
 //! ([`super::veil`]), then f16, eight pixels at a time (one cell of the veil's grid) in lanes
 //! the compiler vectorises; on x86-64 with AVX2 and F16C the same code is compiled a second
-//! time, the table read by gathers ([`super::lanes`]), and picked at run time. Every pixel is
-//! computed with the same operations in the same order either way (Rust never fuses a multiply
-//! and an add), so both builds give the same bits (`tests/backend.rs`).
+//! time, the table read by gathers ([`super::lanes`]), and picked at run time. On 8-bit
+//! pictures R and B, which depend on two codes each, come from exact tables by code
+//! (`CodeTables`). Every pixel is computed with the same operations in the same order either
+//! way (Rust never fuses a multiply and an add), so both builds give the same bits
+//! (`tests/backend.rs`).
 
 // Lane loops index several arrays by the lane: the form the vectoriser reads best.
 #![allow(clippy::needless_range_loop)]
@@ -12,7 +14,7 @@
 use half::f16;
 use rayon::prelude::*;
 
-use super::lanes::{self, LANES, gather};
+use super::lanes::{self, LANES, gather, gather_pairs};
 use super::streaks::{TILE_H, TILE_W};
 use super::veil::{GridPoint, Veil};
 use super::wet_ground::WetGround;
@@ -39,20 +41,21 @@ const _: () = assert!(TILE_W.is_multiple_of(LANES));
 
 /// The transfer (encoded → linear, odd-extended) as a table interpolated linearly. The
 /// transfer follows the matrix, so it is a function of three codes, not one: no exact
-/// per-code table exists for it.
+/// per-code table exists for it. Each step keeps its own and the next value side by side, so
+/// the eight lanes' two values come from one read each.
 pub struct Eotf {
     transfer: Transfer,
-    table: Vec<f32>,
+    /// The table at steps `i` and `i + 1`, for `i` in `0..EOTF_STEPS`.
+    pairs: Vec<[f32; 2]>,
 }
 
 impl Eotf {
     /// The table of `transfer`.
     pub fn new(transfer: Transfer) -> Eotf {
         let step = f64::from(EOTF_SPAN) / EOTF_STEPS as f64;
-        let table = (0..=EOTF_STEPS)
-            .map(|i| eotf_signed(transfer, i as f64 * step) as f32)
-            .collect();
-        Eotf { transfer, table }
+        let at = |i: usize| eotf_signed(transfer, i as f64 * step) as f32;
+        let pairs = (0..EOTF_STEPS).map(|i| [at(i), at(i + 1)]).collect();
+        Eotf { transfer, pairs }
     }
 
     /// Linear light of encoded value `e`.
@@ -61,7 +64,7 @@ impl Eotf {
         let at = e.abs() * (EOTF_STEPS as f32 / EOTF_SPAN);
         if at < EOTF_STEPS as f32 {
             let i = at as usize;
-            let (a, b) = (self.table[i], self.table[i + 1]);
+            let [a, b] = self.pairs[i];
             (a + (b - a) * (at - i as f32)).copysign(e)
         } else {
             eotf_signed(self.transfer, f64::from(e)) as f32
@@ -69,7 +72,7 @@ impl Eotf {
     }
 
     /// [`apply`](Self::apply) to eight lanes, with the same operations; `avx2`: the table read
-    /// by gathers (see [`lanes::gather`]).
+    /// by gathers (see [`lanes::gather_pairs`]).
     #[inline(always)]
     fn lanes(&self, e: [f32; LANES], avx2: bool) -> [f32; LANES] {
         let last = (EOTF_STEPS - 1) as f32;
@@ -89,10 +92,7 @@ impl Eotf {
         for l in 0..LANES {
             step[l] = i[l] as u32;
         }
-        let (a, b) = (
-            gather(&self.table, step, 0, avx2),
-            gather(&self.table, step, 1, avx2),
-        );
+        let (a, b) = gather_pairs(&self.pairs, step, avx2);
         let mut out = [0f32; LANES];
         for l in 0..LANES {
             out[l] = (a[l] + (b[l] - a[l]) * (at[l] - i[l] as f32)).copysign(e[l]);
@@ -104,6 +104,16 @@ impl Eotf {
         }
         out
     }
+}
+
+/// For 8-bit codes, linear R and B as exact tables over the two codes each depends on: R' is
+/// Y' + `cr_r` Cr and B' is Y' + `cb_b` Cb, so each entry is [`Eotf::apply`] of the value the
+/// lanes form from that luma code and that chroma code, and a pixel's R or B is one read
+/// instead of the transfer's two and its interpolation. (G' mixes three codes: it keeps the
+/// transfer's table.) 256 KiB each, indexed `luma · 256 + chroma`.
+struct CodeTables {
+    r: Vec<f32>,
+    b: Vec<f32>,
 }
 
 /// Code values → linear RGB for one picture format.
@@ -121,6 +131,8 @@ pub struct Decoder {
     cr_g: f32,
     cb_b: f32,
     eotf: Eotf,
+    /// R and B by their codes (8-bit pictures, unless turned off: the plain form then).
+    code_tables: Option<Box<CodeTables>>,
     /// Whether the AVX2 build runs (the CPU has AVX2 and F16C, and it was not turned off).
     avx2: bool,
 }
@@ -131,7 +143,7 @@ impl Decoder {
         let s = color.range_scale();
         let (kr, kb) = color.matrix.kr_kb();
         let kg = 1.0 - kr - kb;
-        Decoder {
+        let mut decoder = Decoder {
             format,
             y_offset: s.y_offset as f32,
             y_scale: s.y_scale as f32,
@@ -142,13 +154,37 @@ impl Decoder {
             cr_g: (2.0 * kr * (1.0 - kr) / kg) as f32,
             cb_b: (2.0 * (1.0 - kb)) as f32,
             eotf: Eotf::new(color.transfer),
+            code_tables: None,
             avx2: lanes::has_avx2_f16c(),
-        }
+        };
+        decoder.set_code_tables(format.bit_depth == 8);
+        decoder
     }
 
     /// Turns the AVX2 build off where `off` (the same bits, slower).
     pub(super) fn set_baseline(&mut self, off: bool) {
         self.avx2 = !off && lanes::has_avx2_f16c();
+    }
+
+    /// R and B read from [`CodeTables`] where `on` (8-bit pictures only), else through the
+    /// transfer's table as G: the same bits.
+    pub(super) fn set_code_tables(&mut self, on: bool) {
+        self.code_tables = (on && self.format.bit_depth == 8).then(|| {
+            let code = |v: u32| v as f32;
+            let table = |k: f32| -> Vec<f32> {
+                (0..1u32 << 16)
+                    .map(|i| {
+                        let luma = (code(i >> 8) - self.y_offset) / self.y_scale;
+                        let c = (code(i & 255) - self.c_offset) / self.c_scale;
+                        self.eotf.apply(luma + k * c)
+                    })
+                    .collect()
+            };
+            Box::new(CodeTables {
+                r: table(self.cr_r),
+                b: table(self.cb_b),
+            })
+        });
     }
 
     /// Writes the linear canvas of `frame` under `veil` (RGBA f16, alpha 1) into `canvas`, the
@@ -354,6 +390,25 @@ impl Decoder {
             &s.cb[x0..][..LANES],
             &s.cr[x0..][..LANES],
         );
+        let eotf = &self.eotf;
+        if let Some(t) = &self.code_tables {
+            // Codes of an 8-bit picture are below 256: each index lies inside the tables.
+            let mut g = [0f32; LANES];
+            let (mut at_r, mut at_b) = ([0u32; LANES], [0u32; LANES]);
+            for l in 0..LANES {
+                let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
+                let cb_v = (f32::from(cb[l]) - self.c_offset) / self.c_scale;
+                let cr_v = (f32::from(cr[l]) - self.c_offset) / self.c_scale;
+                g[l] = luma + -(self.cb_g * cb_v + self.cr_g * cr_v);
+                at_r[l] = u32::from(y[l]) << 8 | u32::from(cr[l]);
+                at_b[l] = u32::from(y[l]) << 8 | u32::from(cb[l]);
+            }
+            return [
+                gather(&t.r, at_r, 0, avx2),
+                eotf.lanes(g, avx2),
+                gather(&t.b, at_b, 0, avx2),
+            ];
+        }
         let mut e = [[0f32; LANES]; 3];
         for l in 0..LANES {
             let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
@@ -364,7 +419,6 @@ impl Decoder {
             e[2][l] = luma + self.cb_b * cb;
         }
         // No closures here: they would leave the AVX2 build.
-        let eotf = &self.eotf;
         [
             eotf.lanes(e[0], avx2),
             eotf.lanes(e[1], avx2),
@@ -452,11 +506,11 @@ fn veil_lanes(
     let f: [f32; LANES] = std::array::from_fn(|l| (l as f32 + 0.5) / LANES as f32);
     let mut veil = [0f32; LANES];
     for l in 0..LANES {
-        let sky = if finite[l] {
-            0.0
-        } else {
-            a[6] + (b[6] - a[6]) * f[l]
-        };
+        // The sky's weight, or +0 where the distance is known: a mask, not a branch (the
+        // select stays in the lanes).
+        let open = a[6] + (b[6] - a[6]) * f[l];
+        let keep = 0u32.wrapping_sub(u32::from(!finite[l]));
+        let sky = f32::from_bits(open.to_bits() & keep);
         veil[l] = t[l] + (1.0 - t[l]) * sky;
     }
     // A channel at a time, its lanes side by side.
@@ -474,6 +528,61 @@ fn veil_lanes(
 #[cfg(test)]
 mod tests {
     use crate::video::{ColorParams, Matrix, Transfer};
+
+    /// With R and B read from the 8-bit code tables the decode gives the plain form's bits
+    /// (every R and B through the transfer's table) on a picture holding every pair of luma
+    /// and chroma codes, in both ranges and several matrices and transfers, with the AVX2 build
+    /// and without.
+    #[test]
+    fn code_tables_decode_as_the_transfer() {
+        use crate::video::{Chroma, FrameFormat, YuvFrame};
+        let format = FrameFormat {
+            width: 512,
+            height: 256,
+            chroma: Chroma::Cs444,
+            bit_depth: 8,
+        };
+        for (matrix, transfer, full_range) in [
+            (Matrix::Bt709, Transfer::Srgb, false),
+            (Matrix::Bt601, Transfer::Bt709, true),
+            (Matrix::Bt2020Ncl, Transfer::Pq, false),
+        ] {
+            let color = ColorParams {
+                matrix,
+                full_range,
+                transfer,
+                bit_depth: 8,
+            };
+            // Luma = x mod 256 and Cb = Cr = y in the left half; Cb and Cr swapped roles
+            // (Cb = 255 − y) in the right, so R and B each meet every pair.
+            let mut frame = YuvFrame::filled(format, color, [0, 0, 0]);
+            for y in 0..256usize {
+                for x in 0..512usize {
+                    frame.planes[0].data[y * 512 + x] = (x % 256) as u8;
+                    frame.planes[1].data[y * 512 + x] = if x < 256 { y } else { 255 - y } as u8;
+                    frame.planes[2].data[y * 512 + x] = y as u8;
+                }
+            }
+            for avx2 in [true, false] {
+                let mut plain = super::Decoder::new(format, &color);
+                plain.set_code_tables(false);
+                plain.set_baseline(!avx2);
+                let mut fast = super::Decoder::new(format, &color);
+                fast.set_baseline(!avx2);
+                assert!(fast.code_tables.is_some() && plain.code_tables.is_none());
+                let mut canvases = [Vec::new(), Vec::new()];
+                for (d, canvas) in [&plain, &fast].into_iter().zip(&mut canvases) {
+                    *canvas = vec![half::f16::ZERO; 4 * 512 * 256];
+                    d.decode(&frame, None, None, canvas);
+                }
+                let bits = |c: &[half::f16]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert!(
+                    bits(&canvases[0]) == bits(&canvases[1]),
+                    "{matrix:?}, {transfer:?}, full range {full_range}, AVX2 {avx2}"
+                );
+            }
+        }
+    }
 
     /// The normalised Y'CbCr in f32 (code − offset) / scale is the exact value rounded once:
     /// the same as the f64 quotient rounded to f32, for every code of every depth and range.
