@@ -17,7 +17,8 @@
 use crate::config::RenderConfig;
 use crate::scene::Camera;
 use crate::scene::ground::GroundMode;
-use crate::scene::horizon::{self, CUT_THRESHOLD, HorizonEstimate, Luma};
+use crate::scene::horizon::{self, HorizonEstimate, Luma};
+use crate::scene::tracker::is_cut;
 use crate::video::Source;
 use crate::{Error, Result};
 
@@ -94,17 +95,9 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
         };
         let luma = Luma::from_frame(&frame, rot, horizon::WORK_WIDTH);
         let thumb = luma.thumbnail();
-        if let Some(p) = prev {
-            let change = p
-                .iter()
-                .zip(&thumb)
-                .map(|(a, b)| (a - b).abs())
-                .sum::<f32>()
-                / 144.0;
-            if change > CUT_THRESHOLD {
-                cut_s = Some(crate::shot::frame_time_s(&info, &frame));
-                break;
-            }
+        if prev.is_some_and(|p| is_cut(&p, &thumb)) {
+            cut_s = Some(crate::shot::frame_time_s(&info, &frame));
+            break;
         }
         prev = Some(thumb);
         if i % every == 0 {

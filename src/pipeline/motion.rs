@@ -21,8 +21,9 @@ use super::pose_cache;
 use crate::config::RenderConfig;
 use crate::keyframes::{Curve, Keyframes};
 use crate::scene::Camera;
-use crate::scene::horizon::{CUT_THRESHOLD, Luma};
+use crate::scene::horizon::Luma;
 use crate::scene::motion::{self, Estimate, Estimator, MotionSource, PoseTrack};
+use crate::scene::tracker::is_cut;
 use crate::video::Source;
 use crate::{Error, Result};
 
@@ -63,14 +64,7 @@ pub fn estimate_clip(input: &str, config: &RenderConfig, cancel: &AtomicBool) ->
             scale,
         };
         let thumb = luma.thumbnail();
-        let cut = prev.is_some_and(|p| {
-            p.iter()
-                .zip(&thumb)
-                .map(|(a, b)| (a - b).abs())
-                .sum::<f32>()
-                / 144.0
-                > CUT_THRESHOLD
-        });
+        let cut = prev.is_some_and(|p| is_cut(&p, &thumb));
         prev = Some(thumb);
         let image = motion::track::Image {
             width: luma.width,

@@ -21,6 +21,17 @@ pub struct GroundTracker {
 /// Mean absolute thumbnail change above which two consecutive frames are a cut.
 pub const CUT_THRESHOLD: f32 = 0.12;
 
+/// Whether two consecutive frames' luma thumbnails ([`Luma::thumbnail`]) differ by a cut.
+pub fn is_cut(prev: &[f32; 144], thumb: &[f32; 144]) -> bool {
+    let change = prev
+        .iter()
+        .zip(thumb)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f32>()
+        / 144.0;
+    change > CUT_THRESHOLD
+}
+
 impl GroundTracker {
     /// A tracker averaging over the last `window` frames (1 = no smoothing).
     pub fn new(window: usize) -> GroundTracker {
@@ -38,16 +49,12 @@ impl GroundTracker {
         camera: &Camera,
     ) -> HorizonEstimate {
         let thumb = luma.thumbnail();
-        if let Some((_, prev)) = self.frames.back() {
-            let change: f32 = prev
-                .iter()
-                .zip(&thumb)
-                .map(|(a, b)| (a - b).abs())
-                .sum::<f32>()
-                / 144.0;
-            if change > CUT_THRESHOLD {
-                self.frames.clear();
-            }
+        if self
+            .frames
+            .back()
+            .is_some_and(|(_, prev)| is_cut(prev, &thumb))
+        {
+            self.frames.clear();
         }
         self.frames.push_back((est, thumb));
         while self.frames.len() > self.window {

@@ -114,6 +114,29 @@ fn level_key(level_m: f32) -> u32 {
 
 const NONE: u32 = u32::MAX;
 
+/// Visits the eight neighbours of vertex `c` in [`neighbours`]' order; inside the grid without
+/// its bounds tests (the flood's and the depressions' inner loop).
+#[inline(always)]
+fn for_each_neighbour(c: usize, nx: usize, ny: usize, mut visit: impl FnMut(usize)) {
+    let (i, j) = (c % nx, c / nx);
+    if i > 0 && j > 0 && i + 1 < nx && j + 1 < ny {
+        for nb in [
+            c - nx - 1,
+            c - nx,
+            c - nx + 1,
+            c - 1,
+            c + 1,
+            c + nx - 1,
+            c + nx,
+            c + nx + 1,
+        ] {
+            visit(nb);
+        }
+    } else {
+        neighbours(c, nx, ny).for_each(visit);
+    }
+}
+
 /// The eight neighbours of vertex `v` on an `nx × ny` grid.
 fn neighbours(v: usize, nx: usize, ny: usize) -> impl Iterator<Item = usize> {
     let (i, j) = ((v % nx) as i64, (v / nx) as i64);
@@ -201,26 +224,8 @@ impl<'a> Flood<'a> {
                 enqueue(q);
             }
         };
-        let (nx, i, j) = (self.nx, c % self.nx, c / self.nx);
-        if i > 0 && j > 0 && i + 1 < nx && j + 1 < self.ny {
-            // Inside: the eight in [`neighbours`]' order, without its bounds tests.
-            for nb in [
-                c - nx - 1,
-                c - nx,
-                c - nx + 1,
-                c - 1,
-                c + 1,
-                c + nx - 1,
-                c + nx,
-                c + nx + 1,
-            ] {
-                visit(self, nb);
-            }
-        } else {
-            for nb in neighbours(c, nx, self.ny) {
-                visit(self, nb);
-            }
-        }
+        let (nx, ny) = (self.nx, self.ny);
+        for_each_neighbour(c, nx, ny, |nb| visit(self, nb));
     }
 
     /// The filled heights, each vertex's receiver (`NONE` on the edge) and the order the
@@ -315,30 +320,13 @@ impl Depressions {
             label[v] = id;
             stack.push(v);
             while let Some(c) = stack.pop() {
-                let mut visit = |nb: usize| {
+                let visit = |nb: usize| {
                     if flooded[nb] && label[nb] == NONE {
                         label[nb] = id;
                         stack.push(nb);
                     }
                 };
-                let (i, j) = (c % nx, c / nx);
-                if i > 0 && j > 0 && i + 1 < nx && j + 1 < ny {
-                    // Inside: the eight in [`neighbours`]' order, without its bounds tests.
-                    for nb in [
-                        c - nx - 1,
-                        c - nx,
-                        c - nx + 1,
-                        c - 1,
-                        c + 1,
-                        c + nx - 1,
-                        c + nx,
-                        c + nx + 1,
-                    ] {
-                        visit(nb);
-                    }
-                } else {
-                    neighbours(c, nx, ny).for_each(visit);
-                }
+                for_each_neighbour(c, nx, ny, visit);
             }
         }
         // Counted, then placed: each depression's vertices in vertex order.
