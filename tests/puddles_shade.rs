@@ -1575,13 +1575,13 @@ fn the_cover_widens_its_range_with_the_footprint_without_a_jump() {
     let mut rng = rain_composite::rng::SplitMix64(11);
     let noise = Field2 {
         values: (0..shore.values.len())
-            .map(|_| (4.0 * EDGE_DEPTH_M as f64 * (rng.next_f64() - 0.5)) as f32)
+            .map(|_| (4.0 * EDGE_DEPTH_M * (rng.next_f64() - 0.5)) as f32)
             .collect(),
         ..shore.clone()
     };
     let cell = cell_m as f64;
     let per_px = [DVec2::new(0.45, 0.12) * cell, DVec2::new(-0.08, 0.5) * cell];
-    let edge = EDGE_DEPTH_M as f64;
+    let edge = EDGE_DEPTH_M;
     let cases = [
         ("a shore at 17°", &shore, n, false),
         ("random depths", &noise, DVec2::new(0.96, 0.28), true),
