@@ -168,11 +168,13 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
 // The water's cover at ground point `xy`, the share of the pixel's footprint under water: the
 // mean of smoothstep(0, edge_depth_m, depth) over a box of one pixel's width across the rim
 // (rim_cover), the depth (m, signed: negative where dry) read by Catmull-Rom over the 4×4
-// cells around it (0 off the map) and clamped to the four nearest cells' range. C¹, so the
+// cells around it (0 off the map) and clamped to the four nearest cells' range, widened toward
+// the twelve around them where the pixel's footprint passes their square. C¹, so the
 // rim turns smoothly across the cells' edges (a bilinear reading's zero kinks there); exact on
 // planes and quadratics; the clamp keeps its overshoot from making water or dry ground that
-// none of the four nearest cells holds, and settles the cover from those four alone where all
-// are dry or all deeper than the rim (the same value, without the other twelve reads). The
+// none of the cells the footprint reaches holds, and settles the cover from the four nearest
+// alone where the footprint stays in their square and all are dry or all deeper than the rim
+// (the same value, without the other twelve reads). The
 // depth's change per pixel is the reading's own derivative (Catmull-Rom's) along the ground
 // point's change per pixel `per_px` (columns: per pixel along x, along y). Each row along x,
 // then the rows along y (the twin's water_depth).
@@ -184,16 +186,42 @@ fn water_cover(xy: vec2<f32>, per_px: mat2x2<f32>) -> f32 {
     let b = map_cell(c + vec2<i32>(1, 0));
     let d = map_cell(c + vec2<i32>(0, 1));
     let e = map_cell(c + vec2<i32>(1, 1));
-    let lo = min(min(a, b), min(d, e));
-    let hi = max(max(a, b), max(d, e));
-    if hi <= 0.0 { return 0.0; }
-    if lo >= puddle.edge_depth_m { return 1.0; }
-    let wx = catmull_rom(f.x);
-    let dx = catmull_rom_slope(f.x);
+    var lo = min(min(a, b), min(d, e));
+    var hi = max(max(a, b), max(d, e));
+    // Widened toward the twelve cells around the four by how far the footprint passes their
+    // square toward each (the twin's footprint_range).
+    let half = 0.5 * (abs(per_px[0]) + abs(per_px[1])) / puddle.cell_m;
+    let before = clamp(half - f, vec2<f32>(0.0), vec2<f32>(1.0));
+    let after = clamp(f + half - vec2<f32>(1.0), vec2<f32>(0.0), vec2<f32>(1.0));
+    let leaves = max(max(before.x, before.y), max(after.x, after.y)) > 0.0;
+    if !leaves {
+        if hi <= 0.0 { return 0.0; }
+        if lo >= puddle.edge_depth_m { return 1.0; }
+    }
     let r0 = map_row(c + vec2<i32>(-1, -1));
     let r1 = vec4<f32>(map_cell(c + vec2<i32>(-1, 0)), a, b, map_cell(c + vec2<i32>(2, 0)));
     let r2 = vec4<f32>(map_cell(c + vec2<i32>(-1, 1)), d, e, map_cell(c + vec2<i32>(2, 1)));
     let r3 = map_row(c + vec2<i32>(-1, 2));
+    if leaves {
+        let reach_x = vec4<f32>(before.x, 1.0, 1.0, after.x);
+        let reach_y = vec4<f32>(before.y, 1.0, 1.0, after.y);
+        let w = mat4x4<f32>(reach_y.x * reach_x, reach_y.y * reach_x, reach_y.z * reach_x, reach_y.w * reach_x);
+        let cells = mat4x4<f32>(r0, r1, r2, r3);
+        var down = 0.0;
+        var up = 0.0;
+        for (var j = 0; j < 4; j++) {
+            let below = w[j] * max(vec4<f32>(lo) - cells[j], vec4<f32>(0.0));
+            let above = w[j] * max(cells[j] - vec4<f32>(hi), vec4<f32>(0.0));
+            down = max(down, max(max(below.x, below.y), max(below.z, below.w)));
+            up = max(up, max(max(above.x, above.y), max(above.z, above.w)));
+        }
+        lo -= down;
+        hi += up;
+        if hi <= 0.0 { return 0.0; }
+        if lo >= puddle.edge_depth_m { return 1.0; }
+    }
+    let wx = catmull_rom(f.x);
+    let dx = catmull_rom_slope(f.x);
     let rows = vec4<f32>(dot(wx, r0), dot(wx, r1), dot(wx, r2), dot(wx, r3));
     let sum = dot(catmull_rom(f.y), rows);
     let along_x = dot(catmull_rom(f.y), vec4<f32>(dot(dx, r0), dot(dx, r1), dot(dx, r2), dot(dx, r3)));

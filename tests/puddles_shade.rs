@@ -1394,7 +1394,8 @@ fn the_water_keeps_the_lamps_glow() {
 /// is compared with the mean of the cover taken at 16 × 16 points across the pixel (computed
 /// here from the map's reading, point by point): on the rim's pixels inside the map the drawn cover's error
 /// must be well below that of the cover taken at the pixel's centre alone, whose steps are off
-/// by up to half a pixel's share.
+/// by up to half a pixel's share, and no pixel's by a tenth (a pixel whose four nearest cells
+/// are dry though its footprint reaches water beyond them is not left dry).
 #[test]
 fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
     use rain_composite::fluid::puddles::shown::water_map;
@@ -1525,6 +1526,8 @@ fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
             rms < 0.25 * rms_centre,
             "{name}: RMS {rms:.4} against the centre's {rms_centre:.4}"
         );
+        // No pixel left dry (or full) by a clamp to cells its footprint passes beyond.
+        assert!(worst < 0.1, "{name}: a pixel off by {worst:.3}");
         if let Some(ctx) = &ctx {
             let gpu = codes(&render(
                 ctx,
@@ -1543,6 +1546,103 @@ fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
                 .unwrap_or(0);
             eprintln!("{name}: GPU against the twin, worst {worst} codes");
             assert!(worst <= 1, "{name}: {worst} codes off");
+        }
+    }
+}
+
+/// The cover's clamp widens with the footprint without a jump: swept across a shore's rim and
+/// across a map of random depths (±2 rim depths, cell to cell) in steps of 1/256 cell, a pixel's
+/// footprint about half a cell, the twin's cover never steps by more than its smooth change
+/// allows between cell-centre lines (where the four nearest cells change, as before), whereas
+/// switching from the four nearest cells' range to the sixteen's where the footprint leaves
+/// their square (computed here) jumps there on the random map.
+#[test]
+fn the_cover_widens_its_range_with_the_footprint_without_a_jump() {
+    use rain_composite::fluid::puddles::shown::water_map;
+    let cell_m = 0.03f32;
+    let (c, n) = (
+        DVec2::new(0.011, 2.617),
+        DVec2::from_angle(17f64.to_radians()),
+    );
+    let (surface, depth) = still_carpet(
+        |p| 0.3 * n.dot(p - c),
+        0.0,
+        c.as_vec2() - Vec2::splat(48.0 * cell_m),
+        96,
+        cell_m,
+    );
+    let shore = water_map(&surface, &depth);
+    let mut rng = rain_composite::rng::SplitMix64(11);
+    let noise = Field2 {
+        values: (0..shore.values.len())
+            .map(|_| (4.0 * EDGE_DEPTH_M * (rng.next_f64() - 0.5)) as f32)
+            .collect(),
+        ..shore.clone()
+    };
+    let cell = cell_m as f64;
+    let per_px = [DVec2::new(0.45, 0.12) * cell, DVec2::new(-0.08, 0.5) * cell];
+    let edge = EDGE_DEPTH_M;
+    let cases = [
+        ("a shore at 17°", &shore, n, false),
+        ("random depths", &noise, DVec2::new(0.96, 0.28), true),
+    ];
+    for (name, map, across, jumps) in cases {
+        let params = puddle_params(map, 0);
+        let origin = map.origin_m.as_dvec2();
+        // The cover with the range switched: the four nearest cells' inside their square, the
+        // sixteen's once the footprint's bounding box leaves it.
+        let switched = |xy: DVec2| {
+            let (d, gradient, lo4, hi4) = puddles::water_depth_gradient(&params, &map.values, xy);
+            let u = (xy - origin) / cell - DVec2::splat(0.5);
+            let (i0, f) = (u.floor(), u - u.floor());
+            let half = (per_px[0].abs() + per_px[1].abs()) * (0.5 / cell);
+            let leaves =
+                (half - f).max_element() > 0.0 || (f + half - DVec2::ONE).max_element() > 0.0;
+            let (mut lo, mut hi) = (lo4, hi4);
+            if leaves {
+                for k in 0..16 {
+                    let (i, j) = (i0.x as usize + k % 4 - 1, i0.y as usize + k / 4 - 1);
+                    let v = map.values[j * map.nx + i] as f64;
+                    (lo, hi) = (lo.min(v), hi.max(v));
+                }
+            }
+            let width = DVec2::new(gradient.dot(per_px[0]), gradient.dot(per_px[1])).length();
+            puddles::rim_cover(d, lo, hi, width, edge)
+        };
+        let (mut widened, mut hard) = (0.0f64, 0.0f64);
+        for line in 0..128 {
+            // Lines across the shore (or the noise) through the middle of the map.
+            let side = DVec2::new(-across.y, across.x) * (line as f64 * 0.19 - 12.0) * cell;
+            let start = c + side - across * 6.0 * cell;
+            let step = across * cell / 256.0;
+            let mut last: Option<(DVec2, f64, f64)> = None;
+            for k in 0..=12 * 256 {
+                let xy = start + step * k as f64;
+                let u = ((xy - origin) / cell - DVec2::splat(0.5)).floor();
+                let now = (
+                    u,
+                    puddles::water_cover(&params, &map.values, xy, per_px),
+                    switched(xy),
+                );
+                if let Some(before) = last
+                    && before.0 == now.0
+                {
+                    widened = widened.max((now.1 - before.1).abs());
+                    hard = hard.max((now.2 - before.2).abs());
+                }
+                last = Some(now);
+            }
+        }
+        eprintln!(
+            "{name}: largest step per 1/256 cell: widened by the footprint {widened:.4}, \
+             switched to the sixteen cells {hard:.4}"
+        );
+        assert!(
+            widened < 0.02,
+            "{name}: the widened range steps by {widened:.4}"
+        );
+        if jumps {
+            assert!(hard > 0.03, "{name}: the switch's jump is seen: {hard:.4}");
         }
     }
 }

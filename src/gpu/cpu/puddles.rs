@@ -347,10 +347,61 @@ impl Mirror<'_> {
 /// mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the rim
 /// ([`rim_cover`]), the depth read by [`water_depth`] and its change per pixel by the reading's
 /// own derivative along the ground point's change per pixel `per_px` ([`ground_per_px`]).
+/// Clamped to [`footprint_range`], so a pixel whose footprint reaches a wet cell beyond the
+/// four nearest is not left dry.
 pub fn water_cover(params: &PuddleParams, depth_m: &[f32], xy: DVec2, per_px: [DVec2; 2]) -> f64 {
-    let (depth, gradient, lo, hi) = water_depth_gradient(params, depth_m, xy);
+    let (depth, gradient, _, _) = water_depth_gradient(params, depth_m, xy);
+    let (lo, hi) = footprint_range(params, depth_m, xy, per_px);
     let width = DVec2::new(gradient.dot(per_px[0]), gradient.dot(per_px[1])).length();
     rim_cover(depth, lo, hi, width, params.edge_depth_m as f64)
+}
+
+/// The range the cover's depth is clamped to at ground point `xy` for a pixel whose footprint
+/// moves by `per_px`: the four nearest cells' range, widened toward each of the twelve around
+/// them by how far the footprint (its bounding box, half ½(|∂x| + |∂y|) per axis) passes the
+/// square of the four nearest centres toward it, in cells (0 to 1, per axis, multiplied). It
+/// widens continuously from the four cells' range where the footprint stays inside the square
+/// (a hard switch to the sixteen would jump at the square's edge), and roughly as far as a
+/// linear reading between the cells would reach at the footprint's edge.
+pub fn footprint_range(
+    params: &PuddleParams,
+    depth_m: &[f32],
+    xy: DVec2,
+    per_px: [DVec2; 2],
+) -> (f64, f64) {
+    let (nx, ny) = (params.cells[0] as i64, params.cells[1] as i64);
+    let origin = DVec2::new(params.origin_m[0] as f64, params.origin_m[1] as f64);
+    let cell_m = params.cell_m as f64;
+    let u = (xy - origin) / cell_m - DVec2::splat(0.5);
+    let (i0, j0) = (u.x.floor() as i64, u.y.floor() as i64);
+    let f = u - u.floor();
+    let half = (per_px[0].abs() + per_px[1].abs()) * (0.5 / cell_m);
+    let reach = |a: usize, f: f64, h: f64| match a {
+        0 => (h - f).clamp(0.0, 1.0),
+        3 => (f + h - 1.0).clamp(0.0, 1.0),
+        _ => 1.0,
+    };
+    let cell = |a: usize, b: usize| {
+        let (i, j) = (i0 + a as i64 - 1, j0 + b as i64 - 1);
+        if (0..nx).contains(&i) && (0..ny).contains(&j) {
+            depth_m[(j * nx + i) as usize] as f64
+        } else {
+            0.0
+        }
+    };
+    let near = [cell(1, 1), cell(2, 1), cell(1, 2), cell(2, 2)];
+    let lo = near.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = near.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (mut down, mut up) = (0.0f64, 0.0f64);
+    for b in 0..4 {
+        for a in 0..4 {
+            let w = reach(a, f.x, half.x) * reach(b, f.y, half.y);
+            let v = cell(a, b);
+            down = down.max(w * (lo - v).max(0.0));
+            up = up.max(w * (v - hi).max(0.0));
+        }
+    }
+    (lo - down, hi + up)
 }
 
 /// The mean of smoothstep(0, `edge`, clamp(s, `lo`, `hi`)) for s spread evenly over `depth` ±

@@ -365,8 +365,9 @@ impl<'a> Puddles<'a> {
     /// Whether the pixels of columns `x0..=x1` and rows `y0..=y1` surely see no water: every
     /// corner's ray goes down, so every pixel's ground point lies in the quadrilateral of the
     /// corners' (the ground is the rays' central projection: convex stays convex), and no
-    /// cell within one of the four nearest cells of that quadrilateral's bounding box is wet
-    /// ([`Puddles::water_cover`] is 0 where its four nearest cells are dry or off the map).
+    /// cell within two cells of that quadrilateral's bounding box is wet
+    /// ([`Puddles::water_cover`] is 0 where the 4×4 cells around its point are dry or off the
+    /// map).
     fn sees_no_water(&self, (x0, x1): (usize, usize), (y0, y1): (usize, usize)) -> bool {
         let g = self.ground;
         let p = &self.water.params;
@@ -386,9 +387,10 @@ impl<'a> Puddles<'a> {
         if !(lo.is_finite() && hi.is_finite()) {
             return false;
         }
-        // The nearest cells are ⌊u⌋ and ⌊u⌋ + 1; one more on each side for rounding.
+        // The cover reads cells ⌊u⌋ − 1 to ⌊u⌋ + 2 (the four nearest and, where the footprint
+        // passes their square, the twelve around them); one more on each side for rounding.
         let (nx, ny) = (p.cells[0] as f32, p.cells[1] as f32);
-        let (a, b) = ((lo - 1.0).floor(), (hi + 2.0).floor());
+        let (a, b) = ((lo - 2.0).floor(), (hi + 3.0).floor());
         if b.x < 0.0 || b.y < 0.0 || a.x >= nx || a.y >= ny {
             return true;
         }
@@ -418,11 +420,12 @@ impl<'a> Puddles<'a> {
     /// The water's cover at ground point `xy`, the share of the pixel's footprint under water:
     /// the mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the
     /// rim ([`rim_cover`]), the depth read by Catmull-Rom over the 4×4 cells around it, 0 off
-    /// the map, clamped to the four nearest cells' range, its change per pixel by Catmull-Rom's
+    /// the map, clamped to the four nearest cells' range widened where the footprint passes
+    /// their square (the twin's `footprint_range`), its change per pixel by Catmull-Rom's
     /// derivative along the ground point's change per pixel `per_px` (`water_cover` of
     /// puddles.wgsl and of the twin, in their order: each row along x, then the rows along y).
-    /// The clamp settles the cover from the four nearest alone where all are dry or all deeper
-    /// than the rim (most of the ground): the same value, without the other twelve reads.
+    /// The clamp settles the cover from its range alone where it is all dry or all deeper than
+    /// the rim (most of the ground): the same value, without the rest of the reading.
     #[inline(always)]
     fn water_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
         let p = &self.water.params;
@@ -446,9 +449,31 @@ impl<'a> Puddles<'a> {
             cell(i0 + 1, j0 + 2),
             cell(i0 + 2, j0 + 2),
         ];
-        let lo = near[0].min(near[1]).min(near[2].min(near[3]));
-        let hi = near[0].max(near[1]).max(near[2].max(near[3]));
+        let (mut lo, mut hi) = (
+            near[0].min(near[1]).min(near[2].min(near[3])),
+            near[0].max(near[1]).max(near[2].max(near[3])),
+        );
         let edge = p.edge_depth_m;
+        // Widened toward the twelve cells around the four where the footprint passes their
+        // square (the twin's `footprint_range`).
+        let half = (per_px[0].abs() + per_px[1].abs()) * (0.5 / p.cell_m);
+        let (before, after) = (
+            (half - f).clamp(Vec2::ZERO, Vec2::ONE),
+            (f + half - Vec2::ONE).clamp(Vec2::ZERO, Vec2::ONE),
+        );
+        if before.max(after).max_element() > 0.0 {
+            let reach_x = [before.x, 1.0, 1.0, after.x];
+            let reach_y = [before.y, 1.0, 1.0, after.y];
+            let (mut down, mut up) = (0f32, 0f32);
+            for (b, ry) in reach_y.iter().enumerate() {
+                for (a, rx) in reach_x.iter().enumerate() {
+                    let v = cell(i0 + a as i64, j0 + b as i64);
+                    down = down.max(rx * ry * (lo - v).max(0.0));
+                    up = up.max(rx * ry * (v - hi).max(0.0));
+                }
+            }
+            (lo, hi) = (lo - down, hi + up);
+        }
         if hi <= 0.0 {
             return 0.0;
         }
