@@ -977,17 +977,7 @@ fn diagnose_shot() {
             } else {
                 [0, 128, 255]
             };
-            let n = s.length().ceil() as usize + 1;
-            for t in 0..=n {
-                let u = t as f64 / n as f64;
-                let (x, y) = (
-                    s.a[0] + u * (s.b[0] - s.a[0]),
-                    s.a[1] + u * (s.b[1] - s.a[1]),
-                );
-                if x >= 0.0 && y >= 0.0 && x < street::W as f64 && y < street::H as f64 {
-                    img.put_pixel(x as u32, y as u32, image::Rgb(col));
-                }
-            }
+            draw_segment(&mut img, s, col);
         }
         img.save(format!("{dir}/shot{i}.png")).expect("png");
     }
@@ -1217,17 +1207,7 @@ fn diagnose_steep() {
                     } else {
                         [0, 128, 255]
                     };
-                    let n = s.length().ceil() as usize + 1;
-                    for t in 0..=n {
-                        let u = t as f64 / n as f64;
-                        let (x, y) = (
-                            s.a[0] + u * (s.b[0] - s.a[0]),
-                            s.a[1] + u * (s.b[1] - s.a[1]),
-                        );
-                        if x >= 0.0 && y >= 0.0 && x < street::W as f64 && y < street::H as f64 {
-                            img.put_pixel(x as u32, y as u32, image::Rgb(col));
-                        }
-                    }
+                    draw_segment(&mut img, s, col);
                 }
                 img.save(format!("{dir}/steep{i}_{width}.png"))
                     .expect("png");
@@ -1251,6 +1231,21 @@ fn diagnose_steep() {
             } else {
                 eprintln!("  {width}: no steep reading");
             }
+        }
+    }
+}
+
+/// Draws segment `s` onto a diagnostic picture in colour `col` (what lies outside is left out).
+fn draw_segment(img: &mut image::RgbImage, s: &horizon::Segment, col: [u8; 3]) {
+    let n = s.length().ceil() as usize + 1;
+    for t in 0..=n {
+        let u = t as f64 / n as f64;
+        let (x, y) = (
+            s.a[0] + u * (s.b[0] - s.a[0]),
+            s.a[1] + u * (s.b[1] - s.a[1]),
+        );
+        if x >= 0.0 && y >= 0.0 && x < img.width() as f64 && y < img.height() as f64 {
+            img.put_pixel(x as u32, y as u32, image::Rgb(col));
         }
     }
 }
