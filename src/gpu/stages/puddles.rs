@@ -144,17 +144,17 @@ impl Puddles {
                 depth.cell_m, depth.origin_m
             )));
         }
-        let metres: Vec<f32> = depth
-            .values
-            .iter()
-            .map(|&d| {
-                if d.is_finite() {
-                    d
-                } else {
-                    -shown::EDGE_DEPTH_M
-                }
-            })
-            .collect();
+        // Into the last frame's array: a fresh one of a million cells is paged in anew each
+        // frame.
+        let mut metres = std::mem::take(&mut self.metres);
+        metres.clear();
+        metres.extend(depth.values.iter().map(|&d| {
+            if d.is_finite() {
+                d
+            } else {
+                -shown::EDGE_DEPTH_M
+            }
+        }));
         let bytes = 4 * cells as u64;
         if let Some(bound) = &self.bound
             && self.job.as_ref().is_none_or(|w| w.depth_m.size() != bytes)
