@@ -409,9 +409,7 @@ impl GroundRain {
     /// Every impact in `rect` (and the drawn volume's anywhere) with time in (t0_s, t1_s]:
     /// the drawn drops' first ([`impacts_between`]), then the stream's.
     pub fn impacts_between(&self, rect: &GroundRect, t0_s: f64, t1_s: f64) -> Vec<Impact> {
-        let mut out = impacts_between(self.rainfall(), t0_s, t1_s);
-        self.stream_between(rect, t0_s, t1_s, &mut out);
-        out
+        self.impacts_between_kept(rect, t0_s, t1_s, |_| true)
     }
 
     /// [`GroundRain::impacts_between`] into `out` (cleared first): a caller asking step after
