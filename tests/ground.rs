@@ -409,6 +409,112 @@ fn clip_readings_combine_robustly() {
     );
 }
 
+/// The pre-pass skips an unsure frame's finer line pass only where the clip's outcome is
+/// settled without it (`finer_pass_moot`): on random clips of confident and unsure readings, a
+/// clip that skipped any pass is refused by the aggregate (`horizon::aggregate`), both as read
+/// and with every skipped reading replaced by an adversary (confidence 1, along each reading's
+/// direction in turn, or random) and for every cut the clip could end at. The rule skips on
+/// many of the clips, so the check is not vacuous.
+#[test]
+fn the_finer_pass_is_skipped_only_where_the_outcome_is_settled() {
+    use rain_composite::pipeline::ground::finer_pass_moot;
+    use rain_composite::rng::SplitMix64;
+    use rain_composite::scene::ground::up_from_tilt_roll;
+    let cam = intrinsics();
+    let base = estimate(&render(0.0, 0.0, radiance));
+    let reading = |t: f64, r: f64, c: f64| {
+        let mut e = base;
+        e.up_cam = up_from_tilt_roll(t.to_radians(), r.to_radians());
+        (e.tilt_deg, e.roll_deg, e.confidence) = (t, r, c);
+        e
+    };
+    let mut rng = SplitMix64(25);
+    let (mut clips_skipping, mut skips, mut adversaries) = (0, 0, 0);
+    for _ in 0..400 {
+        let n_max = 2 + (rng.next_f64() * 23.0) as usize;
+        // Each clip has a share of confident frames and readings near one pose or scattered.
+        let share_confident = rng.next_f64();
+        let scatter_deg = [0.3, 3.0, 30.0][(rng.next_f64() * 3.0) as usize];
+        let mut clip = Vec::new();
+        let mut skipped = Vec::new();
+        let mut exact = 0.0;
+        for n in 1..=n_max {
+            let confident = rng.next_f64() < share_confident;
+            let c = if confident {
+                0.9 + 0.1 * rng.next_f64()
+            } else {
+                0.9 * rng.next_f64() * rng.next_f64()
+            };
+            let e = reading(
+                5.0 + scatter_deg * (rng.next_f64() - 0.5),
+                -3.0 + scatter_deg * (rng.next_f64() - 0.5),
+                c,
+            );
+            // An unsure frame asks for the finer pass.
+            if !confident && finer_pass_moot(exact, skipped.len(), n, n_max) {
+                skipped.push(n - 1);
+            } else {
+                exact += c;
+            }
+            clip.push(e);
+        }
+        if skipped.is_empty() {
+            continue;
+        }
+        clips_skipping += 1;
+        skips += skipped.len();
+        // Every prefix holding a skipped frame (the clip cut there or ending), as read and
+        // with the skipped frames replaced.
+        for end in skipped[0] + 1..=n_max {
+            let prefix = &clip[..end];
+            let refused = |readings: &[horizon::HorizonEstimate]| {
+                horizon::aggregate(readings, &cam)
+                    .expect("readings")
+                    .confidence
+                    < horizon::MIN_CONFIDENCE
+            };
+            assert!(
+                refused(prefix),
+                "skipped {skipped:?} of {n_max}, cut at {end}"
+            );
+            let mut towards: Vec<_> = prefix.iter().map(|e| (e.tilt_deg, e.roll_deg)).collect();
+            towards.push((rng.next_f64() * 40.0 - 20.0, rng.next_f64() * 40.0 - 20.0));
+            for (t, r) in towards {
+                let mut adversary = prefix.to_vec();
+                for &k in skipped.iter().filter(|&&k| k < end) {
+                    adversary[k] = reading(t, r, 1.0);
+                }
+                assert!(
+                    refused(&adversary),
+                    "skipped {skipped:?} of {n_max}, cut at {end}, all at ({t}, {r})"
+                );
+                adversaries += 1;
+            }
+        }
+    }
+    eprintln!("{clips_skipping} clips skipped {skips} passes; {adversaries} adversaries refused");
+    assert!(
+        clips_skipping > 100 && skips > 1000,
+        "{clips_skipping} clips, {skips} skips"
+    );
+}
+
+/// On the street sample, whose frames are all unsure (its lens is refused), the pre-pass runs
+/// the finer pass on the first two of its 17 frames only, and still falls back to no ground.
+#[test]
+fn the_pre_pass_runs_the_finer_pass_until_the_outcome_is_settled() {
+    use rain_composite::config::RenderConfig;
+    use rain_composite::pipeline::ground::estimate_clip;
+    use rain_composite::scene::GroundMode;
+    let mut config = RenderConfig::default();
+    config.ground.mode = GroundMode::Auto;
+    let g = estimate_clip("samples/street.mp4", &config).expect("estimate");
+    eprintln!("{g:?}");
+    assert_eq!(g.frames, 17);
+    assert_eq!((g.finer_passes, g.finer_skipped), (2, 15));
+    assert!(g.estimate.confidence < horizon::MIN_CONFIDENCE);
+}
+
 /// Writes `frames` (640×360 4:2:0) as an FFV1 clip at 25 fps.
 fn clip(dir: &std::path::Path, name: &str, frames: &[YuvFrame]) -> std::path::PathBuf {
     let raw = dir.join(format!("{name}.yuv"));

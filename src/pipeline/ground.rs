@@ -13,6 +13,16 @@
 //! confident pose whose horizon is too far off the picture to pass as `horizon=` still sets
 //! the camera's tilt and roll, without a ground. The
 //! result depends on the clip alone, never on the frame previewed, so preview equals render.
+//!
+//! The finer line pass of an unsure frame ([`crate::scene::steep::FINE_WIDTH`], as costly as
+//! the rest of the frame's estimate) can only change that frame's reading. A frame skips it
+//! where the pre-pass's outcome is already settled without it ([`finer_pass_moot`]): where the
+//! clip's confidence could not reach [`horizon::MIN_CONFIDENCE`] even if this frame, every frame
+//! that skipped the pass and every frame still to come read with confidence 1, the clip falls
+//! back to no ground whatever the pass finds. On a clip of unsure frames the pass runs on the
+//! first two or three frames only.
+
+use std::cell::Cell;
 
 use crate::config::RenderConfig;
 use crate::scene::Camera;
@@ -37,6 +47,26 @@ pub struct ClipGround {
     pub frames: usize,
     /// Time of the first cut, seconds, where the pre-pass stopped at one.
     pub cut_s: Option<f64>,
+    /// Frames whose finer line pass ran.
+    pub finer_passes: usize,
+    /// Frames whose finer line pass was skipped, the outcome settled ([`finer_pass_moot`]).
+    pub finer_skipped: usize,
+}
+
+/// Whether the finer line pass of frame `n` (1-based) of a pre-pass that estimates at most
+/// `n_max` frames cannot change its outcome: `exact_confidence` is the sum of the confidences
+/// of the earlier frames read in full (their finer pass run or not needed), `skipped` the
+/// number of earlier frames that skipped it. The clip's confidence is the confidence of the
+/// readings that agree with its mode over the frames read ([`horizon::aggregate`]), at most
+/// the sum of all their confidences over their number; frames still to come raise both by at
+/// most one each, which lifts a mean under [`horizon::MIN_CONFIDENCE`] the most when all
+/// `n_max` come. So where `exact_confidence + skipped + 1 + (n_max − n)` is under
+/// `MIN_CONFIDENCE · n_max`, the clip falls back to no ground whatever this frame's and the
+/// skipped frames' passes would find, and whatever comes after (a cut or the clip's end only
+/// lowers the bound).
+pub fn finer_pass_moot(exact_confidence: f64, skipped: usize, n: usize, n_max: usize) -> bool {
+    let at_most = exact_confidence + (skipped + 1) as f64 + n_max.saturating_sub(n) as f64;
+    at_most < horizon::MIN_CONFIDENCE * n_max as f64
 }
 
 /// The confidence-weighted median of `values` (`(value, weight)`), `None` without weight.
@@ -86,9 +116,11 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
     };
     let window = ((PREPASS_S * fps).round() as usize).max(1);
     let every = window.div_ceil(PREPASS_FRAMES).max(1);
+    let n_max = window.div_ceil(every);
     let mut readings = Vec::new();
     let mut prev: Option<[f32; 144]> = None;
     let mut cut_s = None;
+    let (mut exact_confidence, mut finer_passes, mut finer_skipped) = (0.0, 0, 0);
     for i in 0..window {
         let Some(frame) = source.next_frame()? else {
             break;
@@ -101,17 +133,27 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
         }
         prev = Some(thumb);
         if i % every == 0 {
-            readings.push(horizon::estimate_finer(
+            let n = readings.len() + 1;
+            // Whether the estimate asked for the finer pass, and whether it ran.
+            let (asked, moot) = (
+                Cell::new(false),
+                finer_pass_moot(exact_confidence, finer_skipped, n, n_max),
+            );
+            let e = horizon::estimate_finer(
                 &luma,
                 || {
-                    Some(Luma::from_frame(
-                        &frame,
-                        rot,
-                        crate::scene::steep::FINE_WIDTH,
-                    ))
+                    asked.set(true);
+                    (!moot).then(|| Luma::from_frame(&frame, rot, crate::scene::steep::FINE_WIDTH))
                 },
                 &cam,
-            ));
+            );
+            if asked.get() && moot {
+                finer_skipped += 1;
+            } else {
+                finer_passes += usize::from(asked.get());
+                exact_confidence += e.confidence;
+            }
+            readings.push(e);
         }
     }
     let estimate = combine(&readings, &cam)
@@ -120,6 +162,8 @@ pub fn estimate_clip(input: &str, config: &RenderConfig) -> Result<ClipGround> {
         estimate,
         frames: readings.len(),
         cut_s,
+        finer_passes,
+        finer_skipped,
     })
 }
 
@@ -132,6 +176,11 @@ pub fn resolve(config: &RenderConfig, input: &str) -> Result<RenderConfig> {
     }
     let g = estimate_clip(input, config)?;
     let e = &g.estimate;
+    log::debug!(
+        "ground: the finer line pass ran on {} frames, skipped on {} (the outcome settled)",
+        g.finer_passes,
+        g.finer_skipped
+    );
     if let Some(cut) = g.cut_s {
         log::warn!(
             "ground: a cut at {cut:.2} s; the pose of the first shot is used for the whole clip"

@@ -54,7 +54,7 @@ use glam::{DMat3, DVec3};
 use crate::scene::Camera;
 use crate::scene::ground::{horizon_row_of_up, tilt_roll_from_up};
 use crate::scene::horizon::HorizonEstimate;
-use crate::scene::vanishing::{Edge, vertical_angle};
+use crate::scene::vanishing::{Edge, vertical_angle, within};
 
 /// Largest angle between the vertical vanishing point and the optical axis, degrees: tilts
 /// beyond 70° (the level search covers up to 65°; nearer level, a steep reading of a level
@@ -131,6 +131,25 @@ fn crosses(e: &Edge, d: DVec3) -> bool {
 }
 
 fn inliers_of(edges: &[Edge], d: DVec3, tol_rad: f64) -> (Vec<usize>, f64) {
+    let mut out = Vec::new();
+    let mut w = 0.0;
+    // Outside a tolerance a millionth wider, tested without a square root or an arcsine
+    // ([`within`]), the angle cannot be within `tol_rad`: only the few segments inside it are
+    // measured (the pairs' search runs this over every segment for each of its pairs).
+    let wide = (tol_rad.sin() * (1.0 + 1e-6)).powi(2);
+    for (i, e) in edges.iter().enumerate() {
+        if within(e, d, wide) && vertical_angle(e, d) < tol_rad && !crosses(e, d) {
+            out.push(i);
+            w += e.w;
+        }
+    }
+    (out, w)
+}
+
+/// [`inliers_of`] in its plain form, every segment's angle measured: the reference it is
+/// tested against.
+#[cfg(test)]
+fn inliers_of_plain(edges: &[Edge], d: DVec3, tol_rad: f64) -> (Vec<usize>, f64) {
     let mut out = Vec::new();
     let mut w = 0.0;
     for (i, e) in edges.iter().enumerate() {
@@ -428,3 +447,56 @@ pub const ALTERNATIVE_ROLLS: usize = 24;
 /// than nine tenths of those surfaces. The threshold is the geometric mean of that third and
 /// one.
 pub const SKY_OVER_GROUND: f64 = 0.577_350_269_189_625_8;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`inliers_of`] takes the segments [`inliers_of_plain`] takes, on random segments and
+    /// points with the tolerance at each segment's own angle (a billionth either side), and
+    /// at the tolerances the search uses.
+    #[test]
+    fn the_prefiltered_inliers_are_the_plain_ones() {
+        let mut rng = crate::rng::SplitMix64(11);
+        let mut unit = |spread: f64| {
+            DVec3::new(
+                spread * (rng.next_f64() - 0.5),
+                spread * (rng.next_f64() - 0.5),
+                1.0,
+            )
+            .normalize()
+        };
+        let edges: Vec<Edge> = (0..400)
+            .map(|_| {
+                let (a, b) = (unit(1.2), unit(1.2));
+                Edge {
+                    l: a.cross(b).normalize(),
+                    m: (a + b).normalize(),
+                    ends: [a, b],
+                    cut: [false; 2],
+                    w: (a - b).length(),
+                }
+            })
+            .collect();
+        let mut taken = 0;
+        for _ in 0..200 {
+            let d = unit(0.7);
+            let mut tolerances: Vec<f64> = [2.0f64, 1.5, INLIER_DEG]
+                .iter()
+                .map(|t| t.to_radians())
+                .collect();
+            for e in edges.iter().take(40) {
+                let a = vertical_angle(e, d);
+                tolerances.extend([a * (1.0 - 1e-9), a * (1.0 + 1e-9)]);
+            }
+            for tol in tolerances.into_iter().filter(|t| *t > 0.0 && *t < 0.5) {
+                let (fast, w) = inliers_of(&edges, d, tol);
+                let (plain, w_plain) = inliers_of_plain(&edges, d, tol);
+                assert_eq!(fast, plain);
+                assert_eq!(w.to_bits(), w_plain.to_bits());
+                taken += fast.len();
+            }
+        }
+        assert!(taken > 1000, "{taken} inliers taken");
+    }
+}
