@@ -999,6 +999,17 @@ fn nothing_drawn_leaves_the_canvas_untouched() {
     }
 }
 
+/// Samples of `a` that differ from `b`'s (the planes the same sizes).
+fn differing(a: &[Vec<u16>; 3], b: &[Vec<u16>; 3]) -> usize {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| {
+            assert_eq!(x.len(), y.len());
+            x.iter().zip(y).filter(|(u, v)| u != v).count()
+        })
+        .sum()
+}
+
 /// `frame` under `p` with `ground`, the splashes and `rain`'s streaks, through the stages one
 /// after another (the plate laid, each draw, the canvas packed) and band by band
 /// (`render_bands`), on two hosts `make` sets up alike: the two code planes and what each
@@ -1060,7 +1071,7 @@ fn banded_frame_is_the_stages_to_the_bit() {
             };
             let (banded, staged) =
                 staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
-            assert_eq!(banded, staged, "{name}, {draw:?}");
+            assert_eq!(differing(&banded, &staged), 0, "{name}, {draw:?}");
         }
         let (streaks, _) = random_streaks(600, format.width as f32, format.height as f32, 13);
         let (splashes, _) = random_streaks(150, format.width as f32, format.height as f32, 14);
@@ -1096,9 +1107,9 @@ fn banded_frame_is_the_stages_to_the_bit() {
         };
         let make = || HostColour::new(format, &color);
         let (banded, staged) = staged_and_banded(&frame, &p, &wet, &rain, &make);
-        assert_eq!(banded, staged, "{name}, wet ground");
+        assert_eq!(differing(&banded, &staged), 0, "{name}, wet ground");
         let (_, dry_ground) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
-        assert_ne!(staged, dry_ground, "{name}: the wet ground changed nothing");
+        assert!(differing(&staged, &dry_ground) > 0, "{name}: the wet ground changed nothing");
         // No haze: the untouched tiles pass through, unless that is turned off.
         let p = params(&dry(format), Haze::None);
         let mut host = HostColour::new(format, &color);
@@ -1113,7 +1124,7 @@ fn banded_frame_is_the_stages_to_the_bit() {
             host
         };
         let (banded, staged) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
-        assert_eq!(banded, staged, "{name}, no haze, every tile converted");
+        assert_eq!(differing(&banded, &staged), 0, "{name}, no haze, all tiles converted");
     }
 }
 
