@@ -1109,7 +1109,10 @@ fn banded_frame_is_the_stages_to_the_bit() {
         let (banded, staged) = staged_and_banded(&frame, &p, &wet, &rain, &make);
         assert_eq!(differing(&banded, &staged), 0, "{name}, wet ground");
         let (_, dry_ground) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
-        assert!(differing(&staged, &dry_ground) > 0, "{name}: the wet ground changed nothing");
+        assert!(
+            differing(&staged, &dry_ground) > 0,
+            "{name}: the wet ground changed nothing"
+        );
         // No haze: the untouched tiles pass through, unless that is turned off.
         let p = params(&dry(format), Haze::None);
         let mut host = HostColour::new(format, &color);
@@ -1124,7 +1127,11 @@ fn banded_frame_is_the_stages_to_the_bit() {
             host
         };
         let (banded, staged) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
-        assert_eq!(differing(&banded, &staged), 0, "{name}, no haze, all tiles converted");
+        assert_eq!(
+            differing(&banded, &staged),
+            0,
+            "{name}, no haze, all tiles converted"
+        );
     }
 }
 
