@@ -9,7 +9,8 @@
 //! ground: the wet ground fused into the decode, and the puddles over a lake, still, with 128
 //! rings, and marched against a depth map. Then the default rain's drops of a 1080p frame
 //! simulated on the CPU back end (`gpu::host::simulate`): without compact lights and with 16,
-//! on all of rayon's threads and on one, and without the AVX2 build.
+//! on all of rayon's threads and on one, and without the AVX2 build. A whole 1080p frame of
+//! that rain under the haze, the stages one after another against band by band.
 //! `cargo bench --bench colour_passes`.
 
 mod common;
@@ -20,7 +21,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use rain_composite::config::RainConfig;
 use rain_composite::gpu::cpu::rain_simulate::streak_of;
 use rain_composite::gpu::cpu::{rgb_to_yuv, yuv_to_rgb};
-use rain_composite::gpu::host::{GroundFrame, HostColour};
+use rain_composite::gpu::host::{FrameRain, GroundFrame, HostColour};
 use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{PuddleParams, RainParams, Ripple, Streak, WetParams};
 use rain_composite::lighting::wetness::FilmOptics;
@@ -452,6 +453,51 @@ fn frame_fixed_costs(c: &mut Criterion) {
     );
 }
 
+/// A whole 1080p frame of the default rain (10 mm/h) under the haze on the CPU back end, in
+/// CPU time: the stages one after another (the plate, the raster, the encode, each over the
+/// whole canvas) and band by band (`HostColour::render_bands`: each band decoded, drawn on
+/// and encoded while it is in the cache), the same codes.
+fn whole_frame(c: &mut Criterion) {
+    let (mut p, streaks) = rain_1080p();
+    p.haze = [2.0, 60.0, 0.05, (-0.05f32 * 58.0).exp()];
+    let format = common::format_420(1920, 1080);
+    let mut frame = YuvFrame::filled(format, ColorParams::bt709(8), [16, 128, 128]);
+    for (i, plane) in frame.planes.iter_mut().enumerate() {
+        for (k, v) in plane.data.iter_mut().enumerate() {
+            *v = (k.wrapping_mul(2_654_435_761) >> (7 + i)) as u8 | 16;
+        }
+    }
+    let mut host = HostColour::new(format, &frame.color);
+    let none = GroundFrame::default();
+    let rain = FrameRain {
+        splashes: &[],
+        streaks: &streaks,
+        mattes: None,
+        glints: &[],
+    };
+    c.bench_function("host whole frame 1080p, 10 mm/h, stages, CPU", |b| {
+        b.iter_custom(|n| {
+            let start = process_cpu();
+            for _ in 0..n {
+                host.lay_plate(&frame, &p, &none);
+                host.draw_streaks(&frame, &p, &streaks, None, &[]);
+                black_box(host.encode_canvas(&frame)[0].data.len());
+            }
+            process_cpu() - start
+        })
+    });
+    c.bench_function("host whole frame 1080p, 10 mm/h, band by band, CPU", |b| {
+        b.iter_custom(|n| {
+            let start = process_cpu();
+            for _ in 0..n {
+                let f = host.render_bands(&frame, &p, &none, &rain);
+                black_box(f.map(|f| f.planes[0].data.len()));
+            }
+            process_cpu() - start
+        })
+    });
+}
+
 /// The CPU time all of this process's threads have run, from the kernel's per-thread
 /// scheduler statistics (nanoseconds): on a shared machine a bench timed by it does not
 /// count the time other work held the cores.
@@ -469,6 +515,7 @@ pub fn process_cpu() -> std::time::Duration {
 criterion_group!(
     benches,
     frame_fixed_costs,
+    whole_frame,
     colour_passes,
     streak_raster,
     ground_passes,

@@ -17,7 +17,7 @@ use rain_composite::gpu::cpu::puddles::{Water, puddles_lit};
 use rain_composite::gpu::cpu::wet_ground::wet_ground_lit;
 use rain_composite::gpu::cpu::{rain_streaks, rgb_to_yuv, yuv_to_rgb};
 use rain_composite::gpu::host::rain::HostRain;
-use rain_composite::gpu::host::{GroundFrame, HostColour};
+use rain_composite::gpu::host::{FrameRain, GroundFrame, HostColour};
 use rain_composite::gpu::stages::puddles::{FrameWater, water_params};
 use rain_composite::gpu::types::{
     GLINTS_PER_DROP, Glint, LightList, PuddleParams, RainParams, Ripple, Streak, WetParams,
@@ -995,6 +995,142 @@ fn nothing_drawn_leaves_the_canvas_untouched() {
             codes(&with_planes(&frame, host.encode_canvas(&frame))),
             codes(&frame),
             "{name}: the frame changed"
+        );
+    }
+}
+
+/// Samples of `a` that differ from `b`'s (the planes the same sizes).
+fn differing(a: &[Vec<u16>; 3], b: &[Vec<u16>; 3]) -> usize {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| {
+            assert_eq!(x.len(), y.len());
+            x.iter().zip(y).filter(|(u, v)| u != v).count()
+        })
+        .sum()
+}
+
+/// `frame` under `p` with `ground`, the splashes and `rain`'s streaks, through the stages one
+/// after another (the plate laid, each draw, the canvas packed) and band by band
+/// (`render_bands`), on two hosts `make` sets up alike: the two code planes and what each
+/// draw drew.
+fn staged_and_banded(
+    frame: &YuvFrame,
+    p: &RainParams,
+    ground: &GroundFrame,
+    rain: &FrameRain,
+    make: &dyn Fn() -> HostColour,
+) -> ([Vec<u16>; 3], [Vec<u16>; 3]) {
+    let mut staged = make();
+    staged.lay_plate(frame, p, ground);
+    let splashed = staged.draw_splashes(frame, p, rain.splashes);
+    let drawn = staged.draw_streaks(frame, p, rain.streaks, rain.mattes, rain.glints);
+    let want = codes(&with_planes(frame, staged.encode_canvas(frame)));
+    let banded = make()
+        .render_bands(frame, p, ground, rain)
+        .expect("a frame that does not pass through goes band by band");
+    assert_eq!(banded.splashes, splashed, "splashes drawn");
+    assert_eq!(banded.streaks, drawn, "streaks drawn");
+    assert!(drawn.streaks > 0 && splashed.streaks > 0, "nothing drawn");
+    (codes(&with_planes(frame, banded.planes)), want)
+}
+
+/// A frame laid, drawn on and packed band by band is the stages one after another to the bit
+/// (several bands, the last cut short, odd sizes, 4:2:0 and 4:2:2, 8 and 10 bits): for
+/// capsules, capsules behind a depth map, mattes with and without glints and a turned
+/// picture, the splashes drawn first, under haze and over a wet ground; without haze the
+/// frame is left to pass through unless pass-through is off, and then it is the stages too.
+#[test]
+fn banded_frame_is_the_stages_to_the_bit() {
+    for (name, format, color) in formats() {
+        let format = FrameFormat {
+            width: 200 - (W - format.width),
+            height: 100 - (H - format.height),
+            ..format
+        };
+        let frame = picture(format, color);
+        let map = depth_map(format);
+        let atlas = atlas();
+        for draw in DRAWS {
+            let p = raster_params(format, draw);
+            let [dw, dh] = p.display_size_px;
+            let (streaks, glints) = random_streaks(600, dw, dh, 11);
+            let (splashes, _) = random_streaks(150, dw, dh, 12);
+            let rain = FrameRain {
+                splashes: &splashes,
+                streaks: &streaks,
+                mattes: matches!(draw, Draw::Mattes | Draw::Glints).then_some(&*atlas),
+                glints: if draw == Draw::Glints { &glints } else { &[] },
+            };
+            let make = || {
+                let mut host = HostColour::new(format, &color);
+                if draw == Draw::Occluded {
+                    host.set_scene_depth(metres(&map));
+                }
+                host
+            };
+            let (banded, staged) =
+                staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
+            assert_eq!(differing(&banded, &staged), 0, "{name}, {draw:?}");
+        }
+        let (streaks, _) = random_streaks(600, format.width as f32, format.height as f32, 13);
+        let (splashes, _) = random_streaks(150, format.width as f32, format.height as f32, 14);
+        let rain = FrameRain {
+            splashes: &splashes,
+            streaks: &streaks,
+            mattes: None,
+            glints: &[],
+        };
+        // A wet ground, fused into the decode.
+        let setup = rain_composite::shot::rain::plan(
+            &ground_camera(format),
+            &CameraConfig::default(),
+            &RainConfig {
+                rate_mm_per_h: 0.0,
+                ..RainConfig::default()
+            },
+            1.0 / 50.0,
+            0,
+            (format.width, format.height),
+        )
+        .map(RainSetup::pack)
+        .expect("rain")
+        .with_ground(true);
+        let p = params(&setup, Haze::Ground);
+        let wet = GroundFrame {
+            wet: Some(WetParams::new(
+                wetting().wetness_at(0.0),
+                &FilmOptics::water(),
+                40.0,
+            )),
+            water: None,
+        };
+        let make = || HostColour::new(format, &color);
+        let (banded, staged) = staged_and_banded(&frame, &p, &wet, &rain, &make);
+        assert_eq!(differing(&banded, &staged), 0, "{name}, wet ground");
+        let (_, dry_ground) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
+        assert!(
+            differing(&staged, &dry_ground) > 0,
+            "{name}: the wet ground changed nothing"
+        );
+        // No haze: the untouched tiles pass through, unless that is turned off.
+        let p = params(&dry(format), Haze::None);
+        let mut host = HostColour::new(format, &color);
+        assert!(
+            host.render_bands(&frame, &p, &GroundFrame::default(), &rain)
+                .is_none(),
+            "{name}: no haze, yet not passed through"
+        );
+        let make = || {
+            let mut host = HostColour::new(format, &color);
+            host.set_pass_through(false);
+            host
+        };
+        let (banded, staged) = staged_and_banded(&frame, &p, &GroundFrame::default(), &rain, &make);
+        assert_eq!(
+            differing(&banded, &staged),
+            0,
+            "{name}, no haze, all tiles converted"
         );
     }
 }

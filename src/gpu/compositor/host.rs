@@ -1,14 +1,16 @@
-//! A frame on the CPU back end, whole: the plate laid with the wet ground fused in, the
-//! puddles shaded, then with a ground the splashes simulated and drawn, the drops simulated and
-//! drawn, and the canvas packed, all on the CPU. The frame never touches the adapter and is
-//! done when `submit` returns. Where nothing but the rain changes the picture, only the tiles
-//! it reaches are decoded and packed; the others' codes are copied.
+//! A frame on the CPU back end, whole: with a ground the splashes simulated, the drops
+//! simulated, then the plate laid with the wet ground fused in, the puddles shaded, the
+//! splashes and the drops drawn and the canvas packed, all on the CPU. Without water the
+//! frame goes band by band (`HostColour::render_bands`: each band laid, drawn and packed in
+//! the cache). The frame never touches the adapter and is done when `submit` returns. Where
+//! nothing but the rain changes the picture, only the tiles it reaches are decoded and
+//! packed; the others' codes are copied.
 
 use super::Compositor;
-use crate::gpu::host::GroundFrame;
+use crate::gpu::host::{FrameRain, GroundFrame};
 use crate::gpu::stages::FrameStage;
 use crate::gpu::stages::{puddles::Puddles, wet_ground::WetGround};
-use crate::gpu::types::RainParams;
+use crate::gpu::types::{RainParams, Streak};
 use crate::video::{Rendered, YuvFrame};
 use crate::{Error, Result};
 
@@ -49,36 +51,65 @@ impl Compositor {
             wet: running::<WetGround>(stages).and_then(|s| s.params_at(rain)),
             water: running::<Puddles>(stages).and_then(|s| s.frame_water(rain)),
         };
+        let t = &mut self.gpu_times;
+        let splashing = self.host_splashes.is_some();
         let started = std::time::Instant::now();
-        let (puddles_s, _) = host.lay_plate(frame, rain, &ground);
-        self.gpu_times.yuv_to_rgb_s += started.elapsed().as_secs_f64() - puddles_s;
-        self.gpu_times.puddles_s += puddles_s;
-        if let Some(splashes) = &mut self.host_splashes {
+        let splashes: &[Streak] = match &mut self.host_splashes {
+            Some(splashes) => splashes.simulate(rain),
+            None => &[],
+        };
+        t.rain_splashes_s += started.elapsed().as_secs_f64();
+        let started = std::time::Instant::now();
+        let (streaks, mattes, glints, _) = if self.rain_drops > 0 {
+            drops.simulate_for_draw(rain)
+        } else {
+            (&[][..], None, &[][..], 0)
+        };
+        t.rain_simulate_s += started.elapsed().as_secs_f64();
+        let drawn = FrameRain {
+            splashes,
+            streaks,
+            mattes,
+            glints,
+        };
+        let planes = if let Some(f) = host.render_bands(frame, rain, &ground, &drawn) {
+            t.yuv_to_rgb_s += f.decode_s;
+            t.rain_splashes_s += f.splashes_s;
+            t.rain_streaks_s += f.streaks_s;
+            t.rgb_to_yuv_s += f.encode_s;
+            t.splashes_drawn += f.splashes.streaks as u64;
+            t.streaks_drawn += f.streaks.streaks as u64;
+            f.planes
+        } else {
             let started = std::time::Instant::now();
-            let list = splashes.simulate(rain);
-            let count = host.draw_splashes(frame, rain, list);
-            // The plate laid inside a draw is the decode's work, not the rain's.
-            let laying_s = host.take_laying_s();
-            self.gpu_times.yuv_to_rgb_s += laying_s;
-            self.gpu_times.rain_splashes_s += started.elapsed().as_secs_f64() - laying_s;
-            self.gpu_times.splashes_drawn += count.streaks as u64;
-        }
-        if self.rain_drops > 0 {
-            let t = drops.draw(rain, |streaks, mattes, glints| {
-                host.draw_streaks(frame, rain, streaks, mattes, glints)
-            });
-            self.gpu_times.rain_simulate_s += t.simulate_s;
-            let laying_s = host.take_laying_s();
-            self.gpu_times.yuv_to_rgb_s += laying_s;
-            self.gpu_times.rain_streaks_s += t.streaks_s - laying_s;
-            self.gpu_times.streaks_drawn += t.raster.streaks as u64;
-        }
-        let started = std::time::Instant::now();
-        let planes = host.encode_canvas(frame);
-        self.gpu_times.rgb_to_yuv_s += started.elapsed().as_secs_f64();
+            let (puddles_s, _) = host.lay_plate(frame, rain, &ground);
+            t.yuv_to_rgb_s += started.elapsed().as_secs_f64() - puddles_s;
+            t.puddles_s += puddles_s;
+            if splashing {
+                let started = std::time::Instant::now();
+                let count = host.draw_splashes(frame, rain, splashes);
+                // The plate laid inside a draw is the decode's work, not the rain's.
+                let laying_s = host.take_laying_s();
+                t.yuv_to_rgb_s += laying_s;
+                t.rain_splashes_s += started.elapsed().as_secs_f64() - laying_s;
+                t.splashes_drawn += count.streaks as u64;
+            }
+            if self.rain_drops > 0 {
+                let started = std::time::Instant::now();
+                let count = host.draw_streaks(frame, rain, streaks, mattes, glints);
+                let laying_s = host.take_laying_s();
+                t.yuv_to_rgb_s += laying_s;
+                t.rain_streaks_s += started.elapsed().as_secs_f64() - laying_s;
+                t.streaks_drawn += count.streaks as u64;
+            }
+            let started = std::time::Instant::now();
+            let planes = host.encode_canvas(frame);
+            t.rgb_to_yuv_s += started.elapsed().as_secs_f64();
+            planes
+        };
         let (converted, tiles) = host.tiles_converted();
-        self.gpu_times.tiles_converted += converted as u64;
-        self.gpu_times.tiles += tiles as u64;
+        t.tiles_converted += converted as u64;
+        t.tiles += tiles as u64;
         Ok(Rendered::Picture(YuvFrame {
             format: frame.format,
             color: frame.color,

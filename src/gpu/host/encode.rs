@@ -51,7 +51,7 @@ pub struct Encoder {
 
 /// A block row's buffers, reused from one to the next.
 #[derive(Default)]
-struct Scratch {
+pub(super) struct Scratch {
     /// A row's luma codes.
     codes: Vec<u16>,
     /// A row's B' − Y' and R' − Y' per pixel.
@@ -124,7 +124,7 @@ impl Encoder {
             .enumerate()
             .for_each_init(Scratch::default, |s, (cy, ((luma, cb), cr))| {
                 let Some((frame, tiles)) = from else {
-                    return self.block_row_on(canvas, stride, cy, 0..w, luma, [cb, cr], s);
+                    return self.block_row_on((canvas, 0), stride, cy, 0..w, luma, [cb, cr], s);
                 };
                 self.copy_block_row(frame, cy, luma, [cb, cr]);
                 let ty = (cy << l.chroma_shift_y) / TILE_H;
@@ -137,11 +137,54 @@ impl Encoder {
                     }
                     let run = need[tx..].iter().take_while(|&&n| n).count();
                     let cols = tx * TILE_W..((tx + run) * TILE_W).min(w);
-                    self.block_row_on(canvas, stride, cy, cols, luma, [cb, cr], s);
+                    self.block_row_on((canvas, 0), stride, cy, cols, luma, [cb, cr], s);
                     tx += run;
                 }
             });
         [(y, y_row), (cb, c_row), (cr, c_row)].map(|(data, stride)| Plane { data, stride })
+    }
+
+    /// Zeroed code planes for this format, laid out as [`encode`](Self::encode) returns
+    /// them, and the luma rows of one chroma row.
+    pub(super) fn blank_planes(&self) -> ([Plane; 3], usize) {
+        let l = &self.layout;
+        let (y_row, c_row) = (4 * l.y_row_words as usize, 4 * l.c_row_words as usize);
+        let plane = |stride: usize, rows: u32| Plane {
+            data: vec![0u8; stride * rows as usize],
+            stride,
+        };
+        let planes = [
+            plane(y_row, l.height),
+            plane(c_row, l.chroma_height),
+            plane(c_row, l.chroma_height),
+        ];
+        (planes, 1 << l.chroma_shift_y)
+    }
+
+    /// The codes of canvas rows `y0`… (`canvas`: whole rows from `y0`, RGBA f16 bits, a
+    /// whole number of chroma rows or the picture's last) into `luma`, `cb` and `cr` (those
+    /// rows' spans of the planes of [`blank_planes`](Self::blank_planes)): each code as
+    /// [`encode`](Self::encode) makes it, for a caller that works band by band.
+    pub(super) fn encode_rows(
+        &self,
+        canvas: &[u16],
+        y0: usize,
+        [luma, cb, cr]: [&mut [u8]; 3],
+        s: &mut Scratch,
+    ) {
+        let l = &self.layout;
+        let (y_row, c_row) = (4 * l.y_row_words as usize, 4 * l.c_row_words as usize);
+        let (w, sy) = (l.width as usize, l.chroma_shift_y);
+        let rows = 1usize << sy;
+        let cy0 = y0 >> sy;
+        for (k, ((luma, cb), cr)) in luma
+            .chunks_mut(y_row * rows)
+            .zip(cb.chunks_mut(c_row))
+            .zip(cr.chunks_mut(c_row))
+            .enumerate()
+        {
+            self.block_row_on((canvas, y0), w, cy0 + k, 0..w, luma, [cb, cr], s);
+        }
     }
 
     /// `frame`'s codes of chroma row `cy` (and of its luma rows) into `luma` and `chroma`, as
@@ -181,7 +224,7 @@ impl Encoder {
     #[allow(clippy::too_many_arguments)]
     fn block_row_on(
         &self,
-        canvas: &[u16],
+        (canvas, row0): (&[u16], usize),
         stride: usize,
         cy: usize,
         cols: Range<usize>,
@@ -194,7 +237,7 @@ impl Encoder {
             #[target_feature(enable = "avx2,f16c")]
             fn fast(
                 e: &Encoder,
-                canvas: &[u16],
+                canvas: (&[u16], usize),
                 stride: usize,
                 cy: usize,
                 cols: Range<usize>,
@@ -205,9 +248,9 @@ impl Encoder {
                 e.block_row(canvas, stride, cy, cols, luma, chroma, s, true)
             }
             // SAFETY: `avx2` is set only where the CPU has AVX2 and F16C (`lanes::has_avx2_f16c`).
-            return unsafe { fast(self, canvas, stride, cy, cols, luma, chroma, s) };
+            return unsafe { fast(self, (canvas, row0), stride, cy, cols, luma, chroma, s) };
         }
-        self.block_row(canvas, stride, cy, cols, luma, chroma, s, false)
+        self.block_row((canvas, row0), stride, cy, cols, luma, chroma, s, false)
     }
 
     /// The luma rows of chroma row `cy` over the columns `cols` (from the start of a chroma
@@ -219,7 +262,7 @@ impl Encoder {
     #[inline(always)]
     fn block_row(
         &self,
-        canvas: &[u16],
+        (canvas, row0): (&[u16], usize),
         stride: usize,
         cy: usize,
         cols: Range<usize>,
@@ -246,7 +289,7 @@ impl Encoder {
             sums.resize(cn, 0.0);
         }
         for y in y0..y1 {
-            let row = &canvas[4 * (y * stride + xa)..][..4 * n];
+            let row = &canvas[4 * ((y - row0) * stride + xa)..][..4 * n];
             let [sb, sr] = &mut s.sums;
             let step = 1 << sx;
             if self.lanes {

@@ -7,6 +7,7 @@
 //! work in a few. The plain `f64` twins of [`super::cpu`] are their references
 //! (`tests/backend.rs`).
 
+mod bands;
 mod blend;
 pub mod drop_light;
 pub mod encode;
@@ -23,7 +24,11 @@ pub mod tile;
 pub mod veil;
 pub mod wet_ground;
 
+use std::sync::Mutex;
+
 use half::f16;
+
+pub use bands::{BandedFrame, FrameRain};
 
 use crate::drops::MatteAtlas;
 use crate::gpu::stages::puddles::FrameWater;
@@ -56,6 +61,11 @@ pub struct HostColour {
     laying_s: f64,
     /// The streak raster's buffers, kept from frame to frame.
     raster: streaks::Raster,
+    /// The splashes' raster where a frame is drawn band by band ([`bands`]: both draws'
+    /// streaks are binned before the first band).
+    splash_raster: streaks::Raster,
+    /// Each thread's buffers for [`HostColour::render_bands`].
+    band_work: Vec<Mutex<bands::BandWork>>,
     /// The SH basis at the haze grid's rays, kept while the camera stays.
     rays: veil::GridRays,
     /// Whether the puddles run their AVX2 build where the CPU has it.
@@ -104,6 +114,8 @@ impl HostColour {
             pass_through: true,
             laying_s: 0.0,
             raster: streaks::Raster::default(),
+            splash_raster: streaks::Raster::default(),
+            band_work: Vec::new(),
             rays: veil::GridRays::default(),
             puddles_avx2: true,
         }
@@ -331,7 +343,7 @@ impl HostColour {
 
     /// The canvas as it stands: RGBA f16, row-major, `width` texels a row (after a
     /// [`lay_plate`](Self::lay_plate) that let tiles pass through, only the tiles drawn on
-    /// hold the frame).
+    /// hold the frame; [`render_bands`](Self::render_bands) does not write it).
     pub fn canvas(&self) -> &[f16] {
         &self.canvas
     }

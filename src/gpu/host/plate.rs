@@ -212,6 +212,26 @@ impl Decoder {
             });
     }
 
+    /// Rows `y0`… of the canvas [`decode`](Self::decode) writes, into `out` (whole rows,
+    /// `4 · width` texels each): each pixel as `decode` lays it, for a caller that works band
+    /// by band.
+    pub(super) fn decode_rows(
+        &self,
+        frame: &YuvFrame,
+        (veil, wet): (Option<&Veil>, Option<&WetGround>),
+        y0: usize,
+        out: &mut [f16],
+        scratch: &mut RowScratch,
+    ) {
+        let at = Band {
+            frame,
+            veil,
+            wet,
+            y0,
+        };
+        self.band_on(&at, out, scratch);
+    }
+
     /// The rows of a band of the canvas (`out`), in the AVX2 build where the decoder runs it.
     fn band_on(&self, at: &Band, out: &mut [f16], s: &mut RowScratch) {
         let w = self.format.width as usize;

@@ -81,6 +81,27 @@ impl HostRain {
         (&self.streaks, &self.glints, drawable)
     }
 
+    /// [`simulate`](Self::simulate), returning with the streaks the mattes they are drawn
+    /// with and the glints (for a caller that draws them later).
+    pub fn simulate_for_draw(
+        &mut self,
+        p: &RainParams,
+    ) -> (&[Streak], Option<&MatteAtlas>, &[Glint], usize) {
+        let drops = Drops {
+            columns: &self.columns,
+            lights: &self.lights,
+            table: self.table.as_ref(),
+            glints: self.glints_on,
+        };
+        let drawable = simulate::simulate(p, &drops, &mut self.streaks, &mut self.glints);
+        (
+            &self.streaks,
+            self.mattes.as_deref(),
+            &self.glints,
+            drawable,
+        )
+    }
+
     /// Simulates the frame's drops under `p` and draws them with `draw` (given the streaks, the
     /// glints and the mattes), timing both.
     pub fn draw(

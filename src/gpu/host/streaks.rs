@@ -178,7 +178,7 @@ pub struct Raster {
 /// What one band of tiles works in: its streaks' records side by side, those of each tile
 /// (indices into them, drop order kept), and a tile in f32.
 #[derive(Default)]
-struct BandBuffers {
+pub(super) struct BandBuffers {
     local: Vec<Prepared>,
     start: Vec<u32>,
     fill: Vec<u32>,
@@ -243,6 +243,31 @@ impl Raster {
         ready: impl FnOnce(&mut [f16], &Reached),
     ) -> RasterCount {
         let height = canvas.len() / (4 * width.max(1));
+        let (binned, buffers) = self.bin((width, height), rain, streaks, avx2);
+        ready(canvas, &binned.reached());
+        let tiles = canvas
+            .par_chunks_mut(4 * width * TILE_H)
+            .zip(buffers.par_iter_mut())
+            .enumerate()
+            .map(|(ty, (rows, buffers))| binned.draw_band(ty, rows, buffers))
+            .sum();
+        RasterCount {
+            streaks: binned.drawn,
+            tiles,
+        }
+    }
+
+    /// `streaks` prepared and binned for a picture of `width` × `height`, ready to be drawn
+    /// band of tiles by band ([`Binned::draw_band`], each with its own of the buffers
+    /// returned, one a band): the first half of a draw, which a caller that lays and packs the
+    /// canvas band by band runs once for the frame.
+    pub(super) fn bin<'a>(
+        &'a mut self,
+        (width, height): (usize, usize),
+        rain: &'a Rain<'a>,
+        streaks: &[Streak],
+        avx2: bool,
+    ) -> (Binned<'a>, &'a mut [BandBuffers]) {
         let rot = Rotation::new(rain.params);
         let n = streaks.len();
         // Grown, never shrunk: the splashes' few streaks do not cost the drops' slots.
@@ -319,29 +344,48 @@ impl Raster {
             width,
             tiles_x,
         };
-        let (start, in_band) = (&*start, &*in_band);
-        ready(
-            canvas,
-            &Reached {
-                prepared,
-                start,
-                in_band,
-                tiles_x,
-            },
-        );
-        let tiles = canvas
-            .par_chunks_mut(4 * width * TILE_H)
-            .zip(self.band[..tiles_y].par_iter_mut())
-            .enumerate()
-            .map(|(ty, (rows, buffers))| {
-                let list = &in_band[start[ty] as usize..start[ty + 1] as usize];
-                band_on(avx2, &frame, ty, list, rows, buffers)
-            })
-            .sum();
-        RasterCount {
-            streaks: drawn,
-            tiles,
+        let binned = Binned {
+            frame,
+            start,
+            in_band,
+            avx2,
+            drawn,
+        };
+        (binned, &mut self.band[..tiles_y])
+    }
+}
+
+/// A frame's streaks prepared and binned by band of tiles ([`Raster::bin`]).
+pub(super) struct Binned<'a> {
+    frame: Frame<'a>,
+    start: &'a [u32],
+    in_band: &'a [u32],
+    avx2: bool,
+    /// Streaks with a quad on the picture.
+    pub(super) drawn: usize,
+}
+
+impl Binned<'_> {
+    /// The tiles the draw reads and writes.
+    pub(super) fn reached(&self) -> Reached<'_> {
+        Reached {
+            prepared: self.frame.prepared,
+            start: self.start,
+            in_band: self.in_band,
+            tiles_x: self.frame.tiles_x,
         }
+    }
+
+    /// Draws band `ty` of tiles over `rows` (its [`TILE_H`] rows of the canvas, or fewer at
+    /// the picture's foot) in `buffers` (the band's own); returns the tiles drawn.
+    pub(super) fn draw_band(
+        &self,
+        ty: usize,
+        rows: &mut [f16],
+        buffers: &mut BandBuffers,
+    ) -> usize {
+        let list = &self.in_band[self.start[ty] as usize..self.start[ty + 1] as usize];
+        band_on(self.avx2, &self.frame, ty, list, rows, buffers)
     }
 }
 
