@@ -321,6 +321,14 @@ const FOLLOW_CHROMA: f32 = 0.1;
 /// landing included.
 const BRIDGE_POINTS: usize = 16;
 
+/// The most points a bridge spans along a row of the picture: across a post, a pole or a
+/// line painted along the ground (its other side is as near as this one, so the ratio below
+/// does not bound it).
+const BRIDGE_POINTS_ACROSS: usize = 4;
+
+/// How much rougher or smoother than the ground behind a bridge its landing may be.
+const BRIDGE_TEXTURE: f32 = 1.5;
+
 /// The farthest a bridge reaches along the ground, as a multiple of where it starts (the
 /// ground beyond a low wall of height H seen from a camera h up lies h / (h − H) times as far
 /// as its base: 3.2 times for a 1.1 m wall from 1.6 m; a stop line 0.5 m deep 6 m away spans
@@ -439,8 +447,23 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
             let (x, y) = (i + s * di, j + s * dj);
             (x >= 0 && y >= 0 && x < w as i64 && y < h as i64).then(|| y as usize * w + x as usize)
         };
-        let same = |p: usize| open[p] && passes(reference, k, p);
-        for s in 2..=BRIDGE_POINTS as i64 {
+        // The ground itself again: its luma within a step with no texture to excuse more (a
+        // wall's face within the cobbles' texture of their luma is not), as rough within a
+        // factor of [`BRIDGE_TEXTURE`], its chroma within the chroma's step.
+        let same = |p: usize| {
+            let [luma, rough, cb, cr] = reference[k];
+            open[p]
+                && (t[p][3] - luma).abs() <= STEP_CODES
+                && (t[p][4] - cb).hypot(t[p][5] - cr) <= CHROMA_STEP_CODES
+                && texture[p].max(1.0) <= BRIDGE_TEXTURE * rough.max(1.0)
+                && rough.max(1.0) <= BRIDGE_TEXTURE * texture[p].max(1.0)
+        };
+        let most = if dj == 0 {
+            BRIDGE_POINTS_ACROSS
+        } else {
+            BRIDGE_POINTS
+        };
+        for s in 2..=most as i64 {
             let (p, last) = (at(s)?, at(s - 1)?);
             let (near, far) = (
                 distance[m].min(distance[last]),
@@ -449,7 +472,7 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
             if !view[p].below_horizon || far > BRIDGE_RATIO * near {
                 return None;
             }
-            if same(p) && at(s + 1).is_none_or(|q| !open[q] || passes(reference, k, q)) {
+            if same(p) && at(s + 1).is_none_or(|q| !open[q] || same(q)) {
                 return Some((1..=s).filter_map(at).collect());
             }
         }
@@ -484,16 +507,36 @@ pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView])
                 queue.push_back(m);
             } else if let Some(across) = bridge(&reference, k, m) {
                 // Paint, a shadow or a band of another surface lying across the ground: the
-                // ground beyond it is reached, and so is what lies on it, upright lines too
-                // where the bridge runs up or down the picture (a zebra's stripes toward their
-                // vanishing point).
-                let lengthwise = m.abs_diff(k) == w;
-                for p in across {
-                    if !ground[p] && (lengthwise || !standing[p]) {
-                        ground[p] = true;
-                        reference[p] = [t[p][3], texture[p], t[p][4], t[p][5]];
-                        queue.push_back(p);
+                // ground beyond it is reached and floods on. What lies between is ground where
+                // the bridge runs up or down the picture, upright lines too (a zebra's stripes
+                // toward their vanishing point), but reaches on only what matches the ground
+                // behind the bridge: taking its own colour for the ground's, it would spread
+                // over a wall's face that a bridge crossed as readily as along a shadow.
+                let Some((&landing, between)) = across.split_last() else {
+                    continue;
+                };
+                if m.abs_diff(k) == w {
+                    for &p in between {
+                        if !ground[p] {
+                            ground[p] = true;
+                            reference[p] = reference[k];
+                            queue.push_back(p);
+                        }
                     }
+                }
+                if !ground[landing] {
+                    ground[landing] = true;
+                    let own = [
+                        t[landing][3],
+                        texture[landing],
+                        t[landing][4],
+                        t[landing][5],
+                    ];
+                    reference[landing] = std::array::from_fn(|i| {
+                        let follow = if i < 2 { FOLLOW } else { FOLLOW_CHROMA };
+                        reference[k][i] + follow * (own[i] - reference[k][i])
+                    });
+                    queue.push_back(landing);
                 }
             }
         }
