@@ -34,6 +34,17 @@
 //!   surface's luma, hardly its chroma; a brick façade of the pavement's brightness (nothing
 //!   in its luma or its verticals tells its base) is a little redder, and its red comes in
 //!   over three or four blocks where the lens blurs its base.
+//! - **bridged over what lies across it**: where a step stops the flood, the points on
+//!   beyond, along the same row or column of the grid, are searched for the ground behind
+//!   it again (its luma within a step with no texture to excuse more, its texture within
+//!   [`BRIDGE_TEXTURE`], its colour within the chroma's step, the next point on too), within
+//!   [`BRIDGE_POINTS`] (along a row [`BRIDGE_POINTS_ACROSS`]) and while the span lies within
+//!   [`BRIDGE_RATIO`] of its near end's distance on the plane: paint (a stop line, a zebra
+//!   crossing), a shadow or a band of red asphalt across the road is crossed, a low wall's
+//!   face is not (from eye height the ground above its top lies three times as far as its
+//!   base). The flood goes on from where it lands; what a bridge up or down the picture spans
+//!   is ground (a zebra's stripes below the vanishing point, upright, too) but reaches on only
+//!   what matches the ground behind the bridge.
 //! - **seeded where the bottom edge shows the ground**: the edge's open points whose luma is
 //!   within such a step of their median. The face of a wall or a car nearer than the ground
 //!   at the bottom edge, running down past the picture's edge (a wall a pan brings into view),
@@ -52,8 +63,10 @@
 //! brick pavement); a wall covering most of the bottom edge (its face is taken for the ground
 //! there, and the road behind its base is cut off); lines painted on the road straight ahead
 //! right below its vanishing point (upright, so a narrow dry lane along them); and ground of
-//! another colour than the ground at the bottom edge's, beyond a sharp change (a red cycle lane
-//! across the road, a lawn): it stays dry.
+//! another colour than the ground at the bottom edge's, beyond a sharp change, that does not
+//! return to the ground's own within a bridge (a red cycle lane along the road, a lawn, a
+//! shadow reaching the horizon): it stays dry; a low object (under half the camera's height)
+//! across the road with the same ground beyond it is bridged and its face wetted.
 
 use std::collections::VecDeque;
 
