@@ -219,7 +219,7 @@ mod tests {
                 let (x, y) = ((k % nx) as f32 * cell_m, (k / nx) as f32 * cell_m);
                 if sparse {
                     let h = (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40;
-                    return if h % 300 == 0 { 0.004 } else { 0.0 };
+                    return if h.is_multiple_of(300) { 0.004 } else { 0.0 };
                 }
                 (0.02 * (2.1 * x).sin() * (1.7 * y).cos() - 0.003).max(0.0)
             })
