@@ -16,6 +16,7 @@ use glam::{Vec2, Vec3};
 use half::f16;
 use rayon::prelude::*;
 
+use super::lanes::LANES;
 use super::plate::Decoder;
 use super::tile::load_texel;
 use super::veil::Veil;
@@ -24,6 +25,8 @@ use crate::gpu::stages::puddles::FrameWater;
 use crate::gpu::stages::yuv_to_rgb::GLOW_CELL_PX;
 use crate::gpu::types::{LightList, MAX_LIGHTS, Ripple};
 use crate::video::YuvFrame;
+
+mod lanes;
 
 /// Rows per band and columns per block: a block's rings are culled once (the shader's
 /// workgroup, `PIXEL_WORKGROUP`).
@@ -288,7 +291,15 @@ impl<'a> Puddles<'a> {
                     continue;
                 }
                 let down = g.downward(y0 + r);
-                for x in down.start.max(x0)..down.end.min(x1) {
+                let (start, end) = (down.start.max(x0), down.end.min(x1));
+                let mut x = start;
+                while x + LANES <= end {
+                    let c = self.cover_lanes(x, y0 + r, picture.f16c);
+                    cover[r * width + x..][..LANES].copy_from_slice(&c);
+                    any |= c.iter().fold(false, |a, &c| a | (c > 0.0));
+                    x += LANES;
+                }
+                for x in x..end {
                     let c = self.cover(x, y0 + r);
                     cover[r * width + x] = c;
                     any |= c > 0.0;

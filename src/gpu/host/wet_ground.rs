@@ -102,7 +102,13 @@ impl<'a> Ground<'a> {
     /// The view ray (unit camera depth) through the centre of coded pixel (`x`, `y`).
     #[inline]
     pub(super) fn ray(&self, x: usize, y: usize) -> Vec3 {
-        self.origin + self.dx * (x as f32 + 0.5) + self.dy * (y as f32 + 0.5)
+        self.ray_through(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+    }
+
+    /// The view ray (unit camera depth) through coded position `at`.
+    #[inline]
+    pub(super) fn ray_through(&self, at: Vec2) -> Vec3 {
+        self.origin + self.dx * at.x + self.dy * at.y
     }
 
     /// The pixels of row `y` whose ray goes down (`ray.z < 0`), as a range (the ray's z is
