@@ -141,7 +141,12 @@ fn shade(id: vec2<u32>, layer: bool) {
     }
     let change = (k - 1.0) * scene + r * seen;
     let water = scene * t + in_scatter(id, t) + haze_glow(id, t) + t * change;
-    textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
+    // Rounded to the nearest f16 here, as the CPU back end's canvas is: the store's own
+    // conversion rounds toward zero on some adapters (Mesa's lavapipe), a step darker where
+    // a sliver of water (a cover of a few thousandths at a rim) changes the texel by less
+    // (quantizeToF16 is defined within f16's range only).
+    let out = clamp(c + a * (water - c), vec3<f32>(-65504.0), vec3<f32>(65504.0));
+    textureStore(canvas, id, vec4<f32>(quantizeToF16(out), 1.0));
 }
 
 // The reflection along `mirrored` off the surface of slope `slope`, blurred where the
