@@ -141,7 +141,12 @@ fn shade(id: vec2<u32>, layer: bool) {
     }
     let change = (k - 1.0) * scene + r * seen;
     let water = scene * t + in_scatter(id, t) + haze_glow(id, t) + t * change;
-    textureStore(canvas, id, vec4<f32>(c + a * (water - c), 1.0));
+    // Rounded to the nearest f16 here, as the CPU back end's canvas is: the store's own
+    // conversion rounds toward zero on some adapters (Mesa's lavapipe), a step darker where
+    // a sliver of water (a cover of a few thousandths at a rim) changes the texel by less
+    // (quantizeToF16 is defined within f16's range only).
+    let out = clamp(c + a * (water - c), vec3<f32>(-65504.0), vec3<f32>(65504.0));
+    textureStore(canvas, id, vec4<f32>(quantizeToF16(out), 1.0));
 }
 
 // The reflection along `mirrored` off the surface of slope `slope`, blurred where the
@@ -165,7 +170,56 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
     return 0.25 * sum;
 }
 
-// The water's cover at ground point `xy`, the share of the pixel's footprint under water: the
+// A probe of water_cover spans at most this many cells along each axis of the footprint (the
+// twin's PROBE_CELLS), and an axis has at most this many whole probes (MAX_PROBES).
+const PROBE_CELLS: f32 = 2.0;
+const MAX_PROBES: f32 = 15.0;
+
+// The water's cover at ground point `xy` for a pixel whose ground point moves by `per_px`: the
+// share of the pixel's footprint under water. A footprint longer than PROBE_CELLS along an axis
+// (far ground at a grazing angle) is cut into a centre piece, whole pieces out from it and two
+// shorter pieces at its ends (growing from 0 with the footprint: no jump where one is added),
+// and the cover is the mean of probe_cover over the pieces by their area (the twin's
+// water_cover, in its order); one piece where it is not.
+fn water_cover(xy: vec2<f32>, per_px: mat2x2<f32>) -> f32 {
+    let share_a = max(PROBE_CELLS * puddle.cell_m / length(per_px[0]), 1.0 / MAX_PROBES);
+    let share_b = max(PROBE_CELLS * puddle.cell_m / length(per_px[1]), 1.0 / MAX_PROBES);
+    if share_a >= 1.0 && share_b >= 1.0 { return probe_cover(xy, per_px); }
+    let ka = select(floor((1.0 / share_a - 1.0) / 2.0), 0.0, share_a >= 1.0);
+    let kb = select(floor((1.0 / share_b - 1.0) / 2.0), 0.0, share_b >= 1.0);
+    let na = select(2 * i32(ka) + 3, 1, share_a >= 1.0);
+    let nb = select(2 * i32(kb) + 3, 1, share_b >= 1.0);
+    var cover = 0.0;
+    for (var i = 0; i < na; i++) {
+        let pa = footprint_piece(share_a, ka, i);
+        if pa.y <= 0.0 { continue; }
+        for (var j = 0; j < nb; j++) {
+            let pb = footprint_piece(share_b, kb, j);
+            if pb.y <= 0.0 { continue; }
+            let at = xy + pa.x * per_px[0] + pb.x * per_px[1];
+            cover += pa.y * pb.y * probe_cover(at, mat2x2<f32>(pa.y * per_px[0], pb.y * per_px[1]));
+        }
+    }
+    return cover;
+}
+
+// Piece `m` of an axis cut into pieces of `share` (k whole pieces each side of the centre's):
+// (its centre's offset from the footprint's, its length), shares of the axis; the centre
+// first, then the whole pieces out and back, then the two ends (the twin's footprint_pieces).
+fn footprint_piece(share: f32, k: f32, m: i32) -> vec2<f32> {
+    if share >= 1.0 { return vec2<f32>(0.0, 1.0); }
+    if m == 0 { return vec2<f32>(0.0, share); }
+    let whole = 2 * i32(k);
+    if m <= whole {
+        let s = f32((m + 1) / 2) * share;
+        return vec2<f32>(select(-s, s, m % 2 == 1), share);
+    }
+    let end = 0.5 * (1.0 - (2.0 * k + 1.0) * share);
+    let out = (k + 0.5) * share + 0.5 * end;
+    return vec2<f32>(select(-out, out, m == whole + 1), end);
+}
+
+// One probe's cover at ground point `xy`, the share of its footprint under water: the
 // mean of smoothstep(0, edge_depth_m, depth) over a box of one pixel's width across the rim
 // (rim_cover), the depth (m, signed: negative where dry) read by Catmull-Rom over the 4×4
 // cells around it (0 off the map) and clamped to the four nearest cells' range, widened toward
@@ -178,7 +232,7 @@ fn rough_reflected(p: vec3<f32>, d: vec3<f32>, slope: vec2<f32>, mirrored: vec3<
 // depth's change per pixel is the reading's own derivative (Catmull-Rom's) along the ground
 // point's change per pixel `per_px` (columns: per pixel along x, along y). Each row along x,
 // then the rows along y (the twin's water_depth).
-fn water_cover(xy: vec2<f32>, per_px: mat2x2<f32>) -> f32 {
+fn probe_cover(xy: vec2<f32>, per_px: mat2x2<f32>) -> f32 {
     let u = (xy - puddle.origin_m) / puddle.cell_m - vec2<f32>(0.5);
     let c = vec2<i32>(floor(u));
     let f = u - floor(u);

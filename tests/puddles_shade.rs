@@ -1646,3 +1646,165 @@ fn the_cover_widens_its_range_with_the_footprint_without_a_jump() {
         }
     }
 }
+
+/// Far puddles' rims cover the share of each pixel's footprint under water where the footprint
+/// spans many cells: a street's ground 6–14 m ahead seen from 1.6 m at a grazing angle, where a
+/// pixel row spans 3–20 cells of 2 cm in depth. Against the true share (the still water's own
+/// cover, smoothstep(0, rim depth, level − ground), at 8 × 64 points across each pixel) on
+/// straight shores at 17° and 58° to the cells (a plane rising 5 cm per metre, the camera
+/// level and rolled 7°) and a round pool in a bowl: a reading at the footprint's centre alone
+/// covers a pixel where its centre lands on water, so rims step from row to row (a
+/// staircase) and a pixel whose footprint holds water beside its centre stays dry. Also the
+/// shores' rims along each column of pixels (the wet share summed down the column: where a
+/// straight rim crosses it) against the true share's, and the GPU stage within 1 code of its
+/// twin.
+#[test]
+fn far_rims_cover_the_share_of_long_footprints() {
+    use rain_composite::fluid::puddles::shown::water_map;
+    let ctx = gpu();
+    let cell_m = 0.02f32;
+    let n = 560;
+    let origin = Vec2::new(-2.8, 4.6);
+    let edge = EDGE_DEPTH_M;
+    let smooth = |x: f64| {
+        let t = (x / edge).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    let shore = |deg: f64| {
+        let (c, n) = (DVec2::new(0.13, 9.7), DVec2::from_angle(deg.to_radians()));
+        move |p: DVec2| 0.05 * n.dot(p - c)
+    };
+    let bowl = |p: DVec2| (p - DVec2::new(0.21, 8.6)).length_squared() / (2.0 * 4.0);
+    type Ground = Box<dyn Fn(DVec2) -> f64>;
+    let cases: [(&str, Ground, f64, f64); 4] = [
+        ("a shore at 17°", Box::new(shore(97.0)), 0.0, 0.0),
+        ("a shore at 58°", Box::new(shore(148.0)), 0.0, 0.0),
+        ("a shore at 17°, rolled 7°", Box::new(shore(97.0)), 0.0, 7.0),
+        ("a round pool", Box::new(bowl), 0.9f64.powi(2) / 8.0, 0.0),
+    ];
+    let lights = LightList::new(&[]);
+    for (name, ground, level, roll_deg) in &cases {
+        let (surface, depth) = still_carpet(ground, *level, origin, n, cell_m);
+        let map = water_map(&surface, &depth);
+        let params = puddle_params(&map, 0);
+        let camera = Camera::new(
+            320,
+            180,
+            f64::to_radians(60.0),
+            1.6,
+            f64::to_radians(-4.0),
+            roll_deg.to_radians(),
+        );
+        let s = setup(&camera, false);
+        let p = lit(&s, 0.0, &uniform_sky(0.6), Some(1.0));
+        let eye = DVec3::from_array(p.camera_pos_m.map(f64::from));
+        let on_ground = |at: DVec2| {
+            let ray = yuv_to_rgb::view_ray_at(&p, at);
+            (ray.z < 0.0).then(|| (eye + (eye.z / -ray.z) * ray, ray))
+        };
+        let (lo, hi) = (
+            origin.as_dvec2() + 0.5,
+            origin.as_dvec2() + n as f64 * cell_m as f64 - 0.5,
+        );
+        let inside = |g: DVec3| g.x > lo.x && g.y > lo.y && g.x < hi.x && g.y < hi.y;
+        let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+        let (mut drawn, mut truth) = (vec![f64::NAN; w * h], vec![f64::NAN; w * h]);
+        let (mut err, mut rim, mut worst) = (0.0, 0usize, 0.0f64);
+        for (k, (d, t)) in drawn.iter_mut().zip(truth.iter_mut()).enumerate() {
+            let (x, y) = ((k % w) as f64, (k / w) as f64);
+            let Some((g, ray)) = on_ground(DVec2::new(x + 0.5, y + 0.5)) else {
+                continue;
+            };
+            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
+            if !corners
+                .iter()
+                .all(|&(a, b)| on_ground(DVec2::new(x + a, y + b)).is_some_and(|(g, _)| inside(g)))
+            {
+                continue;
+            }
+            let per_px = puddles::ground_per_px(&p, ray, eye.z / -ray.z);
+            *d = puddles::water_cover(&params, &map.values, g.truncate(), per_px);
+            let mut sum = 0.0;
+            for m in 0..8 * 64 {
+                let sub =
+                    DVec2::new((m % 8) as f64 + 0.5, (m / 8) as f64 + 0.5) / DVec2::new(8.0, 64.0);
+                let (q, _) = on_ground(DVec2::new(x, y) + sub).expect("below the horizon");
+                sum += smooth(level - ground(q.truncate()));
+            }
+            *t = sum / 512.0;
+            let partial = |v: f64| v > 1e-3 && v < 1.0 - 1e-3;
+            if partial(*t) || partial(*d) {
+                rim += 1;
+                err += (*d - *t).powi(2);
+                worst = worst.max((*d - *t).abs());
+            }
+        }
+        let rms = (err / rim.max(1) as f64).sqrt();
+        // The rim along each column where the column holds both water and dry ground: the
+        // water's rows summed (a straight rim crosses a column once).
+        let (mut off, mut columns) = (0.0, 0usize);
+        if level == &0.0 {
+            for x in 0..w {
+                let column = |v: &[f64]| -> Option<f64> {
+                    let c: Vec<f64> = (0..h)
+                        .map(|y| v[y * w + x])
+                        .filter(|v| !v.is_nan())
+                        .collect();
+                    (c.len() > 8
+                        && c[0].min(c[c.len() - 1]) < 1e-3
+                        && c[0].max(c[c.len() - 1]) > 1.0 - 1e-3)
+                        .then(|| c.iter().sum())
+                };
+                if let (Some(a), Some(b)) = (column(&drawn), column(&truth)) {
+                    off += (a - b).powi(2);
+                    columns += 1;
+                }
+            }
+        }
+        let off = (off / columns.max(1) as f64).sqrt();
+        eprintln!(
+            "{name}: {rim} rim pixels, cover off the true share by RMS {rms:.4} (at most \
+             {worst:.3}); rim along {columns} columns off the true one's by RMS {off:.3} px"
+        );
+        assert!(rim > 100, "{name}: {rim} rim pixels");
+        assert!(rms < 0.02, "{name}: RMS {rms:.4}");
+        assert!(worst < 0.1, "{name}: a pixel off by {worst:.3}");
+        if level == &0.0 {
+            assert!(columns > 100, "{name}: {columns} columns");
+            assert!(off < 0.03, "{name}: the rim off by RMS {off:.3} px");
+        }
+        if let Some(ctx) = &ctx {
+            let frame = picture_444(camera.width_px, camera.height_px, |_, _| 400, |_, _, _| 512);
+            let gpu = codes(&render(
+                ctx,
+                &frame,
+                &s,
+                &p,
+                &Inputs {
+                    water: Some(&map),
+                    ..Inputs::default()
+                },
+            ));
+            let mut canvas = yuv_to_rgb::yuv_to_rgb(&frame, &p);
+            puddles::puddles(
+                &mut canvas,
+                &frame,
+                &p,
+                &Water {
+                    params: &params,
+                    depth_m: &map.values,
+                    ripples: &[],
+                    lights: &lights,
+                },
+                None,
+            );
+            let cpu = rgb_to_yuv::rgb_to_yuv(&canvas, frame.format, &frame.color);
+            let worst = (0..3)
+                .flat_map(|k| gpu[k].iter().zip(&cpu[k]).map(|(a, b)| a.abs_diff(*b)))
+                .max()
+                .unwrap_or(0);
+            eprintln!("{name}: GPU against the twin, worst {worst} codes");
+            assert!(worst <= 1, "{name}: {worst} codes off");
+        }
+    }
+}

@@ -343,13 +343,66 @@ impl Mirror<'_> {
     }
 }
 
-/// The water's cover at ground point `xy`: the share of the pixel's footprint under water, the
-/// mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the rim
-/// ([`rim_cover`]), the depth read by [`water_depth`] and its change per pixel by the reading's
-/// own derivative along the ground point's change per pixel `per_px` ([`ground_per_px`]).
-/// Clamped to [`footprint_range`], so a pixel whose footprint reaches a wet cell beyond the
-/// four nearest is not left dry.
+/// A probe of [`water_cover`] spans at most this many cells along each of the footprint's
+/// axes: as far as [`footprint_range`]'s widening reaches beyond the four nearest cells.
+pub const PROBE_CELLS: f64 = 2.0;
+
+/// At most this many whole probes along an axis of the footprint (and two partial ones at its
+/// ends): beyond, the probes lengthen.
+pub const MAX_PROBES: f64 = 15.0;
+
+/// The water's cover at ground point `xy` for a pixel whose ground point moves by `per_px`
+/// ([`ground_per_px`]): the share of the pixel's footprint under water. Where the footprint
+/// spans more than [`PROBE_CELLS`] cells along an axis (ground far off, seen at a grazing angle:
+/// a pixel row of a street 10 m ahead spans 5 cells of 2 cm in depth), one reading at its
+/// centre would stand for water it does not see, and rims would follow the rows of pixels
+/// that happen to land on a wet cell: a staircase. So the footprint is cut along each axis
+/// into a centre piece of [`PROBE_CELLS`], whole pieces out from it, and two shorter pieces at
+/// its ends (their length growing from 0 as the footprint does, so the cover changes without
+/// a jump where a piece is added), and the cover is the mean of [`probe_cover`] over the
+/// pieces, weighted by their area. One piece where the footprint is within [`PROBE_CELLS`].
 pub fn water_cover(params: &PuddleParams, depth_m: &[f32], xy: DVec2, per_px: [DVec2; 2]) -> f64 {
+    let cell_m = params.cell_m as f64;
+    let along_a = footprint_pieces(per_px[0].length() / cell_m);
+    let along_b = footprint_pieces(per_px[1].length() / cell_m);
+    let mut cover = 0.0;
+    for &(ta, la) in along_a.iter().filter(|p| p.1 > 0.0) {
+        for &(tb, lb) in along_b.iter().filter(|p| p.1 > 0.0) {
+            let at = xy + ta * per_px[0] + tb * per_px[1];
+            let piece = [la * per_px[0], lb * per_px[1]];
+            cover += la * lb * probe_cover(params, depth_m, at, piece);
+        }
+    }
+    cover
+}
+
+/// The pieces of an axis of a pixel's footprint `cells` long (see [`water_cover`]): each
+/// (its centre's offset from the footprint's, its length), as shares of the axis; the lengths
+/// add up to 1, and a piece of length 0 is left out by the caller.
+pub fn footprint_pieces(cells: f64) -> Vec<(f64, f64)> {
+    let share = (PROBE_CELLS / cells).max(1.0 / MAX_PROBES);
+    if share >= 1.0 {
+        return vec![(0.0, 1.0)];
+    }
+    let k = ((1.0 / share - 1.0) / 2.0).floor();
+    let end = 0.5 * (1.0 - (2.0 * k + 1.0) * share);
+    let mut pieces = vec![(0.0, share)];
+    for m in 1..=k as usize {
+        pieces.push((m as f64 * share, share));
+        pieces.push((-(m as f64) * share, share));
+    }
+    let out = (k + 0.5) * share + 0.5 * end;
+    pieces.push((out, end));
+    pieces.push((-out, end));
+    pieces
+}
+
+/// The cover of one probe at ground point `xy` whose footprint moves by `per_px`: the mean of
+/// smoothstep(0, rim depth, depth) over a box of the footprint's width across the rim
+/// ([`rim_cover`]), the depth read by [`water_depth`] and its change across the footprint by
+/// the reading's own derivative. Clamped to [`footprint_range`], so a footprint that reaches a
+/// wet cell beyond the four nearest is not left dry.
+pub fn probe_cover(params: &PuddleParams, depth_m: &[f32], xy: DVec2, per_px: [DVec2; 2]) -> f64 {
     let (depth, gradient, _, _) = water_depth_gradient(params, depth_m, xy);
     let (lo, hi) = footprint_range(params, depth_m, xy, per_px);
     let width = DVec2::new(gradient.dot(per_px[0]), gradient.dot(per_px[1])).length();

@@ -13,6 +13,7 @@ pub mod drop_light;
 pub mod encode;
 pub mod lanes;
 pub mod plate;
+mod puddle_cells;
 pub mod puddles;
 pub mod rain;
 pub mod simulate;

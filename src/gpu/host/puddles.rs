@@ -18,6 +18,9 @@ use rayon::prelude::*;
 
 use super::lanes::LANES;
 use super::plate::Decoder;
+use super::puddle_cells::{
+    PROBE_CELLS, WetBlocks, catmull_rom, catmull_rom_slope, footprint_pieces, rim_cover,
+};
 use super::tile::load_texel;
 use super::veil::Veil;
 use super::wet_ground::{Ground, PI, darkening, ground_shown, reflectance, smoothstep};
@@ -49,61 +52,6 @@ pub struct Puddles<'a> {
     e_up: Vec3,
     /// Where the map holds water, to pass over the blocks of pixels that see none.
     wet: WetBlocks,
-}
-
-/// Cells along a side of a [`WetBlocks`] block.
-const WET_BLOCK: usize = 8;
-
-/// Which blocks of [`WET_BLOCK`]² cells of the water map hold water (a cell > 0), as a
-/// summed-area table: whether any cell of a rectangle may be wet, at four reads. Most of a
-/// street's ground is dry, and a pixel whose four nearest cells are dry has no cover.
-struct WetBlocks {
-    /// Blocks along x and y.
-    bx: usize,
-    by: usize,
-    /// Wet blocks in the blocks (0..i, 0..j), at j·(bx + 1) + i.
-    sat: Vec<u32>,
-}
-
-impl WetBlocks {
-    /// The wet blocks of the map `depth_m` of `nx × ny` cells.
-    fn new(depth_m: &[f32], nx: usize, ny: usize) -> WetBlocks {
-        let (bx, by) = (nx.div_ceil(WET_BLOCK), ny.div_ceil(WET_BLOCK));
-        let wet: Vec<Vec<bool>> = (0..by)
-            .into_par_iter()
-            .map(|b| {
-                let mut row = vec![false; bx];
-                for j in b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny) {
-                    let cells = depth_m[j * nx..(j + 1) * nx].chunks(WET_BLOCK);
-                    for (w, cells) in row.iter_mut().zip(cells) {
-                        // `|`, not `any`: no branch per cell, eight compares at a time.
-                        *w |= cells.iter().fold(false, |a, &d| a | (d > 0.0));
-                    }
-                }
-                row
-            })
-            .collect();
-        let mut sat = vec![0u32; (bx + 1) * (by + 1)];
-        for j in 0..by {
-            let mut run = 0;
-            for i in 0..bx {
-                run += wet[j][i] as u32;
-                sat[(j + 1) * (bx + 1) + i + 1] = sat[j * (bx + 1) + i + 1] + run;
-            }
-        }
-        WetBlocks { bx, by, sat }
-    }
-
-    /// Whether a cell of columns `i0..=i1` and rows `j0..=j1` (on the map) may be wet.
-    fn any(&self, (i0, i1): (usize, usize), (j0, j1): (usize, usize)) -> bool {
-        let (a, b) = (i0 / WET_BLOCK, (i1 / WET_BLOCK + 1).min(self.bx));
-        let (c, d) = (j0 / WET_BLOCK, (j1 / WET_BLOCK + 1).min(self.by));
-        if a >= b || c >= d {
-            return false;
-        }
-        let at = |i: usize, j: usize| self.sat[j * (self.bx + 1) + i];
-        at(b, d) + at(a, c) > at(a, d) + at(b, c)
-    }
 }
 
 /// What one pixel's shading reads besides the water: the canvas before the water.
@@ -373,19 +321,26 @@ impl<'a> Puddles<'a> {
         Some((band, band_out, wet))
     }
 
-    /// Whether the pixels of columns `x0..=x1` and rows `y0..=y1` surely see no water: every
-    /// corner's ray goes down, so every pixel's ground point lies in the quadrilateral of the
-    /// corners' (the ground is the rays' central projection: convex stays convex), and no
-    /// cell within two cells of that quadrilateral's bounding box is wet
-    /// ([`Puddles::water_cover`] is 0 where the 4×4 cells around its point are dry or off the
-    /// map).
+    /// Whether the pixels of columns `x0..=x1` and rows `y0..=y1` surely see no water: the
+    /// rays one pixel beyond the corners all go down, so every pixel's footprint (the probes
+    /// of [`Puddles::water_cover`] lie within half a pixel of its ground point, to first
+    /// order) lies in the quadrilateral of their ground points (the ground is the rays'
+    /// central projection: convex stays convex), and no cell within two cells of that
+    /// quadrilateral's bounding box is wet ([`Puddles::probe_cover`] is 0 where the 4×4 cells
+    /// around its point are dry or off the map).
     fn sees_no_water(&self, (x0, x1): (usize, usize), (y0, y1): (usize, usize)) -> bool {
         let g = self.ground;
         let p = &self.water.params;
         let (lo, hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
         let (mut lo, mut hi) = (lo, hi);
-        for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
-            let ray = g.ray(x, y);
+        for (x, y, sx, sy) in [
+            (x0, y0, -1.0, -1.0),
+            (x1, y0, 1.0, -1.0),
+            (x0, y1, -1.0, 1.0),
+            (x1, y1, 1.0, 1.0),
+        ] {
+            // The ray is affine in the pixel: a pixel out along each axis.
+            let ray = g.ray(x, y) + sx * g.dx + sy * g.dy;
             if ray.z >= 0.0 {
                 return false;
             }
@@ -395,20 +350,7 @@ impl<'a> Puddles<'a> {
             lo = lo.min(u);
             hi = hi.max(u);
         }
-        if !(lo.is_finite() && hi.is_finite()) {
-            return false;
-        }
-        // The cover reads cells ⌊u⌋ − 1 to ⌊u⌋ + 2 (the four nearest and, where the footprint
-        // passes their square, the twelve around them); one more on each side for rounding.
-        let (nx, ny) = (p.cells[0] as f32, p.cells[1] as f32);
-        let (a, b) = ((lo - 2.0).floor(), (hi + 3.0).floor());
-        if b.x < 0.0 || b.y < 0.0 || a.x >= nx || a.y >= ny {
-            return true;
-        }
-        let (a, b) = (a.max(Vec2::ZERO), b.min(Vec2::new(nx - 1.0, ny - 1.0)));
-        !self
-            .wet
-            .any((a.x as usize, b.x as usize), (a.y as usize, b.y as usize))
+        self.cells_dry(lo, hi)
     }
 
     /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
@@ -428,23 +370,77 @@ impl<'a> Puddles<'a> {
         self.water_cover(Vec2::new(ground.x, ground.y), [per_px(g.dx), per_px(g.dy)])
     }
 
-    /// The water's cover at ground point `xy`, the share of the pixel's footprint under water:
-    /// the mean of smoothstep(0, rim depth, depth) over a box of one pixel's width across the
-    /// rim ([`rim_cover`]), the depth read by Catmull-Rom over the 4×4 cells around it, 0 off
-    /// the map, clamped to the four nearest cells' range widened where the footprint passes
-    /// their square (the twin's `footprint_range`), its change per pixel by Catmull-Rom's
-    /// derivative along the ground point's change per pixel `per_px` (`water_cover` of
-    /// puddles.wgsl and of the twin, in their order: each row along x, then the rows along y).
-    /// The clamp settles the cover from its range alone where it is all dry or all deeper than
-    /// the rim (most of the ground): the same value, without the rest of the reading.
+    /// The water's cover at ground point `xy` for a pixel whose ground point moves by `per_px`:
+    /// the mean of [`Puddles::probe_cover`] over the pieces of a footprint longer than
+    /// [`PROBE_CELLS`] along an axis (the twin's `water_cover`, in its order: the pieces along
+    /// the first axis outside, each in [`footprint_pieces`]' order), one piece where it is not.
+    /// A footprint whose cells (and a margin of the probes' reach) hold no water has none.
     #[inline(always)]
     fn water_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
+        let p = &self.water.params;
+        // One piece (most pixels): no pieces made.
+        let reach = PROBE_CELLS * p.cell_m;
+        if per_px[0].length_squared().max(per_px[1].length_squared()) <= reach * reach {
+            return self.probe_cover(xy, per_px);
+        }
+        let (along_a, na) = footprint_pieces(reach / per_px[0].length());
+        let (along_b, nb) = footprint_pieces(reach / per_px[1].length());
+        // Every probe reads cells within two of its point, which lies in the footprint's box.
+        let half = (per_px[0].abs() + per_px[1].abs()) * (0.5 / p.cell_m);
+        let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
+        if self.cells_dry(u - half, u + half) {
+            return 0.0;
+        }
+        let mut cover = 0.0;
+        for &(ta, la) in along_a[..na].iter().filter(|p| p.1 > 0.0) {
+            for &(tb, lb) in along_b[..nb].iter().filter(|p| p.1 > 0.0) {
+                let at = xy + ta * per_px[0] + tb * per_px[1];
+                cover += la * lb * self.probe_cover(at, [la * per_px[0], lb * per_px[1]]);
+            }
+        }
+        cover
+    }
+
+    /// Whether no cell that a probe at a point of the box `lo..hi` (in cells, from the first
+    /// cell's centre) reads is wet: those within two cells of the box, one more for rounding.
+    #[inline(always)]
+    fn cells_dry(&self, lo: Vec2, hi: Vec2) -> bool {
+        let p = &self.water.params;
+        let (nx, ny) = (p.cells[0] as f32, p.cells[1] as f32);
+        let (a, b) = ((lo - 2.0).floor(), (hi + 3.0).floor());
+        if !(a.is_finite() && b.is_finite()) {
+            return false;
+        }
+        if b.x < 0.0 || b.y < 0.0 || a.x >= nx || a.y >= ny {
+            return true;
+        }
+        let (a, b) = (a.max(Vec2::ZERO), b.min(Vec2::new(nx - 1.0, ny - 1.0)));
+        !self
+            .wet
+            .any((a.x as usize, b.x as usize), (a.y as usize, b.y as usize))
+    }
+
+    /// One probe's cover at ground point `xy`, its footprint moving by `per_px`: the mean of
+    /// smoothstep(0, rim depth, depth) over a box of the footprint's width across the rim
+    /// ([`rim_cover`]), the depth read by Catmull-Rom over the 4×4 cells around it, 0 off
+    /// the map, clamped to the four nearest cells' range widened where the footprint passes
+    /// their square (the twin's `footprint_range`), its change per pixel by Catmull-Rom's
+    /// derivative along `per_px` (`probe_cover` of puddles.wgsl and of the twin, in their
+    /// order: each row along x, then the rows along y). The clamp settles the cover from its
+    /// range alone where it is all dry or all deeper than the rim (most of the ground): the
+    /// same value, without the rest of the reading.
+    #[inline(always)]
+    fn probe_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
         let p = &self.water.params;
         let (nx, ny) = (p.cells[0] as i64, p.cells[1] as i64);
         let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
         let i0 = u.floor();
         let f = u - i0;
         let (i0, j0) = (i0.x as i64 - 1, i0.y as i64 - 1);
+        // No wet cell among the sixteen: the range is all dry (the shortcut below, sooner).
+        if !self.wet.window_wet(i0 + 1, j0 + 1) {
+            return 0.0;
+        }
         let map = self.water.depth_m;
         let inside = i0 >= 0 && j0 >= 0 && i0 + 4 <= nx && j0 + 4 <= ny;
         let cell = |i: i64, j: i64| {
@@ -805,90 +801,4 @@ fn has_avx2() -> bool {
         && std::arch::is_x86_feature_detected!("f16c");
     #[cfg(not(target_arch = "x86_64"))]
     false
-}
-
-/// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from
-/// the second to the third (the twin's [`crate::gpu::cpu::puddles::catmull_rom`], in f32).
-#[inline]
-fn catmull_rom(t: f32) -> [f32; 4] {
-    let (t2, t3) = (t * t, t * t * t);
-    [
-        0.5 * (-t3 + 2.0 * t2 - t),
-        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-        0.5 * (t3 - t2),
-    ]
-}
-
-/// The derivative of [`catmull_rom`]'s weights by `t`.
-#[inline]
-fn catmull_rom_slope(t: f32) -> [f32; 4] {
-    let t2 = t * t;
-    [
-        0.5 * (-3.0 * t2 + 4.0 * t - 1.0),
-        0.5 * (9.0 * t2 - 10.0 * t),
-        0.5 * (-9.0 * t2 + 8.0 * t + 1.0),
-        0.5 * (3.0 * t2 - 2.0 * t),
-    ]
-}
-
-/// The mean of smoothstep(0, `edge`, clamp(s, `lo`, `hi`)) for s spread evenly over `depth` ±
-/// `width`/2 (the twin's [`crate::gpu::cpu::puddles::rim_cover`], in f32).
-#[inline]
-fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
-    if width <= 1e-3 * edge {
-        return smoothstep(0.0, edge, depth.max(lo).min(hi));
-    }
-    let area = |s: f32| {
-        let t = s.clamp(0.0, edge) / edge;
-        edge * t * t * t * (1.0 - 0.5 * t)
-    };
-    let (x0, x1) = (depth - 0.5 * width, depth + 0.5 * width);
-    let below = (x1.min(lo) - x0).max(0.0) * smoothstep(0.0, edge, lo);
-    let above = (x1 - x0.max(hi)).max(0.0) * smoothstep(0.0, edge, hi);
-    let (a, b) = (x0.max(lo).min(hi), x1.max(lo).min(hi));
-    let ramp = (b - a.max(edge)).max(0.0) + area(b) - area(a);
-    ((below + ramp + above) / width).clamp(0.0, 1.0)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Whether a rectangle of cells may be wet, against looking at every cell: never a wet
-    /// cell missed, and a rectangle of dry blocks only is dry.
-    #[test]
-    fn wet_blocks_find_every_wet_cell() {
-        let (nx, ny) = (37, 29);
-        let mut depth = vec![0.0f32; nx * ny];
-        for k in [0, 5 * nx + 9, 17 * nx + 36, 28 * nx + 16, 28 * nx] {
-            depth[k] = 1e-3;
-        }
-        depth[20 * nx + 20] = -1e-3;
-        let wet = WetBlocks::new(&depth, nx, ny);
-        for j0 in 0..ny {
-            for j1 in j0..ny {
-                for i0 in (0..nx).step_by(3) {
-                    for i1 in (i0..nx).step_by(2) {
-                        let any_cell =
-                            (j0..=j1).any(|j| (i0..=i1).any(|i| depth[j * nx + i] > 0.0));
-                        let blocks = (j0 / WET_BLOCK..=j1 / WET_BLOCK).any(|b| {
-                            (i0 / WET_BLOCK..=i1 / WET_BLOCK).any(|a| {
-                                (b * WET_BLOCK..((b + 1) * WET_BLOCK).min(ny)).any(|j| {
-                                    (a * WET_BLOCK..((a + 1) * WET_BLOCK).min(nx))
-                                        .any(|i| depth[j * nx + i] > 0.0)
-                                })
-                            })
-                        });
-                        let got = wet.any((i0, i1), (j0, j1));
-                        assert!(
-                            got || !any_cell,
-                            "missed a wet cell in {i0}..={i1} × {j0}..={j1}"
-                        );
-                        assert_eq!(got, blocks, "{i0}..={i1} × {j0}..={j1}");
-                    }
-                }
-            }
-        }
-    }
 }

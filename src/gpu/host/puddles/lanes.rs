@@ -1,15 +1,15 @@
 //! The puddles' cover eight pixels of a row at a time: [`Puddles::cover`]'s operations lane by
-//! lane, its branches as selects, the map's 4×4 cells around each ground point read once (by
-//! AVX2 gathers in the AVX2 build) for the range, its widening and Catmull-Rom; the same bits as
-//! the plain routine, which stays the reference (and serves the lanes whose cells leave the
-//! map). Most of the water's shading is this cover, made for every downward pixel of a block
-//! that may see water.
+//! lane, its branches as selects, the map's 4×4 cells around each ground point read once (by AVX2
+//! gathers in the AVX2 build) for the range, its widening and Catmull-Rom; the same bits as the
+//! plain routine, which stays the reference (and serves the lanes whose cells leave the map, and
+//! the rows whose footprints are longer than a probe). Most of the water's shading is this cover,
+//! made for every downward pixel of a block that may see water.
 
 use glam::Vec2;
 
 use super::super::lanes::{LANES, gather};
 use super::super::wet_ground::smoothstep;
-use super::{Puddles, catmull_rom, catmull_rom_slope};
+use super::{PROBE_CELLS, Puddles, catmull_rom, catmull_rom_slope};
 
 impl Puddles<'_> {
     /// [`Puddles::cover`] of the pixels (`x` + l, `y`), l < [`LANES`], all of whose rays go
@@ -34,6 +34,18 @@ impl Puddles<'_> {
             let i0 = u.floor();
             let f = u - i0;
             (fx[l], fy[l], ix[l], iy[l]) = (f.x, f.y, i0.x, i0.y);
+        }
+        // A footprint longer than a probe along an axis (far ground): its cover is the mean
+        // over its pieces, the plain routine's.
+        let reach = PROBE_CELLS * p.cell_m;
+        if (0..LANES).any(|l| {
+            let (a, b) = (
+                Vec2::new(per[0][l], per[1][l]),
+                Vec2::new(per[2][l], per[3][l]),
+            );
+            a.length_squared().max(b.length_squared()) > reach * reach
+        }) {
+            return std::array::from_fn(|l| self.cover(x + l, y));
         }
         // Lanes whose 4×4 cells all lie on the map (`water_cover`'s `inside`, in floats: NaN
         // and the far side fail); the others are read at cell 0 and made by the plain routine.
