@@ -71,14 +71,8 @@ impl HostRain {
     /// glints (the records `rain_simulate` writes); returns them with the count that can be
     /// drawn.
     pub fn simulate(&mut self, p: &RainParams) -> (&[Streak], &[Glint], usize) {
-        let drops = Drops {
-            columns: &self.columns,
-            lights: &self.lights,
-            table: self.table.as_ref(),
-            glints: self.glints_on,
-        };
-        let drawable = simulate::simulate(p, &drops, &mut self.streaks, &mut self.glints);
-        (&self.streaks, &self.glints, drawable)
+        let (streaks, _, glints, drawable) = self.simulate_for_draw(p);
+        (streaks, glints, drawable)
     }
 
     /// [`simulate`](Self::simulate), returning with the streaks the mattes they are drawn
