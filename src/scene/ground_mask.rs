@@ -394,10 +394,129 @@ fn linear_luma(frame: &YuvFrame, luma: &[f32]) -> Vec<f32> {
         .collect()
 }
 
+/// The longer side, pixels, of the picture the mask is found in: its thresholds (steps and
+/// texture between neighbouring pixels, blocks of a cell, bridges of so many cells) hold for
+/// what a picture of this size shows of a scene, so a larger frame is first reduced to it.
+pub const WORKING_PX: u32 = 640;
+
+/// The size of the picture the mask of a `size` frame is found in: the frame's own up to
+/// [`WORKING_PX`] on its longer side, else reduced to it, its aspect kept.
+pub fn working_size(size: (u32, u32)) -> (u32, u32) {
+    let long = size.0.max(size.1);
+    if long <= WORKING_PX {
+        return size;
+    }
+    let scale = f64::from(WORKING_PX) / f64::from(long);
+    let side = |n: u32| ((f64::from(n) * scale).round() as u32).max(2);
+    (side(size.0), side(size.1))
+}
+
+/// Plane `i` of `frame` reduced to `to` samples by a box filter: each source sample counts
+/// once, toward the reduced sample its centre falls in (a 3 × 3 box from 1920 × 1080 to
+/// 640 × 360), the mean rounded.
+fn reduce_plane(frame: &YuvFrame, i: usize, to: (u32, u32)) -> Vec<u16> {
+    let (w, h) = frame.format.plane_size(i);
+    let (w, h, tw, th) = (w as usize, h as usize, to.0 as usize, to.1 as usize);
+    let column: Vec<usize> = (0..w).map(|x| ((2 * x + 1) * tw) / (2 * w)).collect();
+    let first_row = |r: usize| {
+        (2 * r * h)
+            .saturating_sub(h.min(2 * r * h))
+            .div_ceil(2 * th)
+    };
+    let mut out = vec![0u16; tw * th];
+    out.par_chunks_mut(tw).enumerate().for_each(|(r, out)| {
+        let (lo, hi) = (first_row(r).min(h), first_row(r + 1).min(h));
+        let (mut sum, mut count, mut row) = (vec![0u64; tw], vec![0u64; tw], Vec::new());
+        for y in lo..hi {
+            plane_row(frame, i, y, w, &mut row);
+            for (x, &v) in row.iter().enumerate() {
+                sum[column[x]] += v as u64;
+                count[column[x]] += 1;
+            }
+        }
+        for ((o, s), c) in out.iter_mut().zip(&sum).zip(&count) {
+            *o = if *c == 0 { 0 } else { ((s + c / 2) / c) as u16 };
+        }
+    });
+    out
+}
+
+/// `frame` reduced to `to` pixels (its chroma, bit depth and colour kept), by
+/// [`reduce_plane`].
+fn reduce(frame: &YuvFrame, to: (u32, u32)) -> YuvFrame {
+    let format = crate::video::frame::FrameFormat {
+        width: to.0,
+        height: to.1,
+        ..frame.format
+    };
+    let mut small = YuvFrame::filled(format, frame.color, [0, 0, 0]);
+    for i in 0..3 {
+        let samples = reduce_plane(frame, i, format.plane_size(i));
+        small.planes[i].data = if format.bytes_per_sample() == 1 {
+            samples.iter().map(|&v| v as u8).collect()
+        } else {
+            samples.iter().flat_map(|v| v.to_le_bytes()).collect()
+        };
+    }
+    small
+}
+
 /// The ground's weight at each grid point of `frame` (row-major over `grid`, 0–1; read
 /// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
 /// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
+///
+/// A frame larger than [`WORKING_PX`] is reduced to its [`working_size`] first, found on a
+/// grid of the same cell there (each point's view the nearest of `view`'s, the same one where
+/// the sizes' ratio is whole), and read back bilinearly at `grid`'s points: the mask is the
+/// scene's, not the resolution's, its soft edge as wide in the scene, and a 1080p frame costs
+/// about what a 640 px one does.
 pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
+    let f = frame.format;
+    let to = working_size((f.width, f.height));
+    if to == (f.width, f.height) || view.len() != grid.len() || grid.is_empty() {
+        return detect_at_size(frame, grid, top, view);
+    }
+    let small = reduce(frame, to);
+    let fine = SkyGrid::new(grid.cell_px, to);
+    let (sx, sy) = (
+        f64::from(f.width) / f64::from(to.0),
+        f64::from(f.height) / f64::from(to.1),
+    );
+    let c = f64::from(grid.cell_px);
+    let nearest = |v: f64, n: usize| ((v / c).round().max(0.0) as usize).min(n - 1);
+    let views: Vec<PointView> = (0..fine.len())
+        .map(|k| {
+            let at = fine.point_px(k);
+            let (i, j) = (
+                nearest(at.x * sx, grid.width),
+                nearest(at.y * sy, grid.height),
+            );
+            let v = view[j * grid.width + i];
+            let to_small = |p: [f32; 2]| [p[0] / sx as f32, p[1] / sy as f32];
+            PointView {
+                up_px: to_small(v.up_px),
+                mirror_px: v.mirror_px.map(to_small),
+                ..v
+            }
+        })
+        .collect();
+    let mask = detect_at_size(&small, fine, top, &views);
+    let at = |i: usize, j: usize| mask[j.min(fine.height - 1) * fine.width + i.min(fine.width - 1)];
+    (0..grid.len())
+        .map(|k| {
+            let p = grid.point_px(k);
+            let (u, v) = ((p.x / sx / c) as f32, (p.y / sy / c) as f32);
+            let (i, j) = (u as usize, v as usize);
+            let (fx, fy) = (u.fract(), v.fract());
+            let top = at(i, j) + (at(i + 1, j) - at(i, j)) * fx;
+            let bottom = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * fx;
+            top + (bottom - top) * fy
+        })
+        .collect()
+}
+
+/// [`detect`] at the frame's own size.
+fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
     let n = grid.len();
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
