@@ -246,21 +246,29 @@ fn brick(y: f64, z: f64, seed: u64) -> [f64; 3] {
     BRICK.map(|v| v * shade)
 }
 
-/// `rgb` (`W` × `H`) blurred by a Gaussian of 1 px standard deviation, as a lens blurs.
-fn lens_blur(rgb: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let taps: Vec<f64> = (-3i64..=3).map(|d| (-0.5 * (d * d) as f64).exp()).collect();
+/// `rgb` (`w` × `h`) blurred by a Gaussian of 1 px standard deviation, as a lens blurs.
+fn lens_blur(rgb: &[[f64; 3]], size: (u32, u32)) -> Vec<[f64; 3]> {
+    lens_blur_by(rgb, size, 1)
+}
+
+/// [`lens_blur`] by a Gaussian of `sigma_px` pixels (the same lens over a finer sensor).
+fn lens_blur_by(rgb: &[[f64; 3]], (w, h): (u32, u32), sigma_px: i64) -> Vec<[f64; 3]> {
+    let reach = 3 * sigma_px;
+    let taps: Vec<f64> = (-reach..=reach)
+        .map(|d| (-0.5 * (d * d) as f64 / (sigma_px * sigma_px) as f64).exp())
+        .collect();
     let sum: f64 = taps.iter().sum();
     let pass = |src: &[[f64; 3]], dx: i64, dy: i64| -> Vec<[f64; 3]> {
-        (0..(W * H) as i64)
+        (0..(w * h) as i64)
             .map(|i| {
-                let (x, y) = (i % W as i64, i / W as i64);
+                let (x, y) = (i % w as i64, i / w as i64);
                 let mut out = [0.0; 3];
-                for (d, tap) in (-3i64..=3).zip(&taps) {
+                for (d, tap) in (-reach..=reach).zip(&taps) {
                     let (u, v) = (
-                        (x + d * dx).clamp(0, W as i64 - 1),
-                        (y + d * dy).clamp(0, H as i64 - 1),
+                        (x + d * dx).clamp(0, w as i64 - 1),
+                        (y + d * dy).clamp(0, h as i64 - 1),
                     );
-                    let c = src[(v * W as i64 + u) as usize];
+                    let c = src[(v * w as i64 + u) as usize];
                     (0..3).for_each(|k| out[k] += c[k] * tap / sum);
                 }
                 out
@@ -270,14 +278,20 @@ fn lens_blur(rgb: &[[f64; 3]]) -> Vec<[f64; 3]> {
     pass(&pass(rgb, 1, 0), 0, 1)
 }
 
-/// The street seen by `camera`, with what `layout` adds.
+/// The street seen by `camera` (`W` × `H`), with what `layout` adds.
 fn street(camera: &Camera, seed: u64, layout: Layout) -> Street {
+    street_sized(camera, seed, layout, (W, H))
+}
+
+/// [`street`] in a picture of `size` pixels (the camera's).
+fn street_sized(camera: &Camera, seed: u64, layout: Layout, size: (u32, u32)) -> Street {
+    let (w, h) = size;
     let eye = camera.position_m;
-    let mut rgb = Vec::with_capacity((W * H) as usize);
-    let mut truth = Vec::with_capacity((W * H) as usize);
-    let mut road_m = Vec::with_capacity((W * H) as usize);
-    for y in 0..H {
-        for x in 0..W {
+    let mut rgb = Vec::with_capacity((w * h) as usize);
+    let mut truth = Vec::with_capacity((w * h) as usize);
+    let mut road_m = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
             let r = camera.ray_world(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
             let mut best = (f64::INFINITY, Surface::Sky, [0.0; 3]);
             if r.z < 0.0 {
@@ -335,7 +349,7 @@ fn street(camera: &Camera, seed: u64, layout: Layout) -> Street {
                 best = (t, Surface::Railing, [0.1, 0.11, 0.12]);
             }
             if best.1 == Surface::Sky {
-                let f = y as f64 / H as f64;
+                let f = y as f64 / h as f64;
                 best.2 = [0.62 + 0.1 * f, 0.68 + 0.1 * f, 0.8 + 0.05 * f];
             }
             rgb.push(best.2);
@@ -347,11 +361,11 @@ fn street(camera: &Camera, seed: u64, layout: Layout) -> Street {
         }
     }
     if !matches!(layout, Layout::Plain | Layout::LowWall) {
-        rgb = lens_blur(&rgb);
+        rgb = lens_blur(&rgb, size);
     }
     // Sensor noise of about a code.
     for (i, c) in rgb.iter_mut().enumerate() {
-        let (x, y) = (i as u64 % u64::from(W), i as u64 / u64::from(W));
+        let (x, y) = (i as u64 % u64::from(w), i as u64 / u64::from(w));
         let grain = (uniform(seed, 7 * (y * 4096 + x)) - 0.5) * 2.5 / 255.0;
         *c = c.map(|v| v + grain);
     }
@@ -1121,4 +1135,89 @@ fn lines_and_lanes_along_the_road() {
 #[test]
 fn the_road_beyond_a_red_band_is_ground() {
     check_beyond(Layout::RedBand, true, 0.9);
+}
+
+/// The weights ≥ ½ of the mask found in the street with `layout` seen at `pose` (field of
+/// view, tilt, roll, pan right) in a picture of `size`, with the number of wall, low wall and
+/// railing pixels weighted at all and of all of them, and the region's IoU with the true road.
+fn mask_at_size(
+    pose: (f64, f64, f64, f64),
+    seed: u64,
+    layout: Layout,
+    size: (u32, u32),
+) -> (Vec<bool>, usize, usize, f64) {
+    let (fov, tilt, roll, pan) = pose;
+    let cam = Camera::new(
+        size.0,
+        size.1,
+        fov,
+        1.6,
+        tilt.to_radians(),
+        roll.to_radians(),
+    )
+    .panned(pan.to_radians());
+    let setup = dry_ground(&cam, 0).with_wetting(Some(drying()));
+    let p = lit(&setup, 120.0, &SKY, Some(1.0));
+    let s = street_sized(&cam, seed, layout, size);
+    // The same lens at both sizes: a Gaussian of 1 px at 640 px wide.
+    let rgb = lens_blur_by(&s.rgb, size, i64::from(size.0 / 640).max(1));
+    let f = pictures::bt709_420_from_rgb(size.0, size.1, &rgb);
+    let g = SkyGrid::new(GLOW_CELL_PX, size);
+    let mask = detect(&f, g, TopEdge::Top, &point_views(&p, g));
+    let (mut weighted, mut standing, mut both, mut either) = (0, 0, 0, 0);
+    let region: Vec<bool> = s
+        .truth
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let w = g.weight_at(&mask, i as u32 % size.0, i as u32 / size.0);
+            let road = *t == Surface::Road;
+            both += usize::from(w >= 0.5 && road);
+            either += usize::from(w >= 0.5 || road);
+            if matches!(t, Surface::Wall | Surface::LowWall | Surface::Railing) {
+                standing += 1;
+                weighted += usize::from(w > 0.0);
+            }
+            w >= 0.5
+        })
+        .collect();
+    (region, weighted, standing, both as f64 / either as f64)
+}
+
+/// The mask is a property of the scene, not of the picture's resolution: the walls-and-railing
+/// street (plain, and panned onto the low wall) seen through the same lens at 640×360 and at
+/// 1920×1080 gives regions of weight ≥ ½ that agree (IoU over the smaller picture's pixels,
+/// each compared with the larger's pixel at its centre), and what stands on the road stays
+/// unweighted at both sizes.
+#[test]
+fn the_mask_does_not_depend_on_the_pictures_size() {
+    let (small, large) = ((640u32, 360u32), (1920u32, 1080u32));
+    let plain = POSES.map(|(fov, tilt, roll)| ((fov, tilt, roll, 0.0), Layout::Plain));
+    let panned = PANNED.map(|pose| (pose, Layout::LowWall));
+    for (n, (pose, layout)) in plain.into_iter().chain(panned).enumerate() {
+        let seed = 31 + n as u64;
+        let (a, a_weighted, a_standing, a_iou) = mask_at_size(pose, seed, layout, small);
+        let (b, b_weighted, b_standing, b_iou) = mask_at_size(pose, seed, layout, large);
+        let k = large.0 / small.0;
+        let (mut both, mut either) = (0usize, 0usize);
+        for (i, &in_a) in a.iter().enumerate() {
+            let (x, y) = (i as u32 % small.0, i as u32 / small.0);
+            let in_b = b[((k * y + k / 2) * large.0 + k * x + k / 2) as usize];
+            both += usize::from(in_a && in_b);
+            either += usize::from(in_a || in_b);
+        }
+        let iou = both as f64 / either as f64;
+        eprintln!(
+            "{layout:?} {pose:?}: IoU of the two sizes' masks {iou:.3}; road IoU {a_iou:.3} at \
+             640×360, {b_iou:.3} at 1920×1080; standing weighted {a_weighted} of \
+             {a_standing}, {b_weighted} of {b_standing}"
+        );
+        assert!(iou >= 0.85, "{layout:?} {pose:?}: IoU {iou}");
+        for (weighted, standing) in [(a_weighted, a_standing), (b_weighted, b_standing)] {
+            assert!(
+                (weighted as f64) < 0.01 * standing as f64,
+                "{layout:?} {pose:?}: {weighted} of {standing}"
+            );
+        }
+    }
 }

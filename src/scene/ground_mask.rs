@@ -4,6 +4,12 @@
 //!
 //! # Method
 //!
+//! A frame larger than [`WORKING_PX`](super::working_picture::WORKING_PX) (640 px) on its
+//! longer side is first reduced to it by a box filter, and the mask found there is read back
+//! bilinearly at the frame's grid: every threshold below is in pixels and cells of that size,
+//! so a 1080p frame sees the edges and blocks a 640 px one does (found at 1080p itself, a wall's base blurred over three times
+//! the pixels is no step between neighbouring pixels, and its face flooded).
+//!
 //! On the haze's grid of points (every `cell_px` coded pixels, as [`crate::scene::sky`]) each
 //! point sums up the luma gradients of the block of pixels around it (its structure tensor).
 //! A world vertical (a wall's edge, a window's frame, a railing's post, a pole, a car's door)
@@ -74,6 +80,7 @@ use rayon::prelude::*;
 
 use super::sky::{SkyGrid, TopEdge};
 use super::water;
+use super::working_picture::{plane_row, reduce, working_size};
 use crate::video::YuvFrame;
 use crate::video::color::eotf_signed;
 
@@ -163,22 +170,6 @@ fn sums_plain(frame: &YuvFrame, grid: SkyGrid) -> Vec<[f64; 7]> {
         }
     }
     sums
-}
-
-/// Row `y` of plane `i` of `frame` as codes into `out` (`n` samples).
-fn plane_row(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<i64>) {
-    let p = &frame.planes[i];
-    let row = &p.data[y * p.stride..];
-    out.clear();
-    if frame.format.bytes_per_sample() == 1 {
-        out.extend(row[..n].iter().map(|&v| i64::from(v)));
-    } else {
-        out.extend(
-            row[..2 * n]
-                .chunks_exact(2)
-                .map(|b| i64::from(u16::from_le_bytes([b[0], b[1]]))),
-        );
-    }
 }
 
 /// [`sums_plain`] in integers: each row of points' band of pixel rows summed per column over
@@ -397,7 +388,59 @@ fn linear_luma(frame: &YuvFrame, luma: &[f32]) -> Vec<f32> {
 /// The ground's weight at each grid point of `frame` (row-major over `grid`, 0–1; read
 /// bilinearly, [`SkyGrid::weight_at`]): see the module's method. `top` is the coded edge shown
 /// at the top (the ground is reached from the opposite one); `view` holds one entry per point.
+///
+/// A frame larger than [`WORKING_PX`](super::working_picture::WORKING_PX) is reduced to its
+/// [`working_size`] first, found on a grid of the same cell there (each point's view the nearest of `view`'s, the same one where
+/// the sizes' ratio is whole), and read back bilinearly at `grid`'s points: the mask is the
+/// scene's, not the resolution's, its soft edge as wide in the scene, and a 1080p frame costs
+/// about what a 640 px one does.
 pub fn detect(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
+    let f = frame.format;
+    let to = working_size((f.width, f.height));
+    if to == (f.width, f.height) || view.len() != grid.len() || grid.is_empty() {
+        return detect_at_size(frame, grid, top, view);
+    }
+    let small = reduce(frame, to);
+    let fine = SkyGrid::new(grid.cell_px, to);
+    let (sx, sy) = (
+        f64::from(f.width) / f64::from(to.0),
+        f64::from(f.height) / f64::from(to.1),
+    );
+    let c = f64::from(grid.cell_px);
+    let nearest = |v: f64, n: usize| ((v / c).round().max(0.0) as usize).min(n - 1);
+    let views: Vec<PointView> = (0..fine.len())
+        .map(|k| {
+            let at = fine.point_px(k);
+            let (i, j) = (
+                nearest(at.x * sx, grid.width),
+                nearest(at.y * sy, grid.height),
+            );
+            let v = view[j * grid.width + i];
+            let to_small = |p: [f32; 2]| [p[0] / sx as f32, p[1] / sy as f32];
+            PointView {
+                up_px: to_small(v.up_px),
+                mirror_px: v.mirror_px.map(to_small),
+                ..v
+            }
+        })
+        .collect();
+    let mask = detect_at_size(&small, fine, top, &views);
+    let at = |i: usize, j: usize| mask[j.min(fine.height - 1) * fine.width + i.min(fine.width - 1)];
+    (0..grid.len())
+        .map(|k| {
+            let p = grid.point_px(k);
+            let (u, v) = ((p.x / sx / c) as f32, (p.y / sy / c) as f32);
+            let (i, j) = (u as usize, v as usize);
+            let (fx, fy) = (u.fract(), v.fract());
+            let top = at(i, j) + (at(i + 1, j) - at(i, j)) * fx;
+            let bottom = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * fx;
+            top + (bottom - top) * fy
+        })
+        .collect()
+}
+
+/// [`detect`] at the frame's own size.
+fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointView]) -> Vec<f32> {
     let n = grid.len();
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
@@ -674,7 +717,8 @@ mod tests {
         );
     }
 
-    /// What finding the ground costs a frame beside finding the sky, on the first frame past
+    /// What finding the ground costs a frame beside finding the sky (and beside finding it at
+    /// the frame's own size, unreduced), on the first frame past
     /// 1 s of `samples/street.mp4` scaled by ffmpeg to 640×360 and to 1080p (the horizon at
     /// 0.48 of the height, a level camera): `cargo test --release --lib ground_cost --
     /// --ignored --nocapture`.
@@ -724,13 +768,19 @@ mod tests {
                 t[t.len() / 2]
             };
             let ground = || detect(&f, grid, TopEdge::Top, &view);
+            let full = || detect_at_size(&f, grid, TopEdge::Top, &view);
             let sky = || crate::scene::sky::detect(&f, grid, TopEdge::Top, None);
             let ground_ms = median_ms(&|| drop(std::hint::black_box(ground())));
+            let full_ms = median_ms(&|| drop(std::hint::black_box(full())));
             let sky_ms = median_ms(&|| drop(std::hint::black_box(sky())));
+            let to = working_size((w, h));
+            let reduce_ms = median_ms(&|| drop(std::hint::black_box(reduce(&f, to))));
             let share = ground().iter().sum::<f32>() / grid.len() as f32;
+            let full_share = full().iter().sum::<f32>() / grid.len() as f32;
             println!(
-                "{w}x{h} median of 9: ground mask {ground_ms:.2} ms, sky {sky_ms:.2} ms; \
-                 ground share {share:.3}"
+                "{w}x{h} median of 9: ground mask {ground_ms:.2} ms (at the frame's own size \
+                 {full_ms:.2} ms; reducing it {reduce_ms:.2} ms), sky {sky_ms:.2} ms; ground share {share:.3} (at its own \
+                 size {full_share:.3})"
             );
         }
     }

@@ -17,6 +17,7 @@ pub mod steep;
 pub mod tracker;
 pub mod vanishing;
 pub mod water;
+pub mod working_picture;
 
 pub use camera::{Camera, Projector};
 pub use depth::DepthMap;
