@@ -146,7 +146,7 @@ pub(super) fn footprint_pieces(share: f32) -> ([(f32, f32); 17], usize) {
 
 /// The Catmull-Rom weights of the four cells around a point at fraction `t` of the way from
 /// the second to the third (the twin's [`crate::gpu::cpu::puddles::catmull_rom`], in f32).
-#[inline]
+#[inline(always)]
 pub(super) fn catmull_rom(t: f32) -> [f32; 4] {
     let (t2, t3) = (t * t, t * t * t);
     [
@@ -158,7 +158,7 @@ pub(super) fn catmull_rom(t: f32) -> [f32; 4] {
 }
 
 /// The derivative of [`catmull_rom`]'s weights by `t`.
-#[inline]
+#[inline(always)]
 pub(super) fn catmull_rom_slope(t: f32) -> [f32; 4] {
     let t2 = t * t;
     [
@@ -171,7 +171,7 @@ pub(super) fn catmull_rom_slope(t: f32) -> [f32; 4] {
 
 /// The mean of smoothstep(0, `edge`, clamp(s, `lo`, `hi`)) for s spread evenly over `depth` ±
 /// `width`/2 (the twin's [`crate::gpu::cpu::puddles::rim_cover`], in f32).
-#[inline]
+#[inline(always)]
 pub(super) fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
     if width <= 1e-3 * edge {
         return smoothstep(0.0, edge, depth.max(lo).min(hi));

@@ -45,7 +45,14 @@ impl Puddles<'_> {
             );
             a.length_squared().max(b.length_squared()) > reach * reach
         }) {
-            return std::array::from_fn(|l| self.cover(x + l, y));
+            // A loop, not `array::from_fn`: that stays a function of its own, built without
+            // the AVX2 build's features (its `floor` a call to libm), and the pieces' probes
+            // are most of the far rows' time.
+            let mut cover = [0f32; LANES];
+            for (l, c) in cover.iter_mut().enumerate() {
+                *c = self.cover(x + l, y);
+            }
+            return cover;
         }
         // Lanes whose 4×4 cells all lie on the map (`water_cover`'s `inside`, in floats: NaN
         // and the far side fail); the others are read at cell 0 and made by the plain routine.
