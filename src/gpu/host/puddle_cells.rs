@@ -176,6 +176,13 @@ pub(super) fn rim_cover(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> 
     if width <= 1e-3 * edge {
         return smoothstep(0.0, edge, depth.max(lo).min(hi));
     }
+    rim_cover_spread(depth, lo, hi, width, edge)
+}
+
+/// [`rim_cover`] where `width` is not negligible: below `lo` and above `hi` the clamped
+/// values' share, between them the ramp's integral, ∫₀ˢ smoothstep = edge·(t³ − t⁴/2).
+#[inline(always)]
+pub(super) fn rim_cover_spread(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
     let area = |s: f32| {
         let t = s.clamp(0.0, edge) / edge;
         edge * t * t * t * (1.0 - 0.5 * t)

@@ -20,6 +20,7 @@ use super::lanes::LANES;
 use super::plate::Decoder;
 use super::puddle_cells::{
     PROBE_CELLS, WetBlocks, catmull_rom, catmull_rom_slope, footprint_pieces, rim_cover,
+    rim_cover_spread,
 };
 use super::tile::load_texel;
 use super::veil::Veil;

@@ -9,7 +9,7 @@ use glam::Vec2;
 
 use super::super::lanes::{LANES, gather};
 use super::super::wet_ground::smoothstep;
-use super::{PROBE_CELLS, Puddles, catmull_rom, catmull_rom_slope};
+use super::{PROBE_CELLS, Puddles, catmull_rom, catmull_rom_slope, rim_cover_spread};
 
 impl Puddles<'_> {
     /// [`Puddles::cover`] of the pixels (`x` + l, `y`), l < [`LANES`], all of whose rays go
@@ -184,16 +184,7 @@ impl Puddles<'_> {
 #[inline(always)]
 fn rim_cover_selected(depth: f32, lo: f32, hi: f32, width: f32, edge: f32) -> f32 {
     let narrow = smoothstep(0.0, edge, depth.max(lo).min(hi));
-    let area = |s: f32| {
-        let t = s.clamp(0.0, edge) / edge;
-        edge * t * t * t * (1.0 - 0.5 * t)
-    };
-    let (x0, x1) = (depth - 0.5 * width, depth + 0.5 * width);
-    let below = (x1.min(lo) - x0).max(0.0) * smoothstep(0.0, edge, lo);
-    let above = (x1 - x0.max(hi)).max(0.0) * smoothstep(0.0, edge, hi);
-    let (a, b) = (x0.max(lo).min(hi), x1.max(lo).min(hi));
-    let ramp = (b - a.max(edge)).max(0.0) + area(b) - area(a);
-    let wide = ((below + ramp + above) / width).clamp(0.0, 1.0);
+    let wide = rim_cover_spread(depth, lo, hi, width, edge);
     if width <= 1e-3 * edge { narrow } else { wide }
 }
 
