@@ -1120,6 +1120,24 @@ fn still_carpet(
     (field(surface), field(depth))
 }
 
+/// A plane rising at 30 cm per metre across a shore at 17° to the cells, 2.6 m ahead, as a
+/// still carpet of 96² cells of `cell_m` around the shore: its surface, its depth and the shore's
+/// point and normal.
+fn shore_at_17(cell_m: f32) -> (Field2, Field2, DVec2, DVec2) {
+    let (c, n) = (
+        DVec2::new(0.011, 2.617),
+        DVec2::from_angle(17f64.to_radians()),
+    );
+    let (surface, depth) = still_carpet(
+        |p| 0.3 * n.dot(p - c),
+        0.0,
+        c.as_vec2() - Vec2::splat(48.0 * cell_m),
+        96,
+        cell_m,
+    );
+    (surface, depth, c, n)
+}
+
 /// A puddle's rim turns smoothly across the water map's cells: the rim as drawn (where the
 /// map's reading reaches the depth that covers half) traced in steps of about 1/40 of a cell,
 /// on a pool in a bowl (a circle: each step turns by the step's angle about its centre) and on
@@ -1407,18 +1425,7 @@ fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
         level_m: 0.5f64.powi(2) / 3.0,
     };
     let (surface, depth) = bowl.carpet(48, cell_m);
-    // A plane rising at 30 cm per metre across a shore at 17° to the cells, 2.6 m ahead.
-    let (c, n) = (
-        DVec2::new(0.011, 2.617),
-        DVec2::from_angle(17f64.to_radians()),
-    );
-    let (shore_surface, shore_depth) = still_carpet(
-        |p| 0.3 * n.dot(p - c),
-        0.0,
-        c.as_vec2() - Vec2::splat(48.0 * cell_m),
-        96,
-        cell_m,
-    );
+    let (shore_surface, shore_depth, _, _) = shore_at_17(cell_m);
     let cases = [
         ("a pool in a bowl", water_map(&surface, &depth)),
         ("a shore at 17°", water_map(&shore_surface, &shore_depth)),
@@ -1560,17 +1567,7 @@ fn puddle_rims_cover_the_share_of_each_pixel_under_water() {
 fn the_cover_widens_its_range_with_the_footprint_without_a_jump() {
     use rain_composite::fluid::puddles::shown::water_map;
     let cell_m = 0.03f32;
-    let (c, n) = (
-        DVec2::new(0.011, 2.617),
-        DVec2::from_angle(17f64.to_radians()),
-    );
-    let (surface, depth) = still_carpet(
-        |p| 0.3 * n.dot(p - c),
-        0.0,
-        c.as_vec2() - Vec2::splat(48.0 * cell_m),
-        96,
-        cell_m,
-    );
+    let (surface, depth, c, n) = shore_at_17(cell_m);
     let shore = water_map(&surface, &depth);
     let mut rng = rain_composite::rng::SplitMix64(11);
     let noise = Field2 {
