@@ -7,6 +7,8 @@
 #
 # Flags after OUT_DIR go to every render (`--streaks mattes` gives the table for the mattes).
 # The lossless FFV1 output keeps the encoder's cost small and the same for every row.
+# A render paced by its encoder leaves the GPU idle most of each frame, so its clock may not settle:
+# compare days with `cargo bench --bench gpu_frame` (the GPU stages in a loop), not with these rows.
 set -u
 BIN=${BIN:-./target/release/rain-composite}
 IN=${1:?usage: benches/gpu.sh IN.mp4 OUT_DIR}

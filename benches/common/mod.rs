@@ -1,5 +1,7 @@
 //! The scenes the CPU back end's benches share: the rain planned for a view, the sky that
 //! lights its drops, the water drop's transfer tables and the frame format.
+// Each bench uses a part of these.
+#![allow(dead_code)]
 
 use rain_composite::config::{CameraConfig, RainConfig};
 use rain_composite::gpu::types::RainParams;
