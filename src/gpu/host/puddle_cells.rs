@@ -24,14 +24,26 @@ pub(super) struct WetBlocks {
     /// the cells (i, j) to (i + 1, j + 1) reads (columns i − 1 to i + 2, rows j − 1 to j + 2) is
     /// wet: one read settles the cover of a probe among scattered wet cells.
     window: Vec<bool>,
+    /// Per cell (i, j) as `window`, whether all sixteen cells of that 4×4 lie on the map and
+    /// hold at least the rim's depth with a margin ([`WetBlocks::new`]): the probe's cover is
+    /// then 1 whatever its footprint, without the reading.
+    deep: Vec<bool>,
     /// Cells along x and y.
     nx: usize,
     ny: usize,
 }
 
 impl WetBlocks {
-    /// The wet blocks of the map `depth_m` of `nx × ny` cells.
-    pub(super) fn new(depth_m: &[f32], nx: usize, ny: usize) -> WetBlocks {
+    /// The wet blocks of the map `depth_m` of `nx × ny` cells, the deep windows for the rim's
+    /// depth `edge_m`.
+    ///
+    /// A probe whose sixteen cells all hold v ≥ `edge_m` has a range whose low end stays at or
+    /// above `edge_m` after its widening in exact arithmetic (the widening takes at most
+    /// lo − v ≤ lo − `edge_m` off it), so its cover is 1. In f32 the widened low end,
+    /// lo − r·(lo − v) with 0 ≤ r ≤ 1, each operation rounded, may fall below v by a few
+    /// roundings of values ≤ the map's largest depth M: a cell counts as deep only from
+    /// `edge_m` + 2⁻²⁰·M on (a margin of sixteen times such errors), finite, and `edge_m` > 0.
+    pub(super) fn new(depth_m: &[f32], nx: usize, ny: usize, edge_m: f32) -> WetBlocks {
         let (bx, by) = (nx.div_ceil(WET_BLOCK), ny.div_ceil(WET_BLOCK));
         let wet: Vec<Vec<bool>> = (0..by)
             .into_par_iter()
@@ -78,11 +90,13 @@ impl WetBlocks {
                     }
                 }
             });
+        let deep = deep_windows(depth_m, nx, ny, edge_m);
         WetBlocks {
             bx,
             by,
             sat,
             window,
+            deep,
             nx,
             ny,
         }
@@ -98,6 +112,17 @@ impl WetBlocks {
         self.window[j as usize * self.nx + i as usize]
     }
 
+    /// Whether the 4×4 cells a probe reads whose point lies in the square of the cells (`i`,
+    /// `j`) to (`i` + 1, `j` + 1) all lie on the map and are deep ([`WetBlocks::new`]): its cover
+    /// is 1.
+    #[inline(always)]
+    pub(super) fn window_deep(&self, i: i64, j: i64) -> bool {
+        if i < 0 || j < 0 || i >= self.nx as i64 || j >= self.ny as i64 {
+            return false;
+        }
+        self.deep[j as usize * self.nx + i as usize]
+    }
+
     /// Whether a cell of columns `i0..=i1` and rows `j0..=j1` (on the map) may be wet.
     pub(super) fn any(&self, (i0, i1): (usize, usize), (j0, j1): (usize, usize)) -> bool {
         let (a, b) = (i0 / WET_BLOCK, (i1 / WET_BLOCK + 1).min(self.bx));
@@ -110,6 +135,49 @@ impl WetBlocks {
     }
 }
 
+/// Per cell (i, j) of the `nx × ny` map `depth_m`, whether columns i − 1 to i + 2 and rows
+/// j − 1 to j + 2 all lie on the map and hold at least `edge_m` + 2⁻²⁰·M (M the map's largest
+/// finite depth; [`WetBlocks::new`]), finite; none where `edge_m` is not above 0.
+fn deep_windows(depth_m: &[f32], nx: usize, ny: usize, edge_m: f32) -> Vec<bool> {
+    let mut deep = vec![false; nx * ny];
+    if edge_m.is_nan() || edge_m <= 0.0 || nx < 4 || ny < 4 {
+        return deep;
+    }
+    let largest = depth_m
+        .par_chunks(nx)
+        .map(|row| {
+            row.iter()
+                .filter(|d| d.is_finite())
+                .fold(0f32, |a, &d| a.max(d))
+        })
+        .reduce(|| 0.0, f32::max);
+    let floor_m = edge_m + largest * (1.0 / (1u32 << 20) as f32);
+    // Along each row, then over rows: every cell of the window at or above the floor.
+    let mut along = vec![false; nx * ny];
+    along
+        .par_chunks_mut(nx)
+        .zip(depth_m.par_chunks(nx))
+        .for_each(|(out, row)| {
+            for i in 1..nx - 2 {
+                out[i] = row[i - 1..i + 3]
+                    .iter()
+                    .all(|&d| d.is_finite() && d >= floor_m);
+            }
+        });
+    deep.par_chunks_mut(nx)
+        .enumerate()
+        .filter(|(j, _)| (1..ny - 2).contains(j))
+        .for_each(|(j, out)| {
+            out.copy_from_slice(&along[(j - 1) * nx..][..nx]);
+            for jj in j..j + 3 {
+                for (o, &a) in out.iter_mut().zip(&along[jj * nx..][..nx]) {
+                    *o &= a;
+                }
+            }
+        });
+    deep
+}
+
 /// A probe of the cover spans at most this many cells along each axis of the footprint (the
 /// twin's [`crate::gpu::cpu::puddles::PROBE_CELLS`]).
 pub(super) const PROBE_CELLS: f32 = crate::gpu::cpu::puddles::PROBE_CELLS as f32;
@@ -118,11 +186,77 @@ pub(super) const PROBE_CELLS: f32 = crate::gpu::cpu::puddles::PROBE_CELLS as f32
 pub(super) const MAX_PROBES: f32 = crate::gpu::cpu::puddles::MAX_PROBES as f32;
 
 /// The pieces of an axis of a footprint whose share a probe spans is `share` (before the
-/// least), (centre's offset, length) as shares of the axis, and how many (the twin's
+/// least), made one at a time by [`AxisPieces::piece`] (the twin's
 /// [`crate::gpu::cpu::puddles::footprint_pieces`], in f32 and in its order, as puddles.wgsl
-/// computes them; at most 17).
+/// computes them; at most 17): no array to fill and copy for each far pixel.
 #[inline(always)]
-pub(super) fn footprint_pieces(share: f32) -> ([(f32, f32); 17], usize) {
+pub(super) fn footprint_pieces(share: f32) -> AxisPieces {
+    let share = share.max(1.0 / MAX_PROBES);
+    if share >= 1.0 {
+        return AxisPieces {
+            share: 1.0,
+            whole: 0,
+            end: 0.0,
+            out: 0.0,
+        };
+    }
+    let k = ((1.0 / share - 1.0) / 2.0).floor();
+    let end = 0.5 * (1.0 - (2.0 * k + 1.0) * share);
+    AxisPieces {
+        share,
+        whole: k as usize,
+        end,
+        out: (k + 0.5) * share + 0.5 * end,
+    }
+}
+
+/// An axis's pieces ([`footprint_pieces`]): the centre piece of length `share`, `whole` pieces
+/// of that length out on each side, then two of length `end` centred at ± `out` (none where the
+/// centre piece is the whole axis: `share` 1).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct AxisPieces {
+    share: f32,
+    whole: usize,
+    end: f32,
+    out: f32,
+}
+
+impl AxisPieces {
+    /// How many pieces.
+    #[inline(always)]
+    pub(super) fn len(&self) -> usize {
+        if self.share >= 1.0 {
+            1
+        } else {
+            2 * self.whole + 3
+        }
+    }
+
+    /// Piece `i` (< [`AxisPieces::len`]): (centre's offset, length) as shares of the axis; the
+    /// centre, then the whole pieces out from it (+, − in turn), then the ends (+, −).
+    #[inline(always)]
+    pub(super) fn piece(&self, i: usize) -> (f32, f32) {
+        let share = self.share;
+        if i == 0 {
+            return (0.0, share);
+        }
+        if i <= 2 * self.whole {
+            let m = i.div_ceil(2) as f32;
+            return if i % 2 == 1 {
+                (m * share, share)
+            } else {
+                (-m * share, share)
+            };
+        }
+        let sign = if i == 2 * self.whole + 1 { 1.0 } else { -1.0 };
+        (sign * self.out, self.end)
+    }
+}
+
+/// The pieces of [`footprint_pieces`] as an array (and how many): the plain form the lazy one is
+/// checked against.
+#[cfg(test)]
+fn footprint_pieces_array(share: f32) -> ([(f32, f32); 17], usize) {
     let mut pieces = [(0.0, 0.0); 17];
     let share = share.max(1.0 / MAX_PROBES);
     if share >= 1.0 {
@@ -199,6 +333,88 @@ pub(super) fn rim_cover_spread(depth: f32, lo: f32, hi: f32, width: f32, edge: f
 mod tests {
     use super::*;
 
+    /// The deep windows against reading each window's sixteen cells: on the map, finite, at
+    /// or above the rim's depth plus the margin; a cell at exactly the rim's depth (or just
+    /// above it, within the margin), an infinite or NaN cell, or the map's border is not deep.
+    #[test]
+    fn deep_windows_hold_sixteen_deep_cells() {
+        let (nx, ny, edge) = (23, 19, 0.001f32);
+        let largest = 0.5f32;
+        let floor_m = edge + largest / (1u32 << 20) as f32;
+        let mut depth: Vec<f32> = (0..nx * ny)
+            .map(|k| {
+                let h = (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40;
+                if h.is_multiple_of(53) {
+                    edge
+                } else {
+                    0.002 + 0.01 * (h % 7) as f32
+                }
+            })
+            .collect();
+        depth[3 * nx + 4] = largest;
+        depth[5 * nx + 5] = f32::INFINITY;
+        depth[11 * nx + 11] = f32::NAN;
+        depth[15 * nx + 15] = edge + 1e-9;
+        depth[16 * nx + 3] = 0.0;
+        let wet = WetBlocks::new(&depth, nx, ny, edge);
+        let mut seen = [0; 2];
+        for j in -2..ny as i64 + 2 {
+            for i in -2..nx as i64 + 2 {
+                let all = (j - 1..=j + 2).all(|jj| {
+                    (i - 1..=i + 2).all(|ii| {
+                        (0..nx as i64).contains(&ii)
+                            && (0..ny as i64).contains(&jj)
+                            && depth[jj as usize * nx + ii as usize] >= floor_m
+                            && depth[jj as usize * nx + ii as usize].is_finite()
+                    })
+                });
+                assert_eq!(wet.window_deep(i, j), all, "({i}, {j})");
+                seen[usize::from(all)] += 1;
+            }
+        }
+        assert!(seen[0] > 50 && seen[1] > 30, "{seen:?}");
+        // No rim depth above 0: nothing deep.
+        let none = WetBlocks::new(&depth, nx, ny, 0.0);
+        assert!((0..ny as i64).all(|j| (0..nx as i64).all(|i| !none.window_deep(i, j))));
+    }
+
+    /// The pieces made one at a time are the array's, bit for bit, and they tile the axis
+    /// (each piece of some length starting where the one before it along the axis ends, from
+    /// −½ to ½; the end pieces may have none), over shares from a probe's whole axis down past the least.
+    #[test]
+    fn axis_pieces_are_the_arrays() {
+        let mut shares: Vec<f32> = (1..=4000).map(|k| k as f32 / 3000.0).collect();
+        shares.extend([1.0 / 15.0, 1.0 / 3.0, 0.2, 1e-6, 0.0, 2.0, 1.0, 0.999_999]);
+        for share in shares {
+            let (array, n) = footprint_pieces_array(share);
+            let lazy = footprint_pieces(share);
+            assert_eq!(lazy.len(), n, "share {share}");
+            let mut spans: Vec<(f32, f32)> = (0..n)
+                .map(|i| {
+                    let (t, l) = lazy.piece(i);
+                    assert_eq!(
+                        (t.to_bits(), l.to_bits()),
+                        (array[i].0.to_bits(), array[i].1.to_bits()),
+                        "share {share}, piece {i}"
+                    );
+                    (t - 0.5 * l, t + 0.5 * l)
+                })
+                .filter(|(a, b)| b > a)
+                .collect();
+            spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert!(
+                (spans[0].0 + 0.5).abs() < 1e-5,
+                "share {share}: starts at {}",
+                spans[0].0
+            );
+            let last = spans[spans.len() - 1].1;
+            assert!((last - 0.5).abs() < 1e-5, "share {share}: ends at {last}");
+            for w in spans.windows(2) {
+                assert!((w[1].0 - w[0].1).abs() < 1e-5, "share {share}: {w:?}");
+            }
+        }
+    }
+
     /// Whether a rectangle of cells may be wet, against looking at every cell: never a wet
     /// cell missed, and a rectangle of dry blocks only is dry.
     #[test]
@@ -209,7 +425,7 @@ mod tests {
             depth[k] = 1e-3;
         }
         depth[20 * nx + 20] = -1e-3;
-        let wet = WetBlocks::new(&depth, nx, ny);
+        let wet = WetBlocks::new(&depth, nx, ny, 0.002);
         for j0 in 0..ny {
             for j1 in j0..ny {
                 for i0 in (0..nx).step_by(3) {

@@ -16,11 +16,10 @@ use glam::{Vec2, Vec3};
 use half::f16;
 use rayon::prelude::*;
 
-use super::lanes::LANES;
 use super::plate::Decoder;
 use super::puddle_cells::{
-    PROBE_CELLS, WetBlocks, catmull_rom, catmull_rom_slope, footprint_pieces, rim_cover,
-    rim_cover_spread,
+    AxisPieces, PROBE_CELLS, WetBlocks, catmull_rom, catmull_rom_slope, footprint_pieces,
+    rim_cover, rim_cover_spread,
 };
 use super::tile::load_texel;
 use super::veil::Veil;
@@ -125,6 +124,7 @@ impl<'a> Puddles<'a> {
                 water.depth_m,
                 water.params.cells[0] as usize,
                 water.params.cells[1] as usize,
+                water.params.edge_depth_m,
             ),
         })
     }
@@ -241,18 +241,9 @@ impl<'a> Puddles<'a> {
                 }
                 let down = g.downward(y0 + r);
                 let (start, end) = (down.start.max(x0), down.end.min(x1));
-                let mut x = start;
-                while x + LANES <= end {
-                    let c = self.cover_lanes(x, y0 + r, picture.f16c);
-                    cover[r * width + x..][..LANES].copy_from_slice(&c);
-                    any |= c.iter().fold(false, |a, &c| a | (c > 0.0));
-                    x += LANES;
-                }
-                for x in x..end {
-                    let c = self.cover(x, y0 + r);
-                    cover[r * width + x] = c;
-                    any |= c > 0.0;
-                }
+                let span = &mut cover[r * width..][start..end.max(start)];
+                self.cover_span(start, y0 + r, span, picture.f16c);
+                any |= span.iter().fold(false, |a, &c| a | (c > 0.0));
             }
         }
         if !any {
@@ -355,51 +346,99 @@ impl<'a> Puddles<'a> {
     }
 
     /// The water's cover at coded pixel (`x`, `y`) (its ray going down): 0 to 1 as the depth
-    /// rises to the rim's.
-    #[inline(always)]
+    /// rises to the rim's. The plain form of the lanes' `cover_span`, its reference.
+    #[cfg(test)]
     fn cover(&self, x: usize, y: usize) -> f32 {
+        let (xy, per_px) = self.footprint(x, y);
+        self.water_cover(xy, per_px)
+    }
+
+    /// The ground point of coded pixel (`x`, `y`) (its ray going down) and its change per
+    /// pixel along x and y (`ground_per_px`: the ray is affine in the pixel, `dx` and `dy` per
+    /// pixel).
+    #[inline(always)]
+    fn footprint(&self, x: usize, y: usize) -> (Vec2, [Vec2; 2]) {
         let g = self.ground;
         let ray = g.ray(x, y);
         let ground_z_m = g.height_m() / -ray.z;
         let ground = g.camera + ground_z_m * ray;
-        // The ground point's change per pixel (`ground_per_px`): the ray is affine in the
-        // pixel, `dx` and `dy` per pixel.
         let per_px = |r: Vec3| {
             let v = ground_z_m * (r - ray * (r.z / ray.z));
             Vec2::new(v.x, v.y)
         };
-        self.water_cover(Vec2::new(ground.x, ground.y), [per_px(g.dx), per_px(g.dy)])
+        (Vec2::new(ground.x, ground.y), [per_px(g.dx), per_px(g.dy)])
     }
 
     /// The water's cover at ground point `xy` for a pixel whose ground point moves by `per_px`:
     /// the mean of [`Puddles::probe_cover`] over the pieces of a footprint longer than
-    /// [`PROBE_CELLS`] along an axis (the twin's `water_cover`, in its order: the pieces along
-    /// the first axis outside, each in [`footprint_pieces`]' order), one piece where it is not.
-    /// A footprint whose cells (and a margin of the probes' reach) hold no water has none.
-    #[inline(always)]
+    /// [`PROBE_CELLS`] along an axis ([`Puddles::pieces`]), one probe where it is not
+    /// ([`Puddles::one_probe`]).
+    #[cfg(test)]
     fn water_cover(&self, xy: Vec2, per_px: [Vec2; 2]) -> f32 {
-        let p = &self.water.params;
-        // One piece (most pixels): no pieces made.
-        let reach = PROBE_CELLS * p.cell_m;
-        if per_px[0].length_squared().max(per_px[1].length_squared()) <= reach * reach {
+        if self.one_probe(per_px) {
             return self.probe_cover(xy, per_px);
         }
-        let (along_a, na) = footprint_pieces(reach / per_px[0].length());
-        let (along_b, nb) = footprint_pieces(reach / per_px[1].length());
+        let mut cover = 0.0;
+        if let Some(pieces) = self.pieces(xy, per_px) {
+            for i in 0..pieces.len(0) {
+                for j in 0..pieces.len(1) {
+                    if let Some((weight, at, per)) = pieces.piece(i, j) {
+                        cover += weight * self.probe_cover(at, per);
+                    }
+                }
+            }
+        }
+        cover
+    }
+
+    /// Whether a footprint moving by `per_px` is read in one probe: it spans at most
+    /// [`PROBE_CELLS`] along each axis (most pixels).
+    #[inline(always)]
+    fn one_probe(&self, per_px: [Vec2; 2]) -> bool {
+        let reach = PROBE_CELLS * self.water.params.cell_m;
+        per_px[0].length_squared().max(per_px[1].length_squared()) <= reach * reach
+    }
+
+    /// The pieces of the long footprint at `xy` moving by `per_px`; `None` where its cells (and
+    /// a margin of the probes' reach) hold no water. The cover is the sum of weight ×
+    /// [`Puddles::probe_cover`] over [`Pieces::piece`] of each pair of pieces along the two
+    /// axes, the first axis outside (the twin's order).
+    #[inline(always)]
+    fn pieces(&self, xy: Vec2, per_px: [Vec2; 2]) -> Option<Pieces> {
+        let p = &self.water.params;
         // Every probe reads cells within two of its point, which lies in the footprint's box.
         let half = (per_px[0].abs() + per_px[1].abs()) * (0.5 / p.cell_m);
         let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
         if self.cells_dry(u - half, u + half) {
-            return 0.0;
+            return None;
         }
-        let mut cover = 0.0;
-        for &(ta, la) in along_a[..na].iter().filter(|p| p.1 > 0.0) {
-            for &(tb, lb) in along_b[..nb].iter().filter(|p| p.1 > 0.0) {
-                let at = xy + ta * per_px[0] + tb * per_px[1];
-                cover += la * lb * self.probe_cover(at, [la * per_px[0], lb * per_px[1]]);
-            }
+        let reach = PROBE_CELLS * p.cell_m;
+        Some(Pieces {
+            xy,
+            per_px,
+            along: [
+                footprint_pieces(reach / per_px[0].length()),
+                footprint_pieces(reach / per_px[1].length()),
+            ],
+        })
+    }
+
+    /// What the 4×4 cells a probe at ground point `xy` reads settle of its cover: 0 where none
+    /// may hold water ([`Puddles::probe_cover`]'s first test), 1 where all are deep
+    /// ([`WetBlocks::window_deep`]), else `None`.
+    #[inline(always)]
+    fn probe_settled(&self, xy: Vec2) -> Option<f32> {
+        let p = &self.water.params;
+        let u = (xy - Vec2::from_array(p.origin_m)) / p.cell_m - Vec2::splat(0.5);
+        let i0 = u.floor();
+        let (i, j) = (i0.x as i64, i0.y as i64);
+        if !self.wet.window_wet(i, j) {
+            Some(0.0)
+        } else if self.wet.window_deep(i, j) {
+            Some(1.0)
+        } else {
+            None
         }
-        cover
     }
 
     /// Whether no cell that a probe at a point of the box `lo..hi` (in cells, from the first
@@ -438,7 +477,8 @@ impl<'a> Puddles<'a> {
         let i0 = u.floor();
         let f = u - i0;
         let (i0, j0) = (i0.x as i64 - 1, i0.y as i64 - 1);
-        // No wet cell among the sixteen: the range is all dry (the shortcut below, sooner).
+        // No wet cell among the sixteen: the range is all dry (the shortcut below, sooner;
+        // `probe_settled`).
         if !self.wet.window_wet(i0 + 1, j0 + 1) {
             return 0.0;
         }
@@ -792,6 +832,34 @@ impl<'a> Puddles<'a> {
             c += Vec3::new(l.strength[0], l.strength[1], l.strength[2]) * (scale * lobe);
         }
         c
+    }
+}
+
+/// The pieces of a long footprint ([`Puddles::pieces`]) along its two axes.
+struct Pieces {
+    xy: Vec2,
+    per_px: [Vec2; 2],
+    along: [AxisPieces; 2],
+}
+
+impl Pieces {
+    /// How many pieces along axis `axis` (0: the first), those of no length included.
+    #[inline(always)]
+    fn len(&self, axis: usize) -> usize {
+        self.along[axis].len()
+    }
+
+    /// The probe of piece `i` along the first axis and piece `j` along the second: its weight
+    /// (its share of the footprint), its ground point and its own change per pixel; `None`
+    /// where either piece has no length (it adds nothing).
+    #[inline(always)]
+    fn piece(&self, i: usize, j: usize) -> Option<(f32, Vec2, [Vec2; 2])> {
+        let ((ta, la), (tb, lb)) = (self.along[0].piece(i), self.along[1].piece(j));
+        if !(la > 0.0 && lb > 0.0) {
+            return None;
+        }
+        let at = self.xy + ta * self.per_px[0] + tb * self.per_px[1];
+        Some((la * lb, at, [la * self.per_px[0], lb * self.per_px[1]]))
     }
 }
 
