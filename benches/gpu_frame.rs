@@ -50,11 +50,10 @@ fn main() {
         .skip(1)
         .filter(|a| !a.starts_with("--"))
         .collect();
-    let frames: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(20);
-    let words: Vec<&String> = args
-        .iter()
-        .filter(|a| a.parse::<usize>().is_err())
-        .collect();
+    let (frames, words) = match args.first().and_then(|a| a.parse::<usize>().ok()) {
+        Some(n) => (n, &args[1..]),
+        None => (20, &args[..]),
+    };
     let ctx = match GpuContext::new(&AdapterRequest {
         backend: Backend::Gpu,
         ..AdapterRequest::default()
@@ -86,7 +85,7 @@ fn main() {
             let picture = if h == 1080 {
                 "1080p".to_string()
             } else {
-                format!("{w}×{h}")
+                format!("{w}x{h}")
             };
             let line = format!("{picture} {rate} {budget} {}", raster.name());
             if !words.iter().all(|w| line.contains(w.as_str())) {

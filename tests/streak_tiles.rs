@@ -129,7 +129,8 @@ fn reference(scene: &Scene) -> Vec<u16> {
             let i = 4 * (y * w + x) as usize;
             let mut c: [f32; 4] = std::array::from_fn(|k| f16::from_bits(out[i + k]).to_f32());
             for s in &scene.streaks {
-                if !(s.len_px >= 0.0) {
+                // Skipped (len < 0, or NaN as the shader reads it).
+                if s.len_px.is_nan() || s.len_px < 0.0 {
                     continue;
                 }
                 let (dx, dy) = (p[0] - s.q0_px[0], p[1] - s.q0_px[1]);
@@ -168,17 +169,17 @@ fn reference(scene: &Scene) -> Vec<u16> {
                 }
                 let ext = r + 0.5;
                 let f = (along + ext) / (len + 2.0 * ext);
-                for k in 0..4 {
+                for (k, dst) in c.iter_mut().enumerate() {
                     let src = if k == 3 {
                         a
                     } else {
                         (s.radiance0[k] + (s.radiance1[k] - s.radiance0[k]) * f) * a
                     };
-                    c[k] = f16::from_f32(src + c[k] * (1.0 - a)).to_f32();
+                    *dst = f16::from_f32(src + *dst * (1.0 - a)).to_f32();
                 }
             }
-            for k in 0..4 {
-                out[i + k] = f16::from_f32(c[k]).to_bits();
+            for (o, v) in out[i..i + 4].iter_mut().zip(c) {
+                *o = f16::from_f32(v).to_bits();
             }
         }
     }

@@ -70,7 +70,10 @@ impl StreakTiles {
         ];
         let tile_count = u64::from(tiles_xy[0]) * u64::from(tiles_xy[1]);
         let limits = device.limits();
-        let most = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size) / 4;
+        let most = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / 4;
         let capacity = capacity
             .map(u64::from)
             .unwrap_or(u64::from(inputs.count) * ENTRIES_PER_STREAK)
