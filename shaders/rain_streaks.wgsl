@@ -12,7 +12,7 @@
 // oscillation phase random per drop and fixed in time; and each of the drop's glints (its
 // GLINTS_PER_DROP strongest compact lights, from rain_simulate's main_mattes) by that light's
 // point-light matte. The alpha stays the coverage above.
-// Includes: common/types.wgsl, common/rng.wgsl, common/depth.wgsl.
+// Includes: common/types.wgsl, common/rng.wgsl, common/depth.wgsl, common/capsule.wgsl.
 
 @group(0) @binding(0) var<uniform> rain: RainParams;
 @group(0) @binding(1) var<storage, read> streaks: array<Streak>;
@@ -59,10 +59,6 @@ const MATTE_NONE: u32 = 0xffffffffu;
 // The bit of a glint's layer that marks its matte's mirror image.
 const MATTE_MIRROR: u32 = 0x80000000u;
 
-const AA_MARGIN_PX: f32 = 0.5;
-// Depth over which a drop passing behind the scene fades out, m: a few centimetres, so depth
-// edges are soft and a drop does not flicker on a surface it touches.
-const OCCLUSION_SOFTNESS_M: f32 = 0.05;
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) id: u32) -> VsOut {
@@ -163,32 +159,6 @@ fn tile_uv(layer: u32) -> vec2<f32> {
 fn matte_at(tile_uv: vec2<f32>, px: vec2<f32>) -> f32 {
     let inside = clamp(px, vec2<f32>(-0.5), vec2<f32>(f32(MATTE_WIDTH) + 0.5, f32(MATTE_HEIGHT) + 0.5));
     return textureSampleLevel(matte_atlas, matte_sampler, tile_uv + inside * mattes.reach.yz, 0.0).r;
-}
-
-// Fraction of the exposure during which a disc of radius r, moving uniformly from 0 to len
-// along x, covers the point (along, across).
-fn coverage(along: f32, across: f32, len: f32, r: f32) -> f32 {
-    let h2 = r * r - across * across;
-    if h2 <= 0.0 { return 0.0; }
-    let h = sqrt(h2);
-    if len < 1e-3 {
-        return select(0.0, 1.0, abs(along) < h);
-    }
-    let overlap = clamp(along + h, 0.0, len) - clamp(along - h, 0.0, len);
-    return overlap / len;
-}
-
-// The drop's depth `along` px down its path: 1/z is affine in the picture along a projected
-// segment, so it is interpolated, not z.
-fn drop_depth_m(along: f32, len: f32, depth_m: vec2<f32>) -> f32 {
-    let t = select(0.0, clamp(along / len, 0.0, 1.0), len >= 1e-3);
-    return 1.0 / mix(1.0 / depth_m.x, 1.0 / depth_m.y, t);
-}
-
-// How much of a drop at depth `drop_m` shows in front of a scene at `scene_m` (0: unknown).
-fn visibility(scene_m: f32, drop_m: f32) -> f32 {
-    if scene_m <= 0.0 { return 1.0; }
-    return smoothstep(-0.5 * OCCLUSION_SOFTNESS_M, 0.5 * OCCLUSION_SOFTNESS_M, scene_m - drop_m);
 }
 
 @fragment

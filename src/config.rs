@@ -110,6 +110,30 @@ pub enum StreakStyle {
     Mattes,
 }
 
+/// How the GPU draws the capsule streaks (`gpu_raster`): the same picture either way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GpuRaster {
+    /// A quad per drop through the rasteriser (`rain_streaks`): fast where every core can run
+    /// it, as on most GPUs.
+    #[default]
+    Fragments,
+    /// Tiles drawn by compute (`streak_tiles`): for GPUs built for compute, whose rasteriser
+    /// runs on a few of their cores. The mattes (`--streaks mattes`) and the splashes stay
+    /// quads.
+    Compute,
+}
+
+impl GpuRaster {
+    /// The name `gpu_raster` takes, in a configuration and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            GpuRaster::Fragments => "fragments",
+            GpuRaster::Compute => "compute",
+        }
+    }
+}
+
 impl StreakStyle {
     /// The name `rain.streaks` takes, in a configuration and on the command line.
     pub fn name(self) -> &'static str {
@@ -160,6 +184,8 @@ pub struct RenderConfig {
     /// the camera settings and keys put it, a path reads a pose file (`inspect camera --json`;
     /// see [`crate::scene::motion`]).
     pub camera_motion: crate::scene::motion::MotionSource,
+    /// How the GPU draws the capsule streaks: `fragments` (the default) or `compute`.
+    pub gpu_raster: GpuRaster,
     /// The settings that change over the shot (`[time_s, value]` keys in the JSON, see
     /// [`crate::keyframes`]); the fields above hold their values at t = 0. Serialise with
     /// [`RenderConfig::to_value`], which writes the keys back.

@@ -5,7 +5,7 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rain_composite::gpu::shaders::Stage;
 use rain_composite::gpu::types::{
     Column, DirectLight, FrameParams, Glint, LightList, MatteParams, PuddleParams, RainParams,
-    Ripple, Streak, WetParams,
+    Ripple, Streak, TileParams, WetParams,
 };
 
 fn module(stage: Stage) -> naga::Module {
@@ -199,6 +199,11 @@ fn rust_twins_match_wgsl_layouts() {
         [counts, sizes_mm, views_deg, lights, light_count, reach]
     );
     assert_twin!(module(Stage::RainSimulate), Glint, [colour, light_dir]);
+    assert_twin!(
+        module(Stage::StreakTiles),
+        TileParams,
+        [tiles_xy, streak_count, capacity]
+    );
     assert_twin!(m, LightList, [count, table_bins, _pad, lights]);
     let m = module(Stage::YuvToRgb);
     assert_twin!(
@@ -248,7 +253,12 @@ fn stage_sources_take_their_includes_and_constants_from_the_declarations() {
     );
     assert_eq!(
         includes(Stage::RainStreaks.body()),
-        ["common/types.wgsl", "common/rng.wgsl", "common/depth.wgsl"]
+        [
+            "common/types.wgsl",
+            "common/rng.wgsl",
+            "common/depth.wgsl",
+            "common/capsule.wgsl"
+        ]
     );
     assert!(simulate.starts_with(&constants()));
     assert_eq!(simulate.matches("fn pcg_hash").count(), 1);

@@ -276,6 +276,23 @@ fn every_stage_matches_its_cpu_twin() {
                 Stage::WetGround => {}
                 // Needs water on the ground: tests/puddles_shade.rs holds it to its twin.
                 Stage::Puddles => {}
+                // The streaks drawn by compute (`--gpu-raster compute`) through the compositor,
+                // held to the same twin as the quads (tests/streak_tiles.rs: to the quads).
+                Stage::StreakTiles => {
+                    let rain = RainConfig {
+                        max_drops: 1500,
+                        ..heavy_rain()
+                    };
+                    let mut setup = rain_for(&case, &rain);
+                    setup.plan.gpu_raster = rain_composite::config::GpuRaster::Compute;
+                    let params = lit(&setup, 2.1);
+                    let (gpu, cpu, drawn) = both_frames(&ctx, &case, &setup, &params);
+                    assert!(drawn > 20, "{what}: {drawn} streaks");
+                    let (worst, share) = compare(&gpu, &cpu);
+                    eprintln!("{what}: {drawn} streaks, worst {worst} codes, {share:.4} > 1 code");
+                    assert!(worst <= 3, "{what}: {worst} codes off");
+                    assert!(share < 0.02, "{what}: {share} of samples > 1 code off");
+                }
                 // Rasterisation and premultiplied blending of the streaks.
                 // The splashes of the drops that land, the ground given (geometry and
                 // coverage; their light is the drops' own, checked above).

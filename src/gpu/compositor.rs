@@ -89,7 +89,7 @@ impl GpuStageTimes {
             "yuv_to_rgb" => &mut self.yuv_to_rgb_s,
             "rain_simulate" => &mut self.rain_simulate_s,
             "rain_splashes" => &mut self.rain_splashes_s,
-            "rain_streaks" => &mut self.rain_streaks_s,
+            "rain_streaks" | "streak_tiles" => &mut self.rain_streaks_s,
             "rgb_to_yuv" => &mut self.rgb_to_yuv_s,
             "rgba_out" => &mut self.rgba_out_s,
             "wet_ground" => &mut self.wet_ground_s,
@@ -819,7 +819,7 @@ fn frame_stages(
     let between = ground.into_iter().chain([
         Box::new(RainSimulate::new(device, resources)) as Box<dyn FrameStage>,
         Box::new(RainSplashes::new(device, resources, rain)),
-        Box::new(RainStreaks::new(device, resources, rain.mattes.as_deref())),
+        streaks_stage(device, resources, rain),
     ]);
     let rgba = layer.is_some_and(Layer::is_rgba);
     let start = match layer {
@@ -834,6 +834,21 @@ fn frame_stages(
         .chain(between)
         .chain([out])
         .collect()
+}
+
+/// The streaks' draw: by compute in tiles where the job asks for it and draws capsules, else
+/// a quad per drop.
+fn streaks_stage(
+    device: &wgpu::Device,
+    resources: &FrameResources,
+    rain: &RainSetup,
+) -> Box<dyn FrameStage> {
+    match (&rain.mattes, rain.gpu_raster) {
+        (None, crate::config::GpuRaster::Compute) => Box::new(
+            super::stages::streak_tiles::StreakTiles::new(device, resources),
+        ),
+        (mattes, _) => Box::new(RainStreaks::new(device, resources, mattes.as_deref())),
+    }
 }
 
 /// A query set of two timestamps per stage and the buffer they resolve into, where the device

@@ -31,10 +31,12 @@ pub enum Stage {
     WetGround,
     /// Puddles on the ground: water, ripples and the frame mirrored in them.
     Puddles,
+    /// Streaks → the canvas by compute, in tiles (`--gpu-raster compute`).
+    StreakTiles,
 }
 
 /// The shared modules a stage may name in its `// Includes:` header.
-const COMMON: [(&str, &str); 15] = [
+const COMMON: [(&str, &str); 16] = [
     (
         "common/types.wgsl",
         include_str!("../../shaders/common/types.wgsl"),
@@ -92,6 +94,10 @@ const COMMON: [(&str, &str); 15] = [
         include_str!("../../shaders/common/sky.wgsl"),
     ),
     (
+        "common/capsule.wgsl",
+        include_str!("../../shaders/common/capsule.wgsl"),
+    ),
+    (
         "common/ground_mask.wgsl",
         include_str!("../../shaders/common/ground_mask.wgsl"),
     ),
@@ -125,6 +131,9 @@ pub fn constants() -> String {
             stages::rain_streaks::MATTE_TILES_ACROSS as u32,
         ),
         ("QUAD_VERTICES", stages::rain_streaks::QUAD_VERTICES),
+        ("TILE_SCAN_WORKGROUP", stages::streak_tiles::SCAN_WORKGROUP),
+        ("STREAK_SORT_LOCAL", stages::streak_tiles::SORT_LOCAL),
+        ("STREAK_BATCH", stages::streak_tiles::BATCH),
         (
             "MAX_MATTE_LIGHTS",
             crate::drops::atlas::MAX_MATTE_LIGHTS as u32,
@@ -226,7 +235,7 @@ pub fn includes(body: &str) -> Vec<&str> {
 
 impl Stage {
     /// Every stage, for validation.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::YuvToRgb,
         Stage::RainSimulate,
         Stage::RainSplashes,
@@ -236,6 +245,7 @@ impl Stage {
         Stage::RgbaOut,
         Stage::WetGround,
         Stage::Puddles,
+        Stage::StreakTiles,
     ];
 
     /// The snake_case name shared by the WGSL file, the pipeline label and the Rust twin.
@@ -250,6 +260,7 @@ impl Stage {
             Stage::RgbaOut => "rgba_out",
             Stage::WetGround => "wet_ground",
             Stage::Puddles => "puddles",
+            Stage::StreakTiles => "streak_tiles",
         }
     }
 
@@ -265,6 +276,7 @@ impl Stage {
             Stage::RgbaOut => include_str!("../../shaders/rgba_out.wgsl"),
             Stage::WetGround => include_str!("../../shaders/wet_ground.wgsl"),
             Stage::Puddles => include_str!("../../shaders/puddles.wgsl"),
+            Stage::StreakTiles => include_str!("../../shaders/streak_tiles.wgsl"),
         }
     }
 

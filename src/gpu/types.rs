@@ -441,3 +441,16 @@ impl Ripple {
         })
     }
 }
+
+/// WGSL `TileParams` (`shaders/streak_tiles.wgsl`): the tile grid the compute rasteriser bins
+/// the streaks into.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct TileParams {
+    /// Tiles across and down the coded picture.
+    pub tiles_xy: [u32; 2],
+    /// Streaks drawn: the first of the streak buffer.
+    pub streak_count: u32,
+    /// Entries the tiles' lists hold in all.
+    pub capacity: u32,
+}

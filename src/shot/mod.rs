@@ -154,7 +154,8 @@ impl Shot {
                 config.rain.scene_depth_m,
             ))
             .with_scene_depth(config.ground.depth.is_some())
-            .with_mattes(mattes);
+            .with_mattes(mattes)
+            .with_gpu_raster(config.gpu_raster);
         Ok(Shot {
             config: config.clone(),
             camera,

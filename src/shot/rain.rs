@@ -35,6 +35,8 @@ pub struct RainPlan {
     pub scene_depth: bool,
     /// The streak mattes (`--streaks mattes`); `None` draws the capsule.
     pub mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>,
+    /// How the GPU draws the capsule streaks (`gpu_raster`).
+    pub gpu_raster: crate::config::GpuRaster,
     /// The settings that change over the shot, read per frame (the rate's and the wind's
     /// curves also live in `model` and `wind`, which the drops follow).
     pub keys: Keyframes,
@@ -205,6 +207,7 @@ fn plan_on(
         ground: false,
         scene_depth: false,
         mattes: None,
+        gpu_raster: crate::config::GpuRaster::Fragments,
         keys: Keyframes::default(),
         first_camera: *camera,
         lens,
@@ -464,6 +467,12 @@ impl RainPlan {
     /// Streaks drawn with `mattes` (`None`: the capsule).
     pub fn with_mattes(mut self, mattes: Option<std::sync::Arc<crate::drops::MatteAtlas>>) -> Self {
         self.mattes = mattes;
+        self
+    }
+
+    /// The capsule streaks drawn on the GPU by `raster`.
+    pub fn with_gpu_raster(mut self, raster: crate::config::GpuRaster) -> Self {
+        self.gpu_raster = raster;
         self
     }
 

@@ -1,5 +1,5 @@
 //! The CPU twin of the `rain_simulate` stage (`streak_of` in `shaders/rain_simulate.wgsl`),
-//! with `coverage` of `shaders/rain_streaks.wgsl`: where a drop's streak lies in the picture, how wide it is drawn
+//! with `coverage` of `shaders/common/capsule.wgsl`: where a drop's streak lies in the picture, how wide it is drawn
 //! and how much of each pixel it covers. `tests/gpu.rs` holds the GPU to it.
 //!
 //! ## How it works

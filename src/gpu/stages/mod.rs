@@ -12,6 +12,7 @@ pub mod rain_splashes;
 pub mod rain_streaks;
 pub mod rgb_to_yuv;
 pub mod rgba_out;
+pub mod streak_tiles;
 pub mod wet_ground;
 pub mod yuv_to_rgb;
 

@@ -119,39 +119,7 @@ impl RainStreaks {
         count: u32,
         mattes: Option<&MatteAtlas>,
     ) -> RainStreaks {
-        let module = Stage::RainStreaks.module(device);
-        let (vs, fs) = match mattes {
-            None => ("vs_main", "fs_main"),
-            Some(_) => ("vs_mattes", "fs_mattes"),
-        };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(Stage::RainStreaks.name()),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some(vs),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                ..Default::default()
-            },
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some(fs),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: CANVAS_FORMAT,
-                    blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = pipeline(device, mattes.is_some());
         let layout = pipeline.get_bind_group_layout(0);
         let bind = match mattes {
             None => bind_group(
@@ -207,6 +175,81 @@ impl RainStreaks {
             bind,
             canvas: r.canvas.clone(),
             drops: count,
+        }
+    }
+}
+
+/// The draw's pipeline: the capsule's, or with `mattes` the mattes'.
+fn pipeline(device: &wgpu::Device, mattes: bool) -> wgpu::RenderPipeline {
+    let module = Stage::RainStreaks.module(device);
+    let (vs, fs) = match mattes {
+        false => ("vs_main", "fs_main"),
+        true => ("vs_mattes", "fs_mattes"),
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(Stage::RainStreaks.name()),
+        layout: None,
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some(vs),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleStrip,
+            ..Default::default()
+        },
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: CANVAS_FORMAT,
+                blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// The buffers and the canvas a streak rasteriser binds (for a draw outside a compositor's
+/// frame, as the tests and benches make).
+pub struct StreakInputs<'a> {
+    /// The `RainParams` uniform.
+    pub rain_params: &'a wgpu::Buffer,
+    /// The streaks (`Streak`s), at least `count` of them.
+    pub streaks: &'a wgpu::Buffer,
+    /// Streaks drawn: the first of `streaks`.
+    pub count: u32,
+    /// The scene's depth per displayed pixel (one element: none).
+    pub scene_depth: &'a wgpu::Buffer,
+    /// The `Rgba16Float` canvas.
+    pub canvas: &'a wgpu::Texture,
+}
+
+impl RainStreaks {
+    /// The capsules' draw of `inputs`.
+    pub fn capsules(device: &wgpu::Device, inputs: &StreakInputs<'_>) -> RainStreaks {
+        let pipeline = pipeline(device, false);
+        let bind = bind_group(
+            device,
+            Stage::RainStreaks.name(),
+            &pipeline.get_bind_group_layout(0),
+            &[
+                buffer(inputs.rain_params),
+                buffer(inputs.streaks),
+                buffer(inputs.scene_depth),
+            ],
+        );
+        RainStreaks {
+            pipeline,
+            bind,
+            canvas: inputs.canvas.create_view(&Default::default()),
+            drops: inputs.count,
         }
     }
 }

@@ -42,6 +42,9 @@ pub struct LookArgs {
     /// The streak database for --streaks mattes: a folder made by `drops generate` (index.json) or a copy of Garg & Nayar's database; default: the drops/ shipped with the program.
     #[arg(long, value_name = "PATH")]
     pub streak_db: Option<String>,
+    /// How the GPU draws the capsule streaks: fragments (a quad per drop through the rasteriser) or compute (tiles drawn by compute shaders, for GPUs whose rasteriser runs on a few of their cores); the same picture. The mattes and the splashes are drawn as quads either way.
+    #[arg(long, value_name = "HOW", value_parser = ["fragments", "compute"])]
+    pub gpu_raster: Option<String>,
     /// Horizontal field of view of the picture, degrees.
     #[arg(long)]
     pub fov: Option<f64>,
@@ -342,6 +345,12 @@ fn apply_flags(look: &LookArgs, c: &mut RenderConfig) -> anyhow::Result<()> {
     set!(look.tilt => cam.tilt_deg);
     set!(look.roll => cam.roll_deg);
     set!(look.shutter => cam.shutter_deg);
+    if let Some(raster) = &look.gpu_raster {
+        c.gpu_raster = match raster.as_str() {
+            "compute" => rain_composite::config::GpuRaster::Compute,
+            _ => rain_composite::config::GpuRaster::Fragments,
+        };
+    }
     if look.streak_db.is_some() {
         c.streak_db = look.streak_db.clone();
     }
