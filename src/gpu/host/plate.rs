@@ -1,5 +1,7 @@
 //! Planes → the hazed linear canvas on the CPU (the `yuv_to_rgb` stage's work): code values to
-//! normalised Y'CbCr (exact), the matrix, the transfer through a fine table, the haze's veil
+//! normalised Y'CbCr (exact; Y' a row at a time, the chroma's terms of the matrix once per
+//! chroma sample and chroma row, spread over the pixels and rows that share it), the matrix,
+//! the transfer through a fine table, the haze's veil
 //! ([`super::veil`]), then f16, eight pixels at a time (one cell of the veil's grid) in lanes
 //! the compiler vectorises; on x86-64 with AVX2 and F16C the same code is compiled a second
 //! time, the table read by gathers ([`super::lanes`]), and picked at run time. On 8-bit
@@ -235,6 +237,7 @@ impl Decoder {
     /// The rows of a band of the canvas (`out`), in the AVX2 build where the decoder runs it.
     fn band_on(&self, at: &Band, out: &mut [f16], s: &mut RowScratch) {
         let w = self.format.width as usize;
+        s.chroma_row = None;
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             #[target_feature(enable = "avx2,f16c")]
@@ -352,6 +355,7 @@ impl Decoder {
         avx2: bool,
     ) {
         let w = self.format.width as usize;
+        s.chroma_row = None;
         for (k, row) in out.chunks_exact_mut(4 * w).enumerate() {
             self.row_codes(frame, (y0 + k) as u32, s);
             for (tx, _) in need.iter().enumerate().filter(|(_, n)| **n) {
@@ -367,6 +371,7 @@ impl Decoder {
     /// The plate's linear RGBA along row `y` (alpha 1).
     pub(super) fn plate_row(&self, frame: &YuvFrame, y: u32, rgba: &mut [f32], s: &mut RowScratch) {
         let w = self.format.width as usize;
+        s.chroma_row = None;
         self.row_codes(frame, y, s);
         for x0 in (0..w).step_by(LANES) {
             let n = LANES.min(w - x0);
@@ -378,51 +383,107 @@ impl Decoder {
     }
 
     /// The codes of row `y` into `s`: luma, and each chroma code over the pixels that share it,
-    /// padded with zeros to whole lane blocks.
+    /// padded with zeros to whole lane blocks; the normalised luma Y' per pixel, and each
+    /// channel's chroma term (`cr_r` Cr, −(`cb_g` Cb + `cr_g` Cr), `cb_b` Cb: R' G' B' are Y'
+    /// plus them) per chroma sample, spread over its pixels. A chroma row is read and its terms
+    /// formed once for the rows that share it (two in 4:2:0), while `s.chroma_row` says which
+    /// row they are (the callers clear it for each frame).
     #[inline(always)]
     fn row_codes(&self, frame: &YuvFrame, y: u32, s: &mut RowScratch) {
         let f = self.format;
         let w = f.width as usize;
-        let (sx, sy) = f.chroma.shift();
-        let (cw, _) = f.plane_size(1);
+        let (_, sy) = f.chroma.shift();
         let cy = (y >> sy) as usize;
         let padded = w.div_ceil(LANES) * LANES;
         codes(frame, 0, y as usize, w, &mut s.y);
         s.y.resize(padded, 0);
-        for (i, out) in [(1, &mut s.cb), (2, &mut s.cr)] {
-            codes(frame, i, cy, cw as usize, &mut s.chroma);
-            out.clear();
-            if sx == 0 {
-                out.extend_from_slice(&s.chroma);
-            } else {
-                out.extend(s.chroma.iter().flat_map(|&v| [v, v]));
-                out.truncate(w);
+        // Zipped slices: no bounds checks, so the loops vectorise.
+        s.luma.resize(padded, 0.0);
+        let (y_offset, y_scale) = (self.y_offset, self.y_scale);
+        for (luma, &code) in s.luma.iter_mut().zip(&s.y) {
+            *luma = (f32::from(code) - y_offset) / y_scale;
+        }
+        if s.chroma_row != Some(cy) {
+            self.chroma_codes(frame, cy, s);
+        }
+        if self.code_tables.is_some() {
+            // Each pixel's entry in the R and B tables: its luma code and its chroma code.
+            s.at_r.resize(padded, 0);
+            s.at_b.resize(padded, 0);
+            for (at, (&y, &c)) in s.at_r.iter_mut().zip(s.y.iter().zip(&s.cr)) {
+                *at = u32::from(y) << 8 | u32::from(c);
             }
-            out.resize(padded, 0);
+            for (at, (&y, &c)) in s.at_b.iter_mut().zip(s.y.iter().zip(&s.cb)) {
+                *at = u32::from(y) << 8 | u32::from(c);
+            }
+        }
+    }
+
+    /// Chroma row `cy`'s codes and terms into `s` (see [`row_codes`](Self::row_codes)).
+    #[inline(always)]
+    fn chroma_codes(&self, frame: &YuvFrame, cy: usize, s: &mut RowScratch) {
+        let f = self.format;
+        let w = f.width as usize;
+        let (sx, _) = f.chroma.shift();
+        let (cw, _) = f.plane_size(1);
+        let padded = w.div_ceil(LANES) * LANES;
+        s.chroma_row = Some(cy);
+        let cw = cw as usize;
+        // The chroma row's codes and terms per chroma sample, in `s.cb`, `s.cr` and `s.terms`
+        // first, spread over the pixels after.
+        codes(frame, 1, cy, cw, &mut s.chroma);
+        codes(frame, 2, cy, cw, &mut s.chroma_cr);
+        // With the code tables only G' needs its term.
+        let all = self.code_tables.is_none();
+        let [r, g, b] = &mut s.terms;
+        for (k, out) in [&mut *r, &mut *g, &mut *b].into_iter().enumerate() {
+            out.clear();
+            if all || k == 1 {
+                out.resize(cw, 0.0);
+            }
+        }
+        let (c_offset, c_scale) = (self.c_offset, self.c_scale);
+        let (cr_r, cb_g, cr_g, cb_b) = (self.cr_r, self.cb_g, self.cr_g, self.cb_b);
+        let pairs = || s.chroma.iter().zip(&s.chroma_cr);
+        for (g, (&cb, &cr)) in g.iter_mut().zip(pairs()) {
+            let cb = (f32::from(cb) - c_offset) / c_scale;
+            let cr = (f32::from(cr) - c_offset) / c_scale;
+            *g = -(cb_g * cb + cr_g * cr);
+        }
+        if all {
+            for ((r, b), (&cb, &cr)) in r.iter_mut().zip(b.iter_mut()).zip(pairs()) {
+                let cb = (f32::from(cb) - c_offset) / c_scale;
+                let cr = (f32::from(cr) - c_offset) / c_scale;
+                *r = cr_r * cr;
+                *b = cb_b * cb;
+            }
+        }
+        spread(&s.chroma, sx, w, padded, &mut s.cb);
+        spread(&s.chroma_cr, sx, w, padded, &mut s.cr);
+        for (terms, out) in s.terms.iter().zip(&mut s.term_px) {
+            if terms.is_empty() {
+                out.clear();
+            } else {
+                spread(terms, sx, w, padded, out);
+            }
         }
     }
 
     /// Linear R, G and B of the eight pixels from `x0` of the row in `s` ([`row_codes`](Self::row_codes)).
     #[inline(always)]
     fn plate_lanes(&self, s: &RowScratch, x0: usize, avx2: bool) -> [[f32; LANES]; 3] {
-        let (y, cb, cr) = (
-            &s.y[x0..][..LANES],
-            &s.cb[x0..][..LANES],
-            &s.cr[x0..][..LANES],
-        );
+        let luma = &s.luma[x0..][..LANES];
         let eotf = &self.eotf;
         if let Some(t) = &self.code_tables {
-            // Codes of an 8-bit picture are below 256: each index lies inside the tables.
+            let term = &s.term_px[1][x0..][..LANES];
             let mut g = [0f32; LANES];
-            let (mut at_r, mut at_b) = ([0u32; LANES], [0u32; LANES]);
             for l in 0..LANES {
-                let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
-                let cb_v = (f32::from(cb[l]) - self.c_offset) / self.c_scale;
-                let cr_v = (f32::from(cr[l]) - self.c_offset) / self.c_scale;
-                g[l] = luma + -(self.cb_g * cb_v + self.cr_g * cr_v);
-                at_r[l] = u32::from(y[l]) << 8 | u32::from(cr[l]);
-                at_b[l] = u32::from(y[l]) << 8 | u32::from(cb[l]);
+                g[l] = luma[l] + term[l];
             }
+            // Codes of an 8-bit picture are below 256: each index lies inside the tables.
+            let (mut at_r, mut at_b) = ([0u32; LANES], [0u32; LANES]);
+            at_r.copy_from_slice(&s.at_r[x0..][..LANES]);
+            at_b.copy_from_slice(&s.at_b[x0..][..LANES]);
             return [
                 gather(&t.r, at_r, 0, avx2),
                 eotf.lanes(g, avx2),
@@ -430,13 +491,11 @@ impl Decoder {
             ];
         }
         let mut e = [[0f32; LANES]; 3];
-        for l in 0..LANES {
-            let luma = (f32::from(y[l]) - self.y_offset) / self.y_scale;
-            let cb = (f32::from(cb[l]) - self.c_offset) / self.c_scale;
-            let cr = (f32::from(cr[l]) - self.c_offset) / self.c_scale;
-            e[0][l] = luma + self.cr_r * cr;
-            e[1][l] = luma + -(self.cb_g * cb + self.cr_g * cr);
-            e[2][l] = luma + self.cb_b * cb;
+        for c in 0..3 {
+            let term = &s.term_px[c][x0..][..LANES];
+            for l in 0..LANES {
+                e[c][l] = luma[l] + term[l];
+            }
         }
         // No closures here: they would leave the AVX2 build.
         [
@@ -462,8 +521,20 @@ pub(super) struct RowScratch {
     y: Vec<u16>,
     cb: Vec<u16>,
     cr: Vec<u16>,
-    /// A chroma row's codes.
+    /// A chroma row's Cb and Cr codes.
     chroma: Vec<u16>,
+    chroma_cr: Vec<u16>,
+    /// The normalised luma Y' per pixel.
+    luma: Vec<f32>,
+    /// The chroma terms of R', G' and B' per chroma sample (those the decoder needs; the
+    /// others empty), and per pixel.
+    terms: [Vec<f32>; 3],
+    term_px: [Vec<f32>; 3],
+    /// The chroma row `cb`, `cr` and the terms hold (`None`: none yet for this frame).
+    chroma_row: Option<usize>,
+    /// Each pixel's entries in the R and B code tables (8-bit pictures).
+    at_r: Vec<u32>,
+    at_b: Vec<u32>,
     /// The row as RGBA f32, and the plate before the haze (rows the wet ground reaches).
     rgba: Vec<f32>,
     plate: Vec<f32>,
@@ -488,6 +559,24 @@ fn codes(frame: &YuvFrame, i: usize, y: usize, n: usize, out: &mut Vec<u16>) {
                 .map(|b| u16::from_le_bytes([b[0], b[1]]).min(max)),
         );
     }
+}
+
+/// The values of a chroma row (`row`) spread over the `w` pixels of a luma row (each over
+/// 2^`shift` pixels), padded with zeros to `padded`, into `out`.
+#[inline(always)]
+fn spread<T: Copy + Default>(row: &[T], shift: u32, w: usize, padded: usize, out: &mut Vec<T>) {
+    out.clear();
+    if shift == 0 {
+        out.extend_from_slice(&row[..w.min(row.len())]);
+    } else {
+        out.resize(2 * row.len(), T::default());
+        for (pair, &v) in out.chunks_exact_mut(2).zip(row) {
+            pair[0] = v;
+            pair[1] = v;
+        }
+        out.truncate(w);
+    }
+    out.resize(padded, T::default());
 }
 
 /// The first `out.len() / 4` lanes of `rgb` as RGBA f16 texels (alpha 1) into `out`.
@@ -600,6 +689,84 @@ mod tests {
                     bits(&canvases[0]) == bits(&canvases[1]),
                     "{matrix:?}, {transfer:?}, full range {full_range}, AVX2 {avx2}"
                 );
+            }
+        }
+    }
+
+    /// The decode's rows (each chroma row's terms formed once for the rows that share it, the
+    /// tables' indices and Y' a row at a time) give, bit for bit, each pixel decoded on its
+    /// own from its three codes: in 4:2:0 and 4:2:2, 8 and 10 bits, odd sizes, with the AVX2
+    /// build and without, and for a second frame decoded with the first frame's buffers from
+    /// the row the first ended on (a chroma row kept from the first would show).
+    #[test]
+    fn decoded_rows_are_each_pixel_on_its_own() {
+        use crate::video::{Chroma, FrameFormat, YuvFrame};
+        let mut state = 11u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 33) as u32
+        };
+        for (chroma, bit_depth) in [(Chroma::Cs420, 8), (Chroma::Cs422, 8), (Chroma::Cs420, 10)] {
+            let format = FrameFormat {
+                width: 77,
+                height: 19,
+                chroma,
+                bit_depth,
+            };
+            let color = ColorParams::bt709(bit_depth);
+            let max = (1u32 << bit_depth) - 1;
+            let mut frames: Vec<YuvFrame> = (0..2)
+                .map(|_| YuvFrame::filled(format, color, [0, 0, 0]))
+                .collect();
+            for frame in &mut frames {
+                for plane in &mut frame.planes {
+                    if bit_depth == 8 {
+                        plane.data.iter_mut().for_each(|v| *v = next() as u8);
+                    } else {
+                        for pair in plane.data.chunks_exact_mut(2) {
+                            pair.copy_from_slice(&((next() % (max + 1)) as u16).to_le_bytes());
+                        }
+                    }
+                }
+            }
+            let (w, h) = (format.width as usize, format.height as usize);
+            for avx2 in [true, false] {
+                let mut d = super::Decoder::new(format, &color);
+                d.set_baseline(!avx2);
+                let mut scratch = super::RowScratch::default();
+                for (frame, y0) in [(&frames[0], 0), (&frames[1], h - 1), (&frames[1], 0)] {
+                    let mut rows = vec![half::f16::ZERO; 4 * w * (h - y0)];
+                    d.decode_rows(frame, (None, None), y0, &mut rows, &mut scratch);
+                    let (sx, sy) = format.chroma.shift();
+                    let code = |i: usize, x: usize, y: usize| -> f32 {
+                        let p = &frame.planes[i];
+                        if bit_depth == 8 {
+                            f32::from(p.data[y * p.stride + x])
+                        } else {
+                            let at = y * p.stride + 2 * x;
+                            f32::from(u16::from_le_bytes([p.data[at], p.data[at + 1]]))
+                        }
+                    };
+                    for y in y0..h {
+                        for x in 0..w {
+                            let luma = (code(0, x, y) - d.y_offset) / d.y_scale;
+                            let (cx, cy) = (x >> sx, y >> sy);
+                            let cb = (code(1, cx, cy) - d.c_offset) / d.c_scale;
+                            let cr = (code(2, cx, cy) - d.c_offset) / d.c_scale;
+                            let rgb = [
+                                luma + d.cr_r * cr,
+                                luma + -(d.cb_g * cb + d.cr_g * cr),
+                                luma + d.cb_b * cb,
+                            ]
+                            .map(|e| half::f16::from_f32(d.eotf.apply(e)).to_bits());
+                            let px = &rows[4 * ((y - y0) * w + x)..][..3];
+                            let px = [px[0].to_bits(), px[1].to_bits(), px[2].to_bits()];
+                            assert_eq!(px, rgb, "{chroma:?} {bit_depth} bits, ({x}, {y})");
+                        }
+                    }
+                }
             }
         }
     }
