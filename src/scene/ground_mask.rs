@@ -445,7 +445,11 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
     }
-    let t = tensors(frame, grid, sums(frame, grid));
+    let sums = sums(frame, grid);
+    // Points whose block holds pixels of their own: one past the picture's bottom or right
+    // edge copies a neighbour's, which the water rule's rows would count twice.
+    let measured: Vec<bool> = sums.iter().map(|s| s[3] > 0.0).collect();
+    let t = tensors(frame, grid, sums);
     let (w, h) = (grid.width, grid.height);
     let neighbours8 = |k: usize| {
         let (i, j) = ((k % w) as i64, (k / w) as i64);
@@ -614,6 +618,7 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
         linear: &linear,
         texture: &texture,
         ground: &ground,
+        measured: &measured,
         mirror: &mirror,
         sin_depression: &sin_depression,
     };
