@@ -50,7 +50,9 @@
 //!   face is not (from eye height the ground above its top lies three times as far as its
 //!   base). The flood goes on from where it lands; what a bridge up or down the picture spans
 //!   is ground (a zebra's stripes below the vanishing point, upright, too) but reaches on only
-//!   what matches the ground behind the bridge.
+//!   what matches the ground behind the bridge. Up or down the picture it may land next to
+//!   upright points that all lie behind the landing (the last of a zebra's stripes ends
+//!   there), not next to verticals that go on past its row (a wall's edge, a drainpipe).
 //! - **seeded where the bottom edge shows the ground**: the edge's open points whose luma is
 //!   within such a step of their median. The face of a wall or a car nearer than the ground
 //!   at the bottom edge, running down past the picture's edge (a wall a pan brings into view),
@@ -445,7 +447,11 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
     if n == 0 || view.len() != n || frame.format.width < 2 || frame.format.height < 2 {
         return vec![0.0; n];
     }
-    let t = tensors(frame, grid, sums(frame, grid));
+    let sums = sums(frame, grid);
+    // Points whose block holds pixels of their own: one past the picture's bottom or right
+    // edge copies a neighbour's, which the water rule's rows would count twice.
+    let measured: Vec<bool> = sums.iter().map(|s| s[3] > 0.0).collect();
+    let t = tensors(frame, grid, sums);
     let (w, h) = (grid.width, grid.height);
     let neighbours8 = |k: usize| {
         let (i, j) = ((k % w) as i64, (k / w) as i64);
@@ -506,9 +512,22 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
         // The ground itself again: its luma within a step with no texture to excuse more (a
         // wall's face within the cobbles' texture of their luma is not), as rough within a
         // factor of [`BRIDGE_TEXTURE`], its chroma within the chroma's step.
+        // Up or down the picture, the landing may lie next to upright points that end behind
+        // it (toward `k`): the last of a zebra's stripes, upright below their vanishing point,
+        // leaves the ground right beyond it unopen. A wall's verticals go on past the landing's
+        // row (a drainpipe, a pilaster), and a landing beside them stays refused.
+        let landable = |p: usize| {
+            if open[p] || dj == 0 {
+                return open[p];
+            }
+            let row = (p / w) as i64;
+            view[p].below_horizon
+                && !standing[p]
+                && neighbours8(p).all(|q| !standing[q] || ((q / w) as i64 - row) * dj < 0)
+        };
         let same = |p: usize| {
             let [luma, rough, cb, cr] = reference[k];
-            open[p]
+            landable(p)
                 && (t[p][3] - luma).abs() <= STEP_CODES
                 && (t[p][4] - cb).hypot(t[p][5] - cr) <= CHROMA_STEP_CODES
                 && texture[p].max(1.0) <= BRIDGE_TEXTURE * rough.max(1.0)
@@ -528,7 +547,7 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
             if !view[p].below_horizon || far > BRIDGE_RATIO * near {
                 return None;
             }
-            if same(p) && at(s + 1).is_none_or(|q| !open[q] || same(q)) {
+            if same(p) && at(s + 1).is_none_or(|q| !landable(q) || same(q)) {
                 return Some((1..=s).filter_map(at).collect());
             }
         }
@@ -614,6 +633,7 @@ fn detect_at_size(frame: &YuvFrame, grid: SkyGrid, top: TopEdge, view: &[PointVi
         linear: &linear,
         texture: &texture,
         ground: &ground,
+        measured: &measured,
         mirror: &mirror,
         sin_depression: &sin_depression,
     };

@@ -33,6 +33,13 @@
 //!   [`GAIN_RANGE`]) that explains the rows ([`FIT_R2_LO`] → [`FIT_R2_HI`] of their variance),
 //!   over rows whose mirrored light differs by [`MIN_FIT_SPREAD`] or more; a dry road lies on a
 //!   flat line (gain near 0), a street darkening toward the horizon on a falling one;
+//! - the line must hold over the whole range: fitted apart, the rows of less and of more
+//!   mirrored light (split at their median) each rise with a gain of at least [`BEND_LO`] →
+//!   [`BEND_HI`] of the line's. A dry road in a building's shadow nearer the camera and in the
+//!   sun beyond brightens toward the horizon as a mirror does (a line through its rows gains
+//!   0.6–0.75 and explains 85–90 % of them), but in two flat levels, each half of which is
+//!   flat (0–0.29 of the line's gain); a sea's halves rise as the whole (0.85–0.97). A point
+//!   past the picture's edge, whose block copies its neighbour's, counts in no row;
 //! - by that evidence a point is water where it is smooth, or where its neighbourhood along its
 //!   row is as bright as the line says (within [`FIT_OFF_LO`] → [`FIT_OFF_HI`]), as a choppy
 //!   sea's is on average though its swells break the reflection into texture.
@@ -40,8 +47,9 @@
 //! Not explained: smooth dry ground beside water (the evidence is the frame's, so it dries with
 //! the water); a street whose two sides mirror each other across the horizon, if its ground is
 //! also smooth (measured on the samples' streets: row medians 0.2–0.47, texture ≥ 6); a dry
-//! ground whose brightness happens to rise toward the horizon as a mirror's would (a glossy
-//! floor, a low sun's sheen); water seen where its mirror's sky lies outside the picture.
+//! ground whose brightness happens to rise steadily toward the horizon as a mirror's would (a
+//! glossy floor, a low sun's sheen; a shadow's edge blurred over most of the rows would look
+//! the same); water seen where its mirror's sky lies outside the picture.
 
 use super::sky::{SkyGrid, TopEdge};
 
@@ -92,6 +100,16 @@ pub const GAIN_RANGE: (f32, f32) = (0.5, 2.0);
 /// Least intercept of the mirror's line that counts (linear, white 1): the water's body adds
 /// light to what it reflects, it takes none away.
 pub const MIN_BODY: f32 = -0.05;
+
+/// Share of the line's gain that the flatter half of the rows (of less or of more mirrored
+/// light, fitted apart) must show for the evidence to start: a shadow's edge or a change of
+/// surface between the rows gives two flat levels, whose halves measure 0–0.29 of the line
+/// through both (the test streets' shadows) …
+pub const BEND_LO: f32 = 0.45;
+
+/// … and from which the line holds: a sea's halves measure 0.85–0.97 of it (a camera's tone
+/// curve, which [`GAIN_RANGE`] allows for, bends it a little).
+pub const BEND_HI: f32 = 0.7;
 
 /// Relative difference of a neighbourhood's linear luma from the mirror's line up to which it
 /// is water …
@@ -169,6 +187,10 @@ pub struct Points<'a> {
     pub texture: &'a [f32],
     /// Whether the point is ground.
     pub ground: &'a [bool],
+    /// Whether its block holds pixels of its own: a point past the picture's edge copies its
+    /// neighbour's luma, and counts in its row's water weight but not in the frame's
+    /// evidence (there it would count the same row twice, at another depression).
+    pub measured: &'a [bool],
     /// The coded pixel of its ray reflected in the ground plane.
     pub mirror: &'a [Option<[f32; 2]>],
     /// The sine of the angle its ray dips below the horizon (0 at or above it).
@@ -198,18 +220,22 @@ pub struct MirrorFit {
     pub r2: f32,
     /// Rows fitted.
     pub rows: usize,
+    /// The smaller of the gains of the rows of less and of more mirrored light, fitted apart,
+    /// as a share of `gain`: near 1 where one line holds over the whole range (see [`bend`]).
+    pub bend: f32,
 }
 
 impl MirrorFit {
     /// The evidence for water, 0–1: a line through [`MIN_FIT_ROWS`] rows or more that explains
     /// them ([`FIT_R2_LO`] → [`FIT_R2_HI`]) with a gain a camera's tone curve leaves near 1
-    /// ([`GAIN_RANGE`]) and an intercept not below [`MIN_BODY`].
+    /// ([`GAIN_RANGE`]), an intercept not below [`MIN_BODY`], and that holds over the whole
+    /// range of mirrored light ([`BEND_LO`] → [`BEND_HI`]), not two flat levels.
     pub fn evidence(&self) -> f32 {
         let gain = (GAIN_RANGE.0..=GAIN_RANGE.1).contains(&self.gain);
         if self.rows < MIN_FIT_ROWS || !gain || self.body < MIN_BODY {
             return 0.0;
         }
-        ramp(FIT_R2_LO, FIT_R2_HI, self.r2)
+        ramp(FIT_R2_LO, FIT_R2_HI, self.r2) * ramp(BEND_LO, BEND_HI, self.bend)
     }
 
     /// The linear luma water shows where its mirror's sky times its reflectance is `x`.
@@ -232,6 +258,7 @@ pub fn weights(
         linear,
         texture,
         ground,
+        measured,
         mirror,
         sin_depression,
     } = points;
@@ -256,7 +283,17 @@ pub fn weights(
         })
         .collect();
     let pairs = |v: &[(usize, f32, f32)]| v.iter().map(|&(_, a, b)| (a, b)).collect::<Vec<_>>();
-    let correlations: Vec<f32> = paired
+    // The frame's evidence counts each measured point once.
+    let own_rows: Vec<Vec<(usize, f32, f32)>> = paired
+        .iter()
+        .map(|row| {
+            row.iter()
+                .copied()
+                .filter(|&(k, _, _)| measured[k])
+                .collect()
+        })
+        .collect();
+    let correlations: Vec<f32> = own_rows
         .iter()
         .filter_map(|row| counted(&pairs(row), MIN_ROW_POINTS))
         .collect();
@@ -271,7 +308,7 @@ pub fn weights(
         let m = mirror_at(k)?;
         (sin_depression[k] > 0.0).then(|| fresnel(sin_depression[k]) * linear[m])
     };
-    let fit = mirror_fit(&paired, linear, &lent);
+    let fit = mirror_fit(&own_rows, linear, &lent);
     let mirrored = fit.map_or(0.0, |f| f.evidence());
     if evidence <= 0.0 && mirrored <= 0.0 {
         return (vec![0.0; n], found, fit);
@@ -356,6 +393,12 @@ fn mirror_fit(
             (count >= MIN_ROW_POINTS as f64).then(|| (x / count, y / count, count))
         })
         .collect();
+    fit_means(&means)
+}
+
+/// The line through the rows' `means` (mirrored light, linear luma, points), as
+/// [`mirror_fit`].
+fn fit_means(means: &[(f64, f64, f64)]) -> Option<MirrorFit> {
     if means.len() < 2 {
         return None;
     }
@@ -365,12 +408,56 @@ fn mirror_fit(
     if hi < f64::from(MIN_FIT_SPREAD) * lo.max(1e-6) {
         return None;
     }
+    let (gain, body, r2) = line(means)?;
+    let bend = bend(means, gain);
+    Some(MirrorFit {
+        gain: gain as f32,
+        body: body as f32,
+        r2: r2 as f32,
+        rows: means.len(),
+        bend: bend as f32,
+    })
+}
+
+/// The smaller of the gains of the lines through the rows of less and of more mirrored light
+/// (`means` split at their weighted median, two rows or more each side) as a share of the
+/// whole line's `gain`; 0 where a half has no spread or the gain is not positive.
+///
+/// Water's brightness follows its mirrors' light along one line over the whole range; a dry
+/// ground in a shadow and then in the sun (or any two surfaces, one beyond the other) lies on
+/// two flat levels, which a line through both explains with a gain of a mirror's but which each
+/// half by itself shows flat.
+fn bend(means: &[(f64, f64, f64)], gain: f64) -> f64 {
+    if means.len() < 4 || gain <= 0.0 {
+        return 0.0;
+    }
+    let mut sorted = means.to_vec();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = sorted.iter().map(|m| m.2).sum();
+    let mut below = 0.0;
+    let median = sorted
+        .iter()
+        .position(|m| {
+            below += m.2;
+            below >= 0.5 * total
+        })
+        .map_or(sorted.len() / 2, |i| i + 1);
+    let split = median.clamp(2, sorted.len() - 2);
+    let (lo, hi) = sorted.split_at(split);
+    match (line(lo), line(hi)) {
+        (Some(lo), Some(hi)) => (lo.0.min(hi.0) / gain).max(0.0),
+        _ => 0.0,
+    }
+}
+
+/// The weighted least-squares line through `(x, y, weight)`: its gain, intercept and R².
+fn line(means: &[(f64, f64, f64)]) -> Option<(f64, f64, f64)> {
     let total: f64 = means.iter().map(|m| m.2).sum();
     let (mx, my) = means.iter().fold((0.0, 0.0), |(x, y), m| {
         (x + m.0 * m.2 / total, y + m.1 * m.2 / total)
     });
     let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
-    for &(x, y, count) in &means {
+    for &(x, y, count) in means {
         sxy += count * (x - mx) * (y - my);
         sxx += count * (x - mx) * (x - mx);
         syy += count * (y - my) * (y - my);
@@ -379,12 +466,7 @@ fn mirror_fit(
         return None;
     }
     let gain = sxy / sxx;
-    Some(MirrorFit {
-        gain: gain as f32,
-        body: (my - gain * mx) as f32,
-        r2: (sxy * sxy / (sxx * syy)) as f32,
-        rows: means.len(),
-    })
+    Some((gain, my - gain * mx, sxy * sxy / (sxx * syy)))
 }
 
 #[cfg(test)]
@@ -444,5 +526,68 @@ mod tests {
         let rs = (brewster - t).sin() / (brewster + t).sin();
         let at = f64::from(fresnel(brewster.cos() as f32));
         assert!((at - 0.5 * rs * rs).abs() < 1e-5, "{at}");
+    }
+
+    /// A sea's rows (the overcast calm sea of `tests/ground_mask.rs`, measured: mirrored light
+    /// times reflectance, linear luma, points) lie on one line: full evidence, both halves
+    /// rising as the whole. A dry road in a shadow nearer the camera and in the sun beyond
+    /// (the test street with a shadow 5–10 m ahead, measured) is two flat levels: a line
+    /// through them gains 0.75 and explains 85 % (evidence 0.48 by the line alone), but its
+    /// upper half is nearly flat, and the evidence is none. The halves' gains against a
+    /// hand-worked split.
+    #[test]
+    fn two_flat_levels_are_no_mirror() {
+        let sea = [
+            (0.2382, 0.2739, 41.0),
+            (0.2003, 0.2371, 41.0),
+            (0.1693, 0.1962, 41.0),
+            (0.1438, 0.1680, 41.0),
+        ];
+        let fit = fit_means(&sea).expect("a fit");
+        assert!((0.9..1.2).contains(&fit.gain) && fit.r2 > 0.99, "{fit:?}");
+        assert!(fit.bend > 0.8, "{fit:?}");
+        assert_eq!(fit.evidence(), 1.0);
+        let shadowed = [
+            (0.1982, 0.0972, 12.0),
+            (0.1586, 0.0954, 19.0),
+            (0.1277, 0.0833, 22.0),
+            (0.1069, 0.0476, 24.0),
+            (0.0919, 0.0223, 16.0),
+            (0.0824, 0.0222, 16.0),
+            (0.0752, 0.0248, 16.0),
+            (0.0725, 0.0301, 8.0),
+        ];
+        let fit = fit_means(&shadowed).expect("a fit");
+        assert!(
+            (0.7..0.8).contains(&fit.gain) && (0.84..0.86).contains(&fit.r2),
+            "{fit:?}"
+        );
+        let by_line = ramp(FIT_R2_LO, FIT_R2_HI, fit.r2);
+        assert!(by_line > 0.4, "{by_line}");
+        assert!(fit.bend < 0.3, "{fit:?}");
+        assert_eq!(fit.evidence(), 0.0);
+        // Rows of equal weight split two and two: below, gain 1; above, gain 0.5; the whole
+        // line's gain worked from its sums.
+        let rows = [
+            (1.0, 1.0, 1.0),
+            (2.0, 2.0, 1.0),
+            (3.0, 2.5, 1.0),
+            (4.0, 3.0, 1.0),
+        ];
+        // Means 2.5, 2.125; Σdx·dy = 1.5·1.125 + 0.5·0.125 + 0.5·0.375 + 1.5·0.875 = 3.25,
+        // Σdx² = 5: gain 0.65.
+        let (gain, _, _) = line(&rows).expect("a line");
+        assert!((gain - 0.65).abs() < 1e-12, "{gain}");
+        assert!((bend(&rows, gain) - 0.5 / 0.65).abs() < 1e-12);
+        // Flat above: no bend left; a falling line: none.
+        let flat = [
+            (1.0, 1.0, 1.0),
+            (2.0, 2.0, 1.0),
+            (3.0, 2.0, 1.0),
+            (4.0, 2.0, 1.0),
+        ];
+        let (gain, _, _) = line(&flat).expect("a line");
+        assert_eq!(bend(&flat, gain), 0.0);
+        assert_eq!(bend(&flat, -1.0), 0.0);
     }
 }
