@@ -412,11 +412,11 @@ fn frame_fixed_costs(c: &mut Criterion) {
     ] {
         c.bench_function(name, |b| {
             b.iter_custom(|n| {
-                let start = process_cpu();
+                let start = common::cpu_time();
                 for _ in 0..n {
                     black_box(host.decode(&frame, p).len());
                 }
-                process_cpu() - start
+                common::cpu_time() - start
             })
         });
     }
@@ -428,11 +428,11 @@ fn frame_fixed_costs(c: &mut Criterion) {
         .collect();
     c.bench_function("host rgb→yuv 1080p, CPU", |b| {
         b.iter_custom(|n| {
-            let start = process_cpu();
+            let start = common::cpu_time();
             for _ in 0..n {
                 black_box(host.encode(&canvas, 1920)[0].data.len());
             }
-            process_cpu() - start
+            common::cpu_time() - start
         })
     });
     let mut estimator =
@@ -442,12 +442,12 @@ fn frame_fixed_costs(c: &mut Criterion) {
         "frame light 1080p (block statistics, SH, recovery), CPU",
         |b| {
             b.iter_custom(|n| {
-                let start = process_cpu();
+                let start = common::cpu_time();
                 for _ in 0..n {
                     t_s += 1.0 / 30.0;
                     black_box(estimator.update(&frame, t_s).lights.len());
                 }
-                process_cpu() - start
+                common::cpu_time() - start
             })
         },
     );
@@ -477,39 +477,25 @@ fn whole_frame(c: &mut Criterion) {
     };
     c.bench_function("host whole frame 1080p, 10 mm/h, stages, CPU", |b| {
         b.iter_custom(|n| {
-            let start = process_cpu();
+            let start = common::cpu_time();
             for _ in 0..n {
                 host.lay_plate(&frame, &p, &none);
                 host.draw_streaks(&frame, &p, &streaks, None, &[]);
                 black_box(host.encode_canvas(&frame)[0].data.len());
             }
-            process_cpu() - start
+            common::cpu_time() - start
         })
     });
     c.bench_function("host whole frame 1080p, 10 mm/h, band by band, CPU", |b| {
         b.iter_custom(|n| {
-            let start = process_cpu();
+            let start = common::cpu_time();
             for _ in 0..n {
                 let f = host.render_bands(&frame, &p, &none, &rain);
                 black_box(f.map(|f| f.planes[0].data.len()));
             }
-            process_cpu() - start
+            common::cpu_time() - start
         })
     });
-}
-
-/// The CPU time all of this process's threads have run, from the kernel's per-thread
-/// scheduler statistics (nanoseconds): on a shared machine a bench timed by it does not
-/// count the time other work held the cores.
-pub fn process_cpu() -> std::time::Duration {
-    let ns: u64 = std::fs::read_dir("/proc/self/task")
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|task| std::fs::read_to_string(task.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    std::time::Duration::from_nanos(ns)
 }
 
 criterion_group!(

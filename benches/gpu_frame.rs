@@ -8,7 +8,6 @@
 //! tenth as many, 1 to 60, untimed), words keep only the rows whose line names them all
 //! (`compute 1080p`).
 
-#[allow(dead_code)]
 mod common;
 
 use std::sync::Arc;
@@ -19,19 +18,6 @@ use rain_composite::gpu::compositor::GpuStageTimes;
 use rain_composite::gpu::{AdapterRequest, Backend, Compositor, GpuContext};
 use rain_composite::scene::Camera;
 use rain_composite::video::{ColorParams, YuvFrame};
-
-/// CPU time of all the process's threads so far, ms (0 where /proc has none).
-fn cpu_ms() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    let ns: u64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-6
-}
 
 /// All stages' GPU time and the streak draw's, s.
 fn gpu_s(t: &GpuStageTimes) -> (f64, f64) {
@@ -120,14 +106,14 @@ fn main() {
             }
             comp.flush().expect("frames");
             let before = gpu_s(&comp.gpu_times());
-            let (start, cpu) = (Instant::now(), cpu_ms());
+            let (start, cpu) = (Instant::now(), common::cpu_ms());
             for i in 0..frames {
                 let params = common::sky_params(&setup, (warm_up + i) as f64 / 25.0);
                 comp.submit(&frame, &params).expect("frame");
             }
             comp.flush().expect("frames");
             let wall_ms = start.elapsed().as_secs_f64() * 1e3 / frames as f64;
-            let cpu_ms = (cpu_ms() - cpu) / frames as f64;
+            let cpu_ms = (common::cpu_ms() - cpu) / frames as f64;
             let after = gpu_s(&comp.gpu_times());
             let per = |a: f64, b: f64| (a - b) * 1e3 / frames as f64;
             let (all_ms, streaks_ms) = (per(after.0, before.0), per(after.1, before.1));

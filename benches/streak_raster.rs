@@ -22,19 +22,6 @@ use rain_composite::video::{ColorParams, YuvFrame};
 const W: u32 = 1920;
 const H: u32 = 1080;
 
-/// CPU time of all the process's threads so far, ms (0 where /proc has none).
-fn cpu_ms() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    let ns: u64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-6
-}
-
 /// Medians of wall and CPU ms of `f(state)` over `runs` runs (`setup(state)` before each, not
 /// timed).
 fn time<T>(
@@ -46,10 +33,10 @@ fn time<T>(
     let (mut wall, mut cpu) = (Vec::new(), Vec::new());
     for _ in 0..runs {
         setup(state);
-        let (t, c) = (Instant::now(), cpu_ms());
+        let (t, c) = (Instant::now(), common::cpu_ms());
         f(state);
         wall.push(t.elapsed().as_secs_f64() * 1e3);
-        cpu.push(cpu_ms() - c);
+        cpu.push(common::cpu_ms() - c);
     }
     let median = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
