@@ -69,6 +69,7 @@ pub const FLAGS: &[Flag] = &[
     row("rain.max_drops", "--max-drops", "MAX_DROPS"),
     row("rain.streaks", "--streaks", "STYLE"),
     row("streak_db", "--streak-db", "PATH"),
+    row("gpu_raster", "--gpu-raster", "HOW"),
     // The camera.
     row("camera.fov_deg", "--fov", "FOV"),
     row("camera.height_m", "--camera-height", "CAMERA_HEIGHT"),
